@@ -1,0 +1,68 @@
+//! `mcc-card`: one PMAC-style controller card process.
+//!
+//! `mcc-card --standalone [--profile pmac2|turbo] [--ascii-port P] [--eth-port P]
+//! [--state-file PATH] [--exit-on-stdin-eof]` runs the card with its host ports and no ring,
+//! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, ValueEnum};
+use mcc_card::host::standalone::{run_standalone, StandaloneOpts};
+use mcc_card::interp::Profile;
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum ProfileArg {
+    /// PMAC2 (seed manual): 8 motors, 8 C.S., variables 0-1023.
+    Pmac2,
+    /// Turbo host compatibility: 32 motors, 16 C.S., variables 0-8191, CID.
+    Turbo,
+}
+
+#[derive(Debug, Parser)]
+#[command(name = "mcc-card", about = "A PMAC-style motion controller card")]
+struct Args {
+    /// Run one card with its host ports only (no ring).
+    #[arg(long)]
+    standalone: bool,
+    /// Card profile.
+    #[arg(long, value_enum, default_value = "pmac2")]
+    profile: ProfileArg,
+    /// ASCII terminal port on 127.0.0.1 (0 = ephemeral).
+    #[arg(long, default_value_t = 0)]
+    ascii_port: u16,
+    /// PMAC Ethernet protocol port on 127.0.0.1 (0 = ephemeral).
+    #[arg(long, default_value_t = 0)]
+    eth_port: u16,
+    /// File SAVE writes and start-up loads.
+    #[arg(long)]
+    state_file: Option<PathBuf>,
+    /// Exit when stdin is closed.
+    #[arg(long)]
+    exit_on_stdin_eof: bool,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    if !args.standalone {
+        eprintln!("mcc-card: only --standalone is available in this build");
+        return ExitCode::from(2);
+    }
+    let opts = StandaloneOpts {
+        profile: match args.profile {
+            ProfileArg::Pmac2 => Profile::Pmac2,
+            ProfileArg::Turbo => Profile::Turbo,
+        },
+        ascii_port: args.ascii_port,
+        eth_port: args.eth_port,
+        state_file: args.state_file,
+        exit_on_stdin_eof: args.exit_on_stdin_eof,
+    };
+    match run_standalone(opts) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("mcc-card: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,350 @@
+//! PMAC Ethernet protocol (Acc-54E / Turbo "VR_" packets), one connection's state machine
+//! (pure: bytes in, packets out; spec host-protocols.md §1.1 and §4.4).
+//!
+//! A request is an 8-byte header `bRequestType bRequest wValue wIndex wLength` (16-bit fields
+//! big-endian) followed, for `VR_DOWNLOAD` (0x40) requests, by exactly `wLength` data bytes.
+//! Every reply is produced as one [`EthAction::Send`] so the server writes it with one write.
+//! Long replies go out in packets of at least [`PACKET_DATA`] bytes (fewer only if `GETBUFFER`'s
+//! `wLength` asks for fewer) that never end in `<CR>`, `<ACK>` or `<NUL>` unless they are the last
+//! one; the rest waits for `VR_PMAC_GETBUFFER`.
+
+use super::ascii::AsciiCodec;
+use super::port::{run_events, Interpreter};
+
+/// Header length in bytes.
+pub const HEADER_LEN: usize = 8;
+/// Largest data part of a request (`bData[1492]`).
+pub const MAX_PAYLOAD: usize = 1492;
+/// Data bytes per reply packet (real firmware cuts here).
+pub const PACKET_DATA: usize = 1400;
+
+/// `bRequestType`: host to card data.
+pub const VR_DOWNLOAD: u8 = 0x40;
+/// `bRequestType`: card to host data.
+pub const VR_UPLOAD: u8 = 0xC0;
+/// Send a line; the reply is kept for `GETLINE`.
+pub const VR_PMAC_SENDLINE: u8 = 0xB0;
+/// Next pending reply line.
+pub const VR_PMAC_GETLINE: u8 = 0xB1;
+/// Discard pending output (answer `@`).
+pub const VR_PMAC_FLUSH: u8 = 0xB3;
+/// DPRAM read (not supported: closes the connection).
+pub const VR_PMAC_GETMEM: u8 = 0xB4;
+/// DPRAM write (not supported: closes the connection).
+pub const VR_PMAC_SETMEM: u8 = 0xB5;
+/// Host-port byte I/O (not supported: closes the connection).
+pub const VR_PMAC_PORT: u8 = 0xBE;
+/// Execute a command line and return its reply.
+pub const VR_PMAC_GETRESPONSE: u8 = 0xBF;
+/// Is output pending? (2 bytes).
+pub const VR_PMAC_READREADY: u8 = 0xC2;
+/// Execute a control character (in `wValue`) and return its reply.
+pub const VR_CTRL_RESPONSE: u8 = 0xC4;
+/// Next packet of a long reply.
+pub const VR_PMAC_GETBUFFER: u8 = 0xC5;
+/// Several NUL-separated lines; 4-byte status reply.
+pub const VR_PMAC_WRITEBUFFER: u8 = 0xC6;
+
+/// Reply to FLUSH and SENDLINE (real cards send `@`).
+pub const FLUSH_REPLY: u8 = b'@';
+const ACK: u8 = 0x06;
+const CR: u8 = 0x0D;
+const NUL: u8 = 0x00;
+const BELL: u8 = 0x07;
+
+/// A parsed request header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Header {
+    /// `VR_DOWNLOAD` or `VR_UPLOAD`.
+    pub request_type: u8,
+    /// The `VR_…` request code.
+    pub request: u8,
+    /// `wValue` (big-endian on the wire).
+    pub value: u16,
+    /// `wIndex` (big-endian on the wire).
+    pub index: u16,
+    /// `wLength` (big-endian on the wire).
+    pub length: u16,
+}
+
+impl Header {
+    /// Decode 8 header bytes.
+    pub fn parse(b: &[u8; HEADER_LEN]) -> Header {
+        Header {
+            request_type: b[0],
+            request: b[1],
+            value: u16::from_be_bytes([b[2], b[3]]),
+            index: u16::from_be_bytes([b[4], b[5]]),
+            length: u16::from_be_bytes([b[6], b[7]]),
+        }
+    }
+
+    /// Encode as 8 bytes (clients and tests).
+    pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
+        let [v0, v1] = self.value.to_be_bytes();
+        let [i0, i1] = self.index.to_be_bytes();
+        let [l0, l1] = self.length.to_be_bytes();
+        [self.request_type, self.request, v0, v1, i0, i1, l0, l1]
+    }
+
+    /// Bytes of data that follow this header on the wire.
+    pub fn payload_len(&self) -> usize {
+        if self.request_type == VR_DOWNLOAD {
+            self.length as usize
+        } else {
+            0
+        }
+    }
+}
+
+/// A complete request packet as a client sends it (header + data).
+pub fn request(request_type: u8, request: u8, value: u16, length: u16, data: &[u8]) -> Vec<u8> {
+    let h = Header {
+        request_type,
+        request,
+        value,
+        index: 0,
+        length,
+    };
+    let mut v = h.to_bytes().to_vec();
+    v.extend_from_slice(data);
+    v
+}
+
+/// Why the card closed a connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CloseReason {
+    /// `bRequestType` is neither 0x40 nor 0xC0 (not this protocol).
+    BadRequestType(u8),
+    /// A request code this card does not implement.
+    UnsupportedRequest(u8),
+    /// `wLength` of a download larger than [`MAX_PAYLOAD`].
+    Oversized(u16),
+}
+
+impl std::fmt::Display for CloseReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CloseReason::BadRequestType(t) => write!(f, "bad bRequestType 0x{t:02X}"),
+            CloseReason::UnsupportedRequest(r) => write!(f, "unsupported request 0x{r:02X}"),
+            CloseReason::Oversized(n) => write!(f, "wLength {n} exceeds {MAX_PAYLOAD}"),
+        }
+    }
+}
+
+/// What the server must do, in order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EthAction {
+    /// Write these bytes with a single write (one reply packet).
+    Send(Vec<u8>),
+    /// Close the connection (nothing further is processed).
+    Close(CloseReason),
+}
+
+/// One Ethernet connection: input reassembly, pending reply, line assembler.
+#[derive(Debug, Default)]
+pub struct EthConn {
+    inbuf: Vec<u8>,
+    pending: Vec<u8>,
+    pos: usize,
+    lines: AsciiCodec,
+    closed: bool,
+}
+
+impl EthConn {
+    /// A fresh connection.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// True while part of a request has arrived but not all of it.
+    pub fn has_partial_request(&self) -> bool {
+        !self.inbuf.is_empty()
+    }
+
+    /// Bytes of the current reply not yet sent.
+    pub fn pending_len(&self) -> usize {
+        self.pending.len() - self.pos
+    }
+
+    /// Feed received bytes; every complete request is executed against `interp`.
+    pub fn feed<I: Interpreter + ?Sized>(
+        &mut self,
+        bytes: &[u8],
+        interp: &mut I,
+    ) -> Vec<EthAction> {
+        let mut actions = Vec::new();
+        if self.closed {
+            return actions;
+        }
+        self.inbuf.extend_from_slice(bytes);
+        let mut start = 0;
+        while let Some(hb) = self.inbuf.get(start..start + HEADER_LEN) {
+            let mut raw = [0u8; HEADER_LEN];
+            raw.copy_from_slice(hb);
+            let h = Header::parse(&raw);
+            if h.request_type != VR_DOWNLOAD && h.request_type != VR_UPLOAD {
+                self.close(CloseReason::BadRequestType(h.request_type), &mut actions);
+                return actions;
+            }
+            if h.payload_len() > MAX_PAYLOAD {
+                self.close(CloseReason::Oversized(h.length), &mut actions);
+                return actions;
+            }
+            let end = start + HEADER_LEN + h.payload_len();
+            let Some(payload) = self.inbuf.get(start + HEADER_LEN..end) else {
+                break;
+            };
+            let payload = payload.to_vec();
+            start = end;
+            match self.request(&h, &payload, interp) {
+                Ok(reply) => actions.push(EthAction::Send(reply)),
+                Err(reason) => {
+                    self.close(reason, &mut actions);
+                    return actions;
+                }
+            }
+        }
+        self.inbuf.drain(..start);
+        actions
+    }
+
+    fn close(&mut self, reason: CloseReason, actions: &mut Vec<EthAction>) {
+        self.closed = true;
+        self.inbuf.clear();
+        actions.push(EthAction::Close(reason));
+    }
+
+    fn request<I: Interpreter + ?Sized>(
+        &mut self,
+        h: &Header,
+        payload: &[u8],
+        interp: &mut I,
+    ) -> Result<Vec<u8>, CloseReason> {
+        Ok(match h.request {
+            VR_PMAC_GETRESPONSE => {
+                let out = self.execute(payload, interp);
+                self.set_pending(if out.is_empty() { vec![ACK] } else { out });
+                self.next_packet(PACKET_DATA)
+            }
+            VR_PMAC_GETBUFFER => {
+                if self.pending_len() == 0 {
+                    vec![ACK]
+                } else {
+                    let limit = match h.length as usize {
+                        0 => PACKET_DATA,
+                        n => n.min(PACKET_DATA),
+                    };
+                    self.next_packet(limit)
+                }
+            }
+            VR_PMAC_READREADY => vec![u8::from(self.pending_len() > 0), 0],
+            VR_PMAC_FLUSH => {
+                self.set_pending(Vec::new());
+                self.lines.discard_partial();
+                // The card's own <CTRL-X> (empties its queue); its echo is not sent here.
+                let _ = interp.control(0x18);
+                vec![FLUSH_REPLY]
+            }
+            VR_CTRL_RESPONSE => {
+                let [hi, lo] = h.value.to_be_bytes();
+                let c = if lo != 0 { lo } else { hi };
+                let mut out = Vec::new();
+                if (0x01..=0x1A).contains(&c) && c != CR && c != 0x0A {
+                    let events = self.lines.feed(&[c]);
+                    run_events(events, interp, &mut out);
+                }
+                self.set_pending(if out.is_empty() { vec![ACK] } else { out });
+                self.next_packet(PACKET_DATA)
+            }
+            VR_PMAC_SENDLINE => {
+                let out = self.execute(payload, interp);
+                self.set_pending(out);
+                vec![FLUSH_REPLY]
+            }
+            VR_PMAC_GETLINE => self.next_line(),
+            VR_PMAC_WRITEBUFFER => self.write_buffer(payload, interp),
+            other => return Err(CloseReason::UnsupportedRequest(other)),
+        })
+    }
+
+    /// Run `payload` as a command line with an implicit `<CR>`; the concatenated replies.
+    fn execute<I: Interpreter + ?Sized>(&mut self, payload: &[u8], interp: &mut I) -> Vec<u8> {
+        let mut events = self.lines.feed(payload);
+        self.lines.finish_line(&mut events);
+        let mut out = Vec::new();
+        run_events(events, interp, &mut out);
+        out
+    }
+
+    fn set_pending(&mut self, reply: Vec<u8>) {
+        self.pending = reply;
+        self.pos = 0;
+    }
+
+    /// Next packet: `limit` bytes, extended while it would end in CR/ACK/NUL with more to come.
+    fn next_packet(&mut self, limit: usize) -> Vec<u8> {
+        let rest = self.pending.get(self.pos..).unwrap_or_default();
+        let mut n = rest.len().min(limit.max(1));
+        while n < rest.len() && matches!(rest.get(n - 1), Some(&(CR | ACK | NUL))) {
+            n += 1;
+        }
+        let chunk = rest.get(..n).unwrap_or_default().to_vec();
+        self.pos += n;
+        if self.pos >= self.pending.len() {
+            self.set_pending(Vec::new());
+        }
+        chunk
+    }
+
+    /// GETLINE: pending bytes up to and including the next CR or ACK (or `\x06` if none).
+    fn next_line(&mut self) -> Vec<u8> {
+        let rest = self.pending.get(self.pos..).unwrap_or_default();
+        if rest.is_empty() {
+            return vec![ACK];
+        }
+        let n = rest
+            .iter()
+            .position(|&b| b == CR || b == ACK)
+            .map_or(rest.len(), |i| i + 1)
+            .min(PACKET_DATA);
+        let chunk = rest.get(..n).unwrap_or_default().to_vec();
+        self.pos += n;
+        if self.pos >= self.pending.len() {
+            self.set_pending(Vec::new());
+        }
+        chunk
+    }
+
+    /// WRITEBUFFER: run NUL-separated lines until one fails. Reply `[line lo, line hi, ERR code,
+    /// 0x80]` for the first failing line (1-based within the packet), or four zero bytes.
+    fn write_buffer<I: Interpreter + ?Sized>(&mut self, payload: &[u8], interp: &mut I) -> Vec<u8> {
+        self.set_pending(Vec::new());
+        for (i, seg) in payload.split(|&b| b == NUL).enumerate() {
+            if seg.is_empty() {
+                continue;
+            }
+            let reply = self.execute(seg, interp);
+            if reply.contains(&BELL) {
+                let code = error_code(&reply).unwrap_or(0);
+                let [hi, lo] = u16::try_from(i + 1).unwrap_or(u16::MAX).to_be_bytes();
+                return vec![lo, hi, code, 0x80];
+            }
+        }
+        vec![0, 0, 0, 0]
+    }
+}
+
+/// The `nnn` of the first `ERRnnn` in a reply, if it fits a byte.
+pub fn error_code(reply: &[u8]) -> Option<u8> {
+    let i = reply.windows(3).position(|w| w == b"ERR")?;
+    let digits = reply.get(i + 3..i + 6)?;
+    if !digits.iter().all(u8::is_ascii_digit) {
+        return None;
+    }
+    std::str::from_utf8(digits).ok()?.parse().ok()
+}
+
+#[cfg(test)]
+#[path = "eth_codec_tests.rs"]
+mod tests;

@@ -1,0 +1,189 @@
+//! The interpreter as the host ports see it: a line in, reply bytes out; a control character in,
+//! reply bytes out. [`CardPort`] binds one connection's [`Session`] to the card shared by all
+//! connections; tests drive the codecs with their own [`Interpreter`].
+
+use std::sync::{Mutex, MutexGuard};
+
+use super::ascii::AsciiEvent;
+use crate::interp::{Card, Session};
+
+/// What a host port needs from the card.
+pub trait Interpreter {
+    /// Execute one command line (no `<CR>`); the whole framed reply.
+    fn line(&mut self, line: &[u8]) -> Vec<u8>;
+    /// Execute one control-character command; its reply (possibly empty).
+    fn control(&mut self, c: u8) -> Vec<u8>;
+    /// The reply to a line that exceeded the port's maximum length (the card's ERR003).
+    fn overlong(&mut self) -> Vec<u8>;
+}
+
+/// A line one byte longer than the interpreter accepts: the card rejects it with its own
+/// ERR003 framing (I3/I4/I6) before parsing anything. The port discards over-long lines itself
+/// (bounded memory) and hands the card this instead.
+pub fn overlong_probe() -> Vec<u8> {
+    vec![b'U'; crate::interp::MAX_LINE + 1]
+}
+
+/// One connection's view of a shared card. The card is locked per call only, so a connection
+/// that stalls never holds it.
+#[derive(Debug)]
+pub struct CardPort<'a> {
+    card: &'a Mutex<Card>,
+    session: &'a mut Session,
+}
+
+impl<'a> CardPort<'a> {
+    /// Bind `session` to `card`.
+    pub fn new(card: &'a Mutex<Card>, session: &'a mut Session) -> Self {
+        CardPort { card, session }
+    }
+
+    fn lock(&self) -> MutexGuard<'a, Card> {
+        // A panic elsewhere while holding the lock must not take every port down with it.
+        self.card.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Interpreter for CardPort<'_> {
+    fn line(&mut self, line: &[u8]) -> Vec<u8> {
+        let mut card = self.lock();
+        card.command_line(self.session, line)
+    }
+
+    fn control(&mut self, c: u8) -> Vec<u8> {
+        let mut card = self.lock();
+        card.control_char(self.session, c)
+    }
+
+    fn overlong(&mut self) -> Vec<u8> {
+        let mut card = self.lock();
+        card.command_line(self.session, &overlong_probe())
+    }
+}
+
+/// Apply terminal events to the interpreter, appending replies to `out` in order.
+pub fn run_events<I: Interpreter + ?Sized>(
+    events: Vec<AsciiEvent>,
+    interp: &mut I,
+    out: &mut Vec<u8>,
+) {
+    for ev in events {
+        run_event(ev, interp, out);
+    }
+}
+
+/// Apply one terminal event. [`AsciiEvent::Cancel`] drops whatever in `out` has not been sent
+/// yet (callers send `out` only after this returns), then passes `<CTRL-X>` to the interpreter.
+pub fn run_event<I: Interpreter + ?Sized>(ev: AsciiEvent, interp: &mut I, out: &mut Vec<u8>) {
+    match ev {
+        AsciiEvent::Line(l) => out.extend_from_slice(&interp.line(&l)),
+        AsciiEvent::Control(c) => out.extend_from_slice(&interp.control(c)),
+        AsciiEvent::Reply(r) => out.extend_from_slice(&r),
+        AsciiEvent::Cancel => {
+            out.clear();
+            out.extend_from_slice(&interp.control(0x18));
+        }
+        AsciiEvent::Overlong => out.extend_from_slice(&interp.overlong()),
+    }
+}
+
+/// A scripted interpreter for codec and server tests: echoes lines as `<line>\r\x06`, answers
+/// `ERR` lines with `\x07ERR003\r`, `BIG<n>` with an `n`-byte reply, control `c` with `^<c>\r`
+/// (empty for `<CTRL-K>`), and records everything it executed.
+#[cfg(test)]
+#[derive(Debug, Default)]
+pub struct EchoInterp {
+    /// Everything executed, in order: lines as text, control characters as `^XX` (hex).
+    pub log: Vec<String>,
+}
+
+#[cfg(test)]
+impl Interpreter for EchoInterp {
+    fn line(&mut self, line: &[u8]) -> Vec<u8> {
+        let text = String::from_utf8_lossy(line).into_owned();
+        self.log.push(text.clone());
+        if text.starts_with("ERR") {
+            return b"\x07ERR003\r".to_vec();
+        }
+        if let Some(n) = text
+            .strip_prefix("BIG")
+            .and_then(|n| n.parse::<usize>().ok())
+        {
+            return big_reply(n);
+        }
+        let mut r = line.to_vec();
+        r.extend_from_slice(b"\r\x06");
+        r
+    }
+
+    fn control(&mut self, c: u8) -> Vec<u8> {
+        self.log.push(format!("^{c:02X}"));
+        match c {
+            0x0B | 0x18 => Vec::new(),
+            _ => format!("^{c:02X}\r").into_bytes(),
+        }
+    }
+
+    fn overlong(&mut self) -> Vec<u8> {
+        self.log.push("<overlong>".into());
+        b"\x07ERR003\r".to_vec()
+    }
+}
+
+#[cfg(test)]
+/// `n` bytes (n ≥ 2) shaped like a PMAC data reply: lines `0123456789\r` ending in `\x06`.
+pub fn big_reply(n: usize) -> Vec<u8> {
+    let mut r: Vec<u8> = (0..n.saturating_sub(1))
+        .map(|i| {
+            if i % 11 == 10 {
+                b'\r'
+            } else {
+                b'0' + (i % 11) as u8
+            }
+        })
+        .collect();
+    r.push(0x06);
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn events_run_in_order_and_cancel_drops_unsent_output() {
+        let mut i = EchoInterp::default();
+        let mut out = Vec::new();
+        let evs = vec![
+            AsciiEvent::Line(b"P1".to_vec()),
+            AsciiEvent::Control(2),
+            AsciiEvent::Reply(vec![117]),
+        ];
+        run_events(evs, &mut i, &mut out);
+        assert_eq!(out, b"P1\r\x06^02\r\x75");
+        run_events(
+            vec![AsciiEvent::Cancel, AsciiEvent::Overlong],
+            &mut i,
+            &mut out,
+        );
+        assert_eq!(out, b"\x07ERR003\r");
+        assert_eq!(i.log, vec!["P1", "^02", "^18", "<overlong>"]);
+    }
+
+    #[test]
+    fn big_reply_shape() {
+        assert_eq!(big_reply(13), b"0123456789\r0\x06");
+        assert_eq!(big_reply(1), b"\x06");
+    }
+
+    #[test]
+    fn card_port_uses_the_card() {
+        let card = Mutex::new(Card::new(crate::interp::Profile::Pmac2));
+        let mut s = Session::default();
+        let mut p = CardPort::new(&card, &mut s);
+        // An over-long line is the card's ERR003 (default I6=3 prints the code).
+        let bad = p.overlong();
+        assert!(bad.windows(6).any(|w| w == b"ERR003"), "{bad:?}");
+        assert_eq!(bad.first(), Some(&0x07));
+    }
+}

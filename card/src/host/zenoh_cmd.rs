@@ -1,0 +1,117 @@
+//! The card's zenoh command queryable `mcc/<cluster>/card/<n>/cmd` (used by the orchestrator's
+//! `mcc send`): the query payload is terminal input (one command line; an implicit `<CR>` ends
+//! it, control characters act at once), the reply payload is the card's framed reply bytes.
+//! All queries share one [`Session`], like one terminal: `#2` in one query addresses motor 2 for
+//! the next.
+
+use std::sync::{Arc, Mutex};
+
+use zenoh::Wait;
+
+use super::ascii::AsciiCodec;
+use super::port::{run_events, CardPort};
+use crate::interp::{Card, Session};
+
+/// `mcc/<cluster>/card/<n>/cmd` (same format as `mcc_ring::control::card_cmd_key`, which is not
+/// exported by mcc-ring yet).
+pub fn cmd_key(cluster: &str, n: u32) -> String {
+    format!("mcc/{cluster}/card/{n}/cmd")
+}
+
+/// Run one query payload against the card (pure apart from the card lock; shared with tests).
+pub fn execute_payload(
+    card: &Mutex<Card>,
+    session: &mut Session,
+    codec: &mut AsciiCodec,
+    payload: &[u8],
+) -> Vec<u8> {
+    let mut events = codec.feed(payload);
+    codec.finish_line(&mut events);
+    let mut out = Vec::new();
+    run_events(events, &mut CardPort::new(card, session), &mut out);
+    out
+}
+
+/// Declare the queryable for card `n` of `cluster`. Keep the returned value alive: dropping it
+/// undeclares the queryable.
+pub async fn declare_cmd_queryable(
+    zsession: &zenoh::Session,
+    cluster: &str,
+    n: u32,
+    card: Arc<Mutex<Card>>,
+) -> zenoh::Result<zenoh::query::Queryable<()>> {
+    let key = cmd_key(cluster, n);
+    let state = Mutex::new((Session::default(), AsciiCodec::new()));
+    zsession
+        .declare_queryable(key)
+        .callback(move |query| {
+            let payload = query
+                .payload()
+                .map(|p| p.to_bytes().into_owned())
+                .unwrap_or_default();
+            let reply = {
+                let mut st = state.lock().unwrap_or_else(|e| e.into_inner());
+                let (session, codec) = &mut *st;
+                execute_payload(&card, session, codec, &payload)
+            };
+            if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
+                tracing::warn!("card cmd reply failed: {e}");
+            }
+        })
+        .await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interp::Profile;
+
+    #[test]
+    fn key_format() {
+        assert_eq!(cmd_key("lab", 3), "mcc/lab/card/3/cmd");
+    }
+
+    #[test]
+    fn payload_runs_as_one_line_with_implicit_cr() {
+        let card = Mutex::new(Card::new(Profile::Pmac2));
+        let mut s = Session::default();
+        let mut c = AsciiCodec::new();
+        let want = Card::new(Profile::Pmac2).command_line(&mut Session::default(), b"UUU");
+        assert_eq!(execute_payload(&card, &mut s, &mut c, b"UUU"), want);
+        // An explicit CR (or CR LF) does not add a second, empty command.
+        assert_eq!(execute_payload(&card, &mut s, &mut c, b"UUU\r\n"), want);
+        assert!(c.partial().is_empty());
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn queryable_answers_with_framed_reply() {
+        let mut cfg = zenoh::Config::default();
+        for (k, v) in [
+            ("mode", "\"peer\""),
+            ("scouting/multicast/enabled", "false"),
+            ("listen/endpoints", "[]"),
+            ("connect/endpoints", "[]"),
+        ] {
+            cfg.insert_json5(k, v).unwrap();
+        }
+        let z = zenoh::open(cfg).await.unwrap();
+        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
+        let _q = declare_cmd_queryable(&z, "hosttest", 7, card)
+            .await
+            .unwrap();
+        let want = Card::new(Profile::Pmac2).command_line(&mut Session::default(), b"UUU");
+        let replies = z.get(cmd_key("hosttest", 7)).payload("UUU").await.unwrap();
+        let r = tokio::time::timeout(std::time::Duration::from_secs(10), replies.recv_async())
+            .await
+            .expect("reply in time")
+            .unwrap();
+        let got = r
+            .result()
+            .expect("ok reply")
+            .payload()
+            .to_bytes()
+            .into_owned();
+        assert_eq!(got, want);
+        z.close().await.unwrap();
+    }
+}

@@ -1,0 +1,380 @@
+//! Buffer control (§3.2.6, §3.3.5, §3.4.4) and PLC control (§3.2.5): OPEN/CLOSE/CLEAR/LIST,
+//! DEFINE/DELETE with the stacking rule, GATHER, ENABLE/DISABLE/PAUSE/RESUME PLC, storing
+//! program lines.
+
+use super::buffers::{list_lines, BufErr, BufId, Rotary};
+use super::defines::{CompTable, Layer, TBUF_WORDS};
+use super::exec::{Exec, Out};
+use super::exec_info::LIST_LINK;
+use super::progline::ProgLine;
+use super::{Card, OpenBuf, Session};
+use crate::lang::ast::{
+    CmdKind, DefineTarget, DeleteTarget, ListSpan, ListTarget, NumRange, OpenTarget, PlcVerb, Stmt,
+    StmtKind,
+};
+
+/// Bit 19 of `???` word 1: data gathering on.
+const GATHER_ON: u32 = 1 << 19;
+
+fn to_err(e: BufErr) -> u16 {
+    e.0
+}
+
+/// Block-structural statements stand on their own stored line.
+fn is_block(s: &Stmt) -> bool {
+    matches!(
+        &s.kind,
+        StmtKind::If(_) | StmtKind::EndIf | StmtKind::While(_) | StmtKind::EndWhile | StmtKind::AndCond(_) | StmtKind::OrCond(_)
+    ) || matches!(&s.kind, StmtKind::Else(b) if b.is_empty())
+}
+
+fn plc_list(list: &[NumRange]) -> Result<Vec<u8>, u16> {
+    let v = NumRange::expand(list);
+    if v.iter().any(|&n| n > 31) || list.iter().any(|r| r.last < r.first) {
+        return Err(3);
+    }
+    Ok(v.into_iter().map(|n| n as u8).collect())
+}
+
+fn offsets(span: &ListSpan) -> Option<(u32, Option<u32>)> {
+    span.offsets.then(|| (span.start.unwrap_or(0), span.len))
+}
+
+impl Card {
+    /// The buffer `s` has open (lines it types are stored there).
+    pub(crate) fn open_for(&self, s: &Session) -> Option<OpenBuf> {
+        self.open.filter(|o| o.session == s.id)
+    }
+
+    /// Store the statements typed on one line into the open buffer, one stored line per
+    /// block-structural statement and one for the rest.
+    pub(crate) fn store_line(&mut self, s: &Session, stmts: Vec<Stmt>) -> Exec {
+        let open = self.open_for(s).ok_or(5u16)?;
+        let mut group: Vec<Stmt> = Vec::new();
+        let mut lines: Vec<Vec<Stmt>> = Vec::new();
+        for st in stmts {
+            if is_block(&st) {
+                if !group.is_empty() {
+                    lines.push(std::mem::take(&mut group));
+                }
+                lines.push(vec![st]);
+            } else {
+                group.push(st);
+            }
+        }
+        if !group.is_empty() {
+            lines.push(group);
+        }
+        for l in lines {
+            let line = ProgLine::new(l);
+            match open.id {
+                BufId::Rot => self.bufs.append_rotary(s.coord as u8, line).map_err(to_err)?,
+                id => self.bufs.append(id, line).map_err(to_err)?,
+            }
+        }
+        self.sync_global_flags();
+        Ok(())
+    }
+
+    /// Close whatever buffer is open (CLOSE, CTRL-L, end of session).
+    pub(crate) fn close_buffer(&mut self) -> Exec {
+        let Some(o) = self.open.take() else { return Ok(()) };
+        let r = self.bufs.close(o.id).map_err(to_err);
+        self.sync_global_flags();
+        r
+    }
+
+    pub(crate) fn exec_buffers(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
+        match cmd {
+            CmdKind::Open(t) => self.open_buffer(s, *t)?,
+            CmdKind::Close => {
+                if self.open.is_some_and(|o| o.session == s.id) {
+                    self.close_buffer()?;
+                }
+            }
+            CmdKind::Clear => {
+                let o = self.open_for(s).ok_or(5u16)?;
+                self.bufs.clear(o.id, s.coord as u8);
+            }
+            CmdKind::List(t) => self.list(s, t, out)?,
+            CmdKind::Define(t) => self.define(s, t)?,
+            CmdKind::Delete(t) => self.delete(s, *t)?,
+            CmdKind::Gather { .. } => self.state.global.word1_other |= GATHER_ON,
+            CmdKind::EndGather => self.state.global.word1_other &= !GATHER_ON,
+            CmdKind::Plc(pc) => {
+                for n in plc_list(&pc.list)? {
+                    let p = &mut self.run.plc[n as usize];
+                    match pc.verb {
+                        PlcVerb::Enable => *p = super::runstate::PlcRun { enabled: true, paused: false },
+                        PlcVerb::Disable => p.enabled = false,
+                        PlcVerb::Pause => p.paused = p.enabled,
+                        PlcVerb::Resume => p.paused = false,
+                        PlcVerb::EnableCompiled | PlcVerb::DisableCompiled => {}
+                    }
+                }
+            }
+            CmdKind::SetPhase(list) => {
+                let max = u32::from(self.state.limits().motors);
+                if NumRange::expand(list).iter().any(|&m| m == 0 || m > max) {
+                    return Err(3);
+                }
+                self.actions.push(super::Action {
+                    motor: s.motor,
+                    coord: s.coord,
+                    kind: super::ActionKind::Cmd(cmd.clone()),
+                });
+            }
+            _ => return Err(3),
+        }
+        self.sync_global_flags();
+        Ok(())
+    }
+
+    fn open_buffer(&mut self, s: &Session, t: OpenTarget) -> Exec {
+        if self.open.is_some() {
+            return Err(7);
+        }
+        let (id, binary) = match t {
+            OpenTarget::Prog(n) => {
+                let n = u16::try_from(n).ok().filter(|n| (1..=32_767).contains(n)).ok_or(3u16)?;
+                if self.state.coords.iter().any(|c| c.running) {
+                    return Err(1);
+                }
+                (BufId::Prog(n), false)
+            }
+            OpenTarget::Plc(n) => (BufId::Plc(u8::try_from(n).ok().filter(|n| *n <= 31).ok_or(3u16)?), false),
+            OpenTarget::Rotary => (BufId::Rot, false),
+            OpenTarget::BinRotary => (BufId::Rot, true),
+        };
+        if id.protected() && !self.password_ok() {
+            return Err(2);
+        }
+        self.bufs.open(id).map_err(to_err)?;
+        match id {
+            BufId::Prog(_) => self.run.cs.iter_mut().for_each(|c| c.pointer = None),
+            BufId::Plc(n) => self.run.plc[n as usize].enabled = false,
+            BufId::Rot => {}
+        }
+        self.open = Some(OpenBuf { session: s.id, id, binary });
+        Ok(())
+    }
+
+    fn list(&mut self, s: &Session, t: &ListTarget, out: &mut Out) -> Exec {
+        let long = self.state.i9() & 1 == 1;
+        let lines: Vec<String> = match t {
+            ListTarget::Open => {
+                let o = self.open_for(s).ok_or(5u16)?;
+                match o.id {
+                    BufId::Rot => self.rotary_lines(s.coord, long, None),
+                    id => list_lines(&self.bufs.program(id).ok_or(5u16)?.lines, long, None),
+                }
+            }
+            ListTarget::Prog(n, span) | ListTarget::Plc(n, span) => {
+                let id = match t {
+                    ListTarget::Prog(..) => BufId::Prog(u16::try_from(*n).map_err(|_| 3u16)?),
+                    _ => BufId::Plc(u8::try_from(*n).map_err(|_| 3u16)?),
+                };
+                let p = self.bufs.program(id).ok_or(3u16)?;
+                if id.protected() && !self.password_ok() {
+                    return Err(2);
+                }
+                list_lines(&p.lines, long, offsets(span))
+            }
+            ListTarget::Rotary(span) => self.rotary_lines(s.coord, long, offsets(span)),
+            ListTarget::Gather(_) => Vec::new(),
+            ListTarget::Pc(span) | ListTarget::Pe(span) => self.list_pc(s.coord, span, long)?,
+            ListTarget::Comp(def) | ListTarget::BlComp(def) | ListTarget::TComp(def) => {
+                let tables = match t {
+                    ListTarget::Comp(_) => &self.bufs.defines.comp,
+                    ListTarget::BlComp(_) => &self.bufs.defines.blcomp,
+                    _ => &self.bufs.defines.tcomp,
+                };
+                let tab = tables.get(&(s.motor as u8)).ok_or(3u16)?;
+                if *def {
+                    vec![tab.def.clone()]
+                } else {
+                    tab.data.chunks(8).map(|c| c.iter().map(i64::to_string).collect::<Vec<_>>().join(" ")).collect()
+                }
+            }
+            ListTarget::Link => vec![LIST_LINK.to_string()],
+        };
+        lines.into_iter().for_each(|l| out.line(l));
+        Ok(())
+    }
+
+    fn rotary_lines(&self, cs: u16, long: bool, offsets: Option<(u32, Option<u32>)>) -> Vec<String> {
+        self.bufs.rotary.get(&(cs as u8)).map(|r| list_lines(&r.lines, long, offsets)).unwrap_or_default()
+    }
+
+    /// `LIST PC` / `LIST PE`: from the line the C.S. points at; first line `P{n}:{off}:text`.
+    fn list_pc(&self, cs: u16, span: &ListSpan, long: bool) -> Result<Vec<String>, u16> {
+        let (prog, label) = self.run.cs[cs as usize - 1].pointer.ok_or(3u16)?;
+        let p = u16::try_from(prog).ok().and_then(|n| self.bufs.progs.get(&n)).ok_or(3u16)?;
+        let start = self.label_offset(prog, label);
+        let len = if span.offsets { span.len } else { Some(1) };
+        let mut v = list_lines(&p.lines, long, Some((start, len)));
+        if let Some(first) = v.first_mut() {
+            *first = format!("P{prog}:{first}");
+        }
+        Ok(v)
+    }
+
+    fn rot_keys(&self) -> Vec<u8> {
+        self.bufs.rotary.keys().copied().collect()
+    }
+
+    fn check_define(&self, l: Layer, extra_words: u64) -> Exec {
+        if self.bufs.defines.something_above(l, self.rot_keys().into_iter()) {
+            return Err(3);
+        }
+        if extra_words > self.bufs.free() {
+            return Err(6);
+        }
+        Ok(())
+    }
+
+    fn define(&mut self, s: &Session, t: &DefineTarget) -> Exec {
+        let cs = s.coord as u8;
+        let m = s.motor as u8;
+        match t {
+            DefineTarget::Rotary(n) => {
+                let old = self.bufs.rotary.get(&cs).map_or(0, |r| r.size);
+                if self.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord) {
+                    return Err(3);
+                }
+                self.check_define(Layer::Rot(cs), u64::from(n.saturating_sub(old)))?;
+                self.bufs.rotary.insert(cs, Rotary { size: *n, lines: Vec::new() });
+            }
+            DefineTarget::Gather(n) => {
+                let old = u64::from(self.bufs.defines.gather.unwrap_or(0));
+                let avail = self.bufs.free() + old;
+                let want = n.map_or(avail, u64::from);
+                if want > avail {
+                    return Err(6);
+                }
+                self.bufs.defines.gather = Some(want as u32);
+            }
+            DefineTarget::Tbuf(n) => {
+                let old = self.bufs.defines.tbuf;
+                let extra = u64::from(n.saturating_sub(old)) * u64::from(TBUF_WORDS);
+                self.check_define(Layer::TBuf, extra)?;
+                self.bufs.defines.tbuf = *n;
+            }
+            DefineTarget::Ubuffer(n) => {
+                let others = self.bufs.defines.layers(self.rot_keys().into_iter());
+                if others.iter().any(|l| *l != Layer::UBuffer) {
+                    return Err(3);
+                }
+                let old = self.bufs.defines.ubuffer;
+                if u64::from(n.saturating_sub(old)) > self.bufs.free() {
+                    return Err(6);
+                }
+                self.bufs.defines.ubuffer = *n;
+                self.state.ubuffer_words = *n;
+            }
+            DefineTarget::Comp { rows, cols, motors, spans } => {
+                let entries = match cols {
+                    None => *rows,
+                    Some(c) => (rows + 1).saturating_mul(c + 1).saturating_sub(1),
+                };
+                let max = u32::from(self.state.limits().motors);
+                if entries == 0 || motors.iter().any(|cm| cm.motor == 0 || cm.motor > max) {
+                    return Err(3);
+                }
+                let need_spans = if cols.is_some() { 2 } else { 1 };
+                if spans.len() != need_spans {
+                    return Err(3);
+                }
+                self.check_define(Layer::Comp(m), u64::from(entries))?;
+                let def = comp_def_text(*rows, *cols, motors, spans, m);
+                self.bufs.defines.comp.insert(m, CompTable { def, entries, data: Vec::new() });
+            }
+            DefineTarget::BlComp(n, span) | DefineTarget::TComp(n, span) => {
+                let bl = matches!(t, DefineTarget::BlComp(..));
+                let layer = if bl { Layer::BlComp(m) } else { Layer::TComp(m) };
+                if *n == 0 {
+                    return Err(3);
+                }
+                self.check_define(layer, u64::from(*n))?;
+                let def = format!("{n},{}", crate::state::number::format_value(span.value));
+                let tab = CompTable { def, entries: *n, data: Vec::new() };
+                if bl {
+                    self.bufs.defines.blcomp.insert(m, tab);
+                } else {
+                    self.bufs.defines.tcomp.insert(m, tab);
+                }
+            }
+            DefineTarget::Lookahead(..) => return Err(3),
+        }
+        Ok(())
+    }
+
+    fn delete(&mut self, s: &Session, t: DeleteTarget) -> Exec {
+        let cs = s.coord as u8;
+        let m = s.motor as u8;
+        let above = |c: &Card, l: Layer| c.bufs.defines.something_above(l, c.rot_keys().into_iter());
+        match t {
+            DeleteTarget::Rotary => {
+                if !self.bufs.rotary.contains_key(&cs) {
+                    return Ok(());
+                }
+                let busy = self.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord);
+                if busy || above(self, Layer::Rot(cs)) {
+                    return Err(3);
+                }
+                self.bufs.rotary.remove(&cs);
+            }
+            DeleteTarget::Gather => self.bufs.defines.gather = None,
+            DeleteTarget::Tbuf => {
+                if above(self, Layer::TBuf) {
+                    return Err(7);
+                }
+                self.bufs.defines.tbuf = 0;
+            }
+            DeleteTarget::Comp | DeleteTarget::BlComp | DeleteTarget::TComp => {
+                let layer = match t {
+                    DeleteTarget::Comp => Layer::Comp(m),
+                    DeleteTarget::BlComp => Layer::BlComp(m),
+                    _ => Layer::TComp(m),
+                };
+                if above(self, layer) {
+                    return Err(3);
+                }
+                let d = &mut self.bufs.defines;
+                match t {
+                    DeleteTarget::Comp => d.comp.remove(&m),
+                    DeleteTarget::BlComp => d.blcomp.remove(&m),
+                    _ => d.tcomp.remove(&m),
+                };
+            }
+            DeleteTarget::Lookahead => return Err(3),
+            DeleteTarget::Plcc(n) if n > 31 => return Err(3),
+            DeleteTarget::Plcc(_) | DeleteTarget::Trace => {}
+        }
+        Ok(())
+    }
+}
+
+/// `LIST COMP DEF` text with the defaulted motors filled in.
+fn comp_def_text(
+    rows: u32,
+    cols: Option<u32>,
+    motors: &[crate::lang::ast::CompMotor],
+    spans: &[crate::lang::ast::Number],
+    owner: u8,
+) -> String {
+    use crate::state::number::format_value;
+    let nmot = if cols.is_some() { 3 } else { 2 };
+    let mut parts = vec![match cols {
+        Some(c) => format!("{rows}.{c}"),
+        None => rows.to_string(),
+    }];
+    for k in 0..nmot {
+        parts.push(match motors.get(k) {
+            Some(cm) => format!("#{}{}", cm.motor, if cm.desired { "D" } else { "" }),
+            None => format!("#{owner}"),
+        });
+    }
+    parts.extend(spans.iter().map(|n| format_value(n.value)));
+    parts.join(",")
+}

@@ -1,0 +1,124 @@
+//! Global commands (§3.2.1, §3.2.2, §8.2): reset/save/password, information replies, global
+//! status, serial-chain addressing.
+
+use super::exec::{Exec, Flow, Out};
+use super::{Card, Session};
+use crate::lang::ast::CmdKind;
+
+/// `VERSION` reply. [DECISION] `1.17` rather than the digest's `1.17C`: host software requires
+/// `^\d+\.\d+$` (host-protocols §0 item 2).
+pub const VERSION: &str = "1.17";
+/// `DATE` reply (firmware date, `mm/dd/yy`).
+pub const DATE: &str = "06/12/02";
+/// `TYPE` reply (spec §3.2.2 [DECISION]).
+pub const TYPE: &str = "PMAC2, ISA, FLASH, PID, CLK X1";
+/// `EAVERSION`: PMAC2 (1), AMD flash (1), standard (0), released (0), no revision letter (0), 117.
+pub const EAVERSION: &str = "11000117";
+/// `CHECKSUM`: firmware reference checksum, hex without `$`.
+pub const CHECKSUM: &str = "5A17C3";
+/// `LIST LINK` dummy line (no compiled-PLC support).
+pub const LIST_LINK: &str = "000000 000000 000000 000000 000000 000000";
+
+impl Card {
+    pub(crate) fn exec_info(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
+        match cmd {
+            CmdKind::Reset => {
+                let _ = self.reset_from_file();
+                *s = Session { motor: 1, coord: 1, id: s.id };
+                out.flow = Flow::Reset;
+            }
+            CmdKind::Reinit => {
+                self.reinit();
+                *s = Session { motor: 1, coord: 1, id: s.id };
+            }
+            CmdKind::Save => {
+                if !self.save() {
+                    return Err(3);
+                }
+            }
+            CmdKind::Password(bytes) => self.password(bytes)?,
+            CmdKind::ClearFault => {}
+            CmdKind::Type => out.line(TYPE),
+            CmdKind::Version => out.line(VERSION),
+            CmdKind::Date => out.line(DATE),
+            CmdKind::EaVersion => out.line(EAVERSION),
+            CmdKind::Checksum => out.line(CHECKSUM),
+            CmdKind::Size => {
+                let free = self.bufs.free();
+                out.line(if self.open.is_some() { format!("-{free}") } else { free.to_string() });
+            }
+            CmdKind::Cid => match self.state.limits().cid {
+                Some(v) => out.line(v.to_string()),
+                None => return Err(3),
+            },
+            CmdKind::GlobalStatus => {
+                self.sync_global_flags();
+                out.line(self.state.global_status_text());
+            }
+            CmdKind::AddrCard(n) => {
+                self.chain_allowed()?;
+                let me = self.card_number();
+                self.chain_all = false;
+                self.chain_addressed = *n == me;
+                self.set_chain_bits(self.chain_addressed, false);
+            }
+            CmdKind::AddrAllCards => {
+                self.chain_allowed()?;
+                self.chain_all = true;
+                self.chain_addressed = true;
+                self.set_chain_bits(false, true);
+            }
+            CmdKind::ReportCard => {
+                self.chain_allowed()?;
+                if self.chain_all {
+                    out.line("@");
+                } else {
+                    out.line(format!("{:X}", self.card_number()));
+                }
+            }
+            _ => return Err(3),
+        }
+        Ok(())
+    }
+
+    /// `PASSWORD=`: change when matched (or null), otherwise a match attempt (ERR002 on failure).
+    fn password(&mut self, bytes: &[u8]) -> Exec {
+        let text = String::from_utf8_lossy(bytes).into_owned();
+        if self.state.password.is_empty() || self.state.password_matched {
+            self.state.password = text;
+            self.state.password_matched = true;
+            Ok(())
+        } else if self.state.password == text {
+            self.state.password_matched = true;
+            Ok(())
+        } else {
+            Err(2)
+        }
+    }
+
+    /// Whether a protected buffer may be opened/listed now.
+    pub(crate) fn password_ok(&self) -> bool {
+        self.state.password.is_empty() || self.state.password_matched
+    }
+
+    /// `@` forms need I1 = 2 or 3 (software addressing), else ERR003.
+    fn chain_allowed(&self) -> Exec {
+        let i1 = self.state.peek_ivar(1).unwrap_or(0.0) as u32;
+        if i1 & 2 != 0 {
+            Ok(())
+        } else {
+            Err(3)
+        }
+    }
+
+    /// This card's serial number (I0).
+    pub(crate) fn card_number(&self) -> u8 {
+        (self.state.peek_ivar(0).unwrap_or(0.0) as u32 & 0xF) as u8
+    }
+
+    /// `???` word 1 bit 0 (addressed by `@n`) and bit 1 (`@@`).
+    fn set_chain_bits(&mut self, this: bool, all: bool) {
+        let w = self.state.global.word1_other & !3;
+        self.state.global.word1_other = w | u32::from(this) | (u32::from(all) << 1);
+    }
+}

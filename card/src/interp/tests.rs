@@ -1,0 +1,134 @@
+//! Facade tests: byte-exact replies through `Card::command_line` / `Card::control_char`.
+
+use super::*;
+
+fn card() -> (Card, Session) {
+    let mut c = Card::new(Profile::Pmac2);
+    let mut s = Session::default();
+    assert_eq!(c.command_line(&mut s, b"I3=2 I6=1"), b"\x06");
+    (c, s)
+}
+
+fn send(c: &mut Card, s: &mut Session, line: &str) -> Vec<u8> {
+    c.command_line(s, line.as_bytes())
+}
+
+#[test]
+fn seed_default_framing() {
+    let mut c = Card::new(Profile::Pmac2);
+    let mut s = Session::default();
+    assert_eq!(send(&mut c, &mut s, "P1=25"), b"\n");
+    assert_eq!(send(&mut c, &mut s, "P1"), b"\n25\r\n");
+    assert_eq!(send(&mut c, &mut s, "UUU"), b"\x07\r\nERR003\r");
+    assert_eq!(send(&mut c, &mut s, "i6=1 i3=2 ver"), b"1.17\r\x06");
+}
+
+#[test]
+fn error_mid_line_keeps_earlier_effects() {
+    let (mut c, mut s) = card();
+    assert_eq!(send(&mut c, &mut s, "P2=7 P2 UUU P2=8"), b"7\r\x07ERR003\r");
+    assert_eq!(send(&mut c, &mut s, "P2"), b"7\r\x06");
+}
+
+#[test]
+fn non_ascii_is_err004_and_long_line_err003() {
+    let (mut c, mut s) = card();
+    assert_eq!(c.command_line(&mut s, b"P1=\xC31"), b"\x07ERR004\r");
+    let long = vec![b' '; MAX_LINE + 1];
+    assert_eq!(c.command_line(&mut s, &long), b"\x07ERR003\r");
+}
+
+#[test]
+fn addressing_is_per_session() {
+    let (mut c, mut s1) = card();
+    let mut s2 = Session::default();
+    assert_eq!(send(&mut c, &mut s1, "#3&2"), b"\x06");
+    assert_eq!(send(&mut c, &mut s1, "# &"), b"3\r2\r\x06");
+    assert_eq!(send(&mut c, &mut s2, "# &"), b"1\r1\r\x06");
+    assert_eq!(send(&mut c, &mut s1, "#9"), b"\x07ERR003\r");
+    assert_eq!(send(&mut c, &mut s1, "#0"), b"\x07ERR003\r");
+}
+
+#[test]
+fn program_round_trip_and_open_rules() {
+    let (mut c, mut s) = card();
+    let mut other = Session::default();
+    assert_eq!(send(&mut c, &mut s, "OPEN PROG 1 CLEAR"), b"\x06");
+    assert_eq!(send(&mut c, &mut other, "OPEN PLC 2"), b"\x07ERR007\r");
+    // The other connection's lines execute normally.
+    assert_eq!(send(&mut c, &mut other, "P7=1 P7"), b"1\r\x06");
+    assert_eq!(send(&mut c, &mut s, "LINEAR"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "SIZE"), b"-34815\r\x06");
+    assert_eq!(send(&mut c, &mut s, "CLOSE"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "SIZE"), b"34814\r\x06");
+    assert_eq!(send(&mut c, &mut s, "LINEAR"), b"\x07ERR005\r");
+    assert_eq!(send(&mut c, &mut s, "LIST"), b"\x07ERR005\r");
+}
+
+#[test]
+fn control_chars_report_without_ack() {
+    let (mut c, mut s) = card();
+    assert_eq!(c.control_char(&mut s, 0x07), b"000000000800\r");
+    assert_eq!(c.control_char(&mut s, 0x10), b"0 0 0 0 0 0 0 0\r");
+    assert_eq!(c.control_char(&mut s, 0x0B), b"");
+    assert_eq!(send(&mut c, &mut s, "P5=3"), b"\x06");
+    assert_eq!(c.control_char(&mut s, 0x19), b"P5=3");
+    assert_eq!(send(&mut c, &mut s, "P5"), b"3\r\x06");
+    assert_eq!(c.control_char(&mut s, 0x09), b"3\r\x06");
+    assert_eq!(c.control_char(&mut s, 0x18), b"");
+    assert_eq!(send(&mut c, &mut s, "I63=1"), b"\x06");
+    assert_eq!(c.control_char(&mut s, 0x18), b"\x18");
+}
+
+#[test]
+fn motion_commands_are_queued_as_actions() {
+    let (mut c, mut s) = card();
+    assert_eq!(send(&mut c, &mut s, "#2J+#3K"), b"\x06");
+    let a = c.take_actions();
+    assert_eq!(a.len(), 2);
+    assert_eq!(a[0].motor, 2);
+    assert!(matches!(a[1].kind, ActionKind::Cmd(crate::lang::ast::CmdKind::Kill)));
+    assert!(c.take_actions().is_empty());
+}
+
+#[test]
+fn run_refusals_in_order() {
+    let (mut c, mut s) = card();
+    assert_eq!(send(&mut c, &mut s, "&3 B1 R"), b"\x07ERR014\r");
+    assert_eq!(send(&mut c, &mut s, "&1 #1->1000X"), b"\x06");
+    // Motor 1 starts killed (open loop).
+    assert_eq!(send(&mut c, &mut s, "R"), b"\x07ERR012\r");
+    assert_eq!(send(&mut c, &mut s, "#1J/"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "R"), b"\x07ERR015\r");
+    assert_eq!(send(&mut c, &mut s, "#2->Y"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "R"), b"\x07ERR013\r");
+    assert_eq!(send(&mut c, &mut s, "#2->0 #1J+ R"), b"\x07ERR011\r");
+    assert_eq!(send(&mut c, &mut s, "#1J/ OPEN PROG 1 CLEAR X10 CLOSE B1 R"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "#1J+"), b"\x07ERR001\r");
+    assert_eq!(send(&mut c, &mut s, "A #1J/"), b"\x06");
+}
+
+#[test]
+fn save_and_reset_restore_state() {
+    let dir = std::env::temp_dir().join(format!("mcc-interp-unit-{}", std::process::id()));
+    let _ = std::fs::create_dir_all(&dir);
+    let path = dir.join("card.state");
+    let _ = std::fs::remove_file(&path);
+    let mut c = Card::with_state_file(Profile::Pmac2, &path);
+    let mut s = Session::default();
+    assert_eq!(send(&mut c, &mut s, "I3=2 I6=1 I130=1500 P1=5"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "OPEN PROG 7 CLEAR DWELL100 CLOSE"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "SAVE"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "I130=1000 P1=6"), b"\x06");
+    assert_eq!(send(&mut c, &mut s, "$$$"), b"");
+    assert_eq!(send(&mut c, &mut s, "I130 P1"), b"1500\r5\r\x06");
+    let mut c2 = Card::with_state_file(Profile::Pmac2, &path);
+    assert_eq!(send(&mut c2, &mut s, "I130"), b"1500\r\x06");
+    let listed = send(&mut c2, &mut s, "LIST PROG 7");
+    assert!(listed.starts_with(b"DWE"), "{:?}", String::from_utf8_lossy(&listed));
+    // $$$*** restores factory I-variables (I3=1, I6=3) but keeps P.
+    assert_eq!(send(&mut c2, &mut s, "$$$***"), b"\n");
+    assert_eq!(send(&mut c2, &mut s, "P1"), b"\n5\r\n");
+    assert_eq!(send(&mut c2, &mut s, "LIST PROG 7"), b"\x07\r\nERR003\r");
+    let _ = std::fs::remove_dir_all(&dir);
+}

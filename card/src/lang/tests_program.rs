@@ -1,0 +1,1 @@
+//! Tests of program statement parsing and listing round trips.

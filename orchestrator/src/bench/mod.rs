@@ -1,0 +1,3 @@
+//! Benchmarks (`mcc bench ...`).
+
+pub mod ring;

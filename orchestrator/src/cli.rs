@@ -1,0 +1,178 @@
+//! Command-line interface of `mcc` (clap).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+use mcc_ring::config::ClockMode;
+
+/// Default cluster name.
+pub const DEFAULT_CLUSTER: &str = "mcc";
+
+/// mcc: a cluster of software PMAC cards and MACRO stations on a zenoh ring.
+#[derive(Debug, Parser)]
+#[command(name = "mcc", version, about)]
+pub struct Cli {
+    /// Cluster name: key-expression namespace and run directory (default `mcc`).
+    #[arg(long, global = true, value_name = "NAME")]
+    pub cluster: Option<String>,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+impl Cli {
+    /// The cluster name given, or the default.
+    pub fn cluster_name(&self) -> String {
+        self.cluster.clone().unwrap_or_else(|| DEFAULT_CLUSTER.to_string())
+    }
+}
+
+/// The verbs.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Start every member of a cluster and wait until the ring is locked.
+    Up(UpArgs),
+    /// Show the state of a running cluster.
+    Status(StatusArgs),
+    /// Inject a fault on a member's send path (`mcc fault MEMBER KIND`), or clear faults
+    /// (`mcc fault clear [MEMBER]`).
+    Fault(FaultArgs),
+    /// Stop every member of a running cluster and remove its runtime files.
+    Down(DownArgs),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+    /// Internal: the detached supervisor started by `mcc up --detach`.
+    #[command(hide = true)]
+    Supervise,
+}
+
+/// `mcc up`.
+#[derive(Debug, Args)]
+pub struct UpArgs {
+    /// Number of cards in the embedded default cluster (default 2).
+    #[arg(long, value_name = "N", conflicts_with = "config", value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: Option<u8>,
+    /// Number of stations in the embedded default cluster (default 2).
+    #[arg(long, value_name = "M", conflicts_with = "config", value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: Option<u8>,
+    /// Clock mode (overrides the config).
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
+    /// Ring rate in Hz (overrides the config).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// Cluster config file (TOML).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Leave the cluster running in the background and return once the ring is locked.
+    #[arg(long)]
+    pub detach: bool,
+    /// Seconds to wait for the ring to lock.
+    #[arg(long, value_name = "S", default_value_t = 60)]
+    pub timeout: u64,
+}
+
+/// `mcc status`.
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    /// Print the JSON status document instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `mcc fault`.
+#[derive(Debug, Args)]
+pub struct FaultArgs {
+    /// `MEMBER KIND` or `clear [MEMBER]`. Kinds: drop-sync, drop-packets, corrupt,
+    /// byte-violation, overrun, underrun, delay, delay-us, cut.
+    #[arg(num_args = 1..=2, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
+    pub words: Vec<String>,
+    /// Apply for this many ring cycles (default: until cleared).
+    #[arg(long, value_name = "N")]
+    pub cycles: Option<u64>,
+    /// Probability per cycle/packet, 0–1 (default 1).
+    #[arg(long, value_name = "P")]
+    pub probability: Option<f64>,
+    /// Random seed for the probability.
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
+    /// Delay amount: cycles for `delay`, microseconds for `delay-us`.
+    #[arg(long, value_name = "N")]
+    pub delay: Option<u64>,
+}
+
+/// `mcc down`.
+#[derive(Debug, Args)]
+pub struct DownArgs {
+    /// Seconds to wait for an orderly stop before killing.
+    #[arg(long, value_name = "S", default_value_t = 10)]
+    pub timeout: u64,
+}
+
+/// `mcc bench ...`.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Ring throughput and latency against raw UDP and the OS timer.
+    Ring(BenchRingArgs),
+}
+
+/// `mcc bench ring`.
+#[derive(Debug, Args)]
+pub struct BenchRingArgs {
+    /// Ring members (default 12: 4 cards + 8 stations).
+    #[arg(long, value_name = "N", default_value_t = 12, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pub members: u32,
+    /// Lockstep cycles to measure.
+    #[arg(long, value_name = "K", default_value_t = 5000)]
+    pub cycles: u64,
+    /// Realtime measurement duration, seconds.
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    pub duration: f64,
+    /// Realtime rate, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
+    pub rate: f64,
+}
+
+fn parse_clock(s: &str) -> Result<ClockMode, String> {
+    s.parse()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn up_parses_options() {
+        let cli = Cli::try_parse_from([
+            "mcc", "up", "--cluster", "t1", "--cards", "3", "--stations", "5", "--clock",
+            "lockstep", "--rate", "1000", "--detach",
+        ])
+        .unwrap();
+        assert_eq!(cli.cluster_name(), "t1");
+        let Command::Up(up) = cli.command else { panic!() };
+        assert_eq!((up.cards, up.stations), (Some(3), Some(5)));
+        assert_eq!(up.clock, Some(ClockMode::Lockstep));
+        assert_eq!(up.rate, Some(1000.0));
+        assert!(up.detach);
+    }
+
+    #[test]
+    fn bad_arguments_are_rejected_with_a_message() {
+        let e = Cli::try_parse_from(["mcc", "up", "--clock", "sometimes"]).unwrap_err();
+        assert!(e.to_string().contains("sometimes"), "{e}");
+        let e = Cli::try_parse_from(["mcc", "up", "--cards", "0"]).unwrap_err();
+        assert!(e.to_string().contains("--cards"), "{e}");
+        let e = Cli::try_parse_from(["mcc", "up", "--config", "x.toml", "--cards", "2"]);
+        assert!(e.is_err());
+        assert!(Cli::try_parse_from(["mcc", "fault"]).is_err());
+        let ok = Cli::try_parse_from(["mcc", "fault", "clear"]).unwrap();
+        assert_eq!(ok.cluster_name(), DEFAULT_CLUSTER);
+    }
+}

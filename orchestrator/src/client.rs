@@ -1,0 +1,56 @@
+//! Talking to a running cluster from another process: finding and attaching to it, `status`.
+
+use std::time::Duration;
+
+use anyhow::{anyhow, bail, Result};
+use mcc_ring::config::ClusterConfig;
+
+use crate::cli::StatusArgs;
+use crate::rundir::{RunDir, SupervisorInfo};
+use crate::{ctl, status};
+
+/// A running cluster found through its run directory, with a connected session.
+pub struct Attached {
+    /// Run directory.
+    pub rd: RunDir,
+    /// Supervisor record.
+    pub info: SupervisorInfo,
+    /// Resolved config.
+    pub cfg: ClusterConfig,
+    /// Session connected to the cluster.
+    pub session: zenoh::Session,
+}
+
+impl std::fmt::Debug for Attached {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Attached").field("info", &self.info).finish_non_exhaustive()
+    }
+}
+
+/// Find cluster `name` and connect to it.
+pub fn attach(name: &str) -> Result<Attached> {
+    let rd = RunDir::for_cluster(name)?;
+    let Some(info) = rd.running() else {
+        bail!("cluster {name:?} is not running (no live supervisor in {})", rd.dir.display());
+    };
+    let cfg = ClusterConfig::from_file(&rd.config_path())?;
+    let endpoint = info
+        .endpoint
+        .clone()
+        .ok_or_else(|| anyhow!("cluster {name:?} is still starting (no endpoint yet)"))?;
+    let session = ctl::connect(&endpoint, cfg.ring.order.len() + 1, Duration::from_millis(1500))?;
+    Ok(Attached { rd, info, cfg, session })
+}
+
+/// `mcc status [--json]`.
+pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
+    let a = attach(cluster)?;
+    let st = ctl::query_statuses(&a.session, &a.cfg, Duration::from_millis(700), Duration::from_millis(1500));
+    let doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        print!("{}", status::render_table(&doc));
+    }
+    Ok(())
+}

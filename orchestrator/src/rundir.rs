@@ -1,0 +1,264 @@
+//! The run directory of a cluster: `$MCC_RUN_DIR/<cluster>`, else
+//! `$XDG_RUNTIME_DIR/mcc/<cluster>`, else `/tmp/mcc-<uid>/<cluster>`. It holds the resolved
+//! `cluster.toml`, `supervisor.json` (supervisor pid, zenoh endpoint, member pids, phase) and
+//! `logs/<member>.log`. `mcc down` removes exactly these files, nothing else.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::sys;
+
+/// Resolved config file name.
+pub const CONFIG_FILE: &str = "cluster.toml";
+/// Supervisor state file name.
+pub const INFO_FILE: &str = "supervisor.json";
+/// Log folder name.
+pub const LOG_DIR: &str = "logs";
+
+/// One member process started by the supervisor.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MemberProc {
+    /// Member name.
+    pub name: String,
+    /// `card` or `station`.
+    pub kind: String,
+    /// OS pid.
+    pub pid: u32,
+}
+
+/// What the supervisor publishes about itself in `supervisor.json`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SupervisorInfo {
+    /// Supervisor process id.
+    pub pid: u32,
+    /// Cluster name.
+    pub cluster: String,
+    /// `starting`, `running`, `stopping` or `failed`.
+    pub phase: String,
+    /// The supervisor's zenoh endpoint once listening.
+    pub endpoint: Option<String>,
+    /// Member processes.
+    pub members: Vec<MemberProc>,
+    /// Error text when `phase` is `failed`.
+    pub message: Option<String>,
+}
+
+impl SupervisorInfo {
+    /// A fresh `starting` record for process `pid`.
+    pub fn starting(pid: u32, cluster: &str) -> Self {
+        SupervisorInfo {
+            pid,
+            cluster: cluster.to_string(),
+            phase: "starting".into(),
+            endpoint: None,
+            members: Vec::new(),
+            message: None,
+        }
+    }
+}
+
+/// A cluster's run directory.
+#[derive(Debug, Clone)]
+pub struct RunDir {
+    /// The directory.
+    pub dir: PathBuf,
+    /// Cluster name.
+    pub cluster: String,
+}
+
+/// Where run directories live.
+pub fn base_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("MCC_RUN_DIR").filter(|d| !d.is_empty()) {
+        return PathBuf::from(d);
+    }
+    if let Some(d) = std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+        let d = PathBuf::from(d);
+        if d.is_dir() {
+            return d.join("mcc");
+        }
+    }
+    PathBuf::from(format!("/tmp/mcc-{}", sys::uid()))
+}
+
+impl RunDir {
+    /// The run directory of `cluster` (the name is checked: it becomes a path component).
+    pub fn for_cluster(cluster: &str) -> Result<Self> {
+        if let Err(mcc_ring::config::ConfigError::Invalid { key, problem }) =
+            mcc_ring::config::check_name("--cluster", cluster)
+        {
+            bail!("{key}: {problem}");
+        }
+        Ok(RunDir {
+            dir: base_dir().join(cluster),
+            cluster: cluster.to_string(),
+        })
+    }
+
+    /// Path of the resolved config.
+    pub fn config_path(&self) -> PathBuf {
+        self.dir.join(CONFIG_FILE)
+    }
+
+    /// Path of `supervisor.json`.
+    pub fn info_path(&self) -> PathBuf {
+        self.dir.join(INFO_FILE)
+    }
+
+    /// Log file of `who` (a member or `supervisor`).
+    pub fn log_path(&self, who: &str) -> PathBuf {
+        self.dir.join(LOG_DIR).join(format!("{who}.log"))
+    }
+
+    /// The supervisor record, if present and readable.
+    pub fn read_info(&self) -> Option<SupervisorInfo> {
+        let text = fs::read_to_string(self.info_path()).ok()?;
+        serde_json::from_str(&text).ok()
+    }
+
+    /// The record of a running supervisor (its pid alive), else None.
+    pub fn running(&self) -> Option<SupervisorInfo> {
+        self.read_info().filter(|i| sys::pid_alive(i.pid))
+    }
+
+    /// Atomically replace `supervisor.json`.
+    pub fn write_info(&self, info: &SupervisorInfo) -> Result<()> {
+        let text = serde_json::to_string_pretty(info)?;
+        write_atomic(&self.info_path(), text.as_bytes())
+    }
+
+    /// Claim the run directory for a new cluster owned by process `pid`: refuses if a live
+    /// supervisor owns it; a stale one (dead pid) is cleaned up first.
+    pub fn claim(&self, pid: u32) -> Result<()> {
+        if let Some(info) = self.running() {
+            bail!(
+                "cluster {:?} is already running (supervisor pid {}, run dir {}); \
+                 stop it with `mcc down --cluster {}`",
+                self.cluster,
+                info.pid,
+                self.dir.display(),
+                self.cluster
+            );
+        }
+        if self.info_path().exists() {
+            self.cleanup()?;
+        }
+        fs::create_dir_all(self.dir.join(LOG_DIR))
+            .with_context(|| format!("cannot create run dir {}", self.dir.display()))?;
+        let text = serde_json::to_string_pretty(&SupervisorInfo::starting(pid, &self.cluster))?;
+        let mut f = match fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(self.info_path())
+        {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                bail!("cluster {:?} is being started by another `mcc up`", self.cluster)
+            }
+            Err(e) => return Err(e).context(format!("cannot write {}", self.info_path().display())),
+        };
+        f.write_all(text.as_bytes())?;
+        Ok(())
+    }
+
+    /// Write the resolved config.
+    pub fn write_config(&self, text: &str) -> Result<()> {
+        write_atomic(&self.config_path(), text.as_bytes())
+    }
+
+    /// Remove the files mcc created (config, supervisor record, logs) and the directory if it
+    /// is then empty. Anything else (e.g. a user's state file placed there) stays.
+    pub fn cleanup(&self) -> Result<()> {
+        for f in [self.config_path(), self.info_path()] {
+            remove_if_exists(&f)?;
+        }
+        let logs = self.dir.join(LOG_DIR);
+        if let Ok(entries) = fs::read_dir(&logs) {
+            for e in entries.flatten() {
+                let p = e.path();
+                if p.extension().is_some_and(|x| x == "log") {
+                    remove_if_exists(&p)?;
+                }
+            }
+        }
+        let _ = fs::remove_dir(&logs);
+        let _ = fs::remove_dir(&self.dir);
+        Ok(())
+    }
+
+    /// The last `lines` lines of a log, for error messages.
+    pub fn log_tail(&self, who: &str, lines: usize) -> String {
+        let text = fs::read_to_string(self.log_path(who)).unwrap_or_default();
+        let all: Vec<&str> = text.lines().collect();
+        all[all.len().saturating_sub(lines)..].join("\n")
+    }
+}
+
+fn remove_if_exists(p: &Path) -> Result<()> {
+    match fs::remove_file(p) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e).context(format!("cannot remove {}", p.display())),
+    }
+}
+
+/// Write to a temporary sibling, fsync, rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension("tmp");
+    {
+        let mut f = fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+    }
+    fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_run_dir(tag: &str) -> RunDir {
+        let dir = std::env::temp_dir().join(format!("mcc-rundir-test-{}-{tag}", std::process::id()));
+        RunDir { dir, cluster: tag.into() }
+    }
+
+    #[test]
+    fn claim_refuses_a_live_owner_and_reclaims_a_stale_one() {
+        let rd = temp_run_dir("claim");
+        rd.claim(std::process::id()).unwrap();
+        let err = rd.claim(std::process::id()).unwrap_err().to_string();
+        assert!(err.contains("already running"), "{err}");
+        // A dead owner: stale, reclaimed.
+        let mut info = rd.read_info().unwrap();
+        info.pid = u32::MAX;
+        rd.write_info(&info).unwrap();
+        rd.claim(std::process::id()).unwrap();
+        assert_eq!(rd.read_info().unwrap().pid, std::process::id());
+        rd.cleanup().unwrap();
+        assert!(!rd.dir.exists());
+    }
+
+    #[test]
+    fn cleanup_keeps_foreign_files() {
+        let rd = temp_run_dir("foreign");
+        rd.claim(std::process::id()).unwrap();
+        rd.write_config("cluster = \"x\"\n").unwrap();
+        fs::write(rd.log_path("card0"), "hello\nworld\n").unwrap();
+        assert_eq!(rd.log_tail("card0", 1), "world");
+        fs::write(rd.dir.join("card0.state"), "saved").unwrap();
+        rd.cleanup().unwrap();
+        assert!(rd.dir.join("card0.state").exists());
+        assert!(!rd.config_path().exists() && !rd.info_path().exists());
+        fs::remove_dir_all(&rd.dir).unwrap();
+    }
+
+    #[test]
+    fn cluster_names_are_checked() {
+        assert!(RunDir::for_cluster("../etc").is_err());
+        assert!(RunDir::for_cluster("").is_err());
+        assert!(RunDir::for_cluster("ok-name_1").is_ok());
+    }
+}

@@ -1,0 +1,361 @@
+//! `mcc status`: the cluster status document (JSON contract, architecture §6) built from the
+//! config, the supervisor record and each member's [`MemberStatus`], plus the text table.
+
+use std::fmt::Write as _;
+
+use mcc_ring::config::{ClusterConfig, MemberRef};
+use mcc_ring::control::{ErrorCounters, MemberStatus};
+use mcc_ring::fault::FaultSpec;
+use serde::Serialize;
+
+use crate::rundir::SupervisorInfo;
+
+/// The whole `mcc status --json` document.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClusterStatus {
+    /// Cluster name.
+    pub cluster: String,
+    /// `realtime` or `lockstep`.
+    pub clock: String,
+    /// Nominal ring rate, Hz.
+    pub rate: f64,
+    /// Ring summary.
+    pub ring: RingState,
+    /// Every member in ring order.
+    pub members: Vec<MemberRow>,
+    /// Cards and their host ports.
+    pub cards: Vec<CardRow>,
+    /// Stations.
+    pub stations: Vec<StationRow>,
+    /// Daisy-chain endpoint (later issue).
+    pub daisy_chain: Option<String>,
+    /// EMCL bus endpoint (later issue).
+    pub emcl_bus: Option<String>,
+    /// The supervising process.
+    pub supervisor: SupervisorRow,
+}
+
+/// Ring summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct RingState {
+    /// Ring name.
+    pub name: String,
+    /// Every member alive and phase-locked.
+    pub locked: bool,
+    /// Ring cycle of the synchronizing master.
+    pub cycle: u64,
+    /// A member latched a ring fault, or a link is broken.
+    pub faulted: bool,
+    /// The broken link, e.g. `"station0 → card1"`.
+    pub broken_link: Option<String>,
+}
+
+/// One member.
+#[derive(Debug, Clone, Serialize)]
+pub struct MemberRow {
+    /// Member name.
+    pub name: String,
+    /// `card` or `station`.
+    pub kind: String,
+    /// OS pid (from the supervisor, else the member's own report).
+    pub pid: Option<u32>,
+    /// Answered its status query.
+    pub alive: bool,
+    /// Position in the ring.
+    pub ring_position: usize,
+    /// The synchronizing master.
+    pub sync_master: bool,
+    /// Phase-locked to the sync packet.
+    pub locked: bool,
+    /// Current ring cycle known to the member.
+    pub cycle: u64,
+    /// Sync packets received.
+    pub sync_count: u64,
+    /// Ring cycle of the last frame from upstream.
+    pub last_rx_cycle: Option<u64>,
+    /// Receive error counters.
+    pub errors: ErrorCounters,
+    /// Ring fault latched.
+    pub ring_fault: bool,
+    /// Ring faults since start.
+    pub ring_fault_count: u64,
+    /// Cycles run on the holdover clock.
+    pub holdover_cycles: u64,
+    /// Realtime cycles that started late.
+    pub late_cycles: u64,
+    /// Faults injected on its send path.
+    pub faults: Vec<FaultSpec>,
+}
+
+/// One card.
+#[derive(Debug, Clone, Serialize)]
+pub struct CardRow {
+    /// Member name.
+    pub name: String,
+    /// Card number (I0).
+    pub number: u8,
+    /// `pmac2` or `turbo`.
+    pub profile: String,
+    /// ASCII terminal TCP port.
+    pub ascii: Option<u16>,
+    /// PMAC Ethernet protocol TCP port.
+    pub pmac_eth: Option<u16>,
+    /// OS pid.
+    pub pid: Option<u32>,
+}
+
+/// One station.
+#[derive(Debug, Clone, Serialize)]
+pub struct StationRow {
+    /// Member name.
+    pub name: String,
+    /// OS pid.
+    pub pid: Option<u32>,
+    /// Master number it serves.
+    pub master: u8,
+    /// Servo nodes.
+    pub nodes: Vec<u8>,
+}
+
+/// The supervisor.
+#[derive(Debug, Clone, Serialize)]
+pub struct SupervisorRow {
+    /// Its pid.
+    pub pid: u32,
+    /// Its zenoh endpoint (members connect to it).
+    pub endpoint: Option<String>,
+    /// Run directory.
+    pub run_dir: String,
+}
+
+/// Cycles of lag behind which a member's incoming link counts as broken: four check periods
+/// (the smallest station check period or card I1001), at least 32 cycles, so that the skew
+/// between concurrent status queries never looks like a break.
+pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
+    let station = cfg.stations.iter().map(|s| u64::from(s.check.period));
+    let cards = cfg.cards.iter().filter_map(|c| {
+        let v = c.ivars.iter().find(|(k, _)| k.eq_ignore_ascii_case("I1001"))?.1.as_f64();
+        (v >= 1.0).then_some(v as u64)
+    });
+    let period = station.chain(cards).min().unwrap_or(8);
+    (4 * period).max(32)
+}
+
+/// Name the broken link: walk the ring from the member after the sync master; the first
+/// member that is dead ends the walk (`"<dead> → <next>"`: nothing leaves it), else the first
+/// whose last received frame lags its current cycle by more than `threshold` names
+/// `"<upstream> → <member>"` (its upstream, visited before, is fine).
+pub fn broken_link(cfg: &ClusterConfig, st: &[Option<MemberStatus>], threshold: u64) -> Option<String> {
+    let order = &cfg.ring.order;
+    let n = order.len();
+    if n == 0 || st.len() != n {
+        return None;
+    }
+    let sm = cfg.position(&cfg.ring.sync_master)?;
+    let now = st.get(sm)?.as_ref().map(|s| s.cycle).unwrap_or(0);
+    for k in 1..=n {
+        let idx = (sm + k) % n;
+        let up = (idx + n - 1) % n;
+        let Some(s) = st.get(idx)? else {
+            return Some(format!("{} → {}", order.get(idx)?, order.get((idx + 1) % n)?));
+        };
+        let reference = s.cycle.max(now);
+        let lag = match s.last_rx_cycle {
+            Some(rx) => reference.saturating_sub(rx),
+            None => reference,
+        };
+        if lag > threshold {
+            return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
+        }
+    }
+    None
+}
+
+fn port_of(v: Option<&serde_json::Value>) -> Option<u16> {
+    match v? {
+        serde_json::Value::Number(n) => n.as_u64().and_then(|p| u16::try_from(p).ok()),
+        serde_json::Value::String(s) => s.rsplit(':').next()?.parse().ok(),
+        _ => None,
+    }
+}
+
+fn extra_port(s: Option<&MemberStatus>, keys: &[&str]) -> Option<u16> {
+    let s = s?;
+    keys.iter().find_map(|k| port_of(s.extra.get(*k)))
+}
+
+/// Assemble the status document.
+pub fn build(
+    cfg: &ClusterConfig,
+    info: &SupervisorInfo,
+    run_dir: &str,
+    st: &[Option<MemberStatus>],
+) -> ClusterStatus {
+    let pid_of = |name: &str, s: Option<&MemberStatus>| {
+        info.members
+            .iter()
+            .find(|m| m.name == name)
+            .map(|m| m.pid)
+            .or_else(|| s.map(|s| s.pid))
+    };
+    let status_of = |name: &str| cfg.position(name).and_then(|i| st.get(i)).and_then(Option::as_ref);
+    let members: Vec<MemberRow> = cfg
+        .ring
+        .order
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let s = st.get(i).and_then(Option::as_ref);
+            let d = MemberStatus::default();
+            let v = s.unwrap_or(&d);
+            let kind = match cfg.member(name) {
+                Some(MemberRef::Card(_)) => "card",
+                _ => "station",
+            };
+            MemberRow {
+                name: name.clone(),
+                kind: kind.into(),
+                pid: pid_of(name, s),
+                alive: s.is_some(),
+                ring_position: i,
+                sync_master: cfg.ring.sync_master == *name,
+                locked: v.locked,
+                cycle: v.cycle,
+                sync_count: v.sync_count,
+                last_rx_cycle: v.last_rx_cycle,
+                errors: v.errors,
+                ring_fault: v.ring_fault,
+                ring_fault_count: v.ring_fault_count,
+                holdover_cycles: v.holdover_cycles,
+                late_cycles: v.late_cycles,
+                faults: v.faults.clone(),
+            }
+        })
+        .collect();
+    let link = broken_link(cfg, st, lag_threshold(cfg));
+    let sm_cycle = status_of(&cfg.ring.sync_master).map(|s| s.cycle);
+    let ring = RingState {
+        name: cfg.ring.name.clone(),
+        locked: !members.is_empty() && members.iter().all(|m| m.alive && m.locked),
+        cycle: sm_cycle.unwrap_or_else(|| members.iter().map(|m| m.cycle).max().unwrap_or(0)),
+        faulted: link.is_some() || members.iter().any(|m| m.ring_fault),
+        broken_link: link,
+    };
+    let cards = cfg
+        .cards
+        .iter()
+        .map(|c| {
+            let s = status_of(&c.name);
+            CardRow {
+                name: c.name.clone(),
+                number: c.number,
+                profile: c.profile.clone(),
+                ascii: extra_port(s, &["ascii", "ascii_port"]),
+                pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
+                pid: pid_of(&c.name, s),
+            }
+        })
+        .collect();
+    let stations = cfg
+        .stations
+        .iter()
+        .map(|s| StationRow {
+            name: s.name.clone(),
+            pid: pid_of(&s.name, status_of(&s.name)),
+            master: s.master,
+            nodes: s.nodes.clone(),
+        })
+        .collect();
+    ClusterStatus {
+        cluster: cfg.cluster.clone(),
+        clock: cfg.clock.as_str().into(),
+        rate: cfg.rate_hz,
+        ring,
+        members,
+        cards,
+        stations,
+        daisy_chain: None,
+        emcl_bus: None,
+        supervisor: SupervisorRow {
+            pid: info.pid,
+            endpoint: info.endpoint.clone(),
+            run_dir: run_dir.into(),
+        },
+    }
+}
+
+fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
+}
+
+/// The human-readable table.
+pub fn render_table(s: &ClusterStatus) -> String {
+    let mut o = String::new();
+    let r = &s.ring;
+    let state = match (r.locked, r.faulted) {
+        (_, true) => "FAULTED",
+        (true, false) => "locked",
+        (false, false) => "NOT LOCKED",
+    };
+    let _ = writeln!(
+        o,
+        "cluster {}  clock {}  rate {} Hz  ring {}: {state}  cycle {}{}",
+        s.cluster,
+        s.clock,
+        s.rate,
+        r.name,
+        r.cycle,
+        r.broken_link.as_ref().map(|l| format!("  broken link: {l}")).unwrap_or_default()
+    );
+    let _ = writeln!(
+        o,
+        "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} faults",
+        "pos", "member", "kind", "pid", "alive", "locked", "cycle", "syncs", "bytev", "cksum", "ovr", "und", "badf", "rfault"
+    );
+    for m in &s.members {
+        let e = &m.errors;
+        let faults: Vec<String> = m.faults.iter().map(|f| f.kind.to_string()).collect();
+        let _ = writeln!(
+            o,
+            "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} {}",
+            m.ring_position,
+            format!("{}{}", m.name, if m.sync_master { "*" } else { "" }),
+            m.kind,
+            opt(m.pid),
+            if m.alive { "yes" } else { "NO" },
+            if m.locked { "yes" } else { "no" },
+            m.cycle,
+            m.sync_count,
+            e.byte_violation,
+            e.checksum,
+            e.overrun,
+            e.underrun,
+            e.bad_frames,
+            if m.ring_fault { "YES" } else { "no" },
+            if faults.is_empty() { "-".into() } else { faults.join(",") }
+        );
+    }
+    for c in &s.cards {
+        let _ = writeln!(
+            o,
+            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}",
+            c.name,
+            opt(c.pid),
+            c.number,
+            c.profile,
+            opt(c.ascii),
+            opt(c.pmac_eth)
+        );
+    }
+    let _ = writeln!(
+        o,
+        "zenoh {}  run dir {}  (* = synchronizing master)",
+        s.supervisor.endpoint.as_deref().unwrap_or("-"),
+        s.supervisor.run_dir
+    );
+    o
+}
+
+#[cfg(test)]
+#[path = "status_tests.rs"]
+mod tests;

@@ -1,0 +1,137 @@
+use super::*;
+use crate::rundir::MemberProc;
+
+fn healthy(cfg: &ClusterConfig, cycle: u64) -> Vec<Option<MemberStatus>> {
+    cfg.ring
+        .order
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            Some(MemberStatus {
+                name: name.clone(),
+                pid: 1000 + i as u32,
+                ring_position: i,
+                locked: true,
+                cycle,
+                sync_count: cycle,
+                last_rx_cycle: Some(cycle),
+                ..Default::default()
+            })
+        })
+        .collect()
+}
+
+fn info() -> SupervisorInfo {
+    let mut i = SupervisorInfo::starting(42, "mcc");
+    i.endpoint = Some("tcp/127.0.0.1:7000".into());
+    i.members.push(MemberProc { name: "card1".into(), kind: "card".into(), pid: 777 });
+    i
+}
+
+#[test]
+fn healthy_ring_has_no_broken_link() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let st = healthy(&cfg, 5000);
+    assert_eq!(broken_link(&cfg, &st, 32), None);
+    let doc = build(&cfg, &info(), "/run/x", &st);
+    assert!(doc.ring.locked);
+    assert!(!doc.ring.faulted);
+    assert_eq!(doc.ring.cycle, 5000);
+}
+
+#[test]
+fn cut_is_localised_to_the_link_after_the_cutting_member() {
+    // order: card0*, station0, card1, station1. station0 cut its outgoing link at cycle 1000:
+    // card1 and station1 receive nothing since; the sync master's sync never returns.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    for i in [2, 3, 0] {
+        st[i].as_mut().unwrap().last_rx_cycle = Some(1000);
+    }
+    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("station0 → card1"));
+    let doc = build(&cfg, &info(), "/run/x", &st);
+    assert!(doc.ring.faulted);
+    assert_eq!(doc.ring.broken_link.as_deref(), Some("station0 → card1"));
+    // The link back into the sync master.
+    let mut st = healthy(&cfg, 3000);
+    st[0].as_mut().unwrap().last_rx_cycle = Some(10);
+    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("station1 → card0"));
+    // The first link out of the sync master, and a member that never received anything.
+    let mut st = healthy(&cfg, 3000);
+    for s in st.iter_mut().skip(1) {
+        s.as_mut().unwrap().last_rx_cycle = None;
+    }
+    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card0 → station0"));
+}
+
+#[test]
+fn small_lag_within_threshold_is_not_a_break() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 32);
+    assert_eq!(broken_link(&cfg, &st, 32), None);
+    st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 33);
+    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card1 → station1"));
+}
+
+#[test]
+fn dead_member_breaks_the_link_leaving_it() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    st[2] = None;
+    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card1 → station1"));
+    let doc = build(&cfg, &info(), "/run/x", &st);
+    assert!(!doc.ring.locked);
+    let card1 = &doc.members[2];
+    assert!(!card1.alive);
+    assert_eq!(card1.pid, Some(777), "pid comes from the supervisor record");
+}
+
+#[test]
+fn lag_threshold_uses_the_smallest_check_period() {
+    let mut cfg = ClusterConfig::default_cluster(2, 2);
+    assert_eq!(lag_threshold(&cfg), 32);
+    cfg.stations[0].check.period = 20;
+    cfg.stations[1].check.period = 20;
+    assert_eq!(lag_threshold(&cfg), 80);
+    cfg.cards[0]
+        .ivars
+        .insert("I1001".into(), mcc_ring::config::IVarValue::Int(10));
+    assert_eq!(lag_threshold(&cfg), 40);
+}
+
+#[test]
+fn json_document_has_the_contract_fields() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 77);
+    let card0 = st[0].as_mut().unwrap();
+    card0.extra.insert("ascii".into(), serde_json::json!(5001));
+    card0.extra.insert("pmac_eth".into(), serde_json::json!("127.0.0.1:5002"));
+    let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st)).unwrap();
+    for k in ["cluster", "clock", "rate", "ring", "members", "cards", "stations", "daisy_chain", "emcl_bus"] {
+        assert!(doc.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(doc["clock"], "realtime");
+    assert_eq!(doc["rate"], 2258.7);
+    assert_eq!(doc["daisy_chain"], serde_json::Value::Null);
+    for k in ["name", "locked", "cycle", "faulted", "broken_link"] {
+        assert!(doc["ring"].get(k).is_some(), "ring.{k}");
+    }
+    let m = &doc["members"][1];
+    assert_eq!(m["name"], "station0");
+    assert_eq!(m["kind"], "station");
+    assert_eq!(m["ring_position"], 1);
+    assert_eq!(m["sync_count"], 77);
+    for k in ["byte_violation", "checksum", "overrun", "underrun", "bad_frames"] {
+        assert_eq!(m["errors"][k], 0, "errors.{k}");
+    }
+    assert_eq!(doc["members"][0]["sync_master"], true);
+    assert_eq!(doc["cards"][0]["ascii"], 5001);
+    assert_eq!(doc["cards"][0]["pmac_eth"], 5002);
+    assert_eq!(doc["cards"][1]["number"], 1);
+    assert_eq!(doc["cards"][1]["ascii"], serde_json::Value::Null);
+    assert_eq!(doc["stations"][1]["nodes"], serde_json::json!([0, 1, 4, 5, 8, 9, 12, 13]));
+    let table = render_table(&build(&cfg, &info(), "/run/x", &st));
+    assert!(table.contains("card0*"), "{table}");
+    assert!(table.contains("ascii 127.0.0.1:5001"), "{table}");
+}

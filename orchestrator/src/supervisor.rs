@@ -1,0 +1,225 @@
+//! The supervising process of a cluster (the foreground `mcc up`, or the detached
+//! `mcc supervise` daemon): it owns the zenoh endpoint members connect to, the orchestrator's
+//! liveliness token, and the member processes; it stops them in order on request.
+
+use std::process::{Child, ExitStatus};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context, Result};
+use mcc_ring::config::{ClusterConfig, MemberRef};
+use mcc_ring::control::{alive_key, ctl_key};
+use mcc_ring::transport::session::{free_loopback_endpoint, open_session, SessionOptions};
+use zenoh::Wait;
+
+use crate::launch;
+use crate::rundir::{MemberProc, RunDir, SupervisorInfo};
+use crate::sys;
+
+/// One started member.
+#[derive(Debug)]
+struct Running {
+    name: String,
+    child: Child,
+    exited: Option<ExitStatus>,
+}
+
+/// A running cluster.
+pub struct Supervisor {
+    rd: RunDir,
+    cfg: ClusterConfig,
+    session: zenoh::Session,
+    token: Option<zenoh::liveliness::LivelinessToken>,
+    children: Vec<Running>,
+    info: SupervisorInfo,
+}
+
+impl std::fmt::Debug for Supervisor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Supervisor").field("info", &self.info).finish_non_exhaustive()
+    }
+}
+
+impl Supervisor {
+    /// Open the endpoint, declare `alive/orchestrator`, start every member (in ring order)
+    /// and record everything in `supervisor.json`. On failure, whatever was started is
+    /// stopped again.
+    pub fn start(rd: RunDir, cfg: ClusterConfig) -> Result<Self> {
+        let (session, endpoint) = open_endpoint(&cfg)?;
+        let token = session
+            .liveliness()
+            .declare_token(alive_key(&cfg.cluster, "orchestrator"))
+            .wait()
+            .map_err(|e| anyhow!("cannot declare the orchestrator liveliness token: {e}"))?;
+        let mut info = SupervisorInfo::starting(std::process::id(), &cfg.cluster);
+        info.endpoint = Some(endpoint.clone());
+        rd.write_info(&info)?;
+        let mut sup = Supervisor {
+            rd,
+            cfg,
+            session,
+            token: Some(token),
+            children: Vec::new(),
+            info,
+        };
+        let order = sup.cfg.ring.order.clone();
+        for name in &order {
+            match launch::spawn_member(&sup.rd, &sup.cfg, name, &endpoint) {
+                Ok(child) => {
+                    let kind = match sup.cfg.member(name) {
+                        Some(MemberRef::Card(_)) => "card",
+                        _ => "station",
+                    };
+                    tracing::info!(member = %name, pid = child.id(), "started");
+                    sup.info.members.push(MemberProc {
+                        name: name.clone(),
+                        kind: kind.into(),
+                        pid: child.id(),
+                    });
+                    sup.children.push(Running { name: name.clone(), child, exited: None });
+                }
+                Err(e) => {
+                    sup.shutdown(Duration::from_secs(3));
+                    return Err(e);
+                }
+            }
+        }
+        sup.info.phase = "running".into();
+        sup.rd.write_info(&sup.info)?;
+        Ok(sup)
+    }
+
+    /// The supervisor's session (directly connected to every member).
+    pub fn session(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    /// The cluster config.
+    pub fn config(&self) -> &ClusterConfig {
+        &self.cfg
+    }
+
+    /// The supervisor record.
+    pub fn info(&self) -> &SupervisorInfo {
+        &self.info
+    }
+
+    /// The run directory.
+    pub fn run_dir(&self) -> &RunDir {
+        &self.rd
+    }
+
+    /// Reap members that exited since the last call; one message per newly dead member.
+    pub fn poll(&mut self) -> Vec<String> {
+        let mut out = Vec::new();
+        for r in self.children.iter_mut().filter(|r| r.exited.is_none()) {
+            if let Ok(Some(status)) = r.child.try_wait() {
+                r.exited = Some(status);
+                out.push(format!("member {} (pid {}) exited: {status}", r.name, r.child.id()));
+            }
+        }
+        out
+    }
+
+    /// Stop every member: shutdown query, then SIGTERM, then SIGKILL after `timeout`; reap
+    /// them, withdraw the liveliness token, close the session, remove the runtime files.
+    pub fn shutdown(mut self, timeout: Duration) {
+        self.info.phase = "stopping".into();
+        let _ = self.rd.write_info(&self.info);
+        let _ = self.poll();
+        let gets: Vec<_> = self
+            .children
+            .iter()
+            .filter(|r| r.exited.is_none())
+            .map(|r| {
+                let key = ctl_key(&self.cfg.cluster, &r.name, "shutdown");
+                self.session.get(key).timeout(Duration::from_millis(500)).wait()
+            })
+            .collect();
+        for replies in gets.into_iter().flatten() {
+            let _ = replies.recv();
+        }
+        // Members also leave when this token disappears.
+        if let Some(t) = self.token.take() {
+            let _ = t.undeclare().wait();
+        }
+        let half = timeout / 2;
+        self.wait_all(half);
+        for sig in [sys::SIGTERM, sys::SIGKILL] {
+            let live: Vec<u32> =
+                self.children.iter().filter(|r| r.exited.is_none()).map(|r| r.child.id()).collect();
+            if live.is_empty() {
+                break;
+            }
+            for pid in live {
+                tracing::warn!(pid, sig, "member did not stop; signalling");
+                let _ = sys::signal(pid, sig);
+            }
+            self.wait_all(half.max(Duration::from_secs(1)));
+        }
+        for r in self.children.iter_mut().filter(|r| r.exited.is_none()) {
+            r.exited = r.child.wait().ok();
+        }
+        let _ = self.session.close().wait();
+        if let Err(e) = self.rd.cleanup() {
+            tracing::warn!("cleanup: {e:#}");
+        }
+    }
+
+    fn wait_all(&mut self, timeout: Duration) {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let _ = self.poll();
+            if self.children.iter().all(|r| r.exited.is_some()) || Instant::now() >= deadline {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+/// Open the supervisor's session listening on a fresh loopback port (the endpoint members
+/// connect to). zenoh does not report a port bound as `:0`, so a free port is picked first;
+/// if another process grabs it in between, another one is tried.
+fn open_endpoint(cfg: &ClusterConfig) -> Result<(zenoh::Session, String)> {
+    let mut last = String::new();
+    for _ in 0..5 {
+        let endpoint = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
+        let mut listen = vec![endpoint.clone()];
+        listen.extend(cfg.zenoh.listen.iter().cloned());
+        match open_session(&SessionOptions { listen, connect: cfg.zenoh.connect.clone() }) {
+            Ok(s) => return Ok((s, endpoint)),
+            Err(e) => last = e.to_string(),
+        }
+    }
+    Err(anyhow!("cannot open the cluster's zenoh endpoint: {last}"))
+}
+
+/// Termination requests (SIGINT, SIGTERM, SIGHUP) as messages. The returned runtime must be
+/// kept alive as long as the receiver is used.
+pub fn stop_signals() -> Result<(tokio::runtime::Runtime, mpsc::Receiver<String>)> {
+    use tokio::signal::unix::{signal, SignalKind};
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .context("cannot start the signal runtime")?;
+    let (tx, rx) = mpsc::channel();
+    let _g = rt.enter();
+    let mut int = signal(SignalKind::interrupt()).context("SIGINT handler")?;
+    let mut term = signal(SignalKind::terminate()).context("SIGTERM handler")?;
+    let mut hup = signal(SignalKind::hangup()).context("SIGHUP handler")?;
+    rt.spawn(async move {
+        loop {
+            let which = tokio::select! {
+                _ = int.recv() => "SIGINT",
+                _ = term.recv() => "SIGTERM",
+                _ = hup.recv() => "SIGHUP",
+            };
+            if tx.send(which.to_string()).is_err() {
+                break;
+            }
+        }
+    });
+    Ok((rt, rx))
+}

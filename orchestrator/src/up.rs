@@ -1,0 +1,280 @@
+//! `mcc up` (foreground or `--detach`) and the hidden `mcc supervise` daemon.
+
+use std::io::BufRead;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use mcc_ring::config::ClusterConfig;
+use mcc_ring::control::MemberStatus;
+
+use crate::cli::{UpArgs, DEFAULT_CLUSTER};
+use crate::rundir::RunDir;
+use crate::supervisor::{stop_signals, Supervisor};
+use crate::{ctl, down, launch, status, sys};
+
+/// Seconds the supervisor gives members for an orderly stop.
+const STOP_TIMEOUT: Duration = Duration::from_secs(6);
+
+/// The config `up` will run: the file or the embedded default, with CLI overrides applied,
+/// resolved and validated.
+pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<ClusterConfig> {
+    let mut cfg = match &args.config {
+        Some(path) => ClusterConfig::from_file(path)?,
+        None => ClusterConfig::default_cluster(
+            usize::from(args.cards.unwrap_or(2)),
+            usize::from(args.stations.unwrap_or(2)),
+        ),
+    };
+    match cluster_flag {
+        Some(c) => cfg.cluster = c.to_string(),
+        None if args.config.is_none() => cfg.cluster = DEFAULT_CLUSTER.to_string(),
+        None => {}
+    }
+    if let Some(clock) = args.clock {
+        cfg.clock = clock;
+    }
+    if let Some(rate) = args.rate {
+        if !rate.is_finite() || rate <= 0.0 {
+            bail!("--rate {rate}: must be a positive number of Hz");
+        }
+        cfg.rate_hz = rate;
+    }
+    cfg.resolve().map_err(|e| match e {
+        mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
+            anyhow!("--cluster: {problem}")
+        }
+        other => anyhow!(other),
+    })
+}
+
+/// Poll member status until every member is locked. Prints a progress line whenever the set
+/// of locked members changes. `dead` reports a reason to give up early (a member or the
+/// supervisor died).
+pub fn wait_locked(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+    mut dead: impl FnMut() -> Option<String>,
+) -> Result<Vec<Option<MemberStatus>>> {
+    let start = Instant::now();
+    let mut last: Option<usize> = None;
+    loop {
+        let st = ctl::query_statuses(session, cfg, Duration::from_millis(300), Duration::from_millis(600));
+        let locked = st.iter().filter(|s| s.as_ref().is_some_and(|s| s.locked)).count();
+        if last != Some(locked) {
+            let waiting: Vec<&str> = cfg
+                .ring
+                .order
+                .iter()
+                .zip(&st)
+                .filter(|(_, s)| !s.as_ref().is_some_and(|s| s.locked))
+                .map(|(n, _)| n.as_str())
+                .collect();
+            eprintln!(
+                "mcc: ring {}: {locked}/{} members locked{}",
+                cfg.ring.name,
+                st.len(),
+                if waiting.is_empty() { String::new() } else { format!(" (waiting for {})", waiting.join(", ")) }
+            );
+            last = Some(locked);
+        }
+        if locked == st.len() {
+            return Ok(st);
+        }
+        if let Some(why) = dead() {
+            bail!("{why}");
+        }
+        if start.elapsed() >= timeout {
+            bail!("the ring did not lock within {} s", timeout.as_secs());
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn print_ready(rd: &RunDir, cfg: &ClusterConfig, info: &crate::rundir::SupervisorInfo, st: &[Option<MemberStatus>]) {
+    let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
+    println!(
+        "cluster {} up: {} members locked on ring {} at cycle {} ({}, {} Hz)",
+        cfg.cluster,
+        doc.members.len(),
+        cfg.ring.name,
+        doc.ring.cycle,
+        cfg.clock.as_str(),
+        cfg.rate_hz
+    );
+    let port = |p: Option<u16>| p.map(|p| format!("127.0.0.1:{p}")).unwrap_or_else(|| "-".into());
+    for c in &doc.cards {
+        println!(
+            "  {} (card {}, {}, pid {}): ascii {}  pmac_eth {}",
+            c.name,
+            c.number,
+            c.profile,
+            c.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into()),
+            port(c.ascii),
+            port(c.pmac_eth)
+        );
+    }
+    for s in &doc.stations {
+        let pid = s.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into());
+        println!("  {} (station, master {}, pid {pid}): nodes {:?}", s.name, s.master, s.nodes);
+    }
+    println!("  zenoh endpoint {}", info.endpoint.as_deref().unwrap_or("-"));
+    println!("  run dir {}", rd.dir.display());
+}
+
+/// `mcc up`.
+pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
+    let cfg = resolve_config(cluster_flag, args)?;
+    let rd = RunDir::for_cluster(&cfg.cluster)?;
+    rd.claim(std::process::id())?;
+    if let Err(e) = rd.write_config(&cfg.to_toml_string()?) {
+        let _ = rd.cleanup();
+        return Err(e);
+    }
+    let timeout = Duration::from_secs(args.timeout.max(1));
+    if args.detach {
+        up_detached(&rd, &cfg, timeout)
+    } else {
+        up_foreground(rd, cfg, timeout)
+    }
+}
+
+fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()> {
+    let fail = |rd: &RunDir, e: anyhow::Error| -> Result<()> {
+        let tail = rd.log_tail("supervisor", 10);
+        let _ = down::stop(rd, STOP_TIMEOUT, false);
+        Err(e.context(format!("cluster {} failed to start; supervisor log:\n{tail}", rd.cluster)))
+    };
+    let pid = match launch::spawn_supervisor(rd) {
+        Ok(p) => p,
+        Err(e) => return fail(rd, e),
+    };
+    // Wait for the daemon to publish its endpoint.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let info = loop {
+        match rd.read_info() {
+            Some(i) if i.pid == pid && i.phase == "running" => break i,
+            Some(i) if i.pid == pid && i.phase == "failed" => {
+                return fail(rd, anyhow!(i.message.unwrap_or_else(|| "supervisor failed".into())))
+            }
+            _ => {}
+        }
+        if !sys::pid_alive(pid) {
+            return fail(rd, anyhow!("the supervisor (pid {pid}) exited during start-up"));
+        }
+        if Instant::now() > deadline {
+            return fail(rd, anyhow!("the supervisor did not start within 20 s"));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let endpoint = info.endpoint.clone().unwrap_or_default();
+    let session = match ctl::connect(&endpoint, cfg.ring.order.len() + 1, Duration::from_secs(3)) {
+        Ok(s) => s,
+        Err(e) => return fail(rd, e),
+    };
+    let dead = || {
+        if !sys::pid_alive(pid) {
+            return Some(format!("the supervisor (pid {pid}) exited"));
+        }
+        info.members
+            .iter()
+            .find(|m| !sys::pid_alive(m.pid))
+            .map(|m| format!("member {} (pid {}) exited; log:\n{}", m.name, m.pid, rd.log_tail(&m.name, 10)))
+    };
+    let st = match wait_locked(&session, cfg, timeout, dead) {
+        Ok(st) => st,
+        Err(e) => {
+            drop(session);
+            return fail(rd, e);
+        }
+    };
+    print_ready(rd, cfg, &info, &st);
+    println!("  stop with: mcc down --cluster {}", cfg.cluster);
+    Ok(())
+}
+
+fn up_foreground(rd: RunDir, cfg: ClusterConfig, timeout: Duration) -> Result<()> {
+    let (_rt, signals) = stop_signals()?;
+    let mut sup = match Supervisor::start(rd.clone(), cfg) {
+        Ok(s) => s,
+        Err(e) => {
+            let _ = rd.cleanup();
+            return Err(e);
+        }
+    };
+    let cfg = sup.config().clone();
+    let session = sup.session().clone();
+    let res = wait_locked(&session, &cfg, timeout, || {
+        if let Ok(sig) = signals.try_recv() {
+            return Some(format!("interrupted ({sig})"));
+        }
+        sup.poll().into_iter().next()
+    });
+    let st = match res {
+        Ok(st) => st,
+        Err(e) => {
+            sup.shutdown(STOP_TIMEOUT);
+            return Err(e);
+        }
+    };
+    print_ready(sup.run_dir(), &cfg, sup.info(), &st);
+    println!("  Ctrl-C or end of input stops the cluster");
+    // End of standard input also stops the cluster.
+    let (eof_tx, eof_rx) = mpsc::channel::<()>();
+    std::thread::spawn(move || {
+        let stdin = std::io::stdin();
+        for line in stdin.lock().lines() {
+            if line.is_err() {
+                break;
+            }
+        }
+        let _ = eof_tx.send(());
+    });
+    run_until_stopped(&mut sup, &signals, Some(&eof_rx));
+    sup.shutdown(STOP_TIMEOUT);
+    println!("cluster {} stopped", cfg.cluster);
+    Ok(())
+}
+
+fn run_until_stopped(sup: &mut Supervisor, signals: &mpsc::Receiver<String>, eof: Option<&mpsc::Receiver<()>>) {
+    loop {
+        match signals.recv_timeout(Duration::from_millis(200)) {
+            Ok(sig) => {
+                tracing::info!("{sig}: stopping the cluster");
+                return;
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => return,
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if eof.is_some_and(|r| r.try_recv().is_ok()) {
+            return;
+        }
+        for msg in sup.poll() {
+            eprintln!("mcc: {msg}");
+        }
+    }
+}
+
+/// `mcc supervise` (hidden): the detached supervisor. The run dir was claimed and the config
+/// written by `mcc up --detach`.
+pub fn cmd_supervise(cluster: &str) -> Result<()> {
+    let rd = RunDir::for_cluster(cluster)?;
+    let (_rt, signals) = stop_signals()?;
+    let cfg = ClusterConfig::from_file(&rd.config_path()).context("supervise")?;
+    let mut sup = match Supervisor::start(rd.clone(), cfg) {
+        Ok(s) => s,
+        Err(e) => {
+            let mut info = crate::rundir::SupervisorInfo::starting(std::process::id(), cluster);
+            info.phase = "failed".into();
+            info.message = Some(format!("{e:#}"));
+            let _ = rd.write_info(&info);
+            return Err(e);
+        }
+    };
+    eprintln!("mcc supervise: cluster {cluster} running (pid {})", std::process::id());
+    run_until_stopped(&mut sup, &signals, None);
+    sup.shutdown(STOP_TIMEOUT);
+    eprintln!("mcc supervise: cluster {cluster} stopped");
+    Ok(())
+}

@@ -1,0 +1,497 @@
+//! Cluster configuration (TOML): the file `mcc up --config` reads, the resolved copy the
+//! orchestrator writes into the run directory, and what every member parses at start-up.
+//!
+//! ```toml
+//! cluster = "mcc"
+//! clock = "lockstep"          # or "realtime"
+//! rate_hz = 2258.7
+//! [ring]
+//! order = ["card0", "station0", "card1", "station1"]
+//! sync_master = "card0"
+//! [[cards]]
+//! name = "card0"
+//! number = 0
+//! master = 0
+//! [[stations]]
+//! name = "station0"
+//! master = 0
+//! ```
+//!
+//! Parsing never panics: [`ClusterConfig::from_toml_str`] returns a [`ConfigError`] naming the
+//! key and the problem.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+mod validate;
+
+pub use validate::{check_name, MAX_MEMBERS};
+
+#[cfg(test)]
+mod tests;
+
+/// Default MACRO servo nodes (a station's 8 servo nodes, a card's 8 motors).
+pub const DEFAULT_NODES: [u8; 8] = [0, 1, 4, 5, 8, 9, 12, 13];
+/// Node carrying the sync packet (I996 bits 16–19).
+pub const SYNC_NODE: u8 = 15;
+/// Default ring rate: the PMAC servo rate at default clock settings.
+pub const DEFAULT_RATE_HZ: f64 = 2258.7;
+/// Largest accepted config file, bytes.
+pub const MAX_CONFIG_BYTES: usize = 1 << 20;
+
+/// Ring clock mode (architecture §3.3).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClockMode {
+    /// The sync master paces cycles by the monotonic clock at `rate_hz`.
+    #[default]
+    Realtime,
+    /// Cycle k+1 starts when cycle k's sync packet has come back around.
+    Lockstep,
+}
+
+impl ClockMode {
+    /// The config / CLI word for this mode.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClockMode::Realtime => "realtime",
+            ClockMode::Lockstep => "lockstep",
+        }
+    }
+}
+
+impl std::str::FromStr for ClockMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "realtime" => Ok(ClockMode::Realtime),
+            "lockstep" => Ok(ClockMode::Lockstep),
+            other => Err(format!(
+                "unknown clock mode {other:?} (expected realtime or lockstep)"
+            )),
+        }
+    }
+}
+
+/// Zenoh endpoints of a member (peer mode, scouting off).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZenohConfig {
+    /// Endpoints to listen on (e.g. `tcp/127.0.0.1:7447`).
+    #[serde(default)]
+    pub listen: Vec<String>,
+    /// Endpoints to connect to.
+    #[serde(default)]
+    pub connect: Vec<String>,
+}
+
+/// The ring: its name and member order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RingConfig {
+    /// Ring name used in key expressions (`mcc/<cluster>/ring/<name>/link/<k>`).
+    #[serde(default = "default_ring_name")]
+    pub name: String,
+    /// Member names in ring order; empty = the default order (see [`ClusterConfig::resolve`]).
+    #[serde(default)]
+    pub order: Vec<String>,
+    /// The synchronizing master (a card); empty = the first card in ring order.
+    #[serde(default)]
+    pub sync_master: String,
+}
+
+impl Default for RingConfig {
+    fn default() -> Self {
+        RingConfig {
+            name: default_ring_name(),
+            order: Vec::new(),
+            sync_master: String::new(),
+        }
+    }
+}
+
+/// A startup I-variable override value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum IVarValue {
+    /// Integer value.
+    Int(i64),
+    /// Floating-point value.
+    Float(f64),
+}
+
+impl IVarValue {
+    /// The value as f64.
+    pub fn as_f64(self) -> f64 {
+        match self {
+            IVarValue::Int(i) => i as f64,
+            IVarValue::Float(f) => f,
+        }
+    }
+}
+
+/// One card (PMAC controller, ring master).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CardConfig {
+    /// Member name (unique in the cluster).
+    pub name: String,
+    /// Card number on the daisy chain (I0), 0–15.
+    pub number: u8,
+    /// `pmac2` or `turbo`.
+    #[serde(default = "default_profile")]
+    pub profile: String,
+    /// ASCII terminal TCP port (0 = ephemeral).
+    #[serde(default)]
+    pub ascii_port: u16,
+    /// PMAC Ethernet protocol TCP port (0 = ephemeral).
+    #[serde(default)]
+    pub pmac_eth_port: u16,
+    /// MACRO master number (I996 bits 20–23), 0–15.
+    pub master: u8,
+    /// Activated MACRO nodes (I996 bits 0–14).
+    #[serde(default = "default_nodes")]
+    pub nodes: Vec<u8>,
+    /// Startup I-variable overrides, e.g. `I1001 = 8`.
+    #[serde(default)]
+    pub ivars: BTreeMap<String, IVarValue>,
+    /// Where SAVE writes and start-up reads the card's state.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_file: Option<PathBuf>,
+}
+
+/// Station-side ring check (sync-packet watchdog), in ring cycles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StationCheck {
+    /// Check period, ring cycles.
+    #[serde(default = "default_check_period")]
+    pub period: u32,
+    /// Sync packets needed per period.
+    #[serde(default = "default_min_syncs")]
+    pub min_syncs: u32,
+    /// Errors per period that raise a fault.
+    #[serde(default = "default_max_errors")]
+    pub max_errors: u32,
+}
+
+impl Default for StationCheck {
+    fn default() -> Self {
+        StationCheck {
+            period: default_check_period(),
+            min_syncs: default_min_syncs(),
+            max_errors: default_max_errors(),
+        }
+    }
+}
+
+/// One MACRO station (ring slave).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StationConfig {
+    /// Member name (unique in the cluster).
+    pub name: String,
+    /// Master number of the card it serves.
+    pub master: u8,
+    /// Servo nodes it answers (I996-style activation).
+    #[serde(default = "default_nodes")]
+    pub nodes: Vec<u8>,
+    /// Sync-packet watchdog.
+    #[serde(default)]
+    pub check: StationCheck,
+}
+
+/// The whole cluster.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClusterConfig {
+    /// Cluster name: key-expression namespace and run-directory name.
+    #[serde(default = "default_cluster_name")]
+    pub cluster: String,
+    /// Clock mode.
+    #[serde(default)]
+    pub clock: ClockMode,
+    /// Nominal ring rate, Hz.
+    #[serde(default = "default_rate")]
+    pub rate_hz: f64,
+    /// Lockstep: wall time after which the sync master starts the next cycle anyway (counted).
+    #[serde(default = "default_lockstep_timeout")]
+    pub lockstep_timeout_ms: u64,
+    /// Zenoh endpoints.
+    #[serde(default)]
+    pub zenoh: ZenohConfig,
+    /// Ring order and sync master.
+    #[serde(default)]
+    pub ring: RingConfig,
+    /// Cards.
+    #[serde(default)]
+    pub cards: Vec<CardConfig>,
+    /// Stations.
+    #[serde(default)]
+    pub stations: Vec<StationConfig>,
+}
+
+/// I995/I996 values a member derives from the config (spec §6.2, §6.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RingSettings {
+    /// I995: ring configuration bits.
+    pub i995: u16,
+    /// I996: node activation, sync node, master number.
+    pub i996: u32,
+}
+
+/// Kind and index of a member in the config lists.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MemberRef<'a> {
+    /// A card.
+    Card(&'a CardConfig),
+    /// A station.
+    Station(&'a StationConfig),
+}
+
+/// A config that failed to parse or validate.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// TOML syntax or type error (the message carries line, column and key).
+    #[error("config: {0}")]
+    Parse(String),
+    /// A value that parsed but is not acceptable.
+    #[error("config: {key}: {problem}")]
+    Invalid {
+        /// Dotted key path, e.g. `cards[1].nodes`.
+        key: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The file could not be read.
+    #[error("config: cannot read {path}: {problem}")]
+    Io {
+        /// File path.
+        path: String,
+        /// OS error text.
+        problem: String,
+    },
+}
+
+impl ConfigError {
+    pub(crate) fn invalid(key: impl Into<String>, problem: impl Into<String>) -> Self {
+        ConfigError::Invalid {
+            key: key.into(),
+            problem: problem.into(),
+        }
+    }
+}
+
+impl ClusterConfig {
+    /// The embedded default: `cards` cards and `stations` stations in one ring. Card c has
+    /// number c and master number c; station s serves card `s % cards` (stations sharing a card
+    /// split its nodes 0,1,4,5,8,9,12,13 between them); ring order is each card followed by the
+    /// stations it serves; card0 is the synchronizing master.
+    pub fn default_cluster(cards: usize, stations: usize) -> Self {
+        let cards_n = cards.max(1);
+        let card_list: Vec<CardConfig> = (0..cards)
+            .map(|c| CardConfig {
+                name: format!("card{c}"),
+                number: (c % 256) as u8,
+                profile: default_profile(),
+                ascii_port: 0,
+                pmac_eth_port: 0,
+                master: (c % 256) as u8,
+                nodes: default_nodes(),
+                ivars: BTreeMap::new(),
+                state_file: None,
+            })
+            .collect();
+        let station_list: Vec<StationConfig> = (0..stations)
+            .map(|s| {
+                let c = s % cards_n;
+                // Stations sharing a card split its 8 servo nodes between them.
+                let (j, k) = (s / cards_n, (stations - c).div_ceil(cards_n));
+                let n = DEFAULT_NODES.len();
+                let nodes = DEFAULT_NODES[(j * n / k).min(n)..((j + 1) * n / k).min(n)].to_vec();
+                StationConfig {
+                    name: format!("station{s}"),
+                    master: (c % 256) as u8,
+                    nodes,
+                    check: StationCheck::default(),
+                }
+            })
+            .collect();
+        let mut cfg = ClusterConfig {
+            cluster: default_cluster_name(),
+            clock: ClockMode::default(),
+            rate_hz: DEFAULT_RATE_HZ,
+            lockstep_timeout_ms: default_lockstep_timeout(),
+            zenoh: ZenohConfig::default(),
+            ring: RingConfig::default(),
+            cards: card_list,
+            stations: station_list,
+        };
+        cfg.fill_defaults();
+        cfg
+    }
+
+    /// Parse, fill implicit defaults (ring order, sync master) and validate.
+    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
+        if text.len() > MAX_CONFIG_BYTES {
+            return Err(ConfigError::Parse(format!(
+                "file too large ({} bytes, limit {MAX_CONFIG_BYTES})",
+                text.len()
+            )));
+        }
+        let cfg: ClusterConfig =
+            toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        cfg.resolve()
+    }
+
+    /// Read and parse a file (see [`ClusterConfig::from_toml_str`]).
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let io_err = |e: std::io::Error| ConfigError::Io {
+            path: path.display().to_string(),
+            problem: e.to_string(),
+        };
+        let meta = std::fs::metadata(path).map_err(io_err)?;
+        if meta.len() > MAX_CONFIG_BYTES as u64 {
+            return Err(ConfigError::Parse(format!(
+                "{}: file too large ({} bytes, limit {MAX_CONFIG_BYTES})",
+                path.display(),
+                meta.len()
+            )));
+        }
+        let text = std::fs::read_to_string(path).map_err(io_err)?;
+        Self::from_toml_str(&text).map_err(|e| match e {
+            ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", path.display())),
+            other => other,
+        })
+    }
+
+    /// Fill the implicit defaults, then validate.
+    pub fn resolve(mut self) -> Result<Self, ConfigError> {
+        self.fill_defaults();
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// The resolved config as TOML (what the orchestrator hands to members).
+    pub fn to_toml_string(&self) -> Result<String, ConfigError> {
+        toml::to_string(self).map_err(|e| ConfigError::Parse(e.to_string()))
+    }
+
+    /// Empty ring order → default order; empty sync master → first card in ring order.
+    fn fill_defaults(&mut self) {
+        if self.ring.order.is_empty() {
+            let n = self.cards.len().max(1);
+            let mut order = Vec::new();
+            for (c, card) in self.cards.iter().enumerate() {
+                order.push(card.name.clone());
+                let served = self.stations.iter().enumerate();
+                for (_, st) in served.filter(|(s, _)| s % n == c) {
+                    order.push(st.name.clone());
+                }
+            }
+            if self.cards.is_empty() {
+                order.extend(self.stations.iter().map(|s| s.name.clone()));
+            }
+            self.ring.order = order;
+        }
+        if self.ring.sync_master.is_empty() {
+            let first = self.ring.order.iter().find(|m| self.card(m).is_some());
+            if let Some(first) = first {
+                self.ring.sync_master = first.clone();
+            }
+        }
+    }
+
+    /// Check every rule; the error names the key and the problem.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        validate::validate(self)
+    }
+
+    /// Nominal ring period in nanoseconds.
+    pub fn period_ns(&self) -> u64 {
+        if self.rate_hz > 0.0 && self.rate_hz.is_finite() {
+            (1e9 / self.rate_hz).round() as u64
+        } else {
+            0
+        }
+    }
+
+    /// The card called `name`.
+    pub fn card(&self, name: &str) -> Option<&CardConfig> {
+        self.cards.iter().find(|c| c.name == name)
+    }
+
+    /// The station called `name`.
+    pub fn station(&self, name: &str) -> Option<&StationConfig> {
+        self.stations.iter().find(|s| s.name == name)
+    }
+
+    /// The member called `name`.
+    pub fn member(&self, name: &str) -> Option<MemberRef<'_>> {
+        self.card(name)
+            .map(MemberRef::Card)
+            .or_else(|| self.station(name).map(MemberRef::Station))
+    }
+
+    /// Position of `name` in the ring order.
+    pub fn position(&self, name: &str) -> Option<usize> {
+        self.ring.order.iter().position(|m| m == name)
+    }
+
+    /// The member upstream of `name` (the one whose link it subscribes to).
+    pub fn upstream(&self, name: &str) -> Option<&str> {
+        let n = self.ring.order.len();
+        let k = self.position(name)?;
+        self.ring.order.get((k + n - 1) % n).map(String::as_str)
+    }
+
+    /// I995/I996 for a member (spec §6.2–§6.3): sync master $30; other cards $8090 (master,
+    /// phase lock, no master check on node 15); stations $8080. I996 = master<<20 | 15<<16 |
+    /// node bits | node 15 on every member but the sync master.
+    pub fn ring_settings(&self, name: &str) -> Option<RingSettings> {
+        let is_sync = self.ring.sync_master == name;
+        let (i995, master, nodes): (u16, u8, &[u8]) = match self.member(name)? {
+            MemberRef::Card(c) if is_sync => (0x0030, c.master, &c.nodes),
+            MemberRef::Card(c) => (0x8090, c.master, &c.nodes),
+            MemberRef::Station(s) => (0x8080, s.master, &s.nodes),
+        };
+        let mut i996 = (u32::from(master & 0xF) << 20) | (u32::from(SYNC_NODE) << 16);
+        for &n in nodes.iter().filter(|&&n| n < 16) {
+            i996 |= 1 << n;
+        }
+        if !is_sync {
+            i996 |= 1 << SYNC_NODE;
+        }
+        Some(RingSettings { i995, i996 })
+    }
+}
+
+fn default_cluster_name() -> String {
+    "mcc".to_string()
+}
+fn default_ring_name() -> String {
+    "0".to_string()
+}
+fn default_rate() -> f64 {
+    DEFAULT_RATE_HZ
+}
+fn default_lockstep_timeout() -> u64 {
+    50
+}
+fn default_profile() -> String {
+    "pmac2".to_string()
+}
+fn default_nodes() -> Vec<u8> {
+    DEFAULT_NODES.to_vec()
+}
+fn default_check_period() -> u32 {
+    8
+}
+fn default_min_syncs() -> u32 {
+    4
+}
+fn default_max_errors() -> u32 {
+    4
+}

@@ -1,0 +1,272 @@
+use super::*;
+
+fn err_of(text: &str) -> ConfigError {
+    match ClusterConfig::from_toml_str(text) {
+        Ok(c) => panic!("expected an error, parsed {c:?}"),
+        Err(e) => e,
+    }
+}
+
+fn invalid(text: &str) -> (String, String) {
+    match err_of(text) {
+        ConfigError::Invalid { key, problem } => (key, problem),
+        other => panic!("expected Invalid, got {other}"),
+    }
+}
+
+const TWO_BY_TWO: &str = r#"
+[[cards]]
+name = "card0"
+number = 0
+master = 0
+[[cards]]
+name = "card1"
+number = 1
+master = 1
+[[stations]]
+name = "station0"
+master = 0
+[[stations]]
+name = "station1"
+master = 1
+"#;
+
+#[test]
+fn minimal_file_gets_defaults() {
+    let c = ClusterConfig::from_toml_str(TWO_BY_TWO).unwrap();
+    assert_eq!(c.cluster, "mcc");
+    assert_eq!(c.clock, ClockMode::Realtime);
+    assert_eq!(c.rate_hz, 2258.7);
+    assert_eq!(c.lockstep_timeout_ms, 50);
+    assert_eq!(c.ring.name, "0");
+    assert_eq!(c.ring.order, ["card0", "station0", "card1", "station1"]);
+    assert_eq!(c.ring.sync_master, "card0");
+    assert_eq!(c.cards[1].profile, "pmac2");
+    assert_eq!(c.cards[1].nodes, [0, 1, 4, 5, 8, 9, 12, 13]);
+    assert_eq!(
+        c.stations[0].check,
+        StationCheck {
+            period: 8,
+            min_syncs: 4,
+            max_errors: 4
+        }
+    );
+    assert_eq!(c.period_ns(), 442_733);
+}
+
+#[test]
+fn embedded_default_matches_file_form() {
+    let d = ClusterConfig::default_cluster(2, 2);
+    let parsed = ClusterConfig::from_toml_str(TWO_BY_TWO).unwrap();
+    assert_eq!(d, parsed);
+    d.validate().unwrap();
+}
+
+#[test]
+fn default_cluster_groups_stations_after_their_card() {
+    let d = ClusterConfig::default_cluster(2, 5);
+    assert_eq!(
+        d.ring.order,
+        ["card0", "station0", "station2", "station4", "card1", "station1", "station3"]
+    );
+    assert_eq!(d.stations[3].master, 1);
+    assert_eq!(d.stations[0].nodes, [0, 1]);
+    assert_eq!(d.stations[2].nodes, [4, 5, 8]);
+    assert_eq!(d.stations[4].nodes, [9, 12, 13]);
+    assert_eq!(d.stations[1].nodes, [0, 1, 4, 5]);
+    assert_eq!(d.stations[3].nodes, [8, 9, 12, 13]);
+    d.validate().unwrap();
+    let big = ClusterConfig::default_cluster(4, 8);
+    assert_eq!(big.ring.order.len(), 12);
+    big.validate().unwrap();
+}
+
+#[test]
+fn resolved_config_round_trips_through_toml() {
+    let mut d = ClusterConfig::default_cluster(2, 2);
+    d.clock = ClockMode::Lockstep;
+    d.cards[0].ivars.insert("I1001".into(), IVarValue::Int(8));
+    d.cards[0]
+        .ivars
+        .insert("I130".into(), IVarValue::Float(2.5));
+    d.zenoh.connect.push("tcp/127.0.0.1:7447".into());
+    let text = d.to_toml_string().unwrap();
+    assert_eq!(ClusterConfig::from_toml_str(&text).unwrap(), d);
+}
+
+#[test]
+fn ring_settings_follow_the_spec() {
+    let d = ClusterConfig::default_cluster(2, 2);
+    let nodes = 0b0011_0011_0011_0011u32;
+    let sm = d.ring_settings("card0").unwrap();
+    assert_eq!(sm.i995, 0x30);
+    assert_eq!(sm.i996, 0x0F_0000 | nodes);
+    let c1 = d.ring_settings("card1").unwrap();
+    assert_eq!(c1.i995, 0x8090);
+    assert_eq!(c1.i996, 0x1F_0000 | 0x8000 | nodes);
+    let s1 = d.ring_settings("station1").unwrap();
+    assert_eq!(s1.i995, 0x8080);
+    assert_eq!(s1.i996, 0x1F_0000 | 0x8000 | nodes);
+    assert!(d.ring_settings("nobody").is_none());
+}
+
+#[test]
+fn ring_navigation() {
+    let d = ClusterConfig::default_cluster(2, 2);
+    assert_eq!(d.position("card1"), Some(2));
+    assert_eq!(d.upstream("card1"), Some("station0"));
+    assert_eq!(d.upstream("card0"), Some("station1"));
+    assert!(matches!(d.member("station0"), Some(MemberRef::Station(_))));
+}
+
+#[test]
+fn unknown_key_is_named() {
+    let e = err_of(&format!(
+        "{TWO_BY_TWO}\n[[stations]]\nname=\"s9\"\nmaster=0\nnodez=[1]\n"
+    ));
+    let msg = e.to_string();
+    assert!(msg.contains("nodez"), "{msg}");
+    let e = err_of("colck = \"lockstep\"\n");
+    assert!(e.to_string().contains("colck"), "{e}");
+}
+
+#[test]
+fn wrong_types_and_syntax_are_errors_not_panics() {
+    let e = err_of("rate_hz = \"fast\"\n");
+    assert!(e.to_string().contains("rate_hz"), "{e}");
+    let e = err_of("clock = \"sometimes\"\n");
+    assert!(e.to_string().contains("sometimes"), "{e}");
+    let e = err_of(&TWO_BY_TWO.replace("number = 1", "number = 300"));
+    assert!(e.to_string().contains("number"), "{e}");
+    for junk in [
+        "[[cards]\n",
+        "= 3",
+        "cards = 5",
+        "\u{0}",
+        "[ring]\norder = [1, 2]",
+    ] {
+        assert!(matches!(err_of(junk), ConfigError::Parse(_)), "{junk:?}");
+    }
+}
+
+#[test]
+fn validation_errors_name_key_and_problem() {
+    let cases: &[(&str, &str, &str, &str)] = &[
+        (
+            "name = \"card1\"",
+            "name = \"card0\"",
+            "cards[1].name",
+            "duplicate",
+        ),
+        (
+            "name = \"station1\"",
+            "name = \"card0\"",
+            "stations[1].name",
+            "duplicate",
+        ),
+        (
+            "number = 1",
+            "number = 0",
+            "cards[1].number",
+            "already used",
+        ),
+        ("number = 1", "number = 16", "cards[1].number", "0-15"),
+        (
+            "master = 1\n[[stations]]",
+            "master = 0\n[[stations]]",
+            "cards[1].master",
+            "already",
+        ),
+        (
+            "name = \"station1\"\nmaster = 1",
+            "name = \"station1\"\nmaster = 7",
+            "stations[1].master",
+            "no card",
+        ),
+    ];
+    for (from, to, key, word) in cases {
+        let text = TWO_BY_TWO.replacen(from, to, 1);
+        assert_ne!(text, TWO_BY_TWO, "{from}");
+        let (k, p) = invalid(&text);
+        assert_eq!(&k, key, "{p}");
+        assert!(p.contains(word), "{k}: {p}");
+    }
+}
+
+#[test]
+fn more_validation_rules() {
+    let with = |extra: &str| format!("{extra}\n{TWO_BY_TWO}");
+    assert_eq!(invalid(&with("rate_hz = 0.0")).0, "rate_hz");
+    assert_eq!(invalid(&with("rate_hz = -5")).0, "rate_hz");
+    assert_eq!(invalid(&with("rate_hz = nan")).0, "rate_hz");
+    assert_eq!(invalid(&with("cluster = \"a/b\"")).0, "cluster");
+    assert_eq!(
+        invalid(&with("lockstep_timeout_ms = 0")).0,
+        "lockstep_timeout_ms"
+    );
+    let ring = |body: &str| with(&format!("[ring]\n{body}"));
+    let (k, p) = invalid(&ring("order = [\"card0\", \"station0\", \"card1\"]"));
+    assert_eq!(k, "ring.order");
+    assert!(p.contains("station1") && p.contains("missing"), "{p}");
+    let (k, p) = invalid(&ring(
+        "order = [\"card0\", \"ghost\", \"card1\", \"station1\"]",
+    ));
+    assert_eq!(k, "ring.order[1]");
+    assert!(p.contains("ghost"), "{p}");
+    let (k, _) = invalid(&ring(
+        "order = [\"card0\", \"card0\", \"card1\", \"station1\"]",
+    ));
+    assert_eq!(k, "ring.order[1]");
+    let (k, p) = invalid(&ring("sync_master = \"station0\""));
+    assert_eq!(k, "ring.sync_master");
+    assert!(p.contains("must be a card"), "{p}");
+    let card =
+        |body: &str| format!("{TWO_BY_TWO}\n[[cards]]\nname=\"c9\"\nnumber=9\nmaster=9\n{body}");
+    let (k, p) = invalid(&card("profile = \"pmac3\""));
+    assert_eq!(k, "cards[2].profile");
+    assert!(p.contains("pmac3"), "{p}");
+    assert_eq!(invalid(&card("nodes = [0, 16]")).0, "cards[2].nodes[1]");
+    assert_eq!(invalid(&card("nodes = [15]")).0, "cards[2].nodes[0]");
+    assert_eq!(invalid(&card("nodes = [3, 3]")).0, "cards[2].nodes[1]");
+    assert_eq!(invalid(&card("ivars = { P5 = 1 }")).0, "cards[2].ivars.P5");
+    assert_eq!(
+        invalid(&card("ivars = { I9999 = 1 }")).0,
+        "cards[2].ivars.I9999"
+    );
+    assert_eq!(
+        invalid(&card("ivars = { I5 = inf }")).0,
+        "cards[2].ivars.I5"
+    );
+    let ports = card("ascii_port = 5000\npmac_eth_port = 5000");
+    assert_eq!(invalid(&ports).0, "cards[2].pmac_eth_port");
+    let st = |body: &str| format!("{TWO_BY_TWO}\n[[stations]]\nname=\"s9\"\nmaster=0\n{body}");
+    let (k, p) = invalid(&st("nodes = [2, 4]"));
+    assert_eq!(k, "stations[2].nodes[1]");
+    assert!(p.contains("station0"), "{p}");
+    assert_eq!(
+        invalid(&st("nodes = [2]\ncheck = { period = 0 }")).0,
+        "stations[2].check.period"
+    );
+    let (k, _) = invalid(&st("nodes = [2]\ncheck = { period = 4, min_syncs = 5 }"));
+    assert_eq!(k, "stations[2].check.min_syncs");
+    assert_eq!(invalid("").0, "cards");
+    assert_eq!(
+        invalid(&with("[zenoh]\nconnect = [\"localhost\"]")).0,
+        "zenoh.connect[0]"
+    );
+}
+
+#[test]
+fn ivars_accept_ints_and_floats() {
+    let text = format!("{TWO_BY_TWO}\n[[cards]]\nname=\"c9\"\nnumber=9\nmaster=9\nivars = {{ I1001 = 8, I130 = 1.5 }}");
+    let c = ClusterConfig::from_toml_str(&text).unwrap();
+    assert_eq!(c.cards[2].ivars["I1001"], IVarValue::Int(8));
+    assert_eq!(c.cards[2].ivars["I130"].as_f64(), 1.5);
+}
+
+#[test]
+fn missing_file_is_an_io_error() {
+    let e = ClusterConfig::from_file(Path::new("/nonexistent/mcc.toml")).unwrap_err();
+    assert!(matches!(e, ConfigError::Io { .. }), "{e}");
+    assert!(e.to_string().contains("/nonexistent/mcc.toml"));
+}

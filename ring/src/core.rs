@@ -1,0 +1,514 @@
+//! `MemberCore`: everything one ring member does with bytes and time, without I/O.
+//!
+//! The runtime (or the in-process [`crate::sim`]) feeds it frames and time and sends what it
+//! returns: routing ([`RingMember`]), receive error classes and I995 status ([`RingStatus`]),
+//! ring check ([`RingCheck`]), the send-path fault layer ([`FaultLayer`]), the holdover clock
+//! ([`HoldoverClock`]), link sequence checks and the ring-fault latch.
+//!
+//! Cycle flow of a member that is not the synchronizing master: [`MemberCore::on_frame`]
+//! returns the frames to forward and, when a sync packet arrived, the cycle to run; the caller
+//! sends the frames first, then runs the tick ([`MemberCore::tick_app`] = ring check + app).
+//! When no sync packet comes, [`MemberCore::on_holdover`] says which cycle to run. The
+//! synchronizing master calls [`MemberCore::start_cycle`] (send, then tick), and
+//! [`CoreEvents::cycle_complete`] tells it when its sync packet came back.
+
+use crate::check::{CheckFault, RingCheck, STATION_DEFAULTS};
+use crate::control::{MemberKind, MemberStatus};
+use crate::fault::{FaultLayer, FaultSpec, Outgoing};
+use crate::frame::Frame;
+use crate::holdover::HoldoverClock;
+use crate::member::RingMember;
+use crate::packet::{Packet, PacketError, PACKET_LEN};
+use crate::settings::RingSettings;
+use crate::status::{ErrorClass, RingStatus};
+
+/// The card or station logic run once per servo cycle, after forwarding.
+pub trait RingApp {
+    /// Run the tick of ring cycle `cycle` at (ring) time `time_ns`: read latched feedback
+    /// from `regs`, compute, write the registers that go out next cycle. `ring_fault` is the
+    /// member's latched ring fault.
+    fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool);
+}
+
+/// How a member core is set up.
+#[derive(Clone, Debug)]
+pub struct CoreConfig {
+    /// Member name (`card0`, `station1`, ...).
+    pub name: String,
+    /// Card or station.
+    pub kind: MemberKind,
+    /// Position in the ring (0-based); used as the frame sender id.
+    pub position: u16,
+    /// Position of the upstream neighbour; frames from anyone else are rejected. None = any.
+    pub upstream: Option<u16>,
+    /// I995/I996.
+    pub settings: RingSettings,
+    /// The ring check (card: [`RingCheck::card`], station: [`RingCheck::station`]).
+    pub check: RingCheck,
+    /// Nominal ring cycle period in ns (holdover clock).
+    pub period_ns: u64,
+    /// First link sequence number minus one: give a restarted process a larger base (e.g. a
+    /// wall-clock ns reading) so its downstream neighbour does not reject it as stale.
+    pub seq_base: u64,
+}
+
+impl CoreConfig {
+    /// A config with the kind's default check (card: unarmed, I1001 = 0; station: the
+    /// station defaults), any upstream accepted and sequence base 0.
+    pub fn new(
+        name: &str,
+        kind: MemberKind,
+        position: u16,
+        settings: RingSettings,
+        period_ns: u64,
+    ) -> Self {
+        let check = match kind {
+            MemberKind::Card => RingCheck::card(0, 0, 0, 2),
+            MemberKind::Station => RingCheck::with_params(STATION_DEFAULTS),
+        };
+        CoreConfig {
+            name: name.to_string(),
+            kind,
+            position,
+            upstream: None,
+            settings,
+            check,
+            period_ns,
+            seq_base: 0,
+        }
+    }
+}
+
+/// What one received frame produced.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CoreEvents {
+    /// Frames to put on the link now (after the fault layer).
+    pub outgoing: Vec<Outgoing>,
+    /// A sync packet for a new cycle arrived: run this cycle's tick (after sending).
+    pub sync: Option<u64>,
+    /// Synchronizing master: its sync packet for this cycle came back.
+    pub cycle_complete: Option<u64>,
+    /// The frame was rejected before packet parsing (counted in `bad_frames`): why.
+    pub rejected: Option<String>,
+    /// Receive errors found in the frame's packets.
+    pub errors: Vec<ErrorClass>,
+}
+
+/// One ring member's pure core.
+#[derive(Debug)]
+pub struct MemberCore {
+    name: String,
+    kind: MemberKind,
+    position: u16,
+    upstream: Option<u16>,
+    member: RingMember,
+    status: RingStatus,
+    check: RingCheck,
+    faults: FaultLayer,
+    holdover: HoldoverClock,
+    tx_seq: u64,
+    last_rx_seq: Option<u64>,
+    last_rx_cycle: Option<u64>,
+    rx_frames: u64,
+    sync_count: u64,
+    cycle: u64,
+    last_tick: Option<u64>,
+    awaiting: Option<u64>,
+    locked: bool,
+    unconsumed: bool,
+    ring_fault: bool,
+    ring_fault_count: u64,
+    ring_fault_cycle: Option<u64>,
+    last_fault: Option<CheckFault>,
+    holdover_cycles: u64,
+    late_cycles: u64,
+}
+
+impl MemberCore {
+    /// A member core from its config.
+    pub fn new(cfg: CoreConfig) -> Self {
+        MemberCore {
+            faults: FaultLayer::new(cfg.settings.sync_node()),
+            member: RingMember::new(cfg.settings),
+            name: cfg.name,
+            kind: cfg.kind,
+            position: cfg.position,
+            upstream: cfg.upstream,
+            status: RingStatus::new(),
+            check: cfg.check,
+            holdover: HoldoverClock::new(cfg.period_ns),
+            tx_seq: cfg.seq_base,
+            last_rx_seq: None,
+            last_rx_cycle: None,
+            rx_frames: 0,
+            sync_count: 0,
+            cycle: 0,
+            last_tick: None,
+            awaiting: None,
+            locked: false,
+            unconsumed: false,
+            ring_fault: false,
+            ring_fault_count: 0,
+            ring_fault_cycle: None,
+            last_fault: None,
+            holdover_cycles: 0,
+            late_cycles: 0,
+        }
+    }
+
+    /// Member name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Ring position.
+    pub fn position(&self) -> u16 {
+        self.position
+    }
+
+    /// Is this the synchronizing master?
+    pub fn is_sync_master(&self) -> bool {
+        self.member.settings().is_sync_master()
+    }
+
+    /// Routing state and node registers.
+    pub fn member(&self) -> &RingMember {
+        &self.member
+    }
+
+    /// Routing state and node registers, mutable.
+    pub fn member_mut(&mut self) -> &mut RingMember {
+        &mut self.member
+    }
+
+    /// Change I995/I996 at run time.
+    pub fn set_settings(&mut self, settings: RingSettings) {
+        self.member.set_settings(settings);
+        let kept = self.faults.active();
+        self.faults = FaultLayer::new(settings.sync_node());
+        for f in kept {
+            let _ = self.faults.inject(f);
+        }
+    }
+
+    /// The I995 status latch (a host I995 read goes through `read_and_clear`).
+    pub fn ring_status_mut(&mut self) -> &mut RingStatus {
+        &mut self.status
+    }
+
+    /// The ring check.
+    pub fn check(&self) -> &RingCheck {
+        &self.check
+    }
+
+    /// The ring check, mutable (I1001/I1004/I1005 changes, re-arm on `$$$`).
+    pub fn check_mut(&mut self) -> &mut RingCheck {
+        &mut self.check
+    }
+
+    /// Inject a fault on this member's send path.
+    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), String> {
+        self.faults.inject(spec)
+    }
+
+    /// Remove every injected fault.
+    pub fn clear_faults(&mut self) {
+        self.faults.clear();
+    }
+
+    /// Latest ring cycle known.
+    pub fn cycle(&self) -> u64 {
+        self.cycle
+    }
+
+    /// Ring fault latched.
+    pub fn ring_fault(&self) -> bool {
+        self.ring_fault
+    }
+
+    /// Why the latest ring fault was declared.
+    pub fn last_fault(&self) -> Option<CheckFault> {
+        self.last_fault
+    }
+
+    /// Ring cycle of the last frame received from upstream.
+    pub fn last_rx_cycle(&self) -> Option<u64> {
+        self.last_rx_cycle
+    }
+
+    /// Realtime runtime: a cycle started late (real-time interrupt warning).
+    pub fn note_late(&mut self) {
+        self.late_cycles += 1;
+    }
+
+    /// Runtime: a frame arrived while the previous one was still waiting (receive backlog).
+    pub fn note_overrun(&mut self) {
+        self.status.record(ErrorClass::Overrun);
+    }
+
+    fn next_seq(&mut self) -> u64 {
+        self.tx_seq = self.tx_seq.wrapping_add(1);
+        self.tx_seq
+    }
+
+    /// Synchronizing master: start ring cycle `cycle` — the frame with the sync packet, the
+    /// packets held from last cycle, and one command packet per activated node. The caller
+    /// sends it, then runs the tick. Returns nothing on a member that is not the sync master.
+    pub fn start_cycle(&mut self, cycle: u64, now_ns: u64) -> Vec<Outgoing> {
+        if !self.is_sync_master() {
+            return Vec::new();
+        }
+        if self.awaiting.is_some() {
+            self.locked = false; // the previous sync packet never came back
+        }
+        self.awaiting = Some(cycle);
+        self.cycle = cycle;
+        self.last_tick = Some(cycle);
+        let mut packets = vec![self.member.sync_packet(cycle)];
+        packets.extend(self.member.take_held());
+        packets.extend(self.member.command_packets());
+        let seq = self.next_seq();
+        let frame = Frame::with_packets(self.position, seq, now_ns, cycle, &packets);
+        self.faults.on_send(cycle, frame)
+    }
+
+    fn reject(&mut self, why: String) -> CoreEvents {
+        self.status.record_bad_frame();
+        CoreEvents {
+            rejected: Some(why),
+            ..Default::default()
+        }
+    }
+
+    /// A frame arrived from upstream at `now_ns`.
+    pub fn on_frame(&mut self, bytes: &[u8], now_ns: u64) -> CoreEvents {
+        let frame = match Frame::decode(bytes) {
+            Ok(f) => f,
+            Err(e) => return self.reject(e.to_string()),
+        };
+        if let Some(up) = self.upstream.filter(|up| *up != frame.sender) {
+            return self.reject(format!(
+                "frame from ring position {}, upstream is {up}",
+                frame.sender
+            ));
+        }
+        if let Some(last) = self.last_rx_seq.filter(|last| frame.seq <= *last) {
+            return self.reject(format!(
+                "stale or duplicate frame: sequence {} after {last}",
+                frame.seq
+            ));
+        }
+        self.last_rx_seq = Some(frame.seq);
+        self.last_rx_cycle = Some(frame.cycle);
+        self.rx_frames += 1;
+        let mut ev = CoreEvents::default();
+        if self.unconsumed {
+            ev.errors.push(ErrorClass::Overrun);
+        }
+        self.unconsumed = true;
+
+        let intact = usize::from(frame.declared) * PACKET_LEN;
+        let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
+        let mut forwards = Vec::with_capacity(whole);
+        let mut sync = None;
+        for chunk in frame.packets.chunks_exact(PACKET_LEN).take(whole) {
+            let p = match Packet::decode(chunk) {
+                Ok(p) => p,
+                Err(PacketError::ByteViolation(_)) => {
+                    ev.errors.push(ErrorClass::ByteViolation);
+                    continue;
+                }
+                Err(PacketError::Checksum { .. }) => {
+                    ev.errors.push(ErrorClass::Checksum);
+                    continue;
+                }
+                Err(PacketError::Truncated(_)) => {
+                    ev.errors.push(ErrorClass::Underrun);
+                    continue;
+                }
+            };
+            let r = self.member.route(p);
+            if let Some(c) = r.own_sync_return {
+                self.status.set_sync_received();
+                self.sync_count += 1;
+                if self.awaiting == Some(c) {
+                    self.awaiting = None;
+                    self.locked = true;
+                    ev.cycle_complete = Some(c);
+                }
+            }
+            if let Some(c) = r.sync {
+                self.status.set_sync_received();
+                self.sync_count += 1;
+                sync = Some(c);
+            }
+            forwards.extend(r.forward);
+        }
+        if frame.packets.len() < intact {
+            ev.errors.push(ErrorClass::Underrun);
+        } else if frame.packets.len() > intact {
+            ev.errors.push(ErrorClass::Overrun);
+        }
+        for e in &ev.errors {
+            self.status.record(*e);
+        }
+
+        if let Some(c) = sync {
+            self.on_sync(c, now_ns, &mut ev);
+        }
+        if self.is_sync_master() {
+            // The cycle ends here: other masters' packets go out again next cycle.
+            self.member.hold(forwards);
+            return ev;
+        }
+        forwards.extend(self.member.command_packets());
+        let seq = self.next_seq();
+        let out = Frame::with_packets(self.position, seq, now_ns, frame.cycle, &forwards);
+        ev.outgoing = self.faults.on_send(self.cycle, out);
+        ev
+    }
+
+    fn on_sync(&mut self, c: u64, now_ns: u64, ev: &mut CoreEvents) {
+        if !self.member.settings().phase_lock() {
+            // Not phase-locked (I995 bit 7 clear): run on the own clock, started from the
+            // first sync packet's cycle number.
+            if self.holdover.last_cycle().is_none() {
+                self.holdover.start(
+                    c.saturating_sub(1),
+                    now_ns.saturating_sub(self.holdover.period_ns()),
+                );
+            }
+            return;
+        }
+        if self.last_tick == Some(c) {
+            // The holdover clock ran this cycle just before its sync packet arrived: not run
+            // again, but the clock re-aligns to the packet so the next one is on time.
+            self.holdover.on_sync(c, now_ns);
+            self.locked = true;
+            return;
+        }
+        if self.last_tick.is_some_and(|t| c < t) {
+            return; // a delayed sync packet of an old cycle: latched, not run
+        }
+        self.cycle = c;
+        self.last_tick = Some(c);
+        self.locked = true;
+        self.holdover.on_sync(c, now_ns);
+        ev.sync = Some(c);
+    }
+
+    /// No sync packet in time: the cycle to run now on the holdover clock, if one is due.
+    /// Never for the synchronizing master (its own cycles come from `start_cycle`).
+    pub fn on_holdover(&mut self, now_ns: u64) -> Option<u64> {
+        if self.is_sync_master() {
+            return None;
+        }
+        let c = self.holdover.poll(now_ns)?;
+        if self.last_tick.is_some_and(|t| c <= t) {
+            return None;
+        }
+        if self.member.settings().phase_lock() {
+            self.locked = false;
+            self.holdover_cycles += 1;
+        }
+        self.cycle = c;
+        self.last_tick = Some(c);
+        Some(c)
+    }
+
+    /// When the holdover clock next wants to run a cycle (for the runtime's timer).
+    pub fn holdover_due_ns(&self) -> Option<u64> {
+        if self.is_sync_master() {
+            None
+        } else {
+            self.holdover.due_ns()
+        }
+    }
+
+    /// Frames the fault layer releases without a new frame to send (delayed frames).
+    pub fn poll_faults(&mut self) -> Vec<Outgoing> {
+        self.faults.poll(self.cycle)
+    }
+
+    /// Run the ring check for one servo cycle; latches the ring fault.
+    pub fn run_check(&mut self) -> Option<CheckFault> {
+        self.unconsumed = false;
+        let settings = self.member.settings();
+        let node = settings.sync_node();
+        let fault = if self.kind == MemberKind::Card
+            && self.check.armed()
+            && !settings.is_sync_master()
+            && !settings.node_active(node)
+        {
+            CheckFault::SyncNodeInactive { node }
+        } else {
+            self.check.on_servo_cycle(&mut self.status)?
+        };
+        if !self.ring_fault {
+            self.ring_fault = true;
+            self.ring_fault_count += 1;
+        }
+        self.ring_fault_cycle = Some(self.cycle);
+        self.last_fault = Some(fault);
+        Some(fault)
+    }
+
+    /// One servo cycle: ring check, then the app's tick with the (possibly new) fault latch.
+    pub fn tick_app(
+        &mut self,
+        app: &mut dyn RingApp,
+        cycle: u64,
+        time_ns: u64,
+    ) -> Option<CheckFault> {
+        let fault = self.run_check();
+        app.tick(cycle, time_ns, &mut self.member, self.ring_fault);
+        fault
+    }
+
+    /// The ring is healthy: the last completed check period passed (or nothing checks it).
+    pub fn healthy(&self) -> bool {
+        !self.check.armed() || self.check.last_period_ok() == Some(true)
+    }
+
+    /// `$$$`: clear the ring-fault latch if the ring is healthy again. Returns whether the
+    /// latch is clear afterwards.
+    pub fn reset(&mut self) -> bool {
+        if self.ring_fault && self.healthy() {
+            self.ring_fault = false;
+        }
+        !self.ring_fault
+    }
+
+    /// Injected faults still active.
+    pub fn faults(&self) -> Vec<FaultSpec> {
+        self.faults.active()
+    }
+
+    /// The ring fields of the member's status report (pid and extras are the runtime's).
+    pub fn status(&self) -> MemberStatus {
+        MemberStatus {
+            name: self.name.clone(),
+            kind: Some(self.kind),
+            pid: 0,
+            ring_position: usize::from(self.position),
+            sync_master: self.is_sync_master(),
+            locked: self.locked,
+            cycle: self.cycle,
+            sync_count: self.sync_count,
+            rx_frames: self.rx_frames,
+            last_rx_cycle: self.last_rx_cycle,
+            errors: self.status.counters(),
+            ring_fault: self.ring_fault,
+            ring_fault_count: self.ring_fault_count,
+            ring_fault_cycle: self.ring_fault_cycle,
+            holdover_cycles: self.holdover_cycles,
+            late_cycles: self.late_cycles,
+            faults: self.faults.active(),
+            extra: serde_json::Map::new(),
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "core_tests.rs"]
+mod tests;

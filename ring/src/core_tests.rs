@@ -1,0 +1,332 @@
+//! Unit tests of [`crate::core::MemberCore`]: link bookkeeping, error classification, ticks.
+
+use proptest::prelude::*;
+
+use crate::check::{CheckFault, RingCheck};
+use crate::control::MemberKind;
+use crate::core::{CoreConfig, MemberCore};
+use crate::frame::{Frame, FORMAT_VERSION};
+use crate::packet::{NodeRegs, Packet};
+use crate::settings::RingSettings;
+use crate::status::{STATUS_OVERRUN, STATUS_SYNC_RECEIVED, STATUS_UNDERRUN};
+
+const P: u64 = 1_000_000;
+
+/// A slave station at position 1 (upstream 0) with node 1 active, master 0, sync node 15.
+fn slave(i995: u32) -> MemberCore {
+    let mut cfg = CoreConfig::new(
+        "s",
+        MemberKind::Station,
+        1,
+        RingSettings::new(i995, 0x0F_8002),
+        P,
+    );
+    cfg.upstream = Some(0);
+    cfg.check = RingCheck::station(0, 4, 4);
+    MemberCore::new(cfg)
+}
+
+fn frame(seq: u64, cycle: u64, packets: &[Packet]) -> Frame {
+    Frame::with_packets(0, seq, 0, cycle, packets)
+}
+
+fn cmd(r0: u32) -> Packet {
+    Packet::new(
+        0,
+        1,
+        NodeRegs {
+            r0,
+            ..Default::default()
+        },
+    )
+}
+
+#[test]
+fn slave_forwards_substitutes_and_ticks_on_sync() {
+    let mut s = slave(0x80);
+    s.member_mut().write_regs_mut(1).r0 = 77;
+    let ev = s.on_frame(&frame(1, 5, &[Packet::sync(0, 15, 5), cmd(3)]).encode(), 10);
+    assert_eq!(ev.sync, Some(5));
+    assert_eq!(ev.rejected, None);
+    assert_eq!(ev.outgoing.len(), 1);
+    let out = Frame::decode(&ev.outgoing[0].frame_bytes).unwrap();
+    assert_eq!(
+        (out.sender, out.seq, out.cycle, out.declared, out.sent_ns),
+        (1, 1, 5, 2, 10)
+    );
+    assert_eq!(out.packets[..12], Packet::sync(0, 15, 5).encode());
+    assert_eq!(Packet::decode(&out.packets[12..]).unwrap(), cmd(77));
+    assert_eq!(s.member().read_regs(1).r0, 3);
+    assert_eq!(s.cycle(), 5);
+    assert_eq!(s.ring_status_mut().read_and_clear(), STATUS_SYNC_RECEIVED);
+}
+
+#[test]
+fn bad_frames_rejected_and_counted() {
+    let mut s = slave(0x80);
+    let good = frame(5, 1, &[cmd(1)]);
+    assert!(s.on_frame(&good.encode(), 0).rejected.is_none());
+    // duplicate, then older
+    let ev = s.on_frame(&good.encode(), 0);
+    assert_eq!(
+        ev.rejected.as_deref(),
+        Some("stale or duplicate frame: sequence 5 after 5")
+    );
+    assert!(ev.outgoing.is_empty());
+    assert!(s.on_frame(&frame(4, 1, &[]).encode(), 0).rejected.is_some());
+    // wrong sender
+    let mut f = frame(9, 1, &[]);
+    f.sender = 3;
+    assert_eq!(
+        s.on_frame(&f.encode(), 0).rejected.as_deref(),
+        Some("frame from ring position 3, upstream is 0")
+    );
+    // wrong version, garbage
+    f = frame(10, 1, &[]);
+    f.version = FORMAT_VERSION + 1;
+    assert!(s
+        .on_frame(&f.encode(), 0)
+        .rejected
+        .unwrap()
+        .contains("version 2"));
+    assert!(s
+        .on_frame(&[0xFF; 3], 0)
+        .rejected
+        .unwrap()
+        .starts_with("malformed frame"));
+    let st = s.status();
+    assert_eq!(st.errors.bad_frames, 5);
+    assert_eq!(st.rx_frames, 1);
+    assert_eq!(
+        s.ring_status_mut().read_and_clear(),
+        0,
+        "bad frames latch no I995 bit"
+    );
+    // a rejected frame did not advance the sequence: 6 is still accepted
+    assert!(s.on_frame(&frame(6, 2, &[]).encode(), 0).rejected.is_none());
+}
+
+#[test]
+fn underrun_and_overrun_of_frame_bytes() {
+    let mut s = slave(0x80);
+    let mut f = frame(1, 1, &[cmd(1), cmd(2)]);
+    f.declared = 3; // a packet missing
+    let ev = s.on_frame(&f.encode(), 0);
+    assert_eq!(ev.errors, vec![crate::status::ErrorClass::Underrun]);
+    // both whole packets were still routed and forwarded
+    assert_eq!(
+        Frame::decode(&ev.outgoing[0].frame_bytes).unwrap().declared,
+        2
+    );
+    s.run_check();
+    let mut f = frame(2, 2, &[cmd(1)]);
+    f.packets.extend_from_slice(&cmd(9).encode()); // beyond the declared packet
+    let ev = s.on_frame(&f.encode(), 0);
+    assert_eq!(ev.errors, vec![crate::status::ErrorClass::Overrun]);
+    assert_eq!(
+        Frame::decode(&ev.outgoing[0].frame_bytes).unwrap().declared,
+        1
+    );
+    assert_eq!(
+        s.ring_status_mut().read_and_clear(),
+        STATUS_UNDERRUN | STATUS_OVERRUN
+    );
+}
+
+#[test]
+fn frame_before_previous_consumed_is_overrun() {
+    let mut s = slave(0x80);
+    assert!(s.on_frame(&frame(1, 1, &[]).encode(), 0).errors.is_empty());
+    let ev = s.on_frame(&frame(2, 1, &[]).encode(), 0);
+    assert_eq!(ev.errors, vec![crate::status::ErrorClass::Overrun]);
+    s.run_check();
+    assert!(s.on_frame(&frame(3, 2, &[]).encode(), 0).errors.is_empty());
+    assert_eq!(s.status().errors.overrun, 1);
+}
+
+#[test]
+fn late_sync_is_not_run_twice_and_holdover_fills_gaps() {
+    let mut s = slave(0x80);
+    let sync = |s: &mut MemberCore, seq, c, now| {
+        s.on_frame(&frame(seq, c, &[Packet::sync(0, 15, c)]).encode(), now)
+            .sync
+    };
+    assert_eq!(sync(&mut s, 1, 3, 0), Some(3));
+    assert_eq!(s.on_holdover(P), None);
+    assert_eq!(s.on_holdover(P + P / 2), Some(4));
+    // sync 4 arrives just after holdover ran cycle 4: not run again; the clock re-aligns.
+    assert_eq!(sync(&mut s, 2, 4, 2 * P), None);
+    assert_eq!(
+        s.on_holdover(3 * P),
+        None,
+        "due at 3.5 P after re-alignment"
+    );
+    // a delayed sync packet of an older cycle is ignored
+    assert_eq!(sync(&mut s, 3, 2, 3 * P), None);
+    assert_eq!(sync(&mut s, 4, 5, 3 * P), Some(5));
+    let st = s.status();
+    assert_eq!(
+        (st.sync_count, st.holdover_cycles, st.cycle, st.locked),
+        (4, 1, 5, true)
+    );
+}
+
+#[test]
+fn without_phase_lock_the_own_clock_runs() {
+    let mut s = slave(0x00);
+    let ev = s.on_frame(&frame(1, 7, &[Packet::sync(0, 15, 7)]).encode(), 10 * P);
+    assert_eq!(ev.sync, None);
+    assert_eq!(s.on_holdover(10 * P + P / 2), Some(7));
+    assert_eq!(s.on_holdover(11 * P + P / 2), Some(8));
+}
+
+#[test]
+fn sync_master_cycle_and_hold() {
+    let mut cfg = CoreConfig::new(
+        "c",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x30, 0x0F_0001),
+        P,
+    );
+    cfg.check = RingCheck::card(4, 2, 2, 0);
+    let mut m = MemberCore::new(cfg);
+    m.member_mut().write_regs_mut(0).r0 = 11;
+    let out = m.start_cycle(1, 0);
+    let f = Frame::decode(&out[0].frame_bytes).unwrap();
+    assert_eq!((f.sender, f.seq, f.cycle, f.declared), (0, 1, 1, 2));
+    // back around with master 2's packet: held and re-sent after the next sync packet
+    let other = Packet::new(
+        2,
+        3,
+        NodeRegs {
+            r0: 5,
+            ..Default::default()
+        },
+    );
+    let back = Frame::with_packets(
+        0,
+        1,
+        0,
+        1,
+        &[
+            Packet::sync(0, 15, 1),
+            other,
+            Packet::new(
+                0,
+                0,
+                NodeRegs {
+                    r0: 99,
+                    ..Default::default()
+                },
+            ),
+        ],
+    );
+    let ev = m.on_frame(&back.encode(), 1);
+    assert_eq!((ev.cycle_complete, ev.sync), (Some(1), None));
+    assert!(ev.outgoing.is_empty());
+    assert_eq!(m.member().read_regs(0).r0, 99);
+    let f = Frame::decode(&m.start_cycle(2, 2)[0].frame_bytes).unwrap();
+    let p: Vec<Packet> = f
+        .packets
+        .chunks(12)
+        .map(|c| Packet::decode(c).unwrap())
+        .collect();
+    assert_eq!(
+        p,
+        vec![
+            Packet::sync(0, 15, 2),
+            other,
+            Packet::new(
+                0,
+                0,
+                NodeRegs {
+                    r0: 11,
+                    ..Default::default()
+                }
+            )
+        ]
+    );
+    assert!(m.status().locked && m.status().sync_master);
+    // a slave core never starts a cycle
+    assert!(slave(0x80).start_cycle(1, 0).is_empty());
+}
+
+#[test]
+fn fault_latch_and_reset() {
+    let mut cfg = CoreConfig::new(
+        "c",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x30, 0x0F_0001),
+        P,
+    );
+    cfg.check = RingCheck::card(2, 2, 2, 0);
+    let mut m = MemberCore::new(cfg);
+    assert_eq!(m.run_check(), None);
+    assert_eq!(
+        m.run_check(),
+        Some(CheckFault::MissingSyncs {
+            syncs: 0,
+            required: 2
+        })
+    );
+    assert!(m.ring_fault() && !m.reset());
+    // two good checks (own sync returned each cycle): healthy, reset clears
+    for c in 1..=2 {
+        m.start_cycle(c, 0);
+        m.on_frame(
+            &Frame::with_packets(0, c, 0, c, &[Packet::sync(0, 15, c)]).encode(),
+            0,
+        );
+        assert_eq!(m.run_check(), None);
+    }
+    assert!(m.ring_fault());
+    assert!(m.reset() && !m.ring_fault());
+    assert_eq!(m.status().ring_fault_count, 1);
+}
+
+proptest! {
+    #[test]
+    fn any_bytes_never_panic(b in proptest::collection::vec(any::<u8>(), 0..120)) {
+        let mut s = slave(0x80);
+        let _ = s.on_frame(&b, 0);
+    }
+
+    #[test]
+    fn any_packet_bytes_never_panic(declared: u16, bytes in proptest::collection::vec(any::<u8>(), 0..120)) {
+        let mut s = slave(0x80);
+        let f = Frame { version: FORMAT_VERSION, sender: 0, seq: 1, sent_ns: 0, cycle: 0, declared, packets: bytes };
+        let ev = s.on_frame(&f.encode(), 0);
+        prop_assert!(ev.rejected.is_none());
+    }
+}
+
+#[test]
+fn card_with_inactive_sync_node_faults_at_once() {
+    // card master 1, sync node 15 not activated, check armed
+    let mut cfg = CoreConfig::new(
+        "c1",
+        MemberKind::Card,
+        1,
+        RingSettings::new(0x8090, 0x1F_0002),
+        P,
+    );
+    cfg.check = RingCheck::card(8, 2, 2, 0);
+    let mut m = MemberCore::new(cfg);
+    assert_eq!(
+        m.run_check(),
+        Some(CheckFault::SyncNodeInactive { node: 15 })
+    );
+    assert!(m.ring_fault());
+    // activated: no fault on the first check
+    let mut cfg = CoreConfig::new(
+        "c1",
+        MemberKind::Card,
+        1,
+        RingSettings::new(0x8090, 0x1F_8002),
+        P,
+    );
+    cfg.check = RingCheck::card(8, 2, 2, 0);
+    assert_eq!(MemberCore::new(cfg).run_check(), None);
+}

@@ -1,0 +1,352 @@
+//! Fault injection on a member's send path (architecture §3.4), steered at run time.
+//!
+//! Byte-level faults edit the frame's packet bytes so the receiver's own error detection
+//! classifies them: `corrupt` flips the check byte of the frame's last packet, `byte-violation`
+//! overwrites its header byte, `underrun` cuts 5 bytes off the end (or, in a frame without
+//! packets, declares one more packet than it carries), `overrun` appends 5 bytes beyond the
+//! declared packets. `drop-sync` removes the sync packet, `drop-packets` drops the whole frame,
+//! `cut` lets nothing leave (frames held by `delay` stay held), `delay` holds frames for N
+//! cycles, `delay-us` asks the transport to hold each frame N µs before sending.
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::str::FromStr;
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::frame::Frame;
+use crate::packet::{Packet, PACKET_LEN};
+
+/// Most faults active at once on one member.
+pub const MAX_FAULTS: usize = 32;
+/// Most frames held by `delay` at once (older ones are dropped beyond it).
+pub const MAX_HELD_FRAMES: usize = 1024;
+
+/// What a fault does to the frames a member sends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultKind {
+    /// Remove the sync packet.
+    DropSync,
+    /// Drop the whole frame.
+    DropPackets,
+    /// Wrong check byte (checksum error downstream).
+    Corrupt,
+    /// Invalid header byte (byte violation downstream).
+    ByteViolation,
+    /// Bytes beyond the declared packets (overrun downstream).
+    Overrun,
+    /// Truncated packet (underrun downstream).
+    Underrun,
+    /// Hold frames for this many ring cycles.
+    #[serde(rename = "delay")]
+    DelayCycles(u32),
+    /// Hold each frame this many µs before it leaves (transport-side sleep).
+    #[serde(rename = "delay-us")]
+    DelayMicros(u32),
+    /// Nothing leaves: the link is cut.
+    Cut,
+}
+
+impl fmt::Display for FaultKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FaultKind::DropSync => f.write_str("drop-sync"),
+            FaultKind::DropPackets => f.write_str("drop-packets"),
+            FaultKind::Corrupt => f.write_str("corrupt"),
+            FaultKind::ByteViolation => f.write_str("byte-violation"),
+            FaultKind::Overrun => f.write_str("overrun"),
+            FaultKind::Underrun => f.write_str("underrun"),
+            FaultKind::DelayCycles(n) => write!(f, "delay={n}"),
+            FaultKind::DelayMicros(n) => write!(f, "delay-us={n}"),
+            FaultKind::Cut => f.write_str("cut"),
+        }
+    }
+}
+
+/// The fault words, for error messages and help text.
+pub const FAULT_WORDS: &str =
+    "drop-sync, drop-packets, corrupt, byte-violation, overrun, underrun, delay=N, delay-us=N, cut";
+
+impl FaultKind {
+    /// Parse a fault word plus the amount that `delay` and `delay-us` need.
+    pub fn parse_with(word: &str, amount: Option<u32>) -> Result<FaultKind, String> {
+        let needs = |k: fn(u32) -> FaultKind| {
+            amount
+                .map(k)
+                .ok_or_else(|| format!("fault kind '{word}' needs an amount ({word}=N)"))
+        };
+        let kind = match word {
+            "drop-sync" => FaultKind::DropSync,
+            "drop-packets" => FaultKind::DropPackets,
+            "corrupt" => FaultKind::Corrupt,
+            "byte-violation" => FaultKind::ByteViolation,
+            "overrun" => FaultKind::Overrun,
+            "underrun" => FaultKind::Underrun,
+            "cut" => FaultKind::Cut,
+            "delay" => return needs(FaultKind::DelayCycles),
+            "delay-us" => return needs(FaultKind::DelayMicros),
+            _ => {
+                return Err(format!(
+                    "unknown fault kind '{word}' (expected one of: {FAULT_WORDS})"
+                ))
+            }
+        };
+        match amount {
+            None => Ok(kind),
+            Some(_) => Err(format!("fault kind '{word}' takes no amount")),
+        }
+    }
+}
+
+impl FromStr for FaultKind {
+    type Err = String;
+
+    /// `word`, or `word=N` / `word:N` for `delay` and `delay-us`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let s = s.trim();
+        match s.split_once(['=', ':']) {
+            None => FaultKind::parse_with(s, None),
+            Some((word, n)) => {
+                let n: u32 = n
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("fault amount '{n}' is not a number 0-4294967295"))?;
+                FaultKind::parse_with(word.trim(), Some(n))
+            }
+        }
+    }
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// One injected fault.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct FaultSpec {
+    /// What it does.
+    pub kind: FaultKind,
+    /// For how many ring cycles (from the first send after injection); `None` = until cleared.
+    #[serde(default)]
+    pub cycles: Option<u64>,
+    /// Probability per frame, 0.0-1.0.
+    #[serde(default = "one")]
+    pub probability: f64,
+    /// Seed of the fault's own random generator (runs are reproducible).
+    #[serde(default)]
+    pub seed: u64,
+}
+
+impl FaultSpec {
+    /// A fault that always applies until cleared.
+    pub fn always(kind: FaultKind) -> Self {
+        FaultSpec {
+            kind,
+            cycles: None,
+            probability: 1.0,
+            seed: 0,
+        }
+    }
+
+    /// Check the spec's values.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(0.0..=1.0).contains(&self.probability) {
+            return Err(format!(
+                "fault probability {} is not between 0 and 1",
+                self.probability
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A frame to put on the link.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Outgoing {
+    /// The encoded frame.
+    pub frame_bytes: Vec<u8>,
+    /// Hold it this long before sending (0 = now).
+    pub delay_us: u32,
+}
+
+#[derive(Debug)]
+struct Active {
+    spec: FaultSpec,
+    rng: StdRng,
+    first_cycle: Option<u64>,
+}
+
+impl Active {
+    fn expired(&self, cycle: u64) -> bool {
+        match (self.first_cycle, self.spec.cycles) {
+            (Some(first), Some(n)) => cycle >= first.saturating_add(n),
+            _ => false,
+        }
+    }
+}
+
+/// The fault layer of one member's send path.
+#[derive(Debug)]
+pub struct FaultLayer {
+    sync_node: u8,
+    faults: Vec<Active>,
+    held: VecDeque<(u64, Vec<u8>)>,
+}
+
+impl FaultLayer {
+    /// A layer for a ring whose sync packet is on `sync_node`.
+    pub fn new(sync_node: u8) -> Self {
+        FaultLayer {
+            sync_node: sync_node & 0x0F,
+            faults: Vec::new(),
+            held: VecDeque::new(),
+        }
+    }
+
+    /// Add a fault.
+    pub fn inject(&mut self, spec: FaultSpec) -> Result<(), String> {
+        spec.validate()?;
+        if self.faults.len() >= MAX_FAULTS {
+            return Err(format!(
+                "too many faults on this member (at most {MAX_FAULTS})"
+            ));
+        }
+        let rng = StdRng::seed_from_u64(spec.seed);
+        self.faults.push(Active {
+            spec,
+            rng,
+            first_cycle: None,
+        });
+        Ok(())
+    }
+
+    /// Remove every fault; frames held by `delay` are released at the next send or poll.
+    pub fn clear(&mut self) {
+        self.faults.clear();
+    }
+
+    /// The faults still active.
+    pub fn active(&self) -> Vec<FaultSpec> {
+        self.faults.iter().map(|a| a.spec.clone()).collect()
+    }
+
+    fn expire(&mut self, cycle: u64) {
+        for a in &mut self.faults {
+            a.first_cycle.get_or_insert(cycle);
+        }
+        self.faults.retain(|a| !a.expired(cycle));
+    }
+
+    fn cut_for_sure(&self) -> bool {
+        self.faults
+            .iter()
+            .any(|a| a.spec.kind == FaultKind::Cut && a.spec.probability >= 1.0)
+    }
+
+    /// Expire faults and release frames held by `delay` whose time has come.
+    pub fn poll(&mut self, cycle: u64) -> Vec<Outgoing> {
+        self.expire(cycle);
+        let mut out = Vec::new();
+        if self.cut_for_sure() {
+            return out;
+        }
+        while let Some((release, _)) = self.held.front() {
+            if *release > cycle {
+                break;
+            }
+            if let Some((_, bytes)) = self.held.pop_front() {
+                out.push(Outgoing {
+                    frame_bytes: bytes,
+                    delay_us: 0,
+                });
+            }
+        }
+        out
+    }
+
+    /// Pass one frame of ring cycle `cycle` through the active faults: 0, 1 or more frames
+    /// to put on the link now (held frames released first, in order).
+    pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Outgoing> {
+        let mut out = self.poll(cycle);
+        let (mut drop, mut cut) = (false, false);
+        let (mut delay_cycles, mut delay_us) = (0u32, 0u32);
+        for a in &mut self.faults {
+            let hit = a.rng.random::<f64>() < a.spec.probability;
+            if !hit {
+                continue;
+            }
+            match a.spec.kind {
+                FaultKind::Cut => cut = true,
+                FaultKind::DropPackets => drop = true,
+                FaultKind::DropSync => drop_sync(&mut frame, self.sync_node),
+                FaultKind::Corrupt => edit_last(&mut frame, 11, |b| *b ^= 0xFF),
+                FaultKind::ByteViolation => edit_last(&mut frame, 0, |b| *b = 0x00),
+                FaultKind::Overrun => frame.packets.extend_from_slice(&[0xEE; 5]),
+                FaultKind::Underrun => {
+                    if frame.packets.len() >= 5 {
+                        frame.packets.truncate(frame.packets.len() - 5);
+                    } else {
+                        frame.declared = frame.declared.saturating_add(1);
+                    }
+                }
+                FaultKind::DelayCycles(n) => delay_cycles = delay_cycles.max(n),
+                FaultKind::DelayMicros(n) => delay_us = delay_us.max(n),
+            }
+        }
+        if cut {
+            // Nothing leaves, not even frames released by the poll above: put them back.
+            for o in out.into_iter().rev() {
+                self.held.push_front((cycle, o.frame_bytes));
+            }
+            return Vec::new();
+        }
+        if drop {
+            return out;
+        }
+        let bytes = frame.encode();
+        if delay_cycles > 0 {
+            if self.held.len() >= MAX_HELD_FRAMES {
+                self.held.pop_front();
+            }
+            self.held
+                .push_back((cycle.saturating_add(u64::from(delay_cycles)), bytes));
+        } else {
+            out.push(Outgoing {
+                frame_bytes: bytes,
+                delay_us,
+            });
+        }
+        out
+    }
+}
+
+fn drop_sync(frame: &mut Frame, sync_node: u8) {
+    let mut kept = Vec::with_capacity(frame.packets.len());
+    let mut removed: u16 = 0;
+    let mut chunks = frame.packets.chunks(PACKET_LEN);
+    for chunk in &mut chunks {
+        match Packet::decode(chunk) {
+            Ok(p) if p.node == sync_node => removed += 1,
+            _ => kept.extend_from_slice(chunk),
+        }
+    }
+    frame.packets = kept;
+    frame.declared = frame.declared.saturating_sub(removed);
+}
+
+fn edit_last(frame: &mut Frame, offset: usize, f: impl FnOnce(&mut u8)) {
+    let whole = frame.packets.len() / PACKET_LEN;
+    if whole == 0 {
+        return;
+    }
+    if let Some(b) = frame.packets.get_mut((whole - 1) * PACKET_LEN + offset) {
+        f(b);
+    }
+}
+
+#[cfg(test)]
+#[path = "fault_tests.rs"]
+mod tests;

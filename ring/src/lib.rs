@@ -1,0 +1,21 @@
+//! mcc-ring: the MACRO-style ring.
+//!
+//! Pure protocol core (packets, frames, I995/I996 routing, error classes, ring check, fault
+//! layer, holdover clock, member core, deterministic in-process simulator) plus the edges that
+//! do I/O: [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's
+//! cycle loop and control plane).
+
+pub mod runtime;
+pub mod transport;
+pub mod config;
+pub mod check;
+pub mod control;
+pub mod core;
+pub mod fault;
+pub mod frame;
+pub mod holdover;
+pub mod member;
+pub mod packet;
+pub mod settings;
+pub mod sim;
+pub mod status;

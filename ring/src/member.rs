@@ -1,0 +1,326 @@
+//! Packet routing of one ring member (architecture §3.2, spec §6.2-§6.4).
+//!
+//! Rules, for a packet (master m, node n) reaching a member whose master number is M:
+//! - **Sync packet** (n = sync node and m = M, or n's master check disabled): latched (node
+//!   registers if the address matches, broadcast copy always), reported as a sync, forwarded
+//!   unchanged. Nobody but the synchronizing master modifies or removes it; the sync master
+//!   removes its own sync packet when it comes back ("cycle complete").
+//! - **Own packet back at a master** (m = M, n activated, member is a master): latched into
+//!   the read registers and removed.
+//! - **Slave node** (m = M, n activated, member is not a master): latched into the read
+//!   registers and replaced by this member's write registers, then forwarded.
+//! - **Match only because the master check is disabled** (n in 8-15, I995 bit 8+n-8 set,
+//!   m ≠ M): latched into the read registers and forwarded unchanged.
+//! - **Anything else** (node not activated or another master's packet): forwarded unchanged;
+//!   a broadcast copy is kept per address ([`RingMember::latched_copy`]), and if m = M the
+//!   read registers of n are updated too.
+//!
+//! Masters send one packet per activated node with their write registers, except on the sync
+//! node, which carries only the sync packet.
+
+use crate::packet::{NodeRegs, Packet};
+use crate::settings::RingSettings;
+
+/// Most packets the synchronizing master holds for the next cycle.
+pub const MAX_HELD_PACKETS: usize = 256;
+
+/// What routing one packet produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Routed {
+    /// The packet to forward downstream (None = removed here).
+    pub forward: Option<Packet>,
+    /// A sync packet of another member was seen: its ring cycle.
+    pub sync: Option<u64>,
+    /// This member's own sync packet came back (synchronizing master): its ring cycle.
+    pub own_sync_return: Option<u64>,
+}
+
+/// Node registers and routing state of one member.
+#[derive(Clone, Debug)]
+pub struct RingMember {
+    settings: RingSettings,
+    read: [NodeRegs; 16],
+    write: [NodeRegs; 16],
+    copies: Box<[[Option<NodeRegs>; 16]; 16]>,
+    held: Vec<Packet>,
+}
+
+impl RingMember {
+    /// A member with these I995/I996 settings; all registers zero.
+    pub fn new(settings: RingSettings) -> Self {
+        RingMember {
+            settings,
+            read: [NodeRegs::default(); 16],
+            write: [NodeRegs::default(); 16],
+            copies: Box::new([[None; 16]; 16]),
+            held: Vec::new(),
+        }
+    }
+
+    /// Current settings.
+    pub fn settings(&self) -> RingSettings {
+        self.settings
+    }
+
+    /// Change I995/I996 (takes effect on the next packet).
+    pub fn set_settings(&mut self, settings: RingSettings) {
+        self.settings = settings;
+    }
+
+    /// This member sends command packets (I995 bit 4 or bit 5).
+    pub fn is_master(&self) -> bool {
+        self.settings.is_master() || self.settings.is_sync_master()
+    }
+
+    /// Latched (read/feedback) registers of `node` (0-15; others read as zero).
+    pub fn read_regs(&self, node: u8) -> NodeRegs {
+        self.read
+            .get(usize::from(node))
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// Write (command/feedback-out) registers of `node`, masked to 0-15.
+    pub fn write_regs_mut(&mut self, node: u8) -> &mut NodeRegs {
+        &mut self.write[usize::from(node & 0x0F)]
+    }
+
+    /// Write registers of `node` (0-15; others read as zero).
+    pub fn write_regs(&self, node: u8) -> NodeRegs {
+        self.write
+            .get(usize::from(node))
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// The last packet seen with address (`master`, `node`), as received (broadcast copy).
+    pub fn latched_copy(&self, master: u8, node: u8) -> Option<NodeRegs> {
+        self.copies
+            .get(usize::from(master))?
+            .get(usize::from(node))
+            .copied()
+            .flatten()
+    }
+
+    /// Zero every write register (e.g. "MACRO output registers cleared on reset").
+    pub fn clear_outputs(&mut self) {
+        self.write = [NodeRegs::default(); 16];
+    }
+
+    /// Is `p` a sync packet for this member?
+    pub fn is_sync(&self, p: &Packet) -> bool {
+        let s = &self.settings;
+        p.node == s.sync_node()
+            && (p.master == s.master_number() || s.master_check_disabled(p.node))
+    }
+
+    /// The sync packet this member emits as synchronizing master for `cycle`.
+    pub fn sync_packet(&self, cycle: u64) -> Packet {
+        Packet::sync(
+            self.settings.master_number(),
+            self.settings.sync_node(),
+            cycle,
+        )
+    }
+
+    /// One command packet per activated node (masters only; never on the sync node).
+    pub fn command_packets(&self) -> Vec<Packet> {
+        if !self.is_master() {
+            return Vec::new();
+        }
+        let s = self.settings;
+        s.active_nodes()
+            .filter(|n| *n != s.sync_node())
+            .map(|n| Packet::new(s.master_number(), n, self.write_regs(n)))
+            .collect()
+    }
+
+    /// Route one valid packet.
+    pub fn route(&mut self, p: Packet) -> Routed {
+        let s = self.settings;
+        let (m, n) = (p.master & 0x0F, p.node & 0x0F);
+        let me = s.master_number();
+        let addr_match = m == me || s.master_check_disabled(n);
+        if let Some(slot) = self
+            .copies
+            .get_mut(usize::from(m))
+            .and_then(|r| r.get_mut(usize::from(n)))
+        {
+            *slot = Some(p.regs);
+        }
+        if s.is_sync_master() && n == s.sync_node() && m == me {
+            return Routed {
+                forward: None,
+                sync: None,
+                own_sync_return: Some(p.sync_cycle()),
+            };
+        }
+        if addr_match {
+            self.read[usize::from(n)] = p.regs;
+        }
+        if self.is_sync(&p) {
+            return Routed {
+                forward: Some(p),
+                sync: Some(p.sync_cycle()),
+                own_sync_return: None,
+            };
+        }
+        let forward = if s.node_active(n) && m == me {
+            if self.is_master() {
+                None
+            } else {
+                Some(Packet {
+                    regs: self.write[usize::from(n)],
+                    ..p
+                })
+            }
+        } else {
+            Some(p)
+        };
+        Routed {
+            forward,
+            sync: None,
+            own_sync_return: None,
+        }
+    }
+
+    /// Synchronizing master: keep packets of other masters for the next cycle's frame.
+    /// Returns how many were dropped because the hold buffer was full.
+    pub fn hold(&mut self, packets: impl IntoIterator<Item = Packet>) -> usize {
+        let mut dropped = 0;
+        for p in packets {
+            if self.held.len() < MAX_HELD_PACKETS {
+                self.held.push(p);
+            } else {
+                dropped += 1;
+            }
+        }
+        dropped
+    }
+
+    /// Take the held packets (in arrival order).
+    pub fn take_held(&mut self) -> Vec<Packet> {
+        std::mem::take(&mut self.held)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn regs(r0: u32) -> NodeRegs {
+        NodeRegs {
+            r0,
+            r1: 1,
+            r2: 2,
+            r3: 3,
+        }
+    }
+
+    #[test]
+    fn master_sends_active_nodes_except_sync_node() {
+        // sync master, master number 0, sync node 15, nodes 0, 1, 15 active
+        let mut m = RingMember::new(RingSettings::new(0x30, 0x0F_8003));
+        *m.write_regs_mut(1) = regs(11);
+        let p = m.command_packets();
+        assert_eq!(
+            p,
+            vec![
+                Packet::new(0, 0, NodeRegs::default()),
+                Packet::new(0, 1, regs(11))
+            ]
+        );
+        assert_eq!(m.sync_packet(5), Packet::sync(0, 15, 5));
+        // a slave sends nothing of its own
+        assert!(RingMember::new(RingSettings::new(0x80, 0x0F_0003))
+            .command_packets()
+            .is_empty());
+    }
+
+    #[test]
+    fn slave_latches_and_substitutes() {
+        let mut s = RingMember::new(RingSettings::new(0x80, 0x0F_0002)); // node 1 of master 0
+        *s.write_regs_mut(1) = regs(77);
+        let r = s.route(Packet::new(0, 1, regs(5)));
+        assert_eq!(r.forward, Some(Packet::new(0, 1, regs(77))));
+        assert_eq!(s.read_regs(1), regs(5));
+        // master 1's node 1 is not ours: unchanged, copy kept, read registers untouched
+        let r = s.route(Packet::new(1, 1, regs(9)));
+        assert_eq!(r.forward, Some(Packet::new(1, 1, regs(9))));
+        assert_eq!(s.read_regs(1), regs(5));
+        assert_eq!(s.latched_copy(1, 1), Some(regs(9)));
+        // not activated node 4 of our master: unchanged, latched
+        let r = s.route(Packet::new(0, 4, regs(4)));
+        assert_eq!(r.forward, Some(Packet::new(0, 4, regs(4))));
+        assert_eq!(s.read_regs(4), regs(4));
+    }
+
+    #[test]
+    fn master_latches_and_removes_own() {
+        let mut m = RingMember::new(RingSettings::new(0x90, 0x2F_0001)); // master 2, node 0
+        let r = m.route(Packet::new(2, 0, regs(8)));
+        assert_eq!(r, Routed::default());
+        assert_eq!(m.read_regs(0), regs(8));
+        // another master's packet for node 0 passes
+        assert_eq!(
+            m.route(Packet::new(0, 0, regs(1))).forward,
+            Some(Packet::new(0, 0, regs(1)))
+        );
+        assert_eq!(m.read_regs(0), regs(8));
+    }
+
+    #[test]
+    fn master_check_disabled_latches_and_forwards_unchanged() {
+        // master 1 with check disabled on node 9 (bit 9) and node 9 active
+        let mut m = RingMember::new(RingSettings::new(0x0290, 0x1F_0200));
+        let r = m.route(Packet::new(3, 9, regs(6)));
+        assert_eq!(r.forward, Some(Packet::new(3, 9, regs(6))));
+        assert_eq!(m.read_regs(9), regs(6));
+        // node 10 has the check enabled: no latch into the registers
+        let mut m = RingMember::new(RingSettings::new(0x0290, 0x1F_0400));
+        m.route(Packet::new(3, 10, regs(6)));
+        assert_eq!(m.read_regs(10), NodeRegs::default());
+    }
+
+    #[test]
+    fn sync_packet_is_never_modified_by_others() {
+        // a slave with node 15 active and master 0: sync packet is latched, not substituted
+        let mut s = RingMember::new(RingSettings::new(0x80, 0x0F_8000));
+        *s.write_regs_mut(15) = regs(99);
+        let sp = Packet::sync(0, 15, 1234);
+        let r = s.route(sp);
+        assert_eq!(
+            r,
+            Routed {
+                forward: Some(sp),
+                sync: Some(1234),
+                own_sync_return: None
+            }
+        );
+        assert_eq!(s.read_regs(15), sp.regs);
+        // another master (number 1) needs the check disabled on node 15 to see master 0's sync
+        let mut m1 = RingMember::new(RingSettings::new(0x90, 0x1F_0000));
+        assert_eq!(m1.route(sp).sync, None);
+        let mut m1 = RingMember::new(RingSettings::new(0x8090, 0x1F_0000));
+        assert_eq!(m1.route(sp).sync, Some(1234));
+        // the sync master removes its own sync packet: cycle complete
+        let mut sm = RingMember::new(RingSettings::new(0x30, 0x0F_0000));
+        assert_eq!(
+            sm.route(sp),
+            Routed {
+                forward: None,
+                sync: None,
+                own_sync_return: Some(1234)
+            }
+        );
+    }
+
+    #[test]
+    fn hold_is_bounded() {
+        let mut sm = RingMember::new(RingSettings::new(0x30, 0x0F_0000));
+        let many = vec![Packet::default(); MAX_HELD_PACKETS + 3];
+        assert_eq!(sm.hold(many), 3);
+        assert_eq!(sm.take_held().len(), MAX_HELD_PACKETS);
+        assert!(sm.take_held().is_empty());
+    }
+}

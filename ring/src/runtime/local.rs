@@ -1,0 +1,168 @@
+//! Run a whole ring inside one process, one thread per member, over the in-process loopback
+//! transport or over real zenoh sessions (one per member, connected over loopback TCP). Used by
+//! tests and by `mcc bench ring`.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use crossbeam_channel::{bounded, unbounded, Sender};
+
+use super::driver::{Driver, DriverCmd, DriverConfig, DriverExit};
+use crate::control::MemberStatus;
+use crate::core::{CoreConfig, MemberCore, RingApp};
+use crate::transport::loopback::LoopbackRing;
+use crate::transport::session::{free_loopback_endpoint, open_session, SessionOptions};
+use crate::transport::{zenoh_link, LinkRx, LinkTx, TransportError};
+
+/// Which links the members use.
+#[derive(Debug, Clone)]
+pub enum LocalTransport {
+    /// In-process channels.
+    Loopback,
+    /// One zenoh peer session per member; all connect to the first one's loopback endpoint.
+    Zenoh {
+        /// Cluster name used in the key expressions.
+        cluster: String,
+    },
+}
+
+/// One member of a local ring.
+#[derive(Debug)]
+pub struct LocalMember {
+    /// Member name.
+    pub name: String,
+    /// Requests to its loop.
+    pub cmds: Sender<DriverCmd>,
+}
+
+/// A running local ring.
+pub struct LocalRing<A: RingApp + Send + 'static> {
+    /// The members, in ring order.
+    pub members: Vec<LocalMember>,
+    stop: Arc<AtomicBool>,
+    handles: Vec<JoinHandle<(DriverExit, MemberCore, A)>>,
+    _sessions: Vec<zenoh::Session>,
+    _guards: Vec<zenoh_link::ZenohRxGuard>,
+}
+
+impl<A: RingApp + Send + 'static> std::fmt::Debug for LocalRing<A> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LocalRing").field("members", &self.members).finish_non_exhaustive()
+    }
+}
+
+impl<A: RingApp + Send + 'static> LocalRing<A> {
+    /// Start `members` (core config, app, driver config each) in ring order.
+    pub fn start(
+        members: Vec<(CoreConfig, A, DriverConfig)>,
+        transport: LocalTransport,
+    ) -> Result<Self, TransportError> {
+        let n = members.len();
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut links: Vec<(Box<dyn LinkTx>, LinkRx)> = Vec::with_capacity(n);
+        let mut sessions = Vec::new();
+        let mut guards = Vec::new();
+        match &transport {
+            LocalTransport::Loopback => {
+                let ring = LoopbackRing::new(n);
+                for k in 0..n {
+                    let (tx, rx) = ring.member(k)?;
+                    links.push((Box::new(tx), rx));
+                }
+            }
+            LocalTransport::Zenoh { cluster } => {
+                let first = free_loopback_endpoint()?;
+                for k in 0..n {
+                    let opts = if k == 0 {
+                        SessionOptions {
+                            listen: vec![first.clone()],
+                            connect: vec![],
+                        }
+                    } else {
+                        SessionOptions {
+                            listen: vec![free_loopback_endpoint()?],
+                            connect: vec![first.clone()],
+                        }
+                    };
+                    sessions.push(open_session(&opts)?);
+                }
+                for (k, s) in sessions.iter().enumerate() {
+                    let (tx, rx, g) = zenoh_link::join(s, cluster, "0", k, n)?;
+                    links.push((Box::new(tx), rx));
+                    guards.push(g);
+                }
+                // Let every subscriber's declaration reach its publisher before frames flow.
+                std::thread::sleep(Duration::from_millis(300));
+            }
+        }
+        let mut out = Vec::with_capacity(n);
+        let mut handles = Vec::with_capacity(n);
+        // Start followers first so the sync master's first frame finds everyone listening.
+        let mut items: Vec<_> = members.into_iter().zip(links).enumerate().collect();
+        items.sort_by_key(|(_, ((c, _, _), _))| c.settings.is_sync_master());
+        let mut named = Vec::with_capacity(n);
+        for (k, ((core_cfg, app, dcfg), (tx, rx))) in items {
+            let (ctx, crx) = unbounded();
+            let name = dcfg.name.clone();
+            let stop2 = Arc::clone(&stop);
+            let h = std::thread::Builder::new()
+                .name(format!("ring-{name}"))
+                .spawn(move || {
+                    let core = MemberCore::new(core_cfg);
+                    let mut d = Driver::new(dcfg, core, app, tx, rx, crx, stop2);
+                    let exit = d.run();
+                    let (core, app) = d.into_parts();
+                    (exit, core, app)
+                })
+                .map_err(|e| TransportError::Io(e.to_string()))?;
+            named.push((k, LocalMember { name, cmds: ctx }, h));
+        }
+        named.sort_by_key(|(k, _, _)| *k);
+        for (_, m, h) in named {
+            out.push(m);
+            handles.push(h);
+        }
+        Ok(LocalRing {
+            members: out,
+            stop,
+            handles,
+            _sessions: sessions,
+            _guards: guards,
+        })
+    }
+
+    /// Status of member `k` (waits up to a second for its loop).
+    pub fn status(&self, k: usize) -> Option<MemberStatus> {
+        let (tx, rx) = bounded(1);
+        self.members.get(k)?.cmds.send(DriverCmd::Status(tx)).ok()?;
+        rx.recv_timeout(Duration::from_secs(1)).ok()
+    }
+
+    /// Wait until every member's loop has ended on its own (e.g. `max_cycles`), or stop them
+    /// after `timeout`. Returns each member's exit, core and app in ring order.
+    pub fn join(self, timeout: Duration) -> Vec<(DriverExit, MemberCore, A)> {
+        let deadline = std::time::Instant::now() + timeout;
+        while std::time::Instant::now() < deadline && self.handles.iter().any(|h| !h.is_finished()) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        self.stop.store(true, Ordering::Relaxed);
+        let r = self
+            .handles
+            .into_iter()
+            .filter_map(|h| h.join().ok())
+            .collect();
+        drop(self._guards);
+        for s in self._sessions {
+            let _ = zenoh::Wait::wait(s.close());
+        }
+        r
+    }
+
+    /// Stop every member now.
+    pub fn stop(self) -> Vec<(DriverExit, MemberCore, A)> {
+        self.stop.store(true, Ordering::Relaxed);
+        self.join(Duration::ZERO)
+    }
+}

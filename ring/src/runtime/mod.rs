@@ -1,0 +1,12 @@
+//! The I/O edge of a ring member: its cycle loop ([`driver`]), realtime pacing ([`pacer`]),
+//! the control plane over zenoh ([`control_plane`]) and the common process `main`
+//! ([`process`]).
+
+pub mod control_plane;
+pub mod driver;
+pub mod local;
+pub mod pacer;
+pub mod process;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,161 @@
+//! The common `main` of a ring member process (`mcc-card`, `mcc-station`): load the cluster
+//! config, open the zenoh session, join the ring link, declare the control plane, install
+//! signal handling and parent-death notification, then run the member's cycle loop on the
+//! calling thread until stopped.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use crossbeam_channel::unbounded;
+use tracing::{info, info_span};
+
+use super::control_plane;
+use super::driver::{Driver, DriverConfig, DriverExit};
+use crate::check::RingCheck;
+use crate::config::{ClusterConfig, IVarValue, MemberRef};
+use crate::control::MemberKind;
+use crate::core::{CoreConfig, MemberCore, RingApp};
+use crate::settings::RingSettings;
+use crate::transport::session::{open_session, SessionOptions};
+use crate::transport::zenoh_link;
+
+/// Command-line arguments every member process takes.
+#[derive(Debug, Clone)]
+pub struct MemberArgs {
+    /// The resolved cluster config (TOML).
+    pub config: PathBuf,
+    /// This member's name in the config.
+    pub name: String,
+    /// zenoh endpoints to connect to (overrides/extends the config's).
+    pub connect: Vec<String>,
+    /// zenoh endpoints to listen on (default `tcp/127.0.0.1:0`).
+    pub listen: Vec<String>,
+}
+
+/// What the application factory gets to build a member's logic.
+pub struct MemberContext {
+    /// The cluster config.
+    pub config: ClusterConfig,
+    /// This member's name.
+    pub name: String,
+    /// Position in the ring order.
+    pub position: usize,
+    /// The process's zenoh session (for extra queryables).
+    pub session: zenoh::Session,
+    /// Raised when the process must stop.
+    pub stop: Arc<AtomicBool>,
+}
+
+impl std::fmt::Debug for MemberContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MemberContext")
+            .field("name", &self.name)
+            .field("position", &self.position)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Ring-check parameters of a card from its I-variable overrides (I1001, I1004, I1005, I8).
+pub fn card_check(ivars: &std::collections::BTreeMap<String, IVarValue>) -> RingCheck {
+    let get = |k: &str, d: u32| {
+        ivars
+            .iter()
+            .find(|(n, _)| n.eq_ignore_ascii_case(k))
+            .map(|(_, v)| v.as_f64().clamp(0.0, 65_535.0) as u32)
+            .unwrap_or(d)
+    };
+    RingCheck::card(get("I1001", 0), get("I1004", 2), get("I1005", 4), get("I8", 2))
+}
+
+/// Run member `args.name` until it is stopped. `make_app` builds the card or station logic and
+/// returns extra status fields (ports, nodes, ...).
+pub fn run_member<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
+where
+    A: RingApp,
+    F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
+{
+    let config = ClusterConfig::from_file(&args.config)
+        .with_context(|| format!("loading {}", args.config.display()))?;
+    let span = info_span!("member", cluster = %config.cluster, name = %args.name);
+    let _enter = span.enter();
+    let member = config
+        .member(&args.name)
+        .ok_or_else(|| anyhow!("member '{}' is not in the config", args.name))?;
+    let position = config
+        .position(&args.name)
+        .ok_or_else(|| anyhow!("member '{}' is not in ring.order", args.name))?;
+    let n = config.ring.order.len();
+    let cs = config
+        .ring_settings(&args.name)
+        .ok_or_else(|| anyhow!("no ring settings for '{}'", args.name))?;
+    let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
+    let check = match member {
+        MemberRef::Card(c) => card_check(&c.ivars),
+        MemberRef::Station(s) => RingCheck::station(s.check.period, s.check.min_syncs, s.check.max_errors),
+    };
+
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT, signal_hook::consts::SIGHUP] {
+        signal_hook::flag::register(sig, Arc::clone(&stop)).context("installing signal handler")?;
+    }
+    // Die with the process that started us (the orchestrator), whatever happens to it.
+    #[cfg(target_os = "linux")]
+    let _ = nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM);
+
+    let mut connect = config.zenoh.connect.clone();
+    connect.extend(args.connect.iter().cloned());
+    let listen = if args.listen.is_empty() {
+        config.zenoh.listen.clone()
+    } else {
+        args.listen.clone()
+    };
+    let session = open_session(&SessionOptions { listen, connect })?;
+    let (tx, rx, _rx_guard) = zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
+
+    let ctx = MemberContext {
+        config: config.clone(),
+        name: args.name.clone(),
+        position,
+        session: session.clone(),
+        stop: Arc::clone(&stop),
+    };
+    let (app, extra) = make_app(&ctx)?;
+
+    let holdover_ns = match config.clock {
+        crate::config::ClockMode::Lockstep => config.lockstep_timeout_ms.max(1) * 1_000_000,
+        crate::config::ClockMode::Realtime => config.period_ns().max(1) * 3 / 2,
+    };
+    let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, holdover_ns);
+    core_cfg.check = check;
+    core_cfg.upstream = Some(((position + n - 1) % n) as u16);
+    // A restarted member must not look stale to its downstream neighbour.
+    core_cfg.seq_base = super::driver::monotonic_ns();
+    let core = MemberCore::new(core_cfg);
+    let (cmd_tx, cmd_rx) = unbounded();
+    let _plane = control_plane::start(&session, &config.cluster, &args.name, cmd_tx, Arc::clone(&stop))
+        .map_err(|e| anyhow!(e))?;
+    info!(position, members = n, "joined ring {}", config.ring.name);
+
+    let dcfg = DriverConfig {
+        name: args.name.clone(),
+        clock: config.clock,
+        rate_hz: config.rate_hz,
+        lockstep_timeout: Duration::from_millis(config.lockstep_timeout_ms.max(1)),
+        max_cycles: None,
+        kind,
+        position,
+        extra,
+    };
+    let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
+    let exit = driver.run();
+    stop.store(true, Ordering::Relaxed);
+    drop(_plane);
+    let _ = zenoh::Wait::wait(session.close());
+    match exit {
+        DriverExit::Stopped | DriverExit::Done => Ok(()),
+        DriverExit::Transport(e) => Err(anyhow!("ring transport failed: {e}")),
+    }
+}

@@ -1,0 +1,98 @@
+//! Opening the zenoh session every mcc process uses: peer mode, multicast scouting off,
+//! explicit loopback endpoints (architecture §7).
+
+use zenoh::config::Config;
+use zenoh::Wait;
+
+use super::TransportError;
+
+/// Where a process listens and whom it connects to.
+#[derive(Debug, Clone, Default)]
+pub struct SessionOptions {
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:0`. Empty: `tcp/127.0.0.1:0`.
+    pub listen: Vec<String>,
+    /// Endpoints to connect to (the orchestrator's, a router, ...).
+    pub connect: Vec<String>,
+}
+
+/// Build the zenoh configuration for `opts`.
+pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
+    let mut c = Config::default();
+    let set = |c: &mut Config, k: &str, v: String| {
+        c.insert_json5(k, &v)
+            .map_err(|e| TransportError::Io(format!("zenoh config {k}: {e}")))
+    };
+    set(&mut c, "mode", "\"peer\"".into())?;
+    set(&mut c, "scouting/multicast/enabled", "false".into())?;
+    // Peers learn each other's locators from the peer they connect to and open direct links, so
+    // ring frames travel member to member in one hop.
+    set(&mut c, "scouting/gossip/enabled", "true".into())?;
+    let listen = if opts.listen.is_empty() {
+        vec!["tcp/127.0.0.1:0".to_string()]
+    } else {
+        opts.listen.clone()
+    };
+    set(&mut c, "listen/endpoints", json_list(&listen))?;
+    set(&mut c, "connect/endpoints", json_list(&opts.connect))?;
+    set(&mut c, "timestamping/enabled", "{ router: false, peer: false, client: false }".into())?;
+    Ok(c)
+}
+
+fn json_list(items: &[String]) -> String {
+    serde_json::to_string(items).unwrap_or_else(|_| "[]".into())
+}
+
+/// Open a zenoh session for `opts` (blocking).
+pub fn open_session(opts: &SessionOptions) -> Result<zenoh::Session, TransportError> {
+    let config = zenoh_config(opts)?;
+    zenoh::open(config)
+        .wait()
+        .map_err(|e| TransportError::Io(format!("zenoh open: {e}")))
+}
+
+/// A loopback TCP endpoint on a port that was free a moment ago (`tcp/127.0.0.1:PORT`).
+///
+/// zenoh's stable API does not report the port it bound for `:0`, so processes that must tell
+/// others where they listen pick the port first.
+pub fn free_loopback_endpoint() -> Result<String, TransportError> {
+    let l = std::net::TcpListener::bind("127.0.0.1:0")
+        .map_err(|e| TransportError::Io(format!("no free port: {e}")))?;
+    let port = l
+        .local_addr()
+        .map_err(|e| TransportError::Io(e.to_string()))?
+        .port();
+    Ok(format!("tcp/127.0.0.1:{port}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_is_peer_without_multicast() {
+        let c = zenoh_config(&SessionOptions {
+            listen: vec![],
+            connect: vec!["tcp/127.0.0.1:7447".into()],
+        })
+        .unwrap();
+        let s = format!("{c}");
+        assert!(s.contains("\"mode\":\"peer\""), "{s}");
+        assert!(s.contains("127.0.0.1:7447"), "{s}");
+    }
+
+    #[test]
+    fn free_endpoint_is_loopback_with_a_port() {
+        let e = free_loopback_endpoint().unwrap();
+        let port: u16 = e.strip_prefix("tcp/127.0.0.1:").unwrap().parse().unwrap();
+        assert!(port > 0);
+    }
+
+    #[test]
+    fn bad_endpoint_is_a_clear_error() {
+        let e = zenoh_config(&SessionOptions {
+            listen: vec!["not-an-endpoint".into()],
+            connect: vec![],
+        });
+        assert!(e.is_err());
+    }
+}

@@ -1,0 +1,60 @@
+//! `mcc-station`: one MACRO station process on a ring.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use mcc_ring::config::MemberRef;
+use mcc_ring::control::MemberKind;
+use mcc_ring::runtime::process::{run_member, MemberArgs};
+use mcc_station::echo::EchoStation;
+
+/// A MACRO station joining a ring from the cluster config the orchestrator hands it.
+#[derive(Debug, Parser)]
+#[command(name = "mcc-station", version)]
+struct Cli {
+    /// Resolved cluster config (TOML).
+    #[arg(long)]
+    config: PathBuf,
+    /// This station's name in the config.
+    #[arg(long)]
+    name: String,
+    /// zenoh endpoint to connect to (repeatable).
+    #[arg(long)]
+    connect: Vec<String>,
+    /// zenoh endpoint to listen on (repeatable; default tcp/127.0.0.1:0).
+    #[arg(long)]
+    listen: Vec<String>,
+}
+
+fn main() -> std::process::ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let args = MemberArgs {
+        config: cli.config,
+        name: cli.name,
+        connect: cli.connect,
+        listen: cli.listen,
+    };
+    let r = run_member(args, MemberKind::Station, |ctx| {
+        let nodes = match ctx.config.member(&ctx.name) {
+            Some(MemberRef::Station(s)) => s.nodes.clone(),
+            _ => anyhow::bail!("'{}' is not a station in the config", ctx.name),
+        };
+        let mut extra = serde_json::Map::new();
+        extra.insert("nodes".into(), serde_json::json!(nodes));
+        Ok((EchoStation::new(&nodes), extra))
+    });
+    match r {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("mcc-station: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Runs the Python host-client tests (dls-pmaclib against a real `mcc-card --standalone`).
+# Creates a venv under target/ on first use; safe to re-run. Exits non-zero on failure.
+# Env: MCC_CARD_BIN (default target/debug/mcc-card), PYTHON (default python3.11 or python3),
+#      MCC_SKIP_BUILD=1 to skip `cargo build -p mcc-card --bin mcc-card`.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+venv="$root/target/clients-venv"
+py="${PYTHON:-$(command -v python3.11 || command -v python3)}"
+if [ ! -x "$venv/bin/python" ]; then
+    "$py" -m venv "$venv"
+fi
+if ! "$venv/bin/python" -c 'import dls_pmaclib, pytest' 2>/dev/null; then
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+        -r "$here/requirements.txt"
+fi
+if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_CARD_BIN:-}" ]; then
+    (cd "$root" && cargo build -q -p mcc-card --bin mcc-card)
+fi
+export MCC_CARD_BIN="${MCC_CARD_BIN:-$root/target/debug/mcc-card}"
+cd "$here"
+exec "$venv/bin/python" -m pytest -q -p no:cacheprovider "$@"
