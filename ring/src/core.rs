@@ -184,11 +184,7 @@ impl MemberCore {
     /// Change I995/I996 at run time.
     pub fn set_settings(&mut self, settings: RingSettings) {
         self.member.set_settings(settings);
-        let kept = self.faults.active();
-        self.faults = FaultLayer::new(settings.sync_node());
-        for f in kept {
-            let _ = self.faults.inject(f);
-        }
+        self.faults.set_sync_node(settings.sync_node());
     }
 
     /// The I995 status latch (a host I995 read goes through `read_and_clear`).

@@ -206,6 +206,11 @@ impl FaultLayer {
         }
     }
 
+    /// The sync node changed (I996 bits 16-19): `drop-sync` removes packets on this node.
+    pub fn set_sync_node(&mut self, sync_node: u8) {
+        self.sync_node = sync_node & 0x0F;
+    }
+
     /// Add a fault.
     pub fn inject(&mut self, spec: FaultSpec) -> Result<(), String> {
         spec.validate()?;

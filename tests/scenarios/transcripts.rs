@@ -231,7 +231,7 @@ fn transcript_escapes_round_trip() {
 #[test]
 fn all_transcripts_replay_byte_exact() {
     let files = transcript_files();
-    assert!(files.len() >= 5, "expected transcript files in {}", transcript_dir().display());
+    assert!(files.len() >= 1, "expected transcript files in {}", transcript_dir().display());
     let mut failures = Vec::new();
     for f in &files {
         failures.extend(run_transcript(f));

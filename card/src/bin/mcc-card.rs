@@ -40,12 +40,46 @@ struct Args {
     /// Exit when stdin is closed.
     #[arg(long)]
     exit_on_stdin_eof: bool,
+    /// Ring mode: the resolved cluster config (TOML) handed over by the orchestrator.
+    #[arg(long, conflicts_with = "standalone", requires = "name")]
+    config: Option<PathBuf>,
+    /// Ring mode: this card's member name in the config.
+    #[arg(long)]
+    name: Option<String>,
+    /// Ring mode: zenoh endpoint to connect to (repeatable).
+    #[arg(long)]
+    connect: Vec<String>,
+    /// Ring mode: zenoh endpoint to listen on (repeatable; default tcp/127.0.0.1:0).
+    #[arg(long)]
+    listen: Vec<String>,
 }
 
 fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
     let args = Args::parse();
+    if let (Some(config), Some(name)) = (args.config.clone(), args.name.clone()) {
+        let r = mcc_card::runtime::run_ring_card(mcc_ring::runtime::process::MemberArgs {
+            config,
+            name,
+            connect: args.connect,
+            listen: args.listen,
+        });
+        return match r {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("mcc-card: {e:#}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     if !args.standalone {
-        eprintln!("mcc-card: only --standalone is available in this build");
+        eprintln!("mcc-card: give --standalone, or --config FILE --name MEMBER for ring mode");
         return ExitCode::from(2);
     }
     let opts = StandaloneOpts {

@@ -43,11 +43,21 @@ impl VarEnv<'_> {
     }
 }
 
+impl crate::lang::eval::Env for VarEnv<'_> {
+    fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, crate::lang::eval::EvalError> {
+        self.get(kind, index).ok_or(crate::lang::eval::EvalError { code: 3, msg: "no such variable" })
+    }
+
+    fn radians(&self) -> bool {
+        self.state.peek_ivar(15).unwrap_or(0.0) != 0.0
+    }
+}
+
 impl Card {
     /// Evaluate an expression in the context of C.S. `cs`.
     pub(crate) fn eval(&mut self, cs: u16, e: &Expr) -> Result<f64, u16> {
         let mut env = VarEnv { state: &mut self.state, cs };
-        crate::lang::eval::eval(e, &mut env).map_err(|_| 3)
+        crate::lang::eval::eval(e, &mut env).map_err(|e| u16::from(e.code))
     }
 
     /// The variable numbers of a selection (computed indices evaluated and rounded).

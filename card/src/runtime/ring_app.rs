@@ -83,7 +83,10 @@ mod tests {
             r2: 0x0102,
             r3: 0x8001,
         };
-        assert_eq!(regs_to_words(r), [0x12_3456, 0xAB_CD00, 0x01_0200, 0x80_0100]);
+        assert_eq!(
+            regs_to_words(r),
+            [0x12_3456, 0xAB_CD00, 0x01_0200, 0x80_0100]
+        );
         assert_eq!(words_to_regs(regs_to_words(r)), r);
     }
 
@@ -92,11 +95,10 @@ mod tests {
         let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let mut app = CardRingApp::new(Arc::clone(&card), &[0, 1]);
         let mut member = RingMember::new(RingSettings::new(0x30, 0x3));
-        card.lock().unwrap().state.write(
-            crate::state::memory::Space::Y,
-            0xC0A0,
-            0x00_1234,
-        );
+        card.lock()
+            .unwrap()
+            .state
+            .write(crate::state::memory::Space::Y, 0xC0A0, 0x00_1234);
         app.tick(1, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0x1234);
         app.tick(2, 0, &mut member, true);

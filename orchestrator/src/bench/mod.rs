@@ -1,3 +1,6 @@
 //! Benchmarks (`mcc bench ...`).
 
+pub mod inproc;
 pub mod ring;
+pub mod stats;
+pub mod udp;

@@ -123,7 +123,10 @@ fn answer(query: Query, prefix: &str, cmds: &Sender<DriverCmd>, stop: &AtomicBoo
     }
 }
 
-fn loop_call(cmds: &Sender<DriverCmd>, make: impl FnOnce(Sender<CtlReply>) -> DriverCmd) -> Vec<u8> {
+fn loop_call(
+    cmds: &Sender<DriverCmd>,
+    make: impl FnOnce(Sender<CtlReply>) -> DriverCmd,
+) -> Vec<u8> {
     let (tx, rx) = bounded(1);
     if cmds.send(make(tx)).is_err() {
         return json(&reply(false, "member loop has stopped"));

@@ -38,6 +38,10 @@ pub struct DriverConfig {
     pub position: usize,
     /// Extra status fields (card ports, station nodes, ...).
     pub extra: serde_json::Map<String, serde_json::Value>,
+    /// Record up to this many `(cycle, ns)` timing samples (benchmarks; 0 = none): the sync
+    /// master records each cycle's scheduled start, the others each sync packet's arrival, both
+    /// on the system-wide monotonic clock.
+    pub record: usize,
 }
 
 /// A request to the member's loop.
@@ -84,11 +88,14 @@ pub struct Driver<A: RingApp> {
     /// Frames held back by a `delay-us` fault: (due time, bytes).
     delayed: Vec<(Instant, Vec<u8>)>,
     cycles_run: u64,
+    records: Vec<(u64, u64)>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Driver").field("cfg", &self.cfg).finish_non_exhaustive()
+        f.debug_struct("Driver")
+            .field("cfg", &self.cfg)
+            .finish_non_exhaustive()
     }
 }
 
@@ -113,12 +120,24 @@ impl<A: RingApp> Driver<A> {
             stop,
             delayed: Vec::new(),
             cycles_run: 0,
+            records: Vec::new(),
         }
     }
 
     /// The application (after the loop ended).
     pub fn into_parts(self) -> (MemberCore, A) {
         (self.core, self.app)
+    }
+
+    /// Timing samples recorded so far (see [`DriverConfig::record`]).
+    pub fn take_records(&mut self) -> Vec<(u64, u64)> {
+        std::mem::take(&mut self.records)
+    }
+
+    fn record(&mut self, cycle: u64, ns: u64) {
+        if self.records.len() < self.cfg.record {
+            self.records.push((cycle, ns));
+        }
     }
 
     fn now_ns(&self) -> u64 {
@@ -345,6 +364,10 @@ impl<A: RingApp> Driver<A> {
             }
             let before = pacer.late_cycles();
             let (cycle, lateness) = pacer.wait_next();
+            if self.cfg.record > 0 {
+                let due = pacer.deadline_ns(cycle);
+                self.record(cycle, due);
+            }
             trace!(cycle, lateness, "cycle start");
             for _ in before..pacer.late_cycles() {
                 self.core.note_late();
@@ -370,7 +393,12 @@ impl<A: RingApp> Driver<A> {
                 return DriverExit::Transport(e);
             }
             let wait = if self.delayed.is_empty() {
-                Duration::from_millis(2)
+                let until_holdover = self
+                    .core
+                    .holdover_due_ns()
+                    .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
+                    .unwrap_or(Duration::from_millis(2));
+                until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
             } else {
                 Duration::from_micros(50)
             };
@@ -386,6 +414,9 @@ impl<A: RingApp> Driver<A> {
                         return DriverExit::Transport(e);
                     }
                     if let Some(cycle) = ev.sync {
+                        if self.cfg.record > 0 {
+                            self.record(cycle, now);
+                        }
                         self.tick(cycle);
                     }
                 }

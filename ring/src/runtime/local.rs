@@ -28,6 +28,19 @@ pub enum LocalTransport {
     },
 }
 
+/// What a member's thread leaves behind.
+#[derive(Debug)]
+pub struct MemberResult<A> {
+    /// Why its loop ended.
+    pub exit: DriverExit,
+    /// Its core (status, counters).
+    pub core: MemberCore,
+    /// Its application.
+    pub app: A,
+    /// Timing samples ([`DriverConfig::record`]).
+    pub records: Vec<(u64, u64)>,
+}
+
 /// One member of a local ring.
 #[derive(Debug)]
 pub struct LocalMember {
@@ -42,14 +55,16 @@ pub struct LocalRing<A: RingApp + Send + 'static> {
     /// The members, in ring order.
     pub members: Vec<LocalMember>,
     stop: Arc<AtomicBool>,
-    handles: Vec<JoinHandle<(DriverExit, MemberCore, A)>>,
+    handles: Vec<JoinHandle<MemberResult<A>>>,
     _sessions: Vec<zenoh::Session>,
     _guards: Vec<zenoh_link::ZenohRxGuard>,
 }
 
 impl<A: RingApp + Send + 'static> std::fmt::Debug for LocalRing<A> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LocalRing").field("members", &self.members).finish_non_exhaustive()
+        f.debug_struct("LocalRing")
+            .field("members", &self.members)
+            .finish_non_exhaustive()
     }
 }
 
@@ -113,8 +128,14 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                     let core = MemberCore::new(core_cfg);
                     let mut d = Driver::new(dcfg, core, app, tx, rx, crx, stop2);
                     let exit = d.run();
+                    let records = d.take_records();
                     let (core, app) = d.into_parts();
-                    (exit, core, app)
+                    MemberResult {
+                        exit,
+                        core,
+                        app,
+                        records,
+                    }
                 })
                 .map_err(|e| TransportError::Io(e.to_string()))?;
             named.push((k, LocalMember { name, cmds: ctx }, h));
@@ -142,9 +163,10 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
 
     /// Wait until every member's loop has ended on its own (e.g. `max_cycles`), or stop them
     /// after `timeout`. Returns each member's exit, core and app in ring order.
-    pub fn join(self, timeout: Duration) -> Vec<(DriverExit, MemberCore, A)> {
+    pub fn join(self, timeout: Duration) -> Vec<MemberResult<A>> {
         let deadline = std::time::Instant::now() + timeout;
-        while std::time::Instant::now() < deadline && self.handles.iter().any(|h| !h.is_finished()) {
+        while std::time::Instant::now() < deadline && self.handles.iter().any(|h| !h.is_finished())
+        {
             std::thread::sleep(Duration::from_millis(2));
         }
         self.stop.store(true, Ordering::Relaxed);
@@ -161,7 +183,7 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
     }
 
     /// Stop every member now.
-    pub fn stop(self) -> Vec<(DriverExit, MemberCore, A)> {
+    pub fn stop(self) -> Vec<MemberResult<A>> {
         self.stop.store(true, Ordering::Relaxed);
         self.join(Duration::ZERO)
     }

@@ -16,6 +16,7 @@ const LATE_FRACTION: f64 = 0.5;
 #[derive(Debug)]
 pub struct Pacer {
     start: Instant,
+    start_ns: u64,
     period_ns: f64,
     next: u64,
     late: u64,
@@ -26,6 +27,7 @@ impl Pacer {
     pub fn new(rate_hz: f64) -> Self {
         Pacer {
             start: Instant::now(),
+            start_ns: super::driver::monotonic_ns(),
             period_ns: 1e9 / rate_hz.max(1e-3),
             next: 0,
             late: 0,
@@ -35,6 +37,11 @@ impl Pacer {
     /// Deadline of cycle `k` relative to the start.
     pub fn deadline(&self, k: u64) -> Instant {
         self.start + Duration::from_nanos((k as f64 * self.period_ns) as u64)
+    }
+
+    /// Deadline of cycle `k` on the system-wide monotonic clock (ns).
+    pub fn deadline_ns(&self, k: u64) -> u64 {
+        self.start_ns + (k as f64 * self.period_ns) as u64
     }
 
     /// Time left until the next cycle is due (zero when due or late).

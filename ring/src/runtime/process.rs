@@ -67,7 +67,12 @@ pub fn card_check(ivars: &std::collections::BTreeMap<String, IVarValue>) -> Ring
             .map(|(_, v)| v.as_f64().clamp(0.0, 65_535.0) as u32)
             .unwrap_or(d)
     };
-    RingCheck::card(get("I1001", 0), get("I1004", 2), get("I1005", 4), get("I8", 2))
+    RingCheck::card(
+        get("I1001", 0),
+        get("I1004", 2),
+        get("I1005", 4),
+        get("I8", 2),
+    )
 }
 
 /// Run member `args.name` until it is stopped. `make_app` builds the card or station logic and
@@ -94,11 +99,17 @@ where
     let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
     let check = match member {
         MemberRef::Card(c) => card_check(&c.ivars),
-        MemberRef::Station(s) => RingCheck::station(s.check.period, s.check.min_syncs, s.check.max_errors),
+        MemberRef::Station(s) => {
+            RingCheck::station(s.check.period, s.check.min_syncs, s.check.max_errors)
+        }
     };
 
     let stop = Arc::new(AtomicBool::new(false));
-    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT, signal_hook::consts::SIGHUP] {
+    for sig in [
+        signal_hook::consts::SIGTERM,
+        signal_hook::consts::SIGINT,
+        signal_hook::consts::SIGHUP,
+    ] {
         signal_hook::flag::register(sig, Arc::clone(&stop)).context("installing signal handler")?;
     }
     // Die with the process that started us (the orchestrator), whatever happens to it.
@@ -113,7 +124,8 @@ where
         args.listen.clone()
     };
     let session = open_session(&SessionOptions { listen, connect })?;
-    let (tx, rx, _rx_guard) = zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
+    let (tx, rx, _rx_guard) =
+        zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
 
     let ctx = MemberContext {
         config: config.clone(),
@@ -135,8 +147,14 @@ where
     core_cfg.seq_base = super::driver::monotonic_ns();
     let core = MemberCore::new(core_cfg);
     let (cmd_tx, cmd_rx) = unbounded();
-    let _plane = control_plane::start(&session, &config.cluster, &args.name, cmd_tx, Arc::clone(&stop))
-        .map_err(|e| anyhow!(e))?;
+    let _plane = control_plane::start(
+        &session,
+        &config.cluster,
+        &args.name,
+        cmd_tx,
+        Arc::clone(&stop),
+    )
+    .map_err(|e| anyhow!(e))?;
     info!(position, members = n, "joined ring {}", config.ring.name);
 
     let dcfg = DriverConfig {
@@ -148,6 +166,7 @@ where
         kind,
         position,
         extra,
+        record: 0,
     };
     let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
     let exit = driver.run();

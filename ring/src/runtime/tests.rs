@@ -61,6 +61,7 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         kind,
         position,
         extra: serde_json::Map::new(),
+        record: 0,
     }
 }
 
@@ -93,11 +94,20 @@ fn lockstep_loopback_ring_round_trips_commands_every_cycle() {
     let r = LocalRing::start(ring(200), LocalTransport::Loopback).unwrap();
     let out = r.join(Duration::from_secs(20));
     assert_eq!(out.len(), 3);
-    for (exit, core, _) in &out {
-        assert!(matches!(exit, DriverExit::Done | DriverExit::Stopped), "{exit:?}");
-        assert_eq!(core.status().errors, Default::default(), "{}", core.name());
+    for r in &out {
+        assert!(
+            matches!(r.exit, DriverExit::Done | DriverExit::Stopped),
+            "{:?}",
+            r.exit
+        );
+        assert_eq!(
+            r.core.status().errors,
+            Default::default(),
+            "{}",
+            r.core.name()
+        );
     }
-    let App::M(m) = &out[0].2 else { panic!() };
+    let App::M(m) = &out[0].app else { panic!() };
     assert_eq!(m.seen.len(), 200);
     // Command of tick c goes out in frame c+1, the station answers cmd+1 in frame c+2, which
     // the master has latched at its tick c+3: feedback at tick c = (c-3)+1.
@@ -105,7 +115,7 @@ fn lockstep_loopback_ring_round_trips_commands_every_cycle() {
         assert_eq!(u64::from(fb), c - 2, "cycle {c}");
     }
     // Every member ran every cycle on the sync packet (no holdover).
-    let s = out[1].1.status();
+    let s = out[1].core.status();
     assert!(s.locked);
     assert_eq!(s.holdover_cycles, 0);
     assert!(s.sync_count >= 199);
@@ -116,12 +126,37 @@ fn lockstep_ring_over_zenoh_sessions_locks_and_round_trips() {
     let cluster = format!("rt-test-{}", std::process::id());
     let r = LocalRing::start(ring(300), LocalTransport::Zenoh { cluster }).unwrap();
     let out = r.join(Duration::from_secs(60));
-    let App::M(m) = &out[0].2 else { panic!() };
+    let App::M(m) = &out[0].app else { panic!() };
     assert_eq!(m.seen.len(), 300);
     // After the links are up, the relation of the loopback test holds for every later cycle.
     let tail: Vec<_> = m.seen.iter().rev().take(50).collect();
     for &&(c, fb) in &tail {
         assert_eq!(u64::from(fb), c - 2, "cycle {c}");
     }
-    assert!(out[0].1.status().locked);
+    assert!(out[0].core.status().locked);
+}
+
+#[test]
+fn realtime_loopback_ring_runs_locked_without_errors() {
+    let mut members = ring(400);
+    for (_, _, d) in &mut members {
+        d.clock = ClockMode::Realtime;
+    }
+    // Followers' holdover period: 1.5 nominal periods, as the process runtime sets it.
+    let period = 1_000_000_000 / 2258;
+    for (c, _, _) in members.iter_mut().skip(1) {
+        c.period_ns = period * 3 / 2;
+    }
+    let r = LocalRing::start(members, LocalTransport::Loopback).unwrap();
+    let out = r.join(Duration::from_secs(20));
+    let App::M(m) = &out[0].app else { panic!() };
+    assert_eq!(m.seen.len(), 400);
+    assert!(m.seen.iter().any(|&(_, fb)| fb > 0), "feedback came back");
+    for r in &out {
+        let s = r.core.status();
+        assert_eq!(
+            s.errors.byte_violation + s.errors.checksum + s.errors.underrun,
+            0
+        );
+    }
 }

@@ -26,7 +26,11 @@ impl LoopbackRing {
             links.push((tx, Arc::new(AtomicU64::new(0))));
             receivers.push(Some(rx));
         }
-        let cut = Arc::new((0..n).map(|_| std::sync::atomic::AtomicBool::new(false)).collect());
+        let cut = Arc::new(
+            (0..n)
+                .map(|_| std::sync::atomic::AtomicBool::new(false))
+                .collect(),
+        );
         LoopbackRing {
             links,
             receivers: Mutex::new(receivers),
@@ -49,7 +53,9 @@ impl LoopbackRing {
     pub fn member(&self, k: usize) -> Result<(LoopbackTx, LinkRx), TransportError> {
         let n = self.links.len();
         if k >= n {
-            return Err(TransportError::Io(format!("member {k} out of range 0..{n}")));
+            return Err(TransportError::Io(format!(
+                "member {k} out of range 0..{n}"
+            )));
         }
         let up = upstream_of(k, n);
         let rx = self

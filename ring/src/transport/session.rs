@@ -34,7 +34,11 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
     };
     set(&mut c, "listen/endpoints", json_list(&listen))?;
     set(&mut c, "connect/endpoints", json_list(&opts.connect))?;
-    set(&mut c, "timestamping/enabled", "{ router: false, peer: false, client: false }".into())?;
+    set(
+        &mut c,
+        "timestamping/enabled",
+        "{ router: false, peer: false, client: false }".into(),
+    )?;
     Ok(c)
 }
 

@@ -52,7 +52,9 @@ pub fn join(
     n: usize,
 ) -> Result<(ZenohTx, LinkRx, ZenohRxGuard), TransportError> {
     if n == 0 || k >= n {
-        return Err(TransportError::Io(format!("member {k} out of range 0..{n}")));
+        return Err(TransportError::Io(format!(
+            "member {k} out of range 0..{n}"
+        )));
     }
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))

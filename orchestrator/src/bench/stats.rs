@@ -1,0 +1,121 @@
+//! Send-time logs and the statistics the ring benchmark reports.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// One member's send log: (ring cycle, ns since the bench epoch) per frame sent.
+pub type SendLog = Arc<Mutex<Vec<(u64, u64)>>>;
+
+/// A fresh log with room for `cap` entries.
+pub fn new_log(cap: usize) -> SendLog {
+    Arc::new(Mutex::new(Vec::with_capacity(cap)))
+}
+
+/// ns since `epoch`.
+pub fn since(epoch: Instant) -> u64 {
+    u64::try_from(epoch.elapsed().as_nanos()).unwrap_or(u64::MAX)
+}
+
+/// Percentile `p` (0–100) of sorted values (nearest rank); 0 when empty.
+pub fn percentile(sorted: &[u64], p: f64) -> u64 {
+    if sorted.is_empty() {
+        return 0;
+    }
+    let rank = ((p / 100.0) * sorted.len() as f64).ceil() as usize;
+    sorted[rank.clamp(1, sorted.len()) - 1]
+}
+
+/// Cycles every member sent in: cycle → send time per member (first send of that cycle).
+pub fn complete_cycles(logs: &[Vec<(u64, u64)>]) -> BTreeMap<u64, Vec<u64>> {
+    let n = logs.len();
+    let mut by_cycle: BTreeMap<u64, Vec<Option<u64>>> = BTreeMap::new();
+    for (k, log) in logs.iter().enumerate() {
+        for &(c, t) in log {
+            let row = by_cycle.entry(c).or_insert_with(|| vec![None; n]);
+            if let Some(slot @ None) = row.get_mut(k) {
+                *slot = Some(t);
+            }
+        }
+    }
+    by_cycle
+        .into_iter()
+        .filter_map(|(c, row)| row.into_iter().collect::<Option<Vec<u64>>>().map(|r| (c, r)))
+        .collect()
+}
+
+/// Per-hop latencies (member k's send → member k+1's send of the same cycle), skipping the
+/// first `skip` complete cycles (warm-up), sorted.
+pub fn hop_latencies(cycles: &BTreeMap<u64, Vec<u64>>, skip: usize) -> Vec<u64> {
+    let mut v: Vec<u64> = cycles
+        .values()
+        .skip(skip)
+        .flat_map(|row| row.windows(2).map(|w| w[1].saturating_sub(w[0])))
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// Cycles per second of the sync master (member 0) over its log after `skip` entries.
+pub fn cycles_per_second(log: &[(u64, u64)], skip: usize) -> f64 {
+    let l = log.get(skip..).unwrap_or(&[]);
+    match (l.first(), l.last()) {
+        (Some(&(c0, t0)), Some(&(c1, t1))) if t1 > t0 && c1 > c0 => (c1 - c0) as f64 * 1e9 / (t1 - t0) as f64,
+        _ => 0.0,
+    }
+}
+
+/// Realtime lateness of member `k`: its send time of cycle c minus the ideal schedule
+/// `origin + c·period`, where the origin is the sync master's least-late cycle. Sorted.
+pub fn lateness(cycles: &BTreeMap<u64, Vec<u64>>, k: usize, period_ns: f64, skip: usize) -> Vec<u64> {
+    let ideal = |c: u64| c as f64 * period_ns;
+    let origin = cycles
+        .iter()
+        .skip(skip)
+        .filter_map(|(c, row)| row.first().map(|t| *t as f64 - ideal(*c)))
+        .fold(f64::INFINITY, f64::min);
+    let mut v: Vec<u64> = cycles
+        .iter()
+        .skip(skip)
+        .filter_map(|(c, row)| row.get(k).map(|t| (*t as f64 - origin - ideal(*c)).max(0.0) as u64))
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// µs with one decimal.
+pub fn us(ns: u64) -> String {
+    format!("{:.1}", ns as f64 / 1000.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_are_nearest_rank() {
+        let v: Vec<u64> = (1..=100).collect();
+        assert_eq!(percentile(&v, 50.0), 50);
+        assert_eq!(percentile(&v, 99.0), 99);
+        assert_eq!(percentile(&v, 99.9), 100);
+        assert_eq!(percentile(&[], 50.0), 0);
+        assert_eq!(percentile(&[7], 0.0), 7);
+    }
+
+    #[test]
+    fn hops_and_rates_from_logs() {
+        // 3 members, cycles 1..=3, 10 µs per hop, 100 µs per cycle; member 2 missed cycle 2.
+        let logs = vec![
+            vec![(1, 0), (2, 100_000), (3, 200_000)],
+            vec![(1, 10_000), (2, 110_000), (3, 210_000)],
+            vec![(1, 20_000), (3, 220_000)],
+        ];
+        let cycles = complete_cycles(&logs);
+        assert_eq!(cycles.keys().copied().collect::<Vec<_>>(), [1, 3]);
+        assert_eq!(hop_latencies(&cycles, 0), [10_000; 4]);
+        assert_eq!(cycles_per_second(&logs[0], 0), 10_000.0);
+        // Realtime: period 100 µs, member 1 is 10 µs late, sync master on time.
+        assert_eq!(lateness(&cycles, 0, 100_000.0, 0), [0, 0]);
+        assert_eq!(lateness(&cycles, 1, 100_000.0, 0), [10_000, 10_000]);
+    }
+}
