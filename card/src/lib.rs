@@ -13,5 +13,6 @@
 pub mod host;
 pub mod interp;
 pub mod lang;
+pub mod motion;
 pub mod runtime;
 pub mod state;

@@ -23,7 +23,9 @@ pub struct Cli {
 impl Cli {
     /// The cluster name given, or the default.
     pub fn cluster_name(&self) -> String {
-        self.cluster.clone().unwrap_or_else(|| DEFAULT_CLUSTER.to_string())
+        self.cluster
+            .clone()
+            .unwrap_or_else(|| DEFAULT_CLUSTER.to_string())
     }
 }
 
@@ -151,12 +153,25 @@ mod tests {
     #[test]
     fn up_parses_options() {
         let cli = Cli::try_parse_from([
-            "mcc", "up", "--cluster", "t1", "--cards", "3", "--stations", "5", "--clock",
-            "lockstep", "--rate", "1000", "--detach",
+            "mcc",
+            "up",
+            "--cluster",
+            "t1",
+            "--cards",
+            "3",
+            "--stations",
+            "5",
+            "--clock",
+            "lockstep",
+            "--rate",
+            "1000",
+            "--detach",
         ])
         .unwrap();
         assert_eq!(cli.cluster_name(), "t1");
-        let Command::Up(up) = cli.command else { panic!() };
+        let Command::Up(up) = cli.command else {
+            panic!()
+        };
         assert_eq!((up.cards, up.stations), (Some(3), Some(5)));
         assert_eq!(up.clock, Some(ClockMode::Lockstep));
         assert_eq!(up.rate, Some(1000.0));

@@ -23,7 +23,9 @@ pub struct Attached {
 
 impl std::fmt::Debug for Attached {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Attached").field("info", &self.info).finish_non_exhaustive()
+        f.debug_struct("Attached")
+            .field("info", &self.info)
+            .finish_non_exhaustive()
     }
 }
 
@@ -31,21 +33,38 @@ impl std::fmt::Debug for Attached {
 pub fn attach(name: &str) -> Result<Attached> {
     let rd = RunDir::for_cluster(name)?;
     let Some(info) = rd.running() else {
-        bail!("cluster {name:?} is not running (no live supervisor in {})", rd.dir.display());
+        bail!(
+            "cluster {name:?} is not running (no live supervisor in {})",
+            rd.dir.display()
+        );
     };
     let cfg = ClusterConfig::from_file(&rd.config_path())?;
     let endpoint = info
         .endpoint
         .clone()
         .ok_or_else(|| anyhow!("cluster {name:?} is still starting (no endpoint yet)"))?;
-    let session = ctl::connect(&endpoint, cfg.ring.order.len() + 1, Duration::from_millis(1500))?;
-    Ok(Attached { rd, info, cfg, session })
+    let session = ctl::connect(
+        &endpoint,
+        cfg.ring.order.len() + 1,
+        Duration::from_millis(1500),
+    )?;
+    Ok(Attached {
+        rd,
+        info,
+        cfg,
+        session,
+    })
 }
 
 /// `mcc status [--json]`.
 pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
     let a = attach(cluster)?;
-    let st = ctl::query_statuses(&a.session, &a.cfg, Duration::from_millis(700), Duration::from_millis(1500));
+    let st = ctl::query_statuses(
+        &a.session,
+        &a.cfg,
+        Duration::from_millis(700),
+        Duration::from_millis(1500),
+    );
     let doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);

@@ -49,7 +49,10 @@ pub fn query_text(
             Ok(sample) => {
                 let bytes = sample.payload();
                 if bytes.len() > MAX_REPLY {
-                    return Err(anyhow!("query {key}: reply too large ({} bytes)", bytes.len()));
+                    return Err(anyhow!(
+                        "query {key}: reply too large ({} bytes)",
+                        bytes.len()
+                    ));
                 }
                 let text = bytes
                     .try_to_string()
@@ -57,11 +60,18 @@ pub fn query_text(
                 Ok(text.into_owned())
             }
             Err(e) => {
-                let text = e.payload().try_to_string().map(|s| s.into_owned()).unwrap_or_default();
+                let text = e
+                    .payload()
+                    .try_to_string()
+                    .map(|s| s.into_owned())
+                    .unwrap_or_default();
                 Err(anyhow!("query {key}: error reply: {text}"))
             }
         },
-        Err(_) => Err(anyhow!("query {key}: no reply within {} ms", timeout.as_millis())),
+        Err(_) => Err(anyhow!(
+            "query {key}: no reply within {} ms",
+            timeout.as_millis()
+        )),
     }
 }
 
@@ -109,8 +119,12 @@ pub fn query_statuses(
             if sample.payload().len() > MAX_REPLY {
                 continue;
             }
-            let Ok(text) = sample.payload().try_to_string() else { continue };
-            if let (Ok(st), Some(slot)) = (serde_json::from_str::<MemberStatus>(&text), out.get_mut(i)) {
+            let Ok(text) = sample.payload().try_to_string() else {
+                continue;
+            };
+            if let (Ok(st), Some(slot)) =
+                (serde_json::from_str::<MemberStatus>(&text), out.get_mut(i))
+            {
                 *slot = Some(st);
             }
         }

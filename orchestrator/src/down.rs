@@ -39,7 +39,10 @@ pub fn stop(rd: &RunDir, timeout: Duration, verbose: bool) -> Result<usize> {
     let me = std::process::id();
     if info.pid != me && sys::pid_alive(info.pid) {
         if verbose {
-            eprintln!("mcc: stopping cluster {} (supervisor pid {})", rd.cluster, info.pid);
+            eprintln!(
+                "mcc: stopping cluster {} (supervisor pid {})",
+                rd.cluster, info.pid
+            );
         }
         let _ = sys::signal(info.pid, sys::SIGTERM);
         if !wait_dead(info.pid, timeout + Duration::from_secs(3)) {
@@ -59,7 +62,10 @@ pub fn stop(rd: &RunDir, timeout: Duration, verbose: bool) -> Result<usize> {
             break;
         }
         for m in &left {
-            eprintln!("mcc: member {} (pid {}) still running; signalling", m.name, m.pid);
+            eprintln!(
+                "mcc: member {} (pid {}) still running; signalling",
+                m.name, m.pid
+            );
             let _ = sys::signal(m.pid, sig);
         }
         for m in &left {

@@ -42,7 +42,12 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
     let (targets, req): (Option<String>, FaultRequest) = match args.words.as_slice() {
         [clear] if clear == "clear" => (None, FaultRequest::Clear),
         [clear, member] if clear == "clear" => (Some(member.clone()), FaultRequest::Clear),
-        [member, kind] => (Some(member.clone()), FaultRequest::Inject { spec: fault_spec(kind, args)? }),
+        [member, kind] => (
+            Some(member.clone()),
+            FaultRequest::Inject {
+                spec: fault_spec(kind, args)?,
+            },
+        ),
         [member] => bail!(
             "missing fault kind after {member:?} (one of: {})",
             mcc_ring::fault::FAULT_WORDS
@@ -50,7 +55,10 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
         _ => bail!("usage: mcc fault MEMBER KIND [options] | mcc fault clear [MEMBER]"),
     };
     if matches!(req, FaultRequest::Clear)
-        && (args.cycles.is_some() || args.probability.is_some() || args.seed.is_some() || args.delay.is_some())
+        && (args.cycles.is_some()
+            || args.probability.is_some()
+            || args.seed.is_some()
+            || args.delay.is_some())
     {
         bail!("`mcc fault clear` takes no --cycles/--probability/--seed/--delay");
     }
@@ -71,7 +79,12 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
     let mut failed = 0;
     for m in &members {
         let key = ctl_key(&a.cfg.cluster, m, "fault");
-        match ctl::query_ctl(&a.session, &key, Some(payload.clone()), Duration::from_secs(2)) {
+        match ctl::query_ctl(
+            &a.session,
+            &key,
+            Some(payload.clone()),
+            Duration::from_secs(2),
+        ) {
             Ok(r) if r.ok => println!("{m}: {}", r.message),
             Ok(r) => {
                 failed += 1;
@@ -84,7 +97,10 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
         }
     }
     if failed > 0 {
-        bail!("{failed} of {} member(s) did not apply the request", members.len());
+        bail!(
+            "{failed} of {} member(s) did not apply the request",
+            members.len()
+        );
     }
     Ok(())
 }
@@ -94,16 +110,39 @@ mod tests {
     use super::*;
 
     fn args(delay: Option<u64>) -> FaultArgs {
-        FaultArgs { words: vec![], cycles: Some(10), probability: Some(0.5), seed: Some(7), delay }
+        FaultArgs {
+            words: vec![],
+            cycles: Some(10),
+            probability: Some(0.5),
+            seed: Some(7),
+            delay,
+        }
     }
 
     #[test]
     fn fault_specs_from_cli_words() {
         let s = fault_spec("cut", &args(None)).unwrap();
-        assert_eq!(s, FaultSpec { kind: FaultKind::Cut, cycles: Some(10), probability: 0.5, seed: 7 });
-        assert_eq!(fault_spec("delay", &args(Some(3))).unwrap().kind, FaultKind::DelayCycles(3));
-        assert_eq!(fault_spec("delay-us", &args(Some(250))).unwrap().kind, FaultKind::DelayMicros(250));
-        assert_eq!(fault_spec("delay=4", &args(None)).unwrap().kind, FaultKind::DelayCycles(4));
+        assert_eq!(
+            s,
+            FaultSpec {
+                kind: FaultKind::Cut,
+                cycles: Some(10),
+                probability: 0.5,
+                seed: 7
+            }
+        );
+        assert_eq!(
+            fault_spec("delay", &args(Some(3))).unwrap().kind,
+            FaultKind::DelayCycles(3)
+        );
+        assert_eq!(
+            fault_spec("delay-us", &args(Some(250))).unwrap().kind,
+            FaultKind::DelayMicros(250)
+        );
+        assert_eq!(
+            fault_spec("delay=4", &args(None)).unwrap().kind,
+            FaultKind::DelayCycles(4)
+        );
     }
 
     #[test]
@@ -114,7 +153,10 @@ mod tests {
         assert!(fault_spec("cut", &args(Some(3))).is_err());
         let mut a = args(None);
         a.probability = Some(1.5);
-        assert!(fault_spec("corrupt", &a).unwrap_err().to_string().contains("1.5"));
+        assert!(fault_spec("corrupt", &a)
+            .unwrap_err()
+            .to_string()
+            .contains("1.5"));
         a.probability = None;
         a.cycles = Some(0);
         assert!(fault_spec("corrupt", &a).is_err());

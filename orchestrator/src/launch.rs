@@ -17,7 +17,10 @@ pub fn sibling_binary(name: &str) -> PathBuf {
     if let Some(dir) = std::env::var_os("MCC_BIN_DIR").filter(|d| !d.is_empty()) {
         return PathBuf::from(dir).join(name);
     }
-    if let Some(dir) = std::env::current_exe().ok().and_then(|p| p.parent().map(PathBuf::from)) {
+    if let Some(dir) = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.parent().map(PathBuf::from))
+    {
         let p = dir.join(name);
         if p.is_file() {
             return p;

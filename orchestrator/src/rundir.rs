@@ -156,9 +156,14 @@ impl RunDir {
         {
             Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                bail!("cluster {:?} is being started by another `mcc up`", self.cluster)
+                bail!(
+                    "cluster {:?} is being started by another `mcc up`",
+                    self.cluster
+                )
             }
-            Err(e) => return Err(e).context(format!("cannot write {}", self.info_path().display())),
+            Err(e) => {
+                return Err(e).context(format!("cannot write {}", self.info_path().display()))
+            }
         };
         f.write_all(text.as_bytes())?;
         Ok(())
@@ -209,7 +214,8 @@ fn remove_if_exists(p: &Path) -> Result<()> {
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("tmp");
     {
-        let mut f = fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+        let mut f =
+            fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
         f.write_all(bytes)?;
         f.sync_all()?;
     }
@@ -221,8 +227,12 @@ mod tests {
     use super::*;
 
     fn temp_run_dir(tag: &str) -> RunDir {
-        let dir = std::env::temp_dir().join(format!("mcc-rundir-test-{}-{tag}", std::process::id()));
-        RunDir { dir, cluster: tag.into() }
+        let dir =
+            std::env::temp_dir().join(format!("mcc-rundir-test-{}-{tag}", std::process::id()));
+        RunDir {
+            dir,
+            cluster: tag.into(),
+        }
     }
 
     #[test]

@@ -134,7 +134,12 @@ pub struct SupervisorRow {
 pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
     let station = cfg.stations.iter().map(|s| u64::from(s.check.period));
     let cards = cfg.cards.iter().filter_map(|c| {
-        let v = c.ivars.iter().find(|(k, _)| k.eq_ignore_ascii_case("I1001"))?.1.as_f64();
+        let v = c
+            .ivars
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case("I1001"))?
+            .1
+            .as_f64();
         (v >= 1.0).then_some(v as u64)
     });
     let period = station.chain(cards).min().unwrap_or(8);
@@ -145,7 +150,11 @@ pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
 /// member that is dead ends the walk (`"<dead> → <next>"`: nothing leaves it), else the first
 /// whose last received frame lags its current cycle by more than `threshold` names
 /// `"<upstream> → <member>"` (its upstream, visited before, is fine).
-pub fn broken_link(cfg: &ClusterConfig, st: &[Option<MemberStatus>], threshold: u64) -> Option<String> {
+pub fn broken_link(
+    cfg: &ClusterConfig,
+    st: &[Option<MemberStatus>],
+    threshold: u64,
+) -> Option<String> {
     let order = &cfg.ring.order;
     let n = order.len();
     if n == 0 || st.len() != n {
@@ -157,7 +166,11 @@ pub fn broken_link(cfg: &ClusterConfig, st: &[Option<MemberStatus>], threshold: 
         let idx = (sm + k) % n;
         let up = (idx + n - 1) % n;
         let Some(s) = st.get(idx)? else {
-            return Some(format!("{} → {}", order.get(idx)?, order.get((idx + 1) % n)?));
+            return Some(format!(
+                "{} → {}",
+                order.get(idx)?,
+                order.get((idx + 1) % n)?
+            ));
         };
         let reference = s.cycle.max(now);
         let lag = match s.last_rx_cycle {
@@ -198,7 +211,11 @@ pub fn build(
             .map(|m| m.pid)
             .or_else(|| s.map(|s| s.pid))
     };
-    let status_of = |name: &str| cfg.position(name).and_then(|i| st.get(i)).and_then(Option::as_ref);
+    let status_of = |name: &str| {
+        cfg.position(name)
+            .and_then(|i| st.get(i))
+            .and_then(Option::as_ref)
+    };
     let members: Vec<MemberRow> = cfg
         .ring
         .order
@@ -305,7 +322,10 @@ pub fn render_table(s: &ClusterStatus) -> String {
         s.rate,
         r.name,
         r.cycle,
-        r.broken_link.as_ref().map(|l| format!("  broken link: {l}")).unwrap_or_default()
+        r.broken_link
+            .as_ref()
+            .map(|l| format!("  broken link: {l}"))
+            .unwrap_or_default()
     );
     let _ = writeln!(
         o,

@@ -24,7 +24,11 @@ fn healthy(cfg: &ClusterConfig, cycle: u64) -> Vec<Option<MemberStatus>> {
 fn info() -> SupervisorInfo {
     let mut i = SupervisorInfo::starting(42, "mcc");
     i.endpoint = Some("tcp/127.0.0.1:7000".into());
-    i.members.push(MemberProc { name: "card1".into(), kind: "card".into(), pid: 777 });
+    i.members.push(MemberProc {
+        name: "card1".into(),
+        kind: "card".into(),
+        pid: 777,
+    });
     i
 }
 
@@ -48,20 +52,29 @@ fn cut_is_localised_to_the_link_after_the_cutting_member() {
     for i in [2, 3, 0] {
         st[i].as_mut().unwrap().last_rx_cycle = Some(1000);
     }
-    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("station0 → card1"));
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("station0 → card1")
+    );
     let doc = build(&cfg, &info(), "/run/x", &st);
     assert!(doc.ring.faulted);
     assert_eq!(doc.ring.broken_link.as_deref(), Some("station0 → card1"));
     // The link back into the sync master.
     let mut st = healthy(&cfg, 3000);
     st[0].as_mut().unwrap().last_rx_cycle = Some(10);
-    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("station1 → card0"));
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("station1 → card0")
+    );
     // The first link out of the sync master, and a member that never received anything.
     let mut st = healthy(&cfg, 3000);
     for s in st.iter_mut().skip(1) {
         s.as_mut().unwrap().last_rx_cycle = None;
     }
-    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card0 → station0"));
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("card0 → station0")
+    );
 }
 
 #[test]
@@ -71,7 +84,10 @@ fn small_lag_within_threshold_is_not_a_break() {
     st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 32);
     assert_eq!(broken_link(&cfg, &st, 32), None);
     st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 33);
-    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card1 → station1"));
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("card1 → station1")
+    );
 }
 
 #[test]
@@ -79,7 +95,10 @@ fn dead_member_breaks_the_link_leaving_it() {
     let cfg = ClusterConfig::default_cluster(2, 2);
     let mut st = healthy(&cfg, 3000);
     st[2] = None;
-    assert_eq!(broken_link(&cfg, &st, 32).as_deref(), Some("card1 → station1"));
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("card1 → station1")
+    );
     let doc = build(&cfg, &info(), "/run/x", &st);
     assert!(!doc.ring.locked);
     let card1 = &doc.members[2];
@@ -106,9 +125,21 @@ fn json_document_has_the_contract_fields() {
     let mut st = healthy(&cfg, 77);
     let card0 = st[0].as_mut().unwrap();
     card0.extra.insert("ascii".into(), serde_json::json!(5001));
-    card0.extra.insert("pmac_eth".into(), serde_json::json!("127.0.0.1:5002"));
+    card0
+        .extra
+        .insert("pmac_eth".into(), serde_json::json!("127.0.0.1:5002"));
     let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st)).unwrap();
-    for k in ["cluster", "clock", "rate", "ring", "members", "cards", "stations", "daisy_chain", "emcl_bus"] {
+    for k in [
+        "cluster",
+        "clock",
+        "rate",
+        "ring",
+        "members",
+        "cards",
+        "stations",
+        "daisy_chain",
+        "emcl_bus",
+    ] {
         assert!(doc.get(k).is_some(), "missing {k}");
     }
     assert_eq!(doc["clock"], "realtime");
@@ -122,7 +153,13 @@ fn json_document_has_the_contract_fields() {
     assert_eq!(m["kind"], "station");
     assert_eq!(m["ring_position"], 1);
     assert_eq!(m["sync_count"], 77);
-    for k in ["byte_violation", "checksum", "overrun", "underrun", "bad_frames"] {
+    for k in [
+        "byte_violation",
+        "checksum",
+        "overrun",
+        "underrun",
+        "bad_frames",
+    ] {
         assert_eq!(m["errors"][k], 0, "errors.{k}");
     }
     assert_eq!(doc["members"][0]["sync_master"], true);
@@ -130,7 +167,10 @@ fn json_document_has_the_contract_fields() {
     assert_eq!(doc["cards"][0]["pmac_eth"], 5002);
     assert_eq!(doc["cards"][1]["number"], 1);
     assert_eq!(doc["cards"][1]["ascii"], serde_json::Value::Null);
-    assert_eq!(doc["stations"][1]["nodes"], serde_json::json!([0, 1, 4, 5, 8, 9, 12, 13]));
+    assert_eq!(
+        doc["stations"][1]["nodes"],
+        serde_json::json!([0, 1, 4, 5, 8, 9, 12, 13])
+    );
     let table = render_table(&build(&cfg, &info(), "/run/x", &st));
     assert!(table.contains("card0*"), "{table}");
     assert!(table.contains("ascii 127.0.0.1:5001"), "{table}");

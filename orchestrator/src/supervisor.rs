@@ -36,7 +36,9 @@ pub struct Supervisor {
 
 impl std::fmt::Debug for Supervisor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Supervisor").field("info", &self.info).finish_non_exhaustive()
+        f.debug_struct("Supervisor")
+            .field("info", &self.info)
+            .finish_non_exhaustive()
     }
 }
 
@@ -76,7 +78,11 @@ impl Supervisor {
                         kind: kind.into(),
                         pid: child.id(),
                     });
-                    sup.children.push(Running { name: name.clone(), child, exited: None });
+                    sup.children.push(Running {
+                        name: name.clone(),
+                        child,
+                        exited: None,
+                    });
                 }
                 Err(e) => {
                     sup.shutdown(Duration::from_secs(3));
@@ -115,7 +121,11 @@ impl Supervisor {
         for r in self.children.iter_mut().filter(|r| r.exited.is_none()) {
             if let Ok(Some(status)) = r.child.try_wait() {
                 r.exited = Some(status);
-                out.push(format!("member {} (pid {}) exited: {status}", r.name, r.child.id()));
+                out.push(format!(
+                    "member {} (pid {}) exited: {status}",
+                    r.name,
+                    r.child.id()
+                ));
             }
         }
         out
@@ -133,7 +143,10 @@ impl Supervisor {
             .filter(|r| r.exited.is_none())
             .map(|r| {
                 let key = ctl_key(&self.cfg.cluster, &r.name, "shutdown");
-                self.session.get(key).timeout(Duration::from_millis(500)).wait()
+                self.session
+                    .get(key)
+                    .timeout(Duration::from_millis(500))
+                    .wait()
             })
             .collect();
         for replies in gets.into_iter().flatten() {
@@ -146,8 +159,12 @@ impl Supervisor {
         let half = timeout / 2;
         self.wait_all(half);
         for sig in [sys::SIGTERM, sys::SIGKILL] {
-            let live: Vec<u32> =
-                self.children.iter().filter(|r| r.exited.is_none()).map(|r| r.child.id()).collect();
+            let live: Vec<u32> = self
+                .children
+                .iter()
+                .filter(|r| r.exited.is_none())
+                .map(|r| r.child.id())
+                .collect();
             if live.is_empty() {
                 break;
             }
@@ -187,7 +204,10 @@ fn open_endpoint(cfg: &ClusterConfig) -> Result<(zenoh::Session, String)> {
         let endpoint = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
         let mut listen = vec![endpoint.clone()];
         listen.extend(cfg.zenoh.listen.iter().cloned());
-        match open_session(&SessionOptions { listen, connect: cfg.zenoh.connect.clone() }) {
+        match open_session(&SessionOptions {
+            listen,
+            connect: cfg.zenoh.connect.clone(),
+        }) {
             Ok(s) => return Ok((s, endpoint)),
             Err(e) => last = e.to_string(),
         }

@@ -83,7 +83,15 @@ pub fn setsid_in_child() -> io::Result<()> {
 /// Child side, between fork and exec: get SIGTERM when the spawning thread's process dies.
 pub fn parent_death_signal_in_child() -> io::Result<()> {
     // SAFETY: prctl(PR_SET_PDEATHSIG, sig) is async-signal-safe and touches no memory.
-    let rc = unsafe { libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM as libc::c_ulong, 0, 0, 0) };
+    let rc = unsafe {
+        libc::prctl(
+            libc::PR_SET_PDEATHSIG,
+            libc::SIGTERM as libc::c_ulong,
+            0,
+            0,
+            0,
+        )
+    };
     if rc < 0 {
         return Err(io::Error::last_os_error());
     }
@@ -118,7 +126,10 @@ mod tests {
 
     #[test]
     fn reaped_child_is_dead_and_zombie_is_dead() {
-        let mut child = std::process::Command::new("sleep").arg("5").spawn().unwrap();
+        let mut child = std::process::Command::new("sleep")
+            .arg("5")
+            .spawn()
+            .unwrap();
         let pid = child.id();
         assert!(pid_alive(pid));
         assert!(signal(pid, SIGKILL).unwrap());

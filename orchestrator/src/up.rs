@@ -60,8 +60,16 @@ pub fn wait_locked(
     let start = Instant::now();
     let mut last: Option<usize> = None;
     loop {
-        let st = ctl::query_statuses(session, cfg, Duration::from_millis(300), Duration::from_millis(600));
-        let locked = st.iter().filter(|s| s.as_ref().is_some_and(|s| s.locked)).count();
+        let st = ctl::query_statuses(
+            session,
+            cfg,
+            Duration::from_millis(300),
+            Duration::from_millis(600),
+        );
+        let locked = st
+            .iter()
+            .filter(|s| s.as_ref().is_some_and(|s| s.locked))
+            .count();
         if last != Some(locked) {
             let waiting: Vec<&str> = cfg
                 .ring
@@ -75,7 +83,11 @@ pub fn wait_locked(
                 "mcc: ring {}: {locked}/{} members locked{}",
                 cfg.ring.name,
                 st.len(),
-                if waiting.is_empty() { String::new() } else { format!(" (waiting for {})", waiting.join(", ")) }
+                if waiting.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (waiting for {})", waiting.join(", "))
+                }
             );
             last = Some(locked);
         }
@@ -92,7 +104,12 @@ pub fn wait_locked(
     }
 }
 
-fn print_ready(rd: &RunDir, cfg: &ClusterConfig, info: &crate::rundir::SupervisorInfo, st: &[Option<MemberStatus>]) {
+fn print_ready(
+    rd: &RunDir,
+    cfg: &ClusterConfig,
+    info: &crate::rundir::SupervisorInfo,
+    st: &[Option<MemberStatus>],
+) {
     let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
     println!(
         "cluster {} up: {} members locked on ring {} at cycle {} ({}, {} Hz)",
@@ -103,7 +120,10 @@ fn print_ready(rd: &RunDir, cfg: &ClusterConfig, info: &crate::rundir::Superviso
         cfg.clock.as_str(),
         cfg.rate_hz
     );
-    let port = |p: Option<u16>| p.map(|p| format!("127.0.0.1:{p}")).unwrap_or_else(|| "-".into());
+    let port = |p: Option<u16>| {
+        p.map(|p| format!("127.0.0.1:{p}"))
+            .unwrap_or_else(|| "-".into())
+    };
     for c in &doc.cards {
         println!(
             "  {} (card {}, {}, pid {}): ascii {}  pmac_eth {}",
@@ -117,9 +137,15 @@ fn print_ready(rd: &RunDir, cfg: &ClusterConfig, info: &crate::rundir::Superviso
     }
     for s in &doc.stations {
         let pid = s.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into());
-        println!("  {} (station, master {}, pid {pid}): nodes {:?}", s.name, s.master, s.nodes);
+        println!(
+            "  {} (station, master {}, pid {pid}): nodes {:?}",
+            s.name, s.master, s.nodes
+        );
     }
-    println!("  zenoh endpoint {}", info.endpoint.as_deref().unwrap_or("-"));
+    println!(
+        "  zenoh endpoint {}",
+        info.endpoint.as_deref().unwrap_or("-")
+    );
     println!("  run dir {}", rd.dir.display());
 }
 
@@ -144,7 +170,10 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
     let fail = |rd: &RunDir, e: anyhow::Error| -> Result<()> {
         let tail = rd.log_tail("supervisor", 10);
         let _ = down::stop(rd, STOP_TIMEOUT, false);
-        Err(e.context(format!("cluster {} failed to start; supervisor log:\n{tail}", rd.cluster)))
+        Err(e.context(format!(
+            "cluster {} failed to start; supervisor log:\n{tail}",
+            rd.cluster
+        )))
     };
     let pid = match launch::spawn_supervisor(rd) {
         Ok(p) => p,
@@ -156,12 +185,18 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
         match rd.read_info() {
             Some(i) if i.pid == pid && i.phase == "running" => break i,
             Some(i) if i.pid == pid && i.phase == "failed" => {
-                return fail(rd, anyhow!(i.message.unwrap_or_else(|| "supervisor failed".into())))
+                return fail(
+                    rd,
+                    anyhow!(i.message.unwrap_or_else(|| "supervisor failed".into())),
+                )
             }
             _ => {}
         }
         if !sys::pid_alive(pid) {
-            return fail(rd, anyhow!("the supervisor (pid {pid}) exited during start-up"));
+            return fail(
+                rd,
+                anyhow!("the supervisor (pid {pid}) exited during start-up"),
+            );
         }
         if Instant::now() > deadline {
             return fail(rd, anyhow!("the supervisor did not start within 20 s"));
@@ -180,7 +215,14 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
         info.members
             .iter()
             .find(|m| !sys::pid_alive(m.pid))
-            .map(|m| format!("member {} (pid {}) exited; log:\n{}", m.name, m.pid, rd.log_tail(&m.name, 10)))
+            .map(|m| {
+                format!(
+                    "member {} (pid {}) exited; log:\n{}",
+                    m.name,
+                    m.pid,
+                    rd.log_tail(&m.name, 10)
+                )
+            })
     };
     let st = match wait_locked(&session, cfg, timeout, dead) {
         Ok(st) => st,
@@ -237,7 +279,11 @@ fn up_foreground(rd: RunDir, cfg: ClusterConfig, timeout: Duration) -> Result<()
     Ok(())
 }
 
-fn run_until_stopped(sup: &mut Supervisor, signals: &mpsc::Receiver<String>, eof: Option<&mpsc::Receiver<()>>) {
+fn run_until_stopped(
+    sup: &mut Supervisor,
+    signals: &mpsc::Receiver<String>,
+    eof: Option<&mpsc::Receiver<()>>,
+) {
     loop {
         match signals.recv_timeout(Duration::from_millis(200)) {
             Ok(sig) => {
@@ -272,7 +318,10 @@ pub fn cmd_supervise(cluster: &str) -> Result<()> {
             return Err(e);
         }
     };
-    eprintln!("mcc supervise: cluster {cluster} running (pid {})", std::process::id());
+    eprintln!(
+        "mcc supervise: cluster {cluster} running (pid {})",
+        std::process::id()
+    );
     run_until_stopped(&mut sup, &signals, None);
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");

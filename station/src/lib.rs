@@ -1,7 +1,12 @@
 //! mcc-station: a MACRO station on the ring.
 //!
-//! For now a station answers each activated servo node with an echo of the command it latched
-//! ([`echo::EchoStation`]); the simulated amplifier/motor/encoder plant replaces it in the
-//! motion work. The station meets the card only through ring packets.
+//! [`station_app::StationApp`] answers each activated servo node with a simulated amplifier,
+//! motor and quadrature encoder ([`servo_node`], [`plant`]), configured by
+//! [`config::PlantConfig`]; [`echo::EchoStation`] is the plain echo used for ring tests. The
+//! station meets the card only through ring packets.
 
+pub mod config;
 pub mod echo;
+pub mod plant;
+pub mod servo_node;
+pub mod station_app;

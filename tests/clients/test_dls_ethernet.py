@@ -43,7 +43,10 @@ def test_variable_write_read_and_ranges(eth):
     assert send(eth, "P20..22=3") == "\x06"
     assert send(eth, "P20..22") == "3\r3\r3\r\x06"
     assert send(eth, "P1=P1*2+1 P1") == "51\r\x06"
-    assert send(eth, "&1Q7=2.25 &1Q7") == "2.25\r\x06"
+    # (Not "&1Q7=2.25 &1Q7": spaces mean nothing, so "2.25 &1" is the expression 2.25&1 = 0.)
+    assert send(eth, "&2Q7=2.25") == "\x06"
+    assert send(eth, "&2Q7") == "2.25\r\x06"
+    assert send(eth, "&1Q7") == "0\r\x06"
     assert send(eth, "P8191=8191 P8191") == "8191\r\x06"
 
 

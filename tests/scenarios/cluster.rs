@@ -22,9 +22,22 @@ fn bin_dir() -> PathBuf {
             .to_path_buf();
         // Cargo does not build other packages' binaries for this test: build them (fresh).
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let profile = if dir.ends_with("release") { vec!["--release"] } else { vec![] };
+        let profile = if dir.ends_with("release") {
+            vec!["--release"]
+        } else {
+            vec![]
+        };
         let st = Command::new(cargo)
-            .args(["build", "-q", "-p", "mcc-orchestrator", "-p", "mcc-card", "-p", "mcc-station"])
+            .args([
+                "build",
+                "-q",
+                "-p",
+                "mcc-orchestrator",
+                "-p",
+                "mcc-card",
+                "-p",
+                "mcc-station",
+            ])
             .args(profile)
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .status()
@@ -118,7 +131,10 @@ struct Cluster {
 impl Cluster {
     fn up(tag: &str, extra: &[&str]) -> Cluster {
         let name = unique(tag);
-        let mut c = Cluster { name, pids: Vec::new() };
+        let mut c = Cluster {
+            name,
+            pids: Vec::new(),
+        };
         let mut args = vec!["up", "--detach", "--cluster", &c.name, "--timeout", "90"];
         args.extend_from_slice(extra);
         let out = mcc(&args, Duration::from_secs(120));
@@ -134,7 +150,10 @@ impl Cluster {
     }
 
     fn status(&self) -> Value {
-        let out = mcc(&["status", "--json", "--cluster", &self.name], Duration::from_secs(30));
+        let out = mcc(
+            &["status", "--json", "--cluster", &self.name],
+            Duration::from_secs(30),
+        );
         assert!(out.status.success(), "status failed: {}", text(&out.stderr));
         serde_json::from_slice(&out.stdout).expect("status JSON")
     }
@@ -175,13 +194,21 @@ fn member_pids(doc: &Value) -> Vec<u64> {
 
 #[test]
 fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
-    let c = Cluster::up("life", &["--clock", "lockstep", "--cards", "2", "--stations", "2"]);
+    let c = Cluster::up(
+        "life",
+        &["--clock", "lockstep", "--cards", "2", "--stations", "2"],
+    );
     let s1 = c.status();
     assert_eq!(s1["cluster"], c.name.as_str());
     assert_eq!(s1["clock"], "lockstep");
     assert_eq!(s1["ring"]["locked"], true, "{s1:#}");
     assert_eq!(s1["ring"]["faulted"], false, "{s1:#}");
-    let names: Vec<&str> = s1["members"].as_array().unwrap().iter().map(|m| m["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = s1["members"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
     assert_eq!(names, ["card0", "station0", "card1", "station1"]);
     for m in s1["members"].as_array().unwrap() {
         assert_eq!(m["alive"], true);
@@ -190,15 +217,28 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
     let cycle1 = s1["ring"]["cycle"].as_u64().unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let cycle2 = c.status()["ring"]["cycle"].as_u64().unwrap();
-    assert!(cycle2 > cycle1, "cycle did not advance: {cycle1} -> {cycle2}");
+    assert!(
+        cycle2 > cycle1,
+        "cycle did not advance: {cycle1} -> {cycle2}"
+    );
 
     // A second `up` of the same cluster is refused.
-    let again = mcc(&["up", "--detach", "--cluster", &c.name], Duration::from_secs(30));
+    let again = mcc(
+        &["up", "--detach", "--cluster", &c.name],
+        Duration::from_secs(30),
+    );
     assert!(!again.status.success());
-    assert!(text(&again.stderr).contains("already running"), "{}", text(&again.stderr));
+    assert!(
+        text(&again.stderr).contains("already running"),
+        "{}",
+        text(&again.stderr)
+    );
 
     // Cut station0's outgoing link: station0 → card1 is the broken link.
-    let out = mcc(&["fault", "station0", "cut", "--cluster", &c.name], Duration::from_secs(30));
+    let out = mcc(
+        &["fault", "station0", "cut", "--cluster", &c.name],
+        Duration::from_secs(30),
+    );
     assert!(out.status.success(), "{}", text(&out.stderr));
     let mut last = Value::Null;
     wait_until("the cut to be reported", Duration::from_secs(30), || {
@@ -207,10 +247,24 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
     });
     let st0 = &last["members"][1];
     assert_eq!(st0["faults"][0]["kind"], "cut", "{last:#}");
-    let bad = mcc(&["fault", "nobody", "cut", "--cluster", &c.name], Duration::from_secs(30));
-    assert!(text(&bad.stderr).contains("unknown member \"nobody\""), "{}", text(&bad.stderr));
-    let bad = mcc(&["fault", "station0", "melt", "--cluster", &c.name], Duration::from_secs(30));
-    assert!(text(&bad.stderr).contains("unknown fault kind 'melt'"), "{}", text(&bad.stderr));
+    let bad = mcc(
+        &["fault", "nobody", "cut", "--cluster", &c.name],
+        Duration::from_secs(30),
+    );
+    assert!(
+        text(&bad.stderr).contains("unknown member \"nobody\""),
+        "{}",
+        text(&bad.stderr)
+    );
+    let bad = mcc(
+        &["fault", "station0", "melt", "--cluster", &c.name],
+        Duration::from_secs(30),
+    );
+    assert!(
+        text(&bad.stderr).contains("unknown fault kind 'melt'"),
+        "{}",
+        text(&bad.stderr)
+    );
 
     let pids = member_pids(&last);
     let sup = last["supervisor"]["pid"].as_u64().unwrap();
@@ -222,19 +276,28 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
     assert!(!run_base().join(&c.name).exists(), "run dir left behind");
     let st = mcc(&["status", "--cluster", &c.name], Duration::from_secs(30));
     assert!(!st.status.success());
-    assert!(text(&st.stderr).contains("not running"), "{}", text(&st.stderr));
+    assert!(
+        text(&st.stderr).contains("not running"),
+        "{}",
+        text(&st.stderr)
+    );
 }
 
 #[test]
 fn killed_supervisor_takes_its_members_with_it() {
-    let c = Cluster::up("orphan", &["--clock", "lockstep", "--cards", "1", "--stations", "1"]);
+    let c = Cluster::up(
+        "orphan",
+        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
+    );
     let doc = c.status();
     let sup = doc["supervisor"]["pid"].as_u64().unwrap();
     let pids = member_pids(&doc);
     send_signal(sup, "-KILL");
-    wait_until("members to exit after the supervisor died", Duration::from_secs(20), || {
-        pids.iter().all(|p| !pid_alive(*p))
-    });
+    wait_until(
+        "members to exit after the supervisor died",
+        Duration::from_secs(20),
+        || pids.iter().all(|p| !pid_alive(*p)),
+    );
     let out = c.down();
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(!run_base().join(&c.name).exists());
@@ -243,11 +306,24 @@ fn killed_supervisor_takes_its_members_with_it() {
 #[test]
 fn ctrl_c_in_the_foreground_stops_everything() {
     let name = unique("fg");
-    let mut guard = Cluster { name: name.clone(), pids: Vec::new() };
-    let mut child: Child = mcc_cmd(&["up", "--cluster", &name, "--clock", "lockstep", "--cards", "1", "--stations", "1"])
-        .stdin(Stdio::piped())
-        .spawn()
-        .expect("spawn mcc up");
+    let mut guard = Cluster {
+        name: name.clone(),
+        pids: Vec::new(),
+    };
+    let mut child: Child = mcc_cmd(&[
+        "up",
+        "--cluster",
+        &name,
+        "--clock",
+        "lockstep",
+        "--cards",
+        "1",
+        "--stations",
+        "1",
+    ])
+    .stdin(Stdio::piped())
+    .spawn()
+    .expect("spawn mcc up");
     let stdout = child.stdout.take().expect("stdout");
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
@@ -261,8 +337,14 @@ fn ctrl_c_in_the_foreground_stops_everything() {
             Ok(l) if l.contains(" up: ") => break,
             _ => {}
         }
-        assert!(Instant::now() < deadline, "foreground up did not report the ring locked");
-        assert!(child.try_wait().unwrap().is_none(), "foreground up exited early");
+        assert!(
+            Instant::now() < deadline,
+            "foreground up did not report the ring locked"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "foreground up exited early"
+        );
     }
     let doc = guard.status();
     guard.pids = all_pids(&doc);
@@ -285,14 +367,23 @@ fn ctrl_c_in_the_foreground_stops_everything() {
 
 #[test]
 fn two_clusters_run_side_by_side_without_seeing_each_other() {
-    let a = Cluster::up("a", &["--clock", "lockstep", "--cards", "1", "--stations", "1"]);
-    let b = Cluster::up("b", &["--clock", "lockstep", "--cards", "1", "--stations", "1"]);
+    let a = Cluster::up(
+        "a",
+        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
+    );
+    let b = Cluster::up(
+        "b",
+        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
+    );
     let (da, db) = (a.status(), b.status());
     assert_ne!(da["supervisor"]["endpoint"], db["supervisor"]["endpoint"]);
     let (pa, pb) = (member_pids(&da), member_pids(&db));
     assert!(pa.iter().all(|p| !pb.contains(p)), "{pa:?} vs {pb:?}");
     // Cutting a's ring leaves b's alone.
-    let out = mcc(&["fault", "station0", "cut", "--cluster", &a.name], Duration::from_secs(30));
+    let out = mcc(
+        &["fault", "station0", "cut", "--cluster", &a.name],
+        Duration::from_secs(30),
+    );
     assert!(out.status.success(), "{}", text(&out.stderr));
     wait_until("a's cut to be reported", Duration::from_secs(30), || {
         a.status()["ring"]["broken_link"] == "station0 → card0"
@@ -312,27 +403,84 @@ fn bad_config_and_arguments_get_a_message_naming_the_problem() {
     let dir = run_base().join("configs");
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("bad.toml");
-    std::fs::write(&file, "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nprofile = \"pmac3\"\n").unwrap();
+    std::fs::write(
+        &file,
+        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nprofile = \"pmac3\"\n",
+    )
+    .unwrap();
     let name = unique("bad");
-    let _guard = Cluster { name: name.clone(), pids: Vec::new() };
-    let out = mcc(&["up", "--detach", "--cluster", &name, "--config", file.to_str().unwrap()], Duration::from_secs(30));
+    let _guard = Cluster {
+        name: name.clone(),
+        pids: Vec::new(),
+    };
+    let out = mcc(
+        &[
+            "up",
+            "--detach",
+            "--cluster",
+            &name,
+            "--config",
+            file.to_str().unwrap(),
+        ],
+        Duration::from_secs(30),
+    );
     assert!(!out.status.success());
     let err = text(&out.stderr);
-    assert!(err.contains("cards[0].profile") && err.contains("pmac3"), "{err}");
-    assert!(!run_base().join(&name).exists(), "a rejected config must not leave a run dir");
+    assert!(
+        err.contains("cards[0].profile") && err.contains("pmac3"),
+        "{err}"
+    );
+    assert!(
+        !run_base().join(&name).exists(),
+        "a rejected config must not leave a run dir"
+    );
 
-    std::fs::write(&file, "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nnodez = [1]\n").unwrap();
-    let out = mcc(&["up", "--detach", "--cluster", &name, "--config", file.to_str().unwrap()], Duration::from_secs(30));
+    std::fs::write(
+        &file,
+        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nnodez = [1]\n",
+    )
+    .unwrap();
+    let out = mcc(
+        &[
+            "up",
+            "--detach",
+            "--cluster",
+            &name,
+            "--config",
+            file.to_str().unwrap(),
+        ],
+        Duration::from_secs(30),
+    );
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("nodez"), "{}", text(&out.stderr));
 
-    let out = mcc(&["up", "--cluster", "../evil", "--detach"], Duration::from_secs(30));
+    let out = mcc(
+        &["up", "--cluster", "../evil", "--detach"],
+        Duration::from_secs(30),
+    );
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("--cluster"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("--cluster"),
+        "{}",
+        text(&out.stderr)
+    );
     let out = mcc(&["up", "--clock", "sometimes"], Duration::from_secs(30));
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("sometimes"), "{}", text(&out.stderr));
-    let out = mcc(&["up", "--rate=-3", "--cluster", &name], Duration::from_secs(30));
+    assert!(
+        text(&out.stderr).contains("sometimes"),
+        "{}",
+        text(&out.stderr)
+    );
+    let out = mcc(
+        &["up", "--rate=-3", "--cluster", &name],
+        Duration::from_secs(30),
+    );
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("--rate"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("--rate"),
+        "{}",
+        text(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir(run_base());
 }

@@ -76,7 +76,8 @@ struct Runner {
 
 impl Runner {
     fn new(name: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("mcc-transcript-{}-{}", std::process::id(), name));
+        let dir =
+            std::env::temp_dir().join(format!("mcc-transcript-{}-{}", std::process::id(), name));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("temp dir");
         let mut r = Runner {
@@ -119,7 +120,11 @@ impl Runner {
 
 /// Run one transcript; returns the list of mismatches.
 fn run_transcript(path: &Path) -> Vec<String> {
-    let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("x").to_string();
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("x")
+        .to_string();
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) => return vec![format!("{}: cannot read: {e}", path.display())],
@@ -187,7 +192,10 @@ fn run_transcript(path: &Path) -> Vec<String> {
             }
             continue;
         } else {
-            failures.push(format!("{}:{ln}: unrecognised transcript line", r_name(path)));
+            failures.push(format!(
+                "{}:{ln}: unrecognised transcript line",
+                r_name(path)
+            ));
             continue;
         };
         let got = r.send(&input);
@@ -200,7 +208,10 @@ fn run_transcript(path: &Path) -> Vec<String> {
 }
 
 fn r_name(p: &Path) -> String {
-    p.file_name().and_then(|s| s.to_str()).unwrap_or("?").to_string()
+    p.file_name()
+        .and_then(|s| s.to_str())
+        .unwrap_or("?")
+        .to_string()
 }
 
 fn transcript_dir() -> PathBuf {
@@ -231,10 +242,19 @@ fn transcript_escapes_round_trip() {
 #[test]
 fn all_transcripts_replay_byte_exact() {
     let files = transcript_files();
-    assert!(files.len() >= 1, "expected transcript files in {}", transcript_dir().display());
+    assert!(
+        files.len() >= 5,
+        "expected transcript files in {}",
+        transcript_dir().display()
+    );
     let mut failures = Vec::new();
     for f in &files {
         failures.extend(run_transcript(f));
     }
-    assert!(failures.is_empty(), "{} transcript mismatches:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} transcript mismatches:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }

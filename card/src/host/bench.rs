@@ -282,4 +282,13 @@ mod tests {
             "{text}"
         );
     }
+
+    /// The full benchmark, for the report:
+    /// `cargo test --release -p mcc-card --lib host::bench -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "benchmark: run explicitly in release mode"]
+    fn full_benchmark_report() {
+        let r = run_host_bench(&HostBenchOpts::default()).unwrap();
+        println!("{r}");
+    }
 }

@@ -205,3 +205,24 @@ async fn simultaneous_connections_get_their_own_whole_replies() {
     }
     p.shutdown().await;
 }
+
+#[tokio::test]
+async fn addressing_is_per_connection_and_i3_is_card_global() {
+    let p = start(PortsConfig::default()).await;
+    let mut a = connect(p.ascii).await;
+    let mut b = connect(p.pmac_eth).await;
+    a.write_all(b"I3=2 I6=1\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 1).await, b"\x06");
+    b.write_all(&getresponse(b"#3")).await.unwrap();
+    assert_eq!(read_n(&mut b, 1).await, b"\x06");
+    b.write_all(&getresponse(b"#")).await.unwrap();
+    assert_eq!(read_n(&mut b, 3).await, b"3\r\x06");
+    a.write_all(b"#\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 3).await, b"1\r\x06");
+    // I3=3 set on the ASCII port frames the Ethernet port's replies too.
+    a.write_all(b"I3=3 P7=12\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 1).await, b"\x06");
+    b.write_all(&getresponse(b"P7")).await.unwrap();
+    assert_eq!(read_n(&mut b, 5).await, b"\n12\r\x06");
+    p.shutdown().await;
+}

@@ -78,7 +78,10 @@ pub struct Program<L> {
 
 impl<L> Default for Program<L> {
     fn default() -> Self {
-        Program { lines: Vec::new(), valid: true }
+        Program {
+            lines: Vec::new(),
+            valid: true,
+        }
     }
 }
 
@@ -171,7 +174,12 @@ impl<L: StoredLine> Buffers<L> {
 
     /// Words used by programs, PLCs, rotary buffers and DEFINE'd buffers.
     pub fn used(&self) -> u64 {
-        let p: u64 = self.progs.values().chain(self.plcs.values()).map(prog_words).sum();
+        let p: u64 = self
+            .progs
+            .values()
+            .chain(self.plcs.values())
+            .map(prog_words)
+            .sum();
         let r: u64 = self.rotary.values().map(|r| u64::from(r.size)).sum();
         p + r + self.defines.words()
     }

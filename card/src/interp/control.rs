@@ -15,11 +15,20 @@ pub fn ctrl_n(partial_line: &[u8]) -> Vec<u8> {
 
 impl Card {
     fn ctrl_action(&mut self, s: &Session, c: u8) {
-        self.actions.push(Action { motor: s.motor, coord: s.coord, kind: ActionKind::Ctrl(c) });
+        self.actions.push(Action {
+            motor: s.motor,
+            coord: s.coord,
+            kind: ActionKind::Ctrl(c),
+        });
     }
 
     fn motor_reports(&self, pick: impl Fn(&(f64, f64, f64)) -> f64) -> String {
-        self.run.report.iter().map(|r| format_position(pick(r))).collect::<Vec<_>>().join(" ")
+        self.run
+            .report
+            .iter()
+            .map(|r| format_position(pick(r)))
+            .collect::<Vec<_>>()
+            .join(" ")
     }
 
     /// Run `cmd` on every C.S. that has at least one motor (CTRL-R / CTRL-S); refusals are silent.
@@ -28,8 +37,16 @@ impl Card {
             if self.run.motors_in(cs).is_empty() {
                 continue;
             }
-            let mut t = Session { motor: s.motor, coord: cs, id: s.id };
-            let c = if matches!(cmd, CmdKind::Step) && self.cs_running(cs) { &CmdKind::Quit } else { cmd };
+            let mut t = Session {
+                motor: s.motor,
+                coord: cs,
+                id: s.id,
+            };
+            let c = if matches!(cmd, CmdKind::Step) && self.cs_running(cs) {
+                &CmdKind::Quit
+            } else {
+                cmd
+            };
             let _ = self.exec_motion(&mut t, c, &mut Out::default());
         }
     }
@@ -95,7 +112,10 @@ impl Card {
                 Vec::new()
             }
             0x0C => {
-                if self.open.is_some_and(|o| o.id == super::buffers::BufId::Rot) {
+                if self
+                    .open
+                    .is_some_and(|o| o.id == super::buffers::BufId::Rot)
+                {
                     let _ = self.close_buffer();
                 }
                 Vec::new()
@@ -132,7 +152,11 @@ impl Card {
             }
             0x15 => {
                 if self.open.is_none() {
-                    let _ = self.exec_buffers(s, &CmdKind::Open(crate::lang::ast::OpenTarget::Rotary), &mut Out::default());
+                    let _ = self.exec_buffers(
+                        s,
+                        &CmdKind::Open(crate::lang::ast::OpenTarget::Rotary),
+                        &mut Out::default(),
+                    );
                 }
                 Vec::new()
             }

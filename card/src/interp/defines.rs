@@ -18,6 +18,28 @@ pub struct CompTable {
     pub data: Vec<i64>,
 }
 
+/// Which compensation-table family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableKind {
+    /// Leadscrew (`COMP`).
+    Comp,
+    /// Backlash (`BLCOMP`).
+    BlComp,
+    /// Torque (`TCOMP`).
+    TComp,
+}
+
+impl Defines {
+    /// The tables of one family.
+    pub fn tables_mut(&mut self, k: TableKind) -> &mut BTreeMap<u8, CompTable> {
+        match k {
+            TableKind::Comp => &mut self.comp,
+            TableKind::BlComp => &mut self.blcomp,
+            TableKind::TComp => &mut self.tcomp,
+        }
+    }
+}
+
 /// Kinds of DEFINE'd buffer, in stacking order (bottom first).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Layer {
@@ -77,9 +99,8 @@ pub const TBUF_WORDS: u32 = 21;
 impl Defines {
     /// Words used by these buffers.
     pub fn words(&self) -> u64 {
-        let tables = |m: &BTreeMap<u8, CompTable>| -> u64 {
-            m.values().map(|t| u64::from(t.entries)).sum()
-        };
+        let tables =
+            |m: &BTreeMap<u8, CompTable>| -> u64 { m.values().map(|t| u64::from(t.entries)).sum() };
         u64::from(self.ubuffer)
             + tables(&self.comp)
             + tables(&self.tcomp)
@@ -109,7 +130,9 @@ impl Defines {
 
     /// True when some existing layer other than `l` itself sits above `l`.
     pub fn something_above(&self, l: Layer, rot: impl Iterator<Item = u8>) -> bool {
-        self.layers(rot).into_iter().any(|x| x != l && x.rank() > l.rank())
+        self.layers(rot)
+            .into_iter()
+            .any(|x| x != l && x.rank() > l.rank())
     }
 }
 
@@ -129,7 +152,14 @@ mod tests {
         assert!(d.something_above(Layer::Rot(2), [1u8].into_iter()));
         assert!(!d.something_above(Layer::Rot(1), [2u8].into_iter()));
         // COMP of motor 1 is above COMP of motor 8, below TBUF.
-        d.comp.insert(8, CompTable { def: String::new(), entries: 10, data: vec![] });
+        d.comp.insert(
+            8,
+            CompTable {
+                def: String::new(),
+                entries: 10,
+                data: vec![],
+            },
+        );
         assert!(d.something_above(Layer::UBuffer, std::iter::empty()));
         assert!(!d.something_above(Layer::Comp(1), std::iter::empty()));
         d.tbuf = 2;

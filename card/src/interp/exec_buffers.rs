@@ -3,7 +3,7 @@
 //! program lines.
 
 use super::buffers::{list_lines, BufErr, BufId, Rotary};
-use super::defines::{CompTable, Layer, TBUF_WORDS};
+use super::defines::{CompTable, Layer, TableKind, TBUF_WORDS};
 use super::exec::{Exec, Out};
 use super::exec_info::LIST_LINK;
 use super::progline::ProgLine;
@@ -24,7 +24,12 @@ fn to_err(e: BufErr) -> u16 {
 fn is_block(s: &Stmt) -> bool {
     matches!(
         &s.kind,
-        StmtKind::If(_) | StmtKind::EndIf | StmtKind::While(_) | StmtKind::EndWhile | StmtKind::AndCond(_) | StmtKind::OrCond(_)
+        StmtKind::If(_)
+            | StmtKind::EndIf
+            | StmtKind::While(_)
+            | StmtKind::EndWhile
+            | StmtKind::AndCond(_)
+            | StmtKind::OrCond(_)
     ) || matches!(&s.kind, StmtKind::Else(b) if b.is_empty())
 }
 
@@ -68,7 +73,10 @@ impl Card {
         for l in lines {
             let line = ProgLine::new(l);
             match open.id {
-                BufId::Rot => self.bufs.append_rotary(s.coord as u8, line).map_err(to_err)?,
+                BufId::Rot => self
+                    .bufs
+                    .append_rotary(s.coord as u8, line)
+                    .map_err(to_err)?,
                 id => self.bufs.append(id, line).map_err(to_err)?,
             }
         }
@@ -78,7 +86,9 @@ impl Card {
 
     /// Close whatever buffer is open (CLOSE, CTRL-L, end of session).
     pub(crate) fn close_buffer(&mut self) -> Exec {
-        let Some(o) = self.open.take() else { return Ok(()) };
+        let Some(o) = self.open.take() else {
+            return Ok(());
+        };
         let r = self.bufs.close(o.id).map_err(to_err);
         self.sync_global_flags();
         r
@@ -105,7 +115,12 @@ impl Card {
                 for n in plc_list(&pc.list)? {
                     let p = &mut self.run.plc[n as usize];
                     match pc.verb {
-                        PlcVerb::Enable => *p = super::runstate::PlcRun { enabled: true, paused: false },
+                        PlcVerb::Enable => {
+                            *p = super::runstate::PlcRun {
+                                enabled: true,
+                                paused: false,
+                            }
+                        }
                         PlcVerb::Disable => p.enabled = false,
                         PlcVerb::Pause => p.paused = p.enabled,
                         PlcVerb::Resume => p.paused = false,
@@ -136,13 +151,19 @@ impl Card {
         }
         let (id, binary) = match t {
             OpenTarget::Prog(n) => {
-                let n = u16::try_from(n).ok().filter(|n| (1..=32_767).contains(n)).ok_or(3u16)?;
+                let n = u16::try_from(n)
+                    .ok()
+                    .filter(|n| (1..=32_767).contains(n))
+                    .ok_or(3u16)?;
                 if self.state.coords.iter().any(|c| c.running) {
                     return Err(1);
                 }
                 (BufId::Prog(n), false)
             }
-            OpenTarget::Plc(n) => (BufId::Plc(u8::try_from(n).ok().filter(|n| *n <= 31).ok_or(3u16)?), false),
+            OpenTarget::Plc(n) => (
+                BufId::Plc(u8::try_from(n).ok().filter(|n| *n <= 31).ok_or(3u16)?),
+                false,
+            ),
             OpenTarget::Rotary => (BufId::Rot, false),
             OpenTarget::BinRotary => (BufId::Rot, true),
         };
@@ -155,7 +176,11 @@ impl Card {
             BufId::Plc(n) => self.run.plc[n as usize].enabled = false,
             BufId::Rot => {}
         }
-        self.open = Some(OpenBuf { session: s.id, id, binary });
+        self.open = Some(OpenBuf {
+            session: s.id,
+            id,
+            binary,
+        });
         Ok(())
     }
 
@@ -193,7 +218,10 @@ impl Card {
                 if *def {
                     vec![tab.def.clone()]
                 } else {
-                    tab.data.chunks(8).map(|c| c.iter().map(i64::to_string).collect::<Vec<_>>().join(" ")).collect()
+                    tab.data
+                        .chunks(8)
+                        .map(|c| c.iter().map(i64::to_string).collect::<Vec<_>>().join(" "))
+                        .collect()
                 }
             }
             ListTarget::Link => vec![LIST_LINK.to_string()],
@@ -202,14 +230,26 @@ impl Card {
         Ok(())
     }
 
-    fn rotary_lines(&self, cs: u16, long: bool, offsets: Option<(u32, Option<u32>)>) -> Vec<String> {
-        self.bufs.rotary.get(&(cs as u8)).map(|r| list_lines(&r.lines, long, offsets)).unwrap_or_default()
+    fn rotary_lines(
+        &self,
+        cs: u16,
+        long: bool,
+        offsets: Option<(u32, Option<u32>)>,
+    ) -> Vec<String> {
+        self.bufs
+            .rotary
+            .get(&(cs as u8))
+            .map(|r| list_lines(&r.lines, long, offsets))
+            .unwrap_or_default()
     }
 
     /// `LIST PC` / `LIST PE`: from the line the C.S. points at; first line `P{n}:{off}:text`.
     fn list_pc(&self, cs: u16, span: &ListSpan, long: bool) -> Result<Vec<String>, u16> {
         let (prog, label) = self.run.cs[cs as usize - 1].pointer.ok_or(3u16)?;
-        let p = u16::try_from(prog).ok().and_then(|n| self.bufs.progs.get(&n)).ok_or(3u16)?;
+        let p = u16::try_from(prog)
+            .ok()
+            .and_then(|n| self.bufs.progs.get(&n))
+            .ok_or(3u16)?;
         let start = self.label_offset(prog, label);
         let len = if span.offsets { span.len } else { Some(1) };
         let mut v = list_lines(&p.lines, long, Some((start, len)));
@@ -224,7 +264,11 @@ impl Card {
     }
 
     fn check_define(&self, l: Layer, extra_words: u64) -> Exec {
-        if self.bufs.defines.something_above(l, self.rot_keys().into_iter()) {
+        if self
+            .bufs
+            .defines
+            .something_above(l, self.rot_keys().into_iter())
+        {
             return Err(3);
         }
         if extra_words > self.bufs.free() {
@@ -243,7 +287,13 @@ impl Card {
                     return Err(3);
                 }
                 self.check_define(Layer::Rot(cs), u64::from(n.saturating_sub(old)))?;
-                self.bufs.rotary.insert(cs, Rotary { size: *n, lines: Vec::new() });
+                self.bufs.rotary.insert(
+                    cs,
+                    Rotary {
+                        size: *n,
+                        lines: Vec::new(),
+                    },
+                );
             }
             DefineTarget::Gather(n) => {
                 let old = u64::from(self.bufs.defines.gather.unwrap_or(0));
@@ -272,7 +322,12 @@ impl Card {
                 self.bufs.defines.ubuffer = *n;
                 self.state.ubuffer_words = *n;
             }
-            DefineTarget::Comp { rows, cols, motors, spans } => {
+            DefineTarget::Comp {
+                rows,
+                cols,
+                motors,
+                spans,
+            } => {
                 let entries = match cols {
                     None => *rows,
                     Some(c) => (rows + 1).saturating_mul(c + 1).saturating_sub(1),
@@ -287,22 +342,40 @@ impl Card {
                 }
                 self.check_define(Layer::Comp(m), u64::from(entries))?;
                 let def = comp_def_text(*rows, *cols, motors, spans, m);
-                self.bufs.defines.comp.insert(m, CompTable { def, entries, data: Vec::new() });
+                self.bufs.defines.comp.insert(
+                    m,
+                    CompTable {
+                        def,
+                        entries,
+                        data: Vec::new(),
+                    },
+                );
+                self.pending_table = Some((TableKind::Comp, m));
             }
             DefineTarget::BlComp(n, span) | DefineTarget::TComp(n, span) => {
                 let bl = matches!(t, DefineTarget::BlComp(..));
-                let layer = if bl { Layer::BlComp(m) } else { Layer::TComp(m) };
+                let layer = if bl {
+                    Layer::BlComp(m)
+                } else {
+                    Layer::TComp(m)
+                };
                 if *n == 0 {
                     return Err(3);
                 }
                 self.check_define(layer, u64::from(*n))?;
                 let def = format!("{n},{}", crate::state::number::format_value(span.value));
-                let tab = CompTable { def, entries: *n, data: Vec::new() };
-                if bl {
-                    self.bufs.defines.blcomp.insert(m, tab);
+                let tab = CompTable {
+                    def,
+                    entries: *n,
+                    data: Vec::new(),
+                };
+                let kind = if bl {
+                    TableKind::BlComp
                 } else {
-                    self.bufs.defines.tcomp.insert(m, tab);
-                }
+                    TableKind::TComp
+                };
+                self.bufs.defines.tables_mut(kind).insert(m, tab);
+                self.pending_table = Some((kind, m));
             }
             DefineTarget::Lookahead(..) => return Err(3),
         }
@@ -312,13 +385,15 @@ impl Card {
     fn delete(&mut self, s: &Session, t: DeleteTarget) -> Exec {
         let cs = s.coord as u8;
         let m = s.motor as u8;
-        let above = |c: &Card, l: Layer| c.bufs.defines.something_above(l, c.rot_keys().into_iter());
+        let above =
+            |c: &Card, l: Layer| c.bufs.defines.something_above(l, c.rot_keys().into_iter());
         match t {
             DeleteTarget::Rotary => {
                 if !self.bufs.rotary.contains_key(&cs) {
                     return Ok(());
                 }
-                let busy = self.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord);
+                let busy =
+                    self.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord);
                 if busy || above(self, Layer::Rot(cs)) {
                     return Err(3);
                 }

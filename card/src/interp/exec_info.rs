@@ -24,12 +24,20 @@ impl Card {
         match cmd {
             CmdKind::Reset => {
                 let _ = self.reset_from_file();
-                *s = Session { motor: 1, coord: 1, id: s.id };
+                *s = Session {
+                    motor: 1,
+                    coord: 1,
+                    id: s.id,
+                };
                 out.flow = Flow::Reset;
             }
             CmdKind::Reinit => {
                 self.reinit();
-                *s = Session { motor: 1, coord: 1, id: s.id };
+                *s = Session {
+                    motor: 1,
+                    coord: 1,
+                    id: s.id,
+                };
             }
             CmdKind::Save => {
                 if !self.save() {
@@ -45,7 +53,11 @@ impl Card {
             CmdKind::Checksum => out.line(CHECKSUM),
             CmdKind::Size => {
                 let free = self.bufs.free();
-                out.line(if self.open.is_some() { format!("-{free}") } else { free.to_string() });
+                out.line(if self.open.is_some() {
+                    format!("-{free}")
+                } else {
+                    free.to_string()
+                });
             }
             CmdKind::Cid => match self.state.limits().cid {
                 Some(v) => out.line(v.to_string()),

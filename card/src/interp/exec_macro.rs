@@ -50,7 +50,8 @@ impl Card {
                     }
                 }
             }
-            CmdKind::MacroAuxRead { node, param, var } | CmdKind::MacroAuxWrite { node, param, var } => {
+            CmdKind::MacroAuxRead { node, param, var }
+            | CmdKind::MacroAuxWrite { node, param, var } => {
                 node_ok(*node)?;
                 if *param > 65_535 {
                     return Err(3);
@@ -62,7 +63,8 @@ impl Card {
                 node_ok(*node)?;
                 slave_var_ok(var)?;
             }
-            CmdKind::MacroSlaveRead { node, var, dest: v } | CmdKind::MacroSlaveWrite { node, var, src: v } => {
+            CmdKind::MacroSlaveRead { node, var, dest: v }
+            | CmdKind::MacroSlaveWrite { node, var, src: v } => {
                 node_ok(*node)?;
                 slave_var_ok(var)?;
                 var_ok(self, v)?;

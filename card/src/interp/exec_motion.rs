@@ -25,11 +25,25 @@ fn axis_bits(a: Axis) -> Option<(u32, u32)> {
     Some((1 << f, 1 << i))
 }
 
-const ALL_AXES: [Axis; 9] = [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C, Axis::U, Axis::V, Axis::W];
+const ALL_AXES: [Axis; 9] = [
+    Axis::X,
+    Axis::Y,
+    Axis::Z,
+    Axis::A,
+    Axis::B,
+    Axis::C,
+    Axis::U,
+    Axis::V,
+    Axis::W,
+];
 
 impl Card {
     fn action(&mut self, s: &Session, cmd: &CmdKind) {
-        self.actions.push(Action { motor: s.motor, coord: s.coord, kind: ActionKind::Cmd(cmd.clone()) });
+        self.actions.push(Action {
+            motor: s.motor,
+            coord: s.coord,
+            kind: ActionKind::Cmd(cmd.clone()),
+        });
     }
 
     fn motor_ok(&self, n: u32) -> Result<u16, u16> {
@@ -43,7 +57,9 @@ impl Card {
 
     /// Whether C.S. `cs` is running a motion program.
     pub(crate) fn cs_running(&self, cs: u16) -> bool {
-        cs.checked_sub(1).and_then(|k| self.state.coords.get(k as usize)).is_some_and(|c| c.running)
+        cs.checked_sub(1)
+            .and_then(|k| self.state.coords.get(k as usize))
+            .is_some_and(|c| c.running)
     }
 
     fn motor_busy(&self, m: u16) -> bool {
@@ -189,7 +205,11 @@ impl Card {
                     if a == Axis::R {
                         f.radius_inc = inc;
                     } else if let Some((_, ib)) = axis_bits(a) {
-                        f.axis_bits = if inc { f.axis_bits | ib } else { f.axis_bits & !ib };
+                        f.axis_bits = if inc {
+                            f.axis_bits | ib
+                        } else {
+                            f.axis_bits & !ib
+                        };
                     }
                 }
             }
@@ -198,8 +218,11 @@ impl Card {
                 let axes: Vec<Axis> = list.clone().unwrap_or_else(|| ALL_AXES.to_vec());
                 for a in ALL_AXES {
                     if let Some((fb, _)) = axis_bits(a) {
-                        f.axis_bits =
-                            if axes.contains(&a) { f.axis_bits | fb } else { f.axis_bits & !fb };
+                        f.axis_bits = if axes.contains(&a) {
+                            f.axis_bits | fb
+                        } else {
+                            f.axis_bits & !fb
+                        };
                     }
                 }
             }
@@ -208,12 +231,21 @@ impl Card {
                 out.line(format!("P{prog}:{}", self.label_offset(prog, label)));
             }
             K::RotaryRemaining => {
-                let n = self.bufs.rotary.get(&(cs as u8)).map_or(0, |r| r.lines.len());
+                let n = self
+                    .bufs
+                    .rotary
+                    .get(&(cs as u8))
+                    .map_or(0, |r| r.lines.len());
                 out.line(n.to_string());
             }
             K::Learn(list) => self.learn(s, list.as_deref())?,
             K::Position | K::Velocity | K::FollowingError => {
-                let r = self.run.report.get(s.motor as usize - 1).copied().unwrap_or_default();
+                let r = self
+                    .run
+                    .report
+                    .get(s.motor as usize - 1)
+                    .copied()
+                    .unwrap_or_default();
                 let v = match cmd {
                     K::Position => r.0,
                     K::Velocity => r.1,
@@ -222,19 +254,28 @@ impl Card {
                 out.line(format_position(v));
             }
             K::MotorStatus => out.line(self.state.motor_status_text(s.motor)),
-            K::MotorInit | K::MotorAbsRead | K::Home | K::HomeZ | K::Kill | K::OpenLoop(_) | K::Jog { .. } => {
+            K::MotorInit
+            | K::MotorAbsRead
+            | K::Home
+            | K::HomeZ
+            | K::Kill
+            | K::OpenLoop(_)
+            | K::Jog { .. } => {
                 let m = s.motor;
                 if self.motor_busy(m) {
                     return Err(1);
                 }
                 match cmd {
                     K::MotorInit => self.servo(m, Some(true), Some(true), Some(false)),
-                    K::MotorAbsRead | K::Kill => self.servo(m, Some(false), Some(false), Some(false)),
+                    K::MotorAbsRead | K::Kill => {
+                        self.servo(m, Some(false), Some(false), Some(false))
+                    }
                     K::OpenLoop(_) => self.servo(m, Some(false), Some(true), Some(false)),
                     K::Home => self.servo(m, Some(true), Some(true), Some(true)),
-                    K::Jog { kind: JogKind::Plus | JogKind::Minus, .. } => {
-                        self.servo(m, Some(true), Some(true), Some(true))
-                    }
+                    K::Jog {
+                        kind: JogKind::Plus | JogKind::Minus,
+                        ..
+                    } => self.servo(m, Some(true), Some(true), Some(true)),
                     K::Jog { .. } => self.servo(m, Some(true), Some(true), Some(false)),
                     _ => {}
                 }
@@ -250,14 +291,28 @@ impl Card {
         let motors = self.run.motors_in(cs);
         let flags = |m: u16| self.state.motors.get(m as usize - 1);
         let ivar = |m: u16| self.state.peek_ivar(100 * u32::from(m)).unwrap_or(0.0) != 0.0;
-        if motors.iter().any(|&m| flags(m).is_some_and(|f| f.neg_limit && f.pos_limit)) {
+        if motors
+            .iter()
+            .any(|&m| flags(m).is_some_and(|f| f.neg_limit && f.pos_limit))
+        {
             return Err(10);
         }
-        let moving = |m: u16| self.run.motors.get(m as usize - 1).is_some_and(|r| r.moving);
-        if motors.iter().any(|&m| moving(m) || flags(m).is_some_and(|f| f.home_search)) {
+        let moving = |m: u16| {
+            self.run
+                .motors
+                .get(m as usize - 1)
+                .is_some_and(|r| r.moving)
+        };
+        if motors
+            .iter()
+            .any(|&m| moving(m) || flags(m).is_some_and(|f| f.home_search))
+        {
             return Err(11);
         }
-        if motors.iter().any(|&m| ivar(m) && flags(m).is_some_and(|f| f.open_loop)) {
+        if motors
+            .iter()
+            .any(|&m| ivar(m) && flags(m).is_some_and(|f| f.open_loop))
+        {
             return Err(12);
         }
         if motors.iter().any(|&m| !ivar(m)) {
@@ -266,7 +321,10 @@ impl Card {
         if motors.is_empty() {
             return Err(14);
         }
-        if matches!(self.open.map(|o| o.id), Some(super::buffers::BufId::Prog(_))) {
+        if matches!(
+            self.open.map(|o| o.id),
+            Some(super::buffers::BufId::Prog(_))
+        ) {
             return Err(15);
         }
         let (prog, _) = self.run.cs[cs as usize - 1].pointer.ok_or(15u16)?;
@@ -276,7 +334,10 @@ impl Card {
             }
             return Ok(());
         }
-        let p = u16::try_from(prog).ok().and_then(|n| self.bufs.progs.get(&n)).ok_or(15u16)?;
+        let p = u16::try_from(prog)
+            .ok()
+            .and_then(|n| self.bufs.progs.get(&n))
+            .ok_or(15u16)?;
         if !p.valid {
             return Err(16);
         }
@@ -287,10 +348,19 @@ impl Card {
     pub(crate) fn label_offset(&self, prog: u32, label: u32) -> u32 {
         use super::buffers::StoredLine;
         use crate::lang::ast::StmtKind;
-        let Some(p) = u16::try_from(prog).ok().and_then(|n| self.bufs.progs.get(&n)) else { return 0 };
+        let Some(p) = u16::try_from(prog)
+            .ok()
+            .and_then(|n| self.bufs.progs.get(&n))
+        else {
+            return 0;
+        };
         let mut off = 0;
         for l in &p.lines {
-            if l.stmts.first().is_some_and(|st| st.kind == StmtKind::Label(label)) && label != 0 {
+            if l.stmts
+                .first()
+                .is_some_and(|st| st.kind == StmtKind::Label(label))
+                && label != 0
+            {
                 return off;
             }
             off += l.words();
@@ -305,13 +375,22 @@ impl Card {
         if matches!(open.id, super::buffers::BufId::Plc(_)) {
             return Err(5);
         }
-        let axes: Vec<Axis> = list.map(<[Axis]>::to_vec).unwrap_or_else(|| ALL_AXES.to_vec());
+        let axes: Vec<Axis> = list
+            .map(<[Axis]>::to_vec)
+            .unwrap_or_else(|| ALL_AXES.to_vec());
         let words = axes
             .into_iter()
             .filter(|a| a.is_motion_axis())
-            .map(|axis| AxisWord { axis, value: Expr::num(0.0), extra: None })
+            .map(|axis| AxisWord {
+                axis,
+                value: Expr::num(0.0),
+                extra: None,
+            })
             .collect();
-        let st = Stmt { kind: StmtKind::Move(words), pos: Pos(0) };
+        let st = Stmt {
+            kind: StmtKind::Move(words),
+            pos: Pos(0),
+        };
         self.store_line(s, vec![st])
     }
 }

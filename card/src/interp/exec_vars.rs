@@ -45,7 +45,10 @@ impl VarEnv<'_> {
 
 impl crate::lang::eval::Env for VarEnv<'_> {
     fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, crate::lang::eval::EvalError> {
-        self.get(kind, index).ok_or(crate::lang::eval::EvalError { code: 3, msg: "no such variable" })
+        self.get(kind, index).ok_or(crate::lang::eval::EvalError {
+            code: 3,
+            msg: "no such variable",
+        })
     }
 
     fn radians(&self) -> bool {
@@ -56,7 +59,10 @@ impl crate::lang::eval::Env for VarEnv<'_> {
 impl Card {
     /// Evaluate an expression in the context of C.S. `cs`.
     pub(crate) fn eval(&mut self, cs: u16, e: &Expr) -> Result<f64, u16> {
-        let mut env = VarEnv { state: &mut self.state, cs };
+        let mut env = VarEnv {
+            state: &mut self.state,
+            cs,
+        };
         crate::lang::eval::eval(e, &mut env).map_err(|e| u16::from(e.code))
     }
 
@@ -71,7 +77,9 @@ impl Card {
                 vec![x as u32]
             }
             VarSel::Strided { count, .. } if *count as usize > MAX_SELECTION => return Err(3),
-            VarSel::Range { first, last } if (last.saturating_sub(*first) as usize) >= MAX_SELECTION => {
+            VarSel::Range { first, last }
+                if (last.saturating_sub(*first) as usize) >= MAX_SELECTION =>
+            {
                 return Err(3)
             }
             _ => v.constant_indices().unwrap_or_default(),
@@ -91,7 +99,10 @@ impl Card {
                     let text = match v.kind {
                         VarKind::I => self.state.ivar_text(n).map_err(|e| e.err_code())?,
                         k => {
-                            let mut env = VarEnv { state: &mut self.state, cs };
+                            let mut env = VarEnv {
+                                state: &mut self.state,
+                                cs,
+                            };
                             format_value(env.get(k, n).ok_or(3u16)?)
                         }
                     };
@@ -102,7 +113,10 @@ impl Card {
             CmdKind::VarAssign(v, e) => {
                 let idx = self.indices(cs, v)?;
                 let val = self.eval(cs, e)?;
-                let mut env = VarEnv { state: &mut self.state, cs };
+                let mut env = VarEnv {
+                    state: &mut self.state,
+                    cs,
+                };
                 for n in idx {
                     env.set(v.kind, n, val)?;
                 }
@@ -138,13 +152,36 @@ impl Card {
                 Ok(())
             }
             CmdKind::BareNumber(num) => {
-                self.state.vars.set_p(0, num.value).map_err(|e| e.err_code())?;
+                if let Some((kind, m)) = self.pending_table {
+                    // Entries of a just-defined compensation table (§3.4.4), integers.
+                    match self.bufs.defines.tables_mut(kind).get_mut(&m) {
+                        Some(t) if (t.data.len() as u32) < t.entries => {
+                            t.data.push(num.value.round() as i64);
+                            if t.data.len() as u32 >= t.entries {
+                                self.pending_table = None;
+                            }
+                            return Ok(());
+                        }
+                        _ => self.pending_table = None,
+                    }
+                }
+                self.state
+                    .vars
+                    .set_p(0, num.value)
+                    .map_err(|e| e.err_code())?;
                 Ok(())
             }
-            CmdKind::ReadMem { hex, space, addr, count } => {
-                self.read_mem(*hex, *space, *addr, *count, out)
-            }
-            CmdKind::WriteMem { space, addr, values } => {
+            CmdKind::ReadMem {
+                hex,
+                space,
+                addr,
+                count,
+            } => self.read_mem(*hex, *space, *addr, *count, out),
+            CmdKind::WriteMem {
+                space,
+                addr,
+                values,
+            } => {
                 let a = u16::try_from(*addr).map_err(|_| 3u16)?;
                 if values.is_empty() || values.len() > 16 {
                     return Err(3);
@@ -171,7 +208,14 @@ impl Card {
         }
     }
 
-    fn read_mem(&mut self, hex: bool, space: MemSpace, addr: u32, count: u32, out: &mut Out) -> Exec {
+    fn read_mem(
+        &mut self,
+        hex: bool,
+        space: MemSpace,
+        addr: u32,
+        count: u32,
+        out: &mut Out,
+    ) -> Exec {
         let a = u16::try_from(addr).map_err(|_| 3u16)?;
         if !(1..=16).contains(&count) {
             return Err(3);
@@ -181,7 +225,11 @@ impl Card {
             let at = a.wrapping_add(k as u16);
             let text = match space {
                 MemSpace::X | MemSpace::Y => {
-                    let sp = if space == MemSpace::X { Space::X } else { Space::Y };
+                    let sp = if space == MemSpace::X {
+                        Space::X
+                    } else {
+                        Space::Y
+                    };
                     let w = self.state.read(sp, at);
                     if hex {
                         format!("{w:06X}")

@@ -32,7 +32,10 @@ pub struct InterpImage {
 impl Card {
     /// Serialize INTERP's saved part.
     pub(crate) fn interp_blob(&self) -> Vec<u8> {
-        let img = InterpImage { bufs: self.bufs.clone(), axes: self.run.axes.clone() };
+        let img = InterpImage {
+            bufs: self.bufs.clone(),
+            axes: self.run.axes.clone(),
+        };
         bincode::serde::encode_to_vec(&img, bincode::config::standard()).unwrap_or_default()
     }
 
@@ -58,7 +61,9 @@ impl Card {
     /// `SAVE`: write the image atomically. Returns false on an I/O failure (no file
     /// configured counts as success: nothing to write).
     pub(crate) fn save(&mut self) -> bool {
-        let Some(path) = self.state_file.clone() else { return true };
+        let Some(path) = self.state_file.clone() else {
+            return true;
+        };
         let img = self.state.to_image(self.interp_blob());
         persist::save(&path, &img).is_ok()
     }
@@ -90,6 +95,7 @@ impl Card {
     /// Common tail of every reset: no open buffer, addressing back to card 0, status coords.
     fn after_reset(&mut self) {
         self.open = None;
+        self.pending_table = None;
         self.chain_addressed = self.state.peek_ivar(0).unwrap_or(0.0) == 0.0;
         self.chain_all = false;
         self.actions.clear();
@@ -103,6 +109,7 @@ impl Card {
         self.state.factory();
         self.bufs = Buffers::new(user_memory_words(self.profile));
         self.open = None;
+        self.pending_table = None;
         let lim = self.state.limits();
         let axes = std::mem::take(&mut self.run.axes);
         self.run = RunState::new(lim.motors, lim.coords, 32);
@@ -119,7 +126,11 @@ impl Card {
     /// Copy axis-definition membership into the motor status flags (`?` word 2 bits 23-20).
     pub(crate) fn sync_motor_coords(&mut self) {
         for (k, m) in self.state.motors.iter_mut().enumerate() {
-            m.coord = self.run.axes.get(k).and_then(|a| a.as_ref().map(|(c, _)| *c as u8));
+            m.coord = self
+                .run
+                .axes
+                .get(k)
+                .and_then(|a| a.as_ref().map(|(c, _)| *c as u8));
         }
     }
 

@@ -93,7 +93,13 @@ impl Card {
             }
             let mut out = Out::default();
             let r = self.exec_cmd(s, &cmd, &mut out);
-            let r = if r.is_ok() && self.chain_all && !out.lines.is_empty() && cmd != CmdKind::ReportCard {
+            // Under `@@` card 0 rejects data-returning commands (§8.2 [DECISION]).
+            let r = if r.is_ok()
+                && self.chain_all
+                && !out.lines.is_empty()
+                && cmd != CmdKind::ReportCard
+            {
+                out.lines.clear();
                 Err(3)
             } else {
                 r

@@ -46,7 +46,11 @@ pub struct Session {
 
 impl Default for Session {
     fn default() -> Self {
-        Session { motor: 1, coord: 1, id: NEXT_SESSION.fetch_add(1, Ordering::Relaxed) }
+        Session {
+            motor: 1,
+            coord: 1,
+            id: NEXT_SESSION.fetch_add(1, Ordering::Relaxed),
+        }
     }
 }
 
@@ -108,6 +112,8 @@ pub struct Card {
     pub(crate) chain_addressed: bool,
     pub(crate) chain_all: bool,
     pub(crate) state_file: Option<PathBuf>,
+    /// A compensation table just defined and not yet filled: bare numbers are its entries.
+    pub(crate) pending_table: Option<(defines::TableKind, u8)>,
 }
 
 impl Card {
@@ -127,6 +133,7 @@ impl Card {
             chain_addressed: true,
             chain_all: false,
             state_file: None,
+            pending_table: None,
         };
         c.state.power_on();
         c.sync_motor_coords();
@@ -188,7 +195,10 @@ impl Card {
     /// Motion code: report motor `m`'s (1-based) position, velocity and following error in
     /// counts, as `P`, `V`, `F` and CTRL-P/V/F answer them.
     pub fn set_motor_report(&mut self, m: u16, position: f64, velocity: f64, following_error: f64) {
-        if let Some(r) = m.checked_sub(1).and_then(|k| self.run.report.get_mut(k as usize)) {
+        if let Some(r) = m
+            .checked_sub(1)
+            .and_then(|k| self.run.report.get_mut(k as usize))
+        {
             *r = (position, velocity, following_error);
         }
     }

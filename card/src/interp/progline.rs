@@ -23,12 +23,19 @@ impl ProgLine {
 
 impl StoredLine for ProgLine {
     fn words(&self) -> u32 {
-        self.stmts.iter().map(listing::word_count).sum::<u32>().max(1)
+        self.stmts
+            .iter()
+            .map(listing::word_count)
+            .sum::<u32>()
+            .max(1)
     }
 
     fn structure(&self) -> Structure {
         // The structural statement is the first of the line (a label may precede it).
-        let first = self.stmts.iter().find(|s| !matches!(s.kind, StmtKind::Label(_)));
+        let first = self
+            .stmts
+            .iter()
+            .find(|s| !matches!(s.kind, StmtKind::Label(_)));
         match first.map(|s| &s.kind) {
             Some(StmtKind::If(_)) => Structure::If,
             Some(StmtKind::IfLine(..)) => Structure::IfOneLine,
@@ -42,7 +49,13 @@ impl StoredLine for ProgLine {
     }
 
     fn is_return(&self) -> bool {
-        matches!(self.stmts.as_slice(), [Stmt { kind: StmtKind::Return, .. }])
+        matches!(
+            self.stmts.as_slice(),
+            [Stmt {
+                kind: StmtKind::Return,
+                ..
+            }]
+        )
     }
 
     fn render(&self, long: bool) -> String {
@@ -50,6 +63,11 @@ impl StoredLine for ProgLine {
     }
 
     fn return_line() -> Self {
-        ProgLine { stmts: vec![Stmt { kind: StmtKind::Return, pos: Pos(0) }] }
+        ProgLine {
+            stmts: vec![Stmt {
+                kind: StmtKind::Return,
+                pos: Pos(0),
+            }],
+        }
     }
 }

@@ -28,14 +28,22 @@ pub struct Framing {
 impl Default for Framing {
     /// Seed defaults: I3=1, I4=0, I6=3.
     fn default() -> Self {
-        Framing { i3: 1, i4: 0, i6: 3 }
+        Framing {
+            i3: 1,
+            i4: 0,
+            i6: 3,
+        }
     }
 }
 
 impl Framing {
     /// Build from raw I-variable values (out-of-range values are masked to their 2 low bits).
     pub fn from_ivars(i3: i64, i4: i64, i6: i64) -> Self {
-        Framing { i3: (i3 & 3) as u8, i4: (i4 & 3) as u8, i6: (i6 & 3) as u8 }
+        Framing {
+            i3: (i3 & 3) as u8,
+            i4: (i4 & 3) as u8,
+            i6: (i6 & 3) as u8,
+        }
     }
 
     fn lf_prefix(self) -> bool {
@@ -54,7 +62,9 @@ pub fn checksum(bytes: &[u8]) -> u8 {
 
 /// Host→card checksum: over the printable characters of the command line only.
 pub fn command_checksum(line: &[u8]) -> u8 {
-    line.iter().filter(|b| (0x20..0x7F).contains(*b)).fold(0u8, |a, &b| a.wrapping_add(b))
+    line.iter()
+        .filter(|b| (0x20..0x7F).contains(*b))
+        .fold(0u8, |a, &b| a.wrapping_add(b))
 }
 
 /// How a command line ended.
@@ -124,7 +134,8 @@ impl Reply {
             if f.lf_prefix() {
                 self.out.push(LF);
             }
-            self.out.extend_from_slice(format!("ERR{:03}", code.min(999)).as_bytes());
+            self.out
+                .extend_from_slice(format!("ERR{:03}", code.min(999)).as_bytes());
             self.out.push(CR);
         }
     }
@@ -188,7 +199,10 @@ mod tests {
             assert_eq!(run(fr(2, i6), &[], Outcome::Ok), b"\x06");
             assert_eq!(run(fr(3, i6), &[], Outcome::Ok), b"\x06");
         }
-        assert_eq!(run(fr(1, 3), &["25", "50", "75"], Outcome::Ok), b"\n25\r\n50\r\n75\r\n");
+        assert_eq!(
+            run(fr(1, 3), &["25", "50", "75"], Outcome::Ok),
+            b"\n25\r\n50\r\n75\r\n"
+        );
     }
 
     #[test]
@@ -214,7 +228,10 @@ mod tests {
     #[test]
     fn data_before_error_is_kept_and_no_ack_follows() {
         assert_eq!(run(fr(2, 1), &["25"], Outcome::Err(3)), b"25\r\x07ERR003\r");
-        assert_eq!(run(fr(1, 3), &["25"], Outcome::Err(15)), b"\n25\r\x07\r\nERR015\r");
+        assert_eq!(
+            run(fr(1, 3), &["25"], Outcome::Err(15)),
+            b"\n25\r\x07\r\nERR015\r"
+        );
     }
 
     #[test]
@@ -225,14 +242,22 @@ mod tests {
     #[test]
     fn checksums_match_manual_example() {
         // I3=2, I4=1, P1=25: "25" CR 0x74 ACK 0x81.
-        let f = Framing { i3: 2, i4: 1, i6: 1 };
+        let f = Framing {
+            i3: 2,
+            i4: 1,
+            i6: 1,
+        };
         assert_eq!(run(f, &["25"], Outcome::Ok), b"25\r\x74\x06\x81");
         // J+ -> 74+43 = 117.
         assert_eq!(command_checksum(b"J+"), 117);
         // Control characters are excluded from the host checksum.
         assert_eq!(command_checksum(b"J\x01+"), 117);
         // With I3=1 the leading LF belongs to the line checksum.
-        let f1 = Framing { i3: 1, i4: 1, i6: 3 };
+        let f1 = Framing {
+            i3: 1,
+            i4: 1,
+            i6: 3,
+        };
         let mut r = Reply::new();
         r.data_line(f1, b"25");
         assert_eq!(r.as_bytes(), b"\n25\r\x7e");
@@ -244,6 +269,9 @@ mod tests {
 
     #[test]
     fn control_line_has_no_ack() {
-        assert_eq!(control_line(Framing::default(), b"000000000800"), b"000000000800\r");
+        assert_eq!(
+            control_line(Framing::default(), b"000000000800"),
+            b"000000000800\r"
+        );
     }
 }

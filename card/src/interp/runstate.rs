@@ -54,17 +54,31 @@ impl RunState {
     /// Power-up state for the given dimensions.
     pub fn new(motors: u16, coords: u16, plcs: usize) -> Self {
         RunState {
-            cs: vec![CsRun { override_pct: 100.0, ..CsRun::default() }; coords as usize],
+            cs: vec![
+                CsRun {
+                    override_pct: 100.0,
+                    ..CsRun::default()
+                };
+                coords as usize
+            ],
             motors: vec![MotorRun::default(); motors as usize],
             axes: vec![None; motors as usize],
-            plc: vec![PlcRun { enabled: true, paused: false }; plcs],
+            plc: vec![
+                PlcRun {
+                    enabled: true,
+                    paused: false
+                };
+                plcs
+            ],
             report: vec![(0.0, 0.0, 0.0); motors as usize],
         }
     }
 
     /// Whether PLC `n` is enabled and not paused.
     pub fn plc_active(&self, n: u8) -> bool {
-        self.plc.get(n as usize).is_some_and(|p| p.enabled && !p.paused)
+        self.plc
+            .get(n as usize)
+            .is_some_and(|p| p.enabled && !p.paused)
     }
 
     /// Motors (1-based) whose axis definition is in C.S. `cs`.
@@ -127,19 +141,31 @@ mod tests {
     use crate::lang::ast::AxisTerm;
 
     fn def(terms: &[(f64, Axis)], offset: f64) -> AxisDef {
-        AxisDef { terms: terms.iter().map(|&(scale, axis)| AxisTerm { scale, axis }).collect(), offset }
+        AxisDef {
+            terms: terms
+                .iter()
+                .map(|&(scale, axis)| AxisTerm { scale, axis })
+                .collect(),
+            offset,
+        }
     }
 
     #[test]
     fn axis_definition_texts() {
         assert_eq!(axis_def_text(&def(&[(1000.0, Axis::X)], 0.0)), "1000X");
         assert_eq!(axis_def_text(&def(&[(1.0, Axis::X)], 0.0)), "X");
-        assert_eq!(axis_def_text(&def(&[(8660.0, Axis::X), (-5000.0, Axis::Y)], 0.0)), "8660X-5000Y");
+        assert_eq!(
+            axis_def_text(&def(&[(8660.0, Axis::X), (-5000.0, Axis::Y)], 0.0)),
+            "8660X-5000Y"
+        );
         assert_eq!(
             axis_def_text(&def(&[(5000.0, Axis::X), (8660.0, Axis::Y)], 5000.0)),
             "5000X+8660Y+5000"
         );
-        assert_eq!(axis_def_text(&def(&[(2000.0, Axis::A)], 500.0)), "2000A+500");
+        assert_eq!(
+            axis_def_text(&def(&[(2000.0, Axis::A)], 500.0)),
+            "2000A+500"
+        );
         assert_eq!(axis_def_text(&def(&[(-0.5, Axis::U)], -3.0)), "-0.5U-3");
     }
 
@@ -147,8 +173,14 @@ mod tests {
     fn axis_definition_legality() {
         assert!(axis_def_legal(&def(&[(1.0, Axis::A)], 0.0)));
         assert!(axis_def_legal(&def(&[(1.0, Axis::X), (1.0, Axis::Z)], 0.0)));
-        assert!(!axis_def_legal(&def(&[(1.0, Axis::X), (1.0, Axis::U)], 0.0)));
-        assert!(!axis_def_legal(&def(&[(1.0, Axis::A), (1.0, Axis::B)], 0.0)));
+        assert!(!axis_def_legal(&def(
+            &[(1.0, Axis::X), (1.0, Axis::U)],
+            0.0
+        )));
+        assert!(!axis_def_legal(&def(
+            &[(1.0, Axis::A), (1.0, Axis::B)],
+            0.0
+        )));
         assert!(!axis_def_legal(&def(&[(1.0, Axis::I)], 0.0)));
     }
 

@@ -87,7 +87,10 @@ fn motion_commands_are_queued_as_actions() {
     let a = c.take_actions();
     assert_eq!(a.len(), 2);
     assert_eq!(a[0].motor, 2);
-    assert!(matches!(a[1].kind, ActionKind::Cmd(crate::lang::ast::CmdKind::Kill)));
+    assert!(matches!(
+        a[1].kind,
+        ActionKind::Cmd(crate::lang::ast::CmdKind::Kill)
+    ));
     assert!(c.take_actions().is_empty());
 }
 
@@ -103,7 +106,10 @@ fn run_refusals_in_order() {
     assert_eq!(send(&mut c, &mut s, "#2->Y"), b"\x06");
     assert_eq!(send(&mut c, &mut s, "R"), b"\x07ERR013\r");
     assert_eq!(send(&mut c, &mut s, "#2->0 #1J+ R"), b"\x07ERR011\r");
-    assert_eq!(send(&mut c, &mut s, "#1J/ OPEN PROG 1 CLEAR X10 CLOSE B1 R"), b"\x06");
+    assert_eq!(
+        send(&mut c, &mut s, "#1J/ OPEN PROG 1 CLEAR X10 CLOSE B1 R"),
+        b"\x06"
+    );
     assert_eq!(send(&mut c, &mut s, "#1J+"), b"\x07ERR001\r");
     assert_eq!(send(&mut c, &mut s, "A #1J/"), b"\x06");
 }
@@ -117,7 +123,10 @@ fn save_and_reset_restore_state() {
     let mut c = Card::with_state_file(Profile::Pmac2, &path);
     let mut s = Session::default();
     assert_eq!(send(&mut c, &mut s, "I3=2 I6=1 I130=1500 P1=5"), b"\x06");
-    assert_eq!(send(&mut c, &mut s, "OPEN PROG 7 CLEAR DWELL100 CLOSE"), b"\x06");
+    assert_eq!(
+        send(&mut c, &mut s, "OPEN PROG 7 CLEAR DWELL100 CLOSE"),
+        b"\x06"
+    );
     assert_eq!(send(&mut c, &mut s, "SAVE"), b"\x06");
     assert_eq!(send(&mut c, &mut s, "I130=1000 P1=6"), b"\x06");
     assert_eq!(send(&mut c, &mut s, "$$$"), b"");
@@ -125,7 +134,11 @@ fn save_and_reset_restore_state() {
     let mut c2 = Card::with_state_file(Profile::Pmac2, &path);
     assert_eq!(send(&mut c2, &mut s, "I130"), b"1500\r\x06");
     let listed = send(&mut c2, &mut s, "LIST PROG 7");
-    assert!(listed.starts_with(b"DWE"), "{:?}", String::from_utf8_lossy(&listed));
+    assert!(
+        listed.starts_with(b"DWE"),
+        "{:?}",
+        String::from_utf8_lossy(&listed)
+    );
     // $$$*** restores factory I-variables (I3=1, I6=3) but keeps P.
     assert_eq!(send(&mut c2, &mut s, "$$$***"), b"\n");
     assert_eq!(send(&mut c2, &mut s, "P1"), b"\n5\r\n");

@@ -215,7 +215,10 @@ pub enum MDef {
 impl MDef {
     /// Thumbwheel forms (no synchronous assignment allowed).
     pub fn is_thumbwheel(&self) -> bool {
-        matches!(self, MDef::Twb { .. } | MDef::Twd { .. } | MDef::Twr { .. } | MDef::Tws { .. })
+        matches!(
+            self,
+            MDef::Twb { .. } | MDef::Twd { .. } | MDef::Twr { .. } | MDef::Tws { .. }
+        )
     }
 }
 
@@ -309,7 +312,10 @@ pub struct Expr {
 impl Expr {
     /// A decimal literal expression (position 0).
     pub fn num(v: f64) -> Expr {
-        Expr { kind: ExprKind::Num(Number::dec(v)), pos: Pos(0) }
+        Expr {
+            kind: ExprKind::Num(Number::dec(v)),
+            pos: Pos(0),
+        }
     }
 }
 

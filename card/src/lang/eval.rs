@@ -47,7 +47,10 @@ pub fn index<E: Env + ?Sized>(i: &VarIndex, env: &mut E) -> Result<u32, EvalErro
             if (0.0..=f64::from(u32::MAX)).contains(&v) {
                 Ok(v as u32)
             } else {
-                Err(EvalError { code: 3, msg: "computed variable number out of range" })
+                Err(EvalError {
+                    code: 3,
+                    msg: "computed variable number out of range",
+                })
             }
         }
     }
@@ -61,7 +64,10 @@ pub fn read_var<E: Env + ?Sized>(v: &VarRef, env: &mut E) -> Result<f64, EvalErr
 
 fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, EvalError> {
     if depth > MAX_EVAL_DEPTH {
-        return Err(EvalError { code: 3, msg: "expression too deep" });
+        return Err(EvalError {
+            code: 3,
+            msg: "expression too deep",
+        });
     }
     let v = match &e.kind {
         ExprKind::Num(n) => n.value,
@@ -74,7 +80,11 @@ fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, Eva
         }
         ExprKind::Call(f, a) => {
             let x = eval_d(a, env, depth + 1)?;
-            let cos = if *f == Func::Atan2 { env.atan2_cos()? } else { 0.0 };
+            let cos = if *f == Func::Atan2 {
+                env.atan2_cos()?
+            } else {
+                0.0
+            };
             function(*f, x, cos, env.radians())
         }
     };
@@ -191,7 +201,10 @@ pub fn eval_cond<E: Env + ?Sized>(c: &Cond, env: &mut E) -> Result<bool, EvalErr
 
 fn eval_cond_d<E: Env + ?Sized>(c: &Cond, env: &mut E, depth: u32) -> Result<bool, EvalError> {
     if depth > MAX_EVAL_DEPTH {
-        return Err(EvalError { code: 3, msg: "condition too deep" });
+        return Err(EvalError {
+            code: 3,
+            msg: "condition too deep",
+        });
     }
     Ok(match c {
         Cond::Cmp { lhs, op, rhs } => {
@@ -247,7 +260,10 @@ mod tests {
     impl Env for TestEnv {
         fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, EvalError> {
             if index > 1023 {
-                return Err(EvalError { code: 3, msg: "no such variable" });
+                return Err(EvalError {
+                    code: 3,
+                    msg: "no such variable",
+                });
             }
             Ok(*self.vars.get(&(kind as u8, index)).unwrap_or(&0.0))
         }
@@ -262,7 +278,10 @@ mod tests {
         vars.insert((VarKind::P as u8, 2), 2.0);
         vars.insert((VarKind::P as u8, 5), 7.0);
         vars.insert((VarKind::Q as u8, 0), -1.0);
-        TestEnv { vars, radians: false }
+        TestEnv {
+            vars,
+            radians: false,
+        }
     }
 
     /// Evaluate the right-hand side of `P0=<text>` parsed by the real parser.
@@ -352,8 +371,12 @@ mod tests {
         let mut e = env();
         let line = b"P0=P2000+1";
         let mut p = LineParser::new(line).unwrap();
-        let Some(Ok(Item::Cmd(c))) = p.next_item(Mode::Online) else { panic!() };
-        let crate::lang::ast::CmdKind::VarAssign(_, x) = c.kind else { panic!() };
+        let Some(Ok(Item::Cmd(c))) = p.next_item(Mode::Online) else {
+            panic!()
+        };
+        let crate::lang::ast::CmdKind::VarAssign(_, x) = c.kind else {
+            panic!()
+        };
         assert_eq!(eval(&x, &mut e).unwrap_err().code, 3);
     }
 
@@ -372,12 +395,18 @@ mod tests {
     fn conditions_and_binds_tighter_than_or() {
         let mut e = env();
         let line = b"IF (P1=25 OR P2=0 AND P5=0)";
-        let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
-        let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else { panic!() };
+        let stmts =
+            crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
+        let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
+            panic!()
+        };
         assert!(eval_cond(c, &mut e).unwrap());
         let line = b"IF ((P1=25 OR P2=0) AND P5=0)";
-        let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
-        let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else { panic!() };
+        let stmts =
+            crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
+        let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
+            panic!()
+        };
         assert!(!eval_cond(c, &mut e).unwrap());
         assert!(compare(CmpOp::Approx, 1.0, 2.0));
         assert!(compare(CmpOp::NotGt, 2.0, 2.0));

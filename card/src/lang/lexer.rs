@@ -97,7 +97,10 @@ impl<'a> Cursor<'a> {
     /// Does keyword `kw` (upper case) start at the current offset?
     pub fn looking_at(&self, kw: &str) -> bool {
         let r = self.rest();
-        r.len() >= kw.len() && r.iter().zip(kw.bytes()).all(|(a, b)| a.to_ascii_uppercase() == b)
+        r.len() >= kw.len()
+            && r.iter()
+                .zip(kw.bytes())
+                .all(|(a, b)| a.to_ascii_uppercase() == b)
     }
 
     /// Consume keyword `kw` (upper case, no spaces inside) if it starts here.
@@ -129,7 +132,11 @@ impl<'a> Cursor<'a> {
 
     /// Error at the current offset.
     pub fn err(&self, code: u8, msg: &'static str) -> ParseError {
-        ParseError { pos: self.i, code, msg }
+        ParseError {
+            pos: self.i,
+            code,
+            msg,
+        }
     }
 
     /// Syntax error (ERR003) at the current offset.
@@ -186,7 +193,11 @@ impl<'a> Cursor<'a> {
             v = v * 10 + u64::from(c - b'0');
             self.i += 1;
             if v > u64::from(u32::MAX) {
-                return Err(ParseError { pos: start, code: ERR_SYNTAX, msg: "number too large" });
+                return Err(ParseError {
+                    pos: start,
+                    code: ERR_SYNTAX,
+                    msg: "number too large",
+                });
             }
         }
         if self.i == start {
@@ -219,10 +230,17 @@ impl<'a> Cursor<'a> {
                 v = v * 16 + u64::from(d);
                 self.i += 1;
                 if v >= 1 << 48 {
-                    return Err(ParseError { pos: start, code: ERR_SYNTAX, msg: "hex constant too large" });
+                    return Err(ParseError {
+                        pos: start,
+                        code: ERR_SYNTAX,
+                        msg: "hex constant too large",
+                    });
                 }
             }
-            return Ok(Some(Number { value: v as f64, hex: true }));
+            return Ok(Some(Number {
+                value: v as f64,
+                hex: true,
+            }));
         }
         if !self.at_unsigned_number() {
             return Ok(None);
@@ -241,9 +259,14 @@ impl<'a> Cursor<'a> {
             }
         }
         if digits > 40 {
-            return Err(ParseError { pos: start, code: ERR_SYNTAX, msg: "number too long" });
+            return Err(ParseError {
+                pos: start,
+                code: ERR_SYNTAX,
+                msg: "number too long",
+            });
         }
-        let text = std::str::from_utf8(&self.s[start..end]).map_err(|_| self.syntax("bad number"))?;
+        let text =
+            std::str::from_utf8(&self.s[start..end]).map_err(|_| self.syntax("bad number"))?;
         let value: f64 = text.parse().map_err(|_| self.syntax("bad number"))?;
         self.i = end;
         Ok(Some(Number { value, hex: false }))
@@ -257,7 +280,14 @@ impl<'a> Cursor<'a> {
             self.skip_ws();
         }
         match self.unsigned_number()? {
-            Some(n) => Ok(Some(if neg { Number { value: -n.value, hex: n.hex } } else { n })),
+            Some(n) => Ok(Some(if neg {
+                Number {
+                    value: -n.value,
+                    hex: n.hex,
+                }
+            } else {
+                n
+            })),
             None => {
                 self.i = save;
                 Ok(None)
@@ -288,13 +318,37 @@ mod tests {
     #[test]
     fn numbers_decimal_hex_negative() {
         let mut c = Cursor::new(b"-1.5 $C000 .25 12. 7");
-        assert_eq!(c.number().unwrap(), Some(Number { value: -1.5, hex: false }));
+        assert_eq!(
+            c.number().unwrap(),
+            Some(Number {
+                value: -1.5,
+                hex: false
+            })
+        );
         c.skip_ws();
-        assert_eq!(c.number().unwrap(), Some(Number { value: 49152.0, hex: true }));
+        assert_eq!(
+            c.number().unwrap(),
+            Some(Number {
+                value: 49152.0,
+                hex: true
+            })
+        );
         c.skip_ws();
-        assert_eq!(c.number().unwrap(), Some(Number { value: 0.25, hex: false }));
+        assert_eq!(
+            c.number().unwrap(),
+            Some(Number {
+                value: 0.25,
+                hex: false
+            })
+        );
         c.skip_ws();
-        assert_eq!(c.number().unwrap(), Some(Number { value: 12.0, hex: false }));
+        assert_eq!(
+            c.number().unwrap(),
+            Some(Number {
+                value: 12.0,
+                hex: false
+            })
+        );
         c.skip_ws();
         assert_eq!(c.uint().unwrap(), Some(7));
         assert!(c.at_end());

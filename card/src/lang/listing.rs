@@ -8,9 +8,9 @@
 use std::fmt::{self, Write};
 
 use super::ast::{
-    AssignOp, Axis, AxisDef, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr, ExprKind, Func,
-    LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb, PreludeCall, SendPort, SlaveVar, Stmt,
-    StmtKind, VarIndex, VarKind, VarRef, XySpace,
+    AssignOp, Axis, AxisDef, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr,
+    ExprKind, Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb,
+    PreludeCall, SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
 };
 
 /// A literal as written: `$hex` kept, decimals in shortest round-trip form, never exponent.
@@ -170,12 +170,20 @@ fn words(ws: &[AxisWord]) -> String {
 }
 
 fn args(a: &[LetterArg]) -> String {
-    a.iter().map(|x| format!(" {}{}", x.letter as char, data(&x.value))).collect()
+    a.iter()
+        .map(|x| format!(" {}{}", x.letter as char, data(&x.value)))
+        .collect()
 }
 
 fn num_list(l: &[NumRange]) -> String {
     l.iter()
-        .map(|r| if r.first == r.last { r.first.to_string() } else { format!("{}..{}", r.first, r.last) })
+        .map(|r| {
+            if r.first == r.last {
+                r.first.to_string()
+            } else {
+                format!("{}..{}", r.first, r.last)
+            }
+        })
         .collect::<Vec<_>>()
         .join(",")
 }
@@ -183,7 +191,13 @@ fn num_list(l: &[NumRange]) -> String {
 fn axes(l: &Option<Vec<Axis>>) -> String {
     match l {
         None => String::new(),
-        Some(v) => format!("({})", v.iter().map(|a| a.letter().to_string()).collect::<Vec<_>>().join(",")),
+        Some(v) => format!(
+            "({})",
+            v.iter()
+                .map(|a| a.letter().to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
     }
 }
 
@@ -212,7 +226,11 @@ fn slave_var(v: &SlaveVar) -> String {
 
 /// Statements of one line, separated by single spaces.
 pub fn line(stmts: &[Stmt], long: bool) -> String {
-    stmts.iter().map(|s| stmt(s, long)).collect::<Vec<_>>().join(" ")
+    stmts
+        .iter()
+        .map(|s| stmt(s, long))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Canonical text of one statement.
@@ -280,10 +298,18 @@ pub fn stmt(s: &Stmt, long: bool) -> String {
         S::Gosub(d) => format!("GOSUB{}", data(d)),
         S::Call(d, a) => format!("CALL{}{}", data(d), args(a)),
         S::Code(l, d, a) => format!("{}{}{}", code_letter(*l), data(d), args(a)),
-        S::Read(l) => format!("READ({})", l.iter().map(|c| (*c as char).to_string()).collect::<Vec<_>>().join(",")),
+        S::Read(l) => format!(
+            "READ({})",
+            l.iter()
+                .map(|c| (*c as char).to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
         S::Prelude(None) => "PRELUDE0".into(),
         S::Prelude(Some(PreludeCall::Call(n))) => format!("PRELUDE1 CALL{}", number(n)),
-        S::Prelude(Some(PreludeCall::Code(l, n))) => format!("PRELUDE1 {}{}", code_letter(*l), number(n)),
+        S::Prelude(Some(PreludeCall::Code(l, n))) => {
+            format!("PRELUDE1 {}{}", code_letter(*l), number(n))
+        }
         S::Spindle(d) => format!("S{}", data(d)),
         S::BlockStart => kw("BLOCKSTART", "BSTART").into(),
         S::BlockStop => kw("BLOCKSTOP", "BSTOP").into(),
@@ -299,9 +325,18 @@ pub fn stmt(s: &Stmt, long: bool) -> String {
         S::Display(d) => {
             let k = kw("DISPLAY", "DISP");
             match d {
-                Display::Text { pos: Some(p), text } => format!("{k} {p} \"{}\"", String::from_utf8_lossy(text)),
-                Display::Text { pos: None, text } => format!("{k} \"{}\"", String::from_utf8_lossy(text)),
-                Display::Var { pos, width, decimals, var: v } => format!("{k} {pos},{width}.{decimals},{}", var(v)),
+                Display::Text { pos: Some(p), text } => {
+                    format!("{k} {p} \"{}\"", String::from_utf8_lossy(text))
+                }
+                Display::Text { pos: None, text } => {
+                    format!("{k} \"{}\"", String::from_utf8_lossy(text))
+                }
+                Display::Var {
+                    pos,
+                    width,
+                    decimals,
+                    var: v,
+                } => format!("{k} {pos},{width}.{decimals},{}", var(v)),
             }
         }
         S::Plc(p) => {
@@ -327,18 +362,48 @@ pub fn stmt(s: &Stmt, long: bool) -> String {
         }
         S::SetPhase(l) => format!("SETPHASE{}", num_list(l)),
         S::Gather { trigger } => {
-            format!("{}{}", kw("GATHER", "GAT"), if *trigger { kw(" TRIGGER", " TRIG") } else { "" })
+            format!(
+                "{}{}",
+                kw("GATHER", "GAT"),
+                if *trigger {
+                    kw(" TRIGGER", " TRIG")
+                } else {
+                    ""
+                }
+            )
         }
         S::EndGather => kw("ENDGATHER", "ENDG").into(),
-        S::MacroAuxRead { node, param, var: v } => format!("{}{node},{param},{}", kw("MACROAUXREAD", "MXR"), var(v)),
-        S::MacroAuxWrite { node, param, var: v } => {
+        S::MacroAuxRead {
+            node,
+            param,
+            var: v,
+        } => format!("{}{node},{param},{}", kw("MACROAUXREAD", "MXR"), var(v)),
+        S::MacroAuxWrite {
+            node,
+            param,
+            var: v,
+        } => {
             format!("{}{node},{param},{}", kw("MACROAUXWRITE", "MXW"), var(v))
         }
-        S::MacroSlaveRead { node, var: sv, dest } => {
-            format!("{}{node},{},{}", kw("MACROSLVREAD", "MSR"), slave_var(sv), var(dest))
+        S::MacroSlaveRead {
+            node,
+            var: sv,
+            dest,
+        } => {
+            format!(
+                "{}{node},{},{}",
+                kw("MACROSLVREAD", "MSR"),
+                slave_var(sv),
+                var(dest)
+            )
         }
         S::MacroSlaveWrite { node, var: sv, src } => {
-            format!("{}{node},{},{}", kw("MACROSLVWRITE", "MSW"), slave_var(sv), var(src))
+            format!(
+                "{}{node},{},{}",
+                kw("MACROSLVWRITE", "MSW"),
+                slave_var(sv),
+                var(src)
+            )
         }
     }
 }
@@ -357,21 +422,46 @@ impl fmt::Display for MDef {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             MDef::SelfRef => write!(f, "*"),
-            MDef::Bits { space, addr, offset, width, format } => {
+            MDef::Bits {
+                space,
+                addr,
+                offset,
+                width,
+                format,
+            } => {
                 let sp = if space == XySpace::X { 'X' } else { 'Y' };
                 match width {
                     1 => write!(f, "{sp}:${addr:04X},{offset}"),
                     24 => write!(f, "{sp}:${addr:04X},24,{}", fmt_letter(format)),
-                    _ => write!(f, "{sp}:${addr:04X},{offset},{width},{}", fmt_letter(format)),
+                    _ => write!(
+                        f,
+                        "{sp}:${addr:04X},{offset},{width},{}",
+                        fmt_letter(format)
+                    ),
                 }
             }
             MDef::D(a) => write!(f, "D:${a:04X}"),
             MDef::L(a) => write!(f, "L:${a:04X}"),
             MDef::F(a) => write!(f, "F:${a:04X}"),
             MDef::Dp(a) => write!(f, "DP:${a:04X}"),
-            MDef::Twb { mux, offset, size, format } => write!(f, "TWB:{mux},{offset},{size},{}", fmt_letter(format)),
-            MDef::Twd { mux, offset, digits, decimals, format } => {
-                write!(f, "TWD:{mux},{offset},{digits}.{decimals},{}", fmt_letter(format))
+            MDef::Twb {
+                mux,
+                offset,
+                size,
+                format,
+            } => write!(f, "TWB:{mux},{offset},{size},{}", fmt_letter(format)),
+            MDef::Twd {
+                mux,
+                offset,
+                digits,
+                decimals,
+                format,
+            } => {
+                write!(
+                    f,
+                    "TWD:{mux},{offset},{digits}.{decimals},{}",
+                    fmt_letter(format)
+                )
             }
             MDef::Twr { mux, offset } => write!(f, "TWR:{mux},{offset}"),
             MDef::Tws { mux } => write!(f, "TWS:{mux}"),
@@ -395,15 +485,27 @@ pub fn axis_def(d: &AxisDef) -> String {
         s.push(t.axis.letter());
     }
     if d.offset != 0.0 {
-        let _ = write!(s, "{}{}", if d.offset < 0.0 { '-' } else { '+' }, d.offset.abs());
+        let _ = write!(
+            s,
+            "{}{}",
+            if d.offset < 0.0 { '-' } else { '+' },
+            d.offset.abs()
+        );
     }
     s
 }
 
 fn expr_words(e: &Expr) -> u32 {
     match &e.kind {
-        ExprKind::Num(_) | ExprKind::Var(VarRef { index: VarIndex::Const(_), .. }) => 0,
-        ExprKind::Var(VarRef { index: VarIndex::Expr(i), .. }) => 1 + expr_words(i),
+        ExprKind::Num(_)
+        | ExprKind::Var(VarRef {
+            index: VarIndex::Const(_),
+            ..
+        }) => 0,
+        ExprKind::Var(VarRef {
+            index: VarIndex::Expr(i),
+            ..
+        }) => 1 + expr_words(i),
         ExprKind::Neg(i) | ExprKind::Call(_, i) => 1 + expr_words(i),
         ExprKind::Bin(_, l, r) => 2 + expr_words(l) + expr_words(r),
     }
@@ -440,12 +542,16 @@ pub fn word_count(s: &Stmt) -> u32 {
         S::Assign { value, .. } => 1 + expr_words(value),
         S::Move(ws) => w(ws),
         S::Pset(ws) | S::Normal(ws) => 1 + w(ws),
-        S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => 1 + expr_words(d),
+        S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => {
+            1 + expr_words(d)
+        }
         S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) => 1 + expr_words(d),
         S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) => 1 + cond_words(c),
         S::IfLine(c, b) | S::WhileLine(c, b) => 1 + cond_words(c) + body(b),
         S::Else(b) => 1 + body(b),
-        S::Call(d, a) | S::Code(_, d, a) => 1 + expr_words(d) + a.iter().map(|x| 1 + expr_words(&x.value)).sum::<u32>(),
+        S::Call(d, a) | S::Code(_, d, a) => {
+            1 + expr_words(d) + a.iter().map(|x| 1 + expr_words(&x.value)).sum::<u32>()
+        }
         S::Command(Message::Text(t)) | S::Send(_, Message::Text(t)) => text_words(t.len()),
         S::Display(Display::Text { text, .. }) => text_words(text.len()),
         _ => 1,

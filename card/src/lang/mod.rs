@@ -81,12 +81,27 @@ impl<'a> LineParser<'a> {
     /// Validate the line (length, character set) and start parsing it.
     pub fn new(line: &'a [u8]) -> Result<LineParser<'a>, ParseError> {
         if line.len() > MAX_LINE_LEN {
-            return Err(ParseError { pos: MAX_LINE_LEN, code: ERR_SYNTAX, msg: "line too long" });
+            return Err(ParseError {
+                pos: MAX_LINE_LEN,
+                code: ERR_SYNTAX,
+                msg: "line too long",
+            });
         }
-        if let Some(pos) = line.iter().position(|&b| b > 126 || (b < 32 && b != b'\r' && b != b'\n')) {
-            return Err(ParseError { pos, code: ERR_ILLEGAL_CHAR, msg: "illegal character" });
+        if let Some(pos) = line
+            .iter()
+            .position(|&b| b > 126 || (b < 32 && b != b'\r' && b != b'\n'))
+        {
+            return Err(ParseError {
+                pos,
+                code: ERR_ILLEGAL_CHAR,
+                msg: "illegal character",
+            });
         }
-        Ok(LineParser { cur: Cursor::new(line), stored_any: false, done: false })
+        Ok(LineParser {
+            cur: Cursor::new(line),
+            stored_any: false,
+            done: false,
+        })
     }
 
     /// Byte offset reached so far.
@@ -118,7 +133,11 @@ impl<'a> LineParser<'a> {
         self.cur.set_offset(start);
         let mut k = self.cur.clone();
         match parse_program::statement(&mut k, BufferKind::Prog, !self.stored_any) {
-            Ok(Some(_)) => Err(ParseError { pos: start, code: ERR_NEEDS_BUFFER, msg: "statement needs an open buffer" }),
+            Ok(Some(_)) => Err(ParseError {
+                pos: start,
+                code: ERR_NEEDS_BUFFER,
+                msg: "statement needs an open buffer",
+            }),
             Ok(None) => Err(self.cur.syntax("unrecognised command")),
             Err(e) => Err(e),
         }
@@ -149,7 +168,11 @@ impl<'a> LineParser<'a> {
                 },
                 (Err(e), _) => e,
                 (Ok(None), Err(e)) => e,
-                (Ok(None), _) => ParseError { pos: start, code: ERR_SYNTAX, msg: "unrecognised command" },
+                (Ok(None), _) => ParseError {
+                    pos: start,
+                    code: ERR_SYNTAX,
+                    msg: "unrecognised command",
+                },
             }),
         }
     }
@@ -190,7 +213,11 @@ pub fn parse_program_line(line: &[u8], kind: BufferKind) -> Result<Vec<Stmt>, Pa
         match item? {
             Item::Stmt(s) => out.push(s),
             Item::Cmd(c) => {
-                return Err(ParseError { pos: c.pos.0 as usize, code: ERR_SYNTAX, msg: "not a program statement" })
+                return Err(ParseError {
+                    pos: c.pos.0 as usize,
+                    code: ERR_SYNTAX,
+                    msg: "not a program statement",
+                })
             }
         }
     }

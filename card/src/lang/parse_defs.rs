@@ -2,8 +2,9 @@
 //! LIST / DEFINE / DELETE targets, PLC lists, register access and MACRO commands.
 
 use super::ast::{
-    Axis, AxisDef, AxisTerm, CmdKind, CompMotor, DefineTarget, DeleteTarget, ListSpan, ListTarget, MDef,
-    MFormat, MemSpace, NumRange, OpenTarget, PlcControl, PlcVerb, SlaveCmd, SlaveVar, VarIndex, VarRef, XySpace,
+    Axis, AxisDef, AxisTerm, CmdKind, CompMotor, DefineTarget, DeleteTarget, ListSpan, ListTarget,
+    MDef, MFormat, MemSpace, NumRange, OpenTarget, PlcControl, PlcVerb, SlaveCmd, SlaveVar,
+    VarIndex, VarRef, XySpace,
 };
 use super::lexer::{to_u32, Cursor};
 use super::parse_expr::var_ref;
@@ -34,10 +35,17 @@ pub(crate) fn axis_def(c: &mut Cursor, motor: u32) -> Result<CmdKind, ParseError
             break;
         };
         let scale = c.unsigned_number()?;
-        match c.peek().and_then(Axis::from_letter).filter(|a| a.is_motion_axis()) {
+        match c
+            .peek()
+            .and_then(Axis::from_letter)
+            .filter(|a| a.is_motion_axis())
+        {
             Some(axis) => {
                 c.bump();
-                terms.push(AxisTerm { scale: sign * scale.map_or(1.0, |n| n.value), axis });
+                terms.push(AxisTerm {
+                    scale: sign * scale.map_or(1.0, |n| n.value),
+                    axis,
+                });
             }
             None => {
                 let n = scale.ok_or_else(|| c.syntax("axis letter expected"))?;
@@ -56,9 +64,16 @@ pub(crate) fn axis_def(c: &mut Cursor, motor: u32) -> Result<CmdKind, ParseError
         return Err(c.syntax("at most three axes in a definition"));
     }
     if terms.len() > 1 {
-        let xyz = terms.iter().all(|t| matches!(t.axis, Axis::X | Axis::Y | Axis::Z));
-        let uvw = terms.iter().all(|t| matches!(t.axis, Axis::U | Axis::V | Axis::W));
-        let distinct = terms.iter().enumerate().all(|(i, t)| terms[..i].iter().all(|u| u.axis != t.axis));
+        let xyz = terms
+            .iter()
+            .all(|t| matches!(t.axis, Axis::X | Axis::Y | Axis::Z));
+        let uvw = terms
+            .iter()
+            .all(|t| matches!(t.axis, Axis::U | Axis::V | Axis::W));
+        let distinct = terms
+            .iter()
+            .enumerate()
+            .all(|(i, t)| terms[..i].iter().all(|u| u.axis != t.axis));
         if !(xyz || uvw) || !distinct {
             return Err(c.syntax("multi-axis definitions use distinct letters of XYZ or UVW"));
         }
@@ -101,7 +116,11 @@ pub(crate) fn num_list(c: &mut Cursor, max: u32) -> Result<Vec<NumRange>, ParseE
     let mut list = Vec::new();
     loop {
         let first = c.req_uint("number expected")?;
-        let last = if c.eat_kw("..") { c.req_uint("range end expected")? } else { first };
+        let last = if c.eat_kw("..") {
+            c.req_uint("range end expected")?
+        } else {
+            first
+        };
         if last < first || last > max {
             return Err(c.syntax("number out of range"));
         }
@@ -129,7 +148,10 @@ pub(crate) fn plc_control(c: &mut Cursor, verb: PlcVerb) -> Result<PlcControl, P
     } else {
         return Err(c.syntax("PLC or PLCC expected"));
     };
-    Ok(PlcControl { verb, list: num_list(c, 31)? })
+    Ok(PlcControl {
+        verb,
+        list: num_list(c, 31)?,
+    })
 }
 
 /// Optional `TRIGGER` / `TRIG` after GATHER.
@@ -250,7 +272,11 @@ fn pc_span(c: &mut Cursor) -> Result<ListSpan, ParseError> {
     k.skip_ws();
     let len = k.uint()?;
     *c = k;
-    Ok(ListSpan { offsets: true, start: None, len })
+    Ok(ListSpan {
+        offsets: true,
+        start: None,
+        len,
+    })
 }
 
 /// `DEFINE` targets.
@@ -290,7 +316,11 @@ pub(crate) fn define_target(c: &mut Cursor) -> Result<DefineTarget, ParseError> 
         DefineTarget::TComp(n, c.req_number("span expected")?)
     } else if kw_ws(c, &["COMP"]) {
         let rows = c.req_uint("entries expected")?;
-        let cols = if c.eat(b'.') { Some(c.req_uint("columns expected")?) } else { None };
+        let cols = if c.eat(b'.') {
+            Some(c.req_uint("columns expected")?)
+        } else {
+            None
+        };
         let mut motors = Vec::new();
         let mut spans = Vec::new();
         while c.eat_ws(b',') {
@@ -300,7 +330,10 @@ pub(crate) fn define_target(c: &mut Cursor) -> Result<DefineTarget, ParseError> 
                     return Err(c.syntax("motors come before spans"));
                 }
                 let motor = c.req_uint("motor number expected")?;
-                motors.push(CompMotor { motor, desired: c.eat(b'D') });
+                motors.push(CompMotor {
+                    motor,
+                    desired: c.eat(b'D'),
+                });
             } else if c.peek() == Some(b',') {
                 continue; // empty item: default motor
             } else {
@@ -310,7 +343,12 @@ pub(crate) fn define_target(c: &mut Cursor) -> Result<DefineTarget, ParseError> 
         if spans.is_empty() || spans.len() > 2 || motors.len() > 3 {
             return Err(c.syntax("bad DEFINE COMP"));
         }
-        DefineTarget::Comp { rows, cols, motors, spans }
+        DefineTarget::Comp {
+            rows,
+            cols,
+            motors,
+            spans,
+        }
     } else {
         return Err(c.syntax("unknown DEFINE target"));
     })
@@ -399,7 +437,9 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
         ("X", 9),
         ("Y", 10),
     ];
-    let Some(t) = k.eat_longest(TYPES) else { return Ok(None) };
+    let Some(t) = k.eat_longest(TYPES) else {
+        return Ok(None);
+    };
     k.skip_ws();
     k.eat(b':');
     k.skip_ws();
@@ -424,7 +464,12 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
             if size == 0 {
                 return Err(c.syntax("size 1..32"));
             }
-            MDef::Twb { mux, offset, size, format: format(c, b"US")? }
+            MDef::Twb {
+                mux,
+                offset,
+                size,
+                format: format(c, b"US")?,
+            }
         }
         2 => {
             let mux = small(c, 255, "multiplexer address 0..255")?;
@@ -432,11 +477,21 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
             let offset = small(c, 4, "offset 0 or 4")?;
             comma(c)?;
             let digits = small(c, 12, "digits 1..12")?;
-            let decimals = if c.eat(b'.') { small(c, 8, "decimals 0..8")? } else { 0 };
+            let decimals = if c.eat(b'.') {
+                small(c, 8, "decimals 0..8")?
+            } else {
+                0
+            };
             if (offset != 0 && offset != 4) || digits == 0 {
                 return Err(c.syntax("bad TWD definition"));
             }
-            MDef::Twd { mux, offset, digits, decimals, format: format(c, b"US")? }
+            MDef::Twd {
+                mux,
+                offset,
+                digits,
+                decimals,
+                format: format(c, b"US")?,
+            }
         }
         3 => {
             let mux = small(c, 254, "multiplexer address 0..254")?;
@@ -447,7 +502,9 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
             }
             MDef::Twr { mux, offset }
         }
-        4 => MDef::Tws { mux: small(c, 127, "multiplexer address 0..127")? },
+        4 => MDef::Tws {
+            mux: small(c, 127, "multiplexer address 0..127")?,
+        },
         5 => MDef::Dp(addr16(c)?),
         6 => MDef::D(addr16(c)?),
         7 => MDef::L(addr16(c)?),
@@ -480,7 +537,13 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
                 return Err(c.syntax("illegal offset/width combination"));
             }
             let fmt = format(c, b"USDC")?;
-            MDef::Bits { space, addr, offset, width, format: if width == 1 { MFormat::U } else { fmt } }
+            MDef::Bits {
+                space,
+                addr,
+                offset,
+                width,
+                format: if width == 1 { MFormat::U } else { fmt },
+            }
         }
     };
     Ok(Some(def))
@@ -489,7 +552,11 @@ pub(crate) fn mdef(c: &mut Cursor) -> Result<Option<MDef>, ParseError> {
 /// `{addr}[,{count}]` of `R`/`RH` (the space letter is consumed).
 pub(crate) fn mem_addr_count(c: &mut Cursor) -> Result<(u32, u32), ParseError> {
     let addr = c.req_uint("address expected")?;
-    let count = if c.eat_ws(b',') { c.req_uint("count expected")? } else { 1 };
+    let count = if c.eat_ws(b',') {
+        c.req_uint("count expected")?
+    } else {
+        1
+    };
     if !(1..=16).contains(&count) || addr > 0xFFFF {
         return Err(c.syntax("address above $FFFF or count outside 1..16"));
     }
@@ -512,7 +579,11 @@ pub(crate) fn write_mem(c: &mut Cursor, space: MemSpace) -> Result<CmdKind, Pars
     if values.is_empty() {
         return Err(c.syntax("value expected"));
     }
-    Ok(CmdKind::WriteMem { space, addr, values })
+    Ok(CmdKind::WriteMem {
+        space,
+        addr,
+        values,
+    })
 }
 
 /// Which MACRO keyword introduced the command.
@@ -537,7 +608,9 @@ fn node(c: &mut Cursor) -> Result<u32, ParseError> {
 fn slave_var(c: &mut Cursor) -> Result<SlaveVar, ParseError> {
     c.skip_ws();
     if c.eat_kw("MI") || c.eat(b'I') {
-        Ok(SlaveVar::Mi(c.req_uint("station variable number expected")?))
+        Ok(SlaveVar::Mi(
+            c.req_uint("station variable number expected")?,
+        ))
     } else if c.eat_kw("MC") || c.eat(b'C') {
         Ok(SlaveVar::Mc(c.req_uint("station command number expected")?))
     } else {
@@ -578,14 +651,26 @@ pub(crate) fn macro_cmd(c: &mut Cursor, kw: MacroKw) -> Result<CmdKind, ParseErr
                 return Err(c.syntax("parameter 0..65535"));
             }
             Ok(match kw {
-                MacroKw::Aux => CmdKind::MacroAux { node, param, value: value(c)? },
+                MacroKw::Aux => CmdKind::MacroAux {
+                    node,
+                    param,
+                    value: value(c)?,
+                },
                 MacroKw::AuxRead => {
                     comma(c)?;
-                    CmdKind::MacroAuxRead { node, param, var: pmac_var(c)? }
+                    CmdKind::MacroAuxRead {
+                        node,
+                        param,
+                        var: pmac_var(c)?,
+                    }
                 }
                 _ => {
                     comma(c)?;
-                    CmdKind::MacroAuxWrite { node, param, var: pmac_var(c)? }
+                    CmdKind::MacroAuxWrite {
+                        node,
+                        param,
+                        var: pmac_var(c)?,
+                    }
                 }
             })
         }
@@ -612,7 +697,9 @@ pub(crate) fn macro_cmd(c: &mut Cursor, kw: MacroKw) -> Result<CmdKind, ParseErr
                 let node = node(c)?;
                 if cmd == SlaveCmd::Config(None) {
                     if let Some(v) = value(c)? {
-                        cmd = SlaveCmd::Config(Some(to_u32(v.value).ok_or_else(|| c.syntax("bad CONFIG value"))?));
+                        cmd = SlaveCmd::Config(Some(
+                            to_u32(v.value).ok_or_else(|| c.syntax("bad CONFIG value"))?,
+                        ));
                     }
                 }
                 return Ok(CmdKind::MacroSlaveCmd { cmd, node });
@@ -620,7 +707,11 @@ pub(crate) fn macro_cmd(c: &mut Cursor, kw: MacroKw) -> Result<CmdKind, ParseErr
             let node = node(c)?;
             comma(c)?;
             let var = slave_var(c)?;
-            Ok(CmdKind::MacroSlaveVar { node, var, value: value(c)? })
+            Ok(CmdKind::MacroSlaveVar {
+                node,
+                var,
+                value: value(c)?,
+            })
         }
         MacroKw::SlaveRead | MacroKw::SlaveWrite => {
             let node = node(c)?;
@@ -629,7 +720,11 @@ pub(crate) fn macro_cmd(c: &mut Cursor, kw: MacroKw) -> Result<CmdKind, ParseErr
             comma(c)?;
             let pv = pmac_var(c)?;
             Ok(if kw == MacroKw::SlaveRead {
-                CmdKind::MacroSlaveRead { node, var, dest: pv }
+                CmdKind::MacroSlaveRead {
+                    node,
+                    var,
+                    dest: pv,
+                }
             } else {
                 CmdKind::MacroSlaveWrite { node, var, src: pv }
             })

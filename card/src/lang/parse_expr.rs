@@ -6,7 +6,7 @@
 //! Conditions: `cond := and ('OR' and)*`, `and := atom ('AND' atom)*`,
 //! `atom := expr cmp expr | '(' cond ')'`.
 
-use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, Number, VarIndex, VarKind, VarRef};
+use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, VarIndex, VarKind, VarRef};
 use super::lexer::Cursor;
 use super::ParseError;
 
@@ -42,13 +42,18 @@ pub(crate) fn at_var(c: &Cursor) -> Option<VarKind> {
 
 /// A single variable reference `P12` / `P(expr)`; `None` if none starts here.
 pub(crate) fn var_ref(c: &mut Cursor) -> Result<Option<VarRef>, ParseError> {
-    let Some(kind) = at_var(c) else { return Ok(None) };
+    let Some(kind) = at_var(c) else {
+        return Ok(None);
+    };
     let pos = c.pos();
     c.bump();
     let index = if c.peek() == Some(b'(') {
         VarIndex::Expr(Box::new(paren_expr(c)?))
     } else {
-        VarIndex::Const(c.uint()?.ok_or_else(|| c.syntax("variable number expected"))?)
+        VarIndex::Const(
+            c.uint()?
+                .ok_or_else(|| c.syntax("variable number expected"))?,
+        )
     };
     Ok(Some(VarRef { kind, index, pos }))
 }
@@ -80,16 +85,12 @@ pub(crate) fn data(c: &mut Cursor) -> Result<Expr, ParseError> {
         return Err(c.syntax("unary plus is not allowed"));
     }
     match c.number()? {
-        Some(n) => Ok(Expr { kind: ExprKind::Num(n), pos }),
+        Some(n) => Ok(Expr {
+            kind: ExprKind::Num(n),
+            pos,
+        }),
         None => Err(c.syntax("constant or (expression) expected")),
     }
-}
-
-/// Does `{data}` start here (after optional spaces)?
-pub(crate) fn at_data(c: &Cursor) -> bool {
-    let mut k = c.clone();
-    k.skip_ws();
-    k.peek() == Some(b'(') || k.at_number()
 }
 
 /// A full expression.
@@ -135,7 +136,10 @@ fn expr_from(c: &mut Cursor, first: Expr) -> Result<Expr, ParseError> {
         let first = unary(c)?;
         let rhs = term_from(c, first)?;
         let pos = lhs.pos;
-        lhs = Expr { kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)), pos };
+        lhs = Expr {
+            kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)),
+            pos,
+        };
     }
     Ok(lhs)
 }
@@ -145,7 +149,10 @@ fn term_from(c: &mut Cursor, first: Expr) -> Result<Expr, ParseError> {
     while let Some(op) = high_op(c) {
         let rhs = unary(c)?;
         let pos = lhs.pos;
-        lhs = Expr { kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)), pos };
+        lhs = Expr {
+            kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)),
+            pos,
+        };
     }
     Ok(lhs)
 }
@@ -156,13 +163,19 @@ fn unary(c: &mut Cursor) -> Result<Expr, ParseError> {
     match c.peek() {
         Some(b'-') => {
             if let Some(n) = c.number()? {
-                return Ok(Expr { kind: ExprKind::Num(n), pos });
+                return Ok(Expr {
+                    kind: ExprKind::Num(n),
+                    pos,
+                });
             }
             c.bump();
             c.enter()?;
             let inner = unary(c)?;
             c.leave();
-            Ok(Expr { kind: ExprKind::Neg(Box::new(inner)), pos })
+            Ok(Expr {
+                kind: ExprKind::Neg(Box::new(inner)),
+                pos,
+            })
         }
         Some(b'+') => Err(c.syntax("unary plus is not allowed")),
         _ => primary(c),
@@ -176,10 +189,16 @@ fn primary(c: &mut Cursor) -> Result<Expr, ParseError> {
         return paren_expr(c);
     }
     if let Some(n) = c.unsigned_number()? {
-        return Ok(Expr { kind: ExprKind::Num(n), pos });
+        return Ok(Expr {
+            kind: ExprKind::Num(n),
+            pos,
+        });
     }
     if let Some(v) = var_ref(c)? {
-        return Ok(Expr { kind: ExprKind::Var(v), pos });
+        return Ok(Expr {
+            kind: ExprKind::Var(v),
+            pos,
+        });
     }
     let save = c.offset();
     if let Some(f) = c.eat_longest(FUNCS) {
@@ -188,7 +207,10 @@ fn primary(c: &mut Cursor) -> Result<Expr, ParseError> {
             c.enter()?;
             let arg = paren_expr(c)?;
             c.leave();
-            return Ok(Expr { kind: ExprKind::Call(f, Box::new(arg)), pos });
+            return Ok(Expr {
+                kind: ExprKind::Call(f, Box::new(arg)),
+                pos,
+            });
         }
         c.set_offset(save);
     }
@@ -304,9 +326,4 @@ pub(crate) fn paren_cond(c: &mut Cursor) -> Result<Cond, ParseError> {
     }
     c.leave();
     Ok(k)
-}
-
-/// A literal number as an expression (for tests and helpers).
-pub(crate) fn num_expr(n: Number, c: &Cursor) -> Expr {
-    Expr { kind: ExprKind::Num(n), pos: c.pos() }
 }

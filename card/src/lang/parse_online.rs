@@ -4,8 +4,8 @@
 //! `command` returns `Ok(None)` when the text is not an on-line command (it may be a program
 //! statement, which the caller turns into ERR005, or garbage → ERR003).
 
-use super::ast::{Axis, CmdKind, Command, JogKind, MemSpace, Number, VarIndex, VarKind, VarList, VarSel};
-use super::lexer::{to_u32, Cursor};
+use super::ast::{Axis, CmdKind, Command, JogKind, MemSpace, VarIndex, VarKind, VarList, VarSel};
+use super::lexer::Cursor;
 use super::parse_defs as defs;
 use super::parse_expr::{at_var, expr, paren_expr};
 use super::ParseError;
@@ -244,7 +244,12 @@ pub(crate) fn command(c: &mut Cursor) -> Result<Option<Command>, ParseError> {
             while n < 3 && c.eat(b'?') {
                 n += 1;
             }
-            [CmdKind::MotorStatus, CmdKind::CsStatus, CmdKind::GlobalStatus][n - 1].clone()
+            [
+                CmdKind::MotorStatus,
+                CmdKind::CsStatus,
+                CmdKind::GlobalStatus,
+            ][n - 1]
+                .clone()
         }
         Some(b'/') => one(c, CmdKind::StopAtEnd),
         Some(b'\\') => one(c, CmdKind::HoldJog),
@@ -332,7 +337,9 @@ fn letters(c: &mut Cursor) -> Result<Option<CmdKind>, ParseError> {
     Ok(Some(match l {
         b'A' if !with_data => CmdKind::Abort,
         b'B' if with_data => {
-            let n = c.number()?.ok_or_else(|| c.syntax("constant expected after B"))?;
+            let n = c
+                .number()?
+                .ok_or_else(|| c.syntax("constant expected after B"))?;
             CmdKind::Begin(n)
         }
         b'F' if !with_data => CmdKind::FollowingError,
@@ -340,7 +347,9 @@ fn letters(c: &mut Cursor) -> Result<Option<CmdKind>, ParseError> {
         b'J' => jog(c)?,
         b'K' if !with_data => CmdKind::Kill,
         b'O' if with_data => {
-            let n = c.number()?.ok_or_else(|| c.syntax("constant expected after O"))?;
+            let n = c
+                .number()?
+                .ok_or_else(|| c.syntax("constant expected after O"))?;
             CmdKind::OpenLoop(n.value)
         }
         b'P' => CmdKind::Position,
@@ -348,7 +357,12 @@ fn letters(c: &mut Cursor) -> Result<Option<CmdKind>, ParseError> {
         b'R' => match mem_space(c) {
             Some(space) => {
                 let (addr, count) = defs::mem_addr_count(c)?;
-                CmdKind::ReadMem { hex: false, space, addr, count }
+                CmdKind::ReadMem {
+                    hex: false,
+                    space,
+                    addr,
+                    count,
+                }
             }
             None if with_data => return Ok(None),
             None => CmdKind::Run,
@@ -363,7 +377,12 @@ fn letters(c: &mut Cursor) -> Result<Option<CmdKind>, ParseError> {
         b'Z' if !with_data => CmdKind::ZeroAxes,
         // letter + data on-line = a program statement (→ ERR005 by the caller)
         _ if with_data => return Ok(None),
-        _ => return Err(c.syntax("unrecognised command")),
+        _ => {
+            return Err(ParseError {
+                pos: save,
+                ..c.syntax("unrecognised command")
+            })
+        }
     }))
 }
 
@@ -402,16 +421,22 @@ fn keyword(c: &mut Cursor, kw: Kw) -> Result<Option<CmdKind>, ParseError> {
         Kw::Define => CmdKind::Define(defs::define_target(c)?),
         Kw::Delete => CmdKind::Delete(defs::delete_target(c)?),
         Kw::Disable | Kw::Enable | Kw::Pause | Kw::Resume => {
-CmdKind::Plc(defs::plc_control(c, kw_verb(kw))?)
+            CmdKind::Plc(defs::plc_control(c, kw_verb(kw))?)
         }
         Kw::EaVersion => CmdKind::EaVersion,
         Kw::EndGather => CmdKind::EndGather,
-        Kw::Gather => CmdKind::Gather { trigger: defs::gather_trigger(c) },
+        Kw::Gather => CmdKind::Gather {
+            trigger: defs::gather_trigger(c),
+        },
         Kw::HomeZ | Kw::Home => {
             if data_next(c) {
                 return Ok(None); // HOME{list} is the program statement
             }
-            if kw == Kw::Home { CmdKind::Home } else { CmdKind::HomeZ }
+            if kw == Kw::Home {
+                CmdKind::Home
+            } else {
+                CmdKind::HomeZ
+            }
         }
         Kw::List => CmdKind::List(defs::list_target(c)?),
         Kw::Mx | Kw::MxRead | Kw::MxWrite | Kw::Ms | Kw::MsRead | Kw::MsWrite => {
@@ -452,7 +477,12 @@ CmdKind::Plc(defs::plc_control(c, kw_verb(kw))?)
         Kw::Rh => match mem_space(c) {
             Some(space) => {
                 let (addr, count) = defs::mem_addr_count(c)?;
-                CmdKind::ReadMem { hex: true, space, addr, count }
+                CmdKind::ReadMem {
+                    hex: true,
+                    space,
+                    addr,
+                    count,
+                }
             }
             None => return Err(c.syntax("RH needs X:, Y: or L: and an address")),
         },
@@ -487,7 +517,9 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
     let sel = if c.peek() == Some(b'(') {
         VarSel::One(VarIndex::Expr(Box::new(paren_expr(c)?)))
     } else {
-        let first = c.uint()?.ok_or_else(|| c.syntax("variable number expected"))?;
+        let first = c
+            .uint()?
+            .ok_or_else(|| c.syntax("variable number expected"))?;
         if c.eat_kw("..") {
             let last = c.uint()?.ok_or_else(|| c.syntax("range end expected"))?;
             if last < first {
@@ -497,7 +529,8 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
         } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
             c.bump();
             let count = c.uint()?.unwrap_or(0);
-            let step = if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+            let step = if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit())
+            {
                 c.bump();
                 c.uint()?.unwrap_or(0)
             } else {
@@ -540,7 +573,9 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
 
 /// `J` forms (the `J` is consumed).
 fn jog(c: &mut Cursor) -> Result<CmdKind, ParseError> {
-    let value = |c: &mut Cursor| -> Result<f64, ParseError> { Ok(c.req_number("jog distance expected")?.value) };
+    let value = |c: &mut Cursor| -> Result<f64, ParseError> {
+        Ok(c.req_number("jog distance expected")?.value)
+    };
     let kind = if c.eat(b'+') {
         JogKind::Plus
     } else if c.eat(b'-') {
@@ -560,18 +595,28 @@ fn jog(c: &mut Cursor) -> Result<CmdKind, ParseError> {
             JogKind::PreJog
         }
     } else if c.eat(b':') {
-        if c.eat(b'*') { JogKind::VarRelCommanded } else { JogKind::RelCommanded(value(c)?) }
+        if c.eat(b'*') {
+            JogKind::VarRelCommanded
+        } else {
+            JogKind::RelCommanded(value(c)?)
+        }
     } else if c.eat(b'^') {
-        if c.eat(b'*') { JogKind::VarRelActual } else { JogKind::RelActual(value(c)?) }
+        if c.eat(b'*') {
+            JogKind::VarRelActual
+        } else {
+            JogKind::RelActual(value(c)?)
+        }
     } else {
         return Err(c.syntax("jog form expected after J"));
     };
-    let definite = !matches!(kind, JogKind::Plus | JogKind::Minus | JogKind::Stop | JogKind::Round);
-    let trigger = if definite && c.eat(b'^') { Some(value(c)?) } else { None };
+    let definite = !matches!(
+        kind,
+        JogKind::Plus | JogKind::Minus | JogKind::Stop | JogKind::Round
+    );
+    let trigger = if definite && c.eat(b'^') {
+        Some(value(c)?)
+    } else {
+        None
+    };
     Ok(CmdKind::Jog { kind, trigger })
-}
-
-/// Integral `Number` as u32 (hex or decimal).
-pub(crate) fn number_u32(n: Number, c: &Cursor, what: &'static str) -> Result<u32, ParseError> {
-    to_u32(n.value).ok_or_else(|| c.syntax(what))
 }

@@ -2,8 +2,8 @@
 //! kind (§5.12).
 
 use super::ast::{
-    AssignOp, Axis, AxisExtra, AxisWord, BufferKind, CmdKind, CodeLetter, Display, Expr, LetterArg, Message,
-    MoveMode, PlcVerb, PreludeCall, SendPort, Stmt, StmtKind, VarKind,
+    AssignOp, Axis, AxisExtra, AxisWord, BufferKind, CmdKind, CodeLetter, Display, LetterArg,
+    Message, MoveMode, PlcVerb, PreludeCall, SendPort, Stmt, StmtKind, VarKind,
 };
 use super::lexer::Cursor;
 use super::parse_defs::{self as defs, axis_list, gather_trigger, num_list, plc_control};
@@ -179,10 +179,16 @@ fn assign_op_len(c: &Cursor) -> Option<(AssignOp, usize)> {
 /// Parse one statement at the cursor (spaces skipped, not at end). `Ok(None)`: no statement
 /// starts here (the caller may try an on-line command). `line_start`: no statement precedes it
 /// on this line (labels must start a line). Legality per buffer kind is checked by [`allowed`].
-pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> Result<Option<Stmt>, ParseError> {
+pub(crate) fn statement(
+    c: &mut Cursor,
+    kind: BufferKind,
+    line_start: bool,
+) -> Result<Option<Stmt>, ParseError> {
     let pos = c.pos();
     let start = c.offset();
-    let Some(first) = c.peek() else { return Ok(None) };
+    let Some(first) = c.peek() else {
+        return Ok(None);
+    };
     // labels
     if matches!(first, b'N' | b'O') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
         if !line_start {
@@ -196,7 +202,10 @@ pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> R
         if n > 262_143 {
             return Err(c.syntax("label above 262143"));
         }
-        return Ok(Some(Stmt { kind: StmtKind::Label(n), pos }));
+        return Ok(Some(Stmt {
+            kind: StmtKind::Label(n),
+            pos,
+        }));
     }
     // `DIS PLC` is DISABLE, not DISPLAY
     if c.looking_at("DIS") && !c.looking_at("DISABLE") {
@@ -206,7 +215,10 @@ pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> R
         if k.looking_at("PLC") {
             c.advance(3);
             let ctl = plc_control(c, PlcVerb::Disable)?;
-            return Ok(Some(Stmt { kind: StmtKind::Plc(ctl), pos }));
+            return Ok(Some(Stmt {
+                kind: StmtKind::Plc(ctl),
+                pos,
+            }));
         }
     }
     if let Some(sk) = c.eat_longest(KEYWORDS) {
@@ -224,7 +236,10 @@ pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> R
             }
             let value = super::parse_expr::expr(&mut k)?;
             *c = k;
-            return Ok(Some(Stmt { kind: StmtKind::Assign { target, op, value }, pos }));
+            return Ok(Some(Stmt {
+                kind: StmtKind::Assign { target, op, value },
+                pos,
+            }));
         }
         if k.looking_at("->") || k.looking_at("..") || k.peek() == Some(b',') {
             return Ok(None);
@@ -236,7 +251,10 @@ pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> R
                 c.bump();
                 let value = data(c)?;
                 let args = letter_args(c)?;
-                return Ok(Some(Stmt { kind: StmtKind::Code(CodeLetter::M, value, args), pos }));
+                return Ok(Some(Stmt {
+                    kind: StmtKind::Code(CodeLetter::M, value, args),
+                    pos,
+                }));
             }
         }
     }
@@ -246,7 +264,10 @@ pub(crate) fn statement(c: &mut Cursor, kind: BufferKind, line_start: bool) -> R
         k.bump();
         data_next(&k)
     } {
-        return Ok(Some(Stmt { kind: StmtKind::Move(axis_words(c, |_| true)?), pos }));
+        return Ok(Some(Stmt {
+            kind: StmtKind::Move(axis_words(c, |_| true)?),
+            pos,
+        }));
     }
     c.bump();
     if !data_next(c) {
@@ -280,7 +301,9 @@ fn axis_words(c: &mut Cursor, ok: impl Fn(Axis) -> bool) -> Result<Vec<AxisWord>
     loop {
         let mut k = c.clone();
         k.skip_ws();
-        let Some(axis) = k.peek().and_then(Axis::from_letter).filter(|a| ok(*a)) else { break };
+        let Some(axis) = k.peek().and_then(Axis::from_letter).filter(|a| ok(*a)) else {
+            break;
+        };
         k.bump();
         if !data_next(&k) {
             break;
@@ -315,7 +338,12 @@ fn letter_args(c: &mut Cursor) -> Result<Vec<LetterArg>, ParseError> {
     loop {
         let mut k = c.clone();
         k.skip_ws();
-        let Some(l) = k.peek().filter(|l| l.is_ascii_uppercase() && !matches!(l, b'N' | b'O')) else { break };
+        let Some(l) = k
+            .peek()
+            .filter(|l| l.is_ascii_uppercase() && !matches!(l, b'N' | b'O'))
+        else {
+            break;
+        };
         k.bump();
         if !data_next(&k) {
             break;
@@ -333,7 +361,10 @@ fn letter_args(c: &mut Cursor) -> Result<Vec<LetterArg>, ParseError> {
 fn message(c: &mut Cursor) -> Result<Message, ParseError> {
     c.skip_ws();
     if c.eat(b'^') {
-        let l = c.peek().filter(|l| (0x40..=0x5F).contains(l)).ok_or_else(|| c.syntax("control letter expected"))?;
+        let l = c
+            .peek()
+            .filter(|l| (0x40..=0x5F).contains(l))
+            .ok_or_else(|| c.syntax("control letter expected"))?;
         c.bump();
         return Ok(Message::Ctrl(l));
     }
@@ -359,7 +390,10 @@ fn body(c: &mut Cursor, kind: BufferKind) -> Result<Vec<Stmt>, ParseError> {
     while !c.at_end() && !c.looking_at("ELSE") {
         let s = statement(c, kind, false)?.ok_or_else(|| c.syntax("statement expected"))?;
         if !allowed(&s.kind, kind) {
-            return Err(super::ParseError { pos: s.pos.0 as usize, ..c.syntax("statement not allowed here") });
+            return Err(super::ParseError {
+                pos: s.pos.0 as usize,
+                ..c.syntax("statement not allowed here")
+            });
         }
         out.push(s);
     }
@@ -389,12 +423,18 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
                 return Ok(None); // bare HOME: the on-line command
             }
             let list = num_list(c, u32::MAX)?;
-            if sk == Sk::Home { StmtKind::Home(list) } else { StmtKind::HomeZ(list) }
+            if sk == Sk::Home {
+                StmtKind::Home(list)
+            } else {
+                StmtKind::HomeZ(list)
+            }
         }
         Sk::Pset => StmtKind::Pset(axis_words(c, Axis::is_motion_axis)?),
         Sk::Cc(n) => StmtKind::CutterComp(n),
         Sk::Ccr => StmtKind::CutterRadius(data(c)?),
-        Sk::Normal => StmtKind::Normal(axis_words(c, |a| matches!(a, Axis::I | Axis::J | Axis::K))?),
+        Sk::Normal => {
+            StmtKind::Normal(axis_words(c, |a| matches!(a, Axis::I | Axis::J | Axis::K))?)
+        }
         Sk::Tsel => StmtKind::Tsel(uint(c)?),
         Sk::Tinit => StmtKind::Tinit,
         Sk::Adis => StmtKind::Adis(uint(c)?),
@@ -497,13 +537,23 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
             StmtKind::Address { motor, coord }
         }
         Sk::SetPhase => StmtKind::SetPhase(num_list(c, u32::MAX)?),
-        Sk::Gather => StmtKind::Gather { trigger: gather_trigger(c) },
+        Sk::Gather => StmtKind::Gather {
+            trigger: gather_trigger(c),
+        },
         Sk::EndGather => StmtKind::EndGather,
         Sk::Macro(m) => match defs::macro_cmd(c, m)? {
-            CmdKind::MacroAuxRead { node, param, var } => StmtKind::MacroAuxRead { node, param, var },
-            CmdKind::MacroAuxWrite { node, param, var } => StmtKind::MacroAuxWrite { node, param, var },
-            CmdKind::MacroSlaveRead { node, var, dest } => StmtKind::MacroSlaveRead { node, var, dest },
-            CmdKind::MacroSlaveWrite { node, var, src } => StmtKind::MacroSlaveWrite { node, var, src },
+            CmdKind::MacroAuxRead { node, param, var } => {
+                StmtKind::MacroAuxRead { node, param, var }
+            }
+            CmdKind::MacroAuxWrite { node, param, var } => {
+                StmtKind::MacroAuxWrite { node, param, var }
+            }
+            CmdKind::MacroSlaveRead { node, var, dest } => {
+                StmtKind::MacroSlaveRead { node, var, dest }
+            }
+            CmdKind::MacroSlaveWrite { node, var, src } => {
+                StmtKind::MacroSlaveWrite { node, var, src }
+            }
             _ => return Err(c.syntax("MACRO copy command expected")),
         },
     }))
@@ -511,19 +561,30 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
 
 fn display(c: &mut Cursor) -> Result<Display, ParseError> {
     c.skip_ws();
-    let pos = if c.at_digit() { Some(c.req_uint("position expected")?) } else { None };
+    let pos = if c.at_digit() {
+        Some(c.req_uint("position expected")?)
+    } else {
+        None
+    };
     let mut k = c.clone();
     k.skip_ws();
     if k.peek() == Some(b'"') {
         *c = k;
-        return Ok(Display::Text { pos, text: quoted(c)? });
+        return Ok(Display::Text {
+            pos,
+            text: quoted(c)?,
+        });
     }
     let pos = pos.ok_or_else(|| c.syntax("position expected"))?;
     if !c.eat_ws(b',') {
         return Err(c.syntax("',' expected"));
     }
     let width = c.req_uint("width expected")?;
-    let decimals = if c.eat(b'.') { c.req_uint("decimals expected")? } else { 0 };
+    let decimals = if c.eat(b'.') {
+        c.req_uint("decimals expected")?
+    } else {
+        0
+    };
     if !c.eat_ws(b',') {
         return Err(c.syntax("',' expected"));
     }
@@ -532,7 +593,12 @@ fn display(c: &mut Cursor) -> Result<Display, ParseError> {
     if pos > 79 || !(2..=16).contains(&width) || decimals > 9 || decimals + 2 > width {
         return Err(c.syntax("DISPLAY position/format out of range"));
     }
-    Ok(Display::Var { pos, width, decimals, var })
+    Ok(Display::Var {
+        pos,
+        width,
+        decimals,
+        var,
+    })
 }
 
 /// May `s` be stored in a buffer of kind `kind` (pmac-commands.md §5.12, §6.6)?
@@ -557,14 +623,10 @@ pub fn allowed(s: &StmtKind, kind: BufferKind) -> bool {
         S::AndCond(_) | S::OrCond(_) => plc,
         S::Goto(_) | S::Gosub(_) | S::Read(_) | S::Return | S::Stop => prog,
         S::Address { .. } => bg_plc,
-        S::MacroAuxRead { .. } | S::MacroAuxWrite { .. } | S::MacroSlaveRead { .. } | S::MacroSlaveWrite { .. } => {
-            bg_plc
-        }
+        S::MacroAuxRead { .. }
+        | S::MacroAuxWrite { .. }
+        | S::MacroSlaveRead { .. }
+        | S::MacroSlaveWrite { .. } => bg_plc,
         _ => motion,
     }
-}
-
-/// Helper for tests / INTERP: a literal `{data}` expression.
-pub fn literal(v: f64) -> Expr {
-    Expr::num(v)
 }

@@ -55,20 +55,43 @@ pub fn bench_config(n: usize, clock: ClockMode, rate_hz: f64) -> ClusterConfig {
     cfg
 }
 
-/// Run the ring until the sync master has run `cycles` cycles; one send log per member in
-/// ring order.
-pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(u64, u64)>>> {
+/// What a bench ring run measured, per member in ring order.
+#[derive(Debug, Default)]
+pub struct RingRun {
+    /// (cycle, ns since the epoch) of every frame each member sent.
+    pub sends: Vec<Vec<(u64, u64)>>,
+    /// The driver's timing records on the monotonic clock: the sync master's scheduled cycle
+    /// starts (realtime), the others' sync-packet arrivals.
+    pub records: Vec<Vec<(u64, u64)>>,
+}
+
+/// Run the ring until the sync master has run `cycles` cycles.
+pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> {
     let n = cfg.ring.order.len();
     let first = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
     let mut sessions = Vec::new();
     for k in 0..n {
-        let listen = if k == 0 { first.clone() } else { free_loopback_endpoint().map_err(|e| anyhow!("{e}"))? };
+        let listen = if k == 0 {
+            first.clone()
+        } else {
+            free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?
+        };
         let connect = if k == 0 { vec![] } else { vec![first.clone()] };
-        sessions.push(open_session(&SessionOptions { listen: vec![listen], connect }).map_err(|e| anyhow!("{e}"))?);
+        sessions.push(
+            open_session(&SessionOptions {
+                listen: vec![listen],
+                connect,
+            })
+            .map_err(|e| anyhow!("{e}"))?,
+        );
     }
     // Gossip connects every peer to every other; wait for the mesh (bounded).
     let deadline = Instant::now() + Duration::from_secs(15);
-    while Instant::now() < deadline && sessions.iter().any(|s| s.info().peers_zid().wait().count() + 1 < n) {
+    while Instant::now() < deadline
+        && sessions
+            .iter()
+            .any(|s| s.info().peers_zid().wait().count() + 1 < n)
+    {
         std::thread::sleep(Duration::from_millis(20));
     }
     let stop = Arc::new(AtomicBool::new(false));
@@ -84,9 +107,17 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(
             Some(MemberRef::Card(_)) => MemberKind::Card,
             _ => MemberKind::Station,
         };
-        let cs = cfg.ring_settings(name).ok_or_else(|| anyhow!("no ring settings for {name}"))?;
+        let cs = cfg
+            .ring_settings(name)
+            .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
-        let core = MemberCore::new(CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns()));
+        let core = MemberCore::new(CoreConfig::new(
+            name,
+            kind,
+            k as u16,
+            settings,
+            cfg.period_ns(),
+        ));
         let sync = cfg.ring.sync_master == *name;
         let dcfg = DriverConfig {
             name: name.clone(),
@@ -97,36 +128,67 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(
             kind,
             position: k,
             extra: serde_json::Map::new(),
+            record: cycles as usize + 64,
         };
         let (cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
         cmd_senders.push(cmd_tx);
-        let probe = Probe { inner: tx, log: Arc::clone(&logs[k]), epoch };
-        drivers.push((sync, Driver::new(dcfg, core, Idle, Box::new(probe), rx, cmd_rx, Arc::clone(&stop))));
+        let probe = Probe {
+            inner: tx,
+            log: Arc::clone(&logs[k]),
+            epoch,
+        };
+        drivers.push((
+            k,
+            sync,
+            Driver::new(
+                dcfg,
+                core,
+                Idle,
+                Box::new(probe),
+                rx,
+                cmd_rx,
+                Arc::clone(&stop),
+            ),
+        ));
     }
     // Followers first, the sync master last, so that the first cycles find everyone listening.
-    drivers.sort_by_key(|(sync, _)| *sync);
+    drivers.sort_by_key(|(_, sync, _)| *sync);
     let mut handles = Vec::new();
-    for (sync, mut d) in drivers {
+    for (k, sync, mut d) in drivers {
         if sync {
             std::thread::sleep(Duration::from_millis(200));
         }
         let stop = Arc::clone(&stop);
-        handles.push(std::thread::spawn(move || {
-            let _ = d.run();
-            if sync {
-                stop.store(true, Ordering::Relaxed);
-            }
-        }));
+        handles.push((
+            k,
+            std::thread::spawn(move || {
+                let _ = d.run();
+                if sync {
+                    stop.store(true, Ordering::Relaxed);
+                }
+                d.take_records()
+            }),
+        ));
     }
-    for h in handles {
-        h.join().map_err(|_| anyhow!("a bench member thread panicked"))?;
+    let mut records = vec![Vec::new(); n];
+    for (k, h) in handles {
+        let r = h
+            .join()
+            .map_err(|_| anyhow!("a bench member thread panicked"))?;
+        if let Some(slot) = records.get_mut(k) {
+            *slot = r;
+        }
     }
     drop(guards);
     drop(cmd_senders);
     for s in sessions {
         let _ = s.close().wait();
     }
-    Ok(logs.iter().map(|l| l.lock().map(|v| v.clone()).unwrap_or_default()).collect())
+    let sends = logs
+        .iter()
+        .map(|l| l.lock().map(|v| v.clone()).unwrap_or_default())
+        .collect();
+    Ok(RingRun { sends, records })
 }
 
 /// The bare OS timer at `period_ns`: sleep to each absolute deadline, record wake − deadline
@@ -141,7 +203,14 @@ pub fn timer_probe(period_ns: u64, stop: Arc<AtomicBool>) -> Vec<u64> {
         if deadline > now {
             std::thread::sleep(deadline - now);
         }
-        late.push(u64::try_from(Instant::now().saturating_duration_since(deadline).as_nanos()).unwrap_or(u64::MAX));
+        late.push(
+            u64::try_from(
+                Instant::now()
+                    .saturating_duration_since(deadline)
+                    .as_nanos(),
+            )
+            .unwrap_or(u64::MAX),
+        );
         k += 1;
     }
     late.sort_unstable();

@@ -40,7 +40,11 @@ pub fn complete_cycles(logs: &[Vec<(u64, u64)>]) -> BTreeMap<u64, Vec<u64>> {
     }
     by_cycle
         .into_iter()
-        .filter_map(|(c, row)| row.into_iter().collect::<Option<Vec<u64>>>().map(|r| (c, r)))
+        .filter_map(|(c, row)| {
+            row.into_iter()
+                .collect::<Option<Vec<u64>>>()
+                .map(|r| (c, r))
+        })
         .collect()
 }
 
@@ -60,24 +64,20 @@ pub fn hop_latencies(cycles: &BTreeMap<u64, Vec<u64>>, skip: usize) -> Vec<u64> 
 pub fn cycles_per_second(log: &[(u64, u64)], skip: usize) -> f64 {
     let l = log.get(skip..).unwrap_or(&[]);
     match (l.first(), l.last()) {
-        (Some(&(c0, t0)), Some(&(c1, t1))) if t1 > t0 && c1 > c0 => (c1 - c0) as f64 * 1e9 / (t1 - t0) as f64,
+        (Some(&(c0, t0)), Some(&(c1, t1))) if t1 > t0 && c1 > c0 => {
+            (c1 - c0) as f64 * 1e9 / (t1 - t0) as f64
+        }
         _ => 0.0,
     }
 }
 
-/// Realtime lateness of member `k`: its send time of cycle c minus the ideal schedule
-/// `origin + c·period`, where the origin is the sync master's least-late cycle. Sorted.
-pub fn lateness(cycles: &BTreeMap<u64, Vec<u64>>, k: usize, period_ns: f64, skip: usize) -> Vec<u64> {
-    let ideal = |c: u64| c as f64 * period_ns;
-    let origin = cycles
-        .iter()
-        .skip(skip)
-        .filter_map(|(c, row)| row.first().map(|t| *t as f64 - ideal(*c)))
-        .fold(f64::INFINITY, f64::min);
+/// Realtime lateness of member `k` (k > 0): its sync-packet arrival of cycle c minus the
+/// sync master's (member 0's) scheduled start of cycle c. Sorted.
+pub fn lateness(cycles: &BTreeMap<u64, Vec<u64>>, k: usize, skip: usize) -> Vec<u64> {
     let mut v: Vec<u64> = cycles
-        .iter()
+        .values()
         .skip(skip)
-        .filter_map(|(c, row)| row.get(k).map(|t| (*t as f64 - origin - ideal(*c)).max(0.0) as u64))
+        .filter_map(|row| Some(row.get(k)?.saturating_sub(*row.first()?)))
         .collect();
     v.sort_unstable();
     v
@@ -114,8 +114,8 @@ mod tests {
         assert_eq!(cycles.keys().copied().collect::<Vec<_>>(), [1, 3]);
         assert_eq!(hop_latencies(&cycles, 0), [10_000; 4]);
         assert_eq!(cycles_per_second(&logs[0], 0), 10_000.0);
-        // Realtime: period 100 µs, member 1 is 10 µs late, sync master on time.
-        assert_eq!(lateness(&cycles, 0, 100_000.0, 0), [0, 0]);
-        assert_eq!(lateness(&cycles, 1, 100_000.0, 0), [10_000, 10_000]);
+        // Realtime: member 1 arrives 10 µs after the scheduled start, member 2 20 µs.
+        assert_eq!(lateness(&cycles, 1, 0), [10_000, 10_000]);
+        assert_eq!(lateness(&cycles, 2, 1), [20_000]);
     }
 }

@@ -33,7 +33,10 @@ pub fn run(n: usize, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(u64, u64)>>
         .map(|_| UdpSocket::bind("127.0.0.1:0"))
         .collect::<std::io::Result<_>>()
         .context("binding UDP sockets")?;
-    let addrs: Vec<_> = socks.iter().map(|s| s.local_addr()).collect::<std::io::Result<_>>()?;
+    let addrs: Vec<_> = socks
+        .iter()
+        .map(|s| s.local_addr())
+        .collect::<std::io::Result<_>>()?;
     let logs: Vec<SendLog> = (0..n).map(|_| new_log(cycles as usize + 16)).collect();
     let stop = Arc::new(AtomicBool::new(false));
     let mut handles = Vec::new();
@@ -63,8 +66,12 @@ pub fn run(n: usize, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(u64, u64)>>
             } else {
                 sock.set_read_timeout(Some(Duration::from_millis(20)))?;
                 while !stop.load(Ordering::Relaxed) {
-                    let Ok((len, _)) = sock.recv_from(&mut buf) else { continue };
-                    let Some(bytes) = buf.get(..len) else { continue };
+                    let Ok((len, _)) = sock.recv_from(&mut buf) else {
+                        continue;
+                    };
+                    let Some(bytes) = buf.get(..len) else {
+                        continue;
+                    };
                     if let Ok(f) = Frame::decode(bytes) {
                         if let Ok(mut l) = log.lock() {
                             l.push((f.cycle, since(epoch)));
@@ -78,7 +85,11 @@ pub fn run(n: usize, cycles: u64, epoch: Instant) -> Result<Vec<Vec<(u64, u64)>>
         }));
     }
     for h in handles {
-        h.join().map_err(|_| anyhow!("UDP ring thread panicked"))??;
+        h.join()
+            .map_err(|_| anyhow!("UDP ring thread panicked"))??;
     }
-    Ok(logs.iter().map(|l| l.lock().map(|v| v.clone()).unwrap_or_default()).collect())
+    Ok(logs
+        .iter()
+        .map(|l| l.lock().map(|v| v.clone()).unwrap_or_default())
+        .collect())
 }

@@ -1,0 +1,1 @@
+//! Jog accuracy tests against an independent analytic model.

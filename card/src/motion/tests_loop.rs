@@ -1,0 +1,1 @@
+//! Closed-loop and safety tests with a plant model.

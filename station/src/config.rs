@@ -1,0 +1,318 @@
+//! Station plant configuration: amplifier, motor, encoder and switch parameters per servo
+//! node, parsed from the station's `plant` TOML table.
+//!
+//! ```toml
+//! [[stations]]
+//! name = "station0"
+//! master = 0
+//! [stations.plant]            # defaults for every servo node of this station
+//! mode = "torque"
+//! coulomb = 0.0002
+//! [stations.plant.nodes.4]    # overrides for node 4 only
+//! amp_fault = true
+//! plus_limit = 50000
+//! ```
+//!
+//! Every key is optional; unknown keys are rejected with a message naming them. Units: SI
+//! (N·m, kg·m², rad/s) for the mechanics, encoder counts for switch positions.
+//!
+//! Defaults are chosen so the PMAC default gains (Ix30 = 2000, Ix31 = Ix32 = 1280, Ix08 = Ix09
+//! = 96) close a stable, well-damped loop at the default 2258.7 Hz servo rate: one DAC bit
+//! gives 4 N·m/32768 / 1e-5 kg·m² · 131072/2π counts/rev ≈ 0.050 counts/cycle² of acceleration,
+//! so the default PD loop has ωn ≈ 0.14 rad/cycle (≈ 50 Hz) and ζ ≈ 0.68 before ring delay.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::plant::amplifier::{AmpMode, AmpParams};
+use crate::plant::encoder::EncoderParams;
+use crate::plant::flags::Switches;
+use crate::plant::motor::MotorParams;
+
+/// Parameters of one servo node's plant (every field has a default).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NodePlantConfig {
+    /// Amplifier mode: "torque" (default), "velocity" or "pulse".
+    pub mode: AmpMode,
+    /// Torque at full-scale register-0 command, N·m (default 4.0).
+    pub torque_full_scale: f64,
+    /// Amplifier output limit, N·m (default 4.0).
+    pub torque_limit: f64,
+    /// Velocity mode: speed at full-scale command, rad/s (default 314.16 = 3000 rpm).
+    pub velocity_full_scale: f64,
+    /// Velocity mode: velocity-loop gain, N·m per rad/s (default 0.01).
+    pub velocity_gain: f64,
+    /// Pulse mode: rate at full-scale register 2, counts/s (default 1,000,000).
+    pub pulse_full_scale: f64,
+    /// Configured amplifier fault: the amplifier faults whenever enabled (default false).
+    pub amp_fault: bool,
+    /// FAULT flag polarity: false = low-true line, 0 = fault (default, matches Ix25 bit 23 = 0).
+    pub fault_high_true: bool,
+    /// Rotor + load inertia, kg·m² (default 1e-5).
+    pub inertia: f64,
+    /// Viscous friction, N·m·s/rad (default 2e-5).
+    pub viscous: f64,
+    /// Coulomb friction, N·m (default 2e-4).
+    pub coulomb: f64,
+    /// Constant load torque, N·m, signed (default 0).
+    pub load_torque: f64,
+    /// Encoder counts per revolution after ×4 decoding (default 131072).
+    pub counts_per_rev: f64,
+    /// Report sub-count position in the 5 fractional bits of register 0 (default true).
+    pub sub_count: bool,
+    /// Home window start, counts (default 5000).
+    pub home_position: f64,
+    /// Home window width, counts (default 1000).
+    pub home_width: f64,
+    /// Positive limit switch, counts (default 1,000,000; `limits = false` removes both).
+    pub plus_limit: f64,
+    /// Negative limit switch, counts (default −1,000,000).
+    pub minus_limit: f64,
+    /// Limit switches fitted (default true).
+    pub limits: bool,
+    /// User flag level at start-up (default false).
+    pub user_flag: bool,
+    /// Longest integration sub-step, seconds (default 50e-6: 9 sub-steps at 2258.7 Hz).
+    pub max_substep: f64,
+}
+
+impl Default for NodePlantConfig {
+    fn default() -> Self {
+        NodePlantConfig {
+            mode: AmpMode::Torque,
+            torque_full_scale: 4.0,
+            torque_limit: 4.0,
+            velocity_full_scale: 314.159_265,
+            velocity_gain: 0.01,
+            pulse_full_scale: 1_000_000.0,
+            amp_fault: false,
+            fault_high_true: false,
+            inertia: 1e-5,
+            viscous: 2e-5,
+            coulomb: 2e-4,
+            load_torque: 0.0,
+            counts_per_rev: 131_072.0,
+            sub_count: true,
+            home_position: 5_000.0,
+            home_width: 1_000.0,
+            plus_limit: 1_000_000.0,
+            minus_limit: -1_000_000.0,
+            limits: true,
+            user_flag: false,
+            max_substep: 50e-6,
+        }
+    }
+}
+
+impl NodePlantConfig {
+    /// Check ranges; the error names the key and the problem.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = [
+            ("torque_full_scale", self.torque_full_scale),
+            ("torque_limit", self.torque_limit),
+            ("velocity_full_scale", self.velocity_full_scale),
+            ("velocity_gain", self.velocity_gain),
+            ("pulse_full_scale", self.pulse_full_scale),
+            ("inertia", self.inertia),
+            ("viscous", self.viscous),
+            ("coulomb", self.coulomb),
+            ("load_torque", self.load_torque),
+            ("counts_per_rev", self.counts_per_rev),
+            ("home_position", self.home_position),
+            ("home_width", self.home_width),
+            ("plus_limit", self.plus_limit),
+            ("minus_limit", self.minus_limit),
+            ("max_substep", self.max_substep),
+        ];
+        for (k, v) in finite {
+            if !v.is_finite() {
+                return Err(format!("{k}: must be a finite number, got {v}"));
+            }
+        }
+        let positive = [
+            ("inertia", self.inertia),
+            ("counts_per_rev", self.counts_per_rev),
+            ("max_substep", self.max_substep),
+        ];
+        for (k, v) in positive {
+            if v <= 0.0 {
+                return Err(format!("{k}: must be > 0, got {v}"));
+            }
+        }
+        let non_negative = [
+            ("torque_limit", self.torque_limit),
+            ("velocity_gain", self.velocity_gain),
+            ("viscous", self.viscous),
+            ("coulomb", self.coulomb),
+            ("home_width", self.home_width),
+        ];
+        for (k, v) in non_negative {
+            if v < 0.0 {
+                return Err(format!("{k}: must be ≥ 0, got {v}"));
+            }
+        }
+        if self.limits && self.minus_limit >= self.plus_limit {
+            return Err(format!(
+                "minus_limit: must be below plus_limit ({} ≥ {})",
+                self.minus_limit, self.plus_limit
+            ));
+        }
+        if self.max_substep > 0.01 {
+            return Err(format!("max_substep: at most 0.01 s, got {}", self.max_substep));
+        }
+        Ok(())
+    }
+
+    /// Amplifier parameters.
+    pub fn amp(&self) -> AmpParams {
+        AmpParams {
+            mode: self.mode,
+            torque_full_scale: self.torque_full_scale,
+            torque_limit: self.torque_limit,
+            velocity_full_scale: self.velocity_full_scale,
+            velocity_gain: self.velocity_gain,
+            pulse_full_scale: self.pulse_full_scale,
+            configured_fault: self.amp_fault,
+        }
+    }
+
+    /// Motor parameters.
+    pub fn motor(&self) -> MotorParams {
+        MotorParams {
+            inertia: self.inertia,
+            viscous: self.viscous,
+            coulomb: self.coulomb,
+            load_torque: self.load_torque,
+        }
+    }
+
+    /// Encoder parameters.
+    pub fn encoder(&self) -> EncoderParams {
+        EncoderParams { counts_per_rev: self.counts_per_rev, sub_count: self.sub_count }
+    }
+
+    /// Switch positions.
+    pub fn switches(&self) -> Switches {
+        Switches {
+            home_position: self.home_position,
+            home_width: self.home_width,
+            plus_limit: self.limits.then_some(self.plus_limit),
+            minus_limit: self.limits.then_some(self.minus_limit),
+        }
+    }
+}
+
+/// A station's plant: defaults plus per-node overrides (already merged and validated).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlantConfig {
+    /// Parameters of nodes without an override.
+    pub defaults: NodePlantConfig,
+    /// Fully merged parameters of nodes with overrides, by node number.
+    pub nodes: BTreeMap<u8, NodePlantConfig>,
+}
+
+impl PlantConfig {
+    /// Parse a station's `plant` table (`[stations.plant]`, with `[stations.plant.nodes.N]`
+    /// override tables). Errors name the offending key, prefixed with `plant.`.
+    pub fn from_table(table: &toml::Table) -> Result<Self, String> {
+        let mut base = table.clone();
+        let overrides = match base.remove("nodes") {
+            None => toml::Table::new(),
+            Some(toml::Value::Table(t)) => t,
+            Some(other) => return Err(format!("plant.nodes: expected a table, got {}", other.type_str())),
+        };
+        let defaults = parse_node(&base).map_err(|e| format!("plant.{e}"))?;
+        let mut nodes = BTreeMap::new();
+        for (key, v) in overrides {
+            let n: u8 = key
+                .parse()
+                .ok()
+                .filter(|n| *n < 16)
+                .ok_or_else(|| format!("plant.nodes.{key}: not a node number 0-15"))?;
+            let t = match v {
+                toml::Value::Table(t) => t,
+                other => return Err(format!("plant.nodes.{key}: expected a table, got {}", other.type_str())),
+            };
+            let mut merged = base.clone();
+            merged.extend(t);
+            let cfg = parse_node(&merged).map_err(|e| format!("plant.nodes.{key}.{e}"))?;
+            nodes.insert(n, cfg);
+        }
+        Ok(PlantConfig { defaults, nodes })
+    }
+
+    /// Parse from TOML text holding the plant table's contents.
+    pub fn from_toml_str(s: &str) -> Result<Self, String> {
+        let t: toml::Table = s.parse().map_err(|e: toml::de::Error| format!("plant: {}", e.message()))?;
+        Self::from_table(&t)
+    }
+
+    /// Parameters of `node`.
+    pub fn node(&self, node: u8) -> &NodePlantConfig {
+        self.nodes.get(&node).unwrap_or(&self.defaults)
+    }
+}
+
+/// Deserialize and validate one node's merged table; errors start with the key name.
+fn parse_node(t: &toml::Table) -> Result<NodePlantConfig, String> {
+    let cfg: NodePlantConfig = toml::Value::Table(t.clone()).try_into().map_err(|e: toml::de::Error| {
+        let msg = e.message().to_string();
+        // serde names unknown fields in its message; otherwise blame the table
+        match t.keys().find(|k| msg.contains(&format!("`{k}`"))) {
+            Some(k) => format!("{k}: {msg}"),
+            None => format!("(table): {msg}"),
+        }
+    })?;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_table_gives_defaults() {
+        let p = PlantConfig::from_toml_str("").unwrap();
+        assert_eq!(p.defaults, NodePlantConfig::default());
+        assert_eq!(p.node(3), &NodePlantConfig::default());
+        assert!(NodePlantConfig::default().validate().is_ok());
+    }
+
+    #[test]
+    fn node_overrides_merge_over_station_defaults() {
+        let p = PlantConfig::from_toml_str(
+            "mode = \"velocity\"\ncoulomb = 0.001\n[nodes.4]\namp_fault = true\nplus_limit = 5e4\n",
+        )
+        .unwrap();
+        assert_eq!(p.defaults.mode, AmpMode::Velocity);
+        assert_eq!(p.defaults.coulomb, 0.001);
+        let n4 = p.node(4);
+        assert!(n4.amp_fault);
+        assert_eq!((n4.mode, n4.coulomb, n4.plus_limit), (AmpMode::Velocity, 0.001, 50_000.0));
+        assert!(!p.node(5).amp_fault);
+        assert_eq!(p.node(4).switches().plus_limit, Some(50_000.0));
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let e = |s: &str| PlantConfig::from_toml_str(s).unwrap_err();
+        assert!(e("inertia = 0").starts_with("plant.inertia: must be > 0"), "{}", e("inertia = 0"));
+        assert!(e("coulomb = -1").starts_with("plant.coulomb: must be ≥ 0"));
+        assert!(e("warp = 9").starts_with("plant.warp: unknown field"), "{}", e("warp = 9"));
+        assert!(e("[nodes.16]\ninertia = 1").starts_with("plant.nodes.16: not a node number"));
+        assert!(e("[nodes.x]").starts_with("plant.nodes.x: not a node number"));
+        assert!(e("nodes = 3").starts_with("plant.nodes: expected a table"));
+        assert!(e("[nodes.2]\ninertia = -1").starts_with("plant.nodes.2.inertia: must be > 0"));
+        assert!(e("mode = \"warp\"").starts_with("plant."), "{}", e("mode = \"warp\""));
+        assert!(e("minus_limit = 2e6").starts_with("plant.minus_limit: must be below"));
+        assert!(e("max_substep = 1.0").starts_with("plant.max_substep"));
+        assert!(e("inertia = nan").contains("finite"), "{}", e("inertia = nan"));
+        assert!(e("this is not toml").starts_with("plant: "));
+        // limits may be removed altogether, then their ordering does not matter
+        let p = PlantConfig::from_toml_str("limits = false\nminus_limit = 2e6").unwrap();
+        assert_eq!(p.defaults.switches().plus_limit, None);
+    }
+}

@@ -1,0 +1,111 @@
+//! The station's ring application: up to 16 nodes, servo nodes with a simulated plant and
+//! I/O nodes that echo, run once per ring tick in ring time.
+//!
+//! Each tick: the time step is `time_ns − previous time_ns` (0 on the first tick or if time
+//! did not advance; at most [`crate::servo_node::MAX_TICK_SECONDS`]), so in lockstep mode
+//! (time = cycle × period) runs are exactly repeatable. Every servo node integrates, takes the
+//! command latched this cycle and writes its feedback registers (sent on the next cycle).
+//!
+//! **Ring fault** (the member's latched ring-check fault): in the same tick every amplifier is
+//! shut down (zero command, enable dropped, so the reported current and the amp-enabled flag
+//! read 0) and I/O node outputs are zeroed. Position and flag feedback keep being reported, so
+//! the card sees where the coasting motors ended once the ring is back; amplifiers stay off
+//! until the card drops AENA ([`crate::servo_node`]).
+
+use mcc_ring::core::RingApp;
+use mcc_ring::member::RingMember;
+use mcc_ring::packet::NodeRegs;
+
+use crate::config::PlantConfig;
+use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
+
+/// A MACRO station with simulated servo nodes.
+#[derive(Clone, Debug)]
+pub struct StationApp {
+    servo: Vec<ServoNode>,
+    io: Vec<u8>,
+    last_time_ns: Option<u64>,
+    ticks: u64,
+    ring_fault: bool,
+}
+
+impl StationApp {
+    /// A station with these servo and I/O nodes (0-15, no duplicates) and plant parameters.
+    /// Fails with a message naming the problem (bad node, duplicate, override for a node that
+    /// is not a servo node of this station).
+    pub fn new(servo_nodes: &[u8], io_nodes: &[u8], plant: &PlantConfig) -> Result<Self, String> {
+        let mut seen = [false; 16];
+        for &n in servo_nodes.iter().chain(io_nodes) {
+            let slot = seen.get_mut(usize::from(n)).ok_or_else(|| format!("node {n}: must be 0-15"))?;
+            if *slot {
+                return Err(format!("node {n}: listed twice"));
+            }
+            *slot = true;
+        }
+        if let Some(n) = plant.nodes.keys().find(|n| !servo_nodes.contains(n)) {
+            return Err(format!("plant.nodes.{n}: node {n} is not a servo node of this station"));
+        }
+        Ok(StationApp {
+            servo: servo_nodes.iter().map(|&n| ServoNode::new(n, plant.node(n))).collect(),
+            io: io_nodes.to_vec(),
+            last_time_ns: None,
+            ticks: 0,
+            ring_fault: false,
+        })
+    }
+
+    /// Ticks run so far.
+    pub fn ticks(&self) -> u64 {
+        self.ticks
+    }
+
+    /// Whether the last tick ran under a ring fault.
+    pub fn ring_fault(&self) -> bool {
+        self.ring_fault
+    }
+
+    /// The servo node with this number.
+    pub fn node(&self, n: u8) -> Option<&ServoNode> {
+        self.servo.iter().find(|s| s.node() == n)
+    }
+
+    /// The servo node with this number, mutable (fault injection, user flag).
+    pub fn node_mut(&mut self, n: u8) -> Option<&mut ServoNode> {
+        self.servo.iter_mut().find(|s| s.node() == n)
+    }
+
+    /// Servo nodes in configuration order.
+    pub fn servo_nodes(&self) -> impl Iterator<Item = &ServoNode> {
+        self.servo.iter()
+    }
+}
+
+impl RingApp for StationApp {
+    fn tick(&mut self, _cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+        self.ticks += 1;
+        self.ring_fault = ring_fault;
+        let dt = match self.last_time_ns {
+            Some(t0) if time_ns > t0 => ((time_ns - t0) as f64 * 1e-9).min(MAX_TICK_SECONDS),
+            _ => 0.0,
+        };
+        self.last_time_ns = Some(self.last_time_ns.map_or(time_ns, |t0| t0.max(time_ns)));
+        for s in &mut self.servo {
+            let n = s.node();
+            s.advance(dt);
+            s.apply_command(regs.read_regs(n), ring_fault);
+            *regs.write_regs_mut(n) = s.feedback();
+        }
+        for &n in &self.io {
+            let cmd = regs.read_regs(n);
+            *regs.write_regs_mut(n) = if ring_fault {
+                NodeRegs::default()
+            } else {
+                NodeRegs { r0: cmd.r0 & 0xFF_FFFF, r1: cmd.r1, r2: cmd.r2, r3: cmd.r3 }
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "station_app_tests.rs"]
+mod tests;
