@@ -300,7 +300,7 @@ impl ClusterConfig {
                 pmac_eth_port: 0,
                 master: (c % 256) as u8,
                 nodes: default_nodes(),
-                ivars: BTreeMap::new(),
+                ivars: default_card_ivars(),
                 state_file: None,
             })
             .collect();
@@ -466,6 +466,16 @@ impl ClusterConfig {
         }
         Some(RingSettings { i995, i996 })
     }
+}
+
+/// Start-up I-variables of the embedded default cluster's cards: the ring check armed
+/// (I1001 = 16 servo cycles ≈ 7 ms, I1004 = 2 errors, I1005 = 4 sync packets; with the default
+/// I8 = 2 that is 6 checks per period, so I1005 ≤ I1001/(I8+1) holds as the spec requires).
+fn default_card_ivars() -> BTreeMap<String, IVarValue> {
+    [("I1001", 16), ("I1004", 2), ("I1005", 4)]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), IVarValue::Int(v)))
+        .collect()
 }
 
 fn default_cluster_name() -> String {

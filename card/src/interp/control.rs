@@ -15,7 +15,7 @@ pub fn ctrl_n(partial_line: &[u8]) -> Vec<u8> {
 
 impl Card {
     fn ctrl_action(&mut self, s: &Session, c: u8) {
-        self.actions.push(Action {
+        self.push_action(Action {
             motor: s.motor,
             coord: s.coord,
             kind: ActionKind::Ctrl(c),

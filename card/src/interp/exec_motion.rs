@@ -39,7 +39,7 @@ const ALL_AXES: [Axis; 9] = [
 
 impl Card {
     fn action(&mut self, s: &Session, cmd: &CmdKind) {
-        self.actions.push(Action {
+        self.push_action(Action {
             motor: s.motor,
             coord: s.coord,
             kind: ActionKind::Cmd(cmd.clone()),

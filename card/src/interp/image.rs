@@ -114,7 +114,7 @@ impl Card {
         let axes = std::mem::take(&mut self.run.axes);
         self.run = RunState::new(lim.motors, lim.coords, 32);
         self.run.axes = axes;
-        self.actions.push(super::Action {
+        self.push_action(super::Action {
             motor: 1,
             coord: 1,
             kind: super::ActionKind::Ctrl(0x0B),

@@ -43,10 +43,10 @@ impl Card {
                 _ => clean.push(b),
             }
         }
-        if remember && !clean.is_empty() {
+        if remember && !clean.is_empty() && clean.len() <= super::MAX_LINE {
             self.last_line.clone_from(&clean);
         }
-        let (outcome, lines) = self.execute(s, &clean);
+        let (outcome, lines) = self.execute_line(s, &clean);
         let talk = self.chain_addressed && (!self.chain_all || self.card_number() == 0);
         if talk {
             let f = self.framing();
@@ -59,7 +59,11 @@ impl Card {
     }
 
     /// Run the items of `line`; returns the outcome and the data lines with their framing.
-    fn execute(&mut self, s: &mut Session, line: &[u8]) -> (Outcome, Vec<(Framing, String)>) {
+    pub(crate) fn execute_line(
+        &mut self,
+        s: &mut Session,
+        line: &[u8],
+    ) -> (Outcome, Vec<(Framing, String)>) {
         let mut lines = Vec::new();
         let mut parser = match LineParser::new(line) {
             Ok(p) => p,

@@ -9,6 +9,7 @@ pub mod control;
 pub mod defines;
 mod exec;
 mod exec_buffers;
+mod exec_defines;
 mod exec_info;
 mod exec_macro;
 mod exec_motion;
@@ -16,8 +17,11 @@ mod exec_vars;
 mod image;
 mod line;
 pub mod progline;
+mod program_cmd;
 pub mod reply;
 pub mod runstate;
+
+pub use program_cmd::MAX_ACTIONS;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};

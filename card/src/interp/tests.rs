@@ -145,3 +145,49 @@ fn save_and_reset_restore_state() {
     assert_eq!(send(&mut c2, &mut s, "LIST PROG 7"), b"\x07\r\nERR003\r");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn program_commands_are_never_acknowledged() {
+    let mut c = Card::new(Profile::Pmac2);
+    // Seed defaults I6=3: errors are <BELL>ERRnnn<CR>; data lines end in CR; no ack.
+    assert_eq!(c.program_command(1, 1, b"P3=4"), b"");
+    assert_eq!(c.program_command(1, 1, b"P3"), b"4\r");
+    assert_eq!(c.program_command(1, 1, b"UUU"), b"\x07ERR003\r");
+    // CTRL-Y now returns the program's line.
+    let mut s = Session::default();
+    assert_eq!(c.control_char(&mut s, 0x19), b"UUU");
+    assert_eq!(c.command_line(&mut s, b"I64=1"), b"\n");
+    assert_eq!(c.program_command(1, 1, b"P3"), b"\x024\r");
+    assert_eq!(c.program_command(1, 1, b"UUU"), b"\x02ERR003\r");
+    assert_eq!(c.command_line(&mut s, b"I64=0 I62=1 I6=2"), b"\n");
+    assert_eq!(c.program_command(1, 1, b"P3"), b"4");
+    assert_eq!(c.program_command(1, 1, b"UUU"), b"");
+    // Program addressing: Q-variables of the given C.S.
+    assert_eq!(c.program_command(1, 2, b"Q1=9"), b"");
+    assert_eq!(c.command_line(&mut s, b"&2Q1"), b"\n9\r\n");
+}
+
+#[test]
+fn action_queue_is_bounded() {
+    let (mut c, mut s) = card();
+    for _ in 0..(MAX_ACTIONS / 2 + 10) {
+        assert_eq!(send(&mut c, &mut s, "#1J/J/"), b"\x06");
+    }
+    assert_eq!(c.take_actions().len(), MAX_ACTIONS);
+}
+
+#[test]
+fn any_connection_can_close_a_buffer_left_open() {
+    let (mut c, mut a) = card();
+    let mut b = Session::default();
+    assert_eq!(send(&mut c, &mut a, "OPEN PROG 9 CLEAR"), b"\x06");
+    // Lines from another connection are not stored; its OPEN is refused.
+    assert_eq!(send(&mut c, &mut b, "I130"), b"2000\r\x06");
+    assert_eq!(send(&mut c, &mut b, "OPEN PROG 10"), b"\x07ERR007\r");
+    assert_eq!(send(&mut c, &mut b, "CLOSE"), b"\x06");
+    assert_eq!(send(&mut c, &mut b, "OPEN PROG 10 CLOSE"), b"\x06");
+    // end_session closes what a connection left open.
+    assert_eq!(send(&mut c, &mut a, "OPEN PLC 3"), b"\x06");
+    c.end_session(&a);
+    assert_eq!(send(&mut c, &mut b, "OPEN PLC 4 CLOSE"), b"\x06");
+}

@@ -425,3 +425,88 @@ fn word_counts_match_the_manual_examples() {
     assert_eq!(w("P1=P1+1"), 3);
     assert_eq!(w("ENDWHILE"), 1);
 }
+
+mod generated {
+    use super::super::ast::*;
+    use super::super::*;
+    use proptest::prelude::*;
+
+    fn leaf() -> impl Strategy<Value = Expr> {
+        let num = (any::<bool>(), -100_000i64..100_000, 0u32..4).prop_map(|(hex, v, frac)| {
+            let value = if hex { v as f64 } else { v as f64 / 10f64.powi(frac as i32) };
+            Expr { kind: ExprKind::Num(Number { value, hex }), pos: Pos(0) }
+        });
+        let var = (0u8..4, 0u32..1024).prop_map(|(k, n)| {
+            let kind = [VarKind::I, VarKind::P, VarKind::Q, VarKind::M][k as usize];
+            Expr { kind: ExprKind::Var(VarRef { kind, index: VarIndex::Const(n), pos: Pos(0) }), pos: Pos(0) }
+        });
+        prop_oneof![num, var]
+    }
+
+    fn expr() -> impl Strategy<Value = Expr> {
+        leaf().prop_recursive(6, 48, 2, |inner| {
+            let ops = [
+                BinOp::Mul,
+                BinOp::Div,
+                BinOp::Mod,
+                BinOp::And,
+                BinOp::Add,
+                BinOp::Sub,
+                BinOp::Or,
+                BinOp::Xor,
+            ];
+            let funcs = [Func::Sin, Func::Atan2, Func::Ln, Func::Sqrt, Func::Abs, Func::Int];
+            let mk = |kind| Expr { kind, pos: Pos(0) };
+            prop_oneof![
+                (0usize..8, inner.clone(), inner.clone())
+                    .prop_map(move |(o, l, r)| mk(ExprKind::Bin(ops[o], Box::new(l), Box::new(r)))),
+                inner.clone().prop_map(move |e| mk(ExprKind::Neg(Box::new(e)))),
+                (0usize..6, inner.clone()).prop_map(move |(f, e)| mk(ExprKind::Call(funcs[f], Box::new(e)))),
+                inner.prop_map(move |e| mk(ExprKind::Var(VarRef {
+                    kind: VarKind::P,
+                    index: VarIndex::Expr(Box::new(e)),
+                    pos: Pos(0)
+                }))),
+            ]
+        })
+    }
+
+    fn cond() -> impl Strategy<Value = Cond> {
+        let cmps = [CmpOp::Eq, CmpOp::Ne, CmpOp::Gt, CmpOp::NotGt, CmpOp::Lt, CmpOp::NotLt, CmpOp::Approx];
+        let atom = (0usize..7, expr(), expr()).prop_map(move |(o, lhs, rhs)| Cond::Cmp { lhs, op: cmps[o], rhs });
+        atom.prop_recursive(3, 12, 2, |inner| {
+            prop_oneof![
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| Cond::And(Box::new(a), Box::new(b))),
+                (inner.clone(), inner).prop_map(|(a, b)| Cond::Or(Box::new(a), Box::new(b))),
+            ]
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1500))]
+        #[test]
+        fn expressions_round_trip(e in expr()) {
+            let s = Stmt {
+                kind: StmtKind::Assign {
+                    target: VarRef { kind: VarKind::P, index: VarIndex::Const(1), pos: Pos(0) },
+                    op: AssignOp::Set,
+                    value: e,
+                },
+                pos: Pos(0),
+            };
+            let text = listing::stmt(&s, false);
+            let again = parse_program_line(text.as_bytes(), BufferKind::Prog);
+            prop_assert_eq!(again, Ok(vec![s]), "{}", text);
+        }
+
+        #[test]
+        fn conditions_round_trip(c in cond()) {
+            let s = Stmt { kind: StmtKind::While(c), pos: Pos(0) };
+            let text = listing::stmt(&s, true);
+            if text.len() <= MAX_LINE_LEN {
+                let again = parse_program_line(text.as_bytes(), BufferKind::Prog);
+                prop_assert_eq!(again, Ok(vec![s]), "{}", text);
+            }
+        }
+    }
+}

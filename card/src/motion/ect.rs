@@ -205,7 +205,11 @@ mod tests {
         let mut s = EctState::default();
         assert_eq!(s.process(&e, 0xFFF0), (-16i64 * 32) as u32 & W24);
         assert_eq!(s.process(&e, 0x0010), (16 * 32) as u32);
-        assert_eq!(s.process(&e, 0xAB_0020), (32 * 32) as u32, "bits above mask ignored");
+        assert_eq!(
+            s.process(&e, 0xAB_0020),
+            (32 * 32) as u32,
+            "bits above mask ignored"
+        );
     }
 
     #[test]

@@ -76,7 +76,10 @@ mod tests {
                 user: false
             }
         );
-        assert!(FlagInputs::from_image(0, 0x40F70).amp_fault, "low-true default");
+        assert!(
+            FlagInputs::from_image(0, 0x40F70).amp_fault,
+            "low-true default"
+        );
         assert!(!FlagInputs::from_image(0, 0x840F70).amp_fault, "high-true");
         assert!(FlagInputs::from_image(FAULT_BIT, 0x840F70).amp_fault);
         assert!(FlagInputs::from_image(PLIM_BIT | USER_BIT, 0).plus_limit);

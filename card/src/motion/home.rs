@@ -101,7 +101,12 @@ impl TriggeredMove {
 
     /// One servo cycle: if searching and the selected input is true, switch to the
     /// post-trigger phase and return the action to take.
-    pub fn on_cycle(&mut self, home_flag: bool, warning_fe: bool, actual: f64) -> Option<TriggerAction> {
+    pub fn on_cycle(
+        &mut self,
+        home_flag: bool,
+        warning_fe: bool,
+        actual: f64,
+    ) -> Option<TriggerAction> {
         if self.phase != Phase::Search {
             return None;
         }
@@ -136,7 +141,11 @@ mod tests {
     fn home_trigger_sets_new_zero_with_offset() {
         let mut h = TriggeredMove::home(160.0, 0);
         assert!(h.is_home_search());
-        assert_eq!(h.on_cycle(false, true, 100.0), None, "warning FE is not the source");
+        assert_eq!(
+            h.on_cycle(false, true, 100.0),
+            None,
+            "warning FE is not the source"
+        );
         let a = h.on_cycle(true, false, 1234.5).unwrap();
         assert_eq!(a.new_zero, Some(1244.5));
         assert_eq!(a.target, 0.0);

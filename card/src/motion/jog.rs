@@ -37,7 +37,11 @@ pub struct JogParams {
 impl JogCmd {
     /// The plan for this jog from the state `k`.
     pub fn plan(&self, k: Kin, jp: &JogParams) -> Plan {
-        let speed = if jp.speed.is_finite() { jp.speed.abs() } else { 0.0 };
+        let speed = if jp.speed.is_finite() {
+            jp.speed.abs()
+        } else {
+            0.0
+        };
         match *self {
             JogCmd::Plus => Plan::to_velocity(k.p, k.v, speed, &jp.ramp),
             JogCmd::Minus => Plan::to_velocity(k.p, k.v, -speed, &jp.ramp),
@@ -118,7 +122,11 @@ impl Trajectory {
 
     /// Start a new plan `delay` ms from now, built from the state at that time.
     pub fn command(&mut self, delay: f64, make: impl FnOnce(Kin) -> Plan) {
-        let delay = if delay.is_finite() && delay > 0.0 { delay } else { 0.0 };
+        let delay = if delay.is_finite() && delay > 0.0 {
+            delay
+        } else {
+            0.0
+        };
         let at = self.t + delay;
         self.plans.retain(|(s, _)| *s < at);
         if self.plans.len() >= MAX_PLANS {

@@ -7,11 +7,12 @@
 
 use super::ect::PositionExtender;
 use super::flags::FlagInputs;
-use super::home::{Phase, TriggerAction, TriggeredMove};
+use super::home::{TriggerAction, TriggeredMove};
 use super::jog::{JogCmd, JogParams, Trajectory};
 use super::params::MotorParams;
 use super::pid::{PidInput, PidState};
 use super::profile::{Kin, Plan, RampParams};
+use crate::lang::ast::JogKind;
 use crate::state::status::MotorFlags;
 
 /// A command to one motor, values resolved to counts.
@@ -133,6 +134,7 @@ pub struct Motor {
     inpos_scans: u32,
     on_program: bool,
     cmd_vel: f64,
+    last_out: TickOutput,
     /// Pre-jog position (`J=`), counts.
     pub prejog: f64,
     /// `?` status flags.
@@ -172,6 +174,7 @@ impl Motor {
             inpos_scans: 0,
             on_program: false,
             cmd_vel: 0.0,
+            last_out: TickOutput::default(),
             prejog: 0.0,
             flags: MotorFlags::default(),
         }
@@ -200,6 +203,31 @@ impl Motor {
     /// Trajectory of the motor (jog/home/abort moves).
     pub fn trajectory(&self) -> &Trajectory {
         &self.traj
+    }
+
+    /// Resolve a parsed jog into a [`JogCmd`] against this motor: `J=` goes to the pre-jog
+    /// position, `J==` also sets it, `J:` is relative to the commanded and `J^` to the actual
+    /// position; the `*` forms take `jog_register` (Mx72). `J!` gives `None` (use
+    /// [`MotorCommand::Round`]).
+    pub fn resolve_jog(&mut self, kind: JogKind, jog_register: f64) -> Option<JogCmd> {
+        let finite = |v: f64| if v.is_finite() { Some(v) } else { None };
+        Some(match kind {
+            JogKind::Plus => JogCmd::Plus,
+            JogKind::Minus => JogCmd::Minus,
+            JogKind::Stop => JogCmd::Stop,
+            JogKind::Round => return None,
+            JogKind::PreJog => JogCmd::To(self.prejog),
+            JogKind::To(v) => JogCmd::To(finite(v)?),
+            JogKind::ToAndSetPreJog(v) => {
+                self.prejog = finite(v)?;
+                JogCmd::To(self.prejog)
+            }
+            JogKind::RelCommanded(d) => JogCmd::To(self.cmd + finite(d)?),
+            JogKind::RelActual(d) => JogCmd::To(self.actual + finite(d)?),
+            JogKind::VarTo => JogCmd::To(finite(jog_register)?),
+            JogKind::VarRelCommanded => JogCmd::To(self.cmd + finite(jog_register)?),
+            JogKind::VarRelActual => JogCmd::To(self.actual + finite(jog_register)?),
+        })
     }
 
     /// Kill: loop open, output zero, amplifier off (trip bits are left as they are).
@@ -251,7 +279,11 @@ impl Motor {
             MotorCommand::Kill => self.kill(),
             MotorCommand::Enable => self.enable(),
             MotorCommand::OpenLoop(pct) => {
-                let pct = if pct.is_finite() { pct.clamp(-100.0, 100.0) } else { 0.0 };
+                let pct = if pct.is_finite() {
+                    pct.clamp(-100.0, 100.0)
+                } else {
+                    0.0
+                };
                 self.kill();
                 self.mode = Mode::Open(pct / 100.0 * p.gains.out_limit.abs());
                 self.flags.amp_enabled = true;
@@ -284,7 +316,11 @@ impl Motor {
                 self.limit_stop = false;
                 self.flags.abort_decel = false;
                 let jp = Self::jog_params(p, p.home_speed.abs());
-                let cmd = if p.home_speed > 0.0 { JogCmd::Plus } else { JogCmd::Minus };
+                let cmd = if p.home_speed > 0.0 {
+                    JogCmd::Plus
+                } else {
+                    JogCmd::Minus
+                };
                 self.traj.command(p.i12, |k| cmd.plan(k, &jp));
             }
             MotorCommand::HomeZero => {
@@ -312,7 +348,11 @@ impl Motor {
         } else {
             self.traj.now().v
         };
-        let k = Kin { p: self.cmd, v, a: 0.0 };
+        let k = Kin {
+            p: self.cmd,
+            v,
+            a: 0.0,
+        };
         let rp = RampParams::constant_rate(p.abort_decel);
         self.traj.replace(Plan::to_velocity(k.p, k.v, 0.0, &rp));
     }
@@ -370,6 +410,10 @@ impl Motor {
 
     /// One servo cycle.
     pub fn tick(&mut self, p: &MotorParams, inp: &TickInput) -> TickOutput {
+        if !p.active {
+            // Ix00 = 0: no position, servo or trajectory work; outputs stay as they were.
+            return self.last_out;
+        }
         let raw = self.ext.update(inp.feedback & 0xFF_FFFF) as f64 / 32.0 - self.bias;
         self.prev_actual = if self.started { self.actual } else { raw };
         self.actual = raw;
@@ -395,11 +439,15 @@ impl Motor {
         };
         self.update_status(p, inp);
         let out = dac + p.dac_offset;
-        TickOutput {
+        self.last_out = TickOutput {
             reg0: dac_to_reg0(out),
             dac: out,
             amp_enable: self.mode != Mode::Killed,
+            trip: None,
+        };
+        TickOutput {
             trip,
+            ..self.last_out
         }
     }
 
@@ -443,8 +491,10 @@ impl Motor {
             if self.trigger.is_some() {
                 self.trigger = Some(t);
             }
-            if t.phase == Phase::PostTrigger && self.traj.finished() {
+            if self.traj.finished() {
+                // Post-trigger move done, or a jog-until-trigger ended without a trigger.
                 self.trigger = None;
+                self.flags.trigger_move = false;
             }
         }
         self.fe = self.cmd - self.actual;
@@ -516,7 +566,11 @@ impl Motor {
                 && self.flags.desired_velocity_zero
                 && !self.flags.move_timer
                 && self.fe.abs() * 16.0 < p.inpos_band;
-            self.inpos_scans = if ok { self.inpos_scans.saturating_add(1) } else { 0 };
+            self.inpos_scans = if ok {
+                self.inpos_scans.saturating_add(1)
+            } else {
+                0
+            };
             self.flags.in_position = self.inpos_scans > p.i7;
         }
         if !closed {

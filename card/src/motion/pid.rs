@@ -125,7 +125,7 @@ impl PidState {
         let ilim = g.int_limit.abs() / 16.0;
         if g.int_limit == 0.0 {
             self.ie = 0.0;
-        } else if !self.saturated && !(g.int_mode && i.cv != 0.0) {
+        } else if !(self.saturated || (g.int_mode && i.cv != 0.0)) {
             self.ie = clip(self.ie + g.ki * fe1 * K23, ilim);
         }
         let integrated_fault = g.int_limit < 0.0 && self.ie.abs() >= ilim;
@@ -179,14 +179,24 @@ mod tests {
     #[test]
     fn fe_limit_deadband_friction() {
         // Ix67 = 1600 (100 counts): FE 500 counts acts as 100.
-        let g = PidGains { fe_limit: 1600.0, ..PidGains::default() };
+        let g = PidGains {
+            fe_limit: 1600.0,
+            ..PidGains::default()
+        };
         assert_eq!(step(&g, 500.0, 0.0, 0.0, 0.0), 36.62109375);
         // True deadband Ix64 = -16, Ix65 = 32 (2 counts): FE 1.5 → 0; FE 5 → 5 − 2 = 3 counts.
-        let g = PidGains { db_gain: -16.0, db_size: 32.0, ..PidGains::default() };
+        let g = PidGains {
+            db_gain: -16.0,
+            db_size: 32.0,
+            ..PidGains::default()
+        };
         assert_eq!(step(&g, 1.5, 0.0, 0.0, 0.0), 0.0);
         assert_eq!(step(&g, 5.0, 0.0, 0.0, 0.0), 3.0 * 0.3662109375);
         // Ix68 by the sign of CV (Kd cancels Kvff here).
-        let g = PidGains { friction: 100.0, ..PidGains::default() };
+        let g = PidGains {
+            friction: 100.0,
+            ..PidGains::default()
+        };
         assert_eq!(step(&g, 0.0, 3.0, 0.0, 3.0), 100.0);
         assert_eq!(step(&g, 0.0, -3.0, 0.0, -3.0), -100.0);
         assert_eq!(step(&g, 0.0, 0.0, 0.0, 0.0), 0.0);
@@ -195,9 +205,16 @@ mod tests {
     #[test]
     fn integrator_gain_limit_and_modes() {
         // Ix33 = 2^23/1000 with FE = 10: IE grows by 0.01·... exactly Ix33·FE/2^23 per cycle.
-        let g = PidGains { ki: 8192.0, int_limit: 16.0 * 0.05, ..PidGains::default() };
+        let g = PidGains {
+            ki: 8192.0,
+            int_limit: 16.0 * 0.05,
+            ..PidGains::default()
+        };
         let mut s = PidState::default();
-        let inp = PidInput { fe: 10.0, ..Default::default() };
+        let inp = PidInput {
+            fe: 10.0,
+            ..Default::default()
+        };
         s.step(&g, &inp);
         // 8192·10/2^23 = 0.009765625 counts.
         assert_eq!(s.ie, 0.009765625);
@@ -207,21 +224,59 @@ mod tests {
         assert_eq!(s.ie, 0.05, "clamped at Ix63/16 counts");
         // Ix34 = 1: no integration while CV ≠ 0; Ix34 = 0 integrates.
         let mut s = PidState::default();
-        s.step(&g, &PidInput { fe: 10.0, cv: 1.0, ..Default::default() });
+        s.step(
+            &g,
+            &PidInput {
+                fe: 10.0,
+                cv: 1.0,
+                ..Default::default()
+            },
+        );
         assert_eq!(s.ie, 0.0);
-        let g0 = PidGains { int_mode: false, ..g };
-        s.step(&g0, &PidInput { fe: 10.0, cv: 1.0, ..Default::default() });
+        let g0 = PidGains {
+            int_mode: false,
+            ..g
+        };
+        s.step(
+            &g0,
+            &PidInput {
+                fe: 10.0,
+                cv: 1.0,
+                ..Default::default()
+            },
+        );
         assert_eq!(s.ie, 0.009765625);
         // Saturated output freezes the integrator.
-        let gs = PidGains { ki: 8192.0, ..PidGains::default() };
+        let gs = PidGains {
+            ki: 8192.0,
+            ..PidGains::default()
+        };
         let mut s = PidState::default();
-        s.step(&gs, &PidInput { fe: 1.0e7, ..Default::default() });
+        s.step(
+            &gs,
+            &PidInput {
+                fe: 1.0e7,
+                ..Default::default()
+            },
+        );
         assert!(s.saturated);
-        assert_eq!(s.ie, 256.0, "one step of 8192·262144/2^23 before saturation was seen");
-        s.step(&gs, &PidInput { fe: 1.0e7, ..Default::default() });
+        assert_eq!(
+            s.ie, 256.0,
+            "one step of 8192·262144/2^23 before saturation was seen"
+        );
+        s.step(
+            &gs,
+            &PidInput {
+                fe: 1.0e7,
+                ..Default::default()
+            },
+        );
         assert_eq!(s.ie, 256.0);
         // Ix63 < 0 reports the integrated-FE fault once the integrator saturates.
-        let gn = PidGains { int_limit: -16.0 * 0.01, ..g };
+        let gn = PidGains {
+            int_limit: -16.0 * 0.01,
+            ..g
+        };
         let mut s = PidState::default();
         assert!(!s.step(&gn, &inp).integrated_fault);
         assert!(s.step(&gn, &inp).integrated_fault);
@@ -230,9 +285,17 @@ mod tests {
     #[test]
     fn notch_filter_difference_equation() {
         // y = x + N1·x1 − D1·y1 with N1 = 0.5, D1 = -0.25 on a constant input of 1 DAC bit.
-        let g = PidGains { kp: 524_288.0, ix08: 1.0, notch: [0.5, 0.0, -0.25, 0.0], ..PidGains::default() };
+        let g = PidGains {
+            kp: 524_288.0,
+            ix08: 1.0,
+            notch: [0.5, 0.0, -0.25, 0.0],
+            ..PidGains::default()
+        };
         let mut s = PidState::default();
-        let inp = PidInput { fe: 1.0, ..Default::default() };
+        let inp = PidInput {
+            fe: 1.0,
+            ..Default::default()
+        };
         assert_eq!(s.step(&g, &inp).dac, 1.0);
         assert_eq!(s.step(&g, &inp).dac, 1.0 + 0.5 + 0.25);
         assert_eq!(s.step(&g, &inp).dac, 1.5 + 0.25 * 1.75);

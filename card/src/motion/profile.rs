@@ -35,7 +35,11 @@ impl RampParams {
         RampParams {
             ta: 0.0,
             ts: 0.0,
-            amax: if rate.is_finite() && rate > 0.0 { rate } else { 0.0 },
+            amax: if rate.is_finite() && rate > 0.0 {
+                rate
+            } else {
+                0.0
+            },
         }
     }
 
@@ -120,7 +124,11 @@ impl Seg {
             },
             Seg::Ramp { v0, v1, t, ts } => {
                 if t <= 0.0 {
-                    return Kin { p: 0.0, v: v1, a: 0.0 };
+                    return Kin {
+                        p: 0.0,
+                        v: v1,
+                        a: 0.0,
+                    };
                 }
                 let tau = tau.clamp(0.0, t);
                 let ap = (v1 - v0) / (t - ts);
@@ -222,9 +230,7 @@ impl Plan {
             return Plan::to_velocity(p0, v0, 0.0, rp);
         }
         let dist = target - p0;
-        let d = |vc: f64| {
-            0.5 * (v0 + vc) * rp.ramp_time(vc - v0) + 0.5 * vc * rp.ramp_time(vc)
-        };
+        let d = |vc: f64| 0.5 * (v0 + vc) * rp.ramp_time(vc - v0) + 0.5 * vc * rp.ramp_time(vc);
         let (dp, dn) = (d(vmax), d(-vmax));
         let (vc, tc) = if dist >= dp {
             (vmax, (dist - dp) / vmax)

@@ -154,6 +154,21 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
         })
     }
 
+    /// Whether member `k`'s loop has ended.
+    pub fn is_finished(&self, k: usize) -> bool {
+        self.handles.get(k).is_none_or(JoinHandle::is_finished)
+    }
+
+    /// Wait up to `timeout` for member `k`'s loop to end (e.g. the sync master reaching its
+    /// `max_cycles`), then stop everyone.
+    pub fn join_member(self, k: usize, timeout: Duration) -> Vec<MemberResult<A>> {
+        let deadline = std::time::Instant::now() + timeout;
+        while std::time::Instant::now() < deadline && !self.is_finished(k) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        self.stop()
+    }
+
     /// Status of member `k` (waits up to a second for its loop).
     pub fn status(&self, k: usize) -> Option<MemberStatus> {
         let (tx, rx) = bounded(1);

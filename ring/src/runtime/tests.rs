@@ -144,11 +144,12 @@ fn realtime_loopback_ring_runs_locked_without_errors() {
     }
     // Followers' holdover period: 1.5 nominal periods, as the process runtime sets it.
     let period = 1_000_000_000 / 2258;
-    for (c, _, _) in members.iter_mut().skip(1) {
+    for (c, _, d) in members.iter_mut().skip(1) {
         c.period_ns = period * 3 / 2;
+        d.max_cycles = None;
     }
     let r = LocalRing::start(members, LocalTransport::Loopback).unwrap();
-    let out = r.join(Duration::from_secs(20));
+    let out = r.join_member(0, Duration::from_secs(20));
     let App::M(m) = &out[0].app else { panic!() };
     assert_eq!(m.seen.len(), 400);
     assert!(m.seen.iter().any(|&(_, fb)| fb > 0), "feedback came back");
