@@ -11,6 +11,7 @@
 //! - [`runtime`]: the process: config, ring membership, threads.
 
 pub mod host;
+pub mod coord;
 pub mod interp;
 pub mod lang;
 pub mod motion;

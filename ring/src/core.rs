@@ -28,6 +28,12 @@ pub trait RingApp {
     /// from `regs`, compute, write the registers that go out next cycle. `ring_fault` is the
     /// member's latched ring fault.
     fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool);
+
+    /// Asked once after every tick: does the application want the ring-fault latch reset
+    /// (the card's `$$$`)? The latch clears only if the ring is healthy again.
+    fn take_ring_reset(&mut self) -> bool {
+        false
+    }
 }
 
 /// How a member core is set up.
@@ -458,6 +464,9 @@ impl MemberCore {
     ) -> Option<CheckFault> {
         let fault = self.run_check();
         app.tick(cycle, time_ns, &mut self.member, self.ring_fault);
+        if app.take_ring_reset() {
+            self.reset();
+        }
         fault
     }
 

@@ -86,6 +86,7 @@ fn pmac_default_gains_track_a_10000_count_move_on_the_default_plant() {
     let end = ext.update(fb.r0);
     // bound reported for the default plant + default gains (coulomb deadband ≈ 4.5 counts,
     // plus one cycle of ring delay at the peak speed of 12.5 counts/ms ≈ 5.5 counts)
+    eprintln!("DBG max_fe={max_fe} end={end}");
     assert!(max_fe < 20.0, "max following error {max_fe}");
     assert!((end - 10_000.0).abs() < 10.0, "settled at {end}"); // inside Ix28 = 10 counts
 }
@@ -109,6 +110,7 @@ fn simple_p_controller_drives_a_velocity_mode_plant_to_target() {
     }
     let end = ext.update(fb.r0);
     assert!((end - target).abs() < 10.0, "settled at {end}");
+    eprintln!("DBG peak={peak} end={end}");
     assert!(peak < target * 1.02, "overshoot to {peak}");
 }
 

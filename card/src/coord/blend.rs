@@ -87,12 +87,6 @@ impl Piece {
             _ => 0.0,
         }
     }
-    fn s(&self) -> f64 {
-        match self.kind {
-            Kind::Blend { s, .. } => s,
-            _ => 0.0,
-        }
-    }
 }
 
 /// A new move for [`Timeline::push`] (program units, the transformation in force).

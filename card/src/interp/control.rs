@@ -52,6 +52,7 @@ impl Card {
     }
 
     pub(crate) fn control(&mut self, s: &mut Session, c: u8) -> Vec<u8> {
+        self.clamp_session(s);
         let f = self.framing();
         match c {
             0x01 => {

@@ -1,6 +1,6 @@
 //! Buffer control (§3.2.6, §3.3.5, §3.4.4) and PLC control (§3.2.5): OPEN/CLOSE/CLEAR/LIST,
-//! DEFINE/DELETE with the stacking rule, GATHER, ENABLE/DISABLE/PAUSE/RESUME PLC, storing
-//! program lines.
+//! GATHER, ENABLE/DISABLE/PAUSE/RESUME PLC, storing program lines (DEFINE/DELETE: exec_defines),
+//! SETPHASE.
 
 use super::buffers::{list_lines, BufErr, BufId};
 use super::exec::{Exec, Out};

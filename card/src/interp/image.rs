@@ -20,6 +20,9 @@ pub fn user_memory_words(profile: Profile) -> u32 {
     }
 }
 
+/// `???` word 1 bit 10: saved data bad, factory defaults used.
+pub const EAROM_ERROR: u32 = 1 << 10;
+
 /// INTERP's part of the saved image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InterpImage {
@@ -74,7 +77,7 @@ impl Card {
             Some(p) => persist::load(p),
             None => Ok(None),
         };
-        let (image, result) = match loaded {
+        let (image, mut result) = match loaded {
             Ok(img) => (img, Ok(())),
             Err(e) => (None, Err(e)),
         };
@@ -82,13 +85,16 @@ impl Card {
             Ok(b) => b,
             Err(e) => {
                 let _ = self.state.reset(None);
-                self.load_blob(&[]);
-                self.after_reset();
-                return Err(e);
+                result = Err(e);
+                Vec::new()
             }
         };
         self.load_blob(&blob);
         self.after_reset();
+        if result.is_err() {
+            // Saved data bad: factory defaults in use (`???` word 1 bit 10, EAROM error).
+            self.state.global.word1_other |= EAROM_ERROR;
+        }
         result
     }
 

@@ -17,6 +17,13 @@ impl Card {
         Framing::from_ivars(i(3, 1.0), i(4, 0.0), i(6, 3.0))
     }
 
+    /// Keep a session's addressing inside the profile (sessions are built by host code).
+    pub(crate) fn clamp_session(&self, s: &mut Session) {
+        let lim = self.state.limits();
+        s.motor = s.motor.clamp(1, lim.motors);
+        s.coord = s.coord.clamp(1, lim.coords);
+    }
+
     fn parse_mode(&self, s: &Session) -> Mode {
         match self.open_for(s) {
             Some(o) if !o.binary => Mode::Buffer(match o.id {
@@ -64,6 +71,7 @@ impl Card {
         s: &mut Session,
         line: &[u8],
     ) -> (Outcome, Vec<(Framing, String)>) {
+        self.clamp_session(s);
         let mut lines = Vec::new();
         let mut parser = match LineParser::new(line) {
             Ok(p) => p,

@@ -191,3 +191,53 @@ fn any_connection_can_close_a_buffer_left_open() {
     c.end_session(&a);
     assert_eq!(send(&mut c, &mut b, "OPEN PLC 4 CLOSE"), b"\x06");
 }
+
+#[test]
+fn corrupt_state_file_gives_factory_defaults_and_earom_bit() {
+    let dir = std::env::temp_dir().join(format!("mcc-interp-corrupt-{}", std::process::id()));
+    let _ = std::fs::create_dir_all(&dir);
+    let path = dir.join("card.state");
+    std::fs::write(&path, b"MCCSAVE\0garbage").unwrap();
+    let mut c = Card::with_state_file(Profile::Pmac2, &path);
+    let mut s = Session::default();
+    assert_eq!(
+        send(&mut c, &mut s, "I130 ???"),
+        b"\n2000\r\n000400000800\r\n"
+    );
+    // A fresh SAVE replaces the bad file; the next start is clean.
+    assert_eq!(send(&mut c, &mut s, "SAVE"), b"\n");
+    let mut c2 = Card::with_state_file(Profile::Pmac2, &path);
+    assert_eq!(send(&mut c2, &mut s, "???"), b"\n000000000800\r\n");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn out_of_range_session_addressing_is_clamped_not_a_panic() {
+    let (mut c, _) = card();
+    let mut s = Session {
+        motor: 0,
+        coord: 0,
+        id: 999,
+    };
+    assert_eq!(
+        send(&mut c, &mut s, "# & ?? P"),
+        b"1\r1\rA80020020000\r0\r\x06"
+    );
+    let mut s = Session {
+        motor: 200,
+        coord: 200,
+        id: 998,
+    };
+    assert_eq!(send(&mut c, &mut s, "# &"), b"8\r8\r\x06");
+    assert_eq!(
+        c.control_char(
+            &mut Session {
+                motor: 0,
+                coord: 0,
+                id: 1
+            },
+            0x10
+        ),
+        b"0 0 0 0 0 0 0 0\r"
+    );
+}

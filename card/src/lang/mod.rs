@@ -15,6 +15,7 @@ mod lexer;
 pub mod listing;
 mod parse_defs;
 mod parse_expr;
+mod parse_mdef;
 mod parse_online;
 mod parse_program;
 
@@ -147,6 +148,22 @@ impl<'a> LineParser<'a> {
         let start = self.cur.offset();
         let mut k = self.cur.clone();
         let stmt = parse_program::statement(&mut k, kind, !self.stored_any);
+        let label = matches!(self.cur.peek(), Some(b'N' | b'O'))
+            && self.cur.peek_at(1).is_some_and(|d| d.is_ascii_digit());
+        if label {
+            // never fall back to the on-line `O{n}` (open-loop output) for a label
+            let s = stmt?.ok_or_else(|| self.cur.syntax("label expected"))?;
+            if !allowed(&s.kind, kind) {
+                return Err(ParseError {
+                    pos: start,
+                    code: ERR_SYNTAX,
+                    msg: "labels are not allowed in this buffer",
+                });
+            }
+            self.cur = k;
+            self.stored_any = true;
+            return Ok(Item::Stmt(s));
+        }
         if let Ok(Some(s)) = &stmt {
             if allowed(&s.kind, kind) {
                 self.cur = k;

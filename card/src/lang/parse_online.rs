@@ -6,7 +6,7 @@
 
 use super::ast::{Axis, CmdKind, Command, JogKind, MemSpace, VarIndex, VarKind, VarList, VarSel};
 use super::lexer::Cursor;
-use super::parse_defs as defs;
+use super::parse_defs::{self as defs, MAX_MOTOR, MAX_SPAN};
 use super::parse_expr::{at_var, expr, paren_expr};
 use super::ParseError;
 
@@ -202,7 +202,7 @@ pub(crate) fn command(c: &mut Cursor) -> Result<Option<Command>, ParseError> {
             c.bump();
             match c.uint()? {
                 None => CmdKind::ReportMotor,
-                Some(n) if c.eat_kw("->") => defs::axis_def(c, n)?,
+                Some(n) if c.eat_kw("->") => super::parse_mdef::axis_def(c, n)?,
                 Some(0) => return Err(c.syntax("motor 0 does not exist")),
                 Some(n) => CmdKind::AddrMotor(n),
             }
@@ -460,7 +460,7 @@ fn keyword(c: &mut Cursor, kw: Kw) -> Result<Option<CmdKind>, ParseError> {
         Kw::Pe => CmdKind::ExecPointer,
         Kw::Pr => CmdKind::RotaryRemaining,
         Kw::Save => CmdKind::Save,
-        Kw::SetPhase => CmdKind::SetPhase(defs::num_list(c, u32::MAX)?),
+        Kw::SetPhase => CmdKind::SetPhase(defs::num_list(c, MAX_MOTOR)?),
         Kw::Size => CmdKind::Size,
         Kw::Type => CmdKind::Type,
         Kw::Undefine => {
@@ -522,8 +522,8 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
             .ok_or_else(|| c.syntax("variable number expected"))?;
         if c.eat_kw("..") {
             let last = c.uint()?.ok_or_else(|| c.syntax("range end expected"))?;
-            if last < first {
-                return Err(c.syntax("range end below start"));
+            if last < first || last - first >= MAX_SPAN {
+                return Err(c.syntax("range end below start or range too long"));
             }
             VarSel::Range { first, last }
         } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
@@ -536,7 +536,7 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
             } else {
                 1
             };
-            if count == 0 || step == 0 {
+            if count == 0 || step == 0 || count > MAX_SPAN {
                 return Err(c.syntax("count and step must be at least 1"));
             }
             VarSel::Strided { first, count, step }
@@ -546,7 +546,7 @@ fn var_command(c: &mut Cursor, kind: VarKind) -> Result<Option<CmdKind>, ParseEr
     };
     let list = VarList { kind, sel, pos };
     if kind == VarKind::M && c.eat_kw("->") {
-        return Ok(Some(match defs::mdef(c)? {
+        return Ok(Some(match super::parse_mdef::mdef(c)? {
             Some(d) => CmdKind::MDefine(list, d),
             None => CmdKind::MDefQuery(list),
         }));

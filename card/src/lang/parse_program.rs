@@ -6,7 +6,9 @@ use super::ast::{
     Message, MoveMode, PlcVerb, PreludeCall, SendPort, Stmt, StmtKind, VarKind,
 };
 use super::lexer::Cursor;
-use super::parse_defs::{self as defs, axis_list, gather_trigger, num_list, plc_control};
+use super::parse_defs::{
+    self as defs, axis_list, gather_trigger, num_list, plc_control, MAX_MOTOR,
+};
 use super::parse_expr::{at_var, data, paren_cond, var_ref};
 use super::ParseError;
 
@@ -192,9 +194,6 @@ pub(crate) fn statement(
     // labels
     if matches!(first, b'N' | b'O') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
         if !line_start {
-            if first == b'O' {
-                return Ok(None);
-            }
             return Err(c.syntax("a label must start the line"));
         }
         c.bump();
@@ -422,7 +421,7 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
             if !k.at_digit() {
                 return Ok(None); // bare HOME: the on-line command
             }
-            let list = num_list(c, u32::MAX)?;
+            let list = num_list(c, MAX_MOTOR)?;
             if sk == Sk::Home {
                 StmtKind::Home(list)
             } else {
@@ -536,7 +535,7 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
             }
             StmtKind::Address { motor, coord }
         }
-        Sk::SetPhase => StmtKind::SetPhase(num_list(c, u32::MAX)?),
+        Sk::SetPhase => StmtKind::SetPhase(num_list(c, MAX_MOTOR)?),
         Sk::Gather => StmtKind::Gather {
             trigger: gather_trigger(c),
         },

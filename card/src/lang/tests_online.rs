@@ -804,8 +804,15 @@ fn parse_throughput() {
     let t = std::time::Instant::now();
     let mut count = 0usize;
     for i in 0..n {
-        count += parse_line(lines[i % lines.len()]).map(|v| v.len()).unwrap_or(0);
+        count += parse_line(lines[i % lines.len()])
+            .map(|v| v.len())
+            .unwrap_or(0);
     }
     let dt = t.elapsed();
-    println!("{} lines ({count} commands) in {:?}: {:.0} lines/s", n, dt, n as f64 / dt.as_secs_f64());
+    println!(
+        "{} lines ({count} commands) in {:?}: {:.0} lines/s",
+        n,
+        dt,
+        n as f64 / dt.as_secs_f64()
+    );
 }

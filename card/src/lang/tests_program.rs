@@ -201,6 +201,26 @@ fn plc_rules() {
     assert_eq!(plc("X10").unwrap_err().code, ERR_SYNTAX);
     assert_eq!(plc("M1==1").unwrap_err().code, ERR_SYNTAX);
     assert_eq!(plc("GOTO5").unwrap_err().code, ERR_SYNTAX);
+    // labels: not in a PLC, and an O-label never becomes the on-line O (open loop) command
+    let mut p = LineParser::new(b"O50").unwrap();
+    assert_eq!(
+        p.next_item(Mode::Buffer(BufferKind::Plc(1)))
+            .unwrap()
+            .unwrap_err()
+            .code,
+        ERR_SYNTAX
+    );
+    let mut p = LineParser::new(b"X10 O50").unwrap();
+    let m = Mode::Buffer(BufferKind::Prog);
+    assert!(matches!(p.next_item(m), Some(Ok(Item::Stmt(_)))));
+    assert_eq!(
+        p.next_item(m).unwrap().unwrap_err(),
+        ParseError {
+            pos: 4,
+            code: ERR_SYNTAX,
+            msg: "a label must start the line"
+        }
+    );
     // ADDRESS only in PLC 1-31
     assert_eq!(
         parse_program_line(b"ADDRESS#1", BufferKind::Plc(0))
@@ -433,12 +453,26 @@ mod generated {
 
     fn leaf() -> impl Strategy<Value = Expr> {
         let num = (any::<bool>(), -100_000i64..100_000, 0u32..4).prop_map(|(hex, v, frac)| {
-            let value = if hex { v as f64 } else { v as f64 / 10f64.powi(frac as i32) };
-            Expr { kind: ExprKind::Num(Number { value, hex }), pos: Pos(0) }
+            let value = if hex {
+                v as f64
+            } else {
+                v as f64 / 10f64.powi(frac as i32)
+            };
+            Expr {
+                kind: ExprKind::Num(Number { value, hex }),
+                pos: Pos(0),
+            }
         });
         let var = (0u8..4, 0u32..1024).prop_map(|(k, n)| {
             let kind = [VarKind::I, VarKind::P, VarKind::Q, VarKind::M][k as usize];
-            Expr { kind: ExprKind::Var(VarRef { kind, index: VarIndex::Const(n), pos: Pos(0) }), pos: Pos(0) }
+            Expr {
+                kind: ExprKind::Var(VarRef {
+                    kind,
+                    index: VarIndex::Const(n),
+                    pos: Pos(0),
+                }),
+                pos: Pos(0),
+            }
         });
         prop_oneof![num, var]
     }
@@ -455,13 +489,23 @@ mod generated {
                 BinOp::Or,
                 BinOp::Xor,
             ];
-            let funcs = [Func::Sin, Func::Atan2, Func::Ln, Func::Sqrt, Func::Abs, Func::Int];
+            let funcs = [
+                Func::Sin,
+                Func::Atan2,
+                Func::Ln,
+                Func::Sqrt,
+                Func::Abs,
+                Func::Int,
+            ];
             let mk = |kind| Expr { kind, pos: Pos(0) };
             prop_oneof![
                 (0usize..8, inner.clone(), inner.clone())
                     .prop_map(move |(o, l, r)| mk(ExprKind::Bin(ops[o], Box::new(l), Box::new(r)))),
-                inner.clone().prop_map(move |e| mk(ExprKind::Neg(Box::new(e)))),
-                (0usize..6, inner.clone()).prop_map(move |(f, e)| mk(ExprKind::Call(funcs[f], Box::new(e)))),
+                inner
+                    .clone()
+                    .prop_map(move |e| mk(ExprKind::Neg(Box::new(e)))),
+                (0usize..6, inner.clone())
+                    .prop_map(move |(f, e)| mk(ExprKind::Call(funcs[f], Box::new(e)))),
                 inner.prop_map(move |e| mk(ExprKind::Var(VarRef {
                     kind: VarKind::P,
                     index: VarIndex::Expr(Box::new(e)),
@@ -472,11 +516,24 @@ mod generated {
     }
 
     fn cond() -> impl Strategy<Value = Cond> {
-        let cmps = [CmpOp::Eq, CmpOp::Ne, CmpOp::Gt, CmpOp::NotGt, CmpOp::Lt, CmpOp::NotLt, CmpOp::Approx];
-        let atom = (0usize..7, expr(), expr()).prop_map(move |(o, lhs, rhs)| Cond::Cmp { lhs, op: cmps[o], rhs });
+        let cmps = [
+            CmpOp::Eq,
+            CmpOp::Ne,
+            CmpOp::Gt,
+            CmpOp::NotGt,
+            CmpOp::Lt,
+            CmpOp::NotLt,
+            CmpOp::Approx,
+        ];
+        let atom = (0usize..7, expr(), expr()).prop_map(move |(o, lhs, rhs)| Cond::Cmp {
+            lhs,
+            op: cmps[o],
+            rhs,
+        });
         atom.prop_recursive(3, 12, 2, |inner| {
             prop_oneof![
-                (inner.clone(), inner.clone()).prop_map(|(a, b)| Cond::And(Box::new(a), Box::new(b))),
+                (inner.clone(), inner.clone())
+                    .prop_map(|(a, b)| Cond::And(Box::new(a), Box::new(b))),
                 (inner.clone(), inner).prop_map(|(a, b)| Cond::Or(Box::new(a), Box::new(b))),
             ]
         })

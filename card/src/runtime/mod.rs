@@ -30,6 +30,12 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(p) => Card::with_state_file(profile, p.clone()),
             None => Card::new(profile),
         };
+        // The ring settings the config derives (I995/I996), then the user's overrides.
+        if let Some(rs) = ctx.config.ring_settings(&ctx.name) {
+            let mut s = crate::interp::Session::default();
+            let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
+            let _ = card.command_line(&mut s, line.as_bytes());
+        }
         apply_ivars(&mut card, &cc.ivars)?;
         let card = Arc::new(Mutex::new(card));
         // Host ports and the command queryable live on a small tokio runtime of their own.

@@ -38,6 +38,10 @@ pub fn words_to_regs(w: [u32; 4]) -> NodeRegs {
 pub struct CardRingApp {
     card: Arc<Mutex<Card>>,
     nodes: Vec<u8>,
+    /// The ring fault has been reported into the card's status word.
+    reported: bool,
+    /// The card's `$$$` cleared the reported bit: ask the ring core to reset its latch.
+    reset_wanted: bool,
 }
 
 impl CardRingApp {
@@ -46,6 +50,8 @@ impl CardRingApp {
         CardRingApp {
             card,
             nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
+            reported: false,
+            reset_wanted: false,
         }
     }
 }
@@ -53,8 +59,14 @@ impl CardRingApp {
 impl RingApp for CardRingApp {
     fn tick(&mut self, _cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         let mut card = self.card.lock().unwrap_or_else(|e| e.into_inner());
-        if ring_fault {
+        if self.reported && !card.state.global.ring_fault {
+            // `$$$` cleared the bit: the ring core's latch follows if the ring is healthy,
+            // otherwise the next tick reports the fault again.
+            self.reported = false;
+            self.reset_wanted = true;
+        } else if ring_fault {
             card.state.global.ring_fault = true;
+            self.reported = true;
         }
         let latched = card.state.global.ring_fault;
         for &n in &self.nodes {
@@ -66,6 +78,10 @@ impl RingApp for CardRingApp {
                 words_to_regs(card.state.node_command(usize::from(n)))
             };
         }
+    }
+
+    fn take_ring_reset(&mut self) -> bool {
+        std::mem::take(&mut self.reset_wanted)
     }
 }
 
@@ -107,5 +123,12 @@ mod tests {
         // Latched: a healthy tick does not command again until `$$$` clears the bit.
         app.tick(3, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0);
+        assert!(!app.take_ring_reset());
+        // `$$$` clears the bit: the app asks the ring core to reset its latch and commands again.
+        card.lock().unwrap().state.global.ring_fault = false;
+        app.tick(4, 0, &mut member, false);
+        assert!(app.take_ring_reset());
+        assert!(!app.take_ring_reset());
+        assert_eq!(member.write_regs_mut(0).r0, 0x1234);
     }
 }

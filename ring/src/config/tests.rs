@@ -57,7 +57,16 @@ fn minimal_file_gets_defaults() {
 #[test]
 fn embedded_default_matches_file_form() {
     let d = ClusterConfig::default_cluster(2, 2);
-    let parsed = ClusterConfig::from_toml_str(TWO_BY_TWO).unwrap();
+    // The embedded default arms the cards' ring check; a file says so explicitly.
+    let text = TWO_BY_TWO.replace(
+        "master = 0\n[[cards]]",
+        "master = 0\nivars = { I1001 = 16, I1004 = 2, I1005 = 4 }\n[[cards]]",
+    );
+    let text = text.replace(
+        "master = 1\n[[stations]]",
+        "master = 1\nivars = { I1001 = 16, I1004 = 2, I1005 = 4 }\n[[stations]]",
+    );
+    let parsed = ClusterConfig::from_toml_str(&text).unwrap();
     assert_eq!(d, parsed);
     d.validate().unwrap();
 }
