@@ -15,5 +15,6 @@ pub mod coord;
 pub mod interp;
 pub mod lang;
 pub mod motion;
+pub mod program;
 pub mod runtime;
 pub mod state;

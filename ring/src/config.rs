@@ -188,7 +188,7 @@ impl Default for StationCheck {
 }
 
 /// One MACRO station (ring slave).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StationConfig {
     /// Member name (unique in the cluster).
@@ -201,6 +201,10 @@ pub struct StationConfig {
     /// Sync-packet watchdog.
     #[serde(default)]
     pub check: StationCheck,
+    /// Simulated plant (amplifier, motor, encoder, switches): defaults in `[stations.plant]`,
+    /// per-node overrides in `[stations.plant.nodes.N]`; parsed and checked by the station.
+    #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
+    pub plant: toml::Table,
 }
 
 /// The whole cluster.
@@ -316,6 +320,7 @@ impl ClusterConfig {
                     master: (c % 256) as u8,
                     nodes,
                     check: StationCheck::default(),
+                    plant: toml::Table::new(),
                 }
             })
             .collect();

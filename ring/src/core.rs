@@ -36,6 +36,16 @@ pub trait RingApp {
     }
 }
 
+impl<T: RingApp + ?Sized> RingApp for Box<T> {
+    fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+        (**self).tick(cycle, time_ns, regs, ring_fault);
+    }
+
+    fn take_ring_reset(&mut self) -> bool {
+        (**self).take_ring_reset()
+    }
+}
+
 /// How a member core is set up.
 #[derive(Clone, Debug)]
 pub struct CoreConfig {

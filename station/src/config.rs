@@ -17,9 +17,12 @@
 //! (N·m, kg·m², rad/s) for the mechanics, encoder counts for switch positions.
 //!
 //! Defaults are chosen so the PMAC default gains (Ix30 = 2000, Ix31 = Ix32 = 1280, Ix08 = Ix09
-//! = 96) close a stable, well-damped loop at the default 2258.7 Hz servo rate: one DAC bit
-//! gives 4 N·m/32768 / 1e-5 kg·m² · 131072/2π counts/rev ≈ 0.050 counts/cycle² of acceleration,
-//! so the default PD loop has ωn ≈ 0.14 rad/cycle (≈ 50 Hz) and ζ ≈ 0.68 before ring delay.
+//! = 96) close a stable loop at the default 2258.7 Hz servo rate: one DAC bit gives
+//! 4 N·m/32768 / 1.25e-5 kg·m² · 131072/2π counts/rev · T² ≈ 0.040 counts/cycle² of
+//! acceleration, so the default PD loop has ωn ≈ 0.12 rad/cycle (≈ 43 Hz) and ζ ≈ 0.6 without
+//! delay; it stays stable with up to 5 servo cycles between the encoder sample and the command
+//! taking effect (the ring adds 2-3). Coulomb friction 2e-4 N·m is 1.6 DAC bits, i.e. a static
+//! deadband of ≈ 4.5 counts with the default Ix30 (inside the default Ix28 = 10 counts).
 
 use std::collections::BTreeMap;
 
@@ -42,7 +45,8 @@ pub struct NodePlantConfig {
     pub torque_limit: f64,
     /// Velocity mode: speed at full-scale command, rad/s (default 314.16 = 3000 rpm).
     pub velocity_full_scale: f64,
-    /// Velocity mode: velocity-loop gain, N·m per rad/s (default 0.01).
+    /// Velocity mode: velocity-loop gain, N·m per rad/s (default 0.0125: a 1 ms
+    /// velocity-loop time constant with the default inertia).
     pub velocity_gain: f64,
     /// Pulse mode: rate at full-scale register 2, counts/s (default 1,000,000).
     pub pulse_full_scale: f64,
@@ -50,7 +54,7 @@ pub struct NodePlantConfig {
     pub amp_fault: bool,
     /// FAULT flag polarity: false = low-true line, 0 = fault (default, matches Ix25 bit 23 = 0).
     pub fault_high_true: bool,
-    /// Rotor + load inertia, kg·m² (default 1e-5).
+    /// Rotor + load inertia, kg·m² (default 1.25e-5).
     pub inertia: f64,
     /// Viscous friction, N·m·s/rad (default 2e-5).
     pub viscous: f64,
@@ -85,11 +89,11 @@ impl Default for NodePlantConfig {
             torque_full_scale: 4.0,
             torque_limit: 4.0,
             velocity_full_scale: 314.159_265,
-            velocity_gain: 0.01,
+            velocity_gain: 0.0125,
             pulse_full_scale: 1_000_000.0,
             amp_fault: false,
             fault_high_true: false,
-            inertia: 1e-5,
+            inertia: 1.25e-5,
             viscous: 2e-5,
             coulomb: 2e-4,
             load_torque: 0.0,
@@ -160,7 +164,10 @@ impl NodePlantConfig {
             ));
         }
         if self.max_substep > 0.01 {
-            return Err(format!("max_substep: at most 0.01 s, got {}", self.max_substep));
+            return Err(format!(
+                "max_substep: at most 0.01 s, got {}",
+                self.max_substep
+            ));
         }
         Ok(())
     }
@@ -190,7 +197,10 @@ impl NodePlantConfig {
 
     /// Encoder parameters.
     pub fn encoder(&self) -> EncoderParams {
-        EncoderParams { counts_per_rev: self.counts_per_rev, sub_count: self.sub_count }
+        EncoderParams {
+            counts_per_rev: self.counts_per_rev,
+            sub_count: self.sub_count,
+        }
     }
 
     /// Switch positions.
@@ -221,7 +231,12 @@ impl PlantConfig {
         let overrides = match base.remove("nodes") {
             None => toml::Table::new(),
             Some(toml::Value::Table(t)) => t,
-            Some(other) => return Err(format!("plant.nodes: expected a table, got {}", other.type_str())),
+            Some(other) => {
+                return Err(format!(
+                    "plant.nodes: expected a table, got {}",
+                    other.type_str()
+                ))
+            }
         };
         let defaults = parse_node(&base).map_err(|e| format!("plant.{e}"))?;
         let mut nodes = BTreeMap::new();
@@ -233,7 +248,12 @@ impl PlantConfig {
                 .ok_or_else(|| format!("plant.nodes.{key}: not a node number 0-15"))?;
             let t = match v {
                 toml::Value::Table(t) => t,
-                other => return Err(format!("plant.nodes.{key}: expected a table, got {}", other.type_str())),
+                other => {
+                    return Err(format!(
+                        "plant.nodes.{key}: expected a table, got {}",
+                        other.type_str()
+                    ))
+                }
             };
             let mut merged = base.clone();
             merged.extend(t);
@@ -245,7 +265,9 @@ impl PlantConfig {
 
     /// Parse from TOML text holding the plant table's contents.
     pub fn from_toml_str(s: &str) -> Result<Self, String> {
-        let t: toml::Table = s.parse().map_err(|e: toml::de::Error| format!("plant: {}", e.message()))?;
+        let t: toml::Table = s
+            .parse()
+            .map_err(|e: toml::de::Error| format!("plant: {}", e.message()))?;
         Self::from_table(&t)
     }
 
@@ -257,14 +279,17 @@ impl PlantConfig {
 
 /// Deserialize and validate one node's merged table; errors start with the key name.
 fn parse_node(t: &toml::Table) -> Result<NodePlantConfig, String> {
-    let cfg: NodePlantConfig = toml::Value::Table(t.clone()).try_into().map_err(|e: toml::de::Error| {
-        let msg = e.message().to_string();
-        // serde names unknown fields in its message; otherwise blame the table
-        match t.keys().find(|k| msg.contains(&format!("`{k}`"))) {
-            Some(k) => format!("{k}: {msg}"),
-            None => format!("(table): {msg}"),
-        }
-    })?;
+    let cfg: NodePlantConfig =
+        toml::Value::Table(t.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| {
+                let msg = e.message().to_string();
+                // serde names unknown fields in its message; otherwise blame the table
+                match t.keys().find(|k| msg.contains(&format!("`{k}`"))) {
+                    Some(k) => format!("{k}: {msg}"),
+                    None => format!("(table): {msg}"),
+                }
+            })?;
     cfg.validate()?;
     Ok(cfg)
 }
@@ -291,7 +316,10 @@ mod tests {
         assert_eq!(p.defaults.coulomb, 0.001);
         let n4 = p.node(4);
         assert!(n4.amp_fault);
-        assert_eq!((n4.mode, n4.coulomb, n4.plus_limit), (AmpMode::Velocity, 0.001, 50_000.0));
+        assert_eq!(
+            (n4.mode, n4.coulomb, n4.plus_limit),
+            (AmpMode::Velocity, 0.001, 50_000.0)
+        );
         assert!(!p.node(5).amp_fault);
         assert_eq!(p.node(4).switches().plus_limit, Some(50_000.0));
     }
@@ -299,17 +327,33 @@ mod tests {
     #[test]
     fn errors_name_the_key() {
         let e = |s: &str| PlantConfig::from_toml_str(s).unwrap_err();
-        assert!(e("inertia = 0").starts_with("plant.inertia: must be > 0"), "{}", e("inertia = 0"));
+        assert!(
+            e("inertia = 0").starts_with("plant.inertia: must be > 0"),
+            "{}",
+            e("inertia = 0")
+        );
         assert!(e("coulomb = -1").starts_with("plant.coulomb: must be ≥ 0"));
-        assert!(e("warp = 9").starts_with("plant.warp: unknown field"), "{}", e("warp = 9"));
+        assert!(
+            e("warp = 9").starts_with("plant.warp: unknown field"),
+            "{}",
+            e("warp = 9")
+        );
         assert!(e("[nodes.16]\ninertia = 1").starts_with("plant.nodes.16: not a node number"));
         assert!(e("[nodes.x]").starts_with("plant.nodes.x: not a node number"));
         assert!(e("nodes = 3").starts_with("plant.nodes: expected a table"));
         assert!(e("[nodes.2]\ninertia = -1").starts_with("plant.nodes.2.inertia: must be > 0"));
-        assert!(e("mode = \"warp\"").starts_with("plant."), "{}", e("mode = \"warp\""));
+        assert!(
+            e("mode = \"warp\"").starts_with("plant."),
+            "{}",
+            e("mode = \"warp\"")
+        );
         assert!(e("minus_limit = 2e6").starts_with("plant.minus_limit: must be below"));
         assert!(e("max_substep = 1.0").starts_with("plant.max_substep"));
-        assert!(e("inertia = nan").contains("finite"), "{}", e("inertia = nan"));
+        assert!(
+            e("inertia = nan").contains("finite"),
+            "{}",
+            e("inertia = nan")
+        );
         assert!(e("this is not toml").starts_with("plant: "));
         // limits may be removed altogether, then their ordering does not matter
         let p = PlantConfig::from_toml_str("limits = false\nminus_limit = 2e6").unwrap();

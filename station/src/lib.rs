@@ -2,11 +2,10 @@
 //!
 //! [`station_app::StationApp`] answers each activated servo node with a simulated amplifier,
 //! motor and quadrature encoder ([`servo_node`], [`plant`]), configured by
-//! [`config::PlantConfig`]; [`echo::EchoStation`] is the plain echo used for ring tests. The
+//! [`config::PlantConfig`]; The
 //! station meets the card only through ring packets.
 
 pub mod config;
-pub mod echo;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;

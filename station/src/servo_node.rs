@@ -79,7 +79,8 @@ impl ServoNode {
 
     /// Integrate the plant over `dt` seconds of ring time.
     pub fn advance(&mut self, dt: f64) {
-        if !(dt > 0.0) {
+        // (also rejects NaN)
+        if dt.is_nan() || dt <= 0.0 {
             return;
         }
         let dt = dt.min(MAX_TICK_SECONDS);
@@ -88,7 +89,9 @@ impl ServoNode {
         for _ in 0..n {
             match self.amp.output(self.motor.velocity()) {
                 AmpOutput::Torque { drive, damping } => self.motor.advance(h, drive, damping),
-                AmpOutput::Rate(cps) => self.motor.advance_kinematic(h, self.encoder.omega_for(cps)),
+                AmpOutput::Rate(cps) => {
+                    self.motor.advance_kinematic(h, self.encoder.omega_for(cps))
+                }
             }
         }
     }
@@ -116,7 +119,9 @@ impl ServoNode {
         let flags = self.flags();
         let torque = self.amp.torque(self.motor.velocity());
         let current = if self.cfg.torque_full_scale > 0.0 {
-            (torque / self.cfg.torque_full_scale * 32768.0).round().clamp(-32768.0, 32767.0) as i16
+            (torque / self.cfg.torque_full_scale * 32768.0)
+                .round()
+                .clamp(-32768.0, 32767.0) as i16
         } else {
             0
         };

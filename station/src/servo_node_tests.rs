@@ -3,18 +3,30 @@
 use super::*;
 use crate::plant::amplifier::AmpMode;
 use crate::plant::encoder::signed24;
-use crate::plant::flags::{CMD_AMP_ENABLE, ST_AMP_ENABLED, ST_FAULT, ST_HOME, ST_MLIM, ST_PLIM, ST_USER};
+use crate::plant::flags::{
+    CMD_AMP_ENABLE, ST_AMP_ENABLED, ST_FAULT, ST_HOME, ST_MLIM, ST_PLIM, ST_USER,
+};
 use std::f64::consts::TAU;
 
 const DT: f64 = 1.0 / 2258.7;
 
 fn cfg() -> NodePlantConfig {
-    NodePlantConfig { viscous: 0.0, coulomb: 0.0, ..Default::default() }
+    NodePlantConfig {
+        inertia: 1e-5,
+        viscous: 0.0,
+        coulomb: 0.0,
+        ..Default::default()
+    }
 }
 
 /// Command registers as a card writes them: DAC value << 8 in register 0, AENA in register 3.
 fn cmd(dac: i32, enable: bool) -> NodeRegs {
-    NodeRegs { r0: ((dac << 8) as u32) & 0xFF_FFFF, r1: 0, r2: 0, r3: if enable { CMD_AMP_ENABLE } else { 0 } }
+    NodeRegs {
+        r0: ((dac << 8) as u32) & 0xFF_FFFF,
+        r1: 0,
+        r2: 0,
+        r3: if enable { CMD_AMP_ENABLE } else { 0 },
+    }
 }
 
 /// One station tick: integrate, take the command, report.
@@ -27,7 +39,10 @@ fn tick(n: &mut ServoNode, c: NodeRegs, ring_fault: bool) -> NodeRegs {
 #[test]
 fn constant_torque_accelerates_per_the_analytic_model() {
     // T = 8192/32768 · 4 N·m = 1 N·m, Tc = 0.1 N·m: a = 0.9/1e-5 rad/s² from the first tick.
-    let c = NodePlantConfig { coulomb: 0.1, ..cfg() };
+    let c = NodePlantConfig {
+        coulomb: 0.1,
+        ..cfg()
+    };
     let mut n = ServoNode::new(0, &c);
     n.apply_command(cmd(8192, true), false);
     let a_counts = 0.9 / 1e-5 / TAU * 131_072.0; // counts/s²
@@ -40,7 +55,11 @@ fn constant_torque_accelerates_per_the_analytic_model() {
         let t = k as f64 * DT;
         let expect = 0.5 * a_counts * t * t;
         // tolerance: the 1/32-count truncation of register 0, plus float noise
-        assert!((ext as f64 / 32.0 - expect).abs() <= 1.0 / 32.0 + 1e-6, "tick {k}: {} vs {expect}", ext as f64 / 32.0);
+        assert!(
+            (ext as f64 / 32.0 - expect).abs() <= 1.0 / 32.0 + 1e-6,
+            "tick {k}: {} vs {expect}",
+            ext as f64 / 32.0
+        );
         assert!((n.snapshot().velocity - a_counts * t).abs() < 1e-6 * a_counts * t);
     }
     // 60 ticks in, the motor has crossed the 24-bit rollover of register 0 (2^19 counts)
@@ -53,7 +72,11 @@ fn constant_torque_accelerates_per_the_analytic_model() {
 fn friction_brings_the_motor_to_rest() {
     // spin up, then disable: J·ω' = −b·ω − Tc stops at t = J/b·ln(1 + b·ω0/Tc)
     let (j, b, tc) = (1e-5, 2e-5, 2e-3);
-    let c = NodePlantConfig { viscous: b, coulomb: tc, ..cfg() };
+    let c = NodePlantConfig {
+        viscous: b,
+        coulomb: tc,
+        ..cfg()
+    };
     let mut n = ServoNode::new(0, &c);
     n.apply_command(cmd(4096, true), false);
     for _ in 0..50 {
@@ -83,7 +106,13 @@ fn friction_brings_the_motor_to_rest() {
 
 #[test]
 fn limit_home_and_user_flags_switch_at_configured_positions() {
-    let c = NodePlantConfig { home_position: 5000.0, home_width: 1000.0, plus_limit: 20_000.0, minus_limit: -30_000.0, ..cfg() };
+    let c = NodePlantConfig {
+        home_position: 5000.0,
+        home_width: 1000.0,
+        plus_limit: 20_000.0,
+        minus_limit: -30_000.0,
+        ..cfg()
+    };
     let mut n = ServoNode::new(1, &c);
     let at = |n: &mut ServoNode, p: f64| {
         n.set_position(p);
@@ -115,7 +144,10 @@ fn limit_home_and_user_flags_switch_at_configured_positions() {
 
 #[test]
 fn amp_fault_when_enabled_with_a_configured_fault() {
-    let c = NodePlantConfig { amp_fault: true, ..cfg() };
+    let c = NodePlantConfig {
+        amp_fault: true,
+        ..cfg()
+    };
     let mut n = ServoNode::new(0, &c);
     let fb = tick(&mut n, cmd(8192, false), false);
     assert_eq!(fb.r3 & (ST_FAULT | ST_AMP_ENABLED), ST_FAULT); // low-true line: healthy = 1
@@ -130,7 +162,13 @@ fn amp_fault_when_enabled_with_a_configured_fault() {
     let fb = tick(&mut n, cmd(0, false), false);
     assert_eq!(fb.r3 & ST_FAULT, ST_FAULT);
     // high-true polarity reports 1 = fault
-    let mut h = ServoNode::new(0, &NodePlantConfig { fault_high_true: true, ..c });
+    let mut h = ServoNode::new(
+        0,
+        &NodePlantConfig {
+            fault_high_true: true,
+            ..c
+        },
+    );
     assert_eq!(tick(&mut h, cmd(0, true), false).r3 & ST_FAULT, ST_FAULT);
     assert_eq!(tick(&mut h, cmd(0, false), false).r3 & ST_FAULT, 0);
 }
@@ -139,7 +177,10 @@ fn amp_fault_when_enabled_with_a_configured_fault() {
 fn injected_amp_fault_latches_until_cleared() {
     let mut n = ServoNode::new(0, &cfg());
     let fb = tick(&mut n, cmd(1000, true), false);
-    assert_eq!(fb.r3 & (ST_FAULT | ST_AMP_ENABLED), ST_FAULT | ST_AMP_ENABLED);
+    assert_eq!(
+        fb.r3 & (ST_FAULT | ST_AMP_ENABLED),
+        ST_FAULT | ST_AMP_ENABLED
+    );
     n.inject_amp_fault();
     for _ in 0..3 {
         let fb = tick(&mut n, cmd(1000, true), false);
@@ -147,7 +188,10 @@ fn injected_amp_fault_latches_until_cleared() {
     }
     n.clear_amp_fault();
     let fb = tick(&mut n, cmd(1000, true), false);
-    assert_eq!(fb.r3 & (ST_FAULT | ST_AMP_ENABLED), ST_FAULT | ST_AMP_ENABLED);
+    assert_eq!(
+        fb.r3 & (ST_FAULT | ST_AMP_ENABLED),
+        ST_FAULT | ST_AMP_ENABLED
+    );
 }
 
 #[test]
@@ -176,28 +220,47 @@ fn ring_fault_shuts_the_amplifier_in_the_same_tick_and_needs_a_fresh_enable() {
 #[test]
 fn velocity_mode_settles_at_the_commanded_speed_less_friction_droop() {
     // ω_ss = (kv·ω_cmd − Tc)/(kv + b)
-    let c = NodePlantConfig { mode: AmpMode::Velocity, viscous: 2e-5, coulomb: 2e-4, ..cfg() };
+    let c = NodePlantConfig {
+        mode: AmpMode::Velocity,
+        viscous: 2e-5,
+        coulomb: 2e-4,
+        ..cfg()
+    };
     let mut n = ServoNode::new(0, &c);
     for _ in 0..200 {
         tick(&mut n, cmd(3277, true), false);
     }
     let wcmd = f64::from(3277 << 8) / f64::from(1 << 23) * c.velocity_full_scale;
-    let wss = (0.01 * wcmd - 2e-4) / (0.01 + 2e-5);
+    let kv = c.velocity_gain;
+    let wss = (kv * wcmd - 2e-4) / (kv + 2e-5);
     let w = n.snapshot().velocity / 131_072.0 * TAU;
     assert!((w - wss).abs() < 1e-9 * wss, "{w} vs {wss}");
 }
 
 #[test]
 fn pulse_mode_moves_at_the_register_2_rate() {
-    let c = NodePlantConfig { mode: AmpMode::Pulse, pulse_full_scale: 1_000_000.0, ..cfg() };
+    let c = NodePlantConfig {
+        mode: AmpMode::Pulse,
+        pulse_full_scale: 1_000_000.0,
+        ..cfg()
+    };
     let mut n = ServoNode::new(0, &c);
-    let pfm = |r2: u16, en: bool| NodeRegs { r0: 0, r1: 0, r2, r3: if en { CMD_AMP_ENABLE } else { 0 } };
+    let pfm = |r2: u16, en: bool| NodeRegs {
+        r0: 0,
+        r1: 0,
+        r2,
+        r3: if en { CMD_AMP_ENABLE } else { 0 },
+    };
     n.apply_command(pfm(0x0800, true), false); // 2048/32768 · 1e6 = 62,500 counts/s
     for _ in 0..100 {
         tick(&mut n, pfm(0x0800, true), false);
     }
     let expect = 62_500.0 * 100.0 * DT;
-    assert!((n.snapshot().position - expect).abs() < 1e-6, "{}", n.snapshot().position);
+    assert!(
+        (n.snapshot().position - expect).abs() < 1e-6,
+        "{}",
+        n.snapshot().position
+    );
 }
 
 #[test]
@@ -215,7 +278,45 @@ fn register0_rolls_over_at_2_pow_24_in_32nds() {
 fn runs_are_deterministic() {
     let run = || {
         let mut n = ServoNode::new(0, &NodePlantConfig::default());
-        (0..3000).map(|k| tick(&mut n, cmd(((k * 37) % 4001) - 2000, k % 700 < 650), false)).collect::<Vec<_>>()
+        (0..3000)
+            .map(|k| tick(&mut n, cmd(((k * 37) % 4001) - 2000, k % 700 < 650), false))
+            .collect::<Vec<_>>()
     };
     assert_eq!(run(), run());
+}
+
+#[test]
+fn arbitrary_command_registers_never_break_the_node() {
+    // xorshift: deterministic "random" registers in every mode, with and without ring faults
+    let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    let documented = 0x0FF0u16; // bits 4-11 only (flags.rs table)
+    for mode in [AmpMode::Torque, AmpMode::Velocity, AmpMode::Pulse] {
+        let mut n = ServoNode::new(
+            0,
+            &NodePlantConfig {
+                mode,
+                ..Default::default()
+            },
+        );
+        for _ in 0..2000 {
+            let r = next();
+            let c = NodeRegs {
+                r0: r as u32,
+                r1: (r >> 32) as u16,
+                r2: (r >> 40) as u16,
+                r3: (r >> 48) as u16,
+            };
+            let fb = tick(&mut n, c, r % 97 == 0);
+            assert!(fb.r0 <= 0xFF_FFFF);
+            assert_eq!(fb.r3 & !documented, 0);
+            let s = n.snapshot();
+            assert!(s.position.is_finite() && s.velocity.is_finite() && s.torque.abs() <= 4.0);
+        }
+    }
 }

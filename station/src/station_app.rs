@@ -36,17 +36,24 @@ impl StationApp {
     pub fn new(servo_nodes: &[u8], io_nodes: &[u8], plant: &PlantConfig) -> Result<Self, String> {
         let mut seen = [false; 16];
         for &n in servo_nodes.iter().chain(io_nodes) {
-            let slot = seen.get_mut(usize::from(n)).ok_or_else(|| format!("node {n}: must be 0-15"))?;
+            let slot = seen
+                .get_mut(usize::from(n))
+                .ok_or_else(|| format!("node {n}: must be 0-15"))?;
             if *slot {
                 return Err(format!("node {n}: listed twice"));
             }
             *slot = true;
         }
         if let Some(n) = plant.nodes.keys().find(|n| !servo_nodes.contains(n)) {
-            return Err(format!("plant.nodes.{n}: node {n} is not a servo node of this station"));
+            return Err(format!(
+                "plant.nodes.{n}: node {n} is not a servo node of this station"
+            ));
         }
         Ok(StationApp {
-            servo: servo_nodes.iter().map(|&n| ServoNode::new(n, plant.node(n))).collect(),
+            servo: servo_nodes
+                .iter()
+                .map(|&n| ServoNode::new(n, plant.node(n)))
+                .collect(),
             io: io_nodes.to_vec(),
             last_time_ns: None,
             ticks: 0,
@@ -100,7 +107,12 @@ impl RingApp for StationApp {
             *regs.write_regs_mut(n) = if ring_fault {
                 NodeRegs::default()
             } else {
-                NodeRegs { r0: cmd.r0 & 0xFF_FFFF, r1: cmd.r1, r2: cmd.r2, r3: cmd.r3 }
+                NodeRegs {
+                    r0: cmd.r0 & 0xFF_FFFF,
+                    r1: cmd.r1,
+                    r2: cmd.r2,
+                    r3: cmd.r3,
+                }
             };
         }
     }

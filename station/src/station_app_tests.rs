@@ -19,15 +19,30 @@ fn member(nodes: &[u8]) -> RingMember {
 
 /// The card's side of one cycle: its command packet passes the station, which substitutes its
 /// last feedback (returned), then the station ticks.
-fn cycle(app: &mut StationApp, m: &mut RingMember, k: u64, node: u8, c: NodeRegs, fault: bool) -> NodeRegs {
-    let fwd = m.route(Packet::new(0, node, c)).forward.expect("slave forwards");
+fn cycle(
+    app: &mut StationApp,
+    m: &mut RingMember,
+    k: u64,
+    node: u8,
+    c: NodeRegs,
+    fault: bool,
+) -> NodeRegs {
+    let fwd = m
+        .route(Packet::new(0, node, c))
+        .forward
+        .expect("slave forwards");
     app.tick(k, k * PERIOD_NS, m, fault);
     fwd.regs
 }
 
 fn cmd(dac: f64, enable: bool) -> NodeRegs {
     let d = dac.round().clamp(-32768.0, 32767.0) as i32;
-    NodeRegs { r0: ((d << 8) as u32) & 0xFF_FFFF, r1: 0, r2: 0, r3: if enable { CMD_AMP_ENABLE } else { 0 } }
+    NodeRegs {
+        r0: ((d << 8) as u32) & 0xFF_FFFF,
+        r1: 0,
+        r2: 0,
+        r3: if enable { CMD_AMP_ENABLE } else { 0 },
+    }
 }
 
 /// Card-side rollover extension of register 0 (1/32 count → counts).
@@ -60,14 +75,19 @@ fn triangle(dist: f64, acc: f64, t: f64) -> (f64, f64) {
     }
 }
 
-#[test]
-fn pmac_default_gains_track_a_10000_count_move_on_the_default_plant() {
-    // DAC = 2^-19·Ix30·(Ix08·FE + Ix08·Ix32·CV/128 − Ix09·Ix31·AV/128), clip ±Ix69 (spec §4.1)
+/// The PMAC PID with the seed's default gains (spec §4.1, Ix33 = 0):
+/// DAC = 2^-19·Ix30·(Ix08·FE + Ix08·Ix32·CV/128 − Ix09·Ix31·AV/128), clipped to ±Ix69,
+/// following a 10,000-count triangular move at the default Ix19 acceleration on the default
+/// plant. `extra_delay` cycles are added between the card and the station (the test's
+/// own path has one cycle: feedback of tick k−1 → command applied at tick k).
+/// Returns (max |FE| during the run, final position).
+fn default_gains_move(extra_delay: usize) -> (f64, f64) {
     let (ix30, ix31, ix32, ix08, ix69) = (2000.0, 1280.0, 1280.0, 96.0, 20480.0);
     let mut app = StationApp::new(&[0], &[], &PlantConfig::default()).unwrap();
     let mut m = member(&[0]);
     let mut ext = Ext { last: None, pos: 0 };
     let (mut prev_ap, mut max_fe, mut fb) = (0.0, 0.0f64, NodeRegs::default());
+    let mut queue = std::collections::VecDeque::new();
     let dt = PERIOD_NS as f64 * 1e-9;
     let acc = 15_625.0; // Ix19 default 0.015625 counts/ms²
     for k in 0..6000u64 {
@@ -77,24 +97,45 @@ fn pmac_default_gains_track_a_10000_count_move_on_the_default_plant() {
         let (cv, av) = (cv_s * dt, ap - prev_ap);
         prev_ap = ap;
         let fe = cp - ap;
-        if k > 0 {
-            max_fe = max_fe.max(fe.abs());
-        }
-        let dac = ix30 / 524_288.0 * (ix08 * fe + ix08 * ix32 * cv / 128.0 - ix08 * ix31 * av / 128.0);
-        fb = cycle(&mut app, &mut m, k, 0, cmd(dac.clamp(-ix69, ix69), true), false);
+        max_fe = max_fe.max(fe.abs());
+        let dac =
+            ix30 / 524_288.0 * (ix08 * fe + ix08 * ix32 * cv / 128.0 - ix08 * ix31 * av / 128.0);
+        queue.push_back(cmd(dac.clamp(-ix69, ix69), true));
+        let c = if queue.len() > extra_delay {
+            queue.pop_front().unwrap()
+        } else {
+            cmd(0.0, true)
+        };
+        fb = cycle(&mut app, &mut m, k, 0, c, false);
     }
-    let end = ext.update(fb.r0);
-    // bound reported for the default plant + default gains (coulomb deadband ≈ 4.5 counts,
-    // plus one cycle of ring delay at the peak speed of 12.5 counts/ms ≈ 5.5 counts)
-    eprintln!("DBG max_fe={max_fe} end={end}");
-    assert!(max_fe < 20.0, "max following error {max_fe}");
-    assert!((end - 10_000.0).abs() < 10.0, "settled at {end}"); // inside Ix28 = 10 counts
+    (max_fe, ext.update(fb.r0))
+}
+
+#[test]
+fn pmac_default_gains_track_a_10000_count_move_on_the_default_plant() {
+    // Bound for the default plant + default gains: the Coulomb deadband (≈ 4.5 counts) plus the
+    // lag of the delayed feedback; measured 5.2 counts (1 cycle) and 6.2 counts (3 cycles, as a
+    // sync-master card sees it on the ring).
+    for (delay, bound) in [(0, 6.0), (2, 7.0)] {
+        let (max_fe, end) = default_gains_move(delay);
+        assert!(
+            max_fe < bound,
+            "delay {delay}: max following error {max_fe}"
+        );
+        assert!(
+            (end - 10_000.0).abs() < 10.0,
+            "delay {delay}: settled at {end}"
+        ); // Ix28
+    }
 }
 
 #[test]
 fn simple_p_controller_drives_a_velocity_mode_plant_to_target() {
     let plant = PlantConfig {
-        defaults: NodePlantConfig { mode: AmpMode::Velocity, ..Default::default() },
+        defaults: NodePlantConfig {
+            mode: AmpMode::Velocity,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let mut app = StationApp::new(&[5], &[], &plant).unwrap();
@@ -106,11 +147,17 @@ fn simple_p_controller_drives_a_velocity_mode_plant_to_target() {
     for k in 0..1200u64 {
         let ap = ext.update(fb.r0);
         peak = peak.max(ap);
-        fb = cycle(&mut app, &mut m, k, 5, cmd(1.0 * (target - ap), true), false);
+        fb = cycle(
+            &mut app,
+            &mut m,
+            k,
+            5,
+            cmd(1.0 * (target - ap), true),
+            false,
+        );
     }
     let end = ext.update(fb.r0);
     assert!((end - target).abs() < 10.0, "settled at {end}");
-    eprintln!("DBG peak={peak} end={end}");
     assert!(peak < target * 1.02, "overshoot to {peak}");
 }
 
@@ -118,7 +165,12 @@ fn simple_p_controller_drives_a_velocity_mode_plant_to_target() {
 fn ring_fault_zeroes_outputs_and_drops_enables_in_the_same_tick() {
     let mut app = StationApp::new(&[0, 1], &[2], &PlantConfig::default()).unwrap();
     let mut m = member(&[0, 1, 2]);
-    let io = NodeRegs { r0: 0x123456, r1: 7, r2: 8, r3: 9 };
+    let io = NodeRegs {
+        r0: 0x123456,
+        r1: 7,
+        r2: 8,
+        r3: 9,
+    };
     for k in 0..20 {
         m.route(Packet::new(0, 0, cmd(4000.0, true)));
         m.route(Packet::new(0, 1, cmd(-4000.0, true)));
@@ -129,7 +181,10 @@ fn ring_fault_zeroes_outputs_and_drops_enables_in_the_same_tick() {
     for n in [0, 1] {
         let w = m.write_regs(n);
         assert_ne!(w.r2, 0);
-        assert_eq!(w.r3 & (ST_AMP_ENABLED | ST_FAULT), ST_AMP_ENABLED | ST_FAULT);
+        assert_eq!(
+            w.r3 & (ST_AMP_ENABLED | ST_FAULT),
+            ST_AMP_ENABLED | ST_FAULT
+        );
     }
     app.tick(20, 20 * PERIOD_NS, &mut m, true);
     assert!(app.ring_fault());
@@ -161,12 +216,21 @@ fn time_steps_come_from_the_tick_time() {
 #[test]
 fn bad_node_lists_are_refused_with_a_message() {
     let p = PlantConfig::default();
-    assert_eq!(StationApp::new(&[16], &[], &p).unwrap_err(), "node 16: must be 0-15");
-    assert_eq!(StationApp::new(&[1], &[1], &p).unwrap_err(), "node 1: listed twice");
+    assert_eq!(
+        StationApp::new(&[16], &[], &p).unwrap_err(),
+        "node 16: must be 0-15"
+    );
+    assert_eq!(
+        StationApp::new(&[1], &[1], &p).unwrap_err(),
+        "node 1: listed twice"
+    );
     let q = PlantConfig::from_toml_str("[nodes.3]\namp_fault = true").unwrap();
     assert_eq!(
         StationApp::new(&[0, 1], &[], &q).unwrap_err(),
         "plant.nodes.3: node 3 is not a servo node of this station"
     );
-    assert!(StationApp::new(&[0, 1, 3], &[], &q).unwrap().node(3).is_some());
+    assert!(StationApp::new(&[0, 1, 3], &[], &q)
+        .unwrap()
+        .node(3)
+        .is_some());
 }

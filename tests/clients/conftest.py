@@ -19,9 +19,9 @@ WAIT = 5.0
 class CardProcess:
     """A running card: its ASCII and PMAC-Ethernet ports on 127.0.0.1."""
 
-    def __init__(self, profile):
+    def __init__(self, profile, *extra):
         self.proc = subprocess.Popen(
-            [CARD_BIN, "--standalone", "--profile", profile, "--exit-on-stdin-eof"],
+            [CARD_BIN, "--standalone", "--profile", profile, "--exit-on-stdin-eof", *extra],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
         )

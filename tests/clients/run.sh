@@ -18,6 +18,7 @@ fi
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_CARD_BIN:-}" ]; then
     (cd "$root" && cargo build -q -p mcc-card --bin mcc-card)
 fi
-export MCC_CARD_BIN="${MCC_CARD_BIN:-$root/target/debug/mcc-card}"
+bin="${MCC_CARD_BIN:-$root/target/debug/mcc-card}"
+export MCC_CARD_BIN="$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")"
 cd "$here"
 exec "$venv/bin/python" -m pytest -q -p no:cacheprovider "$@"

@@ -816,3 +816,66 @@ fn parse_throughput() {
         n as f64 / dt.as_secs_f64()
     );
 }
+
+#[test]
+fn dls_client_lines_parse() {
+    assert_eq!(
+        kinds("i6=1 i3=2 ver"),
+        vec![
+            CmdKind::VarAssign(one(VarKind::I, 6), Expr::num(1.0)),
+            CmdKind::VarAssign(one(VarKind::I, 3), Expr::num(2.0)),
+            CmdKind::Version
+        ]
+    );
+    assert_eq!(kinds("i20 i21 i22 i23 ").len(), 4);
+    assert_eq!(
+        kinds("&2q1..3"),
+        vec![
+            CmdKind::AddrCoord(2),
+            CmdKind::VarQuery(vl(VarKind::Q, VarSel::Range { first: 1, last: 3 }))
+        ]
+    );
+    assert_eq!(
+        kinds("&1#5->"),
+        vec![CmdKind::AddrCoord(1), CmdKind::AxisDefQuery(5)]
+    );
+    assert_eq!(
+        kinds("&1%50"),
+        vec![CmdKind::AddrCoord(1), CmdKind::OverrideSet(50.0)]
+    );
+    assert_eq!(
+        kinds("list plc5,0,1"),
+        vec![CmdKind::List(ListTarget::Plc(
+            5,
+            ListSpan {
+                offsets: true,
+                start: Some(0),
+                len: Some(1)
+            }
+        ))]
+    );
+    assert_eq!(
+        kinds("i124=$20001"),
+        vec![CmdKind::VarAssign(
+            one(VarKind::I, 124),
+            Expr {
+                kind: ExprKind::Num(Number {
+                    value: 131073.0,
+                    hex: true
+                }),
+                pos: Pos(5)
+            }
+        )]
+    );
+    assert_eq!(kinds("#1k"), vec![CmdKind::AddrMotor(1), CmdKind::Kill]);
+    assert_eq!(
+        kinds("m5000..5031"),
+        vec![CmdKind::VarQuery(vl(
+            VarKind::M,
+            VarSel::Range {
+                first: 5000,
+                last: 5031
+            }
+        ))]
+    );
+}

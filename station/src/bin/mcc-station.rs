@@ -6,7 +6,8 @@ use clap::Parser;
 use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
-use mcc_station::echo::EchoStation;
+use mcc_station::config::PlantConfig;
+use mcc_station::station_app::StationApp;
 
 /// A MACRO station joining a ring from the cluster config the orchestrator hands it.
 #[derive(Debug, Parser)]
@@ -43,13 +44,16 @@ fn main() -> std::process::ExitCode {
         listen: cli.listen,
     };
     let r = run_member(args, MemberKind::Station, |ctx| {
-        let nodes = match ctx.config.member(&ctx.name) {
-            Some(MemberRef::Station(s)) => s.nodes.clone(),
+        let st = match ctx.config.member(&ctx.name) {
+            Some(MemberRef::Station(s)) => s.clone(),
             _ => anyhow::bail!("'{}' is not a station in the config", ctx.name),
         };
+        let plant = PlantConfig::from_table(&st.plant)
+            .map_err(|e| anyhow::anyhow!("stations.{}: {e}", st.name))?;
+        let app = StationApp::new(&st.nodes, &[], &plant).map_err(anyhow::Error::msg)?;
         let mut extra = serde_json::Map::new();
-        extra.insert("nodes".into(), serde_json::json!(nodes));
-        Ok((EchoStation::new(&nodes), extra))
+        extra.insert("nodes".into(), serde_json::json!(st.nodes));
+        Ok((app, extra))
     });
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -78,7 +78,13 @@ pub struct Amplifier {
 impl Amplifier {
     /// A disabled, healthy amplifier.
     pub fn new(p: AmpParams) -> Self {
-        Amplifier { p, enabled: false, fault: false, command: 0.0, pulse: 0.0 }
+        Amplifier {
+            p,
+            enabled: false,
+            fault: false,
+            command: 0.0,
+            pulse: 0.0,
+        }
     }
 
     /// Parameters.
@@ -141,7 +147,10 @@ impl Amplifier {
 
     /// The output for the interval to come, given shaft speed `omega` (rad/s).
     pub fn output(&self, omega: f64) -> AmpOutput {
-        let off = AmpOutput::Torque { drive: 0.0, damping: 0.0 };
+        let off = AmpOutput::Torque {
+            drive: 0.0,
+            damping: 0.0,
+        };
         if !self.active() {
             return off;
         }
@@ -149,18 +158,30 @@ impl Amplifier {
         match self.p.mode {
             AmpMode::Torque => {
                 let t = (self.command * self.p.torque_full_scale).clamp(-lim, lim);
-                AmpOutput::Torque { drive: t, damping: 0.0 }
+                AmpOutput::Torque {
+                    drive: t,
+                    damping: 0.0,
+                }
             }
             AmpMode::Velocity => {
                 let kv = self.p.velocity_gain.max(0.0);
                 let wcmd = self.command * self.p.velocity_full_scale;
                 let t = kv * (wcmd - omega);
                 if t > lim {
-                    AmpOutput::Torque { drive: lim, damping: 0.0 }
+                    AmpOutput::Torque {
+                        drive: lim,
+                        damping: 0.0,
+                    }
                 } else if t < -lim {
-                    AmpOutput::Torque { drive: -lim, damping: 0.0 }
+                    AmpOutput::Torque {
+                        drive: -lim,
+                        damping: 0.0,
+                    }
                 } else {
-                    AmpOutput::Torque { drive: kv * wcmd, damping: kv }
+                    AmpOutput::Torque {
+                        drive: kv * wcmd,
+                        damping: kv,
+                    }
                 }
             }
             AmpMode::Pulse => AmpOutput::Rate(self.pulse * self.p.pulse_full_scale),
@@ -216,10 +237,28 @@ mod tests {
     fn velocity_mode_closes_a_velocity_loop_with_limit() {
         let mut a = amp(AmpMode::Velocity, false);
         a.update(true, dac(16384), 0); // 150 rad/s
-        assert_eq!(a.output(100.0), AmpOutput::Torque { drive: 1.5, damping: 0.01 });
+        assert_eq!(
+            a.output(100.0),
+            AmpOutput::Torque {
+                drive: 1.5,
+                damping: 0.01
+            }
+        );
         assert!((a.torque(100.0) - 0.5).abs() < 1e-12);
-        assert_eq!(a.output(-200.0), AmpOutput::Torque { drive: 3.0, damping: 0.0 });
-        assert_eq!(a.output(600.0), AmpOutput::Torque { drive: -3.0, damping: 0.0 });
+        assert_eq!(
+            a.output(-200.0),
+            AmpOutput::Torque {
+                drive: 3.0,
+                damping: 0.0
+            }
+        );
+        assert_eq!(
+            a.output(600.0),
+            AmpOutput::Torque {
+                drive: -3.0,
+                damping: 0.0
+            }
+        );
     }
 
     #[test]
@@ -230,7 +269,13 @@ mod tests {
         a.update(true, 0, 0xC000);
         assert_eq!(a.output(0.0), AmpOutput::Rate(-50_000.0));
         a.update(false, 0, 0x4000);
-        assert_eq!(a.output(0.0), AmpOutput::Torque { drive: 0.0, damping: 0.0 });
+        assert_eq!(
+            a.output(0.0),
+            AmpOutput::Torque {
+                drive: 0.0,
+                damping: 0.0
+            }
+        );
     }
 
     #[test]

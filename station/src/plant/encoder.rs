@@ -100,7 +100,10 @@ mod tests {
     use super::*;
 
     fn enc(sub: bool) -> Encoder {
-        Encoder::new(EncoderParams { counts_per_rev: 4000.0, sub_count: sub })
+        Encoder::new(EncoderParams {
+            counts_per_rev: 4000.0,
+            sub_count: sub,
+        })
     }
 
     fn theta_for(counts: f64) -> f64 {
@@ -113,7 +116,7 @@ mod tests {
         assert_eq!(e.register0(0.0), 0);
         assert_eq!(e.register0(theta_for(1000.0 + 1e-9)), 32_000);
         assert_eq!(e.register0(theta_for(1.5 + 1e-12)), 48); // 1.5 counts = 48/32
-        // one full revolution = 4000 counts = 128000 / 32
+                                                             // one full revolution = 4000 counts = 128000 / 32
         assert_eq!(e.register0(TAU * (1.0 + 1e-12)), 128_000);
         // negative: −1 count = −32 = $FFFFE0
         assert_eq!(e.register0(theta_for(-1.0 + 1e-9)), 0xFF_FFE0);
@@ -131,8 +134,14 @@ mod tests {
         assert_eq!(e.register0(theta_for(full + 1e-7)), 0);
         assert_eq!(e.register0(theta_for(full + 1.0 + 1e-7)), 32);
         // the largest positive value before the sign flips, then the sign flips
-        assert_eq!(signed24(e.register0(theta_for(full / 2.0 - 1.0 + 1e-7))), (1 << 23) - 32);
-        assert_eq!(signed24(e.register0(theta_for(full / 2.0 + 1e-7))), -(1 << 23));
+        assert_eq!(
+            signed24(e.register0(theta_for(full / 2.0 - 1.0 + 1e-7))),
+            (1 << 23) - 32
+        );
+        assert_eq!(
+            signed24(e.register0(theta_for(full / 2.0 + 1e-7))),
+            -(1 << 23)
+        );
         // a card extending by sign-extended 24-bit deltas recovers the true position
         let mut ext: i64 = 0;
         let mut last = e.register0(0.0);
@@ -149,7 +158,9 @@ mod tests {
     #[test]
     fn quadrature_channels_follow_the_count() {
         let e = enc(true);
-        let seq: Vec<(bool, bool)> = (0..8).map(|c| e.channels(theta_for(c as f64 + 0.5))).collect();
+        let seq: Vec<(bool, bool)> = (0..8)
+            .map(|c| e.channels(theta_for(c as f64 + 0.5)))
+            .collect();
         let ab = [(false, false), (true, false), (true, true), (false, true)];
         assert_eq!(seq[..4], ab);
         assert_eq!(seq[4..], ab);
@@ -162,6 +173,6 @@ mod tests {
             assert_eq!(i64::from(signed24(wrap24(v))), v);
         }
         assert_eq!(wrap24(1 << 24), 0);
-        assert_eq!(signed24(0xFF_FFFF_FF), -1);
+        assert_eq!(signed24(0xFFFF_FFFF), -1);
     }
 }

@@ -67,7 +67,9 @@ pub struct CommandFlags {
 impl CommandFlags {
     /// Decode register 3 (only the AENA bit is meaningful).
     pub fn from_reg3(r3: u16) -> Self {
-        CommandFlags { amp_enable: r3 & CMD_AMP_ENABLE != 0 }
+        CommandFlags {
+            amp_enable: r3 & CMD_AMP_ENABLE != 0,
+        }
     }
 
     /// Encode as register 3 (what a card writes).
@@ -171,7 +173,12 @@ mod tests {
     use super::*;
 
     fn sw() -> Switches {
-        Switches { home_position: 5000.0, home_width: 1000.0, plus_limit: Some(20_000.0), minus_limit: Some(-20_000.0) }
+        Switches {
+            home_position: 5000.0,
+            home_width: 1000.0,
+            plus_limit: Some(20_000.0),
+            minus_limit: Some(-20_000.0),
+        }
     }
 
     #[test]
@@ -186,14 +193,21 @@ mod tests {
         assert!(s.at(20_000.0).plus_limit && !s.at(20_000.0).minus_limit);
         assert!(!s.at(-19_999.99).minus_limit);
         assert!(s.at(-20_000.0).minus_limit && !s.at(-20_000.0).plus_limit);
-        let none = Switches { plus_limit: None, minus_limit: None, ..s };
+        let none = Switches {
+            plus_limit: None,
+            minus_limit: None,
+            ..s
+        };
         assert_eq!(none.at(1e12), SwitchStates::default());
     }
 
     #[test]
     fn register3_bit_positions_are_the_documented_ones() {
         let one = |f: fn(&mut StatusFlags)| {
-            let mut s = StatusFlags { amp_fault: false, ..Default::default() };
+            let mut s = StatusFlags {
+                amp_fault: false,
+                ..Default::default()
+            };
             f(&mut s);
             s.to_reg3(true)
         };
@@ -208,7 +222,14 @@ mod tests {
         assert_eq!(one(|s| s.user = true), 0x0800);
         // low-true fault line (default): healthy = bit 7 set, fault = bit 7 clear
         assert_eq!(StatusFlags::default().to_reg3(false), 0x0080);
-        assert_eq!(StatusFlags { amp_fault: true, ..Default::default() }.to_reg3(false), 0);
+        assert_eq!(
+            StatusFlags {
+                amp_fault: true,
+                ..Default::default()
+            }
+            .to_reg3(false),
+            0
+        );
         // 24-bit view: reg3 << 8 puts FAULT at bit 15, HOME 16, PLIM 17, MLIM 18, USER 19
         assert_eq!(u32::from(ST_FAULT) << 8, 1 << 15);
         assert_eq!(u32::from(ST_USER) << 8, 1 << 19);
@@ -232,8 +253,14 @@ mod tests {
                 assert_eq!(StatusFlags::from_reg3(s.to_reg3(pol), pol), s);
             }
         }
-        assert_eq!(CommandFlags::from_reg3(0xFFBF), CommandFlags { amp_enable: false });
-        assert_eq!(CommandFlags::from_reg3(0x0040), CommandFlags { amp_enable: true });
+        assert_eq!(
+            CommandFlags::from_reg3(0xFFBF),
+            CommandFlags { amp_enable: false }
+        );
+        assert_eq!(
+            CommandFlags::from_reg3(0x0040),
+            CommandFlags { amp_enable: true }
+        );
         assert_eq!(CommandFlags { amp_enable: true }.to_reg3(), 0x0040);
     }
 }

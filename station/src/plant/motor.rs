@@ -38,7 +38,11 @@ pub struct Motor {
 impl Motor {
     /// A motor at rest at angle 0.
     pub fn new(p: MotorParams) -> Self {
-        Motor { p, theta: 0.0, omega: 0.0 }
+        Motor {
+            p,
+            theta: 0.0,
+            omega: 0.0,
+        }
     }
 
     /// Parameters.
@@ -75,7 +79,8 @@ impl Motor {
 
     /// Advance `dt` seconds with amplifier torque `drive − damping·ω` (N·m; damping ≥ 0).
     pub fn advance(&mut self, dt: f64, drive: f64, damping: f64) {
-        if !(dt > 0.0) || !drive.is_finite() || !damping.is_finite() || !(self.p.inertia > 0.0) {
+        let valid = dt > 0.0 && drive.is_finite() && damping.is_finite() && self.p.inertia > 0.0;
+        if !valid {
             return;
         }
         let j = self.p.inertia;
@@ -146,7 +151,12 @@ mod tests {
     use super::*;
 
     fn motor(viscous: f64, coulomb: f64, load: f64) -> Motor {
-        Motor::new(MotorParams { inertia: 1e-5, viscous, coulomb, load_torque: load })
+        Motor::new(MotorParams {
+            inertia: 1e-5,
+            viscous,
+            coulomb,
+            load_torque: load,
+        })
     }
 
     #[test]
@@ -176,7 +186,11 @@ mod tests {
         let t = 100.0 * dt;
         let w = tq / b * (1.0 - (-b * t / j).exp());
         let th = tq / b * (t - j / b * (1.0 - (-b * t / j).exp()));
-        assert!((m.velocity() - w).abs() < 1e-9 * w, "{} vs {w}", m.velocity());
+        assert!(
+            (m.velocity() - w).abs() < 1e-9 * w,
+            "{} vs {w}",
+            m.velocity()
+        );
         assert!((m.position() - th).abs() < 1e-9 * th);
     }
 
