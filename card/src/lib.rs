@@ -10,8 +10,8 @@
 //!   socket code of the card's language side.
 //! - [`runtime`]: the process: config, ring membership, threads.
 
-pub mod host;
 pub mod coord;
+pub mod host;
 pub mod interp;
 pub mod lang;
 pub mod motion;

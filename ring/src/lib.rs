@@ -5,10 +5,8 @@
 //! do I/O: [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's
 //! cycle loop and control plane).
 
-pub mod runtime;
-pub mod transport;
-pub mod config;
 pub mod check;
+pub mod config;
 pub mod control;
 pub mod core;
 pub mod fault;
@@ -16,6 +14,8 @@ pub mod frame;
 pub mod holdover;
 pub mod member;
 pub mod packet;
+pub mod runtime;
 pub mod settings;
 pub mod sim;
 pub mod status;
+pub mod transport;

@@ -2,8 +2,7 @@
 //!
 //! [`station_app::StationApp`] answers each activated servo node with a simulated amplifier,
 //! motor and quadrature encoder ([`servo_node`], [`plant`]), configured by
-//! [`config::PlantConfig`]; The
-//! station meets the card only through ring packets.
+//! [`config::PlantConfig`]. The station meets the card only through ring packets.
 
 pub mod config;
 pub mod plant;

@@ -14,7 +14,17 @@ use crate::lang::ast::{Axis, AxisDef};
 pub type AxisVec = SVector<f64, 9>;
 
 /// The nine motion axes in vector order.
-pub const AXES: [Axis; 9] = [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C, Axis::U, Axis::V, Axis::W];
+pub const AXES: [Axis; 9] = [
+    Axis::X,
+    Axis::Y,
+    Axis::Z,
+    Axis::A,
+    Axis::B,
+    Axis::C,
+    Axis::U,
+    Axis::V,
+    Axis::W,
+];
 
 /// Index of a motion axis in an [`AxisVec`]; `None` for I/J/K/R.
 pub fn axis_index(a: Axis) -> Option<usize> {
@@ -48,17 +58,21 @@ impl MotorAxisDef {
             if terms.iter().any(|&(j, _)| j == k) {
                 return Err(CoordError::BadAxisDef("axis repeated"));
             }
-            let s = check_pos(t.scale, "axis scale").map_err(|_| CoordError::BadAxisDef("scale"))?;
+            let s =
+                check_pos(t.scale, "axis scale").map_err(|_| CoordError::BadAxisDef("scale"))?;
             terms.push((k, s));
         }
         if terms.len() > 1 {
             let xyz = terms.iter().all(|&(k, _)| k < 3);
             let uvw = terms.iter().all(|&(k, _)| (6..9).contains(&k));
             if !xyz && !uvw {
-                return Err(CoordError::BadAxisDef("multi-axis terms must be from XYZ or UVW"));
+                return Err(CoordError::BadAxisDef(
+                    "multi-axis terms must be from XYZ or UVW",
+                ));
             }
         }
-        let offset = check_pos(d.offset, "axis offset").map_err(|_| CoordError::BadAxisDef("offset"))?;
+        let offset =
+            check_pos(d.offset, "axis offset").map_err(|_| CoordError::BadAxisDef("offset"))?;
         Ok(MotorAxisDef::Linear { terms, offset })
     }
 }
@@ -74,7 +88,10 @@ pub struct AxisTable {
 impl AxisTable {
     /// Empty table for `motors` motors and `coords` coordinate systems.
     pub fn new(motors: u16, coords: u16) -> Self {
-        AxisTable { motors: vec![None; motors as usize], coords }
+        AxisTable {
+            motors: vec![None; motors as usize],
+            coords,
+        }
     }
 
     fn slot(&self, motor: u16) -> Result<usize, CoordError> {
@@ -134,7 +151,10 @@ impl AxisTable {
     /// `#m->` in C.S. `cs`: the definition if it is in `cs` (reply `0` otherwise).
     pub fn query(&self, cs: u16, motor: u16) -> Option<&MotorAxisDef> {
         let k = self.slot(motor).ok()?;
-        self.motors[k].as_ref().filter(|(c, _)| *c == cs).map(|(_, d)| d)
+        self.motors[k]
+            .as_ref()
+            .filter(|(c, _)| *c == cs)
+            .map(|(_, d)| d)
     }
 
     /// The C.S. motor `motor` belongs to.
@@ -149,7 +169,11 @@ impl AxisTable {
             .motors
             .iter()
             .enumerate()
-            .filter_map(|(k, m)| m.as_ref().filter(|(c, _)| *c == cs).map(|(_, d)| (k as u16 + 1, d)))
+            .filter_map(|(k, m)| {
+                m.as_ref()
+                    .filter(|(c, _)| *c == cs)
+                    .map(|(_, d)| (k as u16 + 1, d))
+            })
             .collect();
         CsAxes::build(&defs)
     }
@@ -186,7 +210,12 @@ impl CsAxes {
                 MotorAxisDef::Inverse => inverse[r] = true,
             }
         }
-        CsAxes { motors: defs.iter().map(|(m, _)| *m).collect(), scale, offset, inverse }
+        CsAxes {
+            motors: defs.iter().map(|(m, _)| *m).collect(),
+            scale,
+            offset,
+            inverse,
+        }
     }
 
     /// No motors at all.
@@ -248,7 +277,8 @@ impl CsAxes {
         let sub = self.scale.select_rows(rows.iter());
         let rhs = DVector::from_iterator(
             rows.len(),
-            rows.iter().map(|&r| motor_pos[r] - self.offset[r] - (self.scale.row(r) * prev)[0]),
+            rows.iter()
+                .map(|&r| motor_pos[r] - self.offset[r] - (self.scale.row(r) * prev)[0]),
         );
         match sub.svd(true, true).solve(&rhs, tol) {
             Ok(delta) => {

@@ -103,7 +103,15 @@ pub struct NewPiece {
 }
 
 /// Blend `a` into `b` around boundary `c` with half window `h`.
-fn blend(a: &dyn Fn(f64) -> (AxisVec, AxisVec), b: &dyn Fn(f64) -> (AxisVec, AxisVec), lines: bool, c: f64, h: f64, s: f64, tau: f64) -> AxisVec {
+fn blend(
+    a: &dyn Fn(f64) -> (AxisVec, AxisVec),
+    b: &dyn Fn(f64) -> (AxisVec, AxisVec),
+    lines: bool,
+    c: f64,
+    h: f64,
+    s: f64,
+    tau: f64,
+) -> AxisVec {
     if h <= 0.0 {
         return if tau < c { a(tau).0 } else { b(tau).0 };
     }
@@ -134,7 +142,13 @@ pub struct Timeline {
 impl Timeline {
     /// Empty queue standing at base position `rest`.
     pub fn new(rest: AxisVec) -> Self {
-        Timeline { pieces: VecDeque::new(), rest, next_id: 1, reported: 0, spline: None }
+        Timeline {
+            pieces: VecDeque::new(),
+            rest,
+            next_id: 1,
+            reported: 0,
+            spline: None,
+        }
     }
 
     /// Drop every move and stand at `rest` (abort, PMATCH while idle).
@@ -163,7 +177,8 @@ impl Timeline {
     /// Whether the executor should calculate another move: fewer than two queued moves have
     /// not started yet, and no DWELL is pending (DWELL stops look-ahead).
     pub fn wants_more(&self, tau: f64) -> bool {
-        if self.pieces.len() >= MAX_PIECES - 3 || self.pieces.iter().any(|p| p.kind == Kind::Dwell) {
+        if self.pieces.len() >= MAX_PIECES - 3 || self.pieces.iter().any(|p| p.kind == Kind::Dwell)
+        {
             return false;
         }
         self.pieces.iter().filter(|p| p.exec_start() > tau).count() < 2
@@ -171,19 +186,27 @@ impl Timeline {
 
     /// Whether τ lies in a DWELL (the clock then runs on the fixed time base).
     pub fn in_dwell(&self, tau: f64) -> bool {
-        self.pieces.iter().any(|p| p.kind == Kind::Dwell && tau >= p.start && tau < p.end())
+        self.pieces
+            .iter()
+            .any(|p| p.kind == Kind::Dwell && tau >= p.start && tau < p.end())
     }
 
     /// Id of the move executing at τ (PE), if any.
     pub fn executing(&self, tau: f64) -> Option<u64> {
-        self.pieces.iter().rev().find(|p| p.exec_start() <= tau).map(|p| p.id)
+        self.pieces
+            .iter()
+            .rev()
+            .find(|p| p.exec_start() <= tau)
+            .map(|p| p.id)
     }
 
     /// Velocity (base units/ms) at the end of the last queued move when it can still blend.
     pub fn tail_blend_velocity(&self, tau: f64) -> Option<AxisVec> {
         let p = self.pieces.back()?;
         match (p.kind, p.out) {
-            (Kind::Blend { .. }, Out::Undecided) if tau < p.end() - p.stop_h() => Some(p.at(p.end()).1),
+            (Kind::Blend { .. }, Out::Undecided) if tau < p.end() - p.stop_h() => {
+                Some(p.at(p.end()).1)
+            }
             _ => None,
         }
     }
@@ -200,7 +223,9 @@ impl Timeline {
 
     /// Close an open PVT/SPLINE sequence or stop a blended tail so a new sequence can follow.
     pub fn settle_tail(&mut self) {
-        let Some(p) = self.pieces.back_mut() else { return };
+        let Some(p) = self.pieces.back_mut() else {
+            return;
+        };
         if p.out != Out::Undecided {
             return;
         }
@@ -226,20 +251,32 @@ impl Timeline {
     /// End velocity (program units/ms) of an open PVT sequence the next PVT move continues.
     pub fn pvt_tail_velocity(&self) -> Option<AxisVec> {
         let p = self.pieces.back()?;
-        (p.kind == Kind::Pvt && p.out == Out::Undecided).then(|| p.prim.eval(p.start, p.dur, p.end()).1)
+        (p.kind == Kind::Pvt && p.out == Out::Undecided)
+            .then(|| p.prim.eval(p.start, p.dur, p.end()).1)
     }
 
     fn close_spline(&mut self) {
         let Some(q) = self.spline.take() else { return };
-        let Some(p) = self.pieces.back_mut() else { return };
+        let Some(p) = self.pieces.back_mut() else {
+            return;
+        };
         p.out = Out::Next { h: 0.0, s: 0.0 };
         let last = q[2];
         let segs = [[q[0], q[1], last, last], [q[1], last, last, last]];
         let mut start = p.end();
         let tmpl = p.clone();
         for (k, cp) in segs.into_iter().enumerate() {
-            let out = if k == 1 { Out::Stop { h: 0.0, s: 0.0 } } else { Out::Next { h: 0.0, s: 0.0 } };
-            self.pieces.push_back(Piece { prim: Prim::Spline(cp), start, out, ..tmpl.clone() });
+            let out = if k == 1 {
+                Out::Stop { h: 0.0, s: 0.0 }
+            } else {
+                Out::Next { h: 0.0, s: 0.0 }
+            };
+            self.pieces.push_back(Piece {
+                prim: Prim::Spline(cp),
+                start,
+                out,
+                ..tmpl.clone()
+            });
             start += tmpl.dur;
         }
     }
@@ -308,11 +345,27 @@ impl Timeline {
     /// Queue one SPLINE1 point `p` (program units) with segment time `ta`, the sequence
     /// starting at `from` when none is open (uniform cubic B-spline, triple end points: the
     /// path starts and ends at rest; n points give n + 2 segments).
-    pub fn push_spline(&mut self, from: AxisVec, p: AxisVec, ta: f64, xf: Affine, tau: f64) -> Result<u64, CoordError> {
+    pub fn push_spline(
+        &mut self,
+        from: AxisVec,
+        p: AxisVec,
+        ta: f64,
+        xf: Affine,
+        tau: f64,
+    ) -> Result<u64, CoordError> {
         let cont = matches!(self.pieces.back(), Some(l) if l.kind == Kind::Spline && l.out == Out::Undecided
             && l.dur == ta && l.xf == xf && self.spline.is_some());
-        let q = if cont { self.spline.unwrap_or([from; 3]) } else { [from; 3] };
-        let np = NewPiece { prim: Prim::Spline([q[0], q[1], q[2], p]), dur: ta, kind: Kind::Spline, xf };
+        let q = if cont {
+            self.spline.unwrap_or([from; 3])
+        } else {
+            [from; 3]
+        };
+        let np = NewPiece {
+            prim: Prim::Spline([q[0], q[1], q[2], p]),
+            dur: ta,
+            kind: Kind::Spline,
+            xf,
+        };
         let id = if cont {
             let last = self.pieces.back_mut().ok_or(CoordError::QueueFull)?;
             last.out = Out::Next { h: 0.0, s: 0.0 };
@@ -329,8 +382,17 @@ impl Timeline {
         Ok(id)
     }
 
-    /// `/`: finish the executing move and stop; later moves are discarded.
-    pub fn stop_after_current(&mut self, tau: f64) {
+    /// `/`: finish the executing move and stop; later moves are discarded. Returns the base
+    /// position where the motion will end.
+    pub fn stop_after_current(&mut self, tau: f64) -> AxisVec {
+        self.stop_after_current_inner(tau);
+        match self.pieces.back() {
+            Some(p) => p.at(p.end()).0,
+            None => self.rest,
+        }
+    }
+
+    fn stop_after_current_inner(&mut self, tau: f64) {
         let Some(k) = self.pieces.iter().rposition(|p| p.exec_start() <= tau) else {
             self.pieces.clear();
             return;
@@ -383,9 +445,11 @@ impl Timeline {
             if !done {
                 break;
             }
-            let Some(p) = self.pieces.pop_front() else { break };
+            let Some(p) = self.pieces.pop_front() else {
+                break;
+            };
             self.rest = p.at(p.end()).0;
-            if self.pieces.front().map_or(true, |n| n.id != p.id) {
+            if !matches!(self.pieces.front(), Some(n) if n.id == p.id) {
                 finished.push(p.id);
             }
         }
@@ -399,7 +463,15 @@ impl Timeline {
             if p.from_rest && tau < p.start + p.h_in {
                 let hold = p.at(p.start).0;
                 let a = move |_t: f64| (hold, AxisVec::zeros());
-                return blend(&a, &|t| p.at(t), p.prim.is_line(), p.start, p.h_in, p.s_in, tau);
+                return blend(
+                    &a,
+                    &|t| p.at(t),
+                    p.prim.is_line(),
+                    p.start,
+                    p.h_in,
+                    p.s_in,
+                    tau,
+                );
             }
             let (h, s, stop) = match p.out {
                 Out::Undecided => return p.at(tau.min(end)).0,

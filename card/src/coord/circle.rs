@@ -41,7 +41,12 @@ fn v3(p: &AxisVec) -> Vector3<f64> {
 
 /// Build the arc from `p0` to `p1`. `Ok(None)` means "no arc in the plane" (R form with zero
 /// chord): the caller moves linearly.
-pub fn make_arc(p0: &AxisVec, p1: &AxisVec, centre: Centre, prm: &CircleParams) -> Result<Option<Arc>, CoordError> {
+pub fn make_arc(
+    p0: &AxisVec,
+    p1: &AxisVec,
+    centre: Centre,
+    prm: &CircleParams,
+) -> Result<Option<Arc>, CoordError> {
     let n = Vector3::from(prm.normal);
     let nn = n.norm();
     if !nn.is_finite() || nn < 1e-12 {
@@ -57,7 +62,10 @@ pub fn make_arc(p0: &AxisVec, p1: &AxisVec, centre: Centre, prm: &CircleParams) 
     let eps = 1e-12 * scale;
     let c = match centre {
         Centre::Vector { ijk, absolute } => {
-            if ijk.iter().any(|v| !v.is_finite() || v.abs() > super::MAX_POS) {
+            if ijk
+                .iter()
+                .any(|v| !v.is_finite() || v.abs() > super::MAX_POS)
+            {
                 return Err(CoordError::OutOfRange("circle centre"));
             }
             let v = Vector3::from(ijk);
@@ -111,5 +119,16 @@ pub fn make_arc(p0: &AxisVec, p1: &AxisVec, centre: Centre, prm: &CircleParams) 
             }
         }
     }
-    Ok(Some(Arc { c, u0, w0, n, r0, r1, theta: sigma * th, h, p0: *p0, p1: *p1 }))
+    Ok(Some(Arc {
+        c,
+        u0,
+        w0,
+        n,
+        r0,
+        r1,
+        theta: sigma * th,
+        h,
+        p0: *p0,
+        p1: *p1,
+    }))
 }

@@ -11,7 +11,7 @@ use nalgebra::DVector;
 use super::axes::{AxisVec, CsAxes};
 use super::blend::{Kind, NewPiece, Timeline};
 use super::circle::{make_arc, Centre, CircleParams};
-use super::moves::{feed_time, ix16_time, ix17_accel, to_motor, CsConfig, Mode, Modal};
+use super::moves::{feed_time, ix16_time, ix17_accel, to_motor, CsConfig, Modal, Mode};
 use super::prims::Prim;
 use super::profile::{decel_stop, PtpProfile};
 use super::timebase::TimeBase;
@@ -118,7 +118,11 @@ impl CoordSystem {
         let base = self.axes.pmatch(motor_pos, &prev);
         self.pos = x.to_prog(&base);
         for (r, c) in self.cmd.iter_mut().enumerate() {
-            *c = motor_pos.get(r).copied().filter(|v| v.is_finite()).unwrap_or(0.0);
+            *c = motor_pos
+                .get(r)
+                .copied()
+                .filter(|v| v.is_finite())
+                .unwrap_or(0.0);
         }
         if self.tl.is_idle() {
             self.tl.clear(base);
@@ -156,7 +160,14 @@ impl CoordSystem {
         for k in 0..9 {
             if let Some(v) = w.pos[k] {
                 let v = check_pos(v, "axis position")?;
-                t[k] = check_pos(if self.modal.inc[k] { self.pos[k] + v } else { v }, "axis position")?;
+                t[k] = check_pos(
+                    if self.modal.inc[k] {
+                        self.pos[k] + v
+                    } else {
+                        v
+                    },
+                    "axis position",
+                )?;
             }
         }
         Ok(t)
@@ -196,9 +207,16 @@ impl CoordSystem {
                 let arc = if circle {
                     let centre = match w.r {
                         Some(r) => Centre::Radius(r),
-                        None => Centre::Vector { ijk: w.ijk.map(|v| v.unwrap_or(0.0)), absolute: self.modal.centre_abs },
+                        None => Centre::Vector {
+                            ijk: w.ijk.map(|v| v.unwrap_or(0.0)),
+                            absolute: self.modal.centre_abs,
+                        },
                     };
-                    let i90 = if self.cfg.i90 > 0.0 { self.cfg.i90 } else { 1.0 / 1_048_576.0 };
+                    let i90 = if self.cfg.i90 > 0.0 {
+                        self.cfg.i90
+                    } else {
+                        1.0 / 1_048_576.0
+                    };
                     let prm = CircleParams {
                         normal: self.modal.normal,
                         cw: self.modal.mode == Mode::Circle1,
@@ -211,7 +229,10 @@ impl CoordSystem {
                 };
                 let prim = match arc {
                     Some(a) => Prim::Arc(Box::new(a)),
-                    None => Prim::Line { p0: self.pos, p1: target },
+                    None => Prim::Line {
+                        p0: self.pos,
+                        p1: target,
+                    },
                 };
                 let len = match &prim {
                     Prim::Arc(a) => Some(a.length()),
@@ -225,14 +246,23 @@ impl CoordSystem {
         Ok(id)
     }
 
-    fn push_blended(&mut self, prim: Prim, t: f64, d: &AxisVec, xf: &Affine) -> Result<u64, CoordError> {
+    fn push_blended(
+        &mut self,
+        prim: Prim,
+        t: f64,
+        d: &AxisVec,
+        xf: &Affine,
+    ) -> Result<u64, CoordError> {
         let (mut tap, s0) = self.modal.accel()?;
         let mut t = t.max(tap);
         if self.cfg.i13 <= 0.0 && prim.is_line() {
             let dm = to_motor(&self.axes.scale, &xf.vel_to_base(d));
             t = t.max(ix16_time(&self.cfg, &dm));
             let vb = xf.vel_to_base(&(d / t));
-            let tail = self.tl.tail_blend_velocity(self.tau).unwrap_or_else(AxisVec::zeros);
+            let tail = self
+                .tl
+                .tail_blend_velocity(self.tau)
+                .unwrap_or_else(AxisVec::zeros);
             let dv = to_motor(&self.axes.scale, &(vb - tail));
             tap = ix17_accel(&self.cfg, &dv, tap);
             t = t.max(tap);
@@ -241,31 +271,63 @@ impl CoordSystem {
         if self.cfg.ix92 {
             self.tl.settle_tail();
         }
-        self.tl.push(NewPiece { prim, dur: t, kind: Kind::Blend { ta: tap, s }, xf: *xf }, self.tau)
+        self.tl.push(
+            NewPiece {
+                prim,
+                dur: t,
+                kind: Kind::Blend { ta: tap, s },
+                xf: *xf,
+            },
+            self.tau,
+        )
     }
 
     fn push_rapid(&mut self, target: &AxisVec, xf: &Affine) -> Result<Option<u64>, CoordError> {
-        let dm = to_motor(&self.axes.scale, &(xf.to_base(target) - xf.to_base(&self.pos)));
+        let dm = to_motor(
+            &self.axes.scale,
+            &(xf.to_base(target) - xf.to_base(&self.pos)),
+        );
         let mut best: Option<PtpProfile> = None;
         for (r, d) in dm.iter().enumerate() {
             let l = self.cfg.limits(r);
             let v = if self.cfg.i50 { l.ix16 } else { l.ix22 };
             let p = PtpProfile::plan(d.abs(), v, l.ix19, l.ix20, l.ix21);
-            if p.d > 0.0 && best.map_or(true, |b| p.duration() > b.duration()) {
+            if p.d > 0.0 && !matches!(best, Some(b) if b.duration() >= p.duration()) {
                 best = Some(p);
             }
         }
         let Some(prof) = best else { return Ok(None) };
-        let prim = Prim::Ptp { p0: self.pos, p1: *target, prof };
-        Ok(Some(self.tl.push(NewPiece { prim, dur: prof.duration(), kind: Kind::Solo, xf: *xf }, self.tau)?))
+        let prim = Prim::Ptp {
+            p0: self.pos,
+            p1: *target,
+            prof,
+        };
+        Ok(Some(self.tl.push(
+            NewPiece {
+                prim,
+                dur: prof.duration(),
+                kind: Kind::Solo,
+                xf: *xf,
+            },
+            self.tau,
+        )?))
     }
 
-    fn push_pvt(&mut self, w: &MoveWords, target: &AxisVec, xf: &Affine) -> Result<u64, CoordError> {
+    fn push_pvt(
+        &mut self,
+        w: &MoveWords,
+        target: &AxisVec,
+        xf: &Affine,
+    ) -> Result<u64, CoordError> {
         let t = self.modal.pvt_time.round();
-        if !(t >= 1.0) {
+        if t.is_nan() || t < 1.0 {
             return Err(CoordError::BadTime("PVT time"));
         }
-        let unit = if self.cfg.ix90 > 0.0 { self.cfg.ix90 } else { 1000.0 };
+        let unit = if self.cfg.ix90 > 0.0 {
+            self.cfg.ix90
+        } else {
+            1000.0
+        };
         let mut v1 = AxisVec::zeros();
         for k in 0..9 {
             if let Some(v) = w.vel[k] {
@@ -274,7 +336,15 @@ impl CoordSystem {
         }
         let v0 = self.tl.pvt_tail_velocity().unwrap_or_else(AxisVec::zeros);
         let prim = Prim::pvt(self.pos, v0, *target, v1, t);
-        self.tl.push(NewPiece { prim, dur: t, kind: Kind::Pvt, xf: *xf }, self.tau)
+        self.tl.push(
+            NewPiece {
+                prim,
+                dur: t,
+                kind: Kind::Pvt,
+                xf: *xf,
+            },
+            self.tau,
+        )
     }
 
     /// `DWELL{ms}`: stop (after the TA deceleration) and hold for `ms` real-time ms.
@@ -284,7 +354,15 @@ impl CoordSystem {
         }
         let xf = self.ready()?;
         let prim = Prim::Hold(self.pos);
-        self.tl.push(NewPiece { prim, dur: ms.round().max(1e-6), kind: Kind::Dwell, xf }, self.tau)
+        self.tl.push(
+            NewPiece {
+                prim,
+                dur: ms.round().max(1e-6),
+                kind: Kind::Dwell,
+                xf,
+            },
+            self.tau,
+        )
     }
 
     /// `DELAY{ms}`: a blended zero-distance move of at least TA' (scales with `%`).
@@ -293,21 +371,37 @@ impl CoordSystem {
             return Err(CoordError::BadTime("DELAY"));
         }
         let xf = self.ready()?;
-        let prim = Prim::Line { p0: self.pos, p1: self.pos };
+        let prim = Prim::Line {
+            p0: self.pos,
+            p1: self.pos,
+        };
         let (tap, s) = self.modal.accel()?;
-        self.tl.push(NewPiece { prim, dur: ms.max(tap), kind: Kind::Blend { ta: tap, s }, xf }, self.tau)
+        self.tl.push(
+            NewPiece {
+                prim,
+                dur: ms.max(tap),
+                kind: Kind::Blend { ta: tap, s },
+                xf,
+            },
+            self.tau,
+        )
     }
 
     /// `/`: stop at the end of the executing move.
     pub fn stop_at_end(&mut self) {
-        self.tl.stop_after_current(self.tau);
+        let end = self.tl.stop_after_current(self.tau);
+        self.pos = self.xf.current().to_prog(&end);
     }
 
     /// `A` / `<CTRL-A>`: every motor decelerates at its Ix15 (path not kept); queued moves
     /// are dropped. The program position stays the old target (PMATCH to use the stop point).
     pub fn abort(&mut self) {
         if self.abort.is_none() && !self.tl.is_idle() {
-            self.abort = Some(Abort { p0: self.cmd.clone(), v0: self.vel.clone(), t: 0.0 });
+            self.abort = Some(Abort {
+                p0: self.cmd.clone(),
+                v0: self.vel.clone(),
+                t: 0.0,
+            });
         }
         let rest = self.xf.current().to_base(&self.pos);
         self.tl.clear(rest);
@@ -331,7 +425,11 @@ impl CoordSystem {
             a.t += servo;
             let mut all = true;
             for (r, c) in self.cmd.iter_mut().enumerate() {
-                let (dp, done) = decel_stop(a.v0.get(r).copied().unwrap_or(0.0), self.cfg.limits(r).ix15, a.t);
+                let (dp, done) = decel_stop(
+                    a.v0.get(r).copied().unwrap_or(0.0),
+                    self.cfg.limits(r).ix15,
+                    a.t,
+                );
                 *c = a.p0.get(r).copied().unwrap_or(*c) + dp;
                 all &= done;
             }
@@ -339,10 +437,18 @@ impl CoordSystem {
                 self.abort = None;
             }
             self.vel.iter_mut().for_each(|v| *v = 0.0);
-            return TickOut { motors: self.cmd.clone(), started: Vec::new(), finished: Vec::new() };
+            return TickOut {
+                motors: self.cmd.clone(),
+                started: Vec::new(),
+                finished: Vec::new(),
+            };
         }
         let dt = self.tb.tick();
-        self.tau += if self.tl.in_dwell(self.tau) { servo } else { dt };
+        self.tau += if self.tl.in_dwell(self.tau) {
+            servo
+        } else {
+            dt
+        };
         let (started, finished) = self.tl.advance(self.tau);
         if !self.frozen {
             let base = self.tl.eval(self.tau);
@@ -353,7 +459,11 @@ impl CoordSystem {
                 *c = new;
             }
         }
-        TickOut { motors: self.cmd.clone(), started, finished }
+        TickOut {
+            motors: self.cmd.clone(),
+            started,
+            finished,
+        }
     }
 
     /// `TSEL n` (renames the present position into the new frame).
@@ -363,7 +473,10 @@ impl CoordSystem {
 
     /// Apply a matrix operation (`TINIT`, `ADIS`, `AROT`…): the base position is kept and
     /// the programmed position renamed.
-    pub fn rename(&mut self, f: impl FnOnce(&mut TransformBank) -> Result<(), CoordError>) -> Result<(), CoordError> {
+    pub fn rename(
+        &mut self,
+        f: impl FnOnce(&mut TransformBank) -> Result<(), CoordError>,
+    ) -> Result<(), CoordError> {
         let base = self.xf.current().to_base(&self.pos);
         f(&mut self.xf)?;
         self.pos = self.xf.current().to_prog(&base);

@@ -26,6 +26,8 @@ pub mod transform;
 mod tests_axes;
 #[cfg(test)]
 mod tests_moves;
+#[cfg(test)]
+mod tests_paths;
 
 use thiserror::Error;
 
@@ -81,9 +83,9 @@ impl CoordError {
     /// The `ERRnnn` number for refusals of on-line commands; `None` for run-time errors.
     pub fn err_code(&self) -> Option<u16> {
         match self {
-            CoordError::MotorInOtherCs(..) | CoordError::BadAxisDef(_) | CoordError::NoSuchUnit(_) => {
-                Some(3)
-            }
+            CoordError::MotorInOtherCs(..)
+            | CoordError::BadAxisDef(_)
+            | CoordError::NoSuchUnit(_) => Some(3),
             CoordError::NoMotors => Some(14),
             _ => None,
         }

@@ -60,7 +60,15 @@ pub struct MotorLimits {
 
 impl Default for MotorLimits {
     fn default() -> Self {
-        MotorLimits { ix15: 0.25, ix16: 32.0, ix17: 0.5, ix19: 0.25, ix20: 0.0, ix21: 50.0, ix22: 32.0 }
+        MotorLimits {
+            ix15: 0.25,
+            ix16: 32.0,
+            ix17: 0.5,
+            ix19: 0.25,
+            ix20: 0.0,
+            ix21: 50.0,
+            ix22: 32.0,
+        }
     }
 }
 
@@ -157,7 +165,7 @@ fn positive(v: f64, what: &'static str) -> Result<f64, CoordError> {
 }
 
 fn non_negative(v: f64, what: &'static str) -> Result<f64, CoordError> {
-    if v.is_finite() && v >= 0.0 && v <= 8_388_607.0 {
+    if (0.0..=8_388_607.0).contains(&v) {
         Ok(v)
     } else {
         Err(CoordError::BadTime(what))
@@ -172,7 +180,11 @@ impl Modal {
             mode: Mode::Linear,
             ta: clean(cfg.ix87, 0.0),
             ts: clean(cfg.ix88, 50.0),
-            feed: Feed::Rate(if cfg.ix89.is_finite() && cfg.ix89 > 0.0 { cfg.ix89 } else { 1000.0 }),
+            feed: Feed::Rate(if cfg.ix89.is_finite() && cfg.ix89 > 0.0 {
+                cfg.ix89
+            } else {
+                1000.0
+            }),
             pvt_time: clean(cfg.ix87, 0.0),
             inc: [false; 9],
             centre_abs: false,

@@ -41,7 +41,9 @@ impl Arc {
         let r = self.r0 + (self.r1 - self.r0) * s;
         let dir = self.u0 * cs + self.w0 * sn;
         let xyz = self.c + dir * r + self.n * (self.h * s);
-        let dxyz = dir * (self.r1 - self.r0) + (self.w0 * cs - self.u0 * sn) * (r * self.theta) + self.n * self.h;
+        let dxyz = dir * (self.r1 - self.r0)
+            + (self.w0 * cs - self.u0 * sn) * (r * self.theta)
+            + self.n * self.h;
         for k in 0..3 {
             p[k] = xyz[k];
             dp[k] = dxyz[k];

@@ -14,8 +14,15 @@ pub struct Ramp {
 impl Ramp {
     /// Ramp with S-curve fraction `s` (clamped to [0, ½]).
     pub fn new(s: f64) -> Self {
-        let s = if s.is_finite() { s.clamp(0.0, 0.5) } else { 0.0 };
-        Ramp { s, ap: 1.0 / (1.0 - s) }
+        let s = if s.is_finite() {
+            s.clamp(0.0, 0.5)
+        } else {
+            0.0
+        };
+        Ramp {
+            s,
+            ap: 1.0 / (1.0 - s),
+        }
     }
 
     /// Velocity fraction g(u).
@@ -82,7 +89,13 @@ impl PtpProfile {
             }
         };
         // Ramp time for cruise speed v: TA0, stretched so the peak Δv/(T−ts) ≤ amax.
-        let ramp_t = |v: f64| if amax > 0.0 { ta0.max(ts + v / amax) } else { ta0 };
+        let ramp_t = |v: f64| {
+            if amax > 0.0 {
+                ta0.max(ts + v / amax)
+            } else {
+                ta0
+            }
+        };
         let mut v = vmax;
         let mut t = ramp_t(v);
         if v * t > d {
@@ -95,7 +108,13 @@ impl PtpProfile {
             }
         }
         let tc = if v > 0.0 { (d / v - t).max(0.0) } else { 0.0 };
-        PtpProfile { d, v, ta: t, tc, ramp: Ramp::new(ts / t) }
+        PtpProfile {
+            d,
+            v,
+            ta: t,
+            tc,
+            ramp: Ramp::new(ts / t),
+        }
     }
 
     /// Total duration (ms).

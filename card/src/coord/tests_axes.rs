@@ -6,7 +6,13 @@ use super::CoordError;
 use crate::lang::ast::{Axis, AxisDef, AxisTerm};
 
 fn ast(terms: &[(f64, Axis)], offset: f64) -> AxisDef {
-    AxisDef { terms: terms.iter().map(|&(scale, axis)| AxisTerm { scale, axis }).collect(), offset }
+    AxisDef {
+        terms: terms
+            .iter()
+            .map(|&(scale, axis)| AxisTerm { scale, axis })
+            .collect(),
+        offset,
+    }
 }
 
 fn def(terms: &[(f64, Axis)], offset: f64) -> MotorAxisDef {
@@ -48,8 +54,14 @@ fn membership_rules_and_err003() {
     t.undefine_all();
     assert_eq!(t.cs_of(1), None);
     // Unit numbers outside the card.
-    assert_eq!(t.define(9, 1, def(&[(1.0, Axis::X)], 0.0)), Err(CoordError::NoSuchUnit(9)));
-    assert_eq!(t.define(1, 0, def(&[(1.0, Axis::X)], 0.0)), Err(CoordError::NoSuchUnit(0)));
+    assert_eq!(
+        t.define(9, 1, def(&[(1.0, Axis::X)], 0.0)),
+        Err(CoordError::NoSuchUnit(9))
+    );
+    assert_eq!(
+        t.define(1, 0, def(&[(1.0, Axis::X)], 0.0)),
+        Err(CoordError::NoSuchUnit(0))
+    );
     assert!(t.cs_axes(1).is_empty());
 }
 
@@ -58,7 +70,15 @@ fn malformed_definitions_are_err003() {
     let bad = [
         ast(&[(1.0, Axis::X), (1.0, Axis::U)], 0.0),
         ast(&[(1.0, Axis::A), (1.0, Axis::B)], 0.0),
-        ast(&[(1.0, Axis::X), (1.0, Axis::Y), (1.0, Axis::Z), (1.0, Axis::X)], 0.0),
+        ast(
+            &[
+                (1.0, Axis::X),
+                (1.0, Axis::Y),
+                (1.0, Axis::Z),
+                (1.0, Axis::X),
+            ],
+            0.0,
+        ),
         ast(&[(1.0, Axis::X), (2.0, Axis::X)], 0.0),
         ast(&[(f64::NAN, Axis::X)], 0.0),
         ast(&[(1.0, Axis::X)], f64::INFINITY),
@@ -75,13 +95,18 @@ fn malformed_definitions_are_err003() {
 fn linear_combination_matrix_maps_axes_to_motors() {
     // Seed example: 30° rotation of X/Y with 10000 counts/unit, Z with an offset.
     let mut t = AxisTable::new(8, 8);
-    t.define(1, 1, def(&[(8660.0, Axis::X), (-5000.0, Axis::Y)], 0.0)).unwrap();
-    t.define(1, 2, def(&[(5000.0, Axis::X), (8660.0, Axis::Y)], 0.0)).unwrap();
+    t.define(1, 1, def(&[(8660.0, Axis::X), (-5000.0, Axis::Y)], 0.0))
+        .unwrap();
+    t.define(1, 2, def(&[(5000.0, Axis::X), (8660.0, Axis::Y)], 0.0))
+        .unwrap();
     t.define(1, 3, def(&[(2000.0, Axis::Z)], -6000.0)).unwrap();
     let m = t.cs_axes(1);
     assert_eq!(m.motors, [1, 2, 3]);
     let p = m.motor_positions(&axes(&[(0, 1.0), (1, 2.0), (2, 3.0)]), &[]);
-    assert_eq!(p.as_slice(), &[8660.0 - 10000.0, 5000.0 + 17320.0, 6000.0 - 6000.0]);
+    assert_eq!(
+        p.as_slice(),
+        &[8660.0 - 10000.0, 5000.0 + 17320.0, 6000.0 - 6000.0]
+    );
     // PMATCH inverts it exactly (square regular system).
     let back = m.pmatch(p.as_slice(), &AxisVec::zeros());
     for (k, want) in [(0, 1.0), (1, 2.0), (2, 3.0)] {
@@ -102,10 +127,14 @@ fn pmatch_gantry_uses_lowest_motor_and_keeps_phantoms() {
     assert_eq!((a[1], a[3]), (7.0, -2.0), "phantom axes keep their value");
     // Under-determined (one motor on X+Y): minimum change from the previous position.
     let mut t = AxisTable::new(8, 8);
-    t.define(1, 1, def(&[(1.0, Axis::X), (1.0, Axis::Y)], 0.0)).unwrap();
+    t.define(1, 1, def(&[(1.0, Axis::X), (1.0, Axis::Y)], 0.0))
+        .unwrap();
     let m = t.cs_axes(1);
     let a = m.pmatch(&[4.0], &axes(&[(0, 1.0), (1, 1.0)]));
-    assert!((a[0] - 2.0).abs() < 1e-12 && (a[1] - 2.0).abs() < 1e-12, "{a:?}");
+    assert!(
+        (a[0] - 2.0).abs() < 1e-12 && (a[1] - 2.0).abs() < 1e-12,
+        "{a:?}"
+    );
     // Non-finite motor positions are ignored rather than propagated.
     let a = m.pmatch(&[f64::NAN], &axes(&[(0, 1.0)]));
     assert_eq!(a[0], 1.0);
@@ -116,7 +145,12 @@ fn inverse_kinematics_motor_is_a_member_that_holds() {
     let mut t = AxisTable::new(8, 8);
     t.define(3, 1, MotorAxisDef::Inverse).unwrap();
     t.define(3, 2, def(&[(10.0, Axis::X)], 0.0)).unwrap();
-    assert_eq!(t.define(1, 1, def(&[(1.0, Axis::X)], 0.0)).unwrap_err().err_code(), Some(3));
+    assert_eq!(
+        t.define(1, 1, def(&[(1.0, Axis::X)], 0.0))
+            .unwrap_err()
+            .err_code(),
+        Some(3)
+    );
     let m = t.cs_axes(3);
     let p = m.motor_positions(&axes(&[(0, 2.0)]), &[123.0, 0.0]);
     assert_eq!(p.as_slice(), &[123.0, 20.0]);
@@ -145,10 +179,16 @@ fn transformation_matrices() {
     b.irot(rot).unwrap();
     b.idis([0.5, -0.5, 0.0]).unwrap();
     let prog = b.current().to_prog(&base);
-    assert!((prog[0] - 8.0).abs() < 1e-12 && (prog[1] - (-1.0 + 12.0)).abs() < 1e-12, "{prog:?}");
+    assert!(
+        (prog[0] - 8.0).abs() < 1e-12 && (prog[1] - (-1.0 + 12.0)).abs() < 1e-12,
+        "{prog:?}"
+    );
     // Singular and non-finite matrices are refused and leave the matrix unchanged.
     let before = b.current();
-    assert_eq!(b.arot([1.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0]), Err(CoordError::SingularMatrix));
+    assert_eq!(
+        b.arot([1.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0]),
+        Err(CoordError::SingularMatrix)
+    );
     assert!(b.arot([f64::NAN; 9]).is_err());
     assert!(b.adis([f64::INFINITY, 0.0, 0.0]).is_err());
     assert_eq!(b.current(), before);

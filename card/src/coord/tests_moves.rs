@@ -3,22 +3,22 @@
 
 use super::axes::{AxisTable, MotorAxisDef};
 use super::cs::{CoordSystem, MoveWords};
-use super::moves::{CsConfig, Mode, Modal, MotorLimits};
+use super::moves::{CsConfig, Modal, Mode, MotorLimits};
 use super::CoordError;
 
-const SERVO: f64 = 3_713_707.0 / 8_388_608.0; // ms per servo cycle at the default I10
+pub(super) const SERVO: f64 = 3_713_707.0 / 8_388_608.0; // ms per servo cycle at the default I10
 
 enum It {
-    Mv(MoveWords),
+    Mv(Box<MoveWords>),
     Dwell(f64),
     Set(fn(&mut Modal)),
 }
 
 fn mv(v: &[(usize, f64)]) -> It {
-    It::Mv(words(v))
+    It::Mv(Box::new(words(v)))
 }
 
-fn words(v: &[(usize, f64)]) -> MoveWords {
+pub(super) fn words(v: &[(usize, f64)]) -> MoveWords {
     let mut w = MoveWords::default();
     for &(k, x) in v {
         w.pos[k] = Some(x);
@@ -27,10 +27,18 @@ fn words(v: &[(usize, f64)]) -> MoveWords {
 }
 
 /// C.S. 1 with motor k+1 defined as `scale`·axis k (k < 9).
-fn cs(scales: &[(usize, f64)], cfg: CsConfig) -> CoordSystem {
+pub(super) fn cs(scales: &[(usize, f64)], cfg: CsConfig) -> CoordSystem {
     let mut t = AxisTable::new(8, 8);
     for (m, &(k, s)) in scales.iter().enumerate() {
-        t.define(1, m as u16 + 1, MotorAxisDef::Linear { terms: vec![(k, s)], offset: 0.0 }).unwrap();
+        t.define(
+            1,
+            m as u16 + 1,
+            MotorAxisDef::Linear {
+                terms: vec![(k, s)],
+                offset: 0.0,
+            },
+        )
+        .unwrap();
     }
     let n = scales.len();
     CoordSystem::new(cfg, t.cs_axes(1), &vec![0.0; n])
@@ -90,7 +98,12 @@ fn model(v: &[f64], t: &[f64], ta: f64, ts: f64, n: usize) -> Vec<f64> {
         c += ti;
     }
     steps.push((c, -prev));
-    let acc = |tt: f64| steps.iter().map(|&(c, dv)| dv * shape((tt - (c - h)) / ta) / ta).sum::<f64>();
+    let acc = |tt: f64| {
+        steps
+            .iter()
+            .map(|&(c, dv)| dv * shape((tt - (c - h)) / ta) / ta)
+            .sum::<f64>()
+    };
     let dt: f64 = 0.01;
     let (mut p, mut vel, mut tt) = (0.0, 0.0, 0.0);
     let mut out = Vec::with_capacity(n);
@@ -110,12 +123,25 @@ fn model(v: &[f64], t: &[f64], ta: f64, ts: f64, n: usize) -> Vec<f64> {
     out
 }
 
-fn cfg() -> CsConfig {
-    CsConfig { motors: vec![MotorLimits { ix16: 1e9, ix17: 1e9, ..MotorLimits::default() }; 8], ..CsConfig::default() }
+pub(super) fn cfg() -> CsConfig {
+    CsConfig {
+        motors: vec![
+            MotorLimits {
+                ix16: 1e9,
+                ix17: 1e9,
+                ..MotorLimits::default()
+            };
+            8
+        ],
+        ..CsConfig::default()
+    }
 }
 
 fn arrival(trace: &[Vec<f64>], m: usize, target: f64) -> usize {
-    trace.iter().position(|p| (p[m] - target).abs() < 1e-6).unwrap()
+    trace
+        .iter()
+        .position(|p| (p[m] - target).abs() < 1e-6)
+        .unwrap()
 }
 
 #[test]
@@ -130,7 +156,12 @@ fn linear_f_ta_ts_follows_model_and_arrives_on_time() {
     let tr = run(&mut c, vec![It::Set(set), mv(&[(0, 5.0)])], 5000);
     let want = ((500.0 + 100.0) / SERVO).ceil() as usize;
     let k = arrival(&tr, 0, 5000.0);
-    assert!((k + 1).abs_diff(want) <= 1, "arrived at cycle {} want {}", k + 1, want);
+    assert!(
+        (k + 1).abs_diff(want) <= 1,
+        "arrived at cycle {} want {}",
+        k + 1,
+        want
+    );
     let md = model(&[10.0], &[500.0], 100.0, 20.0, tr.len());
     for (i, (p, &m)) in tr.iter().zip(&md).enumerate() {
         assert!((p[0] - m).abs() < 1.0, "cycle {i}: {} vs model {m}", p[0]);
@@ -146,7 +177,12 @@ fn linear_corner_sequence_matches_blend_model() {
         m.set_ts(50.0).unwrap();
         m.set_f(20.0).unwrap();
     };
-    let items = vec![It::Set(set), mv(&[(0, 10.0)]), mv(&[(1, 5.0)]), mv(&[(0, 0.0)])];
+    let items = vec![
+        It::Set(set),
+        mv(&[(0, 10.0)]),
+        mv(&[(1, 5.0)]),
+        mv(&[(0, 0.0)]),
+    ];
     let tr = run(&mut c, items, 20000);
     // X: +20 u/s for 500 ms, 0 for 250 ms, -20 u/s for 500 ms; Y: 0, +20, 0.
     let t = [500.0, 250.0, 500.0];
@@ -154,12 +190,23 @@ fn linear_corner_sequence_matches_blend_model() {
     let mys = model(&[0.0, 20.0, 0.0], &t, 200.0, 50.0, tr.len());
     for (i, p) in tr.iter().enumerate() {
         let (mx, my) = (mxs[i], mys[i]);
-        assert!((p[0] - mx).abs() < 1.0 && (p[1] - my).abs() < 1.0, "cycle {i}: {p:?} vs ({mx}, {my})");
+        assert!(
+            (p[0] - mx).abs() < 1.0 && (p[1] - my).abs() < 1.0,
+            "cycle {i}: {p:?} vs ({mx}, {my})"
+        );
     }
     let want = ((1250.0 + 200.0) / SERVO).ceil() as usize;
     let k = arrival(&tr, 0, 0.0).max(arrival(&tr, 1, 5000.0));
-    let k = tr.iter().rposition(|p| (p[0]).abs() > 1e-6 || (p[1] - 5000.0).abs() > 1e-6).unwrap_or(k) + 1;
-    assert!((k + 1).abs_diff(want) <= 1, "arrived at cycle {} want {want}", k + 1);
+    let k = tr
+        .iter()
+        .rposition(|p| (p[0]).abs() > 1e-6 || (p[1] - 5000.0).abs() > 1e-6)
+        .unwrap_or(k)
+        + 1;
+    assert!(
+        (k + 1).abs_diff(want) <= 1,
+        "arrived at cycle {} want {want}",
+        k + 1
+    );
 }
 
 #[test]
@@ -200,138 +247,51 @@ fn time_base_scales_move_time_but_not_dwell() {
         m.set_ts(0.0).unwrap();
         m.set_tm(300.0).unwrap();
     };
-    let items = vec![It::Set(set), mv(&[(0, 1000.0)]), It::Dwell(250.0), mv(&[(0, 0.0)])];
+    let items = vec![
+        It::Set(set),
+        mv(&[(0, 1000.0)]),
+        It::Dwell(250.0),
+        mv(&[(0, 0.0)]),
+    ];
     let tr = run(&mut c, items, 20000);
     let k1 = arrival(&tr, 0, 1000.0) + 1;
     assert!(k1.abs_diff((800.0 / SERVO).ceil() as usize) <= 1, "{k1}");
     // The dwell lasts 250 ms of real time, then the return move starts.
-    let leave = tr.iter().skip(k1).position(|p| p[0] < 1000.0 - 1e-9).unwrap() + k1;
-    assert!(((leave - k1) as f64 * SERVO - 250.0).abs() <= 2.0 * SERVO, "{}", (leave - k1) as f64 * SERVO);
+    let leave = tr
+        .iter()
+        .skip(k1)
+        .position(|p| p[0] < 1000.0 - 1e-9)
+        .unwrap()
+        + k1;
+    assert!(
+        ((leave - k1) as f64 * SERVO - 250.0).abs() <= 2.0 * SERVO,
+        "{}",
+        (leave - k1) as f64 * SERVO
+    );
     assert_eq!(c.tb.percent(), 50.0);
-}
-
-#[test]
-fn circle_ends_on_point_with_small_radius_error() {
-    let mut cfg = cfg();
-    cfg.i13 = 10.0;
-    for (mode, mid) in [(Mode::Circle1, (7.0710678, -7.0710678)), (Mode::Circle2, (-7.0710678, 7.0710678))] {
-        let mut c = cs(&[(0, 1000.0), (1, 1000.0)], cfg.clone());
-        c.push_move(&words(&[(0, 10.0)])).ok();
-        while !c.is_idle() {
-            c.tick();
-        }
-        c.modal.mode = mode;
-        c.modal.set_ta(10.0).unwrap();
-        c.modal.set_ts(0.0).unwrap();
-        c.modal.set_f(10.0).unwrap();
-        let mut w = words(&[(0, 0.0), (1, -10.0)]);
-        w.ijk = [Some(-10.0), Some(0.0), None];
-        c.push_move(&w).unwrap();
-        let mut tr = Vec::new();
-        while !c.is_idle() {
-            tr.push(c.tick().motors);
-        }
-        let last = tr.last().unwrap();
-        assert!((last[0]).abs() < 1e-6 && (last[1] + 10000.0).abs() < 1e-6, "{last:?}");
-        for p in &tr {
-            let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
-            assert!((r - 10000.0).abs() <= 0.5, "radius error {} at {p:?}", r - 10000.0);
-        }
-        let has_mid = tr.iter().any(|p| (p[0] - mid.0 * 1000.0).abs() < 5.0 && (p[1] - mid.1 * 1000.0).abs() < 5.0);
-        assert!(has_mid, "{mode:?} went the wrong way round");
-    }
-}
-
-#[test]
-fn circle_r_form_full_circle_and_refusals() {
-    let mut cfg = cfg();
-    cfg.i13 = 10.0;
-    cfg.ix96 = 0.001;
-    let mut c = cs(&[(0, 1000.0), (1, 1000.0)], cfg);
-    c.modal.mode = Mode::Circle1;
-    c.modal.set_ta(10.0).unwrap();
-    c.modal.set_ts(0.0).unwrap();
-    // Chord 10.003 > 2R = 10 by more than Ix96 → circle radius error; nothing queued.
-    let mut w = words(&[(0, 7.072), (1, 7.072)]);
-    w.r = Some(5.0);
-    assert!(matches!(c.push_move(&w), Err(CoordError::CircleRadius(_))));
-    assert!(c.is_idle());
-    assert_eq!(c.program_position()[0], 0.0);
-    // Centre on the start point → zero radius error.
-    let mut w = words(&[(0, 1.0)]);
-    w.ijk = [Some(0.0), Some(0.0), None];
-    assert_eq!(c.push_move(&w), Err(CoordError::CircleZeroRadius));
-    // Full circle: IJK form with end = start, duration 2πr/F.
-    c.modal.set_f(10.0).unwrap();
-    let mut w = words(&[]);
-    w.ijk = [Some(1.0), Some(0.0), None];
-    c.push_move(&w).unwrap();
-    let mut n = 0;
-    let mut far: f64 = 0.0;
-    while !c.is_idle() {
-        let p = c.tick().motors;
-        far = far.max(p[0]);
-        n += 1;
-    }
-    assert!((far - 2000.0).abs() < 1.0, "full circle reaches the far side: {far}");
-    let want = (std::f64::consts::TAU * 1000.0 / 10.0 + 10.0) / SERVO;
-    assert!((n as f64 - want).abs() <= 2.0, "{n} vs {want}");
-    // R form, R>0 quarter arc from (0,0) to (1,1) CW about -Z: centre (1,0).
-    let mut w = words(&[(0, 1.0), (1, 1.0)]);
-    w.r = Some(1.0);
-    c.push_move(&w).unwrap();
-    while !c.is_idle() {
-        let p = c.tick().motors;
-        let r = ((p[0] - 1000.0).powi(2) + p[1] * p[1]).sqrt();
-        assert!((r - 1000.0).abs() <= 0.5, "{p:?}");
-    }
-}
-
-#[test]
-fn pvt_passes_points_with_programmed_velocity() {
-    let mut c = cs(&[(0, 1.0)], cfg());
-    c.modal.set_pvt(100.0).unwrap();
-    // Segments of 100 ms: (p, v in counts/s).
-    let segs = [(1000.0, 15000.0), (3000.0, 20000.0), (4000.0, 0.0)];
-    let mut tr: Vec<(f64, f64)> = Vec::new(); // (time, pos)
-    let mut fed = 0;
-    let mut t = 0.0;
-    loop {
-        while fed < segs.len() && c.wants_moves() {
-            let mut w = words(&[(0, segs[fed].0)]);
-            w.vel[0] = Some(segs[fed].1);
-            c.push_move(&w).unwrap();
-            fed += 1;
-        }
-        let p = c.tick().motors[0];
-        t += SERVO;
-        tr.push((t, p));
-        if fed == segs.len() && c.is_idle() && tr.len() > 1000 {
-            break;
-        }
-    }
-    // Evaluate by interpolation at the segment ends: pos within 0.5 count, velocity (central
-    // difference) within 1 % of the programmed one.
-    let at = |time: f64| {
-        let i = tr.iter().position(|&(tt, _)| tt >= time).unwrap();
-        let (t0, p0) = tr[i - 1];
-        let (t1, p1) = tr[i];
-        (p0 + (p1 - p0) * (time - t0) / (t1 - t0), (p1 - p0) / (t1 - t0))
-    };
-    for (k, &(p, v)) in segs.iter().enumerate() {
-        let time = 100.0 * (k + 1) as f64;
-        let (pp, _) = at(time);
-        let vv = (at(time + 0.5).0 - at(time - 0.5).0) / 1.0;
-        assert!((pp - p).abs() < 0.5, "segment {k}: {pp} vs {p}");
-        assert!((vv - v / 1000.0).abs() <= 0.01 * (v / 1000.0).abs() + 0.05, "segment {k}: v {vv}");
-    }
 }
 
 #[test]
 fn two_axis_combination_moves_motors_by_the_matrix() {
     let mut t = AxisTable::new(8, 8);
-    t.define(1, 1, MotorAxisDef::Linear { terms: vec![(0, 8660.0), (1, -5000.0)], offset: 0.0 }).unwrap();
-    t.define(1, 2, MotorAxisDef::Linear { terms: vec![(0, 5000.0), (1, 8660.0)], offset: 0.0 }).unwrap();
+    t.define(
+        1,
+        1,
+        MotorAxisDef::Linear {
+            terms: vec![(0, 8660.0), (1, -5000.0)],
+            offset: 0.0,
+        },
+    )
+    .unwrap();
+    t.define(
+        1,
+        2,
+        MotorAxisDef::Linear {
+            terms: vec![(0, 5000.0), (1, 8660.0)],
+            offset: 0.0,
+        },
+    )
+    .unwrap();
     let mut c = CoordSystem::new(cfg(), t.cs_axes(1), &[0.0, 0.0]);
     let set: fn(&mut Modal) = |m| {
         m.set_ta(50.0).unwrap();
@@ -339,10 +299,16 @@ fn two_axis_combination_moves_motors_by_the_matrix() {
     };
     let tr = run(&mut c, vec![It::Set(set), mv(&[(0, 1.0), (1, 0.5)])], 20000);
     let last = tr.last().unwrap();
-    assert!((last[0] - (8660.0 - 2500.0)).abs() < 1e-6 && (last[1] - (5000.0 + 4330.0)).abs() < 1e-6, "{last:?}");
+    assert!(
+        (last[0] - (8660.0 - 2500.0)).abs() < 1e-6 && (last[1] - (5000.0 + 4330.0)).abs() < 1e-6,
+        "{last:?}"
+    );
     // A straight axis move: the motors stay in the matrix ratio every cycle.
     for p in &tr {
-        assert!((p[0] * 9330.0 - p[1] * 6160.0).abs() < 1e-6 * (1.0 + p[1].abs()) * 9330.0, "{p:?}");
+        assert!(
+            (p[0] * 9330.0 - p[1] * 6160.0).abs() < 1e-6 * (1.0 + p[1].abs()) * 9330.0,
+            "{p:?}"
+        );
     }
 }
 
@@ -357,9 +323,15 @@ fn refusals_and_absurd_inputs_do_not_panic() {
     assert_eq!(m.accel(), Err(CoordError::ZeroAccelTime));
     let mut c = cs(&[(0, 1.0)], cfg());
     c.modal = m;
-    assert_eq!(c.push_move(&words(&[(0, 5.0)])), Err(CoordError::ZeroAccelTime));
+    assert_eq!(
+        c.push_move(&words(&[(0, 5.0)])),
+        Err(CoordError::ZeroAccelTime)
+    );
     c.modal.set_ta(10.0).unwrap();
-    assert_eq!(c.push_move(&words(&[(0, f64::NAN)])), Err(CoordError::OutOfRange("axis position")));
+    assert_eq!(
+        c.push_move(&words(&[(0, f64::NAN)])),
+        Err(CoordError::OutOfRange("axis position"))
+    );
     assert!(c.push_move(&words(&[(0, 1e300)])).is_err());
     assert!(c.dwell(-1.0).is_err() && c.delay(f64::NAN).is_err());
     // Huge but legal: runs (clamped to 2^23 ms) without panicking.
@@ -379,8 +351,17 @@ fn refusals_and_absurd_inputs_do_not_panic() {
 fn rapid_uses_jog_profile_of_limiting_motor() {
     // Motor 1 10000 counts, motor 2 2500 counts; Ix16 32, Ix19 0.25, Ix20 0, Ix21 50:
     // ramp = 50 + 32/0.25 = 178 ms, cruise 10000/32 − 178 = 134.5 ms → 490.5 ms total.
-    let lim = MotorLimits { ix16: 32.0, ix19: 0.25, ix20: 0.0, ix21: 50.0, ..MotorLimits::default() };
-    let cfg = CsConfig { motors: vec![lim; 2], ..CsConfig::default() };
+    let lim = MotorLimits {
+        ix16: 32.0,
+        ix19: 0.25,
+        ix20: 0.0,
+        ix21: 50.0,
+        ..MotorLimits::default()
+    };
+    let cfg = CsConfig {
+        motors: vec![lim; 2],
+        ..CsConfig::default()
+    };
     let mut c = cs(&[(0, 1.0), (1, 1.0)], cfg);
     c.modal.mode = Mode::Rapid;
     let tr = run(&mut c, vec![mv(&[(0, 10000.0), (1, 2500.0)])], 5000);
@@ -390,7 +371,10 @@ fn rapid_uses_jog_profile_of_limiting_motor() {
     assert!(k0.abs_diff((490.5 / SERVO).ceil() as usize) <= 1, "{k0}");
     let mid = (245.0 / SERVO) as usize;
     assert!(((tr[mid + 1][0] - tr[mid][0]) / SERVO - 32.0).abs() < 1e-3);
-    assert!((tr[mid][0] - 4.0 * tr[mid][1]).abs() < 1e-6, "straight path");
+    assert!(
+        (tr[mid][0] - 4.0 * tr[mid][1]).abs() < 1e-6,
+        "straight path"
+    );
 }
 
 #[test]
@@ -405,7 +389,10 @@ fn lookahead_hold_and_abort() {
     let b = c.push_move(&words(&[(0, 10000.0)])).unwrap().unwrap();
     assert!(c.wants_moves());
     c.push_move(&words(&[(0, 12000.0)])).unwrap();
-    assert!(!c.wants_moves(), "two moves beyond the executing one are enough");
+    assert!(
+        !c.wants_moves(),
+        "two moves beyond the executing one are enough"
+    );
     let out = c.tick();
     assert_eq!(out.started, [a]);
     // Feed hold: the time base ramps to 0 (1 s at Ix95 default), motion freezes.
@@ -437,8 +424,85 @@ fn lookahead_hold_and_abort() {
         vs.push((p - prev) / SERVO);
         prev = p;
     }
-    assert!(v > 5.0 && vs.len() as f64 * SERVO > v / 0.25 - 2.0 * SERVO, "{v} {}", vs.len());
-    assert!((vs[10] - vs[11] - 0.25 * SERVO).abs() < 1e-9, "decel at Ix15");
+    assert!(
+        v > 5.0 && vs.len() as f64 * SERVO > v / 0.25 - 2.0 * SERVO,
+        "{v} {}",
+        vs.len()
+    );
+    assert!(
+        (vs[10] - vs[11] - 0.25 * SERVO).abs() < 1e-9,
+        "decel at Ix15"
+    );
     assert!(!c.wants_moves() || c.is_idle());
     assert!(c.executing().is_none() || c.executing() == Some(b));
+}
+
+#[test]
+fn stop_at_end_of_current_move_and_sync_events() {
+    let mut c = cs(&[(0, 1.0)], cfg());
+    c.modal.set_ta(50.0).unwrap();
+    c.modal.set_ts(0.0).unwrap();
+    c.modal.set_tm(200.0).unwrap();
+    let a = c.push_move(&words(&[(0, 1000.0)])).unwrap().unwrap();
+    let b = c.push_move(&words(&[(0, 2000.0)])).unwrap().unwrap();
+    let mut started = Vec::new();
+    let mut finished = Vec::new();
+    for _ in 0..50 {
+        let o = c.tick();
+        started.extend(o.started);
+        finished.extend(o.finished);
+    }
+    assert_eq!(c.executing(), Some(a));
+    c.stop_at_end();
+    let mut last = 0.0;
+    while !c.is_idle() {
+        let o = c.tick();
+        started.extend(o.started);
+        finished.extend(o.finished);
+        last = o.motors[0];
+    }
+    assert_eq!(last, 1000.0, "stopped on the end of the executing move");
+    assert_eq!(started, [a]);
+    assert_eq!(finished, [a]);
+    let _ = b;
+    // Resuming after `/`: a new move starts from rest at the stop point.
+    c.push_move(&words(&[(0, 1500.0)])).unwrap();
+    let mut p = Vec::new();
+    while !c.is_idle() {
+        p.push(c.tick().motors[0]);
+    }
+    assert!((p[0] - 1000.0).abs() < 1.0 && *p.last().unwrap() == 1500.0);
+}
+
+#[test]
+fn delay_blends_and_adis_renames_without_moving() {
+    let mut c = cs(&[(0, 1.0), (1, 1.0)], cfg());
+    c.xf.define(1);
+    c.tsel(1).unwrap();
+    c.rename(|b| b.adis([100.0, 0.0, 0.0])).unwrap();
+    assert_eq!(
+        c.program_position()[0],
+        100.0,
+        "ADIS renames the present position"
+    );
+    c.modal.set_ta(100.0).unwrap();
+    c.modal.set_ts(0.0).unwrap();
+    c.modal.set_tm(200.0).unwrap();
+    c.push_move(&words(&[(0, 150.0)])).unwrap();
+    c.delay(300.0).unwrap();
+    let mut tr = Vec::new();
+    while !c.is_idle() {
+        tr.push(c.tick().motors[0]);
+    }
+    assert!(
+        tr.iter().all(|p| (-1e-9..=50.0 + 1e-9).contains(p)),
+        "motor moves 50 counts"
+    );
+    assert_eq!(*tr.last().unwrap(), 50.0);
+    // The delay is a blended zero move: total = 200 + 300 + TA.
+    assert!(
+        ((tr.len() as f64) * SERVO - 600.0).abs() <= 2.0 * SERVO,
+        "{}",
+        tr.len() as f64 * SERVO
+    );
 }

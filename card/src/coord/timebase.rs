@@ -84,7 +84,11 @@ impl TimeBase {
     /// Advance one servo cycle; returns the trajectory time increment in ms.
     pub fn tick(&mut self) -> f64 {
         let target = if self.held { 0.0 } else { self.cmd };
-        let slew = if self.held || self.recovering { self.ix95 } else { self.ix94 };
+        let slew = if self.held || self.recovering {
+            self.ix95
+        } else {
+            self.ix94
+        };
         let d = target - self.present;
         if d.abs() <= slew {
             self.present = target;

@@ -22,7 +22,11 @@ pub struct Affine {
 
 impl Default for Affine {
     fn default() -> Self {
-        Affine { r: Matrix3::identity(), d: Vector3::zeros(), r_inv: Matrix3::identity() }
+        Affine {
+            r: Matrix3::identity(),
+            d: Vector3::zeros(),
+            r_inv: Matrix3::identity(),
+        }
     }
 }
 
@@ -125,12 +129,18 @@ impl TransformBank {
 
     /// The transformation in force (identity when none selected).
     pub fn current(&self) -> Affine {
-        self.selected.checked_sub(1).and_then(|k| self.mats.get(k)).copied().unwrap_or_default()
+        self.selected
+            .checked_sub(1)
+            .and_then(|k| self.mats.get(k))
+            .copied()
+            .unwrap_or_default()
     }
 
     fn cur_mut(&mut self) -> Result<&mut Affine, CoordError> {
         let k = self.selected;
-        k.checked_sub(1).and_then(|k| self.mats.get_mut(k)).ok_or(CoordError::NoMatrix(k as u32))
+        k.checked_sub(1)
+            .and_then(|k| self.mats.get_mut(k))
+            .ok_or(CoordError::NoMatrix(k as u32))
     }
 
     /// `TINIT`: identity rotation, zero displacement.

@@ -327,7 +327,7 @@ pub fn list_lines<L: StoredLine>(
                 let end = len.map(|n| s + u64::from(n));
                 let line_end = off + w.max(1);
                 let after_start = line_end > s;
-                let before_end = end.map_or(true, |e| off < e);
+                let before_end = end.is_none_or(|e| off < e);
                 if after_start && before_end {
                     out.push(format!("{off}:{text}"));
                 }
