@@ -117,6 +117,19 @@ pub struct DownArgs {
 pub enum BenchCommand {
     /// Ring throughput and latency against raw UDP and the OS timer.
     Ring(BenchRingArgs),
+    /// Card host interface: in-process command rate, ASCII and Ethernet port round trips.
+    Host(BenchHostArgs),
+}
+
+/// `mcc bench host`.
+#[derive(Debug, Args)]
+pub struct BenchHostArgs {
+    /// In-process command lines to execute.
+    #[arg(long, value_name = "N", default_value_t = 1_000_000)]
+    pub commands: usize,
+    /// Round trips per host port.
+    #[arg(long, value_name = "N", default_value_t = 5_000)]
+    pub round_trips: usize,
 }
 
 /// `mcc bench ring`.

@@ -34,6 +34,7 @@ fn main() {
         Command::Fault(a) => fault::cmd_fault(&cluster, a),
         Command::Down(a) => down::cmd_down(&cluster, a),
         Command::Bench(BenchCommand::Ring(a)) => bench::ring::run(a),
+        Command::Bench(BenchCommand::Host(a)) => bench::host::run(a),
         Command::Supervise => up::cmd_supervise(&cluster),
     };
     if let Err(e) = res {

@@ -12,10 +12,9 @@ use super::ascii::AsciiCodec;
 use super::port::{run_events, CardPort};
 use crate::interp::{Card, Session};
 
-/// `mcc/<cluster>/card/<n>/cmd` (same format as `mcc_ring::control::card_cmd_key`, which is not
-/// exported by mcc-ring yet).
+/// `mcc/<cluster>/card/<n>/cmd` (architecture §4).
 pub fn cmd_key(cluster: &str, n: u32) -> String {
-    format!("mcc/{cluster}/card/{n}/cmd")
+    mcc_ring::control::card_cmd_key(cluster, n)
 }
 
 /// Run one query payload against the card (pure apart from the card lock; shared with tests).

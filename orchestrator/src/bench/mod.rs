@@ -1,5 +1,6 @@
 //! Benchmarks (`mcc bench ...`).
 
+pub mod host;
 pub mod inproc;
 pub mod ring;
 pub mod stats;
