@@ -17,4 +17,5 @@ pub mod lang;
 pub mod motion;
 pub mod program;
 pub mod runtime;
+pub mod servo;
 pub mod state;

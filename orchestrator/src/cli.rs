@@ -41,6 +41,12 @@ pub enum Command {
     Fault(FaultArgs),
     /// Stop every member of a running cluster and remove its runtime files.
     Down(DownArgs),
+    /// Run one command line on several cards in the servo tick of the same ring cycle.
+    StartSync(StartSyncArgs),
+    /// Send command lines on the daisy chain and print the replies (for scripts).
+    Send(SendArgs),
+    /// Interactive terminal on a running cluster's daisy chain.
+    Term(TermArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -73,6 +79,57 @@ pub struct UpArgs {
     /// Seconds to wait for the ring to lock.
     #[arg(long, value_name = "S", default_value_t = 60)]
     pub timeout: u64,
+    /// Also serve the daisy chain on a pseudo-terminal (its path is printed and in status).
+    #[arg(long)]
+    pub pty: bool,
+    /// TCP port of the daisy chain on 127.0.0.1 (default: any free port).
+    #[arg(long, value_name = "PORT")]
+    pub chain_port: Option<u16>,
+    /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    #[arg(long)]
+    pub show_framing: bool,
+}
+
+/// `mcc send`.
+#[derive(Debug, Args)]
+pub struct SendArgs {
+    /// Address card N (`@N`) before the first line.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=15))]
+    pub card: Option<u8>,
+    /// Show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    #[arg(long)]
+    pub show_framing: bool,
+    /// Milliseconds a card has to answer.
+    #[arg(long, value_name = "MS", default_value_t = 2000)]
+    pub timeout_ms: u64,
+    /// Command lines (`^K` = control character).
+    #[arg(required = true, value_name = "LINE")]
+    pub lines: Vec<String>,
+}
+
+/// `mcc term`.
+#[derive(Debug, Args)]
+pub struct TermArgs {
+    /// Show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    #[arg(long)]
+    pub show_framing: bool,
+    /// Milliseconds a card has to answer.
+    #[arg(long, value_name = "MS", default_value_t = 2000)]
+    pub timeout_ms: u64,
+}
+
+/// `mcc bench chain`.
+#[derive(Debug, Args)]
+pub struct BenchChainArgs {
+    /// Cards in the benchmark cluster.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: u8,
+    /// Round trips to measure.
+    #[arg(long, value_name = "K", default_value_t = 1000)]
+    pub count: u32,
+    /// Clock mode of the benchmark cluster.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
 }
 
 /// `mcc status`.
@@ -87,7 +144,8 @@ pub struct StatusArgs {
 #[derive(Debug, Args)]
 pub struct FaultArgs {
     /// `MEMBER KIND` or `clear [MEMBER]`. Kinds: drop-sync, drop-packets, corrupt,
-    /// byte-violation, overrun, underrun, delay, delay-us, cut.
+    /// byte-violation, overrun, underrun, delay, delay-us, cut; process drills: freeze
+    /// (SIGSTOP), thaw (SIGCONT), kill (SIGKILL), restart (same config, rejoins the ring).
     #[arg(num_args = 1..=2, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
@@ -104,6 +162,29 @@ pub struct FaultArgs {
     pub delay: Option<u64>,
 }
 
+/// `mcc start-sync`.
+#[derive(Debug, Args)]
+pub struct StartSyncArgs {
+    /// Card numbers (I0), comma-separated.
+    #[arg(long, value_name = "N,N,...", required = true)]
+    pub cards: String,
+    /// Smallest lead, ms of ring time (doubled on every retry).
+    #[arg(long, value_name = "MS", default_value_t = 10.0)]
+    pub lead_ms: f64,
+    /// Attempts before giving up.
+    #[arg(long, value_name = "N", default_value_t = 6, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub attempts: u32,
+    /// Print the outcome as JSON (an array with `--repeat`).
+    #[arg(long)]
+    pub json: bool,
+    /// Run the start this many times, one after the other (tests, benchmarks).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub repeat: Option<u32>,
+    /// The command line, e.g. "&1B1R".
+    #[arg(required = true, value_name = "LINE")]
+    pub line: Vec<String>,
+}
+
 /// `mcc down`.
 #[derive(Debug, Args)]
 pub struct DownArgs {
@@ -115,10 +196,14 @@ pub struct DownArgs {
 /// `mcc bench ...`.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
+    /// Daisy-chain command round trip (p50/p99) on a cluster of its own.
+    Chain(BenchChainArgs),
     /// Ring throughput and latency against raw UDP and the OS timer.
     Ring(BenchRingArgs),
     /// Card host interface: in-process command rate, ASCII and Ethernet port round trips.
     Host(BenchHostArgs),
+    /// Card servo tick cost per motor and the share of a core used by 8 motors.
+    Servo,
 }
 
 /// `mcc bench host`.

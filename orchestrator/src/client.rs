@@ -65,7 +65,8 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
         Duration::from_millis(700),
         Duration::from_millis(1500),
     );
-    let doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
+    let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
+    crate::drills::enrich_status(&a.session, &a.cfg, &mut doc);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

@@ -42,6 +42,28 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
     let (targets, req): (Option<String>, FaultRequest) = match args.words.as_slice() {
         [clear] if clear == "clear" => (None, FaultRequest::Clear),
         [clear, member] if clear == "clear" => (Some(member.clone()), FaultRequest::Clear),
+        [reset, rest @ ..] if reset == "reset" && rest.len() <= 1 => {
+            let a = attach(cluster)?;
+            return crate::drills::reset_latches(&a, rest.first().map(String::as_str));
+        }
+        [member, drill] if crate::drills::PROCESS_DRILLS.contains(&drill.as_str()) => {
+            if args.cycles.is_some()
+                || args.probability.is_some()
+                || args.seed.is_some()
+                || args.delay.is_some()
+            {
+                bail!("`{drill}` takes no --cycles/--probability/--seed/--delay");
+            }
+            let a = attach(cluster)?;
+            if a.cfg.member(member).is_none() {
+                bail!(
+                    "unknown member {member:?} in cluster {cluster:?} (members: {})",
+                    a.cfg.ring.order.join(", ")
+                );
+            }
+            println!("{member}: {}", crate::drills::process_drill(&a, member, drill)?);
+            return Ok(());
+        }
         [member, kind] => (
             Some(member.clone()),
             FaultRequest::Inject {

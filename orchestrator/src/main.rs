@@ -4,16 +4,21 @@
 use clap::Parser;
 
 mod bench;
+mod chain;
 mod cli;
 mod client;
 mod ctl;
 mod down;
+mod drills;
 mod fault;
 mod launch;
 mod rundir;
+mod send;
 mod status;
 mod supervisor;
 mod sys;
+mod term;
+mod syncstart;
 mod up;
 
 use cli::{BenchCommand, Cli, Command};
@@ -22,19 +27,30 @@ fn main() {
     let cli = Cli::parse();
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG").unwrap_or_else(|_| {
+                // zenoh's own transport chatter (links opened and closed while a CLI verb
+                // attaches) is not for the user; MCC_LOG=debug shows it.
+                tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=off")
+            }),
         )
         .with_writer(std::io::stderr)
         .init();
     let cluster = cli.cluster_name();
     let res = match &cli.command {
-        Command::Up(a) => up::cmd_up(cli.cluster.as_deref(), a),
+        Command::Up(a) => {
+            chain::server::export_up_options(a);
+            up::cmd_up(cli.cluster.as_deref(), a)
+        }
+        Command::Send(a) => send::cmd_send(&cluster, a),
+        Command::Term(a) => send::cmd_term(&cluster, a),
+        Command::Bench(BenchCommand::Chain(a)) => bench::chain::run(a),
         Command::Status(a) => client::cmd_status(&cluster, a),
         Command::Fault(a) => fault::cmd_fault(&cluster, a),
         Command::Down(a) => down::cmd_down(&cluster, a),
+        Command::StartSync(a) => syncstart::cmd_start_sync(&cluster, a),
         Command::Bench(BenchCommand::Ring(a)) => bench::ring::run(a),
         Command::Bench(BenchCommand::Host(a)) => bench::host::run(a),
+        Command::Bench(BenchCommand::Servo) => bench::host::run_servo(),
         Command::Supervise => up::cmd_supervise(&cluster),
     };
     if let Err(e) = res {

@@ -45,6 +45,12 @@ pub struct SupervisorInfo {
     pub members: Vec<MemberProc>,
     /// Error text when `phase` is `failed`.
     pub message: Option<String>,
+    /// Daisy-chain TCP endpoint (`127.0.0.1:PORT`) once serving.
+    #[serde(default)]
+    pub daisy_chain: Option<String>,
+    /// Daisy-chain pseudo-terminal path, when one is served.
+    #[serde(default)]
+    pub daisy_chain_pty: Option<String>,
 }
 
 impl SupervisorInfo {
@@ -57,6 +63,8 @@ impl SupervisorInfo {
             endpoint: None,
             members: Vec::new(),
             message: None,
+            daisy_chain: None,
+            daisy_chain_pty: None,
         }
     }
 }

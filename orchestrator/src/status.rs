@@ -27,8 +27,10 @@ pub struct ClusterStatus {
     pub cards: Vec<CardRow>,
     /// Stations.
     pub stations: Vec<StationRow>,
-    /// Daisy-chain endpoint (later issue).
+    /// Daisy-chain TCP endpoint, `127.0.0.1:PORT`.
     pub daisy_chain: Option<String>,
+    /// Daisy-chain pseudo-terminal path (`mcc up --pty`), else null.
+    pub daisy_chain_pty: Option<String>,
     /// EMCL bus endpoint (later issue).
     pub emcl_bus: Option<String>,
     /// The supervising process.
@@ -79,6 +81,8 @@ pub struct MemberRow {
     pub ring_fault: bool,
     /// Ring faults since start.
     pub ring_fault_count: u64,
+    /// Ring cycle at which the latest ring fault was detected.
+    pub ring_fault_cycle: Option<u64>,
     /// Cycles run on the holdover clock.
     pub holdover_cycles: u64,
     /// Realtime cycles that started late.
@@ -102,6 +106,16 @@ pub struct CardRow {
     pub pmac_eth: Option<u16>,
     /// OS pid.
     pub pid: Option<u32>,
+    /// Ring-fault bit of the card (X:$0003 bit 4), from its `at` queryable.
+    pub ring_fault: Option<bool>,
+    /// The ring fault killed every activated motor.
+    pub motors_killed: Option<bool>,
+    /// Activated motors that are killed.
+    pub killed_motors: Vec<u16>,
+    /// Ring cycle at which its most recent program start executed.
+    pub program_start_cycle: Option<u64>,
+    /// CLOCK_MONOTONIC ns of that start.
+    pub program_start_ns: Option<u64>,
 }
 
 /// One station.
@@ -177,7 +191,9 @@ pub fn broken_link(
             Some(rx) => reference.saturating_sub(rx),
             None => reference,
         };
-        if lag > threshold {
+        // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
+        // its holdover clock, unlocked, with a ring fault.
+        if lag > threshold || (!s.locked && s.ring_fault && s.sync_count > 0) {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
         }
     }
@@ -243,6 +259,7 @@ pub fn build(
                 errors: v.errors,
                 ring_fault: v.ring_fault,
                 ring_fault_count: v.ring_fault_count,
+                ring_fault_cycle: v.ring_fault_cycle,
                 holdover_cycles: v.holdover_cycles,
                 late_cycles: v.late_cycles,
                 faults: v.faults.clone(),
@@ -270,6 +287,11 @@ pub fn build(
                 ascii: extra_port(s, &["ascii", "ascii_port"]),
                 pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
                 pid: pid_of(&c.name, s),
+                ring_fault: None,
+                motors_killed: None,
+                killed_motors: Vec::new(),
+                program_start_cycle: None,
+                program_start_ns: None,
             }
         })
         .collect();
@@ -291,7 +313,8 @@ pub fn build(
         members,
         cards,
         stations,
-        daisy_chain: None,
+        daisy_chain: info.daisy_chain.clone(),
+        daisy_chain_pty: info.daisy_chain_pty.clone(),
         emcl_bus: None,
         supervisor: SupervisorRow {
             pid: info.pid,
@@ -303,6 +326,21 @@ pub fn build(
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
     v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
+}
+
+/// `  RING FAULT, motors killed  program start @cycle N` (empty when nothing is known).
+fn card_state_text(c: &CardRow) -> String {
+    let mut t = String::new();
+    if c.ring_fault == Some(true) {
+        t.push_str("  RING FAULT");
+        if c.motors_killed == Some(true) {
+            t.push_str(", motors killed");
+        }
+    }
+    if let Some(p) = c.program_start_cycle {
+        let _ = write!(t, "  program start @cycle {p}");
+    }
+    t
 }
 
 /// The human-readable table.
@@ -358,14 +396,19 @@ pub fn render_table(s: &ClusterStatus) -> String {
     for c in &s.cards {
         let _ = writeln!(
             o,
-            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}",
+            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}{}",
             c.name,
             opt(c.pid),
             c.number,
             c.profile,
             opt(c.ascii),
-            opt(c.pmac_eth)
+            opt(c.pmac_eth),
+            card_state_text(c)
         );
+    }
+    if let Some(d) = &s.daisy_chain {
+        let pty = s.daisy_chain_pty.as_deref().unwrap_or("-");
+        let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
     let _ = writeln!(
         o,

@@ -112,7 +112,7 @@ fn lag_threshold_uses_the_smallest_check_period() {
     assert_eq!(lag_threshold(&cfg), 32);
     cfg.stations[0].check.period = 20;
     cfg.stations[1].check.period = 20;
-    assert_eq!(lag_threshold(&cfg), 80);
+    assert_eq!(lag_threshold(&cfg), 64);
     cfg.cards[0]
         .ivars
         .insert("I1001".into(), mcc_ring::config::IVarValue::Int(10));

@@ -32,6 +32,10 @@ pub struct Supervisor {
     token: Option<zenoh::liveliness::LivelinessToken>,
     children: Vec<Running>,
     info: SupervisorInfo,
+    /// `mcc fault MEMBER restart` requests (DRILLS), served in [`Supervisor::poll`].
+    restarts: Option<(zenoh::query::Queryable<()>, mpsc::Receiver<zenoh::query::Query>)>,
+    /// The daisy chain (TCP port, optional pty) while the cluster runs.
+    chain: Option<crate::chain::server::ChainServer>,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -63,7 +67,19 @@ impl Supervisor {
             token: Some(token),
             children: Vec::new(),
             info,
+            restarts: None,
+            chain: None,
         };
+        let (rtx, rrx) = mpsc::sync_channel(16);
+        let q = sup
+            .session
+            .declare_queryable(crate::drills::restart_key(&sup.cfg.cluster))
+            .callback(move |query| {
+                let _ = rtx.try_send(query);
+            })
+            .wait()
+            .map_err(|e| anyhow!("cannot declare the restart queryable: {e}"))?;
+        sup.restarts = Some((q, rrx));
         let order = sup.cfg.ring.order.clone();
         for name in &order {
             match launch::spawn_member(&sup.rd, &sup.cfg, name, &endpoint) {
@@ -88,6 +104,20 @@ impl Supervisor {
                     sup.shutdown(Duration::from_secs(3));
                     return Err(e);
                 }
+            }
+        }
+        let chain = crate::chain::server::ChainOptions::from_env().and_then(|o| {
+            crate::chain::server::ChainServer::start(&sup.session, &sup.cfg, &o)
+        });
+        match chain {
+            Ok(c) => {
+                sup.info.daisy_chain = Some(c.addr().to_string());
+                sup.info.daisy_chain_pty = c.pty_path().map(str::to_string);
+                sup.chain = Some(c);
+            }
+            Err(e) => {
+                sup.shutdown(Duration::from_secs(3));
+                return Err(e);
             }
         }
         sup.info.phase = "running".into();
@@ -118,6 +148,32 @@ impl Supervisor {
     /// Reap members that exited since the last call; one message per newly dead member.
     pub fn poll(&mut self) -> Vec<String> {
         let mut out = Vec::new();
+        let queries: Vec<zenoh::query::Query> = self
+            .restarts
+            .as_ref()
+            .map(|(_, rx)| rx.try_iter().collect())
+            .unwrap_or_default();
+        for q in queries {
+            let name = q
+                .payload()
+                .and_then(|p| p.try_to_string().ok().map(|s| s.trim().to_string()))
+                .unwrap_or_default();
+            let reply = match self.restart(&name) {
+                Ok(pid) => {
+                    out.push(format!("member {name} restarted (pid {pid})"));
+                    mcc_ring::control::CtlReply {
+                        ok: true,
+                        message: format!("restarted (pid {pid})"),
+                    }
+                }
+                Err(e) => mcc_ring::control::CtlReply {
+                    ok: false,
+                    message: format!("{e:#}"),
+                },
+            };
+            let body = serde_json::to_vec(&reply).unwrap_or_default();
+            let _ = q.reply(q.key_expr().clone(), body).wait();
+        }
         for r in self.children.iter_mut().filter(|r| r.exited.is_none()) {
             if let Ok(Some(status)) = r.child.try_wait() {
                 r.exited = Some(status);
@@ -129,6 +185,43 @@ impl Supervisor {
             }
         }
         out
+    }
+
+    /// Restart member `name` (drill): SIGKILL the old process if it still runs (thawing it
+    /// first), reap it, start it again with the same config and endpoint; it rejoins the ring.
+    pub fn restart(&mut self, name: &str) -> Result<u32> {
+        let idx = self
+            .children
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| anyhow!("unknown member {name:?}"))?;
+        let endpoint = self
+            .info
+            .endpoint
+            .clone()
+            .ok_or_else(|| anyhow!("no endpoint"))?;
+        if let Some(r) = self.children.get_mut(idx) {
+            if r.exited.is_none() {
+                let _ = sys::signal(r.child.id(), libc::SIGCONT);
+                let _ = sys::signal(r.child.id(), sys::SIGKILL);
+                r.exited = r.child.wait().ok();
+            }
+        }
+        let child = launch::spawn_member(&self.rd, &self.cfg, name, &endpoint)?;
+        let pid = child.id();
+        tracing::info!(member = %name, pid, "restarted");
+        if let Some(r) = self.children.get_mut(idx) {
+            *r = Running {
+                name: name.to_string(),
+                child,
+                exited: None,
+            };
+        }
+        if let Some(m) = self.info.members.iter_mut().find(|m| m.name == name) {
+            m.pid = pid;
+        }
+        self.rd.write_info(&self.info)?;
+        Ok(pid)
     }
 
     /// Stop every member: shutdown query, then SIGTERM, then SIGKILL after `timeout`; reap

@@ -1,6 +1,5 @@
 //! `mcc up` (foreground or `--detach`) and the hidden `mcc supervise` daemon.
 
-use std::io::BufRead;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -142,6 +141,12 @@ fn print_ready(
             s.name, s.master, s.nodes
         );
     }
+    if let Some(d) = &info.daisy_chain {
+        match &info.daisy_chain_pty {
+            Some(p) => println!("  daisy chain {d}  pty {p}"),
+            None => println!("  daisy chain {d}"),
+        }
+    }
     println!(
         "  zenoh endpoint {}",
         info.endpoint.as_deref().unwrap_or("-")
@@ -162,7 +167,7 @@ pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
     if args.detach {
         up_detached(&rd, &cfg, timeout)
     } else {
-        up_foreground(rd, cfg, timeout)
+        up_foreground(rd, cfg, timeout, args.show_framing)
     }
 }
 
@@ -236,7 +241,12 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
     Ok(())
 }
 
-fn up_foreground(rd: RunDir, cfg: ClusterConfig, timeout: Duration) -> Result<()> {
+fn up_foreground(
+    rd: RunDir,
+    cfg: ClusterConfig,
+    timeout: Duration,
+    show_framing: bool,
+) -> Result<()> {
     let (_rt, signals) = stop_signals()?;
     let mut sup = match Supervisor::start(rd.clone(), cfg) {
         Ok(s) => s,
@@ -261,18 +271,15 @@ fn up_foreground(rd: RunDir, cfg: ClusterConfig, timeout: Duration) -> Result<()
         }
     };
     print_ready(sup.run_dir(), &cfg, sup.info(), &st);
-    println!("  Ctrl-C or end of input stops the cluster");
-    // End of standard input also stops the cluster.
-    let (eof_tx, eof_rx) = mpsc::channel::<()>();
-    std::thread::spawn(move || {
-        let stdin = std::io::stdin();
-        for line in stdin.lock().lines() {
-            if line.is_err() {
-                break;
-            }
-        }
-        let _ = eof_tx.send(());
-    });
+    println!("  type PMAC commands for the daisy chain (.help); Ctrl-D, .quit, end of input or SIGINT stops the cluster");
+    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster.
+    let eof_rx = crate::term::spawn_foreground(
+        session.clone(),
+        cfg.clone(),
+        sup.info().clone(),
+        sup.run_dir().dir.display().to_string(),
+        show_framing,
+    );
     run_until_stopped(&mut sup, &signals, Some(&eof_rx));
     sup.shutdown(STOP_TIMEOUT);
     println!("cluster {} stopped", cfg.cluster);

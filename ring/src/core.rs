@@ -132,6 +132,12 @@ pub struct MemberCore {
     awaiting: Option<u64>,
     locked: bool,
     unconsumed: bool,
+    /// A frame arrived since the last servo tick.
+    rx_since_tick: bool,
+    /// Consecutive servo ticks without any frame from upstream.
+    silent_ticks: u32,
+    /// Ring cycle of the frame into which this master last put command packets.
+    sent_cycle: Option<u64>,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -163,6 +169,9 @@ impl MemberCore {
             awaiting: None,
             locked: false,
             unconsumed: false,
+            rx_since_tick: false,
+            silent_ticks: 0,
+            sent_cycle: None,
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -314,6 +323,7 @@ impl MemberCore {
         self.last_rx_cycle = Some(frame.cycle);
         self.rx_frames += 1;
         let mut ev = CoreEvents::default();
+        self.rx_since_tick = true;
         if self.unconsumed {
             ev.errors.push(ErrorClass::Overrun);
         }
@@ -322,6 +332,7 @@ impl MemberCore {
         let intact = usize::from(frame.declared) * PACKET_LEN;
         let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
         let mut forwards = Vec::with_capacity(whole);
+        let mut own_returned = 0usize;
         let mut sync = None;
         for chunk in frame.packets.chunks_exact(PACKET_LEN).take(whole) {
             let p = match Packet::decode(chunk) {
@@ -339,7 +350,13 @@ impl MemberCore {
                     continue;
                 }
             };
+            let own = self.member.is_master()
+                && p.master & 0x0F == self.member.settings().master_number()
+                && p.node & 0x0F != self.member.settings().sync_node();
             let r = self.member.route(p);
+            if own && r.forward.is_none() {
+                own_returned += 1;
+            }
             if let Some(c) = r.own_sync_return {
                 self.status.set_sync_received();
                 self.sync_count += 1;
@@ -355,6 +372,15 @@ impl MemberCore {
                 sync = Some(c);
             }
             forwards.extend(r.forward);
+        }
+        // A master's command packets of the previous cycle come back in this cycle's frame; a
+        // frame without them is missing its packets (data underrun): the ring is broken
+        // somewhere downstream of this master.
+        if !self.is_sync_master()
+            && self.sent_cycle.is_some_and(|c| c + 1 == frame.cycle)
+            && own_returned == 0
+        {
+            ev.errors.push(ErrorClass::Underrun);
         }
         if frame.packets.len() < intact {
             ev.errors.push(ErrorClass::Underrun);
@@ -373,7 +399,9 @@ impl MemberCore {
             self.member.hold(forwards);
             return ev;
         }
-        forwards.extend(self.member.command_packets());
+        let commands = self.member.command_packets();
+        self.sent_cycle = (!commands.is_empty()).then_some(frame.cycle);
+        forwards.extend(commands);
         let seq = self.next_seq();
         let out = Frame::with_packets(self.position, seq, now_ns, frame.cycle, &forwards);
         ev.outgoing = self.faults.on_send(self.cycle, out);
@@ -445,6 +473,17 @@ impl MemberCore {
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
         self.unconsumed = false;
+        // No data at all from upstream for a second servo cycle in a row: data underrun (the
+        // link into this member is dead). One late frame alone is not an error.
+        if self.rx_since_tick {
+            self.silent_ticks = 0;
+        } else if self.last_rx_cycle.is_some() {
+            self.silent_ticks = self.silent_ticks.saturating_add(1);
+            if self.silent_ticks >= 2 {
+                self.status.record(ErrorClass::Underrun);
+            }
+        }
+        self.rx_since_tick = false;
         let settings = self.member.settings();
         let node = settings.sync_node();
         let fault = if self.kind == MemberKind::Card

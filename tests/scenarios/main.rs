@@ -1,5 +1,9 @@
 //! The one scenario test binary: in-process ring, transcripts, multi-process clusters.
 
+mod chain;
 mod cluster;
+mod drills;
+mod motion;
+mod programs;
 mod ring_inprocess;
 mod transcripts;

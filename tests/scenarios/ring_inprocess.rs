@@ -530,3 +530,65 @@ fn same_seed_same_run() {
     assert_ne!(a, run(12));
     assert!(a[2].errors.checksum > 20, "{:?}", a[2].errors);
 }
+
+/// Cycles at which member `i` latched its ring fault (rising edge) in `reps`.
+fn first_fault_cycle(reps: &[mcc_ring::sim::StepReport], i: usize) -> Option<u64> {
+    reps.iter()
+        .find(|r| r.faults.iter().any(|f| f.0 == i))
+        .map(|r| r.cycle)
+}
+
+#[test]
+fn a_dead_link_is_a_data_underrun_downstream_and_faults_within_one_check_period() {
+    // RTI every servo cycle (I8 = 0), I1001 = 16, I1004 = 2, I1005 = 4.
+    let check = || RingCheck::card(16, 2, 4, 0);
+    let mut sim = ring(vec![
+        card(0x30, 0x0F_0003, check(), &[0, 1]),
+        station(0x8080, 0x0F_8001, RingCheck::station(16, 4, 2), &[0]),
+        station(0x8080, 0x0F_8002, RingCheck::station(16, 4, 2), &[1]),
+    ]);
+    sim.run(40);
+    sim.inject(1, FaultSpec::always(FaultKind::Cut)).unwrap();
+    let cut_at = sim.cycle();
+    let reps = sim.run(40);
+    // Downstream of the cut nothing arrives: the second silent tick records an underrun, the
+    // next one the second error (I1004 = 2); the first silent tick runs on the holdover clock
+    // half a period late → fault at cut + 4, well inside I1001 + 1.
+    for i in [2, 0] {
+        let at = first_fault_cycle(&reps, i).expect("faulted");
+        assert_eq!(at, cut_at + 4, "member {i}");
+        assert!(sim.member(i).status().errors.underrun >= 2, "member {i}");
+        assert!(at - cut_at <= 16 + 1);
+    }
+    // Upstream of the cut the station keeps receiving: no fault.
+    assert!(first_fault_cycle(&reps, 1).is_none());
+    assert_eq!(sim.member(1).status().errors.underrun, 0);
+}
+
+#[test]
+fn a_master_whose_packets_do_not_come_back_faults_even_upstream_of_the_break() {
+    // card0 (sync master, master 0) → card1 (master 1, node 0) → station0 (slave of master 1,
+    // node 0) → back to card0. Cutting card1's outgoing link leaves card1 receiving sync
+    // packets from card0 but never its own packets: each frame is missing them (underrun).
+    let check = || RingCheck::card(16, 2, 4, 0);
+    let mut sim = ring(vec![
+        card(0x30, 0x0F_0000, check(), &[]),
+        card(0x8090, 0x1F_8001, check(), &[0]),
+        station(0x8080, 0x1F_8001, RingCheck::station(16, 4, 2), &[0]),
+    ]);
+    sim.run(40);
+    for i in 0..3 {
+        let st = sim.member(i).status();
+        assert!(st.locked && !st.ring_fault, "member {i}");
+        assert_eq!(st.errors.underrun, 0, "member {i}");
+    }
+    // card1 gets station0's answers: 2 × cycle + 1000 from one cycle back.
+    assert!(sim.member(1).member().read_regs(0).r0 > 1000);
+    sim.inject(1, FaultSpec::always(FaultKind::Cut)).unwrap();
+    let cut_at = sim.cycle();
+    let reps = sim.run(40);
+    let at = first_fault_cycle(&reps, 1).expect("card1 faulted");
+    assert!(at - cut_at <= 4, "card1 faulted at {at}, cut at {cut_at}");
+    assert!(sim.member(1).status().locked, "card1 still gets sync packets");
+    assert!(sim.member(1).status().errors.underrun >= 2);
+}

@@ -38,9 +38,8 @@ impl Card {
                 continue;
             }
             let mut t = Session {
-                motor: s.motor,
                 coord: cs,
-                id: s.id,
+                ..s.clone()
             };
             let c = if matches!(cmd, CmdKind::Step) && self.cs_running(cs) {
                 &CmdKind::Quit

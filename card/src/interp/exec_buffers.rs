@@ -105,7 +105,11 @@ impl Card {
             CmdKind::List(t) => self.list(s, t, out)?,
             CmdKind::Define(t) => self.define(s, t)?,
             CmdKind::Delete(t) => self.delete(s, *t)?,
-            CmdKind::Gather { .. } => self.state.global.word1_other |= GATHER_ON,
+            CmdKind::Gather { .. } => {
+                // No MI2 input is simulated: GATHER TRIGGER starts like GATHER.
+                self.state.global.word1_other |= GATHER_ON;
+                self.gather.start();
+            }
             CmdKind::EndGather => self.state.global.word1_other &= !GATHER_ON,
             CmdKind::Plc(pc) => {
                 for n in plc_list(&pc.list)? {
@@ -202,7 +206,10 @@ impl Card {
                 list_lines(&p.lines, long, offsets(span))
             }
             ListTarget::Rotary(span) => self.rotary_lines(s.coord, long, offsets(span)),
-            ListTarget::Gather(_) => Vec::new(),
+            ListTarget::Gather(span) => {
+                let (start, len) = (span.start, span.len);
+                self.gather.list_lines(start, len)
+            }
             ListTarget::Pc(span) | ListTarget::Pe(span) => self.list_pc(s.coord, span, long)?,
             ListTarget::Comp(def) | ListTarget::BlComp(def) | ListTarget::TComp(def) => {
                 let tables = match t {

@@ -46,6 +46,9 @@ impl Card {
                 );
             }
             DefineTarget::Gather(n) => {
+                if self.gathering() {
+                    return Err(3);
+                }
                 let old = u64::from(self.bufs.defines.gather.unwrap_or(0));
                 let avail = self.bufs.free() + old;
                 let want = n.map_or(avail, u64::from);
@@ -53,6 +56,7 @@ impl Card {
                     return Err(6);
                 }
                 self.bufs.defines.gather = Some(want as u32);
+                self.gather.reset();
             }
             DefineTarget::Tbuf(n) => {
                 let old = self.bufs.defines.tbuf;
@@ -149,7 +153,13 @@ impl Card {
                 }
                 self.bufs.rotary.remove(&cs);
             }
-            DeleteTarget::Gather => self.bufs.defines.gather = None,
+            DeleteTarget::Gather => {
+                if self.gathering() {
+                    return Err(3);
+                }
+                self.bufs.defines.gather = None;
+                self.gather.reset();
+            }
             DeleteTarget::Tbuf => {
                 if above(self, Layer::TBuf) {
                     return Err(7);

@@ -24,19 +24,19 @@ impl Card {
         match cmd {
             CmdKind::Reset => {
                 let _ = self.reset_from_file();
+                // Power-up/reset: card 0 is the addressed card (§8.2).
                 *s = Session {
-                    motor: 1,
-                    coord: 1,
-                    id: s.id,
+                    chain_addressed: self.card_number() == 0,
+                    ..Session::with_id(s.id)
                 };
                 out.flow = Flow::Reset;
             }
             CmdKind::Reinit => {
                 self.reinit();
                 *s = Session {
-                    motor: 1,
-                    coord: 1,
-                    id: s.id,
+                    chain_addressed: s.chain_addressed,
+                    chain_all: s.chain_all,
+                    ..Session::with_id(s.id)
                 };
             }
             CmdKind::Save => {
@@ -67,22 +67,11 @@ impl Card {
                 self.sync_global_flags();
                 out.line(self.state.global_status_text());
             }
-            CmdKind::AddrCard(n) => {
-                self.chain_allowed()?;
-                let me = self.card_number();
-                self.chain_all = false;
-                self.chain_addressed = *n == me;
-                self.set_chain_bits(self.chain_addressed, false);
-            }
-            CmdKind::AddrAllCards => {
-                self.chain_allowed()?;
-                self.chain_all = true;
-                self.chain_addressed = true;
-                self.set_chain_bits(false, true);
-            }
+            CmdKind::AddrCard(n) => self.chain_select(s, Some(*n))?,
+            CmdKind::AddrAllCards => self.chain_select(s, None)?,
             CmdKind::ReportCard => {
                 self.chain_allowed()?;
-                if self.chain_all {
+                if s.chain_all {
                     out.line("@");
                 } else {
                     out.line(format!("{:X}", self.card_number()));
@@ -115,17 +104,53 @@ impl Card {
 
     /// `@` forms need I1 = 2 or 3 (software addressing), else ERR003.
     fn chain_allowed(&self) -> Exec {
-        let i1 = self.state.peek_ivar(1).unwrap_or(0.0) as u32;
-        if i1 & 2 != 0 {
+        if self.software_addressing() {
             Ok(())
         } else {
             Err(3)
         }
     }
 
+    /// I1 bit 1: the card obeys `@` addressing (otherwise it assumes it is alone on its port
+    /// and answers everything).
+    pub fn software_addressing(&self) -> bool {
+        self.state.peek_ivar(1).unwrap_or(0.0) as u32 & 2 != 0
+    }
+
     /// This card's serial number (I0).
-    pub(crate) fn card_number(&self) -> u8 {
+    pub fn card_number(&self) -> u8 {
         (self.state.peek_ivar(0).unwrap_or(0.0) as u32 & 0xF) as u8
+    }
+
+    /// `@n` (`Some(n)`) or `@@` (`None`) received on `s`'s connection: update its addressing
+    /// and the `???` word-1 chain bits. ERR003 without software addressing (I1 bit 1).
+    pub fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), u16> {
+        self.chain_allowed()?;
+        match card {
+            Some(n) => {
+                s.chain_all = false;
+                s.chain_addressed = n == self.card_number();
+                self.set_chain_bits(s.chain_addressed, false);
+            }
+            None => {
+                s.chain_all = true;
+                s.chain_addressed = true;
+                self.set_chain_bits(false, true);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether `s` currently takes commands on this card: always without software addressing,
+    /// else when addressed by `@n` or `@@`.
+    pub fn chain_listening(&self, s: &Session) -> bool {
+        !self.software_addressing() || s.chain_addressed
+    }
+
+    /// Whether this card answers on `s`: it takes commands and, under `@@`, it is card 0.
+    pub fn chain_talking(&self, s: &Session) -> bool {
+        !self.software_addressing()
+            || (s.chain_addressed && (!s.chain_all || self.card_number() == 0))
     }
 
     /// `???` word 1 bit 0 (addressed by `@n`) and bit 1 (`@@`).

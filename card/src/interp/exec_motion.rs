@@ -165,6 +165,8 @@ impl Card {
                 let prog = v.trunc() as u32;
                 let label = ((v - v.trunc()) * 100_000.0).round() as u32;
                 self.run.cs[csk].pointer = Some((prog, label));
+                self.run.cs[csk].pc_text = None;
+                self.run.cs[csk].pe_text = None;
                 self.action(s, cmd);
             }
             K::Run | K::Step | K::Resume => {
@@ -227,6 +229,16 @@ impl Card {
                 }
             }
             K::ProgCounter | K::ExecPointer => {
+                let r = &self.run.cs[csk];
+                let kept = if matches!(cmd, K::ProgCounter) {
+                    &r.pc_text
+                } else {
+                    &r.pe_text
+                };
+                if let (Some(t), Some(_)) = (kept, r.pointer) {
+                    out.line(t.clone());
+                    return Ok(());
+                }
                 let (prog, label) = self.run.cs[csk].pointer.ok_or(3u16)?;
                 out.line(format!("P{prog}:{}", self.label_offset(prog, label)));
             }
@@ -332,7 +344,7 @@ impl Card {
             if !self.bufs.rotary.contains_key(&(cs as u8)) {
                 return Err(15);
             }
-            return Ok(());
+            return self.stop_point_check(cs);
         }
         let p = u16::try_from(prog)
             .ok()
@@ -340,6 +352,27 @@ impl Card {
             .ok_or(15u16)?;
         if !p.valid {
             return Err(16);
+        }
+        self.stop_point_check(cs)
+    }
+
+    /// ERR017: after a `/` stop every motor must be back at its stop point (within the Ix28
+    /// in-position band, at least half a count) before R/S.
+    fn stop_point_check(&self, cs: u16) -> Exec {
+        let Some(sp) = &self.run.cs[cs as usize - 1].stop_point else {
+            return Ok(());
+        };
+        for &(m, p) in sp {
+            let band = (self
+                .state
+                .peek_ivar(100 * u32::from(m) + 28)
+                .unwrap_or(160.0)
+                / 16.0)
+                .max(0.5);
+            let at = self.run.report.get(m as usize - 1).map_or(p, |r| r.0);
+            if (at - p).abs() > band {
+                return Err(17);
+            }
         }
         Ok(())
     }

@@ -98,13 +98,13 @@ impl Card {
         result
     }
 
-    /// Common tail of every reset: no open buffer, addressing back to card 0, status coords.
+    /// Common tail of every reset: no open buffer, status coords (the resetting session's
+    /// chain addressing goes back to card 0 in `exec_info`).
     fn after_reset(&mut self) {
         self.open = None;
         self.pending_table = None;
-        self.chain_addressed = self.state.peek_ivar(0).unwrap_or(0.0) == 0.0;
-        self.chain_all = false;
         self.actions.clear();
+        self.resets += 1;
         self.sync_motor_coords();
         self.sync_global_flags();
     }
@@ -125,6 +125,7 @@ impl Card {
             coord: 1,
             kind: super::ActionKind::Ctrl(0x0B),
         });
+        self.resets += 1;
         self.sync_motor_coords();
         self.sync_global_flags();
     }

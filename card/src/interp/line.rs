@@ -54,7 +54,7 @@ impl Card {
             self.last_line.clone_from(&clean);
         }
         let (outcome, lines) = self.execute_line(s, &clean);
-        let talk = self.chain_addressed && (!self.chain_all || self.card_number() == 0);
+        let talk = self.chain_talking(s);
         if talk {
             let f = self.framing();
             for (fr, l) in &lines {
@@ -87,7 +87,7 @@ impl Card {
             };
             let cmd = match item {
                 Item::Stmt(st) => {
-                    if self.chain_addressed {
+                    if self.chain_listening(s) {
                         pending.push(st);
                     }
                     continue;
@@ -95,7 +95,7 @@ impl Card {
                 Item::Cmd(c) => c.kind,
             };
             let chain_cmd = matches!(cmd, CmdKind::AddrCard(_) | CmdKind::AddrAllCards);
-            if !self.chain_addressed && !chain_cmd {
+            if !self.chain_listening(s) && !chain_cmd {
                 continue;
             }
             if !pending.is_empty() {
@@ -107,7 +107,8 @@ impl Card {
             let r = self.exec_cmd(s, &cmd, &mut out);
             // Under `@@` card 0 rejects data-returning commands (§8.2 [DECISION]).
             let r = if r.is_ok()
-                && self.chain_all
+                && s.chain_all
+                && self.software_addressing()
                 && !out.lines.is_empty()
                 && cmd != CmdKind::ReportCard
             {

@@ -46,15 +46,29 @@ pub struct Session {
     pub coord: u16,
     /// Identity of the connection (distinguishes who opened a program buffer).
     pub id: u64,
+    /// Serial-chain addressing of this connection: this card is addressed (`@n` = I0, or
+    /// `@@`). Only meaningful with software addressing (I1 bit 1); power-up: addressed.
+    pub chain_addressed: bool,
+    /// Serial-chain addressing of this connection: all cards are addressed (`@@`).
+    pub chain_all: bool,
+}
+
+impl Session {
+    /// A fresh addressing state (#1, &1, this card addressed) keeping the connection `id`.
+    pub fn with_id(id: u64) -> Self {
+        Session {
+            motor: 1,
+            coord: 1,
+            id,
+            chain_addressed: true,
+            chain_all: false,
+        }
+    }
 }
 
 impl Default for Session {
     fn default() -> Self {
-        Session {
-            motor: 1,
-            coord: 1,
-            id: NEXT_SESSION.fetch_add(1, Ordering::Relaxed),
-        }
+        Session::with_id(NEXT_SESSION.fetch_add(1, Ordering::Relaxed))
     }
 }
 
@@ -112,12 +126,14 @@ pub struct Card {
     pub(crate) actions: Vec<Action>,
     pub(crate) last_line: Vec<u8>,
     pub(crate) echo: bool,
-    /// Serial-chain addressing: this card is addressed (`@n` = I0) / all cards (`@@`).
-    pub(crate) chain_addressed: bool,
-    pub(crate) chain_all: bool,
     pub(crate) state_file: Option<PathBuf>,
     /// A compensation table just defined and not yet filled: bare numbers are its entries.
     pub(crate) pending_table: Option<(defines::TableKind, u8)>,
+    /// Data gathered by `GATHER` (the servo loop samples into it; `LIST GATHER` prints it).
+    pub gather: crate::servo::gather::GatherBuffer,
+    /// Number of resets (`$$$`, `$$$***`) so far: the servo loop re-initialises its motors
+    /// when it changes.
+    pub(crate) resets: u64,
 }
 
 impl Card {
@@ -134,10 +150,10 @@ impl Card {
             actions: Vec::new(),
             last_line: Vec::new(),
             echo: false,
-            chain_addressed: true,
-            chain_all: false,
             state_file: None,
             pending_table: None,
+            gather: Default::default(),
+            resets: 0,
         };
         c.state.power_on();
         c.sync_motor_coords();
@@ -205,6 +221,16 @@ impl Card {
         {
             *r = (position, velocity, following_error);
         }
+    }
+
+    /// Data gathering is on (`???` word 1 bit 19).
+    pub fn gathering(&self) -> bool {
+        self.state.global.word1_other & crate::servo::gather::GATHER_ON != 0
+    }
+
+    /// Number of resets (`$$$`, `$$$***`) executed so far.
+    pub fn resets(&self) -> u64 {
+        self.resets
     }
 
     /// Whether the interpreted PLC `n` exists, is enabled and not paused (for the PLC runner).

@@ -28,7 +28,7 @@ impl Card {
         let mut s = Session {
             motor: motor.max(1),
             coord: coord.max(1),
-            id: 0,
+            ..Session::with_id(0)
         };
         let clean: Vec<u8> = line.iter().copied().filter(|b| *b >= 0x20).collect();
         if clean.len() <= super::MAX_LINE {

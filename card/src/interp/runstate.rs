@@ -16,6 +16,14 @@ pub struct CsRun {
     pub override_pct: f64,
     /// Feed hold (`H`) in effect: `%` reports 0.
     pub held: bool,
+    /// `PC` reply kept by the program engine while a program is under way (`P1:22`,
+    /// `P1001:35>P3:12`); `None`: report the `B` pointer.
+    pub pc_text: Option<String>,
+    /// `PE` reply kept by the program engine (the move executing).
+    pub pe_text: Option<String>,
+    /// Where a `/` stop left the motors (motor, commanded position in counts): R/S away from
+    /// it is ERR017. Set and cleared by the program engine.
+    pub stop_point: Option<Vec<(u16, f64)>>,
 }
 
 /// Interpreter-side motor bookkeeping.

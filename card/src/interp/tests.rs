@@ -217,7 +217,7 @@ fn out_of_range_session_addressing_is_clamped_not_a_panic() {
     let mut s = Session {
         motor: 0,
         coord: 0,
-        id: 999,
+        ..Session::with_id(999)
     };
     assert_eq!(
         send(&mut c, &mut s, "# & ?? P"),
@@ -226,7 +226,7 @@ fn out_of_range_session_addressing_is_clamped_not_a_panic() {
     let mut s = Session {
         motor: 200,
         coord: 200,
-        id: 998,
+        ..Session::with_id(998)
     };
     assert_eq!(send(&mut c, &mut s, "# &"), b"8\r8\r\x06");
     assert_eq!(
@@ -234,7 +234,7 @@ fn out_of_range_session_addressing_is_clamped_not_a_panic() {
             &mut Session {
                 motor: 0,
                 coord: 0,
-                id: 1
+                ..Session::with_id(1)
             },
             0x10
         ),

@@ -2,7 +2,9 @@
 //! ([`run_ring_card`]) that joins the ring, serves the host ports and the zenoh command
 //! queryable, and runs the cycle loop.
 
+pub mod chain;
 pub mod ring_app;
+pub mod sync_start;
 
 use std::sync::{Arc, Mutex};
 
@@ -30,13 +32,28 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(p) => Card::with_state_file(profile, p.clone()),
             None => Card::new(profile),
         };
-        // The ring settings the config derives (I995/I996), then the user's overrides.
-        if let Some(rs) = ctx.config.ring_settings(&ctx.name) {
-            let mut s = crate::interp::Session::default();
-            let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
-            let _ = card.command_line(&mut s, line.as_bytes());
-        }
-        apply_ivars(&mut card, &cc.ivars)?;
+        // The start-up layer: the ring settings the config derives (I995/I996), the motors on
+        // their MACRO nodes (Ix00, I1000, I1002: unless a saved image says how), the chain
+        // address (I0, I1), then the config's own I-variables, which win. Re-applied after
+        // every reset: the cluster config is the card's hardware setup.
+        let wire = !cc.state_file.as_ref().is_some_and(|p| p.exists());
+        let ring = ctx.config.ring_settings(&ctx.name).map(|rs| (rs.i995, rs.i996));
+        let layer = {
+            let (nodes, number, ivars) = (cc.nodes.clone(), cc.number, cc.ivars.clone());
+            move |card: &mut Card| -> anyhow::Result<()> {
+                if let Some((i995, i996)) = ring {
+                    let mut s = crate::interp::Session::default();
+                    let line = format!("I995=${i995:X} I996=${i996:X}");
+                    let _ = card.command_line(&mut s, line.as_bytes());
+                }
+                if wire {
+                    ring_app::wire_macro_motors(card, &nodes);
+                }
+                chain::apply_chain_defaults(card, number);
+                apply_ivars(card, &ivars)
+            }
+        };
+        layer(&mut card)?;
         let card = Arc::new(Mutex::new(card));
         // Host ports and the command queryable live on a small tokio runtime of their own.
         let rt = tokio::runtime::Builder::new_multi_thread()
@@ -61,16 +78,46 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                 Arc::clone(&card),
             ))
             .map_err(|e| anyhow!("declare card command queryable: {e}"))?;
+        // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
+        // well under the lockstep timeout so a stall never looks like a dead ring.
+        let stall = std::time::Duration::from_millis((ctx.config.lockstep_timeout_ms / 2).clamp(1, 25));
+        let sync = sync_start::SyncStart::new(stall);
+        let at_queryable = sync_start::declare_at_queryable(
+            &ctx.session,
+            &ctx.config.cluster,
+            u32::from(cc.number),
+            Arc::clone(&card),
+            sync.clone(),
+        )
+        .map_err(|e| anyhow!("declare card at queryable: {e}"))?;
+
         let mut extra = serde_json::Map::new();
         extra.insert("number".into(), serde_json::json!(cc.number));
         extra.insert("profile".into(), serde_json::json!(cc.profile));
         extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
         extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
-        // The runtime, ports and queryable live as long as the process.
-        std::mem::forget(queryable);
-        std::mem::forget(ports);
-        std::mem::forget(rt);
-        Ok((ring_app::CardRingApp::new(card, &cc.nodes), extra))
+        // The daisy chain (pmac-commands §8.3): every chain byte reaches every card.
+        let chain_q = rt
+            .block_on(chain::declare_chain_queryable(
+                &ctx.session,
+                &ctx.config.cluster,
+                u32::from(cc.number),
+                Arc::clone(&card),
+            ))
+            .map_err(|e| anyhow!("declare card chain queryable: {e}"))?;
+        let app = ring_app::CardRingApp::new(card, &cc.nodes)
+            .with_sync_start(sync)
+            .with_startup(Box::new(move |card: &mut Card| {
+                if let Err(e) = layer(card) {
+                    tracing::warn!("re-applying the start-up settings after a reset: {e:#}");
+                }
+            }))
+            .with_resource(Box::new(chain_q))
+            .with_resource(Box::new(at_queryable))
+            .with_resource(Box::new(queryable))
+            .with_resource(Box::new(ports))
+            .with_resource(Box::new(rt));
+        Ok((app, extra))
     })
 }
 

@@ -84,7 +84,10 @@ mod tests {
         st.memory.write(Space::Y, 0x0723, 0x00_FFFF);
         st.set_node_feedback(1, [0x00_FFFF, 0, 0, 0]);
         ect.run(&mut st);
-        assert_eq!(st.memory.read(Space::X, 0x0723), (-32i32) as u32 & 0xFF_FFFF);
+        assert_eq!(
+            st.memory.read(Space::X, 0x0723),
+            (-32i32) as u32 & 0xFF_FFFF
+        );
         st.set_node_feedback(1, [0x01_0001, 0, 0, 0]);
         ect.run(&mut st);
         assert_eq!(st.memory.read(Space::X, 0x0723), 32);

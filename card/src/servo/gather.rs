@@ -180,14 +180,17 @@ mod tests {
         assert_eq!(taken, [true, false, true, false, false, false]);
         assert_eq!(
             g.words(),
-            [0x12_3456, 0xAB_CDEF_00_0001, 0x12_3456, 0xAB_CDEF_00_0001]
+            [0x12_3456, 0xABCD_EF00_0001, 0x12_3456, 0xABCD_EF00_0001]
         );
         assert_eq!(st.global.word1_other & GATHER_ON, 0, "full: gathering off");
         assert_eq!(
             g.list_lines(None, None),
             ["000000123456 ABCDEF000001 000000123456 ABCDEF000001"]
         );
-        assert_eq!(g.list_lines(Some(1), Some(2)), ["ABCDEF000001 000000123456"]);
+        assert_eq!(
+            g.list_lines(Some(1), Some(2)),
+            ["ABCDEF000001 000000123456"]
+        );
         assert_eq!(g.list_lines(Some(9), None), Vec::<String>::new());
     }
 
@@ -212,14 +215,16 @@ mod tests {
         st.memory.write(Space::Y, 0x0770, 2);
         g.on_servo_cycle(&mut st, Some(3));
         // [1, L] then 2 fills the last word and L overwrites the first.
-        assert_eq!(g.words(), [0xAB_CDEF_00_0001, 0xAB_CDEF_00_0001, 2]);
+        assert_eq!(g.words(), [0xABCD_EF00_0001, 0xABCD_EF00_0001, 2]);
         assert_ne!(st.global.word1_other & GATHER_ON, 0);
     }
 
     #[test]
     fn lines_hold_sixteen_words() {
-        let mut g = GatherBuffer::default();
-        g.data = (0..20).collect();
+        let g = GatherBuffer {
+            data: (0..20).collect(),
+            ..GatherBuffer::default()
+        };
         let l = g.list_lines(None, None);
         assert_eq!(l.len(), 2);
         assert_eq!(l[0].split(' ').count(), 16);

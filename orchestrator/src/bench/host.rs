@@ -20,6 +20,13 @@ pub fn run(args: &BenchHostArgs) -> Result<()> {
     Ok(())
 }
 
+/// Run the card's servo-tick benchmark (`mcc_card::servo::bench`) and print its report.
+pub fn run_servo() -> Result<()> {
+    println!("mcc bench servo: 1 card, 8 motors on a loopback plant, {} CPUs", num_cpus());
+    println!("{}", mcc_card::servo::bench::run_servo_bench());
+    Ok(())
+}
+
 fn num_cpus() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }

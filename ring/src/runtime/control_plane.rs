@@ -64,16 +64,29 @@ pub fn start(
         .wait()
         .map_err(|e| format!("declare liveliness token: {e}"))?;
     let seen = Arc::new(AtomicBool::new(false));
+    let orch_key = alive_key(cluster, "orchestrator");
+    let weak = session.clone();
     let watch = session
         .liveliness()
-        .declare_subscriber(alive_key(cluster, "orchestrator"))
+        .declare_subscriber(orch_key.clone())
         .history(true)
         .callback(move |sample| match sample.kind() {
             SampleKind::Put => seen.store(true, Ordering::Relaxed),
             SampleKind::Delete => {
                 if seen.load(Ordering::Relaxed) {
-                    warn!("orchestrator went away: stopping");
-                    stop.store(true, Ordering::Relaxed);
+                    // A member thawed after SIGSTOP sees the token vanish while its session
+                    // reconnects: look again before giving up.
+                    let stop = Arc::clone(&stop);
+                    let session = weak.clone();
+                    let key = orch_key.clone();
+                    let _ = std::thread::Builder::new()
+                        .name("mcc-orch-watch".into())
+                        .spawn(move || {
+                            if !orchestrator_alive(&session, &key) {
+                                warn!("orchestrator went away: stopping");
+                                stop.store(true, Ordering::Relaxed);
+                            }
+                        });
                 }
             }
         })
@@ -84,6 +97,29 @@ pub fn start(
         _token: token,
         _orchestrator_watch: watch,
     })
+}
+
+/// Whether the orchestrator's liveliness token is still (or again) there, asked a few times
+/// over about two seconds.
+fn orchestrator_alive(session: &zenoh::Session, key: &str) -> bool {
+    for _ in 0..4 {
+        std::thread::sleep(Duration::from_millis(500));
+        let replies = match session
+            .liveliness()
+            .get(key)
+            .timeout(Duration::from_millis(500))
+            .wait()
+        {
+            Ok(r) => r,
+            Err(_) => continue,
+        };
+        while let Ok(reply) = replies.recv() {
+            if reply.result().is_ok() {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 fn answer(query: Query, prefix: &str, cmds: &Sender<DriverCmd>, stop: &AtomicBool) {

@@ -27,6 +27,13 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
     // Peers learn each other's locators from the peer they connect to and open direct links, so
     // ring frames travel member to member in one hop.
     set(&mut c, "scouting/gossip/enabled", "true".into())?;
+    // Only one of two peers opens the link between them (the one with the greater id), so two
+    // peers discovering each other at once never race two half-open links.
+    set(
+        &mut c,
+        "scouting/gossip/autoconnect_strategy",
+        "{ peer: { to_router: \"always\", to_peer: \"greater-zid\" } }".into(),
+    )?;
     let listen = if opts.listen.is_empty() {
         vec!["tcp/127.0.0.1:0".to_string()]
     } else {

@@ -1,0 +1,429 @@
+//! The motion-program executor: one calculation pass of a coordinate system walks the flat
+//! program (see [`super::compile`]) from its program counter, executing non-motion statements
+//! as it goes and feeding moves to COORD while the look-ahead wants them (two moves ahead,
+//! pmac-commands.md §5.2). A pass also ends at WAIT, at the second backward jump without a move
+//! (the double-jump-back rule), in step mode after a move, or after [`MAX_OPS_PER_PASS`]
+//! instructions, so a program looping without moves never stalls the card.
+
+use std::sync::Arc;
+
+use super::compile::{compile, Op};
+use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait, MAX_FRAMES};
+use super::env;
+use super::stmt::QueuedCmd;
+use crate::coord::moves::{Feed, Mode};
+use crate::interp::progline::ProgLine;
+use crate::interp::Card;
+use crate::lang::ast::{CodeLetter, LetterArg, PreludeCall, StmtKind};
+use crate::motion::motor::Motor;
+use crate::state::status::MoveMode as StatusMode;
+
+/// Most instructions one calculation pass executes.
+pub const MAX_OPS_PER_PASS: u32 = 1000;
+
+/// Outcome of one statement.
+pub(super) enum Flow {
+    /// Continue with the next instruction.
+    Next,
+    /// A move (or DWELL/DELAY) was queued.
+    Moved,
+    /// A motion statement while the look-ahead is full: retry it next pass.
+    Wait,
+    /// Continue with the next instruction in a later pass.
+    Yield,
+    /// The statement moved the program counter itself.
+    Jumped,
+    /// `STOP`: halt after this statement.
+    Stop,
+    /// A run-time error stopped the program.
+    Error,
+}
+
+/// Everything a pass needs besides the C.S. itself.
+pub struct PassIo<'a> {
+    /// Queued CMDs.
+    pub cmds: &'a mut Vec<QueuedCmd>,
+    /// Unsolicited output.
+    pub out: &'a mut Vec<u8>,
+}
+
+fn status_mode(m: Mode) -> StatusMode {
+    match m {
+        Mode::Linear => StatusMode::Linear,
+        Mode::Rapid => StatusMode::Rapid,
+        Mode::Circle1 => StatusMode::Circle1,
+        Mode::Circle2 => StatusMode::Circle2,
+        Mode::Pvt => StatusMode::Pvt,
+        Mode::Spline1 => StatusMode::Spline,
+    }
+}
+
+/// `??` word-1 (feedrate bit, incremental bit) of axis index k (X..W).
+fn axis_bits(k: usize) -> (u32, u32) {
+    const F: [u32; 9] = [19, 21, 23, 7, 9, 11, 13, 15, 17];
+    (1 << F[k], 1 << (F[k] - 1))
+}
+
+impl CsExec {
+    pub(super) fn set_pc(&mut self, pc: usize) {
+        if let Some(f) = self.frames.last_mut() {
+            f.pc = pc;
+        }
+    }
+
+    /// Copy on-line ABS/INC/FRAX (`??` word 1) into the modal state (at R/S).
+    pub fn modal_from_flags(&mut self, card: &Card) {
+        let (Some(c), Some(f)) = (&mut self.cs, card.state.coords.get(self.num as usize - 1))
+        else {
+            return;
+        };
+        for k in 0..9 {
+            let (fb, ib) = axis_bits(k);
+            c.modal.inc[k] = f.axis_bits & ib != 0;
+            c.modal.frax[k] = f.axis_bits & fb != 0;
+        }
+        c.modal.centre_abs = !f.radius_inc;
+    }
+
+    fn flags_from_modal(&self, card: &mut Card) {
+        let (Some(c), Some(f)) = (&self.cs, card.state.coords.get_mut(self.num as usize - 1))
+        else {
+            return;
+        };
+        let mut bits = 0;
+        for k in 0..9 {
+            let (fb, ib) = axis_bits(k);
+            if c.modal.inc[k] {
+                bits |= ib;
+            }
+            if c.modal.frax[k] {
+                bits |= fb;
+            }
+        }
+        f.axis_bits = bits;
+        f.radius_inc = !c.modal.centre_abs;
+        f.mode = status_mode(c.modal.mode);
+        f.move_by_time = matches!(c.modal.feed, Feed::Time(_));
+    }
+
+    /// Waiting for homing: `true` when calculation may go on.
+    fn check_wait(&mut self, motors: &[Motor]) -> bool {
+        let Wait::Homing {
+            motors: list,
+            ticks,
+        } = &mut self.wait
+        else {
+            return true;
+        };
+        *ticks += 1;
+        let searching = list.iter().any(|&m| {
+            motors
+                .get(m as usize - 1)
+                .is_some_and(|x| x.flags.home_search)
+        });
+        if *ticks < 3 || searching {
+            return false;
+        }
+        self.wait = Wait::None;
+        if let Some(c) = &mut self.cs {
+            let pos = commanded(motors, c.motors());
+            c.pmatch(&pos);
+        }
+        true
+    }
+
+    /// Motors homing under this program (no setpoints for them).
+    pub fn homing(&self) -> &[u16] {
+        match &self.wait {
+            Wait::Homing { motors, .. } => motors,
+            Wait::None => &[],
+        }
+    }
+
+    /// One calculation pass.
+    pub fn calc(&mut self, card: &mut Card, motors: &[Motor], io: &mut PassIo<'_>) {
+        if !self.active || !self.check_wait(motors) {
+            return;
+        }
+        let mut back = 0;
+        let mut budget = MAX_OPS_PER_PASS;
+        let line_step = self.step && env::ivar(card, 53, 0.0) != 0.0;
+        while self.active && budget > 0 {
+            budget -= 1;
+            if let Some(words) = self.leftover.take() {
+                match self.leftover_move(card, &words) {
+                    Flow::Wait => {
+                        self.leftover = Some(words);
+                        break;
+                    }
+                    Flow::Error => break,
+                    _ => continue,
+                }
+            }
+            let Some(f) = self.frames.last() else {
+                self.finish(card, None);
+                break;
+            };
+            if f.key == ProgKey::Rot && f.pc >= f.code.ops.len() {
+                if !self.next_rotary_line(card) {
+                    break;
+                }
+                continue;
+            }
+            let (code, pc, depth, in_prelude, key) =
+                (f.code.clone(), f.pc, self.frames.len(), f.prelude, f.key);
+            let Some(instr) = code.ops.get(pc) else {
+                self.do_return(card);
+                continue;
+            };
+            if line_step && !self.in_block {
+                // I53 = 1: one program line per S.
+                let here = (depth, instr.line);
+                match self.step_line {
+                    Some(l) if l != here => {
+                        self.active = false;
+                        break;
+                    }
+                    None => self.step_line = Some(here),
+                    _ => {}
+                }
+            }
+            match &instr.op {
+                Op::Nop => self.set_pc(pc + 1),
+                Op::Jump { to, back: b } => {
+                    self.set_pc(*to);
+                    if *b {
+                        back += 1;
+                        if back >= 2 {
+                            break;
+                        }
+                    }
+                }
+                Op::Branch { cond, else_to } => match env::test(card, self.num, cond) {
+                    Ok(t) => self.set_pc(if t { pc + 1 } else { *else_to }),
+                    Err(_) => {
+                        self.runtime_error(card, rte::VARIABLE, false);
+                        break;
+                    }
+                },
+                Op::Exec(s) => {
+                    let fire = instr.head
+                        && depth == 1
+                        && !in_prelude
+                        && matches!(key, ProgKey::Prog(_))
+                        && matches!(s.kind, StmtKind::Move(_) | StmtKind::Code(..))
+                        && self.prelude_fired != Some(pc);
+                    if fire {
+                        if let Some(p) = self.prelude.clone() {
+                            self.prelude_fired = Some(pc);
+                            self.fire_prelude(card, &p);
+                            continue;
+                        }
+                    }
+                    let flow = self.exec(card, motors, s, io);
+                    if depth == 1 && !matches!(flow, Flow::Wait) {
+                        self.prelude_fired = None;
+                    }
+                    match flow {
+                        Flow::Next => self.set_pc(pc + 1),
+                        Flow::Moved => {
+                            self.set_pc(pc + 1);
+                            back = 0;
+                            if self.step && !self.in_block {
+                                self.active = false;
+                            }
+                        }
+                        Flow::Wait | Flow::Error => break,
+                        Flow::Yield => {
+                            self.set_pc(pc + 1);
+                            break;
+                        }
+                        Flow::Jumped if matches!(s.kind, StmtKind::Goto(_)) => {
+                            if let Some(f) = self.frames.last() {
+                                if f.pc <= pc && Arc::ptr_eq(&f.code, &code) {
+                                    back += 1;
+                                    if back >= 2 {
+                                        break;
+                                    }
+                                }
+                            }
+                        }
+                        Flow::Jumped => {}
+                        Flow::Stop => {
+                            self.set_pc(pc + 1);
+                            self.active = false;
+                        }
+                    }
+                }
+            }
+        }
+        if !self.active {
+            self.halted(card);
+        }
+        self.flags_from_modal(card);
+        self.report_pc(card);
+    }
+
+    /// Calculation stopped (STOP, step done, Q): the ?? running bit drops.
+    pub(super) fn halted(&mut self, card: &mut Card) {
+        if let Some(f) = card.state.coords.get_mut(self.num as usize - 1) {
+            f.running = false;
+            f.continuous_request = false;
+            if self.step {
+                f.single_step = true;
+            }
+        }
+    }
+
+    /// End of the top-level program: stop; the next R starts at the top of `prog`.
+    pub(super) fn finish(&mut self, card: &mut Card, prog: Option<u16>) {
+        self.active = false;
+        self.frames.clear();
+        let k = self.num as usize - 1;
+        if let (Some(n), Some(r)) = (prog, card.run.cs.get_mut(k)) {
+            r.pointer = Some((u32::from(n), 0));
+        }
+        self.halted(card);
+    }
+
+    fn next_rotary_line(&mut self, card: &mut Card) -> bool {
+        let line = card
+            .bufs
+            .rotary
+            .get_mut(&(self.num as u8))
+            .filter(|r| !r.lines.is_empty())
+            .map(|r| r.lines.remove(0));
+        let Some(line) = line else { return false };
+        match compile(std::slice::from_ref::<ProgLine>(&line), false) {
+            Ok(c) => {
+                if let Some(f) = self.frames.last_mut() {
+                    f.code = Arc::new(c);
+                    f.pc = 0;
+                }
+                true
+            }
+            Err(_) => {
+                self.runtime_error(card, rte::UNLINKED, false);
+                false
+            }
+        }
+    }
+
+    pub(super) fn do_return(&mut self, card: &mut Card) {
+        let Some(f) = self.frames.pop() else { return };
+        if self.frames.is_empty() {
+            let prog = match f.key {
+                ProgKey::Prog(n) => Some(n),
+                ProgKey::Rot => None,
+            };
+            self.finish(card, prog);
+            return;
+        }
+        if !f.args.is_empty() {
+            self.leftover = Some(f.args);
+        }
+    }
+
+    pub(super) fn push_frame(&mut self, card: &mut Card, f: Frame) -> Flow {
+        if self.frames.len() >= MAX_FRAMES {
+            self.runtime_error(card, rte::STACK, false);
+            return Flow::Error;
+        }
+        self.frames.push(f);
+        Flow::Jumped
+    }
+
+    pub(super) fn args(
+        &mut self,
+        card: &mut Card,
+        args: &[LetterArg],
+    ) -> Result<Vec<(u8, f64)>, ()> {
+        let mut v = Vec::with_capacity(args.len());
+        for a in args {
+            v.push((
+                a.letter,
+                env::value(card, self.num, &a.value).map_err(|_| ())?,
+            ));
+        }
+        Ok(v)
+    }
+
+    /// CALL of `PROG prog` at label `label` (missing program or label: ignored).
+    pub(super) fn call(
+        &mut self,
+        card: &mut Card,
+        prog: u32,
+        label: u32,
+        args: Vec<(u8, f64)>,
+        prelude: bool,
+    ) -> Flow {
+        let Ok(n) = u16::try_from(prog) else {
+            return Flow::Next;
+        };
+        let code = match self.program(card, n) {
+            Ok(Some(c)) => c,
+            Ok(None) => return Flow::Next,
+            Err(e) => {
+                self.runtime_error(card, e, false);
+                return Flow::Error;
+            }
+        };
+        let Some(pc) = code.label(label, 0) else {
+            return Flow::Next;
+        };
+        self.push_frame(
+            card,
+            Frame {
+                key: ProgKey::Prog(n),
+                code,
+                pc,
+                args,
+                prelude,
+            },
+        )
+    }
+
+    pub(super) fn fire_prelude(&mut self, card: &mut Card, p: &PreludeCall) {
+        let (prog, label) = match p {
+            PreludeCall::Call(n) => call_target(n.value),
+            PreludeCall::Code(l, n) => code_target(*l, n.value),
+        };
+        let f = self.call(card, prog, label, Vec::new(), true);
+        if matches!(f, Flow::Jumped) {
+            // Return lands on the line head again (prelude_fired stops a second firing).
+        }
+    }
+}
+
+pub(super) fn label_number(v: f64) -> u32 {
+    if v.is_finite() && v >= 0.0 {
+        v.round().min(f64::from(u32::MAX)) as u32
+    } else {
+        u32::MAX
+    }
+}
+
+/// `CALL{v}`: program int(v) at label N(frac × 100000).
+pub fn call_target(v: f64) -> (u32, u32) {
+    if !(0.0..4_294_967_296.0).contains(&v) {
+        return (0, 0);
+    }
+    let p = v.trunc();
+    (p as u32, ((v - p) * 100_000.0).round() as u32)
+}
+
+/// G/M/T/D{c}: PROG 1000 + 10·hundreds + k at label N(rest × 1000).
+pub fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
+    if !(c.is_finite() && (0.0..1000.0).contains(&c)) {
+        return (0, 0);
+    }
+    let h = (c / 100.0).floor();
+    let r = c - 100.0 * h;
+    let k = match l {
+        CodeLetter::G => 0,
+        CodeLetter::M => 1,
+        CodeLetter::T => 2,
+        CodeLetter::D => 3,
+    };
+    (1000 + 10 * h as u32 + k, (r * 1000.0).round() as u32)
+}

@@ -1,0 +1,284 @@
+//! Statement dispatch of the motion-program executor ([`super::motion`]): what each program
+//! statement does to the program counter, the modal state, the move queue and the card.
+
+use super::csexec::{rte, CsExec, Frame, SyncOp};
+use super::env;
+use super::motion::{call_target, code_target, label_number, Flow, PassIo};
+use super::motion_move::qs;
+use super::stmt::{exec_common, Common, Ctx};
+use crate::coord::axes::axis_index;
+use crate::coord::moves::Mode;
+use crate::interp::Card;
+use crate::lang::ast::{AssignOp, Axis, MoveMode, Stmt, StmtKind};
+use crate::motion::motor::Motor;
+
+impl CsExec {
+    pub(super) fn exec(
+        &mut self,
+        card: &mut Card,
+        motors: &[Motor],
+        s: &Stmt,
+        io: &mut PassIo<'_>,
+    ) -> Flow {
+        use StmtKind as S;
+        let num = self.num;
+        let pc = self.frames.last().map_or(0, |f| f.pc);
+        match &s.kind {
+            S::Label(_) | S::AndCond(_) | S::OrCond(_) | S::EndIf | S::EndWhile => Flow::Next,
+            S::Assign {
+                target,
+                op:
+                    op @ (AssignOp::SyncSet | AssignOp::SyncAnd | AssignOp::SyncOr | AssignOp::SyncXor),
+                value,
+            } => {
+                let (Ok(m), Ok(v)) = (
+                    env::var_number(card, num, target),
+                    env::value(card, num, value),
+                ) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                if self.sync_pending.len() < 256 {
+                    self.sync_pending.push(SyncOp { m, op: *op, v });
+                }
+                Flow::Next
+            }
+            S::Move(words) => self.move_line(card, words),
+            S::Mode(m) => self.modal(card, |c| {
+                c.modal.mode = match m {
+                    MoveMode::Linear => Mode::Linear,
+                    MoveMode::Rapid => Mode::Rapid,
+                    MoveMode::Circle1 => Mode::Circle1,
+                    MoveMode::Circle2 => Mode::Circle2,
+                    MoveMode::Spline1 | MoveMode::Spline2 => Mode::Spline1,
+                };
+                Ok(())
+            }),
+            S::Pvt(e) | S::Ta(e) | S::Ts(e) | S::Tm(e) | S::F(e) => {
+                let Ok(v) = env::value(card, num, e) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                self.modal(card, |c| match &s.kind {
+                    S::Pvt(_) => c.modal.set_pvt(v),
+                    S::Ta(_) => c.modal.set_ta(v),
+                    S::Ts(_) => c.modal.set_ts(v),
+                    S::Tm(_) => c.modal.set_tm(v),
+                    _ => c.modal.set_f(v),
+                })
+            }
+            S::Abs(list) | S::Inc(list) => {
+                let inc = matches!(s.kind, S::Inc(_));
+                self.modal(card, |c| {
+                    match list {
+                        None => c.modal.inc = [inc; 9],
+                        Some(l) => {
+                            for a in l {
+                                match axis_index(*a) {
+                                    Some(k) => c.modal.inc[k] = inc,
+                                    None if *a == Axis::R => c.modal.centre_abs = !inc,
+                                    None => {}
+                                }
+                            }
+                        }
+                    }
+                    Ok(())
+                })
+            }
+            S::Frax(list) => self.modal(card, |c| {
+                c.modal.frax = match list {
+                    None => [true; 9],
+                    Some(l) => {
+                        let mut f = [false; 9];
+                        l.iter()
+                            .filter_map(|a| axis_index(*a))
+                            .for_each(|k| f[k] = true);
+                        f
+                    }
+                };
+                Ok(())
+            }),
+            S::Dwell(e) | S::Delay(e) => {
+                let Ok(v) = env::value(card, num, e) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                let dwell = matches!(s.kind, S::Dwell(_));
+                self.queue(card, |c| {
+                    if dwell { c.dwell(v) } else { c.delay(v) }.map(Some)
+                })
+            }
+            S::Home(list) | S::HomeZ(list) => self.home(card, list, matches!(s.kind, S::Home(_))),
+            S::Pset(_) => {
+                // [DECISION] PSET forces a stop; renaming is not implemented (COORD has no bias).
+                if self.cs.as_ref().is_some_and(|c| !c.is_idle()) {
+                    return Flow::Wait;
+                }
+                Flow::Next
+            }
+            S::CutterRadius(_) | S::CutterComp(_) => Flow::Next,
+            S::Normal(words) => {
+                let mut n = [0.0; 3];
+                for w in words {
+                    let Ok(v) = env::value(card, num, &w.value) else {
+                        self.runtime_error(card, rte::VARIABLE, false);
+                        return Flow::Error;
+                    };
+                    match w.axis {
+                        Axis::I => n[0] = v,
+                        Axis::J => n[1] = v,
+                        _ => n[2] = v,
+                    }
+                }
+                self.modal(card, |c| c.modal.set_normal(n))
+            }
+            S::Tsel(n) => {
+                let tbuf = card.bufs.defines.tbuf;
+                let n = *n;
+                self.modal(card, |c| {
+                    if c.xf.len() != tbuf as usize {
+                        c.xf.define(tbuf);
+                    }
+                    c.tsel(n)
+                })
+            }
+            S::Tinit => self.modal(card, |c| c.rename(|b| b.tinit())),
+            S::Adis(q) | S::Idis(q) => {
+                let v = qs::<3>(card, num, *q);
+                let abs = matches!(s.kind, S::Adis(_));
+                self.modal(card, |c| {
+                    c.rename(|b| if abs { b.adis(v) } else { b.idis(v) })
+                })
+            }
+            S::Arot(q) | S::Irot(q) => {
+                let v = qs::<9>(card, num, *q);
+                let abs = matches!(s.kind, S::Arot(_));
+                self.modal(card, |c| {
+                    c.rename(|b| if abs { b.arot(v) } else { b.irot(v) })
+                })
+            }
+            S::Wait => Flow::Yield,
+            S::Stop => Flow::Stop,
+            S::Return => {
+                self.do_return(card);
+                Flow::Jumped
+            }
+            S::Goto(e) => {
+                let Ok(v) = env::value(card, num, e) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                let target = self
+                    .frames
+                    .last()
+                    .and_then(|f| f.code.label(label_number(v), pc));
+                match target {
+                    Some(t) => {
+                        self.set_pc(t);
+                        Flow::Jumped
+                    }
+                    None => {
+                        self.runtime_error(card, rte::LABEL, false);
+                        Flow::Error
+                    }
+                }
+            }
+            S::Gosub(e) => {
+                let Ok(v) = env::value(card, num, e) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                let Some(f) = self.frames.last() else {
+                    return Flow::Next;
+                };
+                let (code, key) = (f.code.clone(), f.key);
+                let Some(t) = code.label(label_number(v), pc) else {
+                    return Flow::Next;
+                };
+                self.set_pc(pc + 1);
+                let fl = self.push_frame(
+                    card,
+                    Frame {
+                        key,
+                        code,
+                        pc: t,
+                        args: Vec::new(),
+                        prelude: false,
+                    },
+                );
+                if matches!(fl, Flow::Error) {
+                    self.set_pc(pc);
+                }
+                fl
+            }
+            S::Call(e, args) | S::Code(_, e, args) => {
+                let (Ok(v), Ok(a)) = (env::value(card, num, e), self.args(card, args)) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                let (prog, label) = match &s.kind {
+                    S::Code(l, ..) => code_target(*l, v),
+                    _ => call_target(v),
+                };
+                self.set_pc(pc + 1);
+                let fl = self.call(card, prog, label, a.clone(), false);
+                match fl {
+                    Flow::Jumped | Flow::Error => fl,
+                    _ => {
+                        // Missing target: ignored, but axis words on the line still execute.
+                        if !a.is_empty() {
+                            self.leftover = Some(a);
+                        }
+                        Flow::Jumped
+                    }
+                }
+            }
+            S::Read(letters) => {
+                self.read(card, letters);
+                Flow::Next
+            }
+            S::Prelude(p) => {
+                self.prelude = p.clone();
+                Flow::Next
+            }
+            S::Spindle(e) => {
+                let Ok(v) = env::value(card, num, e) else {
+                    self.runtime_error(card, rte::VARIABLE, false);
+                    return Flow::Error;
+                };
+                let _ = card.state.vars.set_q(num, 127, v);
+                Flow::Next
+            }
+            S::BlockStart => {
+                self.in_block = true;
+                Flow::Next
+            }
+            S::BlockStop => {
+                self.in_block = false;
+                if self.step {
+                    Flow::Stop
+                } else {
+                    Flow::Next
+                }
+            }
+            _ => {
+                let mut ctx = Ctx {
+                    motor: 1,
+                    coord: num,
+                    cmds: io.cmds,
+                    out: io.out,
+                };
+                match exec_common(card, &mut ctx, &s.kind) {
+                    Common::BadVariable => {
+                        self.runtime_error(card, rte::VARIABLE, false);
+                        Flow::Error
+                    }
+                    _ => {
+                        let _ = motors;
+                        Flow::Next
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,196 @@
+//! Interpreted PLC programs (pmac-commands.md §6): PLC 0 one scan per servo tick, PLC 1-31 one
+//! scan each per background cycle, I5 gating, enable/pause state, scan semantics (a scan ends
+//! at the end of the program or at ENDWHILE, where the next scan re-tests the WHILE), `CMD`s run
+//! after the scan, an operation budget per scan.
+
+use std::sync::Arc;
+
+use super::compile::{compile, Compiled, Op};
+use super::env;
+use super::stmt::{exec_common, run_cmds, Common, Ctx, QueuedCmd};
+use crate::interp::Card;
+use crate::lang::ast::PlcVerb;
+
+/// Most instructions one PLC scan executes; a scan that reaches it ends there and the next
+/// scan continues from that point ([DECISION] the runaway guard).
+pub const PLC_SCAN_BUDGET: u32 = 2000;
+
+/// Run-state of one PLC.
+#[derive(Debug, Clone, Default)]
+struct PlcState {
+    code: Option<Arc<Compiled>>,
+    /// Line count of the source the code was compiled from (`None`: no program).
+    len: Option<usize>,
+    /// `code`/`broken` reflect the present source.
+    compiled: bool,
+    pc: usize,
+    was_active: bool,
+    motor: u16,
+    coord: u16,
+    /// A structural defect: the PLC does not run.
+    broken: bool,
+}
+
+/// All 32 interpreted PLCs.
+#[derive(Debug, Clone)]
+pub struct PlcRunner {
+    plcs: Vec<PlcState>,
+    /// Scans executed per PLC (diagnostics / tests).
+    pub scans: Vec<u64>,
+}
+
+impl Default for PlcRunner {
+    fn default() -> Self {
+        PlcRunner {
+            plcs: vec![
+                PlcState {
+                    motor: 1,
+                    coord: 1,
+                    ..PlcState::default()
+                };
+                32
+            ],
+            scans: vec![0; 32],
+        }
+    }
+}
+
+impl PlcRunner {
+    /// One scan of PLC 0 if I5 bit 0 allows it.
+    pub fn foreground(&mut self, card: &mut Card, out: &mut Vec<u8>) {
+        let i5 = env::ivar(card, 5, 0.0) as i64;
+        self.track(card, 0);
+        if i5 & 1 != 0 && card.plc_active(0) {
+            self.scan(card, 0, out);
+        }
+    }
+
+    /// One scan of each PLC 1-31 that is enabled, not paused and allowed by I5 bit 1.
+    pub fn background(&mut self, card: &mut Card, out: &mut Vec<u8>) {
+        let i5 = env::ivar(card, 5, 0.0) as i64;
+        for n in 1..32u8 {
+            self.track(card, n);
+            if i5 & 2 != 0 && card.plc_active(n) {
+                self.scan(card, n, out);
+            }
+        }
+    }
+
+    /// Follow enable transitions and source changes: a PLC (re-)enabled or edited starts at
+    /// the top.
+    fn track(&mut self, card: &Card, n: u8) {
+        let enabled = card.run.plc.get(n as usize).is_some_and(|p| p.enabled);
+        let st = &mut self.plcs[n as usize];
+        let lines = card.bufs.plcs.get(&n).map(|p| &p.lines);
+        let rising = enabled && !st.was_active;
+        let len = lines.map(Vec::len);
+        // Editing needs OPEN PLC, which disables the PLC: the (re-)enable recompiles. A length
+        // change catches edits made without a disable/enable in between.
+        if rising || len != st.len || !st.compiled {
+            st.len = len;
+            st.compiled = true;
+            st.code = None;
+            st.broken = false;
+            st.pc = 0;
+            if let Some(l) = lines {
+                match compile(l, true) {
+                    Ok(c) => st.code = Some(Arc::new(c)),
+                    Err(_) => st.broken = true,
+                }
+            }
+        }
+        st.was_active = enabled;
+    }
+
+    /// The next instruction PLC `n` will execute (for tests and LIST PLC n,).
+    pub fn position(&self, n: u8) -> usize {
+        self.plcs.get(n as usize).map_or(0, |p| p.pc)
+    }
+
+    fn scan(&mut self, card: &mut Card, n: u8, out: &mut Vec<u8>) {
+        let k = n as usize;
+        let Some(code) = self.plcs[k].code.clone() else {
+            return;
+        };
+        if self.plcs[k].broken {
+            return;
+        }
+        self.scans[k] = self.scans[k].saturating_add(1);
+        let mut cmds: Vec<QueuedCmd> = Vec::new();
+        let mut pc = self.plcs[k].pc;
+        let mut ops = 0;
+        loop {
+            let Some(instr) = code.ops.get(pc) else {
+                pc = 0;
+                break;
+            };
+            ops += 1;
+            if ops > PLC_SCAN_BUDGET {
+                break;
+            }
+            let st = &self.plcs[k];
+            let (motor, coord) = (st.motor, st.coord);
+            match &instr.op {
+                Op::Nop => pc += 1,
+                Op::Jump { to, back } => {
+                    pc = *to;
+                    if *back {
+                        break;
+                    }
+                }
+                Op::Branch { cond, else_to } => {
+                    // [DECISION] an unreadable variable in a condition reads as false.
+                    let t = env::test(card, coord, cond).unwrap_or(false);
+                    pc = if t { pc + 1 } else { *else_to };
+                }
+                Op::Exec(s) => {
+                    if matches!(s.kind, crate::lang::ast::StmtKind::Return) {
+                        pc = 0;
+                        break;
+                    }
+                    let mut ctx = Ctx {
+                        motor,
+                        coord,
+                        cmds: &mut cmds,
+                        out,
+                    };
+                    let r = exec_common(card, &mut ctx, &s.kind);
+                    pc += 1;
+                    match r {
+                        Common::Address(m, c) => {
+                            let lim = card.state.limits();
+                            let st = &mut self.plcs[k];
+                            if let Some(m) = m.filter(|m| (1..=u32::from(lim.motors)).contains(m)) {
+                                st.motor = m as u16;
+                            }
+                            if let Some(c) = c.filter(|c| (1..=u32::from(lim.coords)).contains(c)) {
+                                st.coord = c as u16;
+                            }
+                        }
+                        Common::Plc(verb, mask) if mask & (1 << n) != 0 => match verb {
+                            PlcVerb::Pause | PlcVerb::Disable => break,
+                            PlcVerb::Enable => {
+                                pc = 0;
+                                break;
+                            }
+                            _ => {}
+                        },
+                        Common::Plc(PlcVerb::Enable, mask) => {
+                            for j in 0..32 {
+                                if mask & (1 << j) != 0 {
+                                    self.plcs[j].pc = 0;
+                                }
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        let enabled = card.run.plc.get(k).is_some_and(|p| p.enabled);
+        let st = &mut self.plcs[k];
+        st.pc = pc;
+        st.was_active = enabled;
+        run_cmds(card, &mut cmds, out);
+    }
+}

@@ -1,0 +1,168 @@
+//! Run control of one coordinate system (pmac-commands.md §3.3.3, §5.10): `R`/`S` start or
+//! resume at the program counter, `Q`, `A`, `/` (with the ERR017 stop point), and the `PC` /
+//! `PE` texts the interpreter replies with.
+
+use std::sync::Arc;
+
+use super::compile::Compiled;
+use super::config::cs_config;
+use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait};
+use crate::coord::cs::CoordSystem;
+use crate::interp::Card;
+use crate::motion::motor::Motor;
+
+impl CsExec {
+    /// `R` / `S` (the interpreter has already made its ERR010-ERR016 checks).
+    pub fn start(&mut self, card: &mut Card, motors: &[Motor], step: bool) {
+        let k = self.k();
+        if let Some(f) = card.state.coords.get_mut(k) {
+            f.runtime_error = false;
+            f.circle_radius_error = false;
+        }
+        self.sync_axes(card, motors);
+        let idle = self.cs.as_ref().is_some_and(CoordSystem::is_idle);
+        if let Some(c) = &mut self.cs {
+            c.release();
+            if idle {
+                c.cfg = cs_config(card, self.num, c.motors());
+                if super::env::ivar(card, 14, 1.0) != 0.0 {
+                    let pos = commanded(motors, c.motors());
+                    c.pmatch(&pos);
+                }
+            }
+        }
+        self.step = step;
+        self.step_line = None;
+        self.stop_pending = false;
+        if let Some(f) = card.state.coords.get_mut(k) {
+            f.block_stop = false;
+        }
+        if let Some(r) = card.run.cs.get_mut(k) {
+            r.stop_point = None;
+        }
+        if self.frames.is_empty() {
+            self.cache.clear();
+            let Some((prog, label)) = card.run.cs.get(k).and_then(|r| r.pointer) else {
+                self.runtime_error(card, rte::PAST_END, false);
+                return;
+            };
+            if prog == 0 {
+                self.frames.push(Frame {
+                    key: ProgKey::Rot,
+                    code: Arc::new(Compiled::default()),
+                    pc: 0,
+                    args: Vec::new(),
+                    prelude: false,
+                });
+            } else {
+                let n = u16::try_from(prog).unwrap_or(0);
+                let code = match self.program(card, n) {
+                    Ok(Some(c)) => c,
+                    Ok(None) => return self.runtime_error(card, rte::PAST_END, false),
+                    Err(e) => return self.runtime_error(card, e, false),
+                };
+                let Some(pc) = code.label(label, 0) else {
+                    return self.runtime_error(card, rte::LABEL, false);
+                };
+                self.frames.push(Frame {
+                    key: ProgKey::Prog(n),
+                    code,
+                    pc,
+                    args: Vec::new(),
+                    prelude: false,
+                });
+            }
+            self.prelude = None;
+            self.prelude_fired = None;
+            self.in_block = false;
+        }
+        self.active = true;
+        self.report_pc(card);
+    }
+
+    /// `Q` (also `S` while running, CTRL-Q, `/` without segmentation): stop calculating;
+    /// moves already calculated finish; R/S resume at the program counter.
+    pub fn quit(&mut self) {
+        self.active = false;
+    }
+
+    /// `A`, CTRL-A, CTRL-K, trips, ring fault: decelerate at Ix15, stop the program (resumable
+    /// from the program counter), drop synchronous assignments.
+    pub fn abort(&mut self, card: &mut Card) {
+        self.active = false;
+        self.wait = Wait::None;
+        self.leftover = None;
+        if let Some(c) = &mut self.cs {
+            c.abort();
+        }
+        self.flush_sync();
+        if let Some(f) = card.state.coords.get_mut(self.k()) {
+            f.running = false;
+            f.continuous_request = false;
+        }
+    }
+
+    /// `/` (segmented moves): finish the executing move, drop the moves calculated after it
+    /// and put the program counter just after it.
+    pub fn stop_at_end(&mut self, card: &mut Card) {
+        if let Some(f) = card.state.coords.get_mut(self.k()) {
+            f.running = false;
+            f.continuous_request = false;
+            f.block_stop = true;
+        }
+        let Some(c) = &mut self.cs else { return };
+        let exec = c.executing();
+        c.stop_at_end();
+        if let Some(m) = exec.and_then(|id| self.move_at.iter().find(|m| m.id == id)) {
+            self.frames = m.after.clone();
+        }
+        self.flush_sync();
+        self.leftover = None;
+        self.stop_pending = true;
+        self.active = false;
+    }
+
+    /// After a `/` stop: once the motion has ended, keep the motors' stop point for ERR017.
+    pub fn record_stop_point(&mut self, card: &mut Card, motors: &[Motor]) {
+        let Some(c) = &self.cs else { return };
+        if !self.stop_pending || !c.is_idle() {
+            return;
+        }
+        self.stop_pending = false;
+        let list = c.motors().to_vec();
+        let pos = commanded(motors, &list);
+        if let Some(r) = card.run.cs.get_mut(self.k()) {
+            r.stop_point = Some(list.into_iter().zip(pos).collect());
+        }
+    }
+
+    /// `PC` / `PE` texts into the interpreter's run state.
+    pub fn report_pc(&self, card: &mut Card) {
+        let k = self.k();
+        let pc = if self.frames.is_empty() {
+            None
+        } else {
+            let parts: Vec<String> = self
+                .frames
+                .iter()
+                .rev()
+                .map(|f| {
+                    let n = match f.key {
+                        ProgKey::Prog(n) => u32::from(n),
+                        ProgKey::Rot => 0,
+                    };
+                    format!("P{n}:{}", f.code.offset_of(f.pc))
+                })
+                .collect();
+            Some(parts.join(">"))
+        };
+        let exec = self.cs.as_ref().and_then(CoordSystem::executing);
+        let pe = exec
+            .and_then(|id| self.move_at.iter().find(|m| m.id == id))
+            .map(|m| format!("P{}:{}", m.prog, m.offset));
+        if let Some(r) = card.run.cs.get_mut(k) {
+            r.pc_text = pc.clone();
+            r.pe_text = pe.or(pc);
+        }
+    }
+}

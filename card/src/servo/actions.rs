@@ -1,0 +1,80 @@
+//! Interpreter actions → motor commands. Every action is offered to the program engine first
+//! (it takes the coordinate-system and program ones); the motor side of the motor commands,
+//! of the C.S. abort `A` and of CTRL-A / CTRL-K is applied here whatever the engine says.
+//!
+//! | action | motors | command |
+//! |---|---|---|
+//! | `K` | addressed | kill |
+//! | `$` | addressed | enable (close the loop where it stands) |
+//! | `$*` | addressed | kill (absolute position read leaves the motor killed) |
+//! | `O{n}` | addressed | open loop at n % of Ix69 |
+//! | `J...` | addressed | jog (`*` forms read the Mx72 jog register), `J!` rounds |
+//! | `HM` / `HMZ` | addressed | homing search / zero here |
+//! | `A` | the motors of the addressed C.S. | abort (Ix15 deceleration) |
+//! | CTRL-A | every activated motor | abort |
+//! | CTRL-K | every motor | kill |
+//!
+//! Motors with Ix00 = 0 ignore everything but kills (documented refusal: a deactivated motor
+//! has no servo loop to command).
+
+use crate::interp::{Action, ActionKind, Card};
+use crate::lang::ast::{CmdKind, JogKind};
+use crate::motion::motor::{Motor, MotorCommand};
+use crate::motion::params::MotorParams;
+use crate::program::ProgramEngine;
+
+use super::registers::jog_register;
+
+/// Apply one drained action.
+pub fn apply_action(
+    card: &mut Card,
+    motors: &mut [Motor],
+    params: &[MotorParams],
+    engine: &mut ProgramEngine,
+    a: &Action,
+) {
+    let _ = engine.handle_action(card, motors, a);
+    let all: Vec<u16> = (1..=motors.len() as u16).collect();
+    let (targets, cmd): (Vec<u16>, Option<MotorCommand>) = match &a.kind {
+        ActionKind::Ctrl(0x01) => (all, Some(MotorCommand::Abort)),
+        ActionKind::Ctrl(0x0B) => (all, Some(MotorCommand::Kill)),
+        ActionKind::Ctrl(_) => return,
+        ActionKind::Cmd(c) => match c {
+            CmdKind::Abort => (card.run.motors_in(a.coord), Some(MotorCommand::Abort)),
+            CmdKind::Kill | CmdKind::MotorAbsRead => (vec![a.motor], Some(MotorCommand::Kill)),
+            CmdKind::MotorInit => (vec![a.motor], Some(MotorCommand::Enable)),
+            CmdKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),
+            CmdKind::Home => (vec![a.motor], Some(MotorCommand::Home)),
+            CmdKind::HomeZ => (vec![a.motor], Some(MotorCommand::HomeZero)),
+            CmdKind::Jog { kind, trigger } => {
+                let k = usize::from(a.motor.max(1) - 1);
+                let Some(m) = motors.get_mut(k) else {
+                    return;
+                };
+                let cmd = if *kind == JogKind::Round {
+                    Some(MotorCommand::Round)
+                } else {
+                    let reg = jog_register(&mut card.state, a.motor);
+                    m.resolve_jog(*kind, reg).map(|cmd| MotorCommand::Jog {
+                        cmd,
+                        trigger: trigger.filter(|d| d.is_finite()),
+                    })
+                };
+                (vec![a.motor], cmd)
+            }
+            _ => return,
+        },
+    };
+    let Some(cmd) = cmd else {
+        return;
+    };
+    for x in targets {
+        let k = usize::from(x.max(1) - 1);
+        let (Some(m), Some(p)) = (motors.get_mut(k), params.get(k)) else {
+            continue;
+        };
+        if p.active || cmd == MotorCommand::Kill {
+            m.command(cmd, p);
+        }
+    }
+}

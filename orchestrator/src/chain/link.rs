@@ -1,0 +1,220 @@
+//! One host connection on the daisy chain. Each chunk of input goes to every card's
+//! `mcc/<cluster>/card/<n>/chain` queryable at once (request: op `D`/`X`, connection id u64
+//! LE, bytes); each card answers with segments (position u32 LE, length u32 LE, bytes) and the
+//! segments of all cards are merged by input position, so replies come out in the order the
+//! host's characters caused them. A card that does not answer within the timeout contributes
+//! nothing — as a silent card on a serial cable — and the link carries on.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use mcc_ring::config::ClusterConfig;
+use zenoh::Wait;
+
+/// Request op: chain bytes follow.
+pub const OP_DATA: u8 = b'D';
+/// Request op: the connection is closed.
+pub const OP_CLOSE: u8 = b'X';
+/// Largest data part of one request (the cards refuse more).
+pub const MAX_CHUNK: usize = 4096;
+/// Largest reply accepted from one card for one chunk, bytes.
+pub const MAX_REPLY: usize = 4 << 20;
+/// Default time a card has to answer one chunk.
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// `mcc/<cluster>/card/<n>/chain`.
+pub fn chain_key(cluster: &str, n: u32) -> String {
+    format!("mcc/{cluster}/card/{n}/chain")
+}
+
+/// A connection id unlikely to collide with another process's (pid, time, counter).
+pub fn new_conn_id() -> u64 {
+    static N: AtomicU64 = AtomicU64::new(0);
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    (u64::from(std::process::id()) << 40)
+        ^ (t & 0xFF_FFFF_FFFF)
+        ^ (N.fetch_add(1, Ordering::Relaxed) << 20)
+}
+
+/// Encode a request.
+pub fn encode_request(op: u8, conn: u64, data: &[u8]) -> Vec<u8> {
+    let mut v = Vec::with_capacity(9 + data.len());
+    v.push(op);
+    v.extend_from_slice(&conn.to_le_bytes());
+    v.extend_from_slice(data);
+    v
+}
+
+/// Decode one card's reply segments; a message naming the problem when malformed.
+pub fn decode_reply(mut p: &[u8]) -> Result<Vec<(u32, Vec<u8>)>, String> {
+    if p.len() > MAX_REPLY {
+        return Err(format!("reply of {} bytes is too large", p.len()));
+    }
+    let mut out = Vec::new();
+    while !p.is_empty() {
+        let head = p.get(..8).ok_or("truncated segment header")?;
+        let pos = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
+        let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as usize;
+        let bytes = p.get(8..8 + len).ok_or("truncated segment")?;
+        out.push((pos, bytes.to_vec()));
+        p = &p[8 + len..];
+    }
+    Ok(out)
+}
+
+/// Merge the segments of every card (in card order): by input position, then card order.
+pub fn merge(per_card: &[Vec<(u32, Vec<u8>)>]) -> Vec<u8> {
+    let mut all: Vec<(u32, usize, &[u8])> = per_card
+        .iter()
+        .enumerate()
+        .flat_map(|(k, segs)| segs.iter().map(move |(p, b)| (*p, k, b.as_slice())))
+        .collect();
+    all.sort_by_key(|s| (s.0, s.1));
+    all.into_iter().flat_map(|s| s.2.iter().copied()).collect()
+}
+
+/// What one send brought back.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ChainReply {
+    /// The merged reply bytes, as the host would read them from the cable.
+    pub bytes: Vec<u8>,
+    /// Cards (config numbers) that did not answer in time or answered garbage.
+    pub silent: Vec<u32>,
+}
+
+/// One host connection.
+pub struct ChainLink {
+    session: zenoh::Session,
+    cards: Vec<(u32, String)>,
+    conn: u64,
+    timeout: Duration,
+}
+
+impl std::fmt::Debug for ChainLink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ChainLink")
+            .field("conn", &self.conn)
+            .field("cards", &self.cards.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl ChainLink {
+    /// A new connection to every card of `cfg` over `session`.
+    pub fn new(session: zenoh::Session, cfg: &ClusterConfig, timeout: Duration) -> Self {
+        let cards = cfg
+            .cards
+            .iter()
+            .map(|c| {
+                let n = u32::from(c.number);
+                (n, chain_key(&cfg.cluster, n))
+            })
+            .collect();
+        ChainLink {
+            session,
+            cards,
+            conn: new_conn_id(),
+            timeout,
+        }
+    }
+
+    /// Send host bytes; the merged replies. Never blocks longer than the timeout per
+    /// [`MAX_CHUNK`] bytes.
+    pub fn send(&self, data: &[u8]) -> ChainReply {
+        let mut out = ChainReply::default();
+        for chunk in data.chunks(MAX_CHUNK) {
+            let r = self.exchange(&encode_request(OP_DATA, self.conn, chunk));
+            out.bytes.extend_from_slice(&r.bytes);
+            for s in r.silent {
+                if !out.silent.contains(&s) {
+                    out.silent.push(s);
+                }
+            }
+        }
+        out
+    }
+
+    /// Tell every card this connection is gone.
+    pub fn close(&self) {
+        let _ = self.exchange(&encode_request(OP_CLOSE, self.conn, &[]));
+    }
+
+    fn exchange(&self, payload: &[u8]) -> ChainReply {
+        let gets: Vec<_> = self
+            .cards
+            .iter()
+            .map(|(n, key)| {
+                let g = self
+                    .session
+                    .get(key.as_str())
+                    .payload(payload.to_vec())
+                    .timeout(self.timeout)
+                    .wait();
+                (*n, g)
+            })
+            .collect();
+        let mut per_card = Vec::with_capacity(gets.len());
+        let mut silent = Vec::new();
+        for (n, g) in gets {
+            let segs = g
+                .ok()
+                .and_then(|replies| replies.recv().ok())
+                .and_then(|reply| {
+                    reply
+                        .result()
+                        .ok()
+                        .map(|s| s.payload().to_bytes().into_owned())
+                })
+                .and_then(|bytes| decode_reply(&bytes).ok());
+            match segs {
+                Some(s) => per_card.push(s),
+                None => silent.push(n),
+            }
+        }
+        ChainReply {
+            bytes: merge(&per_card),
+            silent,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn request_and_reply_formats_match_the_cards() {
+        assert_eq!(
+            encode_request(OP_DATA, 0x0102, b"P1\r"),
+            b"D\x02\x01\0\0\0\0\0\0P1\r"
+        );
+        assert_eq!(
+            decode_reply(b"\x03\0\0\0\x02\0\0\0ab").unwrap(),
+            vec![(3, b"ab".to_vec())]
+        );
+        assert_eq!(decode_reply(b"").unwrap(), vec![]);
+        assert!(decode_reply(b"\x03\0\0\0\x05\0\0\0ab").is_err());
+        assert!(decode_reply(b"\x03\0\0").is_err());
+        assert_eq!(chain_key("lab", 2), "mcc/lab/card/2/chain");
+    }
+
+    #[test]
+    fn replies_merge_in_input_order() {
+        // Card 1 answered the first line (position 3), card 0 the second (position 9).
+        let c0 = vec![(9, b"B\r".to_vec())];
+        let c1 = vec![(3, b"A\r".to_vec()), (12, b"C".to_vec())];
+        assert_eq!(merge(&[c0, c1]), b"A\rB\rC");
+        assert_eq!(
+            merge(&[vec![(1, b"x".to_vec())], vec![(1, b"y".to_vec())]]),
+            b"xy"
+        );
+    }
+
+    #[test]
+    fn connection_ids_differ() {
+        assert_ne!(new_conn_id(), new_conn_id());
+    }
+}
