@@ -47,6 +47,8 @@ pub enum Command {
     Send(SendArgs),
     /// Interactive terminal on a running cluster's daisy chain.
     Term(TermArgs),
+    /// Record motor positions with a card's data gathering; write gather.csv and gather.png.
+    Gather(GatherArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -183,6 +185,29 @@ pub struct StartSyncArgs {
     /// The command line, e.g. "&1B1R".
     #[arg(required = true, value_name = "LINE")]
     pub line: Vec<String>,
+}
+
+/// `mcc gather`.
+#[derive(Debug, Args)]
+pub struct GatherArgs {
+    /// Card number (I0).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=15))]
+    pub card: u8,
+    /// Motors (1-8), comma-separated: commanded and actual position of each.
+    #[arg(long, value_name = "M,M,...", default_value = "1")]
+    pub motors: String,
+    /// Servo cycles to record.
+    #[arg(long, value_name = "K", default_value_t = 1000)]
+    pub cycles: u64,
+    /// Servo cycles between samples (I19).
+    #[arg(long, value_name = "P", default_value_t = 1)]
+    pub period: u32,
+    /// Command line sent to the card right after gathering starts (e.g. "#1J=2000").
+    #[arg(long, value_name = "LINE")]
+    pub run: Option<String>,
+    /// Directory for gather.csv and gather.png.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub out: PathBuf,
 }
 
 /// `mcc down`.

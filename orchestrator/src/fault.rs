@@ -61,7 +61,10 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
                     a.cfg.ring.order.join(", ")
                 );
             }
-            println!("{member}: {}", crate::drills::process_drill(&a, member, drill)?);
+            println!(
+                "{member}: {}",
+                crate::drills::process_drill(&a, member, drill)?
+            );
             return Ok(());
         }
         [member, kind] => (

@@ -11,14 +11,15 @@ mod ctl;
 mod down;
 mod drills;
 mod fault;
+mod gather;
 mod launch;
 mod rundir;
 mod send;
 mod status;
 mod supervisor;
+mod syncstart;
 mod sys;
 mod term;
-mod syncstart;
 mod up;
 
 use cli::{BenchCommand, Cli, Command};
@@ -48,6 +49,7 @@ fn main() {
         Command::Fault(a) => fault::cmd_fault(&cluster, a),
         Command::Down(a) => down::cmd_down(&cluster, a),
         Command::StartSync(a) => syncstart::cmd_start_sync(&cluster, a),
+        Command::Gather(a) => gather::cmd_gather(&cluster, a),
         Command::Bench(BenchCommand::Ring(a)) => bench::ring::run(a),
         Command::Bench(BenchCommand::Host(a)) => bench::host::run(a),
         Command::Bench(BenchCommand::Servo) => bench::host::run_servo(),

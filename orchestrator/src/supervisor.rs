@@ -33,7 +33,10 @@ pub struct Supervisor {
     children: Vec<Running>,
     info: SupervisorInfo,
     /// `mcc fault MEMBER restart` requests (DRILLS), served in [`Supervisor::poll`].
-    restarts: Option<(zenoh::query::Queryable<()>, mpsc::Receiver<zenoh::query::Query>)>,
+    restarts: Option<(
+        zenoh::query::Queryable<()>,
+        mpsc::Receiver<zenoh::query::Query>,
+    )>,
     /// The daisy chain (TCP port, optional pty) while the cluster runs.
     chain: Option<crate::chain::server::ChainServer>,
 }
@@ -106,9 +109,8 @@ impl Supervisor {
                 }
             }
         }
-        let chain = crate::chain::server::ChainOptions::from_env().and_then(|o| {
-            crate::chain::server::ChainServer::start(&sup.session, &sup.cfg, &o)
-        });
+        let chain = crate::chain::server::ChainOptions::from_env()
+            .and_then(|o| crate::chain::server::ChainServer::start(&sup.session, &sup.cfg, &o));
         match chain {
             Ok(c) => {
                 sup.info.daisy_chain = Some(c.addr().to_string());

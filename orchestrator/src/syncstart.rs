@@ -91,6 +91,9 @@ pub struct CardStart {
     pub executed_ns: Option<u64>,
     /// Its reply (control characters made visible).
     pub reply: String,
+    /// Its reply as the card framed it.
+    #[serde(skip)]
+    pub raw_reply: String,
     /// CLOCK_MONOTONIC ns of its program start (when the line started a program).
     pub program_start_ns: Option<u64>,
     /// The card's program start cycle when its result was read.
@@ -205,6 +208,20 @@ pub fn start_sync(
     line: &str,
     opts: &SyncOptions,
 ) -> Result<StartOutcome> {
+    let lines: Vec<(u32, String)> = cards.iter().map(|&c| (c, line.to_string())).collect();
+    start_sync_lines(session, cluster, &lines, opts)
+}
+
+/// Run each card's own line (`(card, line)`) in the tick of one ring cycle (the daisy chain's
+/// `@0&1B1R@1&1B7R<CR>`).
+pub fn start_sync_lines(
+    session: &zenoh::Session,
+    cluster: &str,
+    lines: &[(u32, String)],
+    opts: &SyncOptions,
+) -> Result<StartOutcome> {
+    let cards: Vec<u32> = lines.iter().map(|(c, _)| *c).collect();
+    let cards = cards.as_slice();
     if cards.is_empty() {
         bail!("no cards given");
     }
@@ -223,10 +240,13 @@ pub fn start_sync(
         let elapsed = (t1.elapsed().as_secs_f64() * rate) as u64;
         let cycle = c1 + elapsed + lead;
         let id = new_id();
-        let arm = same(
-            cards,
-            serde_json::json!({"op":"arm","id":id,"cycle":cycle,"line":line}),
-        );
+        let arm: Vec<(u32, String)> = lines
+            .iter()
+            .map(|(n, line)| {
+                let body = serde_json::json!({"op":"arm","id":id,"cycle":cycle,"line":line});
+                (*n, body.to_string())
+            })
+            .collect();
         let armed = query_all(session, cluster, &arm, qt);
         let refusals: Vec<String> = armed
             .iter()
@@ -325,6 +345,7 @@ fn collect(
                         executed_cycle: a.executed_cycle,
                         executed_ns: a.executed_ns,
                         reply: visible(a.reply.as_deref().unwrap_or("")),
+                        raw_reply: a.reply.clone().unwrap_or_default(),
                         program_start_cycle: a.program_start_cycle,
                         program_start_ns: a
                             .program_start_ns

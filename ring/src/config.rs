@@ -223,6 +223,10 @@ pub struct ClusterConfig {
     /// Lockstep: wall time after which the sync master starts the next cycle anyway (counted).
     #[serde(default = "default_lockstep_timeout")]
     pub lockstep_timeout_ms: u64,
+    /// Realtime: every member runs its tick of cycle k this long after the sync master started
+    /// it, so all cards act at the same instant (default: half a period; 0 = tick on arrival).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_delay_us: Option<u32>,
     /// Zenoh endpoints.
     #[serde(default)]
     pub zenoh: ZenohConfig,
@@ -329,6 +333,7 @@ impl ClusterConfig {
             clock: ClockMode::default(),
             rate_hz: DEFAULT_RATE_HZ,
             lockstep_timeout_ms: default_lockstep_timeout(),
+            phase_delay_us: None,
             zenoh: ZenohConfig::default(),
             ring: RingConfig::default(),
             cards: card_list,
@@ -412,6 +417,14 @@ impl ClusterConfig {
     /// Check every rule; the error names the key and the problem.
     pub fn validate(&self) -> Result<(), ConfigError> {
         validate::validate(self)
+    }
+
+    /// Realtime phase alignment delay in ns: `phase_delay_us` if set, else half a period.
+    pub fn phase_delay_ns(&self) -> u64 {
+        match self.phase_delay_us {
+            Some(us) => u64::from(us) * 1000,
+            None => self.period_ns() / 2,
+        }
     }
 
     /// Nominal ring period in nanoseconds.

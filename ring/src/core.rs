@@ -104,6 +104,8 @@ pub struct CoreEvents {
     pub sync: Option<u64>,
     /// Synchronizing master: its sync packet for this cycle came back.
     pub cycle_complete: Option<u64>,
+    /// When the synchronizing master started the frame's ring cycle (see `Frame::origin_ns`).
+    pub origin_ns: u64,
     /// The frame was rejected before packet parsing (counted in `bad_frames`): why.
     pub rejected: Option<String>,
     /// Receive errors found in the frame's packets.
@@ -322,7 +324,10 @@ impl MemberCore {
         self.last_rx_seq = Some(frame.seq);
         self.last_rx_cycle = Some(frame.cycle);
         self.rx_frames += 1;
-        let mut ev = CoreEvents::default();
+        let mut ev = CoreEvents {
+            origin_ns: frame.origin_ns,
+            ..Default::default()
+        };
         self.rx_since_tick = true;
         if self.unconsumed {
             ev.errors.push(ErrorClass::Overrun);
@@ -403,7 +408,8 @@ impl MemberCore {
         self.sent_cycle = (!commands.is_empty()).then_some(frame.cycle);
         forwards.extend(commands);
         let seq = self.next_seq();
-        let out = Frame::with_packets(self.position, seq, now_ns, frame.cycle, &forwards);
+        let mut out = Frame::with_packets(self.position, seq, now_ns, frame.cycle, &forwards);
+        out.origin_ns = frame.origin_ns;
         ev.outgoing = self.faults.on_send(self.cycle, out);
         ev
     }

@@ -88,7 +88,7 @@ fn bad_frames_rejected_and_counted() {
         .on_frame(&f.encode(), 0)
         .rejected
         .unwrap()
-        .contains("version 2"));
+        .contains("version 3"));
     assert!(s
         .on_frame(&[0xFF; 3], 0)
         .rejected
@@ -296,7 +296,7 @@ proptest! {
     #[test]
     fn any_packet_bytes_never_panic(declared: u16, bytes in proptest::collection::vec(any::<u8>(), 0..120)) {
         let mut s = slave(0x80);
-        let f = Frame { version: FORMAT_VERSION, sender: 0, seq: 1, sent_ns: 0, cycle: 0, declared, packets: bytes };
+        let f = Frame { version: FORMAT_VERSION, sender: 0, seq: 1, sent_ns: 0, cycle: 0, origin_ns: 0, declared, packets: bytes };
         let ev = s.on_frame(&f.encode(), 0);
         prop_assert!(ev.rejected.is_none());
     }

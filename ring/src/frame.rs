@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::packet::{Packet, PACKET_LEN};
 
 /// Frame format version; a frame with another version is rejected.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 
 /// Upper bound of an encoded frame (and of any length prefix inside it).
 pub const MAX_FRAME_BYTES: usize = 64 * 1024;
@@ -31,6 +31,10 @@ pub struct Frame {
     pub sent_ns: u64,
     /// Ring cycle the sender was in.
     pub cycle: u64,
+    /// When the synchronizing master started this ring cycle (`CLOCK_MONOTONIC` ns in
+    /// realtime mode, simulated time in lockstep), carried unchanged around the ring so every
+    /// member can tick at the same instant (phase alignment).
+    pub origin_ns: u64,
     /// Number of packets the sender put in `packets`.
     pub declared: u16,
     /// The packets' bytes, `declared` × 12 when intact.
@@ -71,6 +75,7 @@ impl Frame {
             seq,
             sent_ns,
             cycle,
+            origin_ns: sent_ns,
             declared: u16::try_from(packets.len()).unwrap_or(u16::MAX),
             packets: bytes,
         }
@@ -117,17 +122,18 @@ mod tests {
     #[test]
     fn known_answer_bytes() {
         let f = Frame {
-            version: 1,
+            version: 2,
             sender: 2,
             seq: 300,
             sent_ns: 5,
             cycle: 251,
+            origin_ns: 3,
             declared: 1,
             packets: vec![0xA5, 0xFF],
         };
         // varint: values < 251 are one byte; 251..=65535 are 0xFB + u16 LE.
         let want = vec![
-            1, 2, 0xFB, 0x2C, 0x01, 5, 0xFB, 0xFB, 0x00, 1, 2, 0xA5, 0xFF,
+            2, 2, 0xFB, 0x2C, 0x01, 5, 0xFB, 0xFB, 0x00, 3, 1, 2, 0xA5, 0xFF,
         ];
         assert_eq!(f.encode(), want);
         assert_eq!(Frame::decode(&want), Ok(f));
@@ -136,12 +142,12 @@ mod tests {
     #[test]
     fn wrong_version_rejected() {
         let f = Frame {
-            version: 2,
+            version: 1,
             ..Default::default()
         };
-        assert_eq!(Frame::decode(&f.encode()), Err(FrameError::Version(2)));
-        // A garbage tail after a version-2 prefix is still reported as a version error.
-        assert_eq!(Frame::decode(&[2, 0xFF, 0xFF]), Err(FrameError::Version(2)));
+        assert_eq!(Frame::decode(&f.encode()), Err(FrameError::Version(1)));
+        // A garbage tail after a version-3 prefix is still reported as a version error.
+        assert_eq!(Frame::decode(&[3, 0xFF, 0xFF]), Err(FrameError::Version(3)));
     }
 
     #[test]
@@ -156,12 +162,12 @@ mod tests {
 
     #[test]
     fn hostile_length_prefix_is_bounded() {
-        // version 1, five small fields, then a packets length prefix of u64::MAX (0xFD + 8 bytes).
-        let mut b = vec![1, 0, 0, 0, 0, 0, 0xFD];
+        // version 2, six small fields, then a packets length prefix of u64::MAX (0xFD + 8 bytes).
+        let mut b = vec![2, 0, 0, 0, 0, 0, 0, 0xFD];
         b.extend_from_slice(&u64::MAX.to_le_bytes());
         assert!(matches!(Frame::decode(&b), Err(FrameError::Malformed(_))));
         assert_eq!(
-            Frame::decode(&vec![1; MAX_FRAME_BYTES + 1]),
+            Frame::decode(&vec![2; MAX_FRAME_BYTES + 1]),
             Err(FrameError::TooLong(MAX_FRAME_BYTES + 1))
         );
     }
@@ -187,7 +193,7 @@ mod tests {
         #[test]
         fn round_trip(sender: u16, seq: u64, sent_ns: u64, cycle: u64, declared: u16,
                       packets in proptest::collection::vec(any::<u8>(), 0..400)) {
-            let f = Frame { version: FORMAT_VERSION, sender, seq, sent_ns, cycle, declared, packets };
+            let f = Frame { version: FORMAT_VERSION, sender, seq, sent_ns, cycle, origin_ns: sent_ns, declared, packets };
             prop_assert_eq!(Frame::decode(&f.encode()), Ok(f));
         }
 

@@ -589,6 +589,9 @@ fn a_master_whose_packets_do_not_come_back_faults_even_upstream_of_the_break() {
     let reps = sim.run(40);
     let at = first_fault_cycle(&reps, 1).expect("card1 faulted");
     assert!(at - cut_at <= 4, "card1 faulted at {at}, cut at {cut_at}");
-    assert!(sim.member(1).status().locked, "card1 still gets sync packets");
+    assert!(
+        sim.member(1).status().locked,
+        "card1 still gets sync packets"
+    );
     assert!(sim.member(1).status().errors.underrun >= 2);
 }

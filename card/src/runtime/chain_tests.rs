@@ -200,7 +200,14 @@ impl Cable {
     /// `op` ([`OP_QUERY_START`]/[`OP_TAKE_START`]) on card `k` for connection `conn`.
     fn op(&mut self, k: usize, op: u8, conn: u64) -> Vec<u8> {
         let (card, port) = &mut self.cards[k];
-        port.handle(card, &Request { op, conn, data: &[] })
+        port.handle(
+            card,
+            &Request {
+                op,
+                conn,
+                data: &[],
+            },
+        )
     }
 }
 

@@ -37,7 +37,10 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         // address (I0, I1), then the config's own I-variables, which win. Re-applied after
         // every reset: the cluster config is the card's hardware setup.
         let wire = !cc.state_file.as_ref().is_some_and(|p| p.exists());
-        let ring = ctx.config.ring_settings(&ctx.name).map(|rs| (rs.i995, rs.i996));
+        let ring = ctx
+            .config
+            .ring_settings(&ctx.name)
+            .map(|rs| (rs.i995, rs.i996));
         let layer = {
             let (nodes, number, ivars) = (cc.nodes.clone(), cc.number, cc.ivars.clone());
             move |card: &mut Card| -> anyhow::Result<()> {
@@ -80,7 +83,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow!("declare card command queryable: {e}"))?;
         // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
         // well under the lockstep timeout so a stall never looks like a dead ring.
-        let stall = std::time::Duration::from_millis((ctx.config.lockstep_timeout_ms / 2).clamp(1, 25));
+        let stall =
+            std::time::Duration::from_millis((ctx.config.lockstep_timeout_ms / 2).clamp(1, 25));
         let sync = sync_start::SyncStart::new(stall);
         let at_queryable = sync_start::declare_at_queryable(
             &ctx.session,

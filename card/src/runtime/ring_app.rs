@@ -224,9 +224,17 @@ mod tests {
         let text = String::from_utf8_lossy(&before).to_string();
         assert!(text.contains('3') && text.contains("16"), "{text:?}");
         ask(b"$$$");
-        assert_ne!(ask(b"I0 I1001"), before, "$$$ reloads the (unsaved) factory image");
+        assert_ne!(
+            ask(b"I0 I1001"),
+            before,
+            "$$$ reloads the (unsaved) factory image"
+        );
         app.tick(1, 0, &mut member, false);
-        assert_eq!(ask(b"I0 I1001"), before, "the tick after the reset re-applies the layer");
+        assert_eq!(
+            ask(b"I0 I1001"),
+            before,
+            "the tick after the reset re-applies the layer"
+        );
     }
 
     #[test]

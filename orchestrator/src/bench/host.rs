@@ -22,7 +22,10 @@ pub fn run(args: &BenchHostArgs) -> Result<()> {
 
 /// Run the card's servo-tick benchmark (`mcc_card::servo::bench`) and print its report.
 pub fn run_servo() -> Result<()> {
-    println!("mcc bench servo: 1 card, 8 motors on a loopback plant, {} CPUs", num_cpus());
+    println!(
+        "mcc bench servo: 1 card, 8 motors on a loopback plant, {} CPUs",
+        num_cpus()
+    );
     println!("{}", mcc_card::servo::bench::run_servo_bench());
     Ok(())
 }

@@ -129,6 +129,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
             position: k,
             extra: serde_json::Map::new(),
             record: cycles as usize + 64,
+            phase_delay_ns: cfg.phase_delay_ns(),
         };
         let (cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
         cmd_senders.push(cmd_tx);

@@ -1,7 +1,7 @@
 //! Benchmarks (`mcc bench ...`).
 
-pub mod host;
 pub mod chain;
+pub mod host;
 pub mod inproc;
 pub mod ring;
 pub mod stats;

@@ -21,6 +21,7 @@ fn frame(sender: u16, cycle: u64, t: u64) -> Vec<u8> {
         seq: cycle,
         sent_ns: t,
         cycle,
+        origin_ns: t,
         declared: (PACKET_BYTES / 12) as u16,
         packets: vec![0x5a; PACKET_BYTES],
     }

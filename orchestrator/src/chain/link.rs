@@ -4,8 +4,17 @@
 //! segments of all cards are merged by input position, so replies come out in the order the
 //! host's characters caused them. A card that does not answer within the timeout contributes
 //! nothing — as a silent card on a serial cable — and the link carries on.
+//!
+//! Synchronized starts: before a `<CR>` whose line may start programs (it contains `R`/`S`),
+//! the link asks every card (op `?`) whether its collected line starts a program. When two or
+//! more do, it takes those lines (op `T`), sends the `<CR>` (the other cards run theirs as
+//! usual) and runs the taken lines through the cards' arm/commit synchronized start
+//! (crate::syncstart), so every program starts in the servo tick of one ring cycle; the
+//! answering card's reply is the one its line gave there. If no common cycle can be agreed
+//! the lines run nowhere and the answering card's reply is `<BELL>ERR008<CR>` (never a split
+//! start).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use mcc_ring::config::ClusterConfig;
@@ -15,6 +24,16 @@ use zenoh::Wait;
 pub const OP_DATA: u8 = b'D';
 /// Request op: the connection is closed.
 pub const OP_CLOSE: u8 = b'X';
+/// Request op: does the collected line start a program? (one flags byte)
+pub const OP_QUERY_START: u8 = b'?';
+/// Request op: hand the collected line over for a synchronized start (flags + line).
+pub const OP_TAKE_START: u8 = b'T';
+/// Flags: the collected line starts a program.
+pub const FLAG_STARTS: u8 = 1;
+/// Flags: this card answers the line.
+pub const FLAG_TALKS: u8 = 2;
+/// Reply of the answering card when a synchronized start could not be agreed.
+pub const SYNC_FAILED_REPLY: &[u8] = b"\x07ERR008\r";
 /// Largest data part of one request (the cards refuse more).
 pub const MAX_CHUNK: usize = 4096;
 /// Largest reply accepted from one card for one chunk, bytes.
@@ -88,9 +107,23 @@ pub struct ChainReply {
 /// One host connection.
 pub struct ChainLink {
     session: zenoh::Session,
+    cluster: String,
     cards: Vec<(u32, String)>,
     conn: u64,
     timeout: Duration,
+    /// The line since the last `<CR>` has a character that may start a program.
+    maybe_start: AtomicBool,
+}
+
+impl ChainReply {
+    fn add(&mut self, r: ChainReply) {
+        self.bytes.extend_from_slice(&r.bytes);
+        for s in r.silent {
+            if !self.silent.contains(&s) {
+                self.silent.push(s);
+            }
+        }
+    }
 }
 
 impl std::fmt::Debug for ChainLink {
@@ -115,9 +148,11 @@ impl ChainLink {
             .collect();
         ChainLink {
             session,
+            cluster: cfg.cluster.clone(),
             cards,
             conn: new_conn_id(),
             timeout,
+            maybe_start: AtomicBool::new(false),
         }
     }
 
@@ -125,16 +160,120 @@ impl ChainLink {
     /// [`MAX_CHUNK`] bytes.
     pub fn send(&self, data: &[u8]) -> ChainReply {
         let mut out = ChainReply::default();
-        for chunk in data.chunks(MAX_CHUNK) {
-            let r = self.exchange(&encode_request(OP_DATA, self.conn, chunk));
-            out.bytes.extend_from_slice(&r.bytes);
-            for s in r.silent {
-                if !out.silent.contains(&s) {
-                    out.silent.push(s);
+        let mut rest = data;
+        while !rest.is_empty() {
+            // Up to the first <CR> whose line may start programs: that one goes on its own.
+            let mut maybe = self.maybe_start.load(Ordering::Relaxed);
+            let mut cut = None;
+            for (i, &b) in rest.iter().enumerate() {
+                match b {
+                    b'\r' if maybe => {
+                        cut = Some(i);
+                        break;
+                    }
+                    b'\r' | 0x18 => maybe = false,
+                    b'R' | b'r' | b'S' | b's' | b'>' => maybe = true,
+                    _ => {}
                 }
+            }
+            self.maybe_start.store(maybe, Ordering::Relaxed);
+            let (plain, start_cr) = match cut {
+                Some(i) => (&rest[..i], true),
+                None => (rest, false),
+            };
+            for chunk in plain.chunks(MAX_CHUNK) {
+                out.add(self.exchange(&encode_request(OP_DATA, self.conn, chunk)));
+            }
+            rest = &rest[plain.len()..];
+            if start_cr {
+                out.add(self.start_cr());
+                self.maybe_start.store(false, Ordering::Relaxed);
+                rest = &rest[1..];
             }
         }
         out
+    }
+
+    /// The `<CR>` of a line that may start programs: synchronized when it does on 2+ cards.
+    fn start_cr(&self) -> ChainReply {
+        let cr = encode_request(OP_DATA, self.conn, b"\r");
+        let all: Vec<u32> = self.cards.iter().map(|(n, _)| *n).collect();
+        let starters: Vec<u32> = self
+            .ask(OP_QUERY_START, &all)
+            .into_iter()
+            .filter(|(_, r)| r.first().is_some_and(|f| f & FLAG_STARTS != 0))
+            .map(|(n, _)| n)
+            .collect();
+        if starters.len() < 2 {
+            return self.exchange(&cr);
+        }
+        let taken: Vec<(u32, bool, String)> = self
+            .ask(OP_TAKE_START, &starters)
+            .into_iter()
+            .filter_map(|(n, r)| {
+                let (&flags, line) = r.split_first()?;
+                let talks = flags & FLAG_TALKS != 0;
+                Some((n, talks, String::from_utf8_lossy(line).into_owned()))
+            })
+            .collect();
+        let mut out = self.exchange(&cr);
+        if taken.is_empty() {
+            return out;
+        }
+        let lines: Vec<(u32, String)> = taken.iter().map(|(n, _, l)| (*n, l.clone())).collect();
+        let opts = crate::syncstart::SyncOptions {
+            query_timeout: self.timeout,
+            ..crate::syncstart::SyncOptions::default()
+        };
+        let res = crate::syncstart::start_sync_lines(&self.session, &self.cluster, &lines, &opts);
+        for (n, talks, _) in &taken {
+            if !talks {
+                continue;
+            }
+            match &res {
+                Ok(o) => {
+                    let r = o.cards.iter().find(|c| c.card == *n);
+                    out.bytes
+                        .extend_from_slice(r.map(|c| c.raw_reply.as_bytes()).unwrap_or_default());
+                }
+                Err(_) => out.bytes.extend_from_slice(SYNC_FAILED_REPLY),
+            }
+        }
+        match res {
+            Ok(o) => tracing::info!(
+                cycle = o.cycle,
+                "chain line started on {} cards",
+                taken.len()
+            ),
+            Err(e) => tracing::warn!("chain synchronized start failed, nothing ran: {e:#}"),
+        }
+        out
+    }
+
+    /// Send `op` (no data) to cards `only`; the raw answers of those that answered.
+    fn ask(&self, op: u8, only: &[u32]) -> Vec<(u32, Vec<u8>)> {
+        let payload = encode_request(op, self.conn, &[]);
+        let gets: Vec<_> = self
+            .cards
+            .iter()
+            .filter(|(n, _)| only.contains(n))
+            .map(|(n, key)| {
+                let g = self
+                    .session
+                    .get(key.as_str())
+                    .payload(payload.clone())
+                    .timeout(self.timeout)
+                    .wait();
+                (*n, g)
+            })
+            .collect();
+        gets.into_iter()
+            .filter_map(|(n, g)| {
+                let reply = g.ok()?.recv().ok()?;
+                let bytes = reply.result().ok()?.payload().to_bytes().into_owned();
+                (bytes.len() <= MAX_REPLY).then_some((n, bytes))
+            })
+            .collect()
     }
 
     /// Tell every card this connection is gone.

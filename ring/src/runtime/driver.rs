@@ -42,6 +42,11 @@ pub struct DriverConfig {
     /// master records each cycle's scheduled start, the others each sync packet's arrival, both
     /// on the system-wide monotonic clock.
     pub record: usize,
+    /// Realtime phase alignment: every member runs its tick of cycle k at the sync master's
+    /// start of cycle k plus this delay (the cycle's origin travels in the frame), so the cards
+    /// of a ring act at the same instant whatever their ring position; a member whose sync
+    /// packet arrives later than that ticks at once. 0 = tick on arrival.
+    pub phase_delay_ns: u64,
 }
 
 /// A request to the member's loop.
@@ -159,6 +164,11 @@ impl<A: RingApp> Driver<A> {
 
     /// Run until stopped. Blocks the calling thread.
     pub fn run(&mut self) -> DriverExit {
+        if self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0 {
+            // Sleeps end within a few µs of their deadline instead of the default 50 µs slack.
+            #[cfg(target_os = "linux")]
+            let _ = nix::sys::prctl::set_timerslack(1);
+        }
         info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
         let r = if self.core.is_sync_master() {
             match self.cfg.clock {
@@ -377,7 +387,21 @@ impl<A: RingApp> Driver<A> {
             if let Err(e) = self.send_all(out) {
                 return DriverExit::Transport(e);
             }
+            self.align(t);
             self.tick(cycle);
+        }
+    }
+
+    /// Realtime phase alignment: wait until `origin_ns + phase_delay_ns` (no wait when the
+    /// delay is 0, the origin unknown, or the moment already past).
+    fn align(&self, origin_ns: u64) {
+        if self.cfg.phase_delay_ns == 0 || origin_ns == 0 || self.cfg.clock != ClockMode::Realtime {
+            return;
+        }
+        let target = origin_ns.saturating_add(self.cfg.phase_delay_ns);
+        let now = self.now_ns();
+        if target > now {
+            std::thread::sleep(Duration::from_nanos(target - now));
         }
     }
 
@@ -417,6 +441,7 @@ impl<A: RingApp> Driver<A> {
                         if self.cfg.record > 0 {
                             self.record(cycle, now);
                         }
+                        self.align(ev.origin_ns);
                         self.tick(cycle);
                     }
                 }

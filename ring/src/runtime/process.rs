@@ -167,6 +167,7 @@ where
         position,
         extra,
         record: 0,
+        phase_delay_ns: config.phase_delay_ns(),
     };
     let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
     let exit = driver.run();
