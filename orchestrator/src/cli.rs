@@ -229,6 +229,54 @@ pub enum BenchCommand {
     Host(BenchHostArgs),
     /// Card servo tick cost per motor and the share of a core used by 8 motors.
     Servo,
+    /// Synchronized-start wall-clock skew p50/p99 on a realtime cluster of its own.
+    Sync(BenchSyncArgs),
+    /// Ring-fault detection latency in cycles per fault kind on a lockstep cluster of its own.
+    Faults(BenchFaultsArgs),
+    /// Cluster bring-up time (`mcc up --detach` until locked).
+    Bringup(BenchBringupArgs),
+}
+
+/// `mcc bench sync`.
+#[derive(Debug, Args)]
+pub struct BenchSyncArgs {
+    /// Cards (each with one station).
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=16))]
+    pub cards: u8,
+    /// Synchronized starts to measure.
+    #[arg(long, value_name = "K", default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub count: u32,
+    /// Realtime ring rate, Hz (modest: the machine is shared).
+    #[arg(long, value_name = "HZ", default_value_t = 1000.0)]
+    pub rate: f64,
+}
+
+/// `mcc bench faults`.
+#[derive(Debug, Args)]
+pub struct BenchFaultsArgs {
+    /// Only these drills (comma-separated labels or fault words, e.g. `cut,freeze`).
+    #[arg(long, value_name = "LIST")]
+    pub only: Option<String>,
+    /// Seconds to wait for detection per drill.
+    #[arg(long, value_name = "S", default_value_t = 15)]
+    pub timeout: u64,
+}
+
+/// `mcc bench bringup`.
+#[derive(Debug, Args)]
+pub struct BenchBringupArgs {
+    /// Cards.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: u8,
+    /// Stations.
+    #[arg(long, value_name = "M", default_value_t = 8, value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: u8,
+    /// Bring-ups to time.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Clock mode of the clusters (default: the config's).
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
 }
 
 /// `mcc bench host`.

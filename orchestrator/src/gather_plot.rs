@@ -96,15 +96,35 @@ pub fn draw_with(rec: &Recording, path: &Path, title: &str, text: bool) -> Resul
     let mut chart = b
         .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))
         .map_err(|e| err(&e))?;
-    let mut mesh = chart.configure_mesh();
     if text {
-        mesh.x_desc("time (ms)")
+        chart
+            .configure_mesh()
+            .x_desc("time (ms)")
             .y_desc("position (counts)")
-            .label_style(("sans-serif", 14));
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| err(&e))?;
     } else {
-        mesh.x_labels(0).y_labels(0);
+        // No font: a frame and a 10 x 10 grid drawn as plain lines.
+        let (y0, y1) = (lo - pad, hi + pad);
+        let grid = (0..=10).flat_map(|i| {
+            let f = f64::from(i) / 10.0;
+            [
+                vec![(f * t_end, y0), (f * t_end, y1)],
+                vec![(0.0, y0 + f * (y1 - y0)), (t_end, y0 + f * (y1 - y0))],
+            ]
+        });
+        let style = |i: usize| {
+            if i < 2 || i >= 20 {
+                BLACK.stroke_width(1)
+            } else {
+                BLACK.mix(0.15).stroke_width(1)
+            }
+        };
+        chart
+            .draw_series(grid.enumerate().map(|(i, p)| PathElement::new(p, style(i))))
+            .map_err(|e| err(&e))?;
     }
-    mesh.draw().map_err(|e| err(&e))?;
     for (k, m) in rec.motors.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
         let pts = |pick: fn(&(f64, f64)) -> f64| {

@@ -53,6 +53,9 @@ fn main() {
         Command::Bench(BenchCommand::Ring(a)) => bench::ring::run(a),
         Command::Bench(BenchCommand::Host(a)) => bench::host::run(a),
         Command::Bench(BenchCommand::Servo) => bench::host::run_servo(),
+        Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
+        Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
+        Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Supervise => up::cmd_supervise(&cluster),
     };
     if let Err(e) = res {

@@ -3,6 +3,7 @@
 mod chain;
 mod cluster;
 mod drills;
+mod gather;
 mod motion;
 mod programs;
 mod ring_inprocess;

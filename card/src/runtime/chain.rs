@@ -193,7 +193,7 @@ impl ChainPort {
     pub fn start_flags(&self, card: &Card, id: u64) -> u8 {
         match self.conns.get(&id) {
             Some(c) if starts_program(card, c) => {
-                FLAG_STARTS | u8::from(card.chain_talking(&c.session)) * FLAG_TALKS
+                FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
             }
             _ => 0,
         }

@@ -1,8 +1,11 @@
 //! Benchmarks (`mcc bench ...`).
 
+pub mod bringup;
 pub mod chain;
+pub mod faults;
 pub mod host;
 pub mod inproc;
 pub mod ring;
 pub mod stats;
+pub mod syncstart;
 pub mod udp;
