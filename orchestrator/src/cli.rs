@@ -274,9 +274,12 @@ pub struct BenchBringupArgs {
     /// Bring-ups to time.
     #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
-    /// Clock mode of the clusters (default: the config's).
-    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
-    pub clock: Option<ClockMode>,
+    /// Clock mode of the clusters (default: realtime).
+    #[arg(long, value_name = "MODE", value_parser = parse_clock, default_value = "realtime")]
+    pub clock: ClockMode,
+    /// Ring rate, Hz (default 500: a rate this shared 2-core machine sustains in realtime).
+    #[arg(long, value_name = "HZ", default_value_t = 500.0)]
+    pub rate: f64,
 }
 
 /// `mcc bench host`.

@@ -115,7 +115,7 @@ pub fn draw_with(rec: &Recording, path: &Path, title: &str, text: bool) -> Resul
             ]
         });
         let style = |i: usize| {
-            if i < 2 || i >= 20 {
+            if !(2..20).contains(&i) {
                 BLACK.stroke_width(1)
             } else {
                 BLACK.mix(0.15).stroke_width(1)

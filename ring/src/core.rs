@@ -66,6 +66,10 @@ pub struct CoreConfig {
     /// First link sequence number minus one: give a restarted process a larger base (e.g. a
     /// wall-clock ns reading) so its downstream neighbour does not reject it as stale.
     pub seq_base: u64,
+    /// Start the ring check only once the member has first locked to the ring (processes
+    /// joining a ring whose links are still coming up); a ring that never locks is reported
+    /// as not locked rather than as a fault. The sync-node activation rule applies at once.
+    pub check_after_lock: bool,
 }
 
 impl CoreConfig {
@@ -91,6 +95,7 @@ impl CoreConfig {
             check,
             period_ns,
             seq_base: 0,
+            check_after_lock: false,
         }
     }
 }
@@ -140,6 +145,14 @@ pub struct MemberCore {
     silent_ticks: u32,
     /// Ring cycle of the frame into which this master last put command packets.
     sent_cycle: Option<u64>,
+    /// This master's own packets have come back at least once (the path around works).
+    own_seen: bool,
+    /// Consecutive frames without this master's own packets.
+    own_missing: u32,
+    /// The member has been phase-locked at least once.
+    ever_locked: bool,
+    /// [`CoreConfig::check_after_lock`].
+    check_after_lock: bool,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -174,6 +187,10 @@ impl MemberCore {
             rx_since_tick: false,
             silent_ticks: 0,
             sent_cycle: None,
+            own_seen: false,
+            own_missing: 0,
+            ever_locked: false,
+            check_after_lock: cfg.check_after_lock,
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -381,11 +398,19 @@ impl MemberCore {
         // A master's command packets of the previous cycle come back in this cycle's frame; a
         // frame without them is missing its packets (data underrun): the ring is broken
         // somewhere downstream of this master.
-        if !self.is_sync_master()
+        // (From the second frame in a row without them: a lockstep cycle the sync master had to
+        // time out shifts the packets by one frame once, which is not a broken ring.)
+        if own_returned > 0 {
+            self.own_seen = true;
+            self.own_missing = 0;
+        } else if !self.is_sync_master()
+            && self.own_seen
             && self.sent_cycle.is_some_and(|c| c + 1 == frame.cycle)
-            && own_returned == 0
         {
-            ev.errors.push(ErrorClass::Underrun);
+            self.own_missing = self.own_missing.saturating_add(1);
+            if self.own_missing >= 2 {
+                ev.errors.push(ErrorClass::Underrun);
+            }
         }
         if frame.packets.len() < intact {
             ev.errors.push(ErrorClass::Underrun);
@@ -479,17 +504,7 @@ impl MemberCore {
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
         self.unconsumed = false;
-        // No data at all from upstream for a second servo cycle in a row: data underrun (the
-        // link into this member is dead). One late frame alone is not an error.
-        if self.rx_since_tick {
-            self.silent_ticks = 0;
-        } else if self.last_rx_cycle.is_some() {
-            self.silent_ticks = self.silent_ticks.saturating_add(1);
-            if self.silent_ticks >= 2 {
-                self.status.record(ErrorClass::Underrun);
-            }
-        }
-        self.rx_since_tick = false;
+        self.ever_locked |= self.locked;
         let settings = self.member.settings();
         let node = settings.sync_node();
         let fault = if self.kind == MemberKind::Card
@@ -498,7 +513,24 @@ impl MemberCore {
             && !settings.node_active(node)
         {
             CheckFault::SyncNodeInactive { node }
+        } else if self.check_after_lock && !self.ever_locked {
+            // Still coming up: nothing to check against yet (a ring that never locks is
+            // reported as not locked, not as a ring fault). Consume the start-up status bits.
+            self.status.read_and_clear();
+            self.rx_since_tick = false;
+            return None;
         } else {
+            // No data at all from upstream for a second servo cycle in a row: data underrun
+            // (the link into this member is dead). One late frame alone is not an error.
+            if self.rx_since_tick {
+                self.silent_ticks = 0;
+            } else if self.last_rx_cycle.is_some() {
+                self.silent_ticks = self.silent_ticks.saturating_add(1);
+                if self.silent_ticks >= 2 {
+                    self.status.record(ErrorClass::Underrun);
+                }
+            }
+            self.rx_since_tick = false;
             self.check.on_servo_cycle(&mut self.status)?
         };
         if !self.ring_fault {

@@ -330,3 +330,39 @@ fn card_with_inactive_sync_node_faults_at_once() {
     cfg.check = RingCheck::card(8, 2, 2, 0);
     assert_eq!(MemberCore::new(cfg).run_check(), None);
 }
+
+#[test]
+fn check_after_lock_waits_for_the_first_lock() {
+    let make = |after_lock| {
+        let mut cfg = CoreConfig::new(
+            "c",
+            MemberKind::Card,
+            0,
+            RingSettings::new(0x30, 0x0F_0001),
+            P,
+        );
+        cfg.check = RingCheck::card(2, 2, 2, 0);
+        cfg.check_after_lock = after_lock;
+        MemberCore::new(cfg)
+    };
+    // Checked from the start: no sync packet in the first period is a fault.
+    let mut m = make(false);
+    assert_eq!(m.run_check(), None);
+    assert!(m.run_check().is_some());
+    // Checked after lock: nothing while the ring comes up ...
+    let mut m = make(true);
+    for _ in 0..10 {
+        assert_eq!(m.run_check(), None);
+    }
+    assert!(!m.ring_fault());
+    // ... then the sync packet comes back once: locked, and from now on a lost ring faults.
+    m.start_cycle(1, 0);
+    let ev = m.on_frame(
+        &Frame::with_packets(0, 1, 0, 1, &[Packet::sync(0, 15, 1)]).encode(),
+        0,
+    );
+    assert_eq!(ev.cycle_complete, Some(1));
+    let faults: Vec<_> = (0..6).filter_map(|_| m.run_check()).collect();
+    assert!(!faults.is_empty());
+    assert!(m.ring_fault());
+}

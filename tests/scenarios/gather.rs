@@ -89,7 +89,10 @@ impl Cluster {
             pids: vec![],
         };
         ok(
-            mcc_run(&[&args[..], &["--clock", "lockstep"]].concat(), Duration::from_secs(120)),
+            mcc_run(
+                &[&args[..], &["--clock", "lockstep"]].concat(),
+                Duration::from_secs(120),
+            ),
             "mcc up",
         );
         let doc = c.status();
@@ -193,7 +196,11 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
         .map(str::to_string)
         .collect();
     let rows = lines
-        .map(|l| l.split(',').map(|v| v.parse::<f64>().expect("number")).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().expect("number"))
+                .collect()
+        })
         .collect();
     (head, rows)
 }
@@ -205,7 +212,10 @@ fn gather_records_a_jog_into_csv_and_png() {
     let _ = std::fs::remove_dir_all(&out);
     let dir = out.to_string_lossy().into_owned();
     // A brisk jog acceleration (1 count/ms²) so the move fits in 600 servo cycles.
-    let set = ok(c.mcc(&["send", "--card", "0", "I119=1", "#1J/"]), "mcc send");
+    let set = ok(
+        c.mcc(&["send", "--card", "0", "I119=1", "#1J/"]),
+        "mcc send",
+    );
     assert!(!set.contains('\x07'), "{set:?}");
     std::thread::sleep(Duration::from_millis(300));
     let text = ok(
@@ -236,8 +246,14 @@ fn gather_records_a_jog_into_csv_and_png() {
     let png = std::fs::read(out.join("gather.png")).expect("gather.png");
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     assert_eq!(&png[12..16], b"IHDR");
-    assert_eq!(u32::from_be_bytes([png[16], png[17], png[18], png[19]]), 1000);
-    assert_eq!(u32::from_be_bytes([png[20], png[21], png[22], png[23]]), 600);
+    assert_eq!(
+        u32::from_be_bytes([png[16], png[17], png[18], png[19]]),
+        1000
+    );
+    assert_eq!(
+        u32::from_be_bytes([png[20], png[21], png[22], png[23]]),
+        600
+    );
     // Bad input is named.
     let bad = c.mcc(&["gather", "--card", "7", "--out", &dir]);
     assert!(!bad.status.success());

@@ -42,7 +42,10 @@ fn run_bounded(mut cmd: Command, timeout: Duration) -> Result<(bool, String)> {
         }
         Err(_) => {
             let _ = crate::sys::signal(pid, libc::SIGKILL);
-            Ok((false, format!("did not finish within {} s", timeout.as_secs())))
+            Ok((
+                false,
+                format!("did not finish within {} s", timeout.as_secs()),
+            ))
         }
     }
 }
@@ -53,9 +56,8 @@ fn once(name: &str, args: &BenchBringupArgs) -> Result<Duration> {
     up.args(["up", "--detach", "--cluster", name, "--timeout", "60"])
         .args(["--cards", &args.cards.to_string()])
         .args(["--stations", &args.stations.to_string()]);
-    if let Some(c) = &args.clock {
-        up.args(["--clock", c.as_str()]);
-    }
+    up.args(["--clock", args.clock.as_str()])
+        .args(["--rate", &args.rate.to_string()]);
     let t = Instant::now();
     let res = run_bounded(up, Duration::from_secs(90));
     let took = t.elapsed();
@@ -75,6 +77,9 @@ fn once(name: &str, args: &BenchBringupArgs) -> Result<Duration> {
 
 /// Run the benchmark and print min/p50/max against the target.
 pub fn run(args: &BenchBringupArgs) -> Result<()> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        bail!("--rate must be a positive number of Hz");
+    }
     let mut ms = Vec::new();
     for k in 0..args.runs {
         let name = format!("bench-bringup-{}-{k}", std::process::id());
@@ -89,9 +94,11 @@ pub fn run(args: &BenchBringupArgs) -> Result<()> {
         "release build"
     };
     println!(
-        "bench bringup: `mcc up --detach` with {} cards + {} stations until every member is locked, {} runs ({build})",
+        "bench bringup: `mcc up --detach` with {} cards + {} stations ({} ring at {} Hz) until every member is locked, {} runs ({build})",
         args.cards,
         args.stations,
+        args.clock.as_str(),
+        args.rate,
         ms.len()
     );
     println!(

@@ -145,6 +145,8 @@ where
     core_cfg.upstream = Some(((position + n - 1) % n) as u16);
     // A restarted member must not look stale to its downstream neighbour.
     core_cfg.seq_base = super::driver::monotonic_ns();
+    // The links of a starting cluster come up in any order: check once locked.
+    core_cfg.check_after_lock = true;
     let core = MemberCore::new(core_cfg);
     let (cmd_tx, cmd_rx) = unbounded();
     let _plane = control_plane::start(
