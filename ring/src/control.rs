@@ -89,7 +89,7 @@ pub struct MemberStatus {
     pub ring_fault: bool,
     /// Ring faults detected since start.
     pub ring_fault_count: u64,
-    /// Ring cycle at which the latest ring fault was detected.
+    /// Ring cycle at which the ring fault latched (the rising edge; cleared only by a reset).
     pub ring_fault_cycle: Option<u64>,
     /// Cycles run on the local holdover clock (no sync packet arrived in time).
     pub holdover_cycles: u64,

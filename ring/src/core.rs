@@ -22,6 +22,10 @@ use crate::packet::{Packet, PacketError, PACKET_LEN};
 use crate::settings::RingSettings;
 use crate::status::{ErrorClass, RingStatus};
 
+/// Synchronizing master: how many cycles old the latest returned sync packet may be for the
+/// ring to count as locked.
+pub const LOCK_WINDOW: u64 = 8;
+
 /// The card or station logic run once per servo cycle, after forwarding.
 pub trait RingApp {
     /// Run the tick of ring cycle `cycle` at (ring) time `time_ns`: read latched feedback
@@ -137,6 +141,8 @@ pub struct MemberCore {
     cycle: u64,
     last_tick: Option<u64>,
     awaiting: Option<u64>,
+    /// Synchronizing master: latest cycle whose sync packet came back.
+    last_return: Option<u64>,
     locked: bool,
     unconsumed: bool,
     /// A frame arrived since the last servo tick.
@@ -182,6 +188,7 @@ impl MemberCore {
             cycle: 0,
             last_tick: None,
             awaiting: None,
+            last_return: None,
             locked: false,
             unconsumed: false,
             rx_since_tick: false,
@@ -298,9 +305,11 @@ impl MemberCore {
         if !self.is_sync_master() {
             return Vec::new();
         }
-        if self.awaiting.is_some() {
-            self.locked = false; // the previous sync packet never came back
-        }
+        // Locked while sync packets keep coming back; in realtime a ring longer than one period
+        // returns each cycle's sync packet during a later cycle, which is still locked.
+        self.locked = self
+            .last_return
+            .is_some_and(|r| cycle.saturating_sub(r) <= LOCK_WINDOW);
         self.awaiting = Some(cycle);
         self.cycle = cycle;
         self.last_tick = Some(cycle);
@@ -382,9 +391,12 @@ impl MemberCore {
             if let Some(c) = r.own_sync_return {
                 self.status.set_sync_received();
                 self.sync_count += 1;
+                self.last_return = self.last_return.max(Some(c));
+                if self.cycle.saturating_sub(c) <= LOCK_WINDOW {
+                    self.locked = true;
+                }
                 if self.awaiting == Some(c) {
                     self.awaiting = None;
-                    self.locked = true;
                     ev.cycle_complete = Some(c);
                 }
             }
@@ -534,10 +546,11 @@ impl MemberCore {
             self.check.on_servo_cycle(&mut self.status)?
         };
         if !self.ring_fault {
+            // The cycle at which the fault latched (later failing checks keep the latch).
             self.ring_fault = true;
             self.ring_fault_count += 1;
+            self.ring_fault_cycle = Some(self.cycle);
         }
-        self.ring_fault_cycle = Some(self.cycle);
         self.last_fault = Some(fault);
         Some(fault)
     }

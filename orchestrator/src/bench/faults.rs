@@ -93,7 +93,7 @@ pub fn run(args: &BenchFaultsArgs) -> Result<()> {
             recover(sup, cfg, member, word)?;
         }
         if failures > 0 {
-            println!("  {failures} of the drills run were not detected by every card");
+            println!("  {failures} of the drills run were not detected by any card");
         }
         Ok(())
     })
@@ -170,20 +170,27 @@ fn drill(
         .filter(|&i| !(word == "freeze" && i == target))
         .collect();
     let deadline = Instant::now() + timeout;
+    let detected = |now: &[Option<MemberStatus>], i: usize| {
+        now.get(i)
+            .and_then(Option::as_ref)
+            .zip(counts.get(i))
+            .is_some_and(|(m, &n0)| m.ring_fault_count > n0 && m.ring_fault_cycle.is_some())
+    };
+    // Every card, or (frame faults are only seen by the cards that check those packets) the
+    // cards that detected within a second of the first one.
+    let mut first: Option<Instant> = None;
     let now = loop {
         let now = statuses(&s, cfg);
-        let done = cards.iter().all(|&i| {
-            now.get(i)
-                .and_then(Option::as_ref)
-                .zip(counts.get(i))
-                .is_some_and(|(m, &n0)| m.ring_fault_count > n0 && m.ring_fault_cycle.is_some())
-        });
-        if done {
+        let n = cards.iter().filter(|&&i| detected(&now, i)).count();
+        if n == cards.len() || first.is_some_and(|t| t.elapsed() > Duration::from_secs(1)) {
             break now;
+        }
+        if n > 0 {
+            first.get_or_insert_with(Instant::now);
         }
         if Instant::now() > deadline {
             bail!(
-                "not every card latched a ring fault within {} s",
+                "NOT DETECTED: no card latched a ring fault within {} s",
                 timeout.as_secs()
             );
         }
@@ -204,6 +211,10 @@ fn drill(
     let mut parts = Vec::new();
     for &i in &cards {
         let name = cfg.ring.order.get(i).map(String::as_str).unwrap_or("?");
+        if !detected(&now, i) {
+            parts.push(format!("{name} not detected"));
+            continue;
+        }
         let at = now
             .get(i)
             .and_then(Option::as_ref)
