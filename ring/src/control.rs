@@ -8,11 +8,19 @@
 //! - `mcc/<cluster>/ctl/<member>/fault`: query with a [`FaultRequest`] JSON payload → [`CtlReply`].
 //! - `mcc/<cluster>/ctl/<member>/shutdown`: query → [`CtlReply`], then the member exits.
 //! - `mcc/<cluster>/card/<n>/cmd`: query with a command line → the card's framed reply bytes.
+//! - `mcc/<cluster>/card/<n>/at`: synchronized start, [`AtRequest`] JSON → [`AtReply`] JSON
+//!   ([`sync_start`]).
+//! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
 //! - `mcc/<cluster>/alive/<member>`: liveliness token of each member and of `orchestrator`.
 
 use serde::{Deserialize, Serialize};
 
 use crate::fault::FaultSpec;
+
+pub mod chain;
+pub mod sync_start;
+
+pub use sync_start::{at_key, AtReply, AtRequest};
 
 /// Key of the ring link published by member `k` of ring `ring`.
 pub fn link_key(cluster: &str, ring: &str, k: usize) -> String {

@@ -74,6 +74,13 @@ pub struct CoreConfig {
     /// joining a ring whose links are still coming up); a ring that never locks is reported
     /// as not locked rather than as a fault. The sync-node activation rule applies at once.
     pub check_after_lock: bool,
+    /// Timing anomalies tolerated before they count as receive errors: a data underrun is
+    /// recorded after more than this many consecutive servo cycles without any frame (or
+    /// frames without this master's own packets), and a frame arriving before the previous one
+    /// was consumed counts as an overrun only when this is 1. Lockstep: 1 (the ring waits, so
+    /// a gap is a real break); realtime on a general-purpose OS: more, so scheduling hiccups
+    /// show as holdover and late cycles instead of killing the motors.
+    pub timing_slack: u32,
 }
 
 impl CoreConfig {
@@ -100,6 +107,7 @@ impl CoreConfig {
             period_ns,
             seq_base: 0,
             check_after_lock: false,
+            timing_slack: 1,
         }
     }
 }
@@ -159,6 +167,8 @@ pub struct MemberCore {
     ever_locked: bool,
     /// [`CoreConfig::check_after_lock`].
     check_after_lock: bool,
+    /// [`CoreConfig::timing_slack`].
+    timing_slack: u32,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -198,6 +208,7 @@ impl MemberCore {
             own_missing: 0,
             ever_locked: false,
             check_after_lock: cfg.check_after_lock,
+            timing_slack: cfg.timing_slack.max(1),
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -355,7 +366,7 @@ impl MemberCore {
             ..Default::default()
         };
         self.rx_since_tick = true;
-        if self.unconsumed {
+        if self.unconsumed && self.timing_slack <= 1 {
             ev.errors.push(ErrorClass::Overrun);
         }
         self.unconsumed = true;
@@ -420,7 +431,7 @@ impl MemberCore {
             && self.sent_cycle.is_some_and(|c| c + 1 == frame.cycle)
         {
             self.own_missing = self.own_missing.saturating_add(1);
-            if self.own_missing >= 2 {
+            if self.own_missing > self.timing_slack {
                 ev.errors.push(ErrorClass::Underrun);
             }
         }
@@ -538,7 +549,7 @@ impl MemberCore {
                 self.silent_ticks = 0;
             } else if self.last_rx_cycle.is_some() {
                 self.silent_ticks = self.silent_ticks.saturating_add(1);
-                if self.silent_ticks >= 2 {
+                if self.silent_ticks > self.timing_slack {
                     self.status.record(ErrorClass::Underrun);
                 }
             }

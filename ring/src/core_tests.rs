@@ -366,3 +366,37 @@ fn check_after_lock_waits_for_the_first_lock() {
     assert!(!faults.is_empty());
     assert!(m.ring_fault());
 }
+
+#[test]
+fn timing_slack_tolerates_silence_and_backlog_before_counting_errors() {
+    let make = |slack| {
+        let mut cfg = CoreConfig::new(
+            "s",
+            MemberKind::Station,
+            1,
+            RingSettings::new(0x80, 0x0F_8001),
+            P,
+        );
+        cfg.check = RingCheck::card(0, 0, 0, 0);
+        cfg.timing_slack = slack;
+        MemberCore::new(cfg)
+    };
+    for slack in [1u32, 8] {
+        let mut m = make(slack);
+        // Two frames before a tick: a backlog, an overrun only without slack.
+        m.on_frame(&frame(1, 1, &[cmd(1)]).encode(), 0);
+        let ev = m.on_frame(&frame(2, 2, &[cmd(1)]).encode(), 0);
+        let backlog = ev.errors.contains(&crate::status::ErrorClass::Overrun);
+        assert_eq!(backlog, slack == 1, "slack {slack}");
+        m.run_check();
+        // Silent ticks: an underrun once more than `slack` in a row went by.
+        let mut first = None;
+        for t in 1..=12u32 {
+            m.run_check();
+            if first.is_none() && m.status().errors.underrun > 0 {
+                first = Some(t);
+            }
+        }
+        assert_eq!(first, Some(slack + 1), "slack {slack}");
+    }
+}

@@ -22,100 +22,26 @@
 //! arm/commit synchronized start (sync_start.rs), so they execute in the servo tick of one
 //! ring cycle; a line that starts a program on one card only runs at the `<CR>` as usual.
 //!
-//! Wire format. Request: `op` (1 byte: `D` data, `X` connection closed, `?` query start, `T`
-//! take start), connection id (u64 little-endian), then for `D` at most [`MAX_CHUNK`] bytes
-//! of chain input. `?` is answered with one flags byte ([`FLAG_STARTS`], [`FLAG_TALKS`]); `T`
-//! with the flags byte then the line to run (addressing prefix `#m&c` + the collected line),
-//! or nothing when the collected line does not start a program. Reply: segments
-//! `position u32 LE, length u32 LE, bytes`, where `position` is the index in the request's
-//! data of the byte that produced the output; the orchestrator merges the segments of all
-//! cards by position, so replies come out in input order.
+//! Wire format: `mcc_ring::control::chain` (op byte, connection id, data; replies as
+//! position-tagged segments the orchestrator merges in input order). `T` is answered with the
+//! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
+//! when the collected line does not start a program.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
+use mcc_ring::control::chain::{
+    chain_key, decode_request, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE,
+    OP_QUERY_START, OP_TAKE_START,
+};
 use zenoh::Wait;
 
 use crate::host::port::overlong_probe;
 use crate::interp::{control::ctrl_n, Card, Session, MAX_LINE};
 use crate::lang::ast::CmdKind;
 
-/// Request op: chain bytes follow.
-pub const OP_DATA: u8 = b'D';
-/// Request op: the host connection is gone (buffers it left open are closed).
-pub const OP_CLOSE: u8 = b'X';
-/// Request op: does the collected line start a program on this card? (one flags byte)
-pub const OP_QUERY_START: u8 = b'?';
-/// Request op: hand the collected line over for a synchronized start (flags byte + line).
-pub const OP_TAKE_START: u8 = b'T';
-/// Flags: the line this connection collected starts a program (`R`/`S`).
-pub const FLAG_STARTS: u8 = 1;
-/// Flags: this card answers the line (the addressed card; card 0 under `@@`).
-pub const FLAG_TALKS: u8 = 2;
-/// Largest data part of one request.
-pub const MAX_CHUNK: usize = 4096;
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
 pub const MAX_CONNECTIONS: usize = 64;
-
-/// `mcc/<cluster>/card/<n>/chain`.
-pub fn chain_key(cluster: &str, n: u32) -> String {
-    format!("mcc/{cluster}/card/{n}/chain")
-}
-
-/// One decoded request.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Request<'a> {
-    /// [`OP_DATA`] or [`OP_CLOSE`].
-    pub op: u8,
-    /// Chain connection id.
-    pub conn: u64,
-    /// Chain input (empty for close).
-    pub data: &'a [u8],
-}
-
-/// Decode a request payload; a message naming the problem when malformed.
-pub fn decode_request(p: &[u8]) -> Result<Request<'_>, String> {
-    let (&op, rest) = p.split_first().ok_or("empty chain request")?;
-    if ![OP_DATA, OP_CLOSE, OP_QUERY_START, OP_TAKE_START].contains(&op) {
-        return Err(format!("unknown chain request op 0x{op:02X}"));
-    }
-    let id: [u8; 8] = rest
-        .get(..8)
-        .and_then(|b| b.try_into().ok())
-        .ok_or("chain request shorter than its connection id")?;
-    let data = rest.get(8..).unwrap_or_default();
-    if data.len() > MAX_CHUNK {
-        return Err(format!(
-            "chain request of {} bytes exceeds {MAX_CHUNK}",
-            data.len()
-        ));
-    }
-    Ok(Request {
-        op,
-        conn: u64::from_le_bytes(id),
-        data,
-    })
-}
-
-/// Encode a request (used by tests and by hosts written in Rust).
-pub fn encode_request(op: u8, conn: u64, data: &[u8]) -> Vec<u8> {
-    let mut v = Vec::with_capacity(9 + data.len());
-    v.push(op);
-    v.extend_from_slice(&conn.to_le_bytes());
-    v.extend_from_slice(data);
-    v
-}
-
-/// Encode reply segments.
-pub fn encode_reply(segments: &[(u32, Vec<u8>)]) -> Vec<u8> {
-    let mut v = Vec::new();
-    for (pos, bytes) in segments {
-        v.extend_from_slice(&pos.to_le_bytes());
-        v.extend_from_slice(&(bytes.len() as u32).to_le_bytes());
-        v.extend_from_slice(bytes);
-    }
-    v
-}
 
 /// One chain connection as seen by this card.
 #[derive(Debug)]

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::interp::Profile;
+use mcc_ring::control::chain::encode_request;
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
@@ -175,25 +176,6 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     port.close(card, 500);
     // The buffer is closed again: another connection may open one.
     assert_eq!(port.feed(card, 501, b"OPEN PROG 2\r"), vec![(11, vec![6])]);
-}
-
-#[test]
-fn wire_format() {
-    let req = encode_request(OP_DATA, 0x0102, b"P1\r");
-    assert_eq!(&req[..9], b"D\x02\x01\0\0\0\0\0\0");
-    let d = decode_request(&req).unwrap();
-    assert_eq!((d.op, d.conn, d.data), (OP_DATA, 0x0102, &b"P1\r"[..]));
-    assert!(decode_request(b"").is_err());
-    assert!(decode_request(b"Q12345678")
-        .unwrap_err()
-        .contains("op 0x51"));
-    assert!(decode_request(b"D1234").is_err());
-    assert!(decode_request(&encode_request(OP_DATA, 1, &[b'P'; MAX_CHUNK + 1])).is_err());
-    assert_eq!(
-        encode_reply(&[(3, b"ab".to_vec())]),
-        b"\x03\0\0\0\x02\0\0\0ab"
-    );
-    assert_eq!(chain_key("lab", 2), "mcc/lab/card/2/chain");
 }
 
 impl Cable {

@@ -1,7 +1,8 @@
 //! Synchronized start, card side (architecture §6): lines scheduled for the servo tick of a
 //! chosen ring cycle T, with a two-phase arm/commit protocol so a multi-card start never splits.
 //!
-//! Protocol (JSON over the zenoh queryable `mcc/<cluster>/card/<n>/at`, see [`AtRequest`]):
+//! Protocol (JSON over the zenoh queryable `mcc/<cluster>/card/<n>/at`; the wire types
+//! [`AtRequest`]/[`AtReply`] live in `mcc_ring::control::sync_start`):
 //! 1. `arm {id, cycle: T, line}`: the card keeps the line, undecided. It refuses (`late`) when
 //!    the tick of cycle T has already started (or the ring has not ticked yet).
 //! 2. `commit {id}` once every card has armed, or `abort {id}` when one refused.
@@ -21,7 +22,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-use serde::{Deserialize, Serialize};
+use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
 use crate::interp::{Action, ActionKind, Card, Session, MAX_ACTIONS, MAX_LINE};
@@ -39,86 +40,6 @@ pub const MAX_REQUEST: usize = 4096;
 const MAX_IN_FLIGHT: usize = 64;
 /// Test-only: answer each `at` query after a random delay of 0..=N ms.
 pub const DELAY_ENV: &str = "MCC_TEST_AT_DELAY_MS";
-
-/// Key of card `n`'s synchronized-start queryable.
-pub fn at_key(cluster: &str, n: u32) -> String {
-    format!("mcc/{cluster}/card/{n}/at")
-}
-
-/// A request to the `at` queryable.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "op", rename_all = "lowercase")]
-pub enum AtRequest {
-    /// Current cycle, program start record, ring fault and motor state.
-    Info,
-    /// Keep `line` for the tick of ring cycle `cycle`, undecided.
-    Arm {
-        /// Start identifier chosen by the orchestrator.
-        id: u64,
-        /// Ring cycle T.
-        cycle: u64,
-        /// One command line (no CR).
-        line: String,
-    },
-    /// Execute armed start `id` at its cycle.
-    Commit {
-        /// Start identifier.
-        id: u64,
-    },
-    /// Forget armed start `id` (refused once committed).
-    Abort {
-        /// Start identifier.
-        id: u64,
-    },
-    /// Outcome of start `id`: executed (cycle and reply) or still pending.
-    Result {
-        /// Start identifier.
-        id: u64,
-    },
-}
-
-/// The answer to every [`AtRequest`] (fields not relevant to the request keep defaults).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct AtReply {
-    /// The request was accepted.
-    pub ok: bool,
-    /// Error or information text.
-    pub message: String,
-    /// Arm refused because the tick of the requested cycle has already started.
-    pub late: bool,
-    /// Ring cycle of the card's most recent tick.
-    pub cycle: Option<u64>,
-    /// `result`: ring cycle at which the line executed.
-    pub executed_cycle: Option<u64>,
-    /// `result`: CLOCK_MONOTONIC ns at which the line executed.
-    pub executed_ns: Option<u64>,
-    /// `result`: the card's reply to the line (framed bytes as text).
-    pub reply: Option<String>,
-    /// `result`: the line was abandoned (no commit/abort within the stall limit).
-    pub abandoned: bool,
-    /// Ring cycle of the most recent program start.
-    pub program_start_cycle: Option<u64>,
-    /// CLOCK_MONOTONIC ns of the most recent program start.
-    pub program_start_ns: Option<u64>,
-    /// The card's ring-fault bit (X:$0003 bit 4).
-    pub ring_fault: bool,
-    /// Ring fault latched and every activated motor killed.
-    pub motors_killed: bool,
-    /// Activated motors (Ix00=1) that are killed (open loop, amplifier disabled).
-    pub killed_motors: Vec<u16>,
-    /// Ticks that waited for a commit (a lead that was too short).
-    pub stalls: u64,
-}
-
-impl AtReply {
-    fn err(message: impl Into<String>) -> Self {
-        AtReply {
-            message: message.into(),
-            ..AtReply::default()
-        }
-    }
-}
 
 #[derive(Debug, Clone)]
 struct Pending {

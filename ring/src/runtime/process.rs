@@ -22,6 +22,9 @@ use crate::settings::RingSettings;
 use crate::transport::session::{open_session, SessionOptions};
 use crate::transport::zenoh_link;
 
+/// Realtime: consecutive silent or packet-less cycles tolerated before a data underrun.
+pub const REALTIME_TIMING_SLACK: u32 = 8;
+
 /// Command-line arguments every member process takes.
 #[derive(Debug, Clone)]
 pub struct MemberArgs {
@@ -147,6 +150,11 @@ where
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.
     core_cfg.check_after_lock = true;
+    core_cfg.timing_slack = match config.clock {
+        crate::config::ClockMode::Lockstep => 1,
+        // ≈ 3.5 ms at the PMAC servo rate before silence counts as a broken link.
+        crate::config::ClockMode::Realtime => REALTIME_TIMING_SLACK,
+    };
     let core = MemberCore::new(core_cfg);
     let (cmd_tx, cmd_rx) = unbounded();
     let _plane = control_plane::start(
