@@ -22,6 +22,10 @@ use crate::packet::{Packet, PacketError, PACKET_LEN};
 use crate::settings::RingSettings;
 use crate::status::{ErrorClass, RingStatus};
 
+/// [`CoreConfig::check_after_lock`]: servo cycles a member must have run locked, in a row, before
+/// its ring check starts (the links of a starting cluster settle).
+pub const ARM_AFTER_LOCKED: u32 = 64;
+
 /// Synchronizing master: how many cycles old the latest returned sync packet may be for the
 /// ring to count as locked.
 pub const LOCK_WINDOW: u64 = 8;
@@ -70,9 +74,10 @@ pub struct CoreConfig {
     /// First link sequence number minus one: give a restarted process a larger base (e.g. a
     /// wall-clock ns reading) so its downstream neighbour does not reject it as stale.
     pub seq_base: u64,
-    /// Start the ring check only once the member has first locked to the ring (processes
-    /// joining a ring whose links are still coming up); a ring that never locks is reported
-    /// as not locked rather than as a fault. The sync-node activation rule applies at once.
+    /// Start the ring check only once the member has run [`ARM_AFTER_LOCKED`] servo cycles in a
+    /// row locked to the ring (processes joining a ring whose links are still coming up); a ring
+    /// that never locks is reported as not locked rather than as a fault. The sync-node
+    /// activation rule applies at once.
     pub check_after_lock: bool,
     /// Timing anomalies tolerated before they count as receive errors: a data underrun is
     /// recorded after more than this many consecutive servo cycles without any frame (or
@@ -167,6 +172,8 @@ pub struct MemberCore {
     ever_locked: bool,
     /// [`CoreConfig::check_after_lock`].
     check_after_lock: bool,
+    /// Consecutive servo cycles run while locked.
+    locked_streak: u32,
     /// [`CoreConfig::timing_slack`].
     timing_slack: u32,
     ring_fault: bool,
@@ -208,6 +215,7 @@ impl MemberCore {
             own_missing: 0,
             ever_locked: false,
             check_after_lock: cfg.check_after_lock,
+            locked_streak: 0,
             timing_slack: cfg.timing_slack.max(1),
             ring_fault: false,
             ring_fault_count: 0,
@@ -527,7 +535,12 @@ impl MemberCore {
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
         self.unconsumed = false;
-        self.ever_locked |= self.locked;
+        self.locked_streak = if self.locked {
+            self.locked_streak.saturating_add(1)
+        } else {
+            0
+        };
+        self.ever_locked |= !self.check_after_lock || self.locked_streak >= ARM_AFTER_LOCKED;
         let settings = self.member.settings();
         let node = settings.sync_node();
         let fault = if self.kind == MemberKind::Card

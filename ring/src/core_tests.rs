@@ -355,13 +355,17 @@ fn check_after_lock_waits_for_the_first_lock() {
         assert_eq!(m.run_check(), None);
     }
     assert!(!m.ring_fault());
-    // ... then the sync packet comes back once: locked, and from now on a lost ring faults.
-    m.start_cycle(1, 0);
-    let ev = m.on_frame(
-        &Frame::with_packets(0, 1, 0, 1, &[Packet::sync(0, 15, 1)]).encode(),
-        0,
-    );
-    assert_eq!(ev.cycle_complete, Some(1));
+    // ... then sync packets come back: locked; after ARM_AFTER_LOCKED locked cycles the check
+    // runs, and from then on a lost ring faults.
+    for c in 1..=u64::from(crate::core::ARM_AFTER_LOCKED) {
+        m.start_cycle(c, 0);
+        let ev = m.on_frame(
+            &Frame::with_packets(0, c, 0, c, &[Packet::sync(0, 15, c)]).encode(),
+            0,
+        );
+        assert_eq!(ev.cycle_complete, Some(c));
+        assert_eq!(m.run_check(), None, "cycle {c}");
+    }
     let faults: Vec<_> = (0..6).filter_map(|_| m.run_check()).collect();
     assert!(!faults.is_empty());
     assert!(m.ring_fault());
