@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
 use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::{ctl_key, CtlReply};
+use mcc_ring::control::{ctl_key, AtReply, AtRequest, CtlReply};
 
 use crate::client::Attached;
 use crate::status::ClusterStatus;
-use crate::syncstart::{query_all, AtReply};
+use crate::syncstart::query_all;
 use crate::{ctl, sys};
 
 /// The process-level drills.
@@ -23,7 +23,7 @@ pub fn restart_key(cluster: &str) -> String {
 
 /// Ask every card for its `info` (ring fault, killed motors, program start); in config order.
 pub fn card_infos(session: &zenoh::Session, cfg: &ClusterConfig) -> Vec<Option<AtReply>> {
-    let body = serde_json::json!({"op": "info"}).to_string();
+    let body = AtRequest::Info.to_json();
     let reqs: Vec<(u32, String)> = cfg
         .cards
         .iter()

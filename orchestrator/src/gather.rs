@@ -198,7 +198,7 @@ fn value(session: &zenoh::Session, key: &str, line: &str) -> Result<f64> {
 
 /// The card's latest ring cycle (its `at` queryable).
 fn card_cycle(session: &zenoh::Session, cluster: &str, n: u32) -> Result<u64> {
-    let body = serde_json::json!({"op": "info"}).to_string();
+    let body = mcc_ring::control::AtRequest::Info.to_json();
     let (r, _) =
         crate::syncstart::query_all(session, cluster, &[(n, body)], Duration::from_secs(2))
             .pop()

@@ -26,16 +26,9 @@ use cli::{BenchCommand, Cli, Command};
 
 fn main() {
     let cli = Cli::parse();
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG").unwrap_or_else(|_| {
-                // zenoh's own transport chatter (links opened and closed while a CLI verb
-                // attaches) is not for the user; MCC_LOG=debug shows it.
-                tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=off")
-            }),
-        )
-        .with_writer(std::io::stderr)
-        .init();
+    // zenoh's own transport chatter (links opened and closed while a CLI verb attaches) is
+    // not for the user; MCC_LOG=debug shows it.
+    mcc_ring::runtime::logging::init_logging_with("warn,zenoh=error,zenoh_transport=off");
     let cluster = cli.cluster_name();
     let res = match &cli.command {
         Command::Up(a) => {

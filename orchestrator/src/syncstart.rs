@@ -1,5 +1,6 @@
 //! Synchronized multi-card start (`mcc start-sync`), orchestrator side of the two-phase
-//! protocol the cards serve on `mcc/<cluster>/card/<n>/at` (card/src/runtime/sync_start.rs):
+//! protocol the cards serve on `mcc/<cluster>/card/<n>/at` (card/src/runtime/sync_start.rs;
+//! the wire types are `mcc_ring::control::sync_start`):
 //!
 //! 1. probe: every card's current ring cycle, twice, to measure the ring rate and the query
 //!    round trip; T = latest cycle + lead, the lead covering two round trips (arm, commit) at
@@ -14,50 +15,12 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use serde::{Deserialize, Serialize};
+use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
+use serde::Serialize;
 use zenoh::Wait;
 
 /// Largest reply accepted from a card, bytes.
 const MAX_REPLY: usize = 64 * 1024;
-
-/// Key of card `n`'s synchronized-start queryable.
-pub fn at_key(cluster: &str, n: u32) -> String {
-    format!("mcc/{cluster}/card/{n}/at")
-}
-
-/// The card's answer (mirror of `mcc_card::runtime::sync_start::AtReply`).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct AtReply {
-    /// Accepted.
-    pub ok: bool,
-    /// Error or information text.
-    pub message: String,
-    /// Arm refused: the cycle has started.
-    pub late: bool,
-    /// The card's latest tick.
-    pub cycle: Option<u64>,
-    /// Cycle at which the line executed.
-    pub executed_cycle: Option<u64>,
-    /// CLOCK_MONOTONIC ns at which the line executed.
-    pub executed_ns: Option<u64>,
-    /// The card's reply to the line.
-    pub reply: Option<String>,
-    /// The card gave up waiting for a decision.
-    pub abandoned: bool,
-    /// Cycle of the card's most recent program start.
-    pub program_start_cycle: Option<u64>,
-    /// CLOCK_MONOTONIC ns of that start.
-    pub program_start_ns: Option<u64>,
-    /// Ring-fault bit.
-    pub ring_fault: bool,
-    /// Ring fault latched and every activated motor killed.
-    pub motors_killed: bool,
-    /// Activated motors that are killed.
-    pub killed_motors: Vec<u16>,
-    /// Ticks that waited for a commit.
-    pub stalls: u64,
-}
 
 /// Tuning of a synchronized start.
 #[derive(Debug, Clone)]
@@ -156,8 +119,8 @@ pub fn query_all(
         .collect()
 }
 
-fn same(cards: &[u32], body: serde_json::Value) -> Vec<(u32, String)> {
-    let s = body.to_string();
+fn same(cards: &[u32], req: &AtRequest) -> Vec<(u32, String)> {
+    let s = req.to_json();
     cards.iter().map(|&c| (c, s.clone())).collect()
 }
 
@@ -171,12 +134,7 @@ fn probe(
     let at = Instant::now();
     let mut max_cycle = 0;
     let mut rtt = Duration::ZERO;
-    for (r, dt) in query_all(
-        session,
-        cluster,
-        &same(cards, serde_json::json!({"op": "info"})),
-        t,
-    ) {
+    for (r, dt) in query_all(session, cluster, &same(cards, &AtRequest::Info), t) {
         let r = r?;
         let c = r
             .cycle
@@ -243,8 +201,12 @@ pub fn start_sync_lines(
         let arm: Vec<(u32, String)> = lines
             .iter()
             .map(|(n, line)| {
-                let body = serde_json::json!({"op":"arm","id":id,"cycle":cycle,"line":line});
-                (*n, body.to_string())
+                let arm = AtRequest::Arm {
+                    id,
+                    cycle,
+                    line: line.clone(),
+                };
+                (*n, arm.to_json())
             })
             .collect();
         let armed = query_all(session, cluster, &arm, qt);
@@ -262,12 +224,7 @@ pub fn start_sync_lines(
             let hard = armed
                 .iter()
                 .find_map(|(r, _)| r.as_ref().ok().filter(|a| !a.ok && !a.late).cloned());
-            let _ = query_all(
-                session,
-                cluster,
-                &same(cards, serde_json::json!({"op":"abort","id":id})),
-                qt,
-            );
+            let _ = query_all(session, cluster, &same(cards, &AtRequest::Abort { id }), qt);
             last_reason = refusals.join("; ");
             tracing::info!(attempt, lead, "synchronized start retried: {last_reason}");
             if let Some(h) = hard {
@@ -275,7 +232,7 @@ pub fn start_sync_lines(
             }
             continue;
         }
-        let commit = same(cards, serde_json::json!({"op":"commit","id":id}));
+        let commit = same(cards, &AtRequest::Commit { id });
         let committed = query_all(session, cluster, &commit, qt);
         for ((r, _), n) in committed.iter().zip(cards) {
             match r {
@@ -326,7 +283,7 @@ fn collect(
         if pending.is_empty() {
             break;
         }
-        let body = serde_json::json!({"op":"result","id":id}).to_string();
+        let body = AtRequest::Result { id }.to_json();
         let reqs: Vec<(u32, String)> = pending.iter().map(|&(_, n)| (n, body.clone())).collect();
         for ((r, _), (i, n)) in query_all(session, cluster, &reqs, Duration::from_secs(2))
             .into_iter()

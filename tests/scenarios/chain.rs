@@ -3,153 +3,12 @@
 //! `mcc send`, `mcc term` and the foreground `mcc up` terminal driven through pipes. Cards
 //! keep their default framing (I3=1, I6=3): data `<LF>text<CR><LF>`... as in transcript 01.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use serde_json::Value;
-
-fn bin_dir() -> PathBuf {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let exe = std::env::current_exe().expect("test exe path");
-        let dir = exe
-            .parent()
-            .and_then(Path::parent)
-            .expect("target dir")
-            .to_path_buf();
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut args = vec![
-            "build",
-            "-q",
-            "-p",
-            "mcc-orchestrator",
-            "-p",
-            "mcc-card",
-            "-p",
-            "mcc-station",
-        ];
-        if dir.ends_with("release") {
-            args.push("--release");
-        }
-        let st = Command::new(cargo)
-            .args(args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .status()
-            .expect("run cargo build");
-        assert!(st.success(), "building mcc, mcc-card, mcc-station failed");
-        dir
-    })
-    .clone()
-}
-
-fn run_base() -> PathBuf {
-    std::env::temp_dir().join(format!("mcc-chain-scenarios-{}", std::process::id()))
-}
-
-fn unique(tag: &str) -> String {
-    static N: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    format!("c{}-{tag}-{n}", std::process::id())
-}
-
-fn mcc_cmd(args: &[&str]) -> Command {
-    let mut c = Command::new(bin_dir().join("mcc"));
-    c.args(args)
-        .env("MCC_RUN_DIR", run_base())
-        .env_remove("MCC_BIN_DIR")
-        .env_remove("MCC_CHAIN_PTY")
-        .env_remove("MCC_CHAIN_PORT")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    c
-}
-
-/// Run `mcc args…` with `input` on stdin, killed after `timeout`.
-fn mcc(args: &[&str], input: &[u8], timeout: Duration) -> Output {
-    let mut child = mcc_cmd(args)
-        .stdin(Stdio::piped())
-        .spawn()
-        .expect("spawn mcc");
-    if let Some(mut i) = child.stdin.take() {
-        let _ = i.write_all(input);
-    }
-    let deadline = Instant::now() + timeout;
-    while child.try_wait().expect("wait").is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let out = child.wait_with_output().expect("output");
-            panic!("mcc {args:?} hung\nstderr: {}", text(&out.stderr));
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("output")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-/// A detached cluster, taken down (and its processes killed) when dropped.
-struct Cluster {
-    name: String,
-    pids: Vec<u64>,
-}
-
-impl Cluster {
-    fn up(tag: &str, extra: &[&str]) -> Cluster {
-        let name = unique(tag);
-        let mut args = vec!["up", "--detach", "--cluster", &name, "--timeout", "90"];
-        args.extend_from_slice(extra);
-        let mut c = Cluster {
-            name: name.clone(),
-            pids: Vec::new(),
-        };
-        let out = mcc(&args, b"", Duration::from_secs(150));
-        assert!(
-            out.status.success(),
-            "mcc up failed\n{}\n{}",
-            text(&out.stdout),
-            text(&out.stderr)
-        );
-        let doc = c.status();
-        c.pids = doc["members"]
-            .as_array()
-            .map(|a| a.iter().filter_map(|m| m["pid"].as_u64()).collect())
-            .unwrap_or_default();
-        c.pids.extend(doc["supervisor"]["pid"].as_u64());
-        c
-    }
-
-    fn status(&self) -> Value {
-        let out = mcc(
-            &["status", "--json", "--cluster", &self.name],
-            b"",
-            Duration::from_secs(30),
-        );
-        assert!(out.status.success(), "status: {}", text(&out.stderr));
-        serde_json::from_slice(&out.stdout).expect("status JSON")
-    }
-}
-
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        let _ = mcc(
-            &["down", "--cluster", &self.name],
-            b"",
-            Duration::from_secs(60),
-        );
-        for p in &self.pids {
-            let _ = Command::new("kill")
-                .args(["-KILL", &p.to_string()])
-                .status();
-        }
-    }
-}
+use mcc_tests::cluster::{Cluster, Foreground};
+use mcc_tests::process::{mcc, mcc_with_input, run_base, text, unique};
 
 /// A host on the chain: write bytes, read the reply.
 trait Host: Read + Write {}
@@ -302,7 +161,6 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
             "P4",
             "P3",
         ],
-        b"",
         Duration::from_secs(60),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
@@ -316,7 +174,6 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
             "@1P4",
             "@7P4",
         ],
-        b"",
         Duration::from_secs(60),
     );
     assert_eq!(text(&out.stdout), "<LF>3<CR>\n<LF>\n");
@@ -327,7 +184,6 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     );
     let out = mcc(
         &["send", "--cluster", &c.name, "--card", "16", "P1"],
-        b"",
         Duration::from_secs(60),
     );
     assert!(!out.status.success());
@@ -338,7 +194,7 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     );
 
     // `mcc term` through a pipe.
-    let out = mcc(
+    let out = mcc_with_input(
         &["term", "--cluster", &c.name],
         b"@0P4\n@1P4\n.framing\nP1\n@\n.bogus\n.quit\nP1\n",
         Duration::from_secs(60),
@@ -354,56 +210,17 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
 #[test]
 fn foreground_up_is_a_terminal_on_the_chain() {
     let name = unique("fgterm");
-    let _guard = Cluster {
-        name: name.clone(),
-        pids: Vec::new(),
-    };
-    let mut child: Child = mcc_cmd(&[
-        "up",
-        "--cluster",
+    let _guard = Cluster::guard(&name);
+    let mut fg = Foreground::start(
         &name,
-        "--clock",
-        "lockstep",
-        "--cards",
-        "2",
-        "--stations",
-        "1",
-    ])
-    .stdin(Stdio::piped())
-    .spawn()
-    .expect("spawn mcc up");
-    let stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let deadline = Instant::now() + Duration::from_secs(150);
-    let mut seen = Vec::new();
-    loop {
-        if let Ok(l) = rx.recv_timeout(Duration::from_millis(200)) {
-            let ready = l.contains(" up: ");
-            seen.push(l);
-            if ready {
-                break;
-            }
-        }
-        assert!(Instant::now() < deadline, "up did not get ready: {seen:?}");
-        assert!(child.try_wait().unwrap().is_none(), "up exited: {seen:?}");
-    }
-    let mut stdin = child.stdin.take().expect("stdin");
+        &["--clock", "lockstep", "--cards", "2", "--stations", "1"],
+    );
+    fg.wait_ready(Duration::from_secs(150));
+    let mut stdin = fg.child.stdin.take().expect("stdin");
     stdin.write_all(b"@1P7=42\n@1P7\n@0P7\n.quit\n").unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        assert!(Instant::now() < deadline, "mcc up did not stop after .quit");
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let status = fg.wait_exit("after .quit", Duration::from_secs(60));
     assert!(status.success());
-    let rest: Vec<String> = rx.try_iter().collect();
+    let rest = fg.remaining_lines(Duration::from_secs(5));
     assert!(
         rest.iter().any(|l| l.contains("daisy chain 127.0.0.1:")),
         "{rest:?}"

@@ -4,11 +4,10 @@
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
+use mcc_tests::cluster::Cluster;
+use mcc_tests::process::ok;
 use serde_json::Value;
 
 /// Ring check period of the default cluster's cards (I1001).
@@ -22,170 +21,38 @@ const SETUP: &[&str] = &[
     "CLOSE",
 ];
 
-fn bin_dir() -> PathBuf {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let exe = std::env::current_exe().expect("test exe path");
-        let dir = exe
-            .parent()
-            .and_then(Path::parent)
-            .expect("target dir")
-            .to_path_buf();
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut args = vec!["build", "-q", "-p", "mcc-orchestrator", "-p", "mcc-card"];
-        args.extend(["-p", "mcc-station"]);
-        if dir.ends_with("release") {
-            args.push("--release");
-        }
-        let st = Command::new(cargo)
-            .args(&args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .status()
-            .expect("run cargo build");
-        assert!(st.success(), "building the binaries failed");
-        dir
-    })
-    .clone()
+/// Card `n`'s ASCII port from a status document.
+fn card_port(doc: &Value, n: u64) -> u16 {
+    let c = doc["cards"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["number"] == n)
+        .expect("card");
+    c["ascii"].as_u64().expect("ascii port") as u16
 }
 
-fn run_base() -> PathBuf {
-    std::env::temp_dir().join(format!("mcc-drills-{}", std::process::id()))
-}
-
-fn mcc_env(args: &[&str], env: &[(&str, &str)], timeout: Duration) -> Output {
-    let mut c = Command::new(bin_dir().join("mcc"));
-    c.args(args)
-        .env("MCC_RUN_DIR", run_base())
-        .env("RUST_LOG", "off")
-        .env_remove("MCC_BIN_DIR")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    let child = c.spawn().expect("spawn mcc");
-    let pid = child.id();
-    // Read the output while waiting (a long JSON reply would fill the pipe).
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(timeout) {
-        Ok(out) => out.expect("mcc output"),
-        Err(_) => {
-            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
-            panic!("mcc {args:?} did not finish within {timeout:?}");
-        }
-    }
-}
-
-fn ok(out: Output, what: &str) -> String {
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed\nstdout: {text}\nstderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
-}
-
-/// A cluster under test, stopped (and its processes killed) when dropped.
-struct Cluster {
-    name: String,
-    pids: Vec<u64>,
-}
-
-impl Cluster {
-    fn up(tag: &str, extra: &[&str], env: &[(&str, &str)]) -> Cluster {
-        let name = format!("d{}-{tag}", std::process::id());
-        let mut args = vec!["up", "--detach", "--cluster", &name, "--timeout", "90"];
-        args.extend_from_slice(extra);
-        ok(mcc_env(&args, env, Duration::from_secs(120)), "mcc up");
-        let mut c = Cluster { name, pids: vec![] };
-        c.pids = c.pids_now();
-        c
-    }
-
-    fn mcc(&self, args: &[&str]) -> Output {
-        let mut a = vec!["--cluster", self.name.as_str()];
-        a.extend_from_slice(args);
-        mcc_env(&a, &[], Duration::from_secs(120))
-    }
-
-    fn status(&self) -> Value {
-        let text = ok(self.mcc(&["status", "--json"]), "mcc status");
-        serde_json::from_str(&text).expect("status JSON")
-    }
-
-    fn pids_now(&self) -> Vec<u64> {
-        let doc = self.status();
-        let mut p: Vec<u64> = doc["members"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter_map(|m| m["pid"].as_u64())
-            .collect();
-        p.extend(doc["supervisor"]["pid"].as_u64());
-        p
-    }
-
-    fn card_port(&self, doc: &Value, n: u64) -> u16 {
-        let c = doc["cards"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["number"] == n)
-            .expect("card");
-        c["ascii"].as_u64().expect("ascii port") as u16
-    }
-
-    /// Send lines to card `n`'s ASCII port; the replies.
-    fn send(&self, n: u64, lines: &[&str]) -> String {
-        let port = self.card_port(&self.status(), n);
-        let mut s = TcpStream::connect(("127.0.0.1", port)).expect("connect ascii port");
-        s.set_read_timeout(Some(Duration::from_millis(300)))
-            .unwrap();
-        let mut all = Vec::new();
-        for l in lines {
-            s.write_all(format!("{l}\r").as_bytes()).unwrap();
-            let mut buf = [0u8; 4096];
-            while let Ok(k) = s.read(&mut buf) {
-                if k == 0 {
-                    break;
-                }
-                all.extend_from_slice(&buf[..k]);
-                if buf[..k].ends_with(b"\n") || buf[..k].ends_with(b"\x06") {
-                    break;
-                }
+/// Send lines to card `n`'s ASCII port; the replies.
+fn send(c: &Cluster, n: u64, lines: &[&str]) -> String {
+    let port = card_port(&c.status(), n);
+    let mut s = TcpStream::connect(("127.0.0.1", port)).expect("connect ascii port");
+    s.set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let mut all = Vec::new();
+    for l in lines {
+        s.write_all(format!("{l}\r").as_bytes()).unwrap();
+        let mut buf = [0u8; 4096];
+        while let Ok(k) = s.read(&mut buf) {
+            if k == 0 {
+                break;
+            }
+            all.extend_from_slice(&buf[..k]);
+            if buf[..k].ends_with(b"\n") || buf[..k].ends_with(b"\x06") {
+                break;
             }
         }
-        String::from_utf8_lossy(&all).into_owned()
     }
-
-    fn wait(&self, what: &str, timeout: Duration, mut f: impl FnMut(&Value) -> bool) -> Value {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let doc = self.status();
-            if f(&doc) {
-                return doc;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "timed out waiting for {what}: {doc:#}"
-            );
-            std::thread::sleep(Duration::from_millis(200));
-        }
-    }
-}
-
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        let _ = self.mcc(&["down", "--timeout", "5"]);
-        for p in &self.pids {
-            let _ = Command::new("kill").args(["-9", &p.to_string()]).status();
-        }
-    }
+    String::from_utf8_lossy(&all).into_owned()
 }
 
 fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
@@ -213,13 +80,13 @@ fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
 
 #[test]
 fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
-    let c = Cluster::up(
+    let c = Cluster::up_with_env(
         "sync4",
         &["--cards", "4", "--stations", "4", "--clock", "lockstep"],
         &[("MCC_TEST_AT_DELAY_MS", "15")],
     );
     for n in 0..4 {
-        let r = c.send(n, SETUP);
+        let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
     }
     let outs = start_sync(&c, "0,1,2,3", 100);
@@ -299,6 +166,20 @@ fn drill(c: &Cluster, args: &[&str], link: &str, downstream: &str, cards: &[&str
     eprintln!("{args:?}: {link}, lost cycle {lost}");
 }
 
+/// `mcc fault MEMBER restart`, then wait until the new process answers its status query
+/// (the verb returns once the process is spawned; on a busy machine it may take seconds to
+/// join, and `fault clear` asks every member).
+fn restart(c: &Cluster, member: &str) {
+    ok(c.mcc(&["fault", member, "restart"]), "mcc fault restart");
+    c.wait(&format!("{member} back"), Duration::from_secs(60), |d| {
+        d["members"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|m| m["name"] == member && m["alive"] == true)
+    });
+}
+
 fn recover(c: &Cluster) {
     ok(c.mcc(&["fault", "clear"]), "fault clear");
     c.wait("ring re-locked", Duration::from_secs(30), |d| {
@@ -309,7 +190,7 @@ fn recover(c: &Cluster) {
             .all(|m| m["alive"] == true && m["locked"] == true)
     });
     for n in 0..2 {
-        c.send(n, &["$$$"]);
+        send(c, n, &["$$$"]);
     }
     let doc = c.wait("ring fault cleared", Duration::from_secs(30), |d| {
         let _ = c.mcc(&["fault", "reset"]);
@@ -322,7 +203,7 @@ fn recover(c: &Cluster) {
         .all(|c| c["ring_fault"] == false));
     // Motion can be commanded again.
     for n in 0..2 {
-        let r = c.send(n, SETUP);
+        let r = send(c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} after recovery: {r:?}");
     }
     let o = start_sync(c, "0,1", 1);
@@ -336,10 +217,10 @@ fn recover(c: &Cluster) {
 
 #[test]
 fn ring_faults_are_detected_localised_and_recovered() {
-    let c = Cluster::up("faults", &["--clock", "lockstep"], &[]);
+    let c = Cluster::up("faults", &["--clock", "lockstep"]);
     // Ring order: card0 (sync master), station0, card1, station1.
     for n in 0..2 {
-        let r = c.send(n, SETUP);
+        let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
     }
     drill(
@@ -365,7 +246,7 @@ fn ring_faults_are_detected_localised_and_recovered() {
         "card1",
         &["card0", "card1"],
     );
-    ok(c.mcc(&["fault", "station0", "restart"]), "restart station0");
+    restart(&c, "station0");
     recover(&c);
     drill(
         &c,
@@ -375,16 +256,16 @@ fn ring_faults_are_detected_localised_and_recovered() {
         &["card0"],
     );
     // A thawed member whose zenoh session expired leaves; restart brings it back.
-    ok(c.mcc(&["fault", "card1", "restart"]), "restart card1");
+    restart(&c, "card1");
     recover(&c);
 }
 
 #[test]
 fn realtime_synchronized_start_skew_is_recorded() {
     // A modest rate: the machine is shared; late cycles would only fault the ring.
-    let c = Cluster::up("rt2", &["--clock", "realtime", "--rate", "500"], &[]);
+    let c = Cluster::up("rt2", &["--clock", "realtime", "--rate", "500"]);
     for n in 0..2 {
-        let r = c.send(n, SETUP);
+        let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
     }
     let outs = start_sync(&c, "0,1", 5);

@@ -2,136 +2,23 @@
 //! gathering into CSV and PNG), and a daisy-chain line that starts programs on two cards
 //! (`@0&1B1R@1&1B1R<CR>`) executing through the synchronized start.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
+use std::path::Path;
 use std::time::Duration;
 
+use mcc_tests::cluster::Cluster;
+use mcc_tests::process::ok;
 use serde_json::Value;
 
-fn bin_dir() -> PathBuf {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let exe = std::env::current_exe().expect("test exe path");
-        let dir = exe
-            .parent()
-            .and_then(Path::parent)
-            .expect("target dir")
-            .to_path_buf();
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut args = vec!["build", "-q", "-p", "mcc-orchestrator", "-p", "mcc-card"];
-        args.extend(["-p", "mcc-station"]);
-        if dir.ends_with("release") {
-            args.push("--release");
-        }
-        let st = Command::new(cargo)
-            .args(&args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .status()
-            .expect("run cargo build");
-        assert!(st.success(), "building the binaries failed");
-        dir
-    })
-    .clone()
+/// A lockstep cluster with the default cards and stations.
+fn lockstep(tag: &str) -> Cluster {
+    Cluster::up(tag, &["--clock", "lockstep"])
 }
 
-fn run_base() -> PathBuf {
-    std::env::temp_dir().join(format!("mcc-gather-{}", std::process::id()))
-}
-
-fn mcc_run(args: &[&str], timeout: Duration) -> Output {
-    let mut c = Command::new(bin_dir().join("mcc"));
-    c.args(args)
-        .env("MCC_RUN_DIR", run_base())
-        .env("RUST_LOG", "warn")
-        .env_remove("MCC_BIN_DIR")
-        .env_remove("MCC_TEST_AT_DELAY_MS")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let child = c.spawn().expect("spawn mcc");
-    let pid = child.id();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(timeout) {
-        Ok(out) => out.expect("mcc output"),
-        Err(_) => {
-            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
-            panic!("mcc {args:?} did not finish within {timeout:?}");
-        }
-    }
-}
-
-fn ok(out: Output, what: &str) -> String {
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed\nstdout: {text}\nstderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
-}
-
-/// A lockstep cluster, stopped (and its processes killed) when dropped.
-struct Cluster {
-    name: String,
-    pids: Vec<u64>,
-}
-
-impl Cluster {
-    fn up(tag: &str) -> Cluster {
-        let name = format!("g{}-{tag}", std::process::id());
-        let args = ["up", "--detach", "--cluster", &name, "--timeout", "90"];
-        let mut c = Cluster {
-            name: name.clone(),
-            pids: vec![],
-        };
-        ok(
-            mcc_run(
-                &[&args[..], &["--clock", "lockstep"]].concat(),
-                Duration::from_secs(120),
-            ),
-            "mcc up",
-        );
-        let doc = c.status();
-        c.pids = doc["members"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter_map(|m| m["pid"].as_u64())
-            .chain(doc["supervisor"]["pid"].as_u64())
-            .collect();
-        c
-    }
-
-    fn mcc(&self, args: &[&str]) -> Output {
-        let mut a = vec!["--cluster", self.name.as_str()];
-        a.extend_from_slice(args);
-        mcc_run(&a, Duration::from_secs(120))
-    }
-
-    fn status(&self) -> Value {
-        let text = ok(self.mcc(&["status", "--json"]), "mcc status");
-        serde_json::from_str(&text).expect("status JSON")
-    }
-
-    /// `mcc send --show-framing LINE…` on the chain: the printed replies.
-    fn send(&self, lines: &[&str]) -> String {
-        let mut a = vec!["send", "--show-framing"];
-        a.extend_from_slice(lines);
-        ok(self.mcc(&a), "mcc send")
-    }
-}
-
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        let _ = self.mcc(&["down", "--timeout", "5"]);
-        for p in &self.pids {
-            let _ = Command::new("kill").args(["-9", &p.to_string()]).status();
-        }
-    }
+/// `mcc send --show-framing LINE…` on the chain: the printed replies.
+fn send(c: &Cluster, lines: &[&str]) -> String {
+    let mut a = vec!["send", "--show-framing"];
+    a.extend_from_slice(lines);
+    ok(c.mcc(&a), "mcc send")
 }
 
 fn start_cycles(doc: &Value) -> Vec<Option<u64>> {
@@ -145,27 +32,30 @@ fn start_cycles(doc: &Value) -> Vec<Option<u64>> {
 
 #[test]
 fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
-    let c = Cluster::up("chainsync");
+    let c = lockstep("chainsync");
     // The same short program on both cards (under @@ every card takes the line).
-    let setup = c.send(&[
-        "@@&1#1->1000X",
-        "#1J/",
-        "OPEN PROG 1 CLEAR",
-        "DWELL 1",
-        "CLOSE",
-    ]);
+    let setup = send(
+        &c,
+        &[
+            "@@&1#1->1000X",
+            "#1J/",
+            "OPEN PROG 1 CLEAR",
+            "DWELL 1",
+            "CLOSE",
+        ],
+    );
     assert!(!setup.contains("<BELL>"), "{setup}");
     std::thread::sleep(Duration::from_millis(500));
     assert_eq!(start_cycles(&c.status()), [None, None]);
     // A start on one card only runs at the <CR> as before: card 1 has no start recorded.
-    let single = c.send(&["@0&1B1R"]);
+    let single = send(&c, &["@0&1B1R"]);
     assert!(!single.contains("<BELL>"), "{single}");
     let first = start_cycles(&c.status());
     assert!(first[0].is_some() && first[1].is_none(), "{first:?}");
     let mut last = first[0];
     for round in 0..3 {
         std::thread::sleep(Duration::from_millis(100));
-        let r = c.send(&["@0&1B1R@1&1B1R"]);
+        let r = send(&c, &["@0&1B1R@1&1B1R"]);
         // Card 1 is addressed at the <CR>: its reply is the only one, as for one card.
         assert_eq!(r, single, "round {round}");
         let s = start_cycles(&c.status());
@@ -175,14 +65,14 @@ fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
     }
     // `@@…R`: every card starts, card 0 answers, one cycle again.
     std::thread::sleep(Duration::from_millis(100));
-    let r = c.send(&["@@&1B1R"]);
+    let r = send(&c, &["@@&1B1R"]);
     assert_eq!(r, single);
     let s = start_cycles(&c.status());
     assert_eq!(s[0], s[1]);
     assert_ne!(s[0], last);
     // A refused start still answers in PMAC terms (program 9 does not exist: ERR015 on
     // both cards, only the addressed card's answer is seen).
-    let r = c.send(&["@0&1B9R@1&1B9R"]);
+    let r = send(&c, &["@0&1B9R@1&1B9R"]);
     assert!(r.contains("<BELL>"), "{r}");
 }
 
@@ -207,7 +97,7 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 
 #[test]
 fn gather_records_a_jog_into_csv_and_png() {
-    let c = Cluster::up("gather");
+    let c = lockstep("gather");
     let out = std::env::temp_dir().join(format!("mcc-gather-out-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let dir = out.to_string_lossy().into_owned();

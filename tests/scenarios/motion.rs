@@ -25,7 +25,7 @@ const DT: f64 = 3_713_707.0 / 8_388_608.0;
 const D_UNITS: f64 = 3072.0;
 
 enum App {
-    Card(CardRingApp),
+    Card(Box<CardRingApp>),
     Station(Box<StationApp>),
 }
 
@@ -75,7 +75,11 @@ impl Rig {
                         }
                     }
                     let app = CardRingApp::new(Arc::clone(&card), &cc.nodes).with_wiring(true);
-                    (MemberKind::Card, card_check(&cc.ivars), App::Card(app))
+                    (
+                        MemberKind::Card,
+                        card_check(&cc.ivars),
+                        App::Card(Box::new(app)),
+                    )
                 }
                 MemberRef::Station(sc) => {
                     let pc = PlantConfig {

@@ -1,1 +1,5 @@
-//! Shared helpers for the scenario tests.
+//! Shared helpers for the scenario tests: running the cluster's binaries ([`process`]) and
+//! multi-process clusters under a cleanup guard ([`cluster`]).
+
+pub mod cluster;
+pub mod process;

@@ -55,14 +55,7 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG")
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn")),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    mcc_ring::runtime::logging::init_logging();
     let args = Args::parse();
     if let (Some(config), Some(name)) = (args.config.clone(), args.name.clone()) {
         let r = mcc_card::runtime::run_ring_card(mcc_ring::runtime::process::MemberArgs {

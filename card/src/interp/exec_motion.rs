@@ -5,6 +5,7 @@
 use super::exec::{Exec, Out};
 use super::runstate::{axis_def_legal, axis_def_text};
 use super::{Action, ActionKind, Card, Session};
+use crate::coord::axes::AXES;
 use crate::lang::ast::{Axis, CmdKind, JogKind};
 use crate::state::number::{format_position, format_value};
 
@@ -24,18 +25,6 @@ fn axis_bits(a: Axis) -> Option<(u32, u32)> {
     };
     Some((1 << f, 1 << i))
 }
-
-const ALL_AXES: [Axis; 9] = [
-    Axis::X,
-    Axis::Y,
-    Axis::Z,
-    Axis::A,
-    Axis::B,
-    Axis::C,
-    Axis::U,
-    Axis::V,
-    Axis::W,
-];
 
 impl Card {
     fn action(&mut self, s: &Session, cmd: &CmdKind) {
@@ -202,7 +191,7 @@ impl Card {
             K::Abs(list) | K::Inc(list) => {
                 let inc = matches!(cmd, K::Inc(_));
                 let f = &mut self.state.coords[csk];
-                let axes: Vec<Axis> = list.clone().unwrap_or_else(|| ALL_AXES.to_vec());
+                let axes: Vec<Axis> = list.clone().unwrap_or_else(|| AXES.to_vec());
                 for a in axes {
                     if a == Axis::R {
                         f.radius_inc = inc;
@@ -217,8 +206,8 @@ impl Card {
             }
             K::Frax(list) => {
                 let f = &mut self.state.coords[csk];
-                let axes: Vec<Axis> = list.clone().unwrap_or_else(|| ALL_AXES.to_vec());
-                for a in ALL_AXES {
+                let axes: Vec<Axis> = list.clone().unwrap_or_else(|| AXES.to_vec());
+                for a in AXES {
                     if let Some((fb, _)) = axis_bits(a) {
                         f.axis_bits = if axes.contains(&a) {
                             f.axis_bits | fb
@@ -408,9 +397,7 @@ impl Card {
         if matches!(open.id, super::buffers::BufId::Plc(_)) {
             return Err(5);
         }
-        let axes: Vec<Axis> = list
-            .map(<[Axis]>::to_vec)
-            .unwrap_or_else(|| ALL_AXES.to_vec());
+        let axes: Vec<Axis> = list.map(<[Axis]>::to_vec).unwrap_or_else(|| AXES.to_vec());
         let words = axes
             .into_iter()
             .filter(|a| a.is_motion_axis())

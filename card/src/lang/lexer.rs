@@ -103,6 +103,23 @@ impl<'a> Cursor<'a> {
                 .all(|(a, b)| a.to_ascii_uppercase() == b)
     }
 
+    /// `DIS PLC` / `DISPLC` is DISABLE PLC, not DISPLAY: consume the `DIS` when `PLC` (after
+    /// optional spaces) follows it (not when the word is `DISABLE`).
+    pub fn eat_dis_before_plc(&mut self) -> bool {
+        if !self.looking_at("DIS") || self.looking_at("DISABLE") {
+            return false;
+        }
+        let mut k = self.clone();
+        k.advance(3);
+        k.skip_ws();
+        if k.looking_at("PLC") {
+            self.advance(3);
+            true
+        } else {
+            false
+        }
+    }
+
     /// Consume keyword `kw` (upper case, no spaces inside) if it starts here.
     pub fn eat_kw(&mut self, kw: &str) -> bool {
         if self.looking_at(kw) {

@@ -303,15 +303,8 @@ fn data_next(c: &Cursor) -> bool {
 /// Letter-initial commands. `Ok(None)` = a program statement / not on-line.
 fn letters(c: &mut Cursor) -> Result<Option<CmdKind>, ParseError> {
     let save = c.offset();
-    // `DIS PLC` / `DISPLC` is DISABLE, not DISPLAY
-    if c.looking_at("DIS") && !c.looking_at("DISABLE") {
-        let mut k = c.clone();
-        k.advance(3);
-        k.skip_ws();
-        if k.looking_at("PLC") {
-            c.advance(3);
-            return keyword(c, Kw::Disable);
-        }
+    if c.eat_dis_before_plc() {
+        return keyword(c, Kw::Disable);
     }
     if let Some(kw) = c.eat_longest(KEYWORDS) {
         return keyword(c, kw);

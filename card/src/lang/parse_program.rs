@@ -206,19 +206,12 @@ pub(crate) fn statement(
             pos,
         }));
     }
-    // `DIS PLC` is DISABLE, not DISPLAY
-    if c.looking_at("DIS") && !c.looking_at("DISABLE") {
-        let mut k = c.clone();
-        k.advance(3);
-        k.skip_ws();
-        if k.looking_at("PLC") {
-            c.advance(3);
-            let ctl = plc_control(c, PlcVerb::Disable)?;
-            return Ok(Some(Stmt {
-                kind: StmtKind::Plc(ctl),
-                pos,
-            }));
-        }
+    if c.eat_dis_before_plc() {
+        let ctl = plc_control(c, PlcVerb::Disable)?;
+        return Ok(Some(Stmt {
+            kind: StmtKind::Plc(ctl),
+            pos,
+        }));
     }
     if let Some(sk) = c.eat_longest(KEYWORDS) {
         let k = keyword(c, sk, kind)?;

@@ -426,6 +426,9 @@ fn listing_text_is_canonical() {
     assert_eq!(l("endif endwhile", false), "ENDI ENDW");
     assert_eq!(l("ena plc 3", true), "ENABLE PLC 3");
     assert_eq!(l("ena plc 3", false), "ENA PLC 3");
+    // `DIS PLC` / `DISPLC` is DISABLE (not DISPLAY), with or without the space.
+    assert_eq!(l("dis plc 3", true), "DISABLE PLC 3");
+    assert_eq!(l("displc3", true), "DISABLE PLC 3");
     assert_eq!(l("x(p1)", false), "X(P1)");
     assert_eq!(l("x(10)", false), "X10");
     assert_eq!(l("cmd\"#1j+\"", true), "COMMAND\"#1j+\"");

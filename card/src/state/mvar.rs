@@ -70,62 +70,12 @@ pub fn validate(def: &MDef) -> Result<(), StateError> {
     }
 }
 
-fn fmt_letter(f: MFormat) -> char {
-    match f {
-        MFormat::U => 'U',
-        MFormat::S => 'S',
-        MFormat::D => 'D',
-        MFormat::C => 'C',
-    }
-}
-
 /// Canonical short form of a definition as `Mn->` reports it under I9=0/2
 /// (`X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002B`, `*`). Addresses print as `$`
 /// plus 4 hex digits.
 pub fn format_def(def: &MDef) -> String {
-    match *def {
-        MDef::SelfRef => "*".into(),
-        MDef::Bits {
-            space: s,
-            addr,
-            offset,
-            width,
-            format,
-        } => {
-            let sp = if s == XySpace::X { 'X' } else { 'Y' };
-            match width {
-                1 => format!("{sp}:${addr:04X},{offset}"),
-                24 => format!("{sp}:${addr:04X},24,{}", fmt_letter(format)),
-                _ => format!("{sp}:${addr:04X},{offset},{width},{}", fmt_letter(format)),
-            }
-        }
-        MDef::D(a) => format!("D:${a:04X}"),
-        MDef::L(a) => format!("L:${a:04X}"),
-        MDef::F(a) => format!("F:${a:04X}"),
-        MDef::Dp(a) => format!("DP:${a:04X}"),
-        MDef::Twb {
-            mux,
-            offset,
-            size,
-            format,
-        } => {
-            format!("TWB:{mux},{offset},{size},{}", fmt_letter(format))
-        }
-        MDef::Twd {
-            mux,
-            offset,
-            digits,
-            decimals,
-            format,
-        } => {
-            format!(
-                "TWD:{mux},{offset},{digits}.{decimals},{}",
-                fmt_letter(format)
-            )
-        }
-        MDef::Twr { mux, offset } => format!("TWR:{mux},{offset}"),
-        MDef::Tws { mux } => format!("TWS:{mux}"),
-    }
+    // One formatter for `Mn->` replies and listings: `Display for MDef` (lang::listing).
+    def.to_string()
 }
 
 fn field_mask(width: u8) -> u32 {

@@ -1,9 +1,9 @@
 //! One host connection on the daisy chain. Each chunk of input goes to every card's
-//! `mcc/<cluster>/card/<n>/chain` queryable at once (request: op `D`/`X`, connection id u64
-//! LE, bytes); each card answers with segments (position u32 LE, length u32 LE, bytes) and the
-//! segments of all cards are merged by input position, so replies come out in the order the
-//! host's characters caused them. A card that does not answer within the timeout contributes
-//! nothing — as a silent card on a serial cable — and the link carries on.
+//! `mcc/<cluster>/card/<n>/chain` queryable at once (wire format: `mcc_ring::control::chain`);
+//! each card answers with position-tagged segments and the segments of all cards are merged
+//! by input position, so replies come out in the order the host's characters caused them. A
+//! card that does not answer within the timeout contributes nothing — as a silent card on a
+//! serial cable — and the link carries on.
 //!
 //! Synchronized starts: before a `<CR>` whose line may start programs (it contains `R`/`S`),
 //! the link asks every card (op `?`) whether its collected line starts a program. When two or
@@ -18,33 +18,16 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use mcc_ring::config::ClusterConfig;
+use mcc_ring::control::chain::{
+    chain_key, decode_reply, encode_request, FLAG_STARTS, FLAG_TALKS, MAX_CHUNK, MAX_REPLY,
+    OP_CLOSE, OP_DATA, OP_QUERY_START, OP_TAKE_START,
+};
 use zenoh::Wait;
 
-/// Request op: chain bytes follow.
-pub const OP_DATA: u8 = b'D';
-/// Request op: the connection is closed.
-pub const OP_CLOSE: u8 = b'X';
-/// Request op: does the collected line start a program? (one flags byte)
-pub const OP_QUERY_START: u8 = b'?';
-/// Request op: hand the collected line over for a synchronized start (flags + line).
-pub const OP_TAKE_START: u8 = b'T';
-/// Flags: the collected line starts a program.
-pub const FLAG_STARTS: u8 = 1;
-/// Flags: this card answers the line.
-pub const FLAG_TALKS: u8 = 2;
 /// Reply of the answering card when a synchronized start could not be agreed.
 pub const SYNC_FAILED_REPLY: &[u8] = b"\x07ERR008\r";
-/// Largest data part of one request (the cards refuse more).
-pub const MAX_CHUNK: usize = 4096;
-/// Largest reply accepted from one card for one chunk, bytes.
-pub const MAX_REPLY: usize = 4 << 20;
 /// Default time a card has to answer one chunk.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(2);
-
-/// `mcc/<cluster>/card/<n>/chain`.
-pub fn chain_key(cluster: &str, n: u32) -> String {
-    format!("mcc/{cluster}/card/{n}/chain")
-}
 
 /// A connection id unlikely to collide with another process's (pid, time, counter).
 pub fn new_conn_id() -> u64 {
@@ -56,32 +39,6 @@ pub fn new_conn_id() -> u64 {
     (u64::from(std::process::id()) << 40)
         ^ (t & 0xFF_FFFF_FFFF)
         ^ (N.fetch_add(1, Ordering::Relaxed) << 20)
-}
-
-/// Encode a request.
-pub fn encode_request(op: u8, conn: u64, data: &[u8]) -> Vec<u8> {
-    let mut v = Vec::with_capacity(9 + data.len());
-    v.push(op);
-    v.extend_from_slice(&conn.to_le_bytes());
-    v.extend_from_slice(data);
-    v
-}
-
-/// Decode one card's reply segments; a message naming the problem when malformed.
-pub fn decode_reply(mut p: &[u8]) -> Result<Vec<(u32, Vec<u8>)>, String> {
-    if p.len() > MAX_REPLY {
-        return Err(format!("reply of {} bytes is too large", p.len()));
-    }
-    let mut out = Vec::new();
-    while !p.is_empty() {
-        let head = p.get(..8).ok_or("truncated segment header")?;
-        let pos = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
-        let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as usize;
-        let bytes = p.get(8..8 + len).ok_or("truncated segment")?;
-        out.push((pos, bytes.to_vec()));
-        p = &p[8 + len..];
-    }
-    Ok(out)
 }
 
 /// Merge the segments of every card (in card order): by input position, then card order.
@@ -323,22 +280,6 @@ impl ChainLink {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn request_and_reply_formats_match_the_cards() {
-        assert_eq!(
-            encode_request(OP_DATA, 0x0102, b"P1\r"),
-            b"D\x02\x01\0\0\0\0\0\0P1\r"
-        );
-        assert_eq!(
-            decode_reply(b"\x03\0\0\0\x02\0\0\0ab").unwrap(),
-            vec![(3, b"ab".to_vec())]
-        );
-        assert_eq!(decode_reply(b"").unwrap(), vec![]);
-        assert!(decode_reply(b"\x03\0\0\0\x05\0\0\0ab").is_err());
-        assert!(decode_reply(b"\x03\0\0").is_err());
-        assert_eq!(chain_key("lab", 2), "mcc/lab/card/2/chain");
-    }
 
     #[test]
     fn replies_merge_in_input_order() {

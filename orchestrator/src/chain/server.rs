@@ -13,8 +13,9 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::ClusterConfig;
+use mcc_ring::control::chain::MAX_CHUNK;
 
-use super::link::{ChainLink, DEFAULT_TIMEOUT, MAX_CHUNK};
+use super::link::{ChainLink, DEFAULT_TIMEOUT};
 
 /// Environment variable: TCP port of the chain (0 or unset: any free port).
 pub const PORT_ENV: &str = "MCC_CHAIN_PORT";
@@ -173,9 +174,10 @@ mod pty {
 
     use anyhow::{anyhow, Result};
     use mcc_ring::config::ClusterConfig;
+    use mcc_ring::control::chain::MAX_CHUNK;
     use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
-    use super::super::link::{ChainLink, DEFAULT_TIMEOUT, MAX_CHUNK};
+    use super::super::link::{ChainLink, DEFAULT_TIMEOUT};
 
     /// Open the pty and serve it from a thread; the slave path.
     pub fn start(session: zenoh::Session, cfg: ClusterConfig) -> Result<String> {

@@ -28,14 +28,7 @@ struct Cli {
 }
 
 fn main() -> std::process::ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("MCC_LOG")
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn")),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    mcc_ring::runtime::logging::init_logging();
     let cli = Cli::parse();
     let args = MemberArgs {
         config: cli.config,
