@@ -49,6 +49,9 @@ pub struct DriverConfig {
     pub phase_delay_ns: u64,
 }
 
+/// Phase alignment spins (instead of sleeping) for the last this many ns before the moment.
+const ALIGN_SPIN_NS: u64 = 60_000;
+
 /// A request to the member's loop.
 #[derive(Debug)]
 pub enum DriverCmd {
@@ -399,9 +402,14 @@ impl<A: RingApp> Driver<A> {
             return;
         }
         let target = origin_ns.saturating_add(self.cfg.phase_delay_ns);
+        // Sleep to just before the moment, then spin the rest: a wake-up from sleep alone can be
+        // tens of µs late, which would show as skew between cards.
         let now = self.now_ns();
-        if target > now {
-            std::thread::sleep(Duration::from_nanos(target - now));
+        if target > now + ALIGN_SPIN_NS {
+            std::thread::sleep(Duration::from_nanos(target - now - ALIGN_SPIN_NS));
+        }
+        while self.now_ns() < target {
+            std::hint::spin_loop();
         }
     }
 

@@ -177,7 +177,12 @@ where
         position,
         extra,
         record: 0,
-        phase_delay_ns: config.phase_delay_ns(),
+        // Cards act on the cycle (programs start, motors move): they tick phase-aligned.
+        // Stations' plants integrate real elapsed time, so they tick on arrival.
+        phase_delay_ns: match kind {
+            MemberKind::Card => config.phase_delay_ns(),
+            MemberKind::Station => 0,
+        },
     };
     let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
     let exit = driver.run();
