@@ -5,5 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export MCC_LOG="${MCC_LOG:-warn}"
 cargo build --workspace --bins
-cargo test --workspace -- --test-threads="${MCC_TEST_THREADS:-2}"
+cargo test --workspace -- --test-threads="${MCC_TEST_THREADS:-1}"
 bash tests/clients/run.sh
