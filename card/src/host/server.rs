@@ -159,6 +159,9 @@ fn lock(card: &Mutex<Card>) -> std::sync::MutexGuard<'_, Card> {
     card.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// How often a terminal connection looks for unsolicited output.
+const UNSOLICITED_POLL: Duration = Duration::from_millis(10);
+
 async fn ascii_conn(
     mut stream: TcpStream,
     card: &Mutex<Card>,
@@ -168,10 +171,22 @@ async fn ascii_conn(
 ) -> io::Result<()> {
     let mut codec = AsciiCodec::new();
     let mut buf = vec![0u8; 4096];
+    // Unsolicited output (program SEND / CMD replies) is written as it appears.
+    let mut seen = lock(card).unsolicited.position();
+    let mut poll = tokio::time::interval(UNSOLICITED_POLL);
+    poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         let n = tokio::select! {
             r = stream.read(&mut buf) => r?,
             _ = stop.changed() => return Ok(()),
+            _ = poll.tick() => {
+                let (out, pos) = lock(card).unsolicited.since(seen);
+                seen = pos;
+                if !out.is_empty() {
+                    write_reply(&mut stream, &out, cfg).await?;
+                }
+                continue;
+            }
         };
         if n == 0 {
             return Ok(());

@@ -226,3 +226,28 @@ async fn addressing_is_per_connection_and_i3_is_card_global() {
     assert_eq!(read_n(&mut b, 5).await, b"\n12\r\x06");
     p.shutdown().await;
 }
+
+#[tokio::test]
+async fn unsolicited_output_reaches_terminal_connections_but_not_the_ethernet_port() {
+    let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
+    let p = serve(Arc::clone(&card), PortsConfig::default())
+        .await
+        .expect("bind");
+    let mut a = connect(p.ascii).await;
+    let mut b = connect(p.ascii).await;
+    let mut e = connect(p.pmac_eth).await;
+    // Let the connections take their start positions before the program speaks.
+    a.write_all(b"\r").await.unwrap();
+    let ack = in_process(b"");
+    assert_eq!(read_n(&mut a, ack.len()).await, ack);
+    b.write_all(b"\r").await.unwrap();
+    assert_eq!(read_n(&mut b, ack.len()).await, ack);
+    lock(&card).unsolicited.push(b"HOMED\r".to_vec());
+    assert_eq!(read_n(&mut a, 6).await, b"HOMED\r");
+    assert_eq!(read_n(&mut b, 6).await, b"HOMED\r");
+    // The Ethernet port answers only what it is asked.
+    e.write_all(&getresponse(b"P1")).await.unwrap();
+    let want = in_process(b"P1");
+    assert_eq!(read_n(&mut e, want.len()).await, want);
+    p.shutdown().await;
+}

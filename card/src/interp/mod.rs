@@ -20,6 +20,7 @@ pub mod progline;
 mod program_cmd;
 pub mod reply;
 pub mod runstate;
+pub mod unsolicited;
 
 pub use program_cmd::MAX_ACTIONS;
 
@@ -129,6 +130,8 @@ pub struct Card {
     pub(crate) state_file: Option<PathBuf>,
     /// A compensation table just defined and not yet filled: bare numbers are its entries.
     pub(crate) pending_table: Option<(defines::TableKind, u8)>,
+    /// Unsolicited output (`SEND`, program `CMD` replies) for the terminal ports.
+    pub unsolicited: unsolicited::Unsolicited,
     /// Data gathered by `GATHER` (the servo loop samples into it; `LIST GATHER` prints it).
     pub gather: crate::servo::gather::GatherBuffer,
     /// Number of resets (`$$$`, `$$$***`) so far: the servo loop re-initialises its motors
@@ -152,6 +155,7 @@ impl Card {
             echo: false,
             state_file: None,
             pending_table: None,
+            unsolicited: unsolicited::Unsolicited::default(),
             gather: Default::default(),
             resets: 0,
         };

@@ -182,6 +182,8 @@ impl Servo {
         registers::count_cycle(&mut card.state);
         aux_copy::aux_copy(&mut card.state);
         self.engine.background(card, &self.motors);
+        let out = self.engine.take_output();
+        card.unsolicited.push(out);
     }
 
     /// Motor `k` (0-based) tripped: kill the motors its scope names, zero their outputs and

@@ -153,3 +153,28 @@ fn bench_loop_runs_and_reports_sane_numbers() {
         "{text}"
     );
 }
+
+#[test]
+fn a_plc_send_becomes_unsolicited_output_of_the_card() {
+    let (mut card, mut servo, mut plant) = setup();
+    // One connection: the open buffer belongs to the session that opened it.
+    let mut session = Session::default();
+    for line in [
+        "OPEN PLC 3 CLEAR",
+        "SEND\"HELLO\"",
+        "DISABLE PLC 3",
+        "CLOSE",
+        "I5=3",
+        "ENABLE PLC 3",
+    ] {
+        let r =
+            String::from_utf8_lossy(&card.command_line(&mut session, line.as_bytes())).into_owned();
+        assert!(!r.contains('\x07'), "{line}: {r:?}");
+    }
+    let before = card.unsolicited.position();
+    run(&mut card, &mut servo, &mut plant, 5);
+    let (out, _) = card.unsolicited.since(before);
+    let text = String::from_utf8_lossy(&out).into_owned();
+    // One scan: the PLC sends once, then disables itself.
+    assert_eq!(text.matches("HELLO").count(), 1, "{text:?}");
+}
