@@ -7,35 +7,54 @@
 //! value = mantissa / 2^35 × 2^(exp − $800). Zero is all zero bits.
 
 /// Round `v` to the precision a 48-bit PMAC float keeps (35 magnitude bits).
-/// Non-finite values become 0.
+/// Non-finite values become 0; a value that rounds beyond `f64::MAX` saturates at the largest
+/// 35-bit mantissa with the largest f64 exponent (the 48-bit format's own exponent range, ±2^2047,
+/// is wider than f64's, so every finite f64 has a 48-bit neighbour).
 pub fn round48(v: f64) -> f64 {
     if !v.is_finite() || v == 0.0 {
         return 0.0;
     }
     let (m, e) = frexp(v.abs());
-    let mut mi = (m * (1u64 << 35) as f64).round();
+    let mut mi = (m * TWO35).round();
     let mut e = e;
-    if mi >= (1u64 << 35) as f64 {
+    if mi >= TWO35 {
         mi /= 2.0;
         e += 1;
     }
-    v.signum() * mi * 2f64.powi(e - 35)
+    let r = ldexp(mi / TWO35, e);
+    if r.is_finite() {
+        v.signum() * r
+    } else {
+        v.signum() * MAX48
+    }
 }
 
-/// `(m, e)` with `x = m × 2^e`, `0.5 <= m < 1`, for finite positive `x`.
+const TWO35: f64 = (1u64 << 35) as f64;
+
+/// The largest 48-bit float value that is also a finite f64: (2^35 − 1)/2^35 × 2^1024.
+const MAX48: f64 = 1.797_693_134_809_996_2e308;
+
+/// `x × 2^e` without overflowing or underflowing the intermediate power of two.
+fn ldexp(x: f64, e: i32) -> f64 {
+    let e = e.clamp(-2200, 2200);
+    let half = e / 2;
+    x * 2f64.powi(half) * 2f64.powi(e - half)
+}
+
+/// `(m, e)` with `x = m × 2^e`, `0.5 <= m < 1`, for finite positive `x` (subnormals included),
+/// read from the IEEE-754 bits: no loop, whatever the input.
 fn frexp(x: f64) -> (f64, i32) {
-    let mut e = x.log2().floor() as i32 + 1;
-    let mut m = x / 2f64.powi(e);
-    // Correct for log2 rounding at boundaries.
-    while m >= 1.0 {
-        m /= 2.0;
-        e += 1;
-    }
-    while m < 0.5 {
-        m *= 2.0;
-        e -= 1;
-    }
-    (m, e)
+    debug_assert!(x.is_finite() && x > 0.0);
+    let (x, bias) = if x < f64::MIN_POSITIVE {
+        (x * 2f64.powi(64), -64)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    let exp = ((bits >> 52) & 0x7FF) as i32;
+    // Put the exponent field at 1022 (value in [0.5, 1)).
+    let m = f64::from_bits((bits & !(0x7FF << 52)) | (1022u64 << 52));
+    (m, exp - 1022 + bias)
 }
 
 /// Encode `v` as a 48-bit PMAC float (X word in bits 47-24, Y word in bits 23-0).
@@ -75,7 +94,13 @@ pub fn decode_float(w: u64) -> f64 {
         return 0.0;
     }
     let exp = (w & 0xFFF) as i32 - 0x800;
-    mant as f64 * 2f64.powi(exp - 35)
+    // The 48-bit exponent reaches 2^2047: beyond f64 the value saturates at ±f64::MAX.
+    let v = ldexp(mant as f64, exp - 35);
+    if v.is_finite() {
+        v
+    } else {
+        v.signum() * f64::MAX
+    }
 }
 
 /// Encode `v` as a 48-bit two's-complement fixed-point integer (rounded, wrapped).
@@ -153,6 +178,36 @@ mod tests {
         let w = 1.0 + 2f64.powi(-30);
         assert_eq!(round48(w), w);
         assert_eq!(round48(f64::NAN), 0.0);
+    }
+
+    #[test]
+    fn extremes_never_hang_and_saturate() {
+        // Regression: frexp looped forever for values >= 2^1023 (P1=EXP(710) hung the card).
+        for v in [
+            f64::MAX,
+            -f64::MAX,
+            2f64.powi(1023),
+            1.7e308,
+            f64::MIN_POSITIVE,
+            f64::MIN_POSITIVE / 3.0,
+            5e-324,
+            -5e-324,
+        ] {
+            let r = round48(v);
+            assert!(r.is_finite(), "{v} -> {r}");
+            assert_eq!(r.signum(), v.signum());
+            let back = decode_float(encode_float(v));
+            assert!(back.is_finite(), "{v} -> {back}");
+        }
+        assert_eq!(MAX48, ((1u64 << 35) - 1) as f64 * 2f64.powi(989));
+        assert_eq!(round48(f64::MAX), MAX48);
+        assert_eq!(round48(2f64.powi(1023)), 2f64.powi(1023));
+        let (m, e) = frexp(5e-324);
+        assert_eq!((m, e), (0.5, -1073));
+        // A word with the largest 48-bit exponent saturates instead of giving infinity.
+        assert_eq!(decode_float(0x4000_0000_0FFF), f64::MAX);
+        assert_eq!(decode_float(0x8000_0000_0FFF), -f64::MAX);
+        assert_eq!(decode_float(0x4000_0000_0001), 0.0);
     }
 
     #[test]
