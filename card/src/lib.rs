@@ -1,21 +1,27 @@
 //! mcc-card: a PMAC2-Ultralite-style controller card.
 //!
-//! Layout (pure cores first, I/O at the edges):
-//! - [`lang`]: lexer, parser, AST and canonical listing of the PMAC command language (pure).
-//! - [`state`]: the card's variables, I-variable tables per profile, register map, M-variable
-//!   pointers, number printing, status words, persistence format (pure; file I/O only in `persist`).
-//! - [`interp`]: executes parsed commands against the state and frames replies per I3/I4/I6/I9
-//!   (pure: bytes in, bytes out).
-//! - [`host`]: host ports (ASCII terminal, PMAC Ethernet protocol, zenoh queryable): the only
-//!   socket code of the card's language side.
-//! - [`runtime`]: the process: config, ring membership, threads.
+//! Layers, lowest first (each uses only those below it; `tests/layering` checks the `use`
+//! paths):
+//! - [`domain`]: the vocabulary: profiles, error codes, motor/C.S./node numbers, the statement
+//!   and expression forms programs are stored and run in, their evaluation (pure);
+//! - [`model`]: the card data model: variables, memory and registers, status words, program
+//!   buffers, run state, motion requests, gathered data, the SAVE image format (pure);
+//! - [`motion`], [`coord`]: per-motor servo and coordinate-system maths (pure);
+//! - [`lang`]: the PMAC command language: lexer, parser, listing, interpreter, reply framing
+//!   (pure; a second dialect sits beside it);
+//! - [`program`]: the program engine: motion programs, PLCs, run control (pure);
+//! - [`servo`]: the servo tick over all of the above (pure);
+//! - [`core`]: the card core the servo thread owns: requests in, replies and effects out,
+//!   host work served in bounded slices between ticks (pure);
+//! - [`runtime`], [`host`]: the process: ring membership, threads, channels, files, sockets.
 
 pub mod coord;
+pub mod core;
+pub mod domain;
 pub mod host;
-pub mod interp;
 pub mod lang;
+pub mod model;
 pub mod motion;
 pub mod program;
 pub mod runtime;
 pub mod servo;
-pub mod state;

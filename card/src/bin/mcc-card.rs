@@ -9,7 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
 use mcc_card::host::standalone::{run_standalone, StandaloneOpts};
-use mcc_card::interp::Profile;
+use mcc_card::domain::Profile;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ProfileArg {

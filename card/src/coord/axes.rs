@@ -8,7 +8,7 @@
 use nalgebra::{DMatrix, DVector, SVector};
 
 use super::{check_pos, CoordError};
-use crate::lang::ast::{Axis, AxisDef};
+use crate::domain::ast::{Axis, AxisDef};
 
 /// Nine axis values in the order X Y Z A B C U V W.
 pub type AxisVec = SVector<f64, 9>;

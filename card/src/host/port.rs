@@ -1,11 +1,11 @@
 //! The interpreter as the host ports see it: a line in, reply bytes out; a control character in,
-//! reply bytes out. [`CardPort`] binds one connection's [`Session`] to the card shared by all
-//! connections; tests drive the codecs with their own [`Interpreter`].
-
-use std::sync::{Mutex, MutexGuard};
+//! reply bytes out. [`CardPort`] is one connection's way to the card on its servo thread
+//! (requests over the card's channel, [`CardHandle`]); tests drive the codecs with their own
+//! [`Interpreter`].
 
 use super::ascii::AsciiEvent;
-use crate::interp::{Card, Session};
+use crate::core::HostRequest;
+use crate::runtime::handle::CardHandle;
 
 /// What a host port needs from the card.
 pub trait Interpreter {
@@ -21,43 +21,62 @@ pub trait Interpreter {
 /// ERR003 framing (I3/I4/I6) before parsing anything. The port discards over-long lines itself
 /// (bounded memory) and hands the card this instead.
 pub fn overlong_probe() -> Vec<u8> {
-    vec![b'U'; crate::interp::MAX_LINE + 1]
+    vec![b'U'; crate::lang::interp::MAX_LINE + 1]
 }
 
-/// One connection's view of a shared card. The card is locked per call only, so a connection
-/// that stalls never holds it.
+/// One connection's view of the card: its connection id on the card and the last echo state.
+/// Each call blocks until the card's servo thread has served it (between ticks, in slices).
 #[derive(Debug)]
-pub struct CardPort<'a> {
-    card: &'a Mutex<Card>,
-    session: &'a mut Session,
+pub struct CardPort {
+    card: CardHandle,
+    conn: u64,
+    echo: bool,
 }
 
-impl<'a> CardPort<'a> {
-    /// Bind `session` to `card`.
-    pub fn new(card: &'a Mutex<Card>, session: &'a mut Session) -> Self {
-        CardPort { card, session }
+impl CardPort {
+    /// A new connection to `card`.
+    pub fn new(card: CardHandle) -> Self {
+        let conn = card.new_conn();
+        CardPort {
+            card,
+            conn,
+            echo: false,
+        }
     }
 
-    fn lock(&self) -> MutexGuard<'a, Card> {
-        // A panic elsewhere while holding the lock must not take every port down with it.
-        self.card.lock().unwrap_or_else(|e| e.into_inner())
+    /// Full-duplex echo (CTRL-T) as of the last reply.
+    pub fn echo(&self) -> bool {
+        self.echo
+    }
+
+    /// The card.
+    pub fn card(&self) -> &CardHandle {
+        &self.card
+    }
+
+    fn ask(&mut self, req: HostRequest) -> Vec<u8> {
+        let r = self.card.host(self.conn, req);
+        self.echo = r.echo;
+        r.bytes
+    }
+
+    /// The connection closed: the card releases a buffer it left open.
+    pub fn end(&mut self) {
+        let _ = self.ask(HostRequest::End);
     }
 }
 
-impl Interpreter for CardPort<'_> {
+impl Interpreter for CardPort {
     fn line(&mut self, line: &[u8]) -> Vec<u8> {
-        let mut card = self.lock();
-        card.command_line(self.session, line)
+        self.ask(HostRequest::Line(line.to_vec()))
     }
 
     fn control(&mut self, c: u8) -> Vec<u8> {
-        let mut card = self.lock();
-        card.control_char(self.session, c)
+        self.ask(HostRequest::Control(c))
     }
 
     fn overlong(&mut self) -> Vec<u8> {
-        let mut card = self.lock();
-        card.command_line(self.session, &overlong_probe())
+        self.ask(HostRequest::Line(overlong_probe()))
     }
 }
 
@@ -178,11 +197,18 @@ mod tests {
 
     #[test]
     fn card_port_uses_the_card() {
-        let card = Mutex::new(Card::new(crate::interp::Profile::Pmac2));
-        let mut s = Session::default();
-        let mut p = CardPort::new(&card, &mut s);
+        let core = crate::core::CardCore::new(crate::lang::interp::Card::new(
+            crate::domain::Profile::Pmac2,
+        ));
+        let (mut runner, handle) = crate::runtime::handle::channel(core, None);
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let st = std::sync::Arc::clone(&stop);
+        let t = std::thread::spawn(move || runner.run_until(&st));
+        let mut p = CardPort::new(handle);
         // An over-long line is the card's ERR003 (default I6=3 prints the code).
         let bad = p.overlong();
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        t.join().unwrap();
         assert!(bad.windows(6).any(|w| w == b"ERR003"), "{bad:?}");
         assert_eq!(bad.first(), Some(&0x07));
     }

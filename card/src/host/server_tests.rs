@@ -4,7 +4,7 @@ use super::*;
 use crate::host::ascii::MAX_LINE;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
 use crate::host::port::overlong_probe;
-use crate::interp::Profile;
+use crate::domain::Profile;
 
 const WAIT: Duration = Duration::from_secs(5);
 

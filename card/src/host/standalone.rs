@@ -4,10 +4,15 @@
 
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use super::server::{serve, PortsConfig};
-use crate::interp::{Card, Profile};
+use crate::core::CardCore;
+use crate::lang::interp::Profile;
+use crate::runtime::handle::channel;
+use crate::runtime::storage::FileStorage;
+use crate::runtime::startup_card;
 
 /// Options of the standalone mode.
 #[derive(Debug, Clone, Default)]
@@ -35,12 +40,21 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
         .worker_threads(2)
         .enable_all()
         .build()?;
-    rt.block_on(async move {
-        let card = match &opts.state_file {
-            Some(p) => Card::with_state_file(opts.profile, p.clone()),
-            None => Card::new(opts.profile),
-        };
-        let card = Arc::new(Mutex::new(card));
+    // The card lives on its own thread (no ring, no servo loop); the ports reach it through
+    // its channel.
+    let storage = opts.state_file.as_ref().map(FileStorage::new);
+    let (card, load_error) = startup_card(opts.profile, storage.as_ref());
+    let mut core = CardCore::new(card);
+    core.load_error = load_error;
+    let (mut runner, card) = channel(core, storage);
+    let stop = Arc::new(AtomicBool::new(false));
+    let card_thread = {
+        let stop = Arc::clone(&stop);
+        std::thread::Builder::new()
+            .name("mcc-card".into())
+            .spawn(move || runner.run_until(&stop))?
+    };
+    let r = rt.block_on(async move {
         let cfg = PortsConfig {
             ascii_port: opts.ascii_port,
             eth_port: opts.eth_port,
@@ -59,7 +73,10 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
         wait_for_stop(opts.exit_on_stdin_eof).await;
         ports.shutdown().await;
         Ok(())
-    })
+    });
+    stop.store(true, Ordering::Relaxed);
+    let _ = card_thread.join();
+    r
 }
 
 async fn wait_for_stop(exit_on_stdin_eof: bool) {

@@ -1,4 +1,5 @@
-//! Lexer, parser, AST and canonical listing of the PMAC command language.
+//! The PMAC command language: lexer, parser, on-line command syntax, canonical listing, and
+//! the interpreter that executes lines against the card model and frames the replies.
 //!
 //! Entry points:
 //! - [`parse_line`] / [`parse_line_prefix`]: an immediate (on-line) command line;
@@ -7,10 +8,10 @@
 //!   typed while a buffer is open mixes stored statements and immediate commands, and `OPEN` /
 //!   `CLOSE` in the middle of a line switch mode) — this is what INTERP uses;
 //! - [`listing`]: canonical text of statements (`LIST PROG`), M-definitions, axis definitions;
-//! - [`eval`]: expression evaluation with PMAC numeric semantics.
+//! - [`interp`]: the interpreter: executes lines against the card model, frames replies.
 
 pub mod ast;
-pub mod eval;
+pub mod interp;
 mod lexer;
 pub mod listing;
 mod parse_defs;
@@ -19,6 +20,8 @@ mod parse_mdef;
 mod parse_online;
 mod parse_program;
 
+#[cfg(test)]
+mod tests_eval;
 #[cfg(test)]
 mod tests_online;
 #[cfg(test)]
@@ -70,6 +73,15 @@ pub enum Mode {
     Buffer(BufferKind),
 }
 
+/// Where a [`LineParser`] stands between two items: enough to resume it later over the same
+/// line ([`LineParser::resume`]), so a long line can be executed in slices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParserState {
+    offset: usize,
+    stored_any: bool,
+    done: bool,
+}
+
 /// Item-by-item parser of one line. Stops after the first error.
 #[derive(Debug)]
 pub struct LineParser<'a> {
@@ -103,6 +115,26 @@ impl<'a> LineParser<'a> {
             stored_any: false,
             done: false,
         })
+    }
+
+    /// Where the parser stands (between items).
+    pub fn state(&self) -> ParserState {
+        ParserState {
+            offset: self.cur.offset(),
+            stored_any: self.stored_any,
+            done: self.done,
+        }
+    }
+
+    /// A parser over `line` (validated by [`LineParser::new`] before) continuing at `state`.
+    pub fn resume(line: &'a [u8], state: ParserState) -> LineParser<'a> {
+        let mut cur = Cursor::new(line);
+        cur.set_offset(state.offset);
+        LineParser {
+            cur,
+            stored_any: state.stored_any,
+            done: state.done,
+        }
     }
 
     /// Byte offset reached so far.

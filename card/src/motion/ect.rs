@@ -13,7 +13,7 @@
 //!   its 48-bit position each cycle, so a wrapping 24-bit source becomes a continuous position
 //!   (valid while the source moves less than 2^23 units, i.e. 2^18 counts, per cycle).
 
-use crate::state::memory::Space;
+use crate::model::Space;
 
 /// Mask of a 24-bit word.
 const W24: u32 = 0xFF_FFFF;

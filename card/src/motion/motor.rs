@@ -12,8 +12,8 @@ use super::jog::{JogCmd, JogParams, Trajectory};
 use super::params::MotorParams;
 use super::pid::{PidInput, PidState};
 use super::profile::{Kin, Plan, RampParams};
-use crate::lang::ast::JogKind;
-use crate::state::status::MotorFlags;
+use crate::domain::ast::JogKind;
+use crate::model::MotorFlags;
 
 /// A command to one motor, values resolved to counts.
 #[derive(Debug, Clone, Copy, PartialEq)]

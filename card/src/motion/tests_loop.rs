@@ -361,7 +361,7 @@ fn bench_servo_tick_cost() {
 
 #[test]
 fn jog_until_trigger_stops_past_the_flag_and_resolve_forms() {
-    use crate::lang::ast::JogKind;
+    use crate::domain::ast::JogKind;
     let p = MotorParams {
         ramp: super::profile::RampParams::new(1.0, 20.0, 0.0),
         ..MotorParams::default()

@@ -6,9 +6,9 @@
 //! Programs cannot change while a motion program runs (`OPEN PROG` is refused with ERR001), and
 //! an `OPEN PLC` disables the PLC, so a compiled form stays valid while it is executed.
 
-use crate::interp::buffers::StoredLine;
-use crate::interp::progline::ProgLine;
-use crate::lang::ast::{Cond, Stmt, StmtKind};
+use crate::model::StoredLine;
+use crate::model::ProgLine;
+use crate::domain::ast::{Cond, Stmt, StmtKind};
 
 /// Deepest nesting of one-line bodies (`IF (..) IF (..) X1`) accepted.
 const MAX_BODY_DEPTH: u32 = 8;

@@ -8,10 +8,10 @@ use std::sync::Arc;
 use super::compile::{compile, Compiled};
 use super::config::{axis_defs, cs_axes, cs_config};
 use crate::coord::cs::CoordSystem;
-use crate::interp::Card;
-use crate::lang::ast::{AssignOp, AxisDef, PreludeCall};
+use crate::model::CardModel;
+use crate::domain::ast::{AssignOp, AxisDef, PreludeCall};
 use crate::motion::motor::Motor;
-use crate::state::memory::Space;
+use crate::model::Space;
 
 /// Deepest CALL/GOSUB nesting (the top level counts as one): a 16th nested call is run-time
 /// error 5 (spec §5.2 decision).
@@ -174,7 +174,7 @@ impl CsExec {
     }
 
     /// Follow axis-definition changes while idle (PMATCHed to the motors' commanded positions).
-    pub fn sync_axes(&mut self, card: &Card, motors: &[Motor]) {
+    pub fn sync_axes(&mut self, card: &CardModel, motors: &[Motor]) {
         if self.cs.is_some() && self.same_defs(card) {
             return;
         }
@@ -199,7 +199,7 @@ impl CsExec {
 
     /// The interpreter's axis definitions of this C.S. equal the ones in use (no allocation:
     /// this runs every servo tick).
-    fn same_defs(&self, card: &Card) -> bool {
+    fn same_defs(&self, card: &CardModel) -> bool {
         let mut mine = self.defs.iter();
         let all = card
             .run
@@ -219,7 +219,7 @@ impl CsExec {
     }
 
     /// Compiled `PROG n` (cached for this run); `None` when it does not exist.
-    pub fn program(&mut self, card: &Card, n: u16) -> Result<Option<Arc<Compiled>>, u32> {
+    pub fn program(&mut self, card: &CardModel, n: u16) -> Result<Option<Arc<Compiled>>, u32> {
         if let Some((_, c)) = self.cache.iter().find(|(k, _)| *k == n) {
             return Ok(Some(c.clone()));
         }
@@ -235,7 +235,7 @@ impl CsExec {
     }
 
     /// Stop the program with run-time error `code` (X:$0799, ?? bit 22; motion aborted).
-    pub fn runtime_error(&mut self, card: &mut Card, code: u32, circle: bool) {
+    pub fn runtime_error(&mut self, card: &mut CardModel, code: u32, circle: bool) {
         self.active = false;
         self.wait = Wait::None;
         if let Some(c) = &mut self.cs {
@@ -260,7 +260,7 @@ impl CsExec {
 
     /// One servo cycle of the trajectory: motor setpoints (C.S. motor order) or `None` when
     /// the C.S. is not producing output; applies synchronous assignments of started moves.
-    pub fn tick(&mut self, card: &mut Card) -> Option<(Vec<u16>, Vec<f64>)> {
+    pub fn tick(&mut self, card: &mut CardModel) -> Option<(Vec<u16>, Vec<f64>)> {
         if !self.busy() {
             return None;
         }

@@ -1,8 +1,8 @@
 //! Tests of the flattener: jump targets of block and one-line structures, labels, offsets.
 
 use super::compile::{compile, Op, Unlinked};
-use crate::interp::progline::ProgLine;
-use crate::lang::ast::{BufferKind, StmtKind};
+use crate::model::ProgLine;
+use crate::domain::ast::{BufferKind, StmtKind};
 use crate::lang::parse_program_line;
 
 fn lines(text: &str, kind: BufferKind) -> Vec<ProgLine> {
@@ -91,7 +91,7 @@ fn plc_and_or_lines_fold_into_one_condition() {
         panic!()
     };
     // (P11=1 AND P12=0) OR (P11=0 AND P12=1)
-    use crate::lang::ast::Cond;
+    use crate::domain::ast::Cond;
     assert!(matches!(cond, Cond::Or(a, b)
         if matches!(**a, Cond::And(..)) && matches!(**b, Cond::And(..))));
 }

@@ -2,7 +2,7 @@
 //! semantics, refusals. A "perfect motor" rig: each motor's feedback equals its setpoint.
 
 use super::ProgramEngine;
-use crate::interp::{Card, Profile, Session};
+use crate::lang::interp::{Card, Profile, Session};
 use crate::motion::flags::FlagInputs;
 use crate::motion::motor::{Motor, MotorCommand, TickInput};
 use crate::motion::params::MotorParams;
@@ -56,7 +56,7 @@ impl Rig {
     pub fn tick(&mut self) -> Vec<Option<f64>> {
         for a in self.card.take_actions() {
             if !self.eng.handle_action(&mut self.card, &self.motors, &a) {
-                if let crate::interp::ActionKind::Cmd(crate::lang::ast::CmdKind::Jog { .. }) =
+                if let crate::lang::interp::ActionKind::Cmd(crate::domain::ast::CmdKind::Jog { .. }) =
                     a.kind
                 {
                     let p = MotorParams::from_state(&self.card.state, a.motor);
@@ -193,7 +193,7 @@ fn call_gosub_read_and_gcodes_reach_their_targets() {
     assert_eq!(super::motion::call_target(35.1), (35, 10_000));
     assert_eq!(super::motion::call_target(500.12345), (500, 12_345));
     assert_eq!(
-        super::motion::code_target(crate::lang::ast::CodeLetter::T, 115.0),
+        super::motion::code_target(crate::domain::ast::CodeLetter::T, 115.0),
         (1012, 15_000)
     );
 }
@@ -335,7 +335,7 @@ fn home_in_a_program_waits_for_the_motors() {
     r.tick();
     let homes: Vec<_> = r.card.take_actions();
     assert!(homes.iter().any(|a| a.motor == 1
-        && a.kind == crate::interp::ActionKind::Cmd(crate::lang::ast::CmdKind::Home)));
+        && a.kind == crate::lang::interp::ActionKind::Cmd(crate::domain::ast::CmdKind::Home)));
     assert_eq!(r.cmd("P9"), "0");
     // The (perfect) motors have no home search to run: the program continues after it.
     r.ticks(5);

@@ -28,16 +28,16 @@
 //! when the collected line does not start a program.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
 
 use mcc_ring::control::chain::{
-    chain_key, decode_request, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE,
+    chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE,
     OP_QUERY_START, OP_TAKE_START,
 };
 use zenoh::Wait;
 
 use crate::host::port::overlong_probe;
-use crate::interp::{control::ctrl_n, Card, Session, MAX_LINE};
+use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
+use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
 use crate::lang::ast::CmdKind;
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
@@ -56,7 +56,7 @@ struct Conn {
 }
 
 impl Conn {
-    fn new(card: &Card, id: u64) -> Self {
+    fn new(card: &mut Card, id: u64) -> Self {
         // Power-up/reset state of a chain: card 0 is addressed (§8.2).
         let session = Session {
             chain_addressed: card.card_number() == 0,
@@ -116,7 +116,7 @@ impl ChainPort {
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
-    pub fn start_flags(&self, card: &Card, id: u64) -> u8 {
+    pub fn start_flags(&self, card: &mut Card, id: u64) -> u8 {
         match self.conns.get(&id) {
             Some(c) if starts_program(card, c) => {
                 FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
@@ -130,7 +130,7 @@ impl ChainPort {
     /// taken) when the line does not start a program. The card then stays silent at the
     /// `<CR>` that would have executed it, and the connection's motor/C.S. follow the line's
     /// `#n`/`&n` as if it had run here.
-    pub fn take_start(&mut self, card: &Card, id: u64) -> Vec<u8> {
+    pub fn take_start(&mut self, card: &mut Card, id: u64) -> Vec<u8> {
         let flags = self.start_flags(card, id);
         let Some(c) = self.conns.get_mut(&id) else {
             return Vec::new();
@@ -183,7 +183,7 @@ fn starts_program(card: &Card, c: &Conn) -> bool {
     if c.overflow || c.buf.is_empty() || c.buf.len() + PREFIX_ROOM > MAX_LINE {
         return false;
     }
-    if card.open.is_some_and(|o| o.session == c.session.id) {
+    if card.open_session() == Some(c.session.id) {
         return false;
     }
     crate::lang::parse_line(&c.buf).is_ok_and(|cmds| {
@@ -268,7 +268,7 @@ fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
 
 /// A line character: into the buffer while this card is receiving; over-long lines are
 /// dropped and answered ERR003 at their `<CR>`.
-fn collect(card: &Card, c: &mut Conn, b: u8) {
+fn collect(card: &mut Card, c: &mut Conn, b: u8) {
     if !card.chain_listening(&c.session) || c.overflow {
         return;
     }
@@ -299,7 +299,7 @@ fn execute(card: &mut Card, c: &mut Conn) -> Vec<u8> {
         if !talking {
             return Vec::new();
         }
-        return card.command_line(&mut c.session.clone(), &overlong_probe());
+        return card.run_detached(&mut c.session.clone(), &overlong_probe());
     }
     if line.is_empty() && !talking {
         return Vec::new();
@@ -309,7 +309,7 @@ fn execute(card: &mut Card, c: &mut Conn) -> Vec<u8> {
         chain_addressed: true,
         ..c.session.clone()
     };
-    let r = card.command_line(&mut s, &line);
+    let r = card.run_detached(&mut s, &line);
     restore(c, &s);
     if talking {
         r
@@ -332,9 +332,8 @@ pub async fn declare_chain_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,
-    card: Arc<Mutex<Card>>,
+    card: CardHandle,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
-    let port = Mutex::new(ChainPort::new());
     zsession
         .declare_queryable(chain_key(cluster, n))
         .callback(move |query| {
@@ -342,13 +341,9 @@ pub async fn declare_chain_queryable(
                 .payload()
                 .map(|p| p.to_bytes().into_owned())
                 .unwrap_or_default();
-            let res = match decode_request(&payload) {
-                Ok(req) => {
-                    let mut port = port.lock().unwrap_or_else(|e| e.into_inner());
-                    let mut card = card.lock().unwrap_or_else(|e| e.into_inner());
-                    Ok(port.handle(&mut card, &req))
-                }
-                Err(e) => Err(e),
+            let res = match card.call(handle::Request::Chain(payload), REPLY_TIMEOUT) {
+                Some(Response::Chain(r)) => r,
+                _ => Err("the card did not answer".to_string()),
             };
             let sent = match res {
                 Ok(r) => query.reply(query.key_expr().clone(), r).wait(),

@@ -2,7 +2,7 @@
 //! input order as the orchestrator does. Cards run with I3=2 I6=1 (compact framing).
 
 use super::*;
-use crate::interp::Profile;
+use crate::domain::Profile;
 use mcc_ring::control::chain::encode_request;
 
 /// A simulated cable: cards with their chain receivers.

@@ -12,14 +12,13 @@
 //! 3). With the factory Ix02/Ix03/Ix25 and ECT defaults that is the Ultralite's "motor on node"
 //! minimum set (spec §6.6), so the default cluster's motors work out of the box.
 
-use std::sync::{Arc, Mutex};
-
 use mcc_ring::core::RingApp;
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 
-use crate::interp::{Card, Session};
-use crate::servo::Servo;
+use super::handle::{Runner, StartupLayer};
+use crate::core::{CardCore, SLICE_UNITS};
+use crate::lang::interp::{Budget, Card, Session};
 
 /// Activate motors 1-8 whose Ix02 register belongs to one of `nodes` (servo nodes only) and
 /// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002). Returns the motors
@@ -32,7 +31,7 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
     for x in 1..=max {
         let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
         let Some((node, 0)) =
-            crate::state::memory::node_of(crate::state::memory::Space::Y, (ix02 & 0xFFFF) as u16)
+            crate::model::node_of(crate::model::Space::Y, (ix02 & 0xFFFF) as u16)
         else {
             continue;
         };
@@ -71,18 +70,18 @@ pub fn words_to_regs(w: [u32; 4]) -> NodeRegs {
     }
 }
 
-/// The card's ring application.
+/// The card's ring application: owns the card (through its [`Runner`]) on the ring driver's
+/// thread. Each tick runs synchronized starts due now, the servo cycle, then a bounded slice
+/// of host work.
 pub struct CardRingApp {
-    card: Arc<Mutex<Card>>,
+    runner: Runner,
     nodes: Vec<u8>,
     /// The ring fault has been reported into the card's status word.
     reported: bool,
     /// The card's `$$$` cleared the reported bit: ask the ring core to reset its latch.
     reset_wanted: bool,
-    /// Synchronized start: scheduled lines and the program-start record (DRILLS).
-    sync: Option<super::sync_start::SyncStart>,
-    /// The servo loop (motors, program engine) (SERVOLOOP).
-    servo: Servo,
+    /// How long a tick waits for a synchronized start's decision.
+    stall: std::time::Duration,
     /// The start-up layer (config settings, motor wiring), applied again after every `$$$` /
     /// `$$$***` (the process start-up applied it the first time).
     startup: Option<StartupLayer>,
@@ -101,28 +100,25 @@ impl std::fmt::Debug for CardRingApp {
     }
 }
 
-/// What the card's start-up applies on top of its saved (or factory) image, and re-applies
-/// after every reset: the cluster config is the card's hardware setup.
-pub type StartupLayer = Box<dyn Fn(&mut Card)>;
-
 impl CardRingApp {
-    /// A ring app for `card` serving `nodes` (its activated MACRO nodes).
-    pub fn new(card: Arc<Mutex<Card>>, nodes: &[u8]) -> Self {
-        let (servo, resets_seen) = {
-            let c = card.lock().unwrap_or_else(|e| e.into_inner());
-            (Servo::new(&c), c.resets())
-        };
+    /// A ring app for the card `runner` owns, serving `nodes` (its activated MACRO nodes).
+    pub fn new(runner: Runner, nodes: &[u8]) -> Self {
+        let resets_seen = runner.core.card.model.resets();
         CardRingApp {
-            servo,
+            runner,
             startup: None,
             resets_seen,
             _resources: Vec::new(),
-            card,
             nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
             reported: false,
             reset_wanted: false,
-            sync: None,
+            stall: std::time::Duration::from_millis(25),
         }
+    }
+
+    /// The card core (tests, tools).
+    pub fn core(&mut self) -> &mut CardCore {
+        &mut self.runner.core
     }
 
     /// Re-apply [`wire_macro_motors`] after every `$$$` / `$$$***` (factory I-variables would
@@ -149,19 +145,17 @@ impl CardRingApp {
         self
     }
 
-    /// Run `sync`'s scheduled lines at the start of each tick (synchronized start).
-    pub fn with_sync_start(mut self, sync: super::sync_start::SyncStart) -> Self {
-        self.sync = Some(sync);
+    /// A tick waits at most `stall` for a synchronized start's commit.
+    pub fn with_sync_stall(mut self, stall: std::time::Duration) -> Self {
+        self.stall = stall;
         self
     }
 }
 
 impl RingApp for CardRingApp {
     fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
-        let mut card = self.card.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(s) = &self.sync {
-            s.tick_start(&mut card, cycle);
-        }
+        self.runner.sync_tick_start(cycle, self.stall);
+        let card = &mut self.runner.core.card;
         if self.reported && !card.state.global.ring_fault {
             // `$$$` cleared the bit: the ring core's latch follows if the ring is healthy,
             // otherwise the next tick reports the fault again.
@@ -174,14 +168,15 @@ impl RingApp for CardRingApp {
         if card.resets() != self.resets_seen {
             self.resets_seen = card.resets();
             if let Some(layer) = &self.startup {
-                layer(&mut card);
+                layer(card);
             }
         }
         for &n in &self.nodes {
             card.state
                 .set_node_feedback(usize::from(n), regs_to_words(regs.read_regs(n)));
         }
-        self.servo.tick(&mut card, cycle);
+        self.runner.core.tick(cycle);
+        let card = &mut self.runner.core.card;
         let latched = card.state.global.ring_fault;
         for &n in &self.nodes {
             *regs.write_regs_mut(n) = if latched {
@@ -190,9 +185,9 @@ impl RingApp for CardRingApp {
                 words_to_regs(card.state.node_command(usize::from(n)))
             };
         }
-        if let Some(s) = &self.sync {
-            s.tick_end(&card);
-        }
+        self.runner.sync_tick_end();
+        // Host work after the tick, in a bounded slice: it never delays the next one.
+        self.runner.pump(&mut Budget::new(SLICE_UNITS));
     }
 
     fn take_ring_reset(&mut self) -> bool {
@@ -203,35 +198,43 @@ impl RingApp for CardRingApp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interp::Profile;
+    use crate::domain::Profile;
+    use crate::runtime::handle::channel;
     use mcc_ring::settings::RingSettings;
+
+    fn app(card: Card, nodes: &[u8]) -> (CardRingApp, crate::runtime::handle::CardHandle) {
+        let (runner, handle) = channel(CardCore::new(card), None);
+        (CardRingApp::new(runner, nodes), handle)
+    }
+
+    fn ask(app: &mut CardRingApp, line: &[u8]) -> Vec<u8> {
+        let mut s = crate::lang::interp::Session::with_id(999);
+        app.core().card.command_line(&mut s, line)
+    }
 
     #[test]
     fn the_startup_layer_is_applied_again_after_every_reset() {
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let layer = |card: &mut Card| {
-            let mut s = crate::interp::Session::default();
+            let mut s = crate::lang::interp::Session::default();
             let _ = card.command_line(&mut s, b"I0=3 I1001=16");
         };
-        layer(&mut card.lock().unwrap());
-        let mut app = CardRingApp::new(Arc::clone(&card), &[0]).with_startup(Box::new(layer));
+        let mut card = Card::new(Profile::Pmac2);
+        layer(&mut card);
+        let (app, _h) = app(card, &[0]);
+        let mut app = app.with_startup(Box::new(layer));
         let mut member = RingMember::new(RingSettings::new(0x30, 0x1));
-        let ask = |line: &[u8]| {
-            let mut s = crate::interp::Session::default();
-            card.lock().unwrap().command_line(&mut s, line)
-        };
-        let before = ask(b"I0 I1001");
+        let before = ask(&mut app, b"I0 I1001");
         let text = String::from_utf8_lossy(&before).to_string();
         assert!(text.contains('3') && text.contains("16"), "{text:?}");
-        ask(b"$$$");
+        ask(&mut app, b"$$$");
         assert_ne!(
-            ask(b"I0 I1001"),
+            ask(&mut app, b"I0 I1001"),
             before,
             "$$$ reloads the (unsaved) factory image"
         );
         app.tick(1, 0, &mut member, false);
         assert_eq!(
-            ask(b"I0 I1001"),
+            ask(&mut app, b"I0 I1001"),
             before,
             "the tick after the reset re-applies the layer"
         );
@@ -270,30 +273,48 @@ mod tests {
 
     #[test]
     fn tick_latches_feedback_and_sends_commands_until_a_ring_fault() {
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-        let mut app = CardRingApp::new(Arc::clone(&card), &[0, 1]);
+        let (mut app, _h) = app(Card::new(Profile::Pmac2), &[0, 1]);
         let mut member = RingMember::new(RingSettings::new(0x30, 0x3));
         {
             // Motor 1 deactivated: the servo loop no longer owns its output register.
-            let mut c = card.lock().unwrap();
-            c.command_line(&mut crate::interp::Session::default(), b"I100=0");
-            c.state
-                .write(crate::state::memory::Space::Y, 0xC0A0, 0x00_1234);
+            ask(&mut app, b"I100=0");
+            app.core()
+                .card
+                .state
+                .write(crate::model::Space::Y, 0xC0A0, 0x00_1234);
         }
         app.tick(1, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0x1234);
         app.tick(2, 0, &mut member, true);
         assert_eq!(*member.write_regs_mut(0), NodeRegs::default());
-        assert!(card.lock().unwrap().state.global.ring_fault);
+        assert!(app.core().card.state.global.ring_fault);
         // Latched: a healthy tick does not command again until `$$$` clears the bit.
         app.tick(3, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0);
         assert!(!app.take_ring_reset());
         // `$$$` clears the bit: the app asks the ring core to reset its latch and commands again.
-        card.lock().unwrap().state.global.ring_fault = false;
+        app.core().card.state.global.ring_fault = false;
         app.tick(4, 0, &mut member, false);
         assert!(app.take_ring_reset());
         assert!(!app.take_ring_reset());
         assert_eq!(member.write_regs_mut(0).r0, 0x1234);
+    }
+
+    #[test]
+    fn host_lines_reach_the_card_through_the_handle_between_ticks() {
+        let (mut app, h) = app(Card::new(Profile::Pmac2), &[0]);
+        let conn = h.new_conn();
+        let t = std::thread::spawn(move || {
+            h.host(conn, crate::core::HostRequest::Line(b"I3=2 P1=7 P1".to_vec()))
+        });
+        let mut member = RingMember::new(RingSettings::new(0x30, 0x1));
+        let mut cycle = 1;
+        while !t.is_finished() {
+            app.tick(cycle, 0, &mut member, false);
+            cycle += 1;
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            assert!(cycle < 100_000, "no reply");
+        }
+        assert_eq!(t.join().unwrap().bytes, b"7\r\x06");
     }
 }

@@ -19,14 +19,15 @@
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
+use std::time::Duration;
 
 use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
-use crate::interp::{Action, ActionKind, Card, Session, MAX_ACTIONS, MAX_LINE};
-use crate::lang::ast::CmdKind;
+use super::handle::{CardHandle, Request, Response, REPLY_TIMEOUT};
+use crate::lang::interp::{Card, MAX_LINE};
+use crate::model::Action;
 
 /// Most armed (pending) lines at once.
 pub const MAX_PENDING: usize = 16;
@@ -65,12 +66,12 @@ pub struct SyncCore {
     done: VecDeque<Done>,
     program_start_cycle: Option<u64>,
     program_start_ns: Option<u64>,
-    stalls: u64,
+    pub(crate) stalls: u64,
     seen_actions: usize,
 }
 
 fn is_program_start(a: &Action) -> bool {
-    matches!(a.kind, ActionKind::Cmd(CmdKind::Run | CmdKind::Step))
+    a.kind.starts_program()
 }
 
 impl SyncCore {
@@ -310,98 +311,6 @@ impl SyncCore {
     }
 }
 
-/// The card's synchronized-start state shared by its tick and its queryable.
-#[derive(Debug, Clone)]
-pub struct SyncStart {
-    shared: Arc<(Mutex<SyncCore>, Condvar)>,
-    session: Arc<Mutex<Session>>,
-    stall_limit: Duration,
-}
-
-impl SyncStart {
-    /// A synchronized-start state whose tick waits at most `stall_limit` for a decision.
-    pub fn new(stall_limit: Duration) -> Self {
-        SyncStart {
-            shared: Arc::new((Mutex::new(SyncCore::default()), Condvar::new())),
-            session: Arc::new(Mutex::new(Session::default())),
-            stall_limit,
-        }
-    }
-
-    fn core(&self) -> std::sync::MutexGuard<'_, SyncCore> {
-        self.shared.0.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// Start of the tick of `cycle` (call first in the card's tick, before the servo loop
-    /// drains the interpreter's actions): wait for undecided lines due now, execute the
-    /// committed ones, record program starts.
-    pub fn tick_start(&self, card: &mut Card, cycle: u64) {
-        let (lock, cv) = &*self.shared;
-        let mut core = lock.lock().unwrap_or_else(|e| e.into_inner());
-        core.begin_tick(cycle);
-        if core.undecided_due(cycle) {
-            core.stalls += 1;
-            let deadline = Instant::now() + self.stall_limit;
-            while core.undecided_due(cycle) {
-                let left = deadline.saturating_duration_since(Instant::now());
-                if left.is_zero() {
-                    core.abandon_due(cycle);
-                    break;
-                }
-                core = cv
-                    .wait_timeout(core, left)
-                    .map(|(g, _)| g)
-                    .unwrap_or_else(|e| e.into_inner().0);
-            }
-        }
-        let due = core.take_due(cycle);
-        let mut scheduled_start = false;
-        if !due.is_empty() {
-            let saved = card.take_actions();
-            let mut session = self.session.lock().unwrap_or_else(|e| e.into_inner());
-            for (id, line) in due {
-                let ns = mcc_ring::runtime::driver::monotonic_ns();
-                let reply = card.command_line(&mut session, &line);
-                core.executed(id, cycle, ns, reply);
-            }
-            let fresh = card.take_actions();
-            scheduled_start = fresh.iter().any(is_program_start);
-            let mut all = saved;
-            all.extend(fresh);
-            let excess = all.len().saturating_sub(MAX_ACTIONS);
-            all.drain(..excess);
-            card.actions = all;
-        }
-        let now = mcc_ring::runtime::driver::monotonic_ns();
-        core.note_starts(&card.actions, cycle, now, scheduled_start);
-    }
-
-    /// End of the tick (call last in the card's tick).
-    pub fn tick_end(&self, card: &Card) {
-        self.core().end_tick(card.actions.len());
-    }
-
-    /// Answer one request (arm/commit/abort wake a waiting tick).
-    pub fn handle(&self, card: &Mutex<Card>, req: &AtRequest) -> AtReply {
-        let mut r = {
-            let mut core = self.core();
-            let r = core.request(req);
-            self.shared.1.notify_all();
-            r
-        };
-        if matches!(req, AtRequest::Info) {
-            let c = card.lock().unwrap_or_else(|e| e.into_inner());
-            fill_card_info(&c, &mut r);
-        }
-        r
-    }
-
-    /// Most recent program start (cycle, monotonic ns).
-    pub fn program_start(&self) -> (Option<u64>, Option<u64>) {
-        self.core().program_start()
-    }
-}
-
 /// Ring fault and killed motors from the card's state.
 pub fn fill_card_info(card: &Card, r: &mut AtReply) {
     r.ring_fault = card.state.global.ring_fault;
@@ -420,13 +329,16 @@ pub fn fill_card_info(card: &Card, r: &mut AtReply) {
     r.motors_killed = r.ring_fault && r.killed_motors.len() == activated;
 }
 
-/// Parse and answer one query payload.
-pub fn answer_payload(sync: &SyncStart, card: &Mutex<Card>, payload: &[u8]) -> AtReply {
+/// Parse one query payload and have the card answer it.
+pub fn answer_payload(card: &CardHandle, payload: &[u8]) -> AtReply {
     if payload.len() > MAX_REQUEST {
         return AtReply::err(format!("request longer than {MAX_REQUEST} bytes"));
     }
     match serde_json::from_slice::<AtRequest>(payload) {
-        Ok(req) => sync.handle(card, &req),
+        Ok(req) => match card.call(Request::At(req), REPLY_TIMEOUT) {
+            Some(Response::At(r)) => r,
+            _ => AtReply::err("the card did not answer"),
+        },
         Err(e) => AtReply::err(format!("bad request: {e}")),
     }
 }
@@ -450,8 +362,7 @@ pub fn declare_at_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,
-    card: Arc<Mutex<Card>>,
-    sync: SyncStart,
+    card: CardHandle,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
     let in_flight = Arc::new(AtomicUsize::new(0));
     zsession
@@ -472,14 +383,14 @@ pub fn declare_at_queryable(
                     .wait();
                 return;
             }
-            let (card, sync, flight) = (Arc::clone(&card), sync.clone(), Arc::clone(&in_flight));
+            let (card, flight) = (card.clone(), Arc::clone(&in_flight));
             let spawned = std::thread::Builder::new()
                 .name("mcc-card-at".into())
                 .spawn(move || {
                     if let Some(d) = test_delay() {
                         std::thread::sleep(d);
                     }
-                    let r = answer_payload(&sync, &card, &payload);
+                    let r = answer_payload(&card, &payload);
                     let body = serde_json::to_vec(&r).unwrap_or_default();
                     if let Err(e) = query.reply(query.key_expr().clone(), body).wait() {
                         tracing::warn!("card at reply failed: {e}");

@@ -1,5 +1,5 @@
 use super::*;
-use crate::interp::Profile;
+use crate::domain::Profile;
 
 fn arm(id: u64, cycle: u64, line: &str) -> AtRequest {
     AtRequest::Arm {

@@ -8,8 +8,8 @@
 //! after it produce no result).
 
 use crate::motion::ect::{EctEntry, EctState};
-use crate::state::memory::Space;
-use crate::state::CardState;
+use crate::model::Space;
+use crate::model::CardState;
 
 /// First setup word of the table.
 pub const ECT_START: u16 = 0x0720;
@@ -64,7 +64,7 @@ impl EctPass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::state::profile::Profile;
+    use crate::domain::Profile;
 
     #[test]
     fn default_table_converts_node_feedback_with_rollover() {

@@ -15,14 +15,14 @@
 //! Only motors with a register block (PMAC2: 1-8) get the memory registers; every motor gets
 //! its `?` flags and its `P`/`V`/`F` report.
 
-use crate::interp::Card;
+use crate::model::CardModel;
 use crate::motion::motor::{Motor, TickOutput};
 use crate::motion::params::MotorParams;
-use crate::state::float48::encode_fixed;
-use crate::state::memory::Space;
-use crate::state::regmap::{BLOCK_BASE, BLOCK_STRIDE, MOTOR_CALC_BASE, MOTOR_CALC_STRIDE};
-use crate::state::status::MotorFlags;
-use crate::state::CardState;
+use crate::model::encode_fixed;
+use crate::model::Space;
+use crate::model::{BLOCK_BASE, BLOCK_STRIDE, MOTOR_CALC_BASE, MOTOR_CALC_STRIDE};
+use crate::model::MotorFlags;
+use crate::model::CardState;
 
 /// Motors with a calculation block in the PMAC2 memory map.
 pub const MAPPED_MOTORS: u16 = 8;
@@ -90,11 +90,11 @@ pub fn jog_register(st: &mut CardState, x: u16) -> f64 {
         return 0.0;
     }
     let a = BLOCK_BASE + (x - 1) * BLOCK_STRIDE + 0x2B;
-    crate::state::float48::decode_float(crate::state::mvar::long(st, a))
+    crate::model::decode_float(crate::model::long(st, a))
 }
 
 /// Report every motor's position/velocity/following error and copy its `?` flags.
-pub fn report(card: &mut Card, motors: &[Motor]) {
+pub fn report(card: &mut CardModel, motors: &[Motor]) {
     for (k, m) in motors.iter().enumerate() {
         let x = k as u16 + 1;
         card.set_motor_report(x, m.actual(), m.velocity(), m.following_error());

@@ -1,0 +1,55 @@
+//! The card data model: everything a card remembers, with the operations that keep it
+//! consistent. Pure (no I/O, no clock). Built on [`crate::domain`] only; the command language,
+//! the program engine and the servo loop are all above it.
+//!
+//! - [`CardModel`]: the aggregate (state, buffers, run state, motion requests, gather, output);
+//! - [`CardState`]: variables, I-variable tables per profile, the 24-bit X/Y memory with its
+//!   MACRO node registers and special registers, M-variable pointers, status flags, password;
+//! - program storage (`Buffers`, `ProgLine`, DEFINE'd buffers), run state (`RunState`), motion
+//!   requests (`Action`), data gathering (`GatherBuffer`), the unsolicited-output log;
+//! - number printing and status words, the SAVE image (`PersistImage`) and its byte format.
+
+mod actions;
+mod buffers;
+mod card;
+mod card_state;
+mod card_status;
+mod defines;
+mod error;
+mod float48;
+mod gather;
+mod ivars;
+mod lifecycle;
+mod memory;
+mod mvar;
+mod number;
+pub mod persist;
+mod progline;
+mod regmap;
+mod runstate;
+mod status;
+mod unsolicited;
+mod vars;
+
+pub use actions::{Action, ActionKind, MAX_ACTIONS};
+pub use buffers::{list_lines, BufErr, BufId, Buffers, Program, Rotary, StoredLine, Structure, MAX_PROGRAMS};
+pub use card::{user_memory_words, CardModel, PLCS};
+pub use card_state::{CardState, I995_STATUS_BITS};
+pub use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
+pub use error::StateError;
+pub use float48::*;
+pub use gather::{gather_tick, read_sample, GatherBuffer, GATHER_ON, WORDS_PER_LINE};
+pub use ivars::{IVarSpec, IVarTable};
+pub use lifecycle::{SAVED_REGIONS, USER_MEMORY_WORDS};
+pub use memory::*;
+pub use mvar::{format_def, long, set_long, WordAccess, SELF_MAX, SELF_MIN};
+pub use number::*;
+pub use persist::{PersistError, PersistImage};
+pub use progline::ProgLine;
+pub use regmap::*;
+pub use runstate::{axis_def_legal, axis_def_text, CsRun, MotorRun, PlcRun, RunState};
+pub use status::*;
+pub use unsolicited::{Unsolicited, UNSOLICITED_LIMIT};
+
+#[cfg(test)]
+mod tests;

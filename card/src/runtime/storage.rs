@@ -1,0 +1,216 @@
+//! The card's saved state on disk: [`FileStorage`] (the [`Storage`] a card process uses) writes
+//! atomically — a temporary file in the same directory, fsync, rename over the target, fsync
+//! the directory — so a crash leaves either the old or the new file.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::lang::interp::Storage;
+use crate::model::persist::{decode, encode, PersistError, PersistImage};
+
+/// Temporary file name used while writing `path`.
+pub fn temp_path(path: &Path) -> PathBuf {
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    name.push(format!(".tmp{}", std::process::id()));
+    path.with_file_name(name)
+}
+
+/// Write `bytes` to `path` atomically: temp file in the same directory, write, fsync, rename,
+/// fsync the directory.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = temp_path(path);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)?;
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        std::fs::File::open(dir)?.sync_all()
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Save an image to `path` atomically.
+pub fn save(path: &Path, image: &PersistImage) -> std::io::Result<()> {
+    write_atomic(path, &encode(image))
+}
+
+/// Load the image at `path`; `Ok(None)` when there is no file (fresh card).
+pub fn load(path: &Path) -> Result<Option<PersistImage>, PersistError> {
+    match read(path).map_err(PersistError::Io)? {
+        Some(bytes) => decode(&bytes).map(Some),
+        None => Ok(None),
+    }
+}
+
+/// The bytes at `path`; `Ok(None)` when there is no file.
+pub fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
+    match std::fs::read(path) {
+        Ok(bytes) => Ok(Some(bytes)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(format!("{}: {e}", path.display())),
+    }
+}
+
+/// Remove temporaries a SAVE cut short left beside `path` (`<name>.tmp<pid>`: the process was
+/// killed between writing and renaming). Returns how many were removed.
+pub fn remove_stale_temporaries(path: &Path) -> usize {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+        return 0;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let prefix = format!("{}.tmp", name.to_string_lossy());
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        let pid_part = n.strip_prefix(&prefix);
+        if pid_part.is_some_and(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()))
+            && std::fs::remove_file(e.path()).is_ok()
+        {
+            tracing::warn!(file = %e.path().display(), "removed a SAVE temporary left by a killed process");
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// Move a refused state file aside (`<name>.bad-<n>`, the first free n) so nothing overwrites
+/// it; the new name, or `None` when it could not be moved.
+pub fn keep_aside(path: &Path) -> Option<PathBuf> {
+    if !path.is_file() {
+        return None;
+    }
+    let name = path.file_name()?.to_string_lossy().into_owned();
+    for n in 1..1000 {
+        let aside = path.with_file_name(format!("{name}.bad-{n}"));
+        if !aside.exists() {
+            return std::fs::rename(path, &aside).ok().map(|_| aside);
+        }
+    }
+    None
+}
+
+/// A card's saved state in one file.
+#[derive(Debug, Clone)]
+pub struct FileStorage {
+    path: PathBuf,
+}
+
+impl FileStorage {
+    /// The state file `path`.
+    pub fn new(path: impl Into<PathBuf>) -> Self {
+        FileStorage { path: path.into() }
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Storage for FileStorage {
+    fn save(&mut self, bytes: &[u8]) -> Result<(), String> {
+        write_atomic(&self.path, bytes).map_err(|e| format!("{}: {e}", self.path.display()))
+    }
+
+    fn load(&mut self) -> Result<Option<Vec<u8>>, String> {
+        read(&self.path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Profile;
+    use crate::model::CardState;
+
+    fn tmpdir(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("mcc-state-{}-{}", name, std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn sample() -> PersistImage {
+        let mut s = CardState::new(Profile::Pmac2);
+        s.set_ivar(130, 5000.0).unwrap();
+        s.vars.set_p(7, 2.5).unwrap();
+        s.password = "Secret".into();
+        s.to_image(b"PROG1 X10".to_vec())
+    }
+
+    #[test]
+    fn round_trip_through_file() {
+        let dir = tmpdir("rt");
+        let path = dir.join("card1.sav");
+        assert!(load(&path).unwrap().is_none());
+        let img = sample();
+        save(&path, &img).unwrap();
+        let back = load(&path).unwrap().unwrap();
+        assert_eq!(back, img);
+        assert_eq!(back.ivars[130], 5000.0);
+        assert_eq!(back.programs, b"PROG1 X10");
+        assert!(!temp_path(&path).exists());
+    }
+
+    #[test]
+    fn old_file_survives_an_unfinished_write() {
+        let dir = tmpdir("crash");
+        let path = dir.join("card.sav");
+        let old = sample();
+        save(&path, &old).unwrap();
+        // Simulate a crash mid-SAVE: the temp file is written (partially) but never renamed.
+        let mut newer = old.clone();
+        newer.pvars[7] = 99.0;
+        let bytes = encode(&newer);
+        std::fs::write(temp_path(&path), &bytes[..bytes.len() / 3]).unwrap();
+        assert_eq!(load(&path).unwrap().unwrap(), old);
+        // The next successful SAVE replaces both.
+        save(&path, &newer).unwrap();
+        assert_eq!(load(&path).unwrap().unwrap().pvars[7], 99.0);
+        assert!(!temp_path(&path).exists());
+    }
+
+    #[test]
+    fn stale_temporaries_are_removed_and_bad_files_kept_aside() {
+        let dir = tmpdir("stale");
+        let path = dir.join("card.sav");
+        std::fs::write(dir.join("card.sav.tmp12345"), b"partial").unwrap();
+        std::fs::write(dir.join("card.sav.tmp999"), b"partial").unwrap();
+        std::fs::write(dir.join("card.sav.tmpx"), b"not ours").unwrap();
+        std::fs::write(&path, b"junk").unwrap();
+        assert_eq!(remove_stale_temporaries(&path), 2);
+        assert!(dir.join("card.sav.tmpx").exists());
+        assert_eq!(keep_aside(&path), Some(dir.join("card.sav.bad-1")));
+        std::fs::write(&path, b"junk2").unwrap();
+        assert_eq!(keep_aside(&path), Some(dir.join("card.sav.bad-2")));
+        assert!(!path.exists());
+        assert_eq!(std::fs::read(dir.join("card.sav.bad-1")).unwrap(), b"junk");
+    }
+
+    #[test]
+    fn truncated_file_on_disk_is_an_error() {
+        let dir = tmpdir("trunc");
+        let path = dir.join("card.sav");
+        let bytes = encode(&sample());
+        std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
+        assert!(matches!(load(&path), Err(PersistError::Truncated { .. })));
+    }
+}
