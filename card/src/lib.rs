@@ -15,13 +15,37 @@
 //!   host work served in bounded slices between ticks (pure);
 //! - [`runtime`], [`host`]: the process: ring membership, threads, channels, files, sockets.
 
-pub mod coord;
-pub mod core;
-pub mod domain;
-pub mod host;
-pub mod lang;
-pub mod model;
-pub mod motion;
-pub mod program;
-pub mod runtime;
-pub mod servo;
+//!
+//! Modules are private; what other crates (the orchestrator, the scenario tests) use is
+//! re-exported here.
+
+mod coord;
+mod core;
+mod domain;
+mod host;
+mod lang;
+mod model;
+mod motion;
+mod program;
+mod runtime;
+mod servo;
+
+pub use crate::core::rig::{self, LoopbackPlant, Rig};
+pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
+pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, Profile};
+pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
+pub use host::standalone::{run_standalone, StandaloneOpts};
+pub use lang::interp::{
+    Budget, Card, Effect, EffectResult, LineRun, Session, Step, Storage, MAX_LINE,
+};
+pub use model::{decode_fixed, Action, ActionKind, CardModel, CardState, Space};
+pub use motion::flags::FlagInputs;
+pub use motion::motor::{Motor, MotorCommand, TickInput, TripScope};
+pub use motion::params::MotorParams;
+pub use program::{Commands, NoCommands, ProgramEngine};
+pub use runtime::bench_servo::{run_servo_bench, ServoBenchReport};
+pub use runtime::handle::{spawn_card_thread, CardHandle};
+pub use runtime::ring_app::{wire_macro_motors, CardRingApp};
+pub use runtime::run_ring_card;
+pub use runtime::storage::FileStorage;
+pub use servo::Servo;

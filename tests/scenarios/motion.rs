@@ -3,11 +3,7 @@
 //! (config ring settings, `wire_macro_motors`, the config's card I-variables). Commands go in
 //! through `Card::command_line`; commands and feedback travel over the ring only.
 
-use std::sync::{Arc, Mutex};
-
-use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::{wire_macro_motors, CardRingApp};
-use mcc_card::state::float48::decode_fixed;
+use mcc_card::{decode_fixed, wire_macro_motors, Card, CardRingApp, Profile, Session};
 use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::MemberKind;
 use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
@@ -46,7 +42,6 @@ impl RingApp for App {
 
 struct Rig {
     sim: RingSim<App>,
-    card: Arc<Mutex<Card>>,
     session: Session,
 }
 
@@ -56,7 +51,7 @@ impl Rig {
         let cfg = ClusterConfig::default_cluster(1, 1);
         let period = cfg.period_ns();
         let n = cfg.ring.order.len();
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
+        let mut card = Some(Card::new(Profile::Pmac2));
         let mut members = Vec::new();
         for name in cfg.ring.order.clone() {
             let pos = cfg.position(&name).unwrap();
@@ -64,8 +59,8 @@ impl Rig {
             let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
             let (kind, check, app) = match cfg.member(&name).unwrap() {
                 MemberRef::Card(cc) => {
+                    let mut c = card.take().expect("one card");
                     {
-                        let mut c = card.lock().unwrap();
                         let mut s = Session::default();
                         let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
                         c.command_line(&mut s, line.as_bytes());
@@ -74,7 +69,7 @@ impl Rig {
                             c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
                         }
                     }
-                    let app = CardRingApp::new(Arc::clone(&card), &cc.nodes).with_wiring(true);
+                    let app = CardRingApp::for_card(c, &cc.nodes).with_wiring(true);
                     (
                         MemberKind::Card,
                         card_check(&cc.ivars),
@@ -102,14 +97,22 @@ impl Rig {
         }
         Rig {
             sim: RingSim::new(members, period),
-            card,
             session: Session::default(),
         }
     }
 
+    /// The card (its core owns it; the test drives it between ring cycles).
+    fn card(&mut self) -> &mut Card {
+        match self.sim.app_mut(0) {
+            App::Card(a) => &mut a.core().card,
+            App::Station(_) => panic!("member 0 is the card"),
+        }
+    }
+
     fn cmd(&mut self, line: &str) -> String {
-        let mut c = self.card.lock().unwrap();
-        let r = c.command_line(&mut self.session, line.as_bytes());
+        let mut s = self.session.clone();
+        let r = self.card().command_line(&mut s, line.as_bytes());
+        self.session = s;
         String::from_utf8_lossy(&r)
             .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
             .to_string()
@@ -133,8 +136,8 @@ impl Rig {
 
     /// Motor x's D: register at calculation-block offset `off` (D:$0028 commanded, $002B
     /// actual, $004B following error), counts.
-    fn d_reg(&self, x: u16, off: u16) -> f64 {
-        let mut c = self.card.lock().unwrap();
+    fn d_reg(&mut self, x: u16, off: u16) -> f64 {
+        let c = self.card();
         decode_fixed(c.state.read_long(0x0020 + (x - 1) * 0x3C + off)) / D_UNITS
     }
 
@@ -280,7 +283,7 @@ fn default_jog_following_error_bound_and_reports() {
     assert_eq!(rig.status(1), (0x81_2000, 0x00_4001));
     // CTRL-P lists all 8 motors; motors 2-8 hold 0.
     let mut s = Session::default();
-    let r = rig.card.lock().unwrap().control_char(&mut s, 0x10);
+    let r = rig.card().control_char(&mut s, 0x10);
     let text = String::from_utf8_lossy(&r).trim().to_string();
     let vals: Vec<&str> = text.split(' ').collect();
     assert_eq!(vals.len(), 8);

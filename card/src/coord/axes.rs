@@ -79,12 +79,14 @@ impl MotorAxisDef {
 
 /// Card-wide table of axis definitions: which motor belongs to which C.S. and how.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg(test)]
 pub struct AxisTable {
     /// Index 0 = motor #1: (C.S. number 1-based, definition).
     motors: Vec<Option<(u16, MotorAxisDef)>>,
     coords: u16,
 }
 
+#[cfg(test)]
 impl AxisTable {
     /// Empty table for `motors` motors and `coords` coordinate systems.
     pub fn new(motors: u16, coords: u16) -> Self {

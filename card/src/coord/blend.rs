@@ -164,16 +164,6 @@ impl Timeline {
         self.pieces.is_empty()
     }
 
-    /// Number of queued pieces.
-    pub fn len(&self) -> usize {
-        self.pieces.len()
-    }
-
-    /// Queue empty.
-    pub fn is_empty(&self) -> bool {
-        self.pieces.is_empty()
-    }
-
     /// Whether the executor should calculate another move: fewer than two queued moves have
     /// not started yet, and no DWELL is pending (DWELL stops look-ahead).
     pub fn wants_more(&self, tau: f64) -> bool {

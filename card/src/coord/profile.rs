@@ -25,21 +25,6 @@ impl Ramp {
         }
     }
 
-    /// Velocity fraction g(u).
-    pub fn g(&self, u: f64) -> f64 {
-        if u <= 0.0 {
-            0.0
-        } else if u >= 1.0 {
-            1.0
-        } else if u > 0.5 {
-            1.0 - self.g(1.0 - u)
-        } else if u < self.s {
-            self.ap * u * u / (2.0 * self.s)
-        } else {
-            self.ap * (self.s / 2.0 + (u - self.s))
-        }
-    }
-
     /// Position fraction G(u) = ∫₀ᵘ g (G(1) = ½, extended linearly beyond 1).
     pub fn big_g(&self, u: f64) -> f64 {
         if u <= 0.0 {

@@ -1,17 +1,18 @@
 //! Servo-loop unit tests: a card, its servo loop and the loopback plant, no ring.
 
-use super::bench::{bench_card, LoopbackPlant, NODES};
-use super::Servo;
+use super::rig::{bench_card, LoopbackPlant, NODES};
 use crate::lang::interp::{Card, Session};
+use crate::servo::Servo;
 
-fn run(card: &mut CardModel, servo: &mut Servo, plant: &mut LoopbackPlant, n: u64) {
+fn run(card: &mut Card, servo: &mut Servo, plant: &mut LoopbackPlant, n: u64) {
     for c in 0..n {
-        plant.step(card, &NODES);
-        servo.tick(card, c);
+        plant.step(&mut card.model, &NODES);
+        let (model, mut cmds) = card.split();
+        servo.tick(model, &mut cmds, c);
     }
 }
 
-fn cmd(card: &mut CardModel, line: &str) -> String {
+fn cmd(card: &mut Card, line: &str) -> String {
     let mut s = Session::default();
     String::from_utf8_lossy(&card.command_line(&mut s, line.as_bytes())).into_owned()
 }
@@ -26,7 +27,7 @@ fn num(reply: &str) -> f64 {
 fn setup() -> (Card, Servo, LoopbackPlant) {
     let mut card = bench_card();
     cmd(&mut card, "I3=2");
-    let servo = Servo::new(&card);
+    let servo = Servo::new(&card.model);
     (card, servo, LoopbackPlant::default())
 }
 
@@ -123,11 +124,11 @@ fn gather_samples_the_cycle_counter() {
     assert_eq!(cmd(&mut card, "LIST GATHER"), "\u{6}");
 }
 
-/// `cargo test --release -p mcc-card --lib servo::tests::servo_bench -- --ignored --nocapture`
+/// `cargo test --release -p mcc-card --lib core::tests_servo::servo_bench -- --ignored --nocapture`
 #[test]
 #[ignore = "timing benchmark; run in release"]
 fn servo_bench() {
-    let r = super::bench::run_servo_bench();
+    let r = crate::runtime::bench_servo::run_servo_bench();
     println!("{r}");
     assert!(r.per_motor_p50_ns > 0.0);
 }
@@ -139,7 +140,7 @@ fn bench_loop_runs_and_reports_sane_numbers() {
     run(&mut card, &mut servo, &mut plant, 6000);
     assert!((plant.position(0) - 10_000.0).abs() < 10.0);
     assert!((plant.position(13) + 10_000.0).abs() < 10.0);
-    let text = super::bench::ServoBenchReport {
+    let text = crate::runtime::bench_servo::ServoBenchReport {
         ticks: 10,
         per_motor_p50_ns: 500.0,
         per_motor_p99_ns: 900.0,
@@ -171,9 +172,8 @@ fn a_plc_send_becomes_unsolicited_output_of_the_card() {
             String::from_utf8_lossy(&card.command_line(&mut session, line.as_bytes())).into_owned();
         assert!(!r.contains('\x07'), "{line}: {r:?}");
     }
-    let before = card.unsolicited.position();
     run(&mut card, &mut servo, &mut plant, 5);
-    let (out, _) = card.unsolicited.since(before);
+    let out = card.model.take_output();
     let text = String::from_utf8_lossy(&out).into_owned();
     // One scan: the PLC sends once, then disables itself.
     assert_eq!(text.matches("HELLO").count(), 1, "{text:?}");

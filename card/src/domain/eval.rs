@@ -227,6 +227,7 @@ fn eval_cond_d<E: Env + ?Sized>(c: &Cond, env: &mut E, depth: u32) -> Result<boo
 
 /// Round to PMAC's 48-bit floating-point format (36-bit two's-complement mantissa, i.e. 35
 /// significant bits after the sign). Use when storing P/Q/L-format values.
+#[cfg(test)]
 pub fn to_pmac48(x: f64) -> f64 {
     let x = finite(x);
     if x == 0.0 {
@@ -241,6 +242,7 @@ pub fn to_pmac48(x: f64) -> f64 {
 }
 
 /// Round for an integer-format store (`M1=10*2/3` → 7): nearest, halves away from zero.
+#[cfg(test)]
 pub fn to_integer(x: f64) -> f64 {
     finite(x).round()
 }

@@ -54,6 +54,7 @@ pub fn name(profile: Profile) -> &'static str {
 }
 
 /// Parse a profile name as written in config (`pmac2`, `turbo`, case-insensitive).
+#[cfg(test)]
 pub fn parse(s: &str) -> Option<Profile> {
     match s.to_ascii_lowercase().as_str() {
         "pmac2" => Some(Profile::Pmac2),

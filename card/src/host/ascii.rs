@@ -53,13 +53,9 @@ impl AsciiCodec {
     }
 
     /// The partial line received so far (not yet terminated by `<CR>`).
+    #[cfg(test)]
     pub fn partial(&self) -> &[u8] {
         &self.line
-    }
-
-    /// The last non-empty line executed (what `<CTRL-I>` repeats).
-    pub fn last_line(&self) -> &[u8] {
-        &self.last_line
     }
 
     /// Full-duplex echo (`<CTRL-T>`): when on, received line characters and `<CR>` are sent back

@@ -28,12 +28,6 @@ pub const VR_PMAC_SENDLINE: u8 = 0xB0;
 pub const VR_PMAC_GETLINE: u8 = 0xB1;
 /// Discard pending output (answer `@`).
 pub const VR_PMAC_FLUSH: u8 = 0xB3;
-/// DPRAM read (not supported: closes the connection).
-pub const VR_PMAC_GETMEM: u8 = 0xB4;
-/// DPRAM write (not supported: closes the connection).
-pub const VR_PMAC_SETMEM: u8 = 0xB5;
-/// Host-port byte I/O (not supported: closes the connection).
-pub const VR_PMAC_PORT: u8 = 0xBE;
 /// Execute a command line and return its reply.
 pub const VR_PMAC_GETRESPONSE: u8 = 0xBF;
 /// Is output pending? (2 bytes).

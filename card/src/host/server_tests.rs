@@ -5,6 +5,8 @@ use crate::host::ascii::MAX_LINE;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
 use crate::host::port::overlong_probe;
 use crate::domain::Profile;
+use crate::lang::interp::{Card, Session};
+use crate::runtime::handle::{spawn_card_thread, CardHandle};
 
 const WAIT: Duration = Duration::from_secs(5);
 
@@ -14,8 +16,9 @@ fn in_process(line: &[u8]) -> Vec<u8> {
 }
 
 async fn start(cfg: PortsConfig) -> BoundPorts {
-    let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-    serve(card, cfg).await.expect("bind")
+    serve(spawn_card_thread(Card::new(Profile::Pmac2)), cfg)
+        .await
+        .expect("bind")
 }
 
 async fn connect(addr: SocketAddr) -> TcpStream {
@@ -53,7 +56,7 @@ fn getresponse(cmd: &[u8]) -> Vec<u8> {
     request(VR_DOWNLOAD, VR_PMAC_GETRESPONSE, 0, cmd.len() as u16, cmd)
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn ascii_port_is_byte_transparent_and_accepts_crlf() {
     let p = start(PortsConfig::default()).await;
     assert_eq!(p.ascii.ip(), IpAddr::V4(Ipv4Addr::LOCALHOST));
@@ -69,7 +72,7 @@ async fn ascii_port_is_byte_transparent_and_accepts_crlf() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn ascii_overlong_line_gets_err003_then_resyncs() {
     let p = start(PortsConfig::default()).await;
     let mut s = connect(p.ascii).await;
@@ -83,7 +86,7 @@ async fn ascii_overlong_line_gets_err003_then_resyncs() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn eth_port_getresponse_empty_and_flush() {
     let p = start(PortsConfig::default()).await;
     let mut s = connect(p.pmac_eth).await;
@@ -99,7 +102,7 @@ async fn eth_port_getresponse_empty_and_flush() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn garbage_connection_is_closed_others_unaffected() {
     let p = start(PortsConfig::default()).await;
     let mut good = connect(p.pmac_eth).await;
@@ -113,7 +116,7 @@ async fn garbage_connection_is_closed_others_unaffected() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn stalled_request_times_out_without_blocking_others() {
     let cfg = PortsConfig {
         io_timeout: Duration::from_millis(200),
@@ -137,7 +140,7 @@ async fn stalled_request_times_out_without_blocking_others() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn connection_limit_closes_extra_connections() {
     let cfg = PortsConfig {
         max_connections: 2,
@@ -170,7 +173,7 @@ async fn connection_limit_closes_extra_connections() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn shutdown_closes_connections() {
     let p = start(PortsConfig::default()).await;
     let mut s = connect(p.ascii).await;
@@ -206,7 +209,7 @@ async fn simultaneous_connections_get_their_own_whole_replies() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn addressing_is_per_connection_and_i3_is_card_global() {
     let p = start(PortsConfig::default()).await;
     let mut a = connect(p.ascii).await;
@@ -227,10 +230,10 @@ async fn addressing_is_per_connection_and_i3_is_card_global() {
     p.shutdown().await;
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn unsolicited_output_reaches_terminal_connections_but_not_the_ethernet_port() {
-    let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-    let p = serve(Arc::clone(&card), PortsConfig::default())
+    let card: CardHandle = spawn_card_thread(Card::new(Profile::Pmac2));
+    let p = serve(card.clone(), PortsConfig::default())
         .await
         .expect("bind");
     let mut a = connect(p.ascii).await;
@@ -242,7 +245,7 @@ async fn unsolicited_output_reaches_terminal_connections_but_not_the_ethernet_po
     assert_eq!(read_n(&mut a, ack.len()).await, ack);
     b.write_all(b"\r").await.unwrap();
     assert_eq!(read_n(&mut b, ack.len()).await, ack);
-    lock(&card).unsolicited.push(b"HOMED\r".to_vec());
+    card.publish(b"HOMED\r".to_vec());
     assert_eq!(read_n(&mut a, 6).await, b"HOMED\r");
     assert_eq!(read_n(&mut b, 6).await, b"HOMED\r");
     // The Ethernet port answers only what it is asked.

@@ -7,8 +7,11 @@
 
 use std::fmt::{self, Write};
 
+#[cfg(test)]
+use super::ast::AxisDef;
+
 use super::ast::{
-    AssignOp, Axis, AxisDef, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr,
+    AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr,
     ExprKind, Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb,
     PreludeCall, SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
 };
@@ -470,6 +473,7 @@ impl fmt::Display for MDef {
 }
 
 /// `#n->` reply body: `10000X`, `8660X-5000Y`, `5000X+8660Y+5000`, `X` for scale 1.
+#[cfg(test)]
 pub fn axis_def(d: &AxisDef) -> String {
     let mut s = String::new();
     for (i, t) in d.terms.iter().enumerate() {

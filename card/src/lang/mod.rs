@@ -27,14 +27,13 @@ mod tests_online;
 #[cfg(test)]
 mod tests_program;
 
-pub use lexer::MAX_DEPTH;
 pub use parse_program::allowed;
 
-use ast::{BufferKind, Command, Item, Stmt};
+use ast::{BufferKind, Command, Item};
+#[cfg(test)]
+use ast::Stmt;
 use lexer::Cursor;
 
-/// ERR002: password error.
-pub const ERR_PASSWORD: u8 = 2;
 /// ERR003: data error or unrecognised command (any syntax error).
 pub const ERR_SYNTAX: u8 = 3;
 /// ERR004: illegal character (byte > 127, or a control byte inside a line).
@@ -135,11 +134,6 @@ impl<'a> LineParser<'a> {
             stored_any: state.stored_any,
             done: state.done,
         }
-    }
-
-    /// Byte offset reached so far.
-    pub fn offset(&self) -> usize {
-        self.cur.offset()
     }
 
     /// The next command or statement, `None` at the end of the line (or after an error).
@@ -255,6 +249,7 @@ pub fn parse_line_prefix(line: &[u8]) -> (Vec<Command>, Option<ParseError>) {
 
 /// Parse a line entered into an open buffer of `kind`, requiring that every item is a storable
 /// statement (an immediate command → ERR003). Used for stored/reloaded program text.
+#[cfg(test)]
 pub fn parse_program_line(line: &[u8], kind: BufferKind) -> Result<Vec<Stmt>, ParseError> {
     let mut p = LineParser::new(line)?;
     let mut out = Vec::new();

@@ -31,25 +31,23 @@ mod status;
 mod unsolicited;
 mod vars;
 
-pub use actions::{Action, ActionKind, MAX_ACTIONS};
-pub use buffers::{list_lines, BufErr, BufId, Buffers, Program, Rotary, StoredLine, Structure, MAX_PROGRAMS};
+pub use actions::{Action, ActionKind};
+#[cfg(test)]
+pub use actions::MAX_ACTIONS;
+pub use buffers::{list_lines, BufErr, BufId, Buffers, Rotary, StoredLine};
 pub use card::{user_memory_words, CardModel, PLCS};
-pub use card_state::{CardState, I995_STATUS_BITS};
-pub use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
-pub use error::StateError;
+pub use card_state::CardState;
+pub use defines::{CompTable, Layer, TableKind, TBUF_WORDS};
 pub use float48::*;
-pub use gather::{gather_tick, read_sample, GatherBuffer, GATHER_ON, WORDS_PER_LINE};
-pub use ivars::{IVarSpec, IVarTable};
-pub use lifecycle::{SAVED_REGIONS, USER_MEMORY_WORDS};
+pub use gather::gather_tick;
 pub use memory::*;
-pub use mvar::{format_def, long, set_long, WordAccess, SELF_MAX, SELF_MIN};
+pub use mvar::long;
 pub use number::*;
-pub use persist::{PersistError, PersistImage};
 pub use progline::ProgLine;
 pub use regmap::*;
-pub use runstate::{axis_def_legal, axis_def_text, CsRun, MotorRun, PlcRun, RunState};
+pub use runstate::{axis_def_legal, axis_def_text, PlcRun, RunState};
 pub use status::*;
-pub use unsolicited::{Unsolicited, UNSOLICITED_LIMIT};
+pub use unsolicited::Unsolicited;
 
 #[cfg(test)]
 mod tests;

@@ -25,8 +25,6 @@ impl WordAccess for super::memory::Memory {
     }
 }
 
-/// Self-referenced value range: −2^20 ..= 2^20 − 1.
-pub const SELF_MIN: i64 = -(1 << 20);
 /// Upper end of the self-referenced value range.
 pub const SELF_MAX: i64 = (1 << 20) - 1;
 

@@ -88,6 +88,7 @@ pub fn format_status_words(words: &[u32]) -> String {
 }
 
 /// `R` reply for a short word: signed decimal of the 24-bit value (`-7389161`).
+#[cfg(test)]
 pub fn format_word_signed(w: u32) -> String {
     let w = w & 0xFF_FFFF;
     let v = if w & 0x80_0000 != 0 {
@@ -99,6 +100,7 @@ pub fn format_word_signed(w: u32) -> String {
 }
 
 /// `R` reply for a long (L) word: signed decimal of the 48-bit value (`3072000`).
+#[cfg(test)]
 pub fn format_long_signed(w: u64) -> String {
     let w = w & 0xFFFF_FFFF_FFFF;
     let v = if w & (1 << 47) != 0 {
@@ -110,11 +112,13 @@ pub fn format_long_signed(w: u64) -> String {
 }
 
 /// `RH` reply for a short word: 6 upper-case hex digits, no `$` (`8F4017`).
+#[cfg(test)]
 pub fn format_word_hex(w: u32) -> String {
     format!("{:06X}", w & 0xFF_FFFF)
 }
 
 /// `RH` reply for a long word: 12 upper-case hex digits, no `$`.
+#[cfg(test)]
 pub fn format_long_hex(w: u64) -> String {
     format!("{:012X}", w & 0xFFFF_FFFF_FFFF)
 }

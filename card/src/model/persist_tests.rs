@@ -2,12 +2,6 @@ use super::*;
 use crate::domain::Profile;
 use crate::model::{CardState, Space};
 
-fn tmpdir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("mcc-state-{}-{}", name, std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn sample() -> PersistImage {
     let mut s = CardState::new(Profile::Pmac2);

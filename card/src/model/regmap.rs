@@ -20,34 +20,31 @@ pub const I995_ADDR: u16 = 0xC08F;
 pub const I996_ADDR: u16 = 0xC08E;
 /// Auxiliary flag images of node 0..15: X = read (status) image, Y = write (command) image.
 pub const AUX_IMAGE_BASE: u16 = 0x0F70;
-/// MACRO ring error count since reset (X).
-pub const RING_ERROR_COUNT: u16 = 0x07A1;
 /// MACRO auxiliary error value (X).
 pub const AUX_ERROR_VALUE: u16 = 0x0798;
-/// Run-time error code (X).
-pub const RUNTIME_ERROR: u16 = 0x0799;
 /// P0 in L memory (PMAC2 only, P0..P1023).
 pub const P_BASE: u16 = 0x1000;
 /// Q0 in L memory (C.S. 1's set, Q0..Q1023).
 pub const Q_BASE: u16 = 0x1400;
 /// Start of the encoder conversion table (Y = setup, X = results).
 pub const ECT_BASE: u16 = 0x0720;
-/// M0 definition word (Y).
-pub const MDEF_BASE: u16 = 0xBC00;
-
 /// Address of motor status word 1 (X) for motor `x` (1..=8).
+#[cfg(test)]
 pub fn motor_status1(x: u16) -> u16 {
     0x003Du16.wrapping_add(x.saturating_sub(1).wrapping_mul(MOTOR_CALC_STRIDE))
 }
 /// Address of motor status word 2 (Y) for motor `x` (1..=8).
+#[cfg(test)]
 pub fn motor_status2(x: u16) -> u16 {
     0x0814u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }
 /// Address of C.S. status word 1 (X) for C.S. `x` (1..=8).
+#[cfg(test)]
 pub fn cs_status1(x: u16) -> u16 {
     0x0818u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }
 /// Address of C.S. status word 2 (Y) for C.S. `x` (1..=8).
+#[cfg(test)]
 pub fn cs_status2(x: u16) -> u16 {
     0x0817u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }

@@ -3,6 +3,8 @@
 
 use super::status::{MotorFlags, MoveMode};
 use super::*;
+use super::error::StateError;
+use super::persist::PersistError;
 use crate::domain::Profile;
 use crate::domain::ast::{MDef, MFormat, XySpace};
 

@@ -66,6 +66,7 @@ impl EctEntry {
     }
 
     /// The entry for MACRO servo node register 0 at `$C0An` (`$28C0An`, `$FFFFFF`).
+    #[cfg(test)]
     pub fn macro_servo(source: u16) -> EctEntry {
         EctEntry {
             space: Space::Y,
@@ -108,10 +109,6 @@ impl EctState {
         self.result
     }
 
-    /// The last result word.
-    pub fn result(&self) -> u32 {
-        self.result
-    }
 }
 
 /// 48-bit position accumulator fed by a 24-bit ECT result (units: 1/32 count).
@@ -135,15 +132,6 @@ impl PositionExtender {
         self.pos
     }
 
-    /// The present position in 1/32 counts.
-    pub fn position(&self) -> i64 {
-        self.pos
-    }
-
-    /// Forget history: the next update restarts from its word (e.g. after `$*`).
-    pub fn reset(&mut self) {
-        self.last = None;
-    }
 }
 
 /// Wrap to a signed 48-bit value.

@@ -22,8 +22,6 @@ pub const RUNTIME_ERROR_ADDR: u16 = 0x0799;
 
 /// Run-time error codes (X:$0799, spec §5.2), plus this card's own 7-9.
 pub mod rte {
-    /// Insufficient calculation time.
-    pub const CALC_TIME: u32 = 1;
     /// Program counter past program end (program missing or damaged while running).
     pub const PAST_END: u32 = 3;
     /// Unlinked conditional (structure the flattener could not link).

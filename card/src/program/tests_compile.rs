@@ -2,7 +2,8 @@
 
 use super::compile::{compile, Op, Unlinked};
 use crate::model::ProgLine;
-use crate::domain::ast::{BufferKind, StmtKind};
+use crate::domain::ast::StmtKind;
+use crate::lang::ast::BufferKind;
 use crate::lang::parse_program_line;
 
 fn lines(text: &str, kind: BufferKind) -> Vec<ProgLine> {

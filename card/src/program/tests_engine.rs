@@ -55,18 +55,17 @@ impl Rig {
     /// One servo tick; returns the setpoints.
     pub fn tick(&mut self) -> Vec<Option<f64>> {
         for a in self.card.take_actions() {
-            if !self.eng.handle_action(&mut self.card, &self.motors, &a) {
-                if let crate::lang::interp::ActionKind::Cmd(crate::domain::ast::CmdKind::Jog { .. }) =
-                    a.kind
-                {
+            if !self.eng.handle_action(&mut self.card.model, &self.motors, &a) {
+                if let crate::model::ActionKind::Jog { .. } = a.kind {
                     let p = MotorParams::from_state(&self.card.state, a.motor);
                     self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);
                 }
             }
         }
+        let (model, mut cmds) = self.card.split();
         let sp = self
             .eng
-            .servo_tick(&mut self.card, &self.motors, self.cycle, 0.0);
+            .servo_tick(model, &mut cmds, &self.motors, self.cycle, 0.0);
         for (k, m) in self.motors.iter_mut().enumerate() {
             let p = MotorParams::from_state(&self.card.state, k as u16 + 1);
             let target = sp[k].unwrap_or(m.commanded());
@@ -82,7 +81,8 @@ impl Rig {
                 },
             );
         }
-        self.eng.background(&mut self.card, &self.motors);
+        let (model, mut cmds) = self.card.split();
+        self.eng.background(model, &mut cmds, &self.motors);
         self.cycle += 1;
         sp
     }
@@ -335,7 +335,7 @@ fn home_in_a_program_waits_for_the_motors() {
     r.tick();
     let homes: Vec<_> = r.card.take_actions();
     assert!(homes.iter().any(|a| a.motor == 1
-        && a.kind == crate::lang::interp::ActionKind::Cmd(crate::domain::ast::CmdKind::Home)));
+        && a.kind == crate::model::ActionKind::Home));
     assert_eq!(r.cmd("P9"), "0");
     // The (perfect) motors have no home search to run: the program continues after it.
     r.ticks(5);

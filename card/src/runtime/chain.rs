@@ -91,6 +91,7 @@ impl ChainPort {
     }
 
     /// Number of connections remembered.
+    #[cfg(test)]
     pub fn connections(&self) -> usize {
         self.conns.len()
     }

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::domain::Profile;
-use mcc_ring::control::chain::encode_request;
+use mcc_ring::control::chain::{decode_request, encode_request};
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {

@@ -122,6 +122,11 @@ impl CardHandle {
         self.log().since(pos)
     }
 
+    /// Append unsolicited output as the card's program output would (tests, tools).
+    pub fn publish(&self, bytes: Vec<u8>) {
+        self.log().push(bytes);
+    }
+
     fn log(&self) -> std::sync::MutexGuard<'_, Unsolicited> {
         self.shared
             .unsolicited
@@ -190,6 +195,8 @@ pub struct Runner {
     sync_session: Session,
     /// Requests taken from the channel but held (a stalled tick serves only `at` requests).
     held: Vec<Envelope>,
+    /// Every handle is gone.
+    orphaned: bool,
 }
 
 impl std::fmt::Debug for Runner {
@@ -215,6 +222,7 @@ pub fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, CardHan
         sync: SyncCore::default(),
         sync_session: Session::default(),
         held: Vec::new(),
+        orphaned: false,
     };
     (runner, CardHandle { tx, shared })
 }
@@ -295,7 +303,8 @@ impl Runner {
         };
         match self.rx.recv_timeout(t) {
             Ok(env) => self.accept(env),
-            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {}
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => self.orphaned = true,
         }
     }
 
@@ -346,9 +355,13 @@ impl Runner {
         self.sync.end_tick(self.core.card.model.actions().len());
     }
 
-    /// The standalone card (no ring, no servo loop): serve requests until `stop`.
+    /// The standalone card (no ring, no servo loop): serve requests until `stop`, or until
+    /// every handle is gone and nothing is left to do.
     pub fn run_until(&mut self, stop: &std::sync::atomic::AtomicBool) {
         while !stop.load(Ordering::Relaxed) {
+            if self.orphaned && self.pending.is_empty() && self.core.pending() == 0 {
+                return;
+            }
             self.wait(Duration::from_millis(20));
             self.pump(&mut Budget::new(SLICE_UNITS * 16));
         }
@@ -357,4 +370,18 @@ impl Runner {
 
 fn t_e(t: u64, e: Effect) -> (u64, Effect) {
     (t, e)
+}
+
+/// A card on a thread of its own (no ring, no servo loop: the standalone card, tests); the
+/// thread ends when every handle is dropped.
+pub fn spawn_card_thread(card: crate::lang::interp::Card) -> CardHandle {
+    let (mut runner, handle) = channel(CardCore::new(card), None);
+    let never = std::sync::atomic::AtomicBool::new(false);
+    let spawned = std::thread::Builder::new()
+        .name("mcc-card".into())
+        .spawn(move || runner.run_until(&never));
+    if let Err(e) = spawned {
+        tracing::error!("cannot start the card thread: {e}");
+    }
+    handle
 }

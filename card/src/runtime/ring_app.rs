@@ -116,6 +116,12 @@ impl CardRingApp {
         }
     }
 
+    /// A ring app owning `card` directly, without host ports (in-process simulations, tests).
+    pub fn for_card(card: Card, nodes: &[u8]) -> Self {
+        let (runner, _handle) = super::handle::channel(CardCore::new(card), None);
+        CardRingApp::new(runner, nodes)
+    }
+
     /// The card core (tests, tools).
     pub fn core(&mut self) -> &mut CardCore {
         &mut self.runner.core

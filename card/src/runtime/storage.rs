@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::lang::interp::Storage;
+#[cfg(test)]
 use crate::model::persist::{decode, encode, PersistError, PersistImage};
 
 /// Temporary file name used while writing `path`.
@@ -41,11 +42,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 }
 
 /// Save an image to `path` atomically.
+#[cfg(test)]
 pub fn save(path: &Path, image: &PersistImage) -> std::io::Result<()> {
     write_atomic(path, &encode(image))
 }
 
 /// Load the image at `path`; `Ok(None)` when there is no file (fresh card).
+#[cfg(test)]
 pub fn load(path: &Path) -> Result<Option<PersistImage>, PersistError> {
     match read(path).map_err(PersistError::Io)? {
         Some(bytes) => decode(&bytes).map(Some),
@@ -139,6 +142,7 @@ impl Storage for FileStorage {
 mod tests {
     use super::*;
     use crate::domain::Profile;
+    use crate::lang::interp::{Card, Session};
     use crate::model::CardState;
 
     fn tmpdir(name: &str) -> std::path::PathBuf {
@@ -212,5 +216,60 @@ mod tests {
         let bytes = encode(&sample());
         std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
         assert!(matches!(load(&path), Err(PersistError::Truncated { .. })));
+    }
+
+    fn send(c: &mut Card, s: &mut Session, line: &str) -> Vec<u8> {
+        c.command_line(s, line.as_bytes())
+    }
+
+    #[test]
+    fn save_and_reset_restore_state() {
+        let dir = std::env::temp_dir().join(format!("mcc-interp-unit-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        let path = dir.join("card.state");
+        let _ = std::fs::remove_file(&path);
+        let mut c = Card::with_storage(Profile::Pmac2, Box::new(FileStorage::new(&path)));
+        let mut s = Session::default();
+        assert_eq!(send(&mut c, &mut s, "I3=2 I6=1 I130=1500 P1=5"), b"\x06");
+        assert_eq!(
+            send(&mut c, &mut s, "OPEN PROG 7 CLEAR DWELL100 CLOSE"),
+            b"\x06"
+        );
+        assert_eq!(send(&mut c, &mut s, "SAVE"), b"\x06");
+        assert_eq!(send(&mut c, &mut s, "I130=1000 P1=6"), b"\x06");
+        assert_eq!(send(&mut c, &mut s, "$$$"), b"");
+        assert_eq!(send(&mut c, &mut s, "I130 P1"), b"1500\r5\r\x06");
+        let mut c2 = Card::with_storage(Profile::Pmac2, Box::new(FileStorage::new(&path)));
+        assert_eq!(send(&mut c2, &mut s, "I130"), b"1500\r\x06");
+        let listed = send(&mut c2, &mut s, "LIST PROG 7");
+        assert!(
+            listed.starts_with(b"DWE"),
+            "{:?}",
+            String::from_utf8_lossy(&listed)
+        );
+        // $$$*** restores factory I-variables (I3=1, I6=3) but keeps P.
+        assert_eq!(send(&mut c2, &mut s, "$$$***"), b"\n");
+        assert_eq!(send(&mut c2, &mut s, "P1"), b"\n5\r\n");
+        assert_eq!(send(&mut c2, &mut s, "LIST PROG 7"), b"\x07\r\nERR003\r");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn corrupt_state_file_gives_factory_defaults_and_earom_bit() {
+        let dir = std::env::temp_dir().join(format!("mcc-interp-corrupt-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        let path = dir.join("card.state");
+        std::fs::write(&path, b"MCCSAVE\0garbage").unwrap();
+        let mut c = Card::with_storage(Profile::Pmac2, Box::new(FileStorage::new(&path)));
+        let mut s = Session::default();
+        assert_eq!(
+            send(&mut c, &mut s, "I130 ???"),
+            b"\n2000\r\n000400000800\r\n"
+        );
+        // A fresh SAVE replaces the bad file; the next start is clean.
+        assert_eq!(send(&mut c, &mut s, "SAVE"), b"\n");
+        let mut c2 = Card::with_storage(Profile::Pmac2, Box::new(FileStorage::new(&path)));
+        assert_eq!(send(&mut c2, &mut s, "???"), b"\n000000000800\r\n");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

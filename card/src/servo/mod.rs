@@ -24,10 +24,7 @@ mod aux_copy;
 mod ect_pass;
 mod registers;
 
-pub use registers::jog_register;
 
-#[cfg(test)]
-mod tests;
 
 use crate::model::CardModel;
 use crate::motion::flags::{FlagInputs, AMP_ENABLE_BIT};

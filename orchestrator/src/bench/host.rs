@@ -3,7 +3,7 @@
 //! `mcc_card::host::bench`.
 
 use anyhow::Result;
-use mcc_card::host::bench::{run_host_bench, HostBenchOpts};
+use mcc_card::{run_host_bench, HostBenchOpts};
 
 use crate::cli::BenchHostArgs;
 
@@ -26,7 +26,7 @@ pub fn run_servo() -> Result<()> {
         "mcc bench servo: 1 card, 8 motors on a loopback plant, {} CPUs",
         num_cpus()
     );
-    println!("{}", mcc_card::servo::bench::run_servo_bench());
+    println!("{}", mcc_card::run_servo_bench());
     Ok(())
 }
 

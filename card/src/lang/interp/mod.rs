@@ -24,10 +24,8 @@ mod program_cmd;
 mod reply;
 
 pub use control::ctrl_n;
-pub use exec_info::{CHECKSUM, DATE, EAVERSION, TYPE, VERSION};
-pub use image::{Effect, EffectResult, Storage, EAROM_ERROR};
+pub use image::{Effect, EffectResult, Storage};
 pub use line::{Budget, LineRun, Step};
-pub use reply::{checksum, command_checksum, control_line, Framing, Outcome, Reply};
 
 use std::ops::{Deref, DerefMut};
 use std::sync::atomic::{AtomicU64, Ordering};

@@ -146,6 +146,7 @@ impl Reply {
     }
 
     /// Bytes produced so far.
+    #[cfg(test)]
     pub fn as_bytes(&self) -> &[u8] {
         &self.out
     }

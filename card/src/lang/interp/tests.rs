@@ -1,6 +1,7 @@
 //! Facade tests: byte-exact replies through `Card::command_line` / `Card::control_char`.
 
 use super::*;
+use crate::model::ActionKind;
 
 fn card() -> (Card, Session) {
     let mut c = Card::new(Profile::Pmac2);
@@ -89,7 +90,7 @@ fn motion_commands_are_queued_as_actions() {
     assert_eq!(a[0].motor, 2);
     assert!(matches!(
         a[1].kind,
-        ActionKind::Cmd(crate::lang::ast::CmdKind::Kill)
+        ActionKind::Kill
     ));
     assert!(c.take_actions().is_empty());
 }
@@ -112,38 +113,6 @@ fn run_refusals_in_order() {
     );
     assert_eq!(send(&mut c, &mut s, "#1J+"), b"\x07ERR001\r");
     assert_eq!(send(&mut c, &mut s, "A #1J/"), b"\x06");
-}
-
-#[test]
-fn save_and_reset_restore_state() {
-    let dir = std::env::temp_dir().join(format!("mcc-interp-unit-{}", std::process::id()));
-    let _ = std::fs::create_dir_all(&dir);
-    let path = dir.join("card.state");
-    let _ = std::fs::remove_file(&path);
-    let mut c = Card::with_state_file(Profile::Pmac2, &path);
-    let mut s = Session::default();
-    assert_eq!(send(&mut c, &mut s, "I3=2 I6=1 I130=1500 P1=5"), b"\x06");
-    assert_eq!(
-        send(&mut c, &mut s, "OPEN PROG 7 CLEAR DWELL100 CLOSE"),
-        b"\x06"
-    );
-    assert_eq!(send(&mut c, &mut s, "SAVE"), b"\x06");
-    assert_eq!(send(&mut c, &mut s, "I130=1000 P1=6"), b"\x06");
-    assert_eq!(send(&mut c, &mut s, "$$$"), b"");
-    assert_eq!(send(&mut c, &mut s, "I130 P1"), b"1500\r5\r\x06");
-    let mut c2 = Card::with_state_file(Profile::Pmac2, &path);
-    assert_eq!(send(&mut c2, &mut s, "I130"), b"1500\r\x06");
-    let listed = send(&mut c2, &mut s, "LIST PROG 7");
-    assert!(
-        listed.starts_with(b"DWE"),
-        "{:?}",
-        String::from_utf8_lossy(&listed)
-    );
-    // $$$*** restores factory I-variables (I3=1, I6=3) but keeps P.
-    assert_eq!(send(&mut c2, &mut s, "$$$***"), b"\n");
-    assert_eq!(send(&mut c2, &mut s, "P1"), b"\n5\r\n");
-    assert_eq!(send(&mut c2, &mut s, "LIST PROG 7"), b"\x07\r\nERR003\r");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -170,10 +139,10 @@ fn program_commands_are_never_acknowledged() {
 #[test]
 fn action_queue_is_bounded() {
     let (mut c, mut s) = card();
-    for _ in 0..(MAX_ACTIONS / 2 + 10) {
+    for _ in 0..(crate::model::MAX_ACTIONS / 2 + 10) {
         assert_eq!(send(&mut c, &mut s, "#1J/J/"), b"\x06");
     }
-    assert_eq!(c.take_actions().len(), MAX_ACTIONS);
+    assert_eq!(c.take_actions().len(), crate::model::MAX_ACTIONS);
 }
 
 #[test]
@@ -190,25 +159,6 @@ fn any_connection_can_close_a_buffer_left_open() {
     assert_eq!(send(&mut c, &mut a, "OPEN PLC 3"), b"\x06");
     c.end_session(&a);
     assert_eq!(send(&mut c, &mut b, "OPEN PLC 4 CLOSE"), b"\x06");
-}
-
-#[test]
-fn corrupt_state_file_gives_factory_defaults_and_earom_bit() {
-    let dir = std::env::temp_dir().join(format!("mcc-interp-corrupt-{}", std::process::id()));
-    let _ = std::fs::create_dir_all(&dir);
-    let path = dir.join("card.state");
-    std::fs::write(&path, b"MCCSAVE\0garbage").unwrap();
-    let mut c = Card::with_state_file(Profile::Pmac2, &path);
-    let mut s = Session::default();
-    assert_eq!(
-        send(&mut c, &mut s, "I130 ???"),
-        b"\n2000\r\n000400000800\r\n"
-    );
-    // A fresh SAVE replaces the bad file; the next start is clean.
-    assert_eq!(send(&mut c, &mut s, "SAVE"), b"\n");
-    let mut c2 = Card::with_state_file(Profile::Pmac2, &path);
-    assert_eq!(send(&mut c2, &mut s, "???"), b"\n000000000800\r\n");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
