@@ -13,7 +13,11 @@
 //! - [`servo`]: the servo tick over all of the above (pure);
 //! - [`core`]: the card core the servo thread owns: requests in, replies and effects out,
 //!   host work served in bounded slices between ticks (pure);
-//! - [`runtime`], [`host`]: the process: ring membership, threads, channels, files, sockets.
+//! - `service`: the servo thread's request channel and runner, the I/O thread for files;
+//! - `host`: host ports (sockets);
+//! - `runtime`: the card process: ring membership, start-up, standalone mode.
+
+#![warn(missing_docs, unreachable_pub)]
 
 //!
 //! Modules are private; what other crates (the orchestrator, the scenario tests) use is
@@ -29,12 +33,17 @@ mod motion;
 mod program;
 mod runtime;
 mod servo;
+mod service;
+
+#[cfg(test)]
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // reads the sources
+mod layering;
 
 pub use crate::core::rig::{self, LoopbackPlant, Rig};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, Profile};
 pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
-pub use host::standalone::{run_standalone, StandaloneOpts};
+pub use runtime::standalone::{run_standalone, StandaloneOpts};
 pub use lang::interp::{
     Budget, Card, Effect, EffectResult, LineRun, Session, Step, Storage, MAX_LINE,
 };
@@ -43,9 +52,11 @@ pub use motion::flags::FlagInputs;
 pub use motion::motor::{Motor, MotorCommand, TickInput, TripScope};
 pub use motion::params::MotorParams;
 pub use program::{Commands, NoCommands, ProgramEngine};
-pub use runtime::bench_servo::{run_servo_bench, ServoBenchReport};
-pub use runtime::handle::{spawn_card_thread, CardHandle};
+pub use runtime::bench_servo::{
+    run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
+};
+pub use service::handle::{spawn_card_thread, CardHandle};
 pub use runtime::ring_app::{wire_macro_motors, CardRingApp};
 pub use runtime::run_ring_card;
-pub use runtime::storage::FileStorage;
+pub use service::storage::FileStorage;
 pub use servo::Servo;

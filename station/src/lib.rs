@@ -4,6 +4,8 @@
 //! motor and quadrature encoder ([`servo_node`], [`plant`]), configured by
 //! [`config::PlantConfig`]. The station meets the card only through ring packets.
 
+#![warn(missing_docs, unreachable_pub)]
+
 pub mod config;
 pub mod plant;
 pub mod servo_node;

@@ -6,7 +6,7 @@
 use mcc_card::{decode_fixed, wire_macro_motors, Card, CardRingApp, Profile, Session};
 use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
+use mcc_ring::core::{CoreConfig, MemberCore, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
 use mcc_ring::runtime::process::card_check;
@@ -38,6 +38,12 @@ impl RingApp for App {
             App::Station(a) => a.take_ring_reset(),
         }
     }
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        match self {
+            App::Card(a) => a.sync_ring(ring),
+            App::Station(a) => a.sync_ring(ring),
+        }
+    }
 }
 
 struct Rig {
@@ -60,16 +66,21 @@ impl Rig {
             let (kind, check, app) = match cfg.member(&name).unwrap() {
                 MemberRef::Card(cc) => {
                     let mut c = card.take().expect("one card");
-                    {
+                    // The process's start-up layer: ring settings, wiring, the config's
+                    // I-variables; applied again after every reset.
+                    let (nodes, ivars) = (cc.nodes.clone(), cc.ivars.clone());
+                    let (i995, i996) = (rs.i995, rs.i996);
+                    let layer = move |c: &mut Card| {
                         let mut s = Session::default();
-                        let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
+                        let line = format!("I995=${i995:X} I996=${i996:X}");
                         c.command_line(&mut s, line.as_bytes());
-                        wire_macro_motors(&mut c, &cc.nodes);
-                        for (k, v) in &cc.ivars {
+                        wire_macro_motors(c, &nodes);
+                        for (k, v) in &ivars {
                             c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
                         }
-                    }
-                    let app = CardRingApp::for_card(c, &cc.nodes).with_wiring(true);
+                    };
+                    layer(&mut c);
+                    let app = CardRingApp::for_card(c, &cc.nodes).with_startup(Box::new(layer));
                     (
                         MemberKind::Card,
                         card_check(&cc.ivars),

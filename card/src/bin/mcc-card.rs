@@ -4,6 +4,8 @@
 //! [--state-file PATH] [--exit-on-stdin-eof]` runs the card with its host ports and no ring,
 //! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
 
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)] // the process
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 

@@ -152,7 +152,7 @@ pub fn run_host_bench(opts: &HostBenchOpts) -> io::Result<HostBenchReport> {
         .enable_all()
         .build()?;
     let (mut runner, handle) =
-        crate::runtime::handle::channel(crate::core::CardCore::new(card), None);
+        crate::service::handle::channel(crate::core::CardCore::new(card), None);
     let stop = Arc::new(AtomicBool::new(false));
     let card_thread = {
         let stop = Arc::clone(&stop);

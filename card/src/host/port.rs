@@ -5,7 +5,7 @@
 
 use super::ascii::AsciiEvent;
 use crate::core::HostRequest;
-use crate::runtime::handle::CardHandle;
+use crate::service::handle::CardHandle;
 
 /// What a host port needs from the card.
 pub trait Interpreter {
@@ -17,12 +17,7 @@ pub trait Interpreter {
     fn overlong(&mut self) -> Vec<u8>;
 }
 
-/// A line one byte longer than the interpreter accepts: the card rejects it with its own
-/// ERR003 framing (I3/I4/I6) before parsing anything. The port discards over-long lines itself
-/// (bounded memory) and hands the card this instead.
-pub fn overlong_probe() -> Vec<u8> {
-    vec![b'U'; crate::lang::interp::MAX_LINE + 1]
-}
+pub use crate::lang::interp::overlong_probe;
 
 /// One connection's view of the card: its connection id on the card and the last echo state.
 /// Each call blocks until the card's servo thread has served it (between ticks, in slices).
@@ -200,7 +195,7 @@ mod tests {
         let core = crate::core::CardCore::new(crate::lang::interp::Card::new(
             crate::domain::Profile::Pmac2,
         ));
-        let (mut runner, handle) = crate::runtime::handle::channel(core, None);
+        let (mut runner, handle) = crate::service::handle::channel(core, None);
         let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let st = std::sync::Arc::clone(&stop);
         let t = std::thread::spawn(move || runner.run_until(&st));

@@ -17,7 +17,7 @@ use tokio::task::JoinHandle;
 use super::ascii::AsciiCodec;
 use super::eth_codec::{EthAction, EthConn};
 use super::port::{run_event, CardPort};
-use crate::runtime::handle::CardHandle;
+use crate::service::handle::CardHandle;
 
 /// Where and how the host ports listen.
 #[derive(Debug, Clone)]

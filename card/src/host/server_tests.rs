@@ -6,7 +6,7 @@ use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRES
 use crate::host::port::overlong_probe;
 use crate::domain::Profile;
 use crate::lang::interp::{Card, Session};
-use crate::runtime::handle::{spawn_card_thread, CardHandle};
+use crate::service::handle::{spawn_card_thread, CardHandle};
 
 const WAIT: Duration = Duration::from_secs(5);
 

@@ -10,7 +10,7 @@ use zenoh::Wait;
 
 use super::ascii::AsciiCodec;
 use super::port::{run_events, CardPort};
-use crate::runtime::handle::CardHandle;
+use crate::service::handle::CardHandle;
 
 /// `mcc/<cluster>/card/<n>/cmd` (architecture §4).
 pub fn cmd_key(cluster: &str, n: u32) -> String {
@@ -60,7 +60,7 @@ mod tests {
     use super::*;
     use crate::core::CardCore;
     use crate::lang::interp::{Card, Profile, Session};
-    use crate::runtime::handle::channel;
+    use crate::service::handle::channel;
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
 

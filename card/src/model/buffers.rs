@@ -87,13 +87,24 @@ impl<L> Default for Program<L> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BufErr(pub u16);
 
-/// Nesting check of a line sequence: `Err(ERR009)` for a closer without an opener at
-/// `lines[i]`, `Ok(depth)` otherwise (depth > 0 means unclosed blocks).
-fn nesting<'a, L: StoredLine + 'a>(lines: impl Iterator<Item = &'a L>) -> Result<usize, usize> {
-    let mut stack: Vec<Structure> = Vec::new();
-    let mut prev_one_line_if = false;
-    for (i, l) in lines.enumerate() {
-        let s = l.structure();
+/// Where a nesting check stands after some lines: open blocks, and whether the last line was
+/// a one-line `IF` (an `ELSE` may follow it).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+struct Nest {
+    stack: Vec<Structure>,
+    prev_one_line_if: bool,
+    /// An earlier line is a closer without an opener: nothing after it is checked.
+    broken: bool,
+}
+
+impl Nest {
+    /// Take one more line; `false` for a closer without an opener.
+    fn step(&mut self, s: Structure) -> bool {
+        if self.broken {
+            return true;
+        }
+        let stack = &mut self.stack;
+        let prev_one_line_if = self.prev_one_line_if;
         match s {
             Structure::If | Structure::While => stack.push(s),
             Structure::Else | Structure::ElseOneLine => {
@@ -109,26 +120,59 @@ fn nesting<'a, L: StoredLine + 'a>(lines: impl Iterator<Item = &'a L>) -> Result
                         stack.push(Structure::Else);
                     }
                 } else {
-                    return Err(i);
+                    return false;
                 }
             }
             Structure::EndIf => match stack.last() {
                 Some(Structure::If) | Some(Structure::Else) => {
                     stack.pop();
                 }
-                _ => return Err(i),
+                _ => return false,
             },
             Structure::EndWhile => match stack.last() {
                 Some(Structure::While) => {
                     stack.pop();
                 }
-                _ => return Err(i),
+                _ => return false,
             },
             Structure::Plain | Structure::IfOneLine => {}
         }
-        prev_one_line_if = s == Structure::IfOneLine;
+        self.prev_one_line_if = s == Structure::IfOneLine;
+        true
     }
-    Ok(stack.len())
+}
+
+/// Nesting check of a line sequence: `Err(ERR009)` for a closer without an opener at
+/// `lines[i]`, `Ok(depth)` otherwise (depth > 0 means unclosed blocks).
+fn nesting<'a, L: StoredLine + 'a>(lines: impl Iterator<Item = &'a L>) -> Result<usize, usize> {
+    let mut n = Nest::default();
+    for (i, l) in lines.enumerate() {
+        if !n.step(l.structure()) {
+            return Err(i);
+        }
+    }
+    Ok(n.stack.len())
+}
+
+/// Caches that make entering a program line by line linear in its length: the words the
+/// PROG/PLC buffers use, and the nesting state at the end of the buffer being entered. Never
+/// compared, cloned empty, rebuilt from the lines when missing.
+#[derive(Debug, Default)]
+struct Caches {
+    prog_words: Option<u64>,
+    nest: Option<(BufId, usize, Nest)>,
+}
+
+impl Clone for Caches {
+    fn clone(&self) -> Self {
+        Caches::default()
+    }
+}
+
+impl PartialEq for Caches {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// Per-C.S. rotary buffer contents.
@@ -153,6 +197,8 @@ pub struct Buffers<L> {
     pub defines: Defines,
     /// Total user buffer memory in words.
     pub capacity: u32,
+    #[serde(skip)]
+    caches: Caches,
 }
 
 /// Maximum number of resident motion programs (§5.1).
@@ -167,17 +213,35 @@ impl<L: StoredLine> Buffers<L> {
             rotary: BTreeMap::new(),
             defines: Defines::default(),
             capacity,
+            caches: Caches::default(),
         }
     }
 
-    /// Words used by programs, PLCs, rotary buffers and DEFINE'd buffers.
-    pub fn used(&self) -> u64 {
-        let p: u64 = self
+    fn prog_words(&mut self) -> u64 {
+        if let Some(w) = self.caches.prog_words {
+            return w;
+        }
+        let w = self
             .progs
             .values()
             .chain(self.plcs.values())
             .map(prog_words)
             .sum();
+        self.caches.prog_words = Some(w);
+        w
+    }
+
+    /// Words used by programs, PLCs, rotary buffers and DEFINE'd buffers.
+    pub fn used(&self) -> u64 {
+        let p: u64 = match self.caches.prog_words {
+            Some(w) => w,
+            None => self
+                .progs
+                .values()
+                .chain(self.plcs.values())
+                .map(prog_words)
+                .sum(),
+        };
         let r: u64 = self.rotary.values().map(|r| u64::from(r.size)).sum();
         p + r + self.defines.words()
     }
@@ -189,6 +253,7 @@ impl<L: StoredLine> Buffers<L> {
 
     /// Prepare `id` for entry (OPEN): creates it if absent; removes the trailing RETURN.
     pub fn open(&mut self, id: BufId) -> Result<(), BufErr> {
+        self.caches = Caches::default();
         match id {
             BufId::Prog(n) => {
                 if !self.progs.contains_key(&n) && self.progs.len() >= MAX_PROGRAMS {
@@ -205,19 +270,45 @@ impl<L: StoredLine> Buffers<L> {
     /// Append a line to an open PROG/PLC (ERR006 when it does not fit, ERR009 for a closer
     /// without an opener). Nothing already stored changes on error.
     pub fn append(&mut self, id: BufId, line: L) -> Result<(), BufErr> {
-        if u64::from(line.words()) > self.free() {
+        let words = u64::from(line.words());
+        let used = self.prog_words()
+            + self.rotary.values().map(|r| u64::from(r.size)).sum::<u64>()
+            + self.defines.words();
+        if words > u64::from(self.capacity).saturating_sub(used) {
             return Err(BufErr(6));
         }
+        let cached = self.caches.nest.take();
         let prog = match self.program_mut(id) {
             Some(p) => p,
             None => return Err(BufErr(5)),
         };
-        if let Err(i) = nesting(prog.lines.iter().chain(std::iter::once(&line))) {
-            if i == prog.lines.len() {
-                return Err(BufErr(9));
+        // The nesting state at the end of the program: carried over from the last append to
+        // the same program, rebuilt from its lines otherwise (a closer without an opener
+        // earlier in the program does not refuse later lines).
+        let mut nest = match cached {
+            Some((cid, n, nest)) if cid == id && n == prog.lines.len() => nest,
+            _ => {
+                let mut nest = Nest::default();
+                for l in &prog.lines {
+                    if !nest.step(l.structure()) {
+                        nest.broken = true;
+                    }
+                }
+                nest
             }
+        };
+        let before = nest.clone();
+        if !nest.step(line.structure()) {
+            let len = prog.lines.len();
+            self.caches.nest = Some((id, len, before));
+            return Err(BufErr(9));
         }
         prog.lines.push(line);
+        let len = prog.lines.len();
+        self.caches.nest = Some((id, len, nest));
+        if let Some(w) = self.caches.prog_words.as_mut() {
+            *w += words;
+        }
         Ok(())
     }
 
@@ -236,6 +327,7 @@ impl<L: StoredLine> Buffers<L> {
     /// Close `id`: append RETURN to a PROG/PLC and check the structure of every PROG/PLC.
     /// `Err(ERR003)` when any program is badly structured (the buffer is closed anyway).
     pub fn close(&mut self, id: BufId) -> Result<(), BufErr> {
+        self.caches = Caches::default();
         if let Some(p) = self.program_mut(id) {
             p.lines.push(L::return_line());
         }
@@ -253,6 +345,7 @@ impl<L: StoredLine> Buffers<L> {
 
     /// Empty an open buffer (`CLEAR`); for rotary, the buffer of C.S. `cs`.
     pub fn clear(&mut self, id: BufId, cs: u8) {
+        self.caches = Caches::default();
         match id {
             BufId::Rot => {
                 if let Some(r) = self.rotary.get_mut(&cs) {
@@ -270,6 +363,7 @@ impl<L: StoredLine> Buffers<L> {
 
     /// Erase a PROG or PLC (`DELETE`-like). Returns whether it existed.
     pub fn remove(&mut self, id: BufId) -> bool {
+        self.caches = Caches::default();
         match id {
             BufId::Prog(n) => self.progs.remove(&n).is_some(),
             BufId::Plc(n) => self.plcs.remove(&n).is_some(),

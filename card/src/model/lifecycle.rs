@@ -46,6 +46,7 @@ impl CardState {
             ubuffer_words: self.ubuffer_words,
             password: self.password.clone(),
             programs,
+            format: super::persist::VERSION,
         }
     }
 

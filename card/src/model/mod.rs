@@ -36,7 +36,7 @@ pub use actions::{Action, ActionKind};
 pub use actions::MAX_ACTIONS;
 pub use buffers::{list_lines, BufErr, BufId, Buffers, Rotary, StoredLine};
 pub use card::{user_memory_words, CardModel, PLCS};
-pub use card_state::CardState;
+pub use card_state::{CardState, I995_STATUS_BITS};
 pub use defines::{CompTable, Layer, TableKind, TBUF_WORDS};
 pub use float48::*;
 pub use gather::gather_tick;

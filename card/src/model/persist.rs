@@ -7,8 +7,14 @@
 //! password, and the program/PLC/buffer data INTERP hands in as opaque bytes.
 //!
 //! File format (little endian): magic `MCCSAVE\0` (8 bytes), format version u32, payload
-//! length u64, payload (bincode 2 standard config, serde), FNV-1a 64 of the payload (u64).
-//! Pure: the file itself is written by the runtime (`runtime::storage`: temporary file, fsync,
+//! length u64, payload, FNV-1a 64 of the payload (u64).
+//!
+//! Format versions: 2 (written now): the payload is a JSON document of [`PersistImage`], and
+//! its `programs` part is the interpreter's JSON with programs and PLCs as their canonical
+//! listing text, so adding a statement kind never breaks an old file. 1 (read only): bincode.
+//! A version above [`VERSION`] is refused naming both versions. `tests/golden/` holds a file
+//! of every version that later versions must load (a test).
+//! Pure: the file itself is written by the runtime (`service::storage`: temporary file, fsync,
 //! rename, fsync the directory, so a crash leaves either the old or the new file).
 
 use super::memory::Space;
@@ -17,8 +23,10 @@ use serde::{Deserialize, Serialize};
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"MCCSAVE\0";
-/// Current format version.
-pub const VERSION: u32 = 1;
+/// Format version written.
+pub const VERSION: u32 = 2;
+/// Oldest format version read.
+pub const OLDEST: u32 = 1;
 /// Largest payload accepted when loading (bytes).
 pub const MAX_PAYLOAD: u64 = 64 << 20;
 const HEADER: usize = 8 + 4 + 8;
@@ -46,6 +54,10 @@ pub struct PersistImage {
     pub password: String,
     /// Program buffers, PLCs, DEFINE'd buffers, ...: INTERP's own serialization.
     pub programs: Vec<u8>,
+    /// The format version the image was read from ([`VERSION`] for a new one): how to read
+    /// `programs`.
+    #[serde(skip)]
+    pub format: u32,
 }
 
 /// Why a saved image could not be loaded.
@@ -57,8 +69,8 @@ pub enum PersistError {
     /// Not a save file of this product.
     #[error("not an mcc save file (bad magic)")]
     BadMagic,
-    /// Written by a newer/unknown format version.
-    #[error("unsupported save file version {0}")]
+    /// Written by a newer (or unknown) format version.
+    #[error("save file format version {0} is not readable by this mcc (it reads versions {OLDEST} to {VERSION}): written by a newer mcc?")]
     Version(u32),
     /// Shorter than its header says (partial write).
     #[error("save file truncated ({got} of {want} bytes)")]
@@ -91,9 +103,9 @@ pub fn fnv1a64(data: &[u8]) -> u64 {
 
 /// Serialize an image into the file format.
 pub fn encode(image: &PersistImage) -> Vec<u8> {
-    // Encoding plain data into a Vec cannot fail; an empty payload is still a valid frame.
-    let payload =
-        bincode::serde::encode_to_vec(image, bincode::config::standard()).unwrap_or_default();
+    // Encoding plain data into a Vec cannot fail (every stored number is finite); an empty
+    // payload is still a valid frame.
+    let payload = serde_json::to_vec(image).unwrap_or_default();
     let mut out = Vec::with_capacity(HEADER + payload.len() + 8);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
@@ -119,7 +131,7 @@ pub fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
             .try_into()
             .map_err(|_| PersistError::BadMagic)?,
     );
-    if version != VERSION {
+    if !(OLDEST..=VERSION).contains(&version) {
         return Err(PersistError::Version(version));
     }
     let len = u64::from_le_bytes(
@@ -149,12 +161,19 @@ pub fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
     if sum != fnv1a64(payload) {
         return Err(PersistError::Checksum);
     }
-    let cfg = bincode::config::standard().with_limit::<{ MAX_PAYLOAD as usize }>();
-    let (image, used): (PersistImage, usize) = bincode::serde::decode_from_slice(payload, cfg)
-        .map_err(|e| PersistError::Decode(e.to_string()))?;
-    if used != payload.len() {
-        return Err(PersistError::Decode("trailing bytes in payload".into()));
-    }
+    let mut image: PersistImage = if version == 1 {
+        let cfg = bincode::config::standard().with_limit::<{ MAX_PAYLOAD as usize }>();
+        let (image, used): (PersistImage, usize) =
+            bincode::serde::decode_from_slice(payload, cfg)
+                .map_err(|e| PersistError::Decode(e.to_string()))?;
+        if used != payload.len() {
+            return Err(PersistError::Decode("trailing bytes in payload".into()));
+        }
+        image
+    } else {
+        serde_json::from_slice(payload).map_err(|e| PersistError::Decode(e.to_string()))?
+    };
+    image.format = version;
     Ok(image)
 }
 

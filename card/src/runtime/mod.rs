@@ -2,12 +2,11 @@
 //! ([`run_ring_card`]) that joins the ring, serves the host ports and the zenoh command
 //! queryable, and runs the cycle loop.
 
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
+
 pub mod bench_servo;
-pub mod chain;
-pub mod handle;
 pub mod ring_app;
-pub mod storage;
-pub mod sync_start;
+pub mod standalone;
 
 use anyhow::{anyhow, Context};
 use mcc_ring::config::MemberRef;
@@ -18,7 +17,8 @@ use crate::host::server::{serve, PortsConfig};
 use crate::host::zenoh_cmd::declare_cmd_queryable;
 use crate::core::CardCore;
 use crate::lang::interp::{Card, Profile};
-use storage::FileStorage;
+use crate::service::storage::{self, FileStorage};
+use crate::service::{chain, handle, sync_start};
 
 /// Run card `args.name` of the cluster until stopped.
 pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
@@ -59,7 +59,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         };
         layer(&mut card)?;
         let mut core = CardCore::new(card);
-        core.load_error = load_error;
+        core.load_error = load_error.clone();
         let (runner, handle) = handle::channel(core, storage);
         // Host ports and the command queryable live on a small tokio runtime of their own.
         let rt = tokio::runtime::Builder::new_multi_thread()
@@ -101,6 +101,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         extra.insert("profile".into(), serde_json::json!(cc.profile));
         extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
         extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
+        // A refused state file (issue 9 item 7): `cards[].state_file_error` in the status.
+        extra.insert("state_file_error".into(), serde_json::json!(load_error));
         // The daisy chain (pmac-commands §8.3): every chain byte reaches every card.
         let chain_q = rt
             .block_on(chain::declare_chain_queryable(

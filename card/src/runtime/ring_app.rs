@@ -12,13 +12,16 @@
 //! 3). With the factory Ix02/Ix03/Ix25 and ECT defaults that is the Ultralite's "motor on node"
 //! minimum set (spec §6.6), so the default cluster's motors work out of the box.
 
-use mcc_ring::core::RingApp;
+use mcc_ring::check::RingCheck;
+use mcc_ring::core::{RingApp, RingControl};
+use mcc_ring::settings::RingSettings;
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 
 use super::handle::{Runner, StartupLayer};
 use crate::core::{CardCore, SLICE_UNITS};
 use crate::lang::interp::{Budget, Card, Session};
+use crate::model::I995_STATUS_BITS;
 
 /// Activate motors 1-8 whose Ix02 register belongs to one of `nodes` (servo nodes only) and
 /// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002). Returns the motors
@@ -86,8 +89,59 @@ pub struct CardRingApp {
     /// `$$$***` (the process start-up applied it the first time).
     startup: Option<StartupLayer>,
     resets_seen: u64,
+    /// The ring settings the card and its ring core last agreed on (`None`: not yet).
+    ring_vars: Option<RingVars>,
     /// Host ports, queryables and their runtime: they live as long as the app.
     _resources: Vec<Box<dyn std::any::Any>>,
+}
+
+/// The card's ring I-variables: I995 (configuration bits), I996, I1001, I1004, I1005. They
+/// live in the ring core (`RingSettings`, `RingCheck`); the card's I-variables mirror them,
+/// synchronised before every tick in both directions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct RingVars {
+    i995: u32,
+    i996: u32,
+    i1001: u32,
+    i1004: u32,
+    i1005: u32,
+}
+
+impl RingVars {
+    fn of_card(card: &Card) -> Self {
+        let i = |n: u32| card.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
+        RingVars {
+            i995: i(995) & !I995_STATUS_BITS,
+            i996: i(996),
+            i1001: i(1001),
+            i1004: i(1004),
+            i1005: i(1005),
+        }
+    }
+
+    fn of_ring(ring: &RingControl<'_>) -> Self {
+        let s = ring.settings();
+        let p = ring.check().params();
+        RingVars {
+            i995: s.i995 & !I995_STATUS_BITS,
+            i996: s.i996,
+            i1001: p.period,
+            i1004: p.error_limit,
+            i1005: p.sync_min,
+        }
+    }
+
+    /// Field by field: a value the card changed since `last` wins, otherwise the ring core's.
+    fn merge(card: RingVars, ring: RingVars, last: RingVars) -> RingVars {
+        let pick = |c: u32, r: u32, l: u32| if c != l { c } else { r };
+        RingVars {
+            i995: pick(card.i995, ring.i995, last.i995),
+            i996: pick(card.i996, ring.i996, last.i996),
+            i1001: pick(card.i1001, ring.i1001, last.i1001),
+            i1004: pick(card.i1004, ring.i1004, last.i1004),
+            i1005: pick(card.i1005, ring.i1005, last.i1005),
+        }
+    }
 }
 
 impl std::fmt::Debug for CardRingApp {
@@ -113,6 +167,7 @@ impl CardRingApp {
             reported: false,
             reset_wanted: false,
             stall: std::time::Duration::from_millis(25),
+            ring_vars: None,
         }
     }
 
@@ -159,6 +214,72 @@ impl CardRingApp {
 }
 
 impl RingApp for CardRingApp {
+    /// The ring I-variables, both ways: after a reset (and at start-up) the start-up layer is
+    /// applied first, I995/I996 stay as the ring core has them, and the check is re-armed from
+    /// I1001 > 0 as the card's reset does; otherwise a
+    /// value the card changed since the last tick (a host `I1001=32`) goes to the ring core,
+    /// otherwise the core's value is mirrored. I995's status bits latched by the ring are ORed
+    /// into the card's I995 (cleared when a host reads it; the ring check reads its own).
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        let card = &mut self.runner.core.card;
+        let reset = self.ring_vars.is_none() || card.resets() != self.resets_seen;
+        if card.resets() != self.resets_seen {
+            self.resets_seen = card.resets();
+            if let Some(layer) = &self.startup {
+                layer(card);
+            }
+        }
+        let (c, r) = (RingVars::of_card(card), RingVars::of_ring(ring));
+        let new = match self.ring_vars {
+            Some(last) if !reset => RingVars::merge(c, r, last),
+            // A reset (and the start): the ring settings stay as the ring core holds them (the
+            // cluster config is the card's jumpers: a reset does not take the card off the
+            // ring); the check parameters are the card's start-up values.
+            _ => RingVars {
+                i995: r.i995,
+                i996: r.i996,
+                ..c
+            },
+        };
+        if (new.i995, new.i996) != (r.i995, r.i996) {
+            let status = ring.settings().i995 & I995_STATUS_BITS;
+            ring.set_settings(RingSettings::new(new.i995 | status, new.i996));
+        }
+        let armed = ring.check().armed();
+        if reset && armed != (new.i1001 > 0) {
+            // I1001 going from 0 to > 0 (or back) takes effect at a reset only.
+            let i8 = card.state.peek_ivar(8).unwrap_or(2.0).max(0.0) as u32;
+            *ring.check_mut() = RingCheck::card(new.i1001, new.i1004, new.i1005, i8);
+        } else {
+            let check = ring.check_mut();
+            if new.i1001 != r.i1001 {
+                check.set_period(new.i1001);
+            }
+            if new.i1004 != r.i1004 {
+                check.set_error_limit(new.i1004);
+            }
+            if new.i1005 != r.i1005 {
+                check.set_sync_min(new.i1005);
+            }
+        }
+        // The card mirrors what the ring core holds now.
+        let held = RingVars::of_ring(ring);
+        let status = card.state.peek_ivar(995).unwrap_or(0.0) as u32 & I995_STATUS_BITS;
+        for (n, v, now) in [
+            (995, held.i995 | status, c.i995 | status),
+            (996, held.i996, c.i996),
+            (1001, held.i1001, c.i1001),
+            (1004, held.i1004, c.i1004),
+            (1005, held.i1005, c.i1005),
+        ] {
+            if v != now {
+                let _ = card.state.set_ivar(n, f64::from(v));
+            }
+        }
+        card.state.latch_ring_status(ring.status_bits());
+        self.ring_vars = Some(held);
+    }
+
     fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.runner.sync_tick_start(cycle, self.stall);
         let card = &mut self.runner.core.card;
@@ -172,6 +293,7 @@ impl RingApp for CardRingApp {
             self.reported = true;
         }
         if card.resets() != self.resets_seen {
+            // (Without a ring core calling `sync_ring`, e.g. a bare tick in a test.)
             self.resets_seen = card.resets();
             if let Some(layer) = &self.startup {
                 layer(card);
@@ -205,10 +327,10 @@ impl RingApp for CardRingApp {
 mod tests {
     use super::*;
     use crate::domain::Profile;
-    use crate::runtime::handle::channel;
+    use crate::service::handle::channel;
     use mcc_ring::settings::RingSettings;
 
-    fn app(card: Card, nodes: &[u8]) -> (CardRingApp, crate::runtime::handle::CardHandle) {
+    fn app(card: Card, nodes: &[u8]) -> (CardRingApp, crate::service::handle::CardHandle) {
         let (runner, handle) = channel(CardCore::new(card), None);
         (CardRingApp::new(runner, nodes), handle)
     }
@@ -322,5 +444,44 @@ mod tests {
             assert!(cycle < 100_000, "no reply");
         }
         assert_eq!(t.join().unwrap().bytes, b"7\r\x06");
+    }
+
+    #[test]
+    fn ring_ivars_are_the_ring_cores_settings_both_ways() {
+        use mcc_ring::control::MemberKind;
+        use mcc_ring::core::{CoreConfig, MemberCore};
+        let mut card = Card::new(Profile::Pmac2);
+        ask_card(&mut card, b"I995=$30 I996=$F0001 I1001=16 I1004=2 I1005=4");
+        let (mut app, _h) = app(card, &[0]);
+        let mut cfg = CoreConfig::new(
+            "card0",
+            MemberKind::Card,
+            0,
+            RingSettings::new(0x30, 0x0F_0001),
+            1_000_000,
+        );
+        cfg.check = RingCheck::card(16, 2, 4, 2);
+        let mut core = MemberCore::new(cfg);
+        core.tick_app(&mut app, 1, 0);
+        // A host writes I1001 and I996 on the card: the ring core's check and routing follow.
+        assert_eq!(ask(&mut app, b"I3=2 I1001=32 I996=$F0003"), b"\x06");
+        core.tick_app(&mut app, 2, 0);
+        assert_eq!(core.check().params().period, 32);
+        assert_eq!(core.member().settings().i996, 0x0F_0003);
+        // The ring core's settings changed from the other side: the card's I-variables show it.
+        core.check_mut().set_error_limit(7);
+        core.set_settings(RingSettings::new(0x30, 0x0F_0013));
+        core.tick_app(&mut app, 3, 0);
+        assert_eq!(ask(&mut app, b"I1004 I996"), b"7\r$F0013\r\x06");
+        // I1001 from 0 to > 0 arms the check only at a reset (spec §6.8).
+        assert_eq!(ask(&mut app, b"I1001=0"), b"\x06");
+        core.tick_app(&mut app, 4, 0);
+        assert!(core.check().armed(), "armed at reset: stays armed, period 0");
+        assert_eq!(core.check().params().period, 0);
+    }
+
+    fn ask_card(card: &mut Card, line: &[u8]) {
+        let r = card.command_line(&mut crate::lang::interp::Session::default(), line);
+        assert!(!r.contains(&7), "{:?}", String::from_utf8_lossy(&r));
     }
 }

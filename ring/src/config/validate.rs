@@ -174,6 +174,15 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
             }
         }
         check_nodes(&format!("{key}.nodes"), &c.nodes)?;
+        if let Some(p) = &c.state_file {
+            let text = p.to_string_lossy();
+            if text.is_empty() || text.ends_with('/') || p.ends_with(".") || p.ends_with("..") {
+                return bad(
+                    format!("{key}.state_file"),
+                    format!("{text:?} names a directory; give the path of a file"),
+                );
+            }
+        }
         for (name, value) in &c.ivars {
             let num = name
                 .strip_prefix(['I', 'i'])

@@ -38,6 +38,13 @@ use crate::model::TableKind;
 /// Longest command line accepted (characters before the CR); longer lines get ERR003.
 pub const MAX_LINE: usize = 1024;
 
+/// A line one byte longer than the interpreter accepts: the card rejects it with its own
+/// ERR003 framing (I3/I4/I6) before parsing anything. A port discards over-long lines itself
+/// (bounded memory) and hands the card this instead.
+pub fn overlong_probe() -> Vec<u8> {
+    vec![b'U'; MAX_LINE + 1]
+}
+
 static NEXT_SESSION: AtomicU64 = AtomicU64::new(1);
 
 /// Per-connection interpreter state (addressed motor / coordinate system, ...).

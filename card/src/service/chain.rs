@@ -35,7 +35,7 @@ use mcc_ring::control::chain::{
 };
 use zenoh::Wait;
 
-use crate::host::port::overlong_probe;
+use crate::lang::interp::overlong_probe;
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
 use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
 use crate::lang::ast::CmdKind;

@@ -7,11 +7,11 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use super::server::{serve, PortsConfig};
+use crate::host::server::{serve, PortsConfig};
 use crate::core::CardCore;
 use crate::lang::interp::Profile;
-use crate::runtime::handle::channel;
-use crate::runtime::storage::FileStorage;
+use crate::service::handle::channel;
+use crate::service::storage::FileStorage;
 use crate::runtime::startup_card;
 
 /// Options of the standalone mode.
