@@ -21,11 +21,15 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("servo", &["domain", "model", "motion", "coord", "program"]),
     (
         "core",
-        &["domain", "model", "motion", "coord", "program", "lang", "servo"],
+        &[
+            "domain", "model", "motion", "coord", "program", "lang", "servo",
+        ],
     ),
     (
         "service",
-        &["domain", "model", "motion", "coord", "program", "lang", "servo", "core"],
+        &[
+            "domain", "model", "motion", "coord", "program", "lang", "servo", "core",
+        ],
     ),
     (
         "host",
@@ -57,7 +61,10 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 fn is_test_file(p: &Path) -> bool {
-    let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = p
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     name.starts_with("tests") || name.ends_with("_tests.rs")
 }
 
@@ -129,11 +136,16 @@ fn modules_only_use_lower_layers() {
         }
     }
     assert!(checked > 50, "only {checked} files checked");
-    assert!(violations.is_empty(), "layering violations:\n{}", violations.join("\n"));
+    assert!(
+        violations.is_empty(),
+        "layering violations:\n{}",
+        violations.join("\n")
+    );
 }
 
 #[test]
 fn the_checker_sees_an_upward_use() {
-    let text = "use crate::lang::interp::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
+    let text =
+        "use crate::lang::interp::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
     assert_eq!(used_modules(production_part(text)), ["lang"]);
 }

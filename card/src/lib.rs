@@ -32,8 +32,8 @@ mod model;
 mod motion;
 mod program;
 mod runtime;
-mod servo;
 mod service;
+mod servo;
 
 #[cfg(test)]
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // reads the sources
@@ -43,7 +43,6 @@ pub use crate::core::rig::{self, LoopbackPlant, Rig};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, Profile};
 pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
-pub use runtime::standalone::{run_standalone, StandaloneOpts};
 pub use lang::interp::{
     Budget, Card, Effect, EffectResult, LineRun, Session, Step, Storage, MAX_LINE,
 };
@@ -55,8 +54,9 @@ pub use program::{Commands, NoCommands, ProgramEngine};
 pub use runtime::bench_servo::{
     run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
 };
-pub use service::handle::{spawn_card_thread, CardHandle};
 pub use runtime::ring_app::{wire_macro_motors, CardRingApp};
 pub use runtime::run_ring_card;
+pub use runtime::standalone::{run_standalone, StandaloneOpts};
+pub use service::handle::{spawn_card_thread, CardHandle};
 pub use service::storage::FileStorage;
 pub use servo::Servo;

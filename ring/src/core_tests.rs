@@ -440,7 +440,10 @@ fn the_application_reads_and_changes_the_ring_settings_before_each_tick() {
     core.tick_app(&mut app, 2, 0);
     assert_eq!(app.seen[0], (0x10, 16, STATUS_SYNC_RECEIVED));
     assert_eq!(app.seen[1].0, 0x90, "I995 written by the app is the core's");
-    assert_eq!(app.seen[1].1, 32, "I1001 written by the app is the check's period");
+    assert_eq!(
+        app.seen[1].1, 32,
+        "I1001 written by the app is the check's period"
+    );
     assert_eq!(core.member().settings().i995, 0x90);
     assert_eq!(core.check().params().period, 32);
 }

@@ -53,7 +53,9 @@ impl Rig {
 
     fn tick(&mut self) -> Vec<Option<f64>> {
         for a in self.card.take_actions() {
-            let _ = self.eng.handle_action(&mut self.card.model, &self.motors, &a);
+            let _ = self
+                .eng
+                .handle_action(&mut self.card.model, &self.motors, &a);
             if let ActionKind::Jog { .. } = a.kind {
                 let p = MotorParams::from_state(&self.card.state, a.motor);
                 self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);

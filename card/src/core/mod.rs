@@ -22,7 +22,7 @@ use crate::servo::Servo;
 pub const SLICE_UNITS: u64 = 400;
 
 /// Connections the core keeps sessions for; the least recently used is forgotten beyond it.
-pub const MAX_SESSIONS: usize = 512;
+pub(crate) const MAX_SESSIONS: usize = 512;
 
 /// A host port's request.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -75,9 +75,9 @@ pub struct CardCore {
 fn load_error_of(r: &EffectResult) -> Option<String> {
     match r {
         EffectResult::Loaded(Err(e)) => Some(e.clone()),
-        EffectResult::Loaded(Ok(Some(bytes))) => {
-            crate::model::persist::decode(bytes).err().map(|e| e.to_string())
-        }
+        EffectResult::Loaded(Ok(Some(bytes))) => crate::model::persist::decode(bytes)
+            .err()
+            .map(|e| e.to_string()),
         _ => None,
     }
 }
@@ -121,7 +121,11 @@ impl CardCore {
     fn session(&mut self, conn: u64) -> Session {
         self.clock += 1;
         if !self.sessions.contains_key(&conn) && self.sessions.len() >= MAX_SESSIONS {
-            let oldest = self.sessions.iter().min_by_key(|(_, (_, t))| *t).map(|(k, _)| *k);
+            let oldest = self
+                .sessions
+                .iter()
+                .min_by_key(|(_, (_, t))| *t)
+                .map(|(k, _)| *k);
             if let Some(k) = oldest {
                 self.sessions.remove(&k);
             }
@@ -232,7 +236,11 @@ impl CardCore {
         let conn = job.conn;
         let is_load = matches!(result, EffectResult::Loaded(_));
         let mut s = self.session(conn);
-        let Some(job) = self.jobs.iter_mut().find(|j| j.conn == conn && j.run.is_some()) else {
+        let Some(job) = self
+            .jobs
+            .iter_mut()
+            .find(|j| j.conn == conn && j.run.is_some())
+        else {
             return;
         };
         if let Some(run) = job.run.as_mut() {

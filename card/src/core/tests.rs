@@ -67,7 +67,10 @@ fn save_waits_for_its_effect_and_reports_a_failed_write() {
     c.submit(1, 1, HostRequest::Line(b"I3=2 SAVE".to_vec()));
     let mut b = Budget::new(SLICE_UNITS);
     c.serve(&mut b);
-    assert!(c.take_replies().is_empty(), "no reply before the write is done");
+    assert!(
+        c.take_replies().is_empty(),
+        "no reply before the write is done"
+    );
     let effects = c.take_effects();
     assert_eq!(effects.len(), 1);
     assert!(matches!(effects[0].1, Effect::Save(_)));

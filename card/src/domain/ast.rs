@@ -452,7 +452,6 @@ impl NumRange {
     }
 }
 
-
 /// One term of a motor axis definition: `[scale]axis`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AxisTerm {

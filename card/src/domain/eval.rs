@@ -8,7 +8,7 @@ use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, VarIndex, VarKind, Va
 
 /// A variable could not be read (or a computed index is invalid).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EvalError {
+pub(crate) struct EvalError {
     /// PMAC error number (ERR003 for a bad variable number).
     pub code: u8,
     /// Reason.
@@ -16,7 +16,7 @@ pub struct EvalError {
 }
 
 /// What an expression needs from the card.
-pub trait Env {
+pub(crate) trait Env {
     /// Value of variable `kind` number `index` (Q in the evaluating C.S.).
     fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, EvalError>;
     /// I15 = 1: trigonometry in radians (else degrees).
@@ -28,18 +28,18 @@ pub trait Env {
 }
 
 /// Result of `x / 0`.
-pub const DIV_ZERO: f64 = 140_737_488_355_328.0; // 2^47
+pub(crate) const DIV_ZERO: f64 = 140_737_488_355_328.0; // 2^47
 
 /// Maximum nesting the evaluator accepts (the parser limits depth well below this).
 const MAX_EVAL_DEPTH: u32 = 256;
 
 /// Evaluate an expression.
-pub fn eval<E: Env + ?Sized>(e: &Expr, env: &mut E) -> Result<f64, EvalError> {
+pub(crate) fn eval<E: Env + ?Sized>(e: &Expr, env: &mut E) -> Result<f64, EvalError> {
     eval_d(e, env, 0)
 }
 
 /// Evaluate a variable index (`P(expr)` is rounded to the nearest integer, must be ≥ 0).
-pub fn index<E: Env + ?Sized>(i: &VarIndex, env: &mut E) -> Result<u32, EvalError> {
+pub(crate) fn index<E: Env + ?Sized>(i: &VarIndex, env: &mut E) -> Result<u32, EvalError> {
     match i {
         VarIndex::Const(n) => Ok(*n),
         VarIndex::Expr(e) => {
@@ -57,7 +57,7 @@ pub fn index<E: Env + ?Sized>(i: &VarIndex, env: &mut E) -> Result<u32, EvalErro
 }
 
 /// Read a variable reference.
-pub fn read_var<E: Env + ?Sized>(v: &VarRef, env: &mut E) -> Result<f64, EvalError> {
+pub(crate) fn read_var<E: Env + ?Sized>(v: &VarRef, env: &mut E) -> Result<f64, EvalError> {
     let n = index(&v.index, env)?;
     env.var(v.kind, n)
 }
@@ -103,7 +103,7 @@ fn finite(v: f64) -> f64 {
 }
 
 /// A binary operator with PMAC semantics.
-pub fn binary(op: BinOp, a: f64, b: f64) -> f64 {
+pub(crate) fn binary(op: BinOp, a: f64, b: f64) -> f64 {
     finite(match op {
         BinOp::Add => a + b,
         BinOp::Sub => a - b,
@@ -127,7 +127,7 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> f64 {
 }
 
 /// `a % n`: n > 0 → [0, n); n < 0 → [n, −n); n = 0 → 0.
-pub fn modulo(a: f64, n: f64) -> f64 {
+pub(crate) fn modulo(a: f64, n: f64) -> f64 {
     if n == 0.0 {
         0.0
     } else if n > 0.0 {
@@ -149,7 +149,7 @@ fn from_fixed(v: i128) -> f64 {
 }
 
 /// A function with PMAC semantics; `cos` is the ATAN2 cosine part.
-pub fn function(f: Func, x: f64, cos: f64, radians: bool) -> f64 {
+pub(crate) fn function(f: Func, x: f64, cos: f64, radians: bool) -> f64 {
     let to_rad = |v: f64| if radians { v } else { v.to_radians() };
     let from_rad = |v: f64| if radians { v } else { v.to_degrees() };
     finite(match f {
@@ -181,7 +181,7 @@ pub fn function(f: Func, x: f64, cos: f64, radians: bool) -> f64 {
 }
 
 /// Compare two values.
-pub fn compare(op: CmpOp, a: f64, b: f64) -> bool {
+pub(crate) fn compare(op: CmpOp, a: f64, b: f64) -> bool {
     match op {
         CmpOp::Eq => a == b,
         CmpOp::Ne => a != b,
@@ -195,7 +195,7 @@ pub fn compare(op: CmpOp, a: f64, b: f64) -> bool {
 }
 
 /// Evaluate a condition (AND binds tighter than OR; both sides are always evaluated).
-pub fn eval_cond<E: Env + ?Sized>(c: &Cond, env: &mut E) -> Result<bool, EvalError> {
+pub(crate) fn eval_cond<E: Env + ?Sized>(c: &Cond, env: &mut E) -> Result<bool, EvalError> {
     eval_cond_d(c, env, 0)
 }
 
@@ -228,7 +228,7 @@ fn eval_cond_d<E: Env + ?Sized>(c: &Cond, env: &mut E, depth: u32) -> Result<boo
 /// Round to PMAC's 48-bit floating-point format (36-bit two's-complement mantissa, i.e. 35
 /// significant bits after the sign). Use when storing P/Q/L-format values.
 #[cfg(test)]
-pub fn to_pmac48(x: f64) -> f64 {
+pub(crate) fn to_pmac48(x: f64) -> f64 {
     let x = finite(x);
     if x == 0.0 {
         return 0.0;
@@ -243,6 +243,6 @@ pub fn to_pmac48(x: f64) -> f64 {
 
 /// Round for an integer-format store (`M1=10*2/3` → 7): nearest, halves away from zero.
 #[cfg(test)]
-pub fn to_integer(x: f64) -> f64 {
+pub(crate) fn to_integer(x: f64) -> f64 {
     finite(x).round()
 }

@@ -97,7 +97,10 @@ mod tests {
         assert_eq!(MotorNum::new(9, &p), None);
         assert_eq!(MotorNum::new(0, &p), None);
         assert_eq!(MotorNum::new(32, &t).map(MotorNum::index), Some(31));
-        assert_eq!(CsNum::new(16, &t).map(|c| c.to_string()), Some("&16".into()));
+        assert_eq!(
+            CsNum::new(16, &t).map(|c| c.to_string()),
+            Some("&16".into())
+        );
         assert_eq!(CsNum::new(9, &p), None);
         assert_eq!(NodeNum::new(15).map(NodeNum::bit), Some(0x8000));
         assert_eq!(NodeNum::new(16), None);

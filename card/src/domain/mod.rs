@@ -7,10 +7,10 @@
 
 pub mod ast;
 mod error;
-pub mod eval;
+pub(crate) mod eval;
 mod ids;
-pub mod profile;
-pub mod words;
+pub(crate) mod profile;
+pub(crate) mod words;
 
 pub use error::ErrCode;
 pub use ids::{CsNum, MotorNum, NodeNum};

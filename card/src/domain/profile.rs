@@ -26,7 +26,7 @@ pub struct Limits {
 }
 
 /// The dimensions of `profile`.
-pub fn limits(profile: Profile) -> Limits {
+pub(crate) fn limits(profile: Profile) -> Limits {
     match profile {
         Profile::Pmac2 => Limits {
             motors: 8,
@@ -46,7 +46,7 @@ pub fn limits(profile: Profile) -> Limits {
 }
 
 /// Stable lower-case name used in config files and `mcc status --json`.
-pub fn name(profile: Profile) -> &'static str {
+pub(crate) fn name(profile: Profile) -> &'static str {
     match profile {
         Profile::Pmac2 => "pmac2",
         Profile::Turbo => "turbo",
@@ -55,7 +55,7 @@ pub fn name(profile: Profile) -> &'static str {
 
 /// Parse a profile name as written in config (`pmac2`, `turbo`, case-insensitive).
 #[cfg(test)]
-pub fn parse(s: &str) -> Option<Profile> {
+pub(crate) fn parse(s: &str) -> Option<Profile> {
     match s.to_ascii_lowercase().as_str() {
         "pmac2" => Some(Profile::Pmac2),
         "turbo" => Some(Profile::Turbo),

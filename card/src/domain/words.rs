@@ -3,7 +3,9 @@
 //! `WHILE(P1<1000)` 2, `P1=P1+1` 3, `ENDWHILE` 1). Offsets of `LIST PROG n,`, `PC`, `PE` and the
 //! free space `SIZE` reports follow from it.
 
-use super::ast::{AxisExtra, AxisWord, Cond, Display, Expr, ExprKind, Message, Stmt, StmtKind, VarIndex, VarRef};
+use super::ast::{
+    AxisExtra, AxisWord, Cond, Display, Expr, ExprKind, Message, Stmt, StmtKind, VarIndex, VarRef,
+};
 
 fn expr_words(e: &Expr) -> u32 {
     match &e.kind {
@@ -34,7 +36,7 @@ fn text_words(n: usize) -> u32 {
 
 /// Buffer words a statement occupies (project model reproducing seed 004's examples: `LINEAR`
 /// 1, `F10` 1, `X10Y10` 2, `RETURN` 1, `P1=0` 1, `WHILE(P1<1000)` 2, `P1=P1+1` 3, `ENDWHILE` 1).
-pub fn word_count(s: &Stmt) -> u32 {
+pub(crate) fn word_count(s: &Stmt) -> u32 {
     use StmtKind as S;
     let body = |b: &[Stmt]| b.iter().map(word_count).sum::<u32>();
     let w = |ws: &[AxisWord]| {

@@ -15,7 +15,7 @@ use super::server::{serve, PortsConfig};
 use crate::lang::interp::{Card, Profile, Session};
 
 /// The mixed command mix: one command per line, as a host program would send them.
-pub const COMMAND_MIX: &[&[u8]] = &[
+pub(crate) const COMMAND_MIX: &[&[u8]] = &[
     b"P1=P1+1",
     b"P2",
     b"I130",
@@ -116,7 +116,7 @@ fn per_sec(n: usize, d: Duration) -> f64 {
 }
 
 /// Percentile (0..=100) of sorted samples.
-pub fn percentile(sorted: &[Duration], p: usize) -> Duration {
+pub(crate) fn percentile(sorted: &[Duration], p: usize) -> Duration {
     if sorted.is_empty() {
         return Duration::ZERO;
     }

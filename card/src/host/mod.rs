@@ -10,9 +10,9 @@
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
-pub mod ascii;
-pub mod bench;
-pub mod eth_codec;
-pub mod port;
-pub mod server;
-pub mod zenoh_cmd;
+pub(crate) mod ascii;
+pub(crate) mod bench;
+pub(crate) mod eth_codec;
+pub(crate) mod port;
+pub(crate) mod server;
+pub(crate) mod zenoh_cmd;

@@ -8,7 +8,7 @@ use crate::core::HostRequest;
 use crate::service::handle::CardHandle;
 
 /// What a host port needs from the card.
-pub trait Interpreter {
+pub(crate) trait Interpreter {
     /// Execute one command line (no `<CR>`); the whole framed reply.
     fn line(&mut self, line: &[u8]) -> Vec<u8>;
     /// Execute one control-character command; its reply (possibly empty).
@@ -17,12 +17,12 @@ pub trait Interpreter {
     fn overlong(&mut self) -> Vec<u8>;
 }
 
-pub use crate::lang::interp::overlong_probe;
+pub(crate) use crate::lang::interp::overlong_probe;
 
 /// One connection's view of the card: its connection id on the card and the last echo state.
 /// Each call blocks until the card's servo thread has served it (between ticks, in slices).
 #[derive(Debug)]
-pub struct CardPort {
+pub(crate) struct CardPort {
     card: CardHandle,
     conn: u64,
     echo: bool,
@@ -30,7 +30,7 @@ pub struct CardPort {
 
 impl CardPort {
     /// A new connection to `card`.
-    pub fn new(card: CardHandle) -> Self {
+    pub(crate) fn new(card: CardHandle) -> Self {
         let conn = card.new_conn();
         CardPort {
             card,
@@ -40,12 +40,12 @@ impl CardPort {
     }
 
     /// Full-duplex echo (CTRL-T) as of the last reply.
-    pub fn echo(&self) -> bool {
+    pub(crate) fn echo(&self) -> bool {
         self.echo
     }
 
     /// The card.
-    pub fn card(&self) -> &CardHandle {
+    pub(crate) fn card(&self) -> &CardHandle {
         &self.card
     }
 
@@ -56,7 +56,7 @@ impl CardPort {
     }
 
     /// The connection closed: the card releases a buffer it left open.
-    pub fn end(&mut self) {
+    pub(crate) fn end(&mut self) {
         let _ = self.ask(HostRequest::End);
     }
 }
@@ -76,7 +76,7 @@ impl Interpreter for CardPort {
 }
 
 /// Apply terminal events to the interpreter, appending replies to `out` in order.
-pub fn run_events<I: Interpreter + ?Sized>(
+pub(crate) fn run_events<I: Interpreter + ?Sized>(
     events: Vec<AsciiEvent>,
     interp: &mut I,
     out: &mut Vec<u8>,
@@ -88,7 +88,11 @@ pub fn run_events<I: Interpreter + ?Sized>(
 
 /// Apply one terminal event. [`AsciiEvent::Cancel`] drops whatever in `out` has not been sent
 /// yet (callers send `out` only after this returns), then passes `<CTRL-X>` to the interpreter.
-pub fn run_event<I: Interpreter + ?Sized>(ev: AsciiEvent, interp: &mut I, out: &mut Vec<u8>) {
+pub(crate) fn run_event<I: Interpreter + ?Sized>(
+    ev: AsciiEvent,
+    interp: &mut I,
+    out: &mut Vec<u8>,
+) {
     match ev {
         AsciiEvent::Line(l) => out.extend_from_slice(&interp.line(&l)),
         AsciiEvent::Control(c) => out.extend_from_slice(&interp.control(c)),
@@ -106,7 +110,7 @@ pub fn run_event<I: Interpreter + ?Sized>(ev: AsciiEvent, interp: &mut I, out: &
 /// (empty for `<CTRL-K>`), and records everything it executed.
 #[cfg(test)]
 #[derive(Debug, Default)]
-pub struct EchoInterp {
+pub(crate) struct EchoInterp {
     /// Everything executed, in order: lines as text, control characters as `^XX` (hex).
     pub log: Vec<String>,
 }
@@ -146,7 +150,7 @@ impl Interpreter for EchoInterp {
 
 #[cfg(test)]
 /// `n` bytes (n ≥ 2) shaped like a PMAC data reply: lines `0123456789\r` ending in `\x06`.
-pub fn big_reply(n: usize) -> Vec<u8> {
+pub(crate) fn big_reply(n: usize) -> Vec<u8> {
     let mut r: Vec<u8> = (0..n.saturating_sub(1))
         .map(|i| {
             if i % 11 == 10 {

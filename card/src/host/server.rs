@@ -21,7 +21,7 @@ use crate::service::handle::CardHandle;
 
 /// Where and how the host ports listen.
 #[derive(Debug, Clone)]
-pub struct PortsConfig {
+pub(crate) struct PortsConfig {
     /// Address both ports bind (default 127.0.0.1).
     pub bind: IpAddr,
     /// ASCII terminal port (0 = ephemeral).
@@ -48,7 +48,7 @@ impl Default for PortsConfig {
 
 /// The listening ports; [`BoundPorts::shutdown`] stops them (dropping this does not).
 #[derive(Debug)]
-pub struct BoundPorts {
+pub(crate) struct BoundPorts {
     /// ASCII terminal port address.
     pub ascii: SocketAddr,
     /// PMAC Ethernet protocol port address.
@@ -59,7 +59,7 @@ pub struct BoundPorts {
 
 impl BoundPorts {
     /// Stop accepting, close every connection of these ports and wait for the listeners to end.
-    pub async fn shutdown(self) {
+    pub(crate) async fn shutdown(self) {
         let _ = self.stop.send(true);
         for t in self.tasks {
             let _ = t.await;
@@ -77,7 +77,7 @@ enum Kind {
 }
 
 /// Bind both ports and serve them on the current tokio runtime.
-pub async fn serve(card: CardHandle, cfg: PortsConfig) -> io::Result<BoundPorts> {
+pub(crate) async fn serve(card: CardHandle, cfg: PortsConfig) -> io::Result<BoundPorts> {
     let ascii = TcpListener::bind((cfg.bind, cfg.ascii_port)).await?;
     let eth = TcpListener::bind((cfg.bind, cfg.eth_port)).await?;
     let (stop, stop_rx) = watch::channel(false);
@@ -231,9 +231,8 @@ async fn eth_conn(
         if n == 0 {
             return Ok(());
         }
-        let actions = tokio::task::block_in_place(|| {
-            conn.feed(buf.get(..n).unwrap_or_default(), port)
-        });
+        let actions =
+            tokio::task::block_in_place(|| conn.feed(buf.get(..n).unwrap_or_default(), port));
         for a in actions {
             match a {
                 EthAction::Send(packet) => write_reply(&mut stream, &packet, cfg).await?,

@@ -1,10 +1,10 @@
 //! Server tests: real sockets on 127.0.0.1 port 0, every wait bounded by a timeout.
 
 use super::*;
+use crate::domain::Profile;
 use crate::host::ascii::MAX_LINE;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
 use crate::host::port::overlong_probe;
-use crate::domain::Profile;
 use crate::lang::interp::{Card, Session};
 use crate::service::handle::{spawn_card_thread, CardHandle};
 

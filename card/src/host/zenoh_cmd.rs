@@ -13,12 +13,16 @@ use super::port::{run_events, CardPort};
 use crate::service::handle::CardHandle;
 
 /// `mcc/<cluster>/card/<n>/cmd` (architecture §4).
-pub fn cmd_key(cluster: &str, n: u32) -> String {
+pub(crate) fn cmd_key(cluster: &str, n: u32) -> String {
     mcc_ring::control::card_cmd_key(cluster, n)
 }
 
 /// Run one query payload against the card (blocks until the card answers).
-pub fn execute_payload(port: &mut CardPort, codec: &mut AsciiCodec, payload: &[u8]) -> Vec<u8> {
+pub(crate) fn execute_payload(
+    port: &mut CardPort,
+    codec: &mut AsciiCodec,
+    payload: &[u8],
+) -> Vec<u8> {
     let mut events = codec.feed(payload);
     codec.finish_line(&mut events);
     let mut out = Vec::new();
@@ -28,7 +32,7 @@ pub fn execute_payload(port: &mut CardPort, codec: &mut AsciiCodec, payload: &[u
 
 /// Declare the queryable for card `n` of `cluster`. Keep the returned value alive: dropping it
 /// undeclares the queryable.
-pub async fn declare_cmd_queryable(
+pub(crate) async fn declare_cmd_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,

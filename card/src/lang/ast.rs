@@ -4,14 +4,14 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::domain::ast::*;
+pub(crate) use crate::domain::ast::*;
 
 // ---------------------------------------------------------------------------------------------
 // Buffers, listings and definitions
 
 /// Which program kind a buffer holds (what statements are legal in it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BufferKind {
+pub(crate) enum BufferKind {
     /// A fixed motion program `PROG n`.
     Prog,
     /// The rotary buffers.
@@ -22,7 +22,7 @@ pub enum BufferKind {
 
 /// `OPEN` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum OpenTarget {
+pub(crate) enum OpenTarget {
     /// `OPEN PROG n`.
     Prog(u32),
     /// `OPEN PLC n`.
@@ -35,7 +35,7 @@ pub enum OpenTarget {
 
 /// `[,[start][,[len]]]` of LIST commands. `offsets` = a comma was given (prefix `{offset}:`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub struct ListSpan {
+pub(crate) struct ListSpan {
     /// A first comma was present.
     pub offsets: bool,
     /// Start offset (words), if given.
@@ -46,7 +46,7 @@ pub struct ListSpan {
 
 /// `LIST` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ListTarget {
+pub(crate) enum ListTarget {
     /// `LIST`: the open buffer.
     Open,
     /// `LIST PROG n[,...]`.
@@ -73,7 +73,7 @@ pub enum ListTarget {
 
 /// A motor of a `DEFINE COMP` source/target list: `#n` with optional `D` (desired position).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct CompMotor {
+pub(crate) struct CompMotor {
     /// Motor number.
     pub motor: u32,
     /// `D` suffix.
@@ -82,7 +82,7 @@ pub struct CompMotor {
 
 /// `DEFINE` targets.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum DefineTarget {
+pub(crate) enum DefineTarget {
     /// `DEFINE ROT n`.
     Rotary(u32),
     /// `DEFINE GATHER [n]`.
@@ -112,7 +112,7 @@ pub enum DefineTarget {
 
 /// `DELETE` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum DeleteTarget {
+pub(crate) enum DeleteTarget {
     /// `DELETE ROT`.
     Rotary,
     /// `DELETE GATHER`.
@@ -134,7 +134,7 @@ pub enum DeleteTarget {
 }
 /// Memory space of the register access commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MemSpace {
+pub(crate) enum MemSpace {
     /// X
     X,
     /// Y
@@ -145,7 +145,7 @@ pub enum MemSpace {
 
 /// `MS{cmd}{node}` station commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum SlaveCmd {
+pub(crate) enum SlaveCmd {
     /// `MS$$$n`
     Reset,
     /// `MS$$$***n`
@@ -162,13 +162,12 @@ pub enum SlaveCmd {
     Version,
 }
 
-
 // ---------------------------------------------------------------------------------------------
 // On-line commands
 
 /// An on-line command with its position.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Command {
+pub(crate) struct Command {
     /// What it is.
     pub kind: CmdKind,
     /// Where it starts in the line.
@@ -177,7 +176,7 @@ pub struct Command {
 
 /// On-line command kinds (pmac-commands.md §3). Control characters are not lexed from lines.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum CmdKind {
+pub(crate) enum CmdKind {
     // --- addressing (§3.0, §8)
     /// `#n`
     AddrMotor(u32),
@@ -440,10 +439,9 @@ pub enum CmdKind {
 
 /// One item of a line typed while a buffer is open: stored statement or immediate command.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Item {
+pub(crate) enum Item {
     /// Store into the open buffer.
     Stmt(Stmt),
     /// Execute now.
     Cmd(Command),
 }
-

@@ -11,13 +11,13 @@ use std::fmt::{self, Write};
 use super::ast::AxisDef;
 
 use super::ast::{
-    AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr,
-    ExprKind, Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb,
-    PreludeCall, SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
+    AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr, ExprKind,
+    Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb, PreludeCall,
+    SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
 };
 
 /// A literal as written: `$hex` kept, decimals in shortest round-trip form, never exponent.
-pub fn number(n: &Number) -> String {
+pub(crate) fn number(n: &Number) -> String {
     if n.hex && n.value.fract() == 0.0 && n.value.abs() < 2f64.powi(48) {
         let sign = if n.value < 0.0 { "-" } else { "" };
         format!("{sign}${:X}", n.value.abs() as u64)
@@ -27,7 +27,7 @@ pub fn number(n: &Number) -> String {
 }
 
 /// `P12`, `P(P1+2)`.
-pub fn var(v: &VarRef) -> String {
+pub(crate) fn var(v: &VarRef) -> String {
     let l = match v.kind {
         VarKind::I => 'I',
         VarKind::P => 'P',
@@ -71,7 +71,7 @@ fn op_char(op: BinOp) -> char {
 }
 
 /// An expression with the minimum parentheses that re-parse to the same tree.
-pub fn expr(e: &Expr) -> String {
+pub(crate) fn expr(e: &Expr) -> String {
     let mut s = String::new();
     write_expr(&mut s, e);
     s
@@ -113,7 +113,7 @@ fn wrap(s: &mut String, e: &Expr, paren: bool) {
 }
 
 /// `{data}`: a literal as is, anything else in parentheses.
-pub fn data(e: &Expr) -> String {
+pub(crate) fn data(e: &Expr) -> String {
     match &e.kind {
         ExprKind::Num(n) => number(n),
         _ => format!("({})", expr(e)),
@@ -134,7 +134,7 @@ fn cmp_str(op: CmpOp) -> &'static str {
 }
 
 /// A condition without its outer parentheses.
-pub fn cond(c: &Cond) -> String {
+pub(crate) fn cond(c: &Cond) -> String {
     match c {
         Cond::Cmp { lhs, op, rhs } => format!("{}{}{}", expr(lhs), cmp_str(*op), expr(rhs)),
         Cond::And(a, b) => {
@@ -228,7 +228,7 @@ fn slave_var(v: &SlaveVar) -> String {
 }
 
 /// Statements of one line, separated by single spaces.
-pub fn line(stmts: &[Stmt], long: bool) -> String {
+pub(crate) fn line(stmts: &[Stmt], long: bool) -> String {
     stmts
         .iter()
         .map(|s| stmt(s, long))
@@ -237,7 +237,7 @@ pub fn line(stmts: &[Stmt], long: bool) -> String {
 }
 
 /// Canonical text of one statement.
-pub fn stmt(s: &Stmt, long: bool) -> String {
+pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
     let kw = |l: &'static str, sh: &'static str| if long { l } else { sh };
     use StmtKind as S;
     match &s.kind {
@@ -474,7 +474,7 @@ impl fmt::Display for MDef {
 
 /// `#n->` reply body: `10000X`, `8660X-5000Y`, `5000X+8660Y+5000`, `X` for scale 1.
 #[cfg(test)]
-pub fn axis_def(d: &AxisDef) -> String {
+pub(crate) fn axis_def(d: &AxisDef) -> String {
     let mut s = String::new();
     for (i, t) in d.terms.iter().enumerate() {
         let mag = t.scale.abs();
@@ -498,4 +498,3 @@ pub fn axis_def(d: &AxisDef) -> String {
     }
     s
 }
-

@@ -1,7 +1,7 @@
 //! Expression evaluation (`crate::domain::eval`) driven through the PMAC parser.
 
-use crate::domain::eval::*;
 use crate::domain::ast::*;
+use crate::domain::eval::*;
 use crate::lang::ast::Item;
 use crate::lang::{LineParser, Mode};
 use std::collections::HashMap;
@@ -149,15 +149,13 @@ fn pmac48_rounding() {
 fn conditions_and_binds_tighter_than_or() {
     let mut e = env();
     let line = b"IF (P1=25 OR P2=0 AND P5=0)";
-    let stmts =
-        crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
+    let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
     let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
         panic!()
     };
     assert!(eval_cond(c, &mut e).unwrap());
     let line = b"IF ((P1=25 OR P2=0) AND P5=0)";
-    let stmts =
-        crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
+    let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
     let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
         panic!()
     };

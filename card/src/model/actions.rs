@@ -7,7 +7,7 @@
 use crate::domain::ast::JogKind;
 
 /// Most actions kept for the motion code before the oldest are dropped.
-pub const MAX_ACTIONS: usize = 4096;
+pub(crate) const MAX_ACTIONS: usize = 4096;
 
 /// A motion request with the addressing in force when it was given.
 #[derive(Debug, Clone, PartialEq)]

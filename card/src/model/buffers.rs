@@ -202,7 +202,7 @@ pub struct Buffers<L> {
 }
 
 /// Maximum number of resident motion programs (§5.1).
-pub const MAX_PROGRAMS: usize = 256;
+pub(super) const MAX_PROGRAMS: usize = 256;
 
 impl<L: StoredLine> Buffers<L> {
     /// Empty buffers with `capacity` words of user memory.
@@ -402,7 +402,7 @@ fn strip_return<L: StoredLine>(p: &mut Program<L>) {
 /// Render `lines` for `LIST`: without `offsets`, one text per line; with `offsets`, lines whose
 /// word range intersects `[start, start+len)` prefixed `{offset}:`. A `start` inside a line lists
 /// from the start of that line, so offsets always restart exactly at a line.
-pub fn list_lines<L: StoredLine>(
+pub(crate) fn list_lines<L: StoredLine>(
     lines: &[L],
     render: impl Fn(&L) -> String,
     offsets: Option<(u32, Option<u32>)>,

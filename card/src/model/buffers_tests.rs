@@ -46,7 +46,10 @@ fn open_append_close_list_with_offsets() {
         list_lines(&p.lines, |l: &T| l.render(false), None),
         ["LIN", "F10", "X10Y10", "RET"]
     );
-    assert_eq!(list_lines(&p.lines, |l: &T| l.render(true), None)[3], "RETURN");
+    assert_eq!(
+        list_lines(&p.lines, |l: &T| l.render(true), None)[3],
+        "RETURN"
+    );
     assert_eq!(
         list_lines(&p.lines, |l: &T| l.render(false), Some((0, None))),
         ["0:LIN", "1:F10", "2:X10Y10", "4:RET"]
@@ -60,7 +63,10 @@ fn open_append_close_list_with_offsets() {
         list_lines(&p.lines, |l: &T| l.render(false), Some((2, Some(3)))),
         ["2:X10Y10", "4:RET"]
     );
-    assert_eq!(list_lines(&p.lines, |l: &T| l.render(false), Some((1, Some(1)))), ["1:F10"]);
+    assert_eq!(
+        list_lines(&p.lines, |l: &T| l.render(false), Some((1, Some(1)))),
+        ["1:F10"]
+    );
     assert_eq!(b.used(), 5);
     assert_eq!(b.free(), 995);
     // Re-open strips the trailing RETURN so there is only one after the next CLOSE.

@@ -15,7 +15,7 @@ use crate::domain::Profile;
 
 /// User buffer memory in words: $1800-$9FFF on PMAC2 (34,816); Turbo gets the same
 /// budget scaled ×4 ([DECISION]: Turbo boards carry more program memory).
-pub fn user_memory_words(profile: Profile) -> u32 {
+pub(crate) fn user_memory_words(profile: Profile) -> u32 {
     match profile {
         Profile::Pmac2 => 34_816,
         Profile::Turbo => 4 * 34_816,
@@ -23,7 +23,7 @@ pub fn user_memory_words(profile: Profile) -> u32 {
 }
 
 /// Interpreted PLCs per card (PLC 0-31).
-pub const PLCS: usize = 32;
+pub(crate) const PLCS: usize = 32;
 
 /// One controller card's data.
 #[derive(Debug)]

@@ -7,14 +7,14 @@ use super::ivars::{IVarSpec, IVarTable};
 use super::memory::{Memory, Space};
 use super::mvar::{self, WordAccess};
 use super::number::{format_hex, format_value};
-use crate::domain::profile::{limits, Limits, Profile};
 use super::regmap::{self, Special};
 use super::status::{CsFlags, GlobalFlags, MotorFlags};
 use super::vars::VarStore;
 use crate::domain::ast::MDef;
+use crate::domain::profile::{limits, Limits, Profile};
 
 /// I995 bits that are status (cleared when read): 0-3 and 6.
-pub const I995_STATUS_BITS: u32 = 0x4F;
+pub(crate) const I995_STATUS_BITS: u32 = 0x4F;
 
 /// One controller card's state.
 #[derive(Debug, Clone)]

@@ -94,7 +94,7 @@ pub struct Defines {
 }
 
 /// Words per transformation matrix.
-pub const TBUF_WORDS: u32 = 21;
+pub(crate) const TBUF_WORDS: u32 = 21;
 
 impl Defines {
     /// Words used by these buffers.

@@ -10,7 +10,7 @@
 /// Non-finite values become 0; a value that rounds beyond `f64::MAX` saturates at the largest
 /// 35-bit mantissa with the largest f64 exponent (the 48-bit format's own exponent range, ±2^2047,
 /// is wider than f64's, so every finite f64 has a 48-bit neighbour).
-pub fn round48(v: f64) -> f64 {
+pub(crate) fn round48(v: f64) -> f64 {
     if !v.is_finite() || v == 0.0 {
         return 0.0;
     }
@@ -58,7 +58,7 @@ fn frexp(x: f64) -> (f64, i32) {
 }
 
 /// Encode `v` as a 48-bit PMAC float (X word in bits 47-24, Y word in bits 23-0).
-pub fn encode_float(v: f64) -> u64 {
+pub(crate) fn encode_float(v: f64) -> u64 {
     if !v.is_finite() || v == 0.0 {
         return 0;
     }
@@ -82,7 +82,7 @@ pub fn encode_float(v: f64) -> u64 {
 }
 
 /// Decode a 48-bit PMAC float.
-pub fn decode_float(w: u64) -> f64 {
+pub(crate) fn decode_float(w: u64) -> f64 {
     let w = w & 0xFFFF_FFFF_FFFF;
     let raw = (w >> 12) as i64;
     let mant = if raw & (1 << 35) != 0 {
@@ -104,7 +104,7 @@ pub fn decode_float(w: u64) -> f64 {
 }
 
 /// Encode `v` as a 48-bit two's-complement fixed-point integer (rounded, wrapped).
-pub fn encode_fixed(v: f64) -> u64 {
+pub(crate) fn encode_fixed(v: f64) -> u64 {
     let i = if v.is_finite() {
         v.round().clamp(-1.8e19, 1.8e19) as i128
     } else {
@@ -124,12 +124,12 @@ pub fn decode_fixed(w: u64) -> f64 {
 }
 
 /// Join the low 16 bits of X (most significant) and Y into a 32-bit DPRAM word.
-pub fn dp_join(x: u32, y: u32) -> u32 {
+pub(crate) fn dp_join(x: u32, y: u32) -> u32 {
     ((x & 0xFFFF) << 16) | (y & 0xFFFF)
 }
 
 /// Split a 32-bit DPRAM word into `(x_low16, y_low16)`.
-pub fn dp_split(w: u32) -> (u32, u32) {
+pub(crate) fn dp_split(w: u32) -> (u32, u32) {
     (w >> 16, w & 0xFFFF)
 }
 

@@ -14,14 +14,14 @@
 //! - `LIST GATHER [start][,len]`: long words as 12 hex digits, space-separated, 16 per line.
 
 use crate::model::CardModel;
-use crate::model::Space;
 use crate::model::CardState;
+use crate::model::Space;
 
 /// `???` word 1 bit 19: data gathering on.
-pub const GATHER_ON: u32 = 1 << 19;
+pub(super) const GATHER_ON: u32 = 1 << 19;
 
 /// Long words per `LIST GATHER` line.
-pub const WORDS_PER_LINE: usize = 16;
+pub(super) const WORDS_PER_LINE: usize = 16;
 
 /// The gathered data and the sampling clock.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -123,7 +123,7 @@ impl GatherBuffer {
 }
 
 /// Read one sample: every source enabled in I20, as long words.
-pub fn read_sample(st: &mut CardState) -> Vec<u64> {
+pub(super) fn read_sample(st: &mut CardState) -> Vec<u64> {
     let mask = st.vars.i(20).unwrap_or(0.0).max(0.0) as u32;
     let mut v = Vec::new();
     for k in 0..24u32 {
@@ -145,7 +145,7 @@ pub fn read_sample(st: &mut CardState) -> Vec<u64> {
 }
 
 /// The card's gathering step of one servo cycle.
-pub fn gather_tick(card: &mut CardModel) -> bool {
+pub(crate) fn gather_tick(card: &mut CardModel) -> bool {
     let cap = card.bufs.defines.gather;
     card.gather.on_servo_cycle(&mut card.state, cap)
 }

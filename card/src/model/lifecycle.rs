@@ -4,20 +4,20 @@
 use super::card_state::CardState;
 use super::memory::{Memory, Space};
 use super::persist::{PersistError, PersistImage};
-use crate::domain::profile;
 use super::status::{CsFlags, GlobalFlags, MotorFlags};
+use crate::domain::profile;
 
 /// Memory regions SAVE keeps besides variables: ECT setup, analog table, VME/DPRAM setup.
-pub const SAVED_REGIONS: [(Space, u16, usize); 3] = [
+pub(super) const SAVED_REGIONS: [(Space, u16, usize); 3] = [
     (Space::Y, 0x0720, 0x20),
     (Space::X, 0x0708, 8),
     (Space::X, 0x0783, 10),
 ];
 
 /// Top of user buffer memory (UBUFFER grows down from here).
-pub const UBUFFER_TOP: u16 = 0x9FFF;
+pub(super) const UBUFFER_TOP: u16 = 0x9FFF;
 /// Size of user buffer memory in words ($1800-$9FFF).
-pub const USER_MEMORY_WORDS: u32 = 0x8800;
+pub(super) const USER_MEMORY_WORDS: u32 = 0x8800;
 
 impl CardState {
     /// The image `SAVE` writes. `programs` is INTERP's serialized buffer data.

@@ -13,17 +13,17 @@ pub enum Space {
 }
 
 /// Mask of a 24-bit word.
-pub const WORD: u32 = 0xFF_FFFF;
+pub(crate) const WORD: u32 = 0xFF_FFFF;
 /// Mask of a 16-bit node register (bits 8-23).
-pub const REG16: u32 = 0xFF_FF00;
+pub(crate) const REG16: u32 = 0xFF_FF00;
 /// First MACRO node register address.
-pub const NODE_BASE: u16 = 0xC0A0;
+pub(crate) const NODE_BASE: u16 = 0xC0A0;
 /// Last MACRO node register address.
-pub const NODE_LAST: u16 = 0xC0BF;
+pub(crate) const NODE_LAST: u16 = 0xC0BF;
 
 /// The node and register number (0..=3) that `space:addr` maps to, if it is a MACRO node
 /// register. Servo nodes (0,1,4,5,8,9,12,13) are in Y, I/O nodes (2,3,6,7,10,11,14,15) in X.
-pub fn node_of(space: Space, addr: u16) -> Option<(usize, usize)> {
+pub(crate) fn node_of(space: Space, addr: u16) -> Option<(usize, usize)> {
     if !(NODE_BASE..=NODE_LAST).contains(&addr) {
         return None;
     }
@@ -35,7 +35,7 @@ pub fn node_of(space: Space, addr: u16) -> Option<(usize, usize)> {
 }
 
 /// The X or Y address of register `reg` of `node` (inverse of [`node_of`]).
-pub fn node_addr(node: usize, reg: usize) -> (Space, u16) {
+pub(crate) fn node_addr(node: usize, reg: usize) -> (Space, u16) {
     let node = node % 16;
     let group = node / 4;
     let space = if node % 4 >= 2 { Space::X } else { Space::Y };
@@ -44,7 +44,7 @@ pub fn node_addr(node: usize, reg: usize) -> (Space, u16) {
 }
 
 /// Mask applied to register `reg` of a node: 24 bits for register 0, bits 8-23 otherwise.
-pub fn node_mask(reg: usize) -> u32 {
+pub(crate) fn node_mask(reg: usize) -> u32 {
     if reg == 0 {
         WORD
     } else {

@@ -23,7 +23,7 @@ mod lifecycle;
 mod memory;
 mod mvar;
 mod number;
-pub mod persist;
+pub(crate) mod persist;
 mod progline;
 mod regmap;
 mod runstate;
@@ -31,23 +31,25 @@ mod status;
 mod unsolicited;
 mod vars;
 
-pub use actions::{Action, ActionKind};
 #[cfg(test)]
-pub use actions::MAX_ACTIONS;
-pub use buffers::{list_lines, BufErr, BufId, Buffers, Rotary, StoredLine};
-pub use card::{user_memory_words, CardModel, PLCS};
-pub use card_state::{CardState, I995_STATUS_BITS};
-pub use defines::{CompTable, Layer, TableKind, TBUF_WORDS};
+pub(crate) use actions::MAX_ACTIONS;
+pub use actions::{Action, ActionKind};
+pub(crate) use buffers::{list_lines, BufErr, BufId, Buffers, Rotary, StoredLine};
+pub use card::CardModel;
+pub(crate) use card::{user_memory_words, PLCS};
+pub use card_state::CardState;
+pub(crate) use card_state::I995_STATUS_BITS;
+pub(crate) use defines::{CompTable, Layer, TableKind, TBUF_WORDS};
 pub use float48::*;
-pub use gather::gather_tick;
+pub(crate) use gather::gather_tick;
 pub use memory::*;
-pub use mvar::long;
-pub use number::*;
-pub use progline::ProgLine;
-pub use regmap::*;
-pub use runstate::{axis_def_legal, axis_def_text, PlcRun, RunState};
-pub use status::*;
-pub use unsolicited::Unsolicited;
+pub(crate) use mvar::long;
+pub(crate) use number::*;
+pub(crate) use progline::ProgLine;
+pub(crate) use regmap::*;
+pub(crate) use runstate::{axis_def_legal, axis_def_text, PlcRun, RunState};
+pub(crate) use status::*;
+pub(crate) use unsolicited::Unsolicited;
 
 #[cfg(test)]
 mod tests;

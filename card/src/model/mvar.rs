@@ -9,7 +9,7 @@ use crate::domain::ast::{MDef, MFormat, XySpace};
 
 /// Word-level access to card memory (implemented by `CardState`, which applies the special
 /// registers; and by [`super::memory::Memory`] for plain access).
-pub trait WordAccess {
+pub(crate) trait WordAccess {
     /// Read one 24-bit word (may have side effects, e.g. I995 clear-on-read).
     fn read_word(&mut self, space: Space, addr: u16) -> u32;
     /// Write one 24-bit word.
@@ -26,7 +26,7 @@ impl WordAccess for super::memory::Memory {
 }
 
 /// Upper end of the self-referenced value range.
-pub const SELF_MAX: i64 = (1 << 20) - 1;
+pub(super) const SELF_MAX: i64 = (1 << 20) - 1;
 
 fn space(s: XySpace) -> Space {
     match s {
@@ -36,7 +36,7 @@ fn space(s: XySpace) -> Space {
 }
 
 /// Check a definition against the legal widths/offsets (pmac-variables §1.2).
-pub fn validate(def: &MDef) -> Result<(), StateError> {
+pub(super) fn validate(def: &MDef) -> Result<(), StateError> {
     let bad = |m: &str| Err(StateError::BadDefinition(m.into()));
     match *def {
         MDef::Bits { offset, width, .. } => {
@@ -71,7 +71,7 @@ pub fn validate(def: &MDef) -> Result<(), StateError> {
 /// Canonical short form of a definition as `Mn->` reports it under I9=0/2
 /// (`X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002B`, `*`). Addresses print as `$`
 /// plus 4 hex digits.
-pub fn format_def(def: &MDef) -> String {
+pub(super) fn format_def(def: &MDef) -> String {
     // One formatter for `Mn->` replies and listings: `Display for MDef` (lang::listing).
     def.to_string()
 }
@@ -103,7 +103,7 @@ fn bcd_encode(v: i64, digits: u8) -> u32 {
 
 /// Read the value an M-variable pointing at `def` has. `SelfRef` is not handled here (its
 /// value lives in the definition table) and reads 0; thumbwheel forms read 0 ([DECISION]).
-pub fn read(def: &MDef, mem: &mut impl WordAccess) -> f64 {
+pub(super) fn read(def: &MDef, mem: &mut impl WordAccess) -> f64 {
     match *def {
         MDef::Bits {
             space: s,
@@ -134,7 +134,7 @@ pub fn read(def: &MDef, mem: &mut impl WordAccess) -> f64 {
 
 /// Write `v` through `def` (integer forms round half away from zero and wrap to the field).
 /// `SelfRef` and thumbwheel forms do nothing here.
-pub fn write(def: &MDef, mem: &mut impl WordAccess, v: f64) {
+pub(super) fn write(def: &MDef, mem: &mut impl WordAccess, v: f64) {
     let int = if v.is_finite() {
         v.round().clamp(-1.8e18, 1.8e18) as i64
     } else {
@@ -167,12 +167,12 @@ pub fn write(def: &MDef, mem: &mut impl WordAccess, v: f64) {
 }
 
 /// Read the 48-bit long word at `addr` (X high).
-pub fn long(mem: &mut impl WordAccess, addr: u16) -> u64 {
+pub(crate) fn long(mem: &mut impl WordAccess, addr: u16) -> u64 {
     ((mem.read_word(Space::X, addr) as u64) << 24) | mem.read_word(Space::Y, addr) as u64
 }
 
 /// Write the 48-bit long word at `addr` (X high).
-pub fn set_long(mem: &mut impl WordAccess, addr: u16, w: u64) {
+pub(super) fn set_long(mem: &mut impl WordAccess, addr: u16, w: u64) {
     mem.write_word(Space::X, addr, ((w >> 24) & 0xFF_FFFF) as u32);
     mem.write_word(Space::Y, addr, (w & 0xFF_FFFF) as u32);
 }
@@ -190,7 +190,7 @@ fn set_dp_word(mem: &mut impl WordAccess, a: u16, w: u32) {
 }
 
 /// Wrap an integer into the self-referenced range (21-bit two's complement).
-pub fn wrap_self(v: f64) -> i32 {
+pub(super) fn wrap_self(v: f64) -> i32 {
     let i = if v.is_finite() {
         v.round().clamp(-1.8e18, 1.8e18) as i64
     } else {

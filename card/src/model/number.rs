@@ -38,7 +38,7 @@ fn fixed(v: f64, decimals: usize) -> String {
 
 /// Print a variable value (I, P, Q, M, expression result) the way a PMAC does.
 /// Examples: `25`, `-373`, `17.5`, `0.0005`, `-0.333333333`, `6.666666667`.
-pub fn format_value(v: f64) -> String {
+pub(crate) fn format_value(v: f64) -> String {
     if !v.is_finite() {
         return fixed(v, 0);
     }
@@ -56,7 +56,7 @@ pub fn format_value(v: f64) -> String {
 /// Print a value in `$` hex, upper case, no padding (`$C000`, `$0`). The value is truncated to
 /// an integer; negative values print as their 24-bit two's complement (`-1` → `$FFFFFF`) when
 /// they fit in 24 bits, otherwise as 48-bit two's complement.
-pub fn format_hex(v: f64) -> String {
+pub(crate) fn format_hex(v: f64) -> String {
     let i = if v.is_finite() {
         v.trunc().clamp(-SATURATE, SATURATE) as i64
     } else {
@@ -74,12 +74,12 @@ pub fn format_hex(v: f64) -> String {
 
 /// Print a motor position, velocity or following error: counts rounded to 0.1, no trailing
 /// `.0` (`1995`, `-0.5`, `9999.5`, `0`).
-pub fn format_position(v: f64) -> String {
+pub(crate) fn format_position(v: f64) -> String {
     fixed((v * 10.0).round() / 10.0, 1)
 }
 
 /// Print a status word pair as 12 upper-case hex digits (word 1 first, 6 digits each).
-pub fn format_status_words(words: &[u32]) -> String {
+pub(crate) fn format_status_words(words: &[u32]) -> String {
     let mut s = String::with_capacity(words.len() * 6);
     for w in words {
         s.push_str(&format!("{:06X}", w & 0xFF_FFFF));
@@ -89,7 +89,7 @@ pub fn format_status_words(words: &[u32]) -> String {
 
 /// `R` reply for a short word: signed decimal of the 24-bit value (`-7389161`).
 #[cfg(test)]
-pub fn format_word_signed(w: u32) -> String {
+pub(crate) fn format_word_signed(w: u32) -> String {
     let w = w & 0xFF_FFFF;
     let v = if w & 0x80_0000 != 0 {
         w as i64 - (1 << 24)
@@ -101,7 +101,7 @@ pub fn format_word_signed(w: u32) -> String {
 
 /// `R` reply for a long (L) word: signed decimal of the 48-bit value (`3072000`).
 #[cfg(test)]
-pub fn format_long_signed(w: u64) -> String {
+pub(crate) fn format_long_signed(w: u64) -> String {
     let w = w & 0xFFFF_FFFF_FFFF;
     let v = if w & (1 << 47) != 0 {
         w as i64 - (1i64 << 48)
@@ -113,13 +113,13 @@ pub fn format_long_signed(w: u64) -> String {
 
 /// `RH` reply for a short word: 6 upper-case hex digits, no `$` (`8F4017`).
 #[cfg(test)]
-pub fn format_word_hex(w: u32) -> String {
+pub(crate) fn format_word_hex(w: u32) -> String {
     format!("{:06X}", w & 0xFF_FFFF)
 }
 
 /// `RH` reply for a long word: 12 upper-case hex digits, no `$`.
 #[cfg(test)]
-pub fn format_long_hex(w: u64) -> String {
+pub(crate) fn format_long_hex(w: u64) -> String {
     format!("{:012X}", w & 0xFFFF_FFFF_FFFF)
 }
 

@@ -22,13 +22,13 @@ use crate::domain::ast::MDef;
 use serde::{Deserialize, Serialize};
 
 /// File magic.
-pub const MAGIC: &[u8; 8] = b"MCCSAVE\0";
+pub(crate) const MAGIC: &[u8; 8] = b"MCCSAVE\0";
 /// Format version written.
-pub const VERSION: u32 = 2;
+pub(crate) const VERSION: u32 = 2;
 /// Oldest format version read.
-pub const OLDEST: u32 = 1;
+pub(crate) const OLDEST: u32 = 1;
 /// Largest payload accepted when loading (bytes).
-pub const MAX_PAYLOAD: u64 = 64 << 20;
+pub(crate) const MAX_PAYLOAD: u64 = 64 << 20;
 const HEADER: usize = 8 + 4 + 8;
 
 /// Everything SAVE keeps.
@@ -95,14 +95,14 @@ pub enum PersistError {
 }
 
 /// FNV-1a 64-bit hash.
-pub fn fnv1a64(data: &[u8]) -> u64 {
+pub(crate) fn fnv1a64(data: &[u8]) -> u64 {
     data.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ *b as u64).wrapping_mul(0x0100_0000_01b3)
     })
 }
 
 /// Serialize an image into the file format.
-pub fn encode(image: &PersistImage) -> Vec<u8> {
+pub(crate) fn encode(image: &PersistImage) -> Vec<u8> {
     // Encoding plain data into a Vec cannot fail (every stored number is finite); an empty
     // payload is still a valid frame.
     let payload = serde_json::to_vec(image).unwrap_or_default();
@@ -116,7 +116,7 @@ pub fn encode(image: &PersistImage) -> Vec<u8> {
 }
 
 /// Parse the file format. Never panics on any input.
-pub fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
+pub(crate) fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err(PersistError::BadMagic);
     }
@@ -163,9 +163,8 @@ pub fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
     }
     let mut image: PersistImage = if version == 1 {
         let cfg = bincode::config::standard().with_limit::<{ MAX_PAYLOAD as usize }>();
-        let (image, used): (PersistImage, usize) =
-            bincode::serde::decode_from_slice(payload, cfg)
-                .map_err(|e| PersistError::Decode(e.to_string()))?;
+        let (image, used): (PersistImage, usize) = bincode::serde::decode_from_slice(payload, cfg)
+            .map_err(|e| PersistError::Decode(e.to_string()))?;
         if used != payload.len() {
             return Err(PersistError::Decode("trailing bytes in payload".into()));
         }

@@ -2,7 +2,6 @@ use super::*;
 use crate::domain::Profile;
 use crate::model::{CardState, Space};
 
-
 fn sample() -> PersistImage {
     let mut s = CardState::new(Profile::Pmac2);
     s.set_ivar(130, 5000.0).unwrap();

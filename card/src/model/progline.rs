@@ -23,11 +23,7 @@ impl ProgLine {
 
 impl StoredLine for ProgLine {
     fn words(&self) -> u32 {
-        self.stmts
-            .iter()
-            .map(word_count)
-            .sum::<u32>()
-            .max(1)
+        self.stmts.iter().map(word_count).sum::<u32>().max(1)
     }
 
     fn structure(&self) -> Structure {

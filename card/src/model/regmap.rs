@@ -5,53 +5,53 @@
 use super::memory::Space;
 
 /// Global status word 1 (X) and word 2 (Y).
-pub const GLOBAL_STATUS: u16 = 0x0003;
+pub(crate) const GLOBAL_STATUS: u16 = 0x0003;
 /// Motor 1 calculation block base; motor x at + (x−1)·$3C.
-pub const MOTOR_CALC_BASE: u16 = 0x0020;
+pub(crate) const MOTOR_CALC_BASE: u16 = 0x0020;
 /// Stride between motor calculation blocks.
-pub const MOTOR_CALC_STRIDE: u16 = 0x3C;
+pub(crate) const MOTOR_CALC_STRIDE: u16 = 0x3C;
 /// Motor/C.S. 1 status and control block; block x at + (x−1)·$C0.
-pub const BLOCK_BASE: u16 = 0x0800;
+pub(crate) const BLOCK_BASE: u16 = 0x0800;
 /// Stride between motor/C.S. status blocks.
-pub const BLOCK_STRIDE: u16 = 0xC0;
+pub(crate) const BLOCK_STRIDE: u16 = 0xC0;
 /// I995 mirror (MACRO ring configuration/status).
-pub const I995_ADDR: u16 = 0xC08F;
+pub(crate) const I995_ADDR: u16 = 0xC08F;
 /// I996 mirror (MACRO node activation).
-pub const I996_ADDR: u16 = 0xC08E;
+pub(crate) const I996_ADDR: u16 = 0xC08E;
 /// Auxiliary flag images of node 0..15: X = read (status) image, Y = write (command) image.
-pub const AUX_IMAGE_BASE: u16 = 0x0F70;
+pub(crate) const AUX_IMAGE_BASE: u16 = 0x0F70;
 /// MACRO auxiliary error value (X).
-pub const AUX_ERROR_VALUE: u16 = 0x0798;
+pub(crate) const AUX_ERROR_VALUE: u16 = 0x0798;
 /// P0 in L memory (PMAC2 only, P0..P1023).
-pub const P_BASE: u16 = 0x1000;
+pub(crate) const P_BASE: u16 = 0x1000;
 /// Q0 in L memory (C.S. 1's set, Q0..Q1023).
-pub const Q_BASE: u16 = 0x1400;
+pub(crate) const Q_BASE: u16 = 0x1400;
 /// Start of the encoder conversion table (Y = setup, X = results).
-pub const ECT_BASE: u16 = 0x0720;
+pub(crate) const ECT_BASE: u16 = 0x0720;
 /// Address of motor status word 1 (X) for motor `x` (1..=8).
 #[cfg(test)]
-pub fn motor_status1(x: u16) -> u16 {
+pub(crate) fn motor_status1(x: u16) -> u16 {
     0x003Du16.wrapping_add(x.saturating_sub(1).wrapping_mul(MOTOR_CALC_STRIDE))
 }
 /// Address of motor status word 2 (Y) for motor `x` (1..=8).
 #[cfg(test)]
-pub fn motor_status2(x: u16) -> u16 {
+pub(crate) fn motor_status2(x: u16) -> u16 {
     0x0814u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }
 /// Address of C.S. status word 1 (X) for C.S. `x` (1..=8).
 #[cfg(test)]
-pub fn cs_status1(x: u16) -> u16 {
+pub(crate) fn cs_status1(x: u16) -> u16 {
     0x0818u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }
 /// Address of C.S. status word 2 (Y) for C.S. `x` (1..=8).
 #[cfg(test)]
-pub fn cs_status2(x: u16) -> u16 {
+pub(crate) fn cs_status2(x: u16) -> u16 {
     0x0817u16.wrapping_add(x.saturating_sub(1).wrapping_mul(BLOCK_STRIDE))
 }
 
 /// What a special address holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Special {
+pub(crate) enum Special {
     /// Global status word 1 or 2.
     Global(u8),
     /// Motor x status word 1 or 2.
@@ -67,7 +67,7 @@ pub enum Special {
 }
 
 /// Classify `space:addr` (PMAC2 map, 8 motors / 8 C.S.).
-pub fn classify(space: Space, addr: u16) -> Option<Special> {
+pub(crate) fn classify(space: Space, addr: u16) -> Option<Special> {
     if addr == GLOBAL_STATUS {
         return Some(Special::Global(if space == Space::X { 1 } else { 2 }));
     }

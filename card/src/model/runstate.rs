@@ -108,7 +108,7 @@ impl RunState {
 }
 
 /// Reply text of an axis definition: `1000X`, `8660X-5000Y`, `5000X+8660Y+5000`, `X`.
-pub fn axis_def_text(d: &AxisDef) -> String {
+pub(crate) fn axis_def_text(d: &AxisDef) -> String {
     let mut s = String::new();
     for (k, t) in d.terms.iter().enumerate() {
         let neg = t.scale < 0.0;
@@ -131,7 +131,7 @@ pub fn axis_def_text(d: &AxisDef) -> String {
 }
 
 /// True when all terms use one triple (XYZ or UVW) — required for multi-term definitions.
-pub fn axis_def_legal(d: &AxisDef) -> bool {
+pub(crate) fn axis_def_legal(d: &AxisDef) -> bool {
     if d.terms.is_empty() || d.terms.len() > 3 || d.terms.iter().any(|t| !t.axis.is_motion_axis()) {
         return false;
     }

@@ -241,7 +241,7 @@ pub struct CsFlags {
 }
 
 /// Word 1 bits for FRAX(X,Y,Z): Z, Y, X feedrate-axis bits.
-pub const FRAX_XYZ: u32 = (1 << 23) | (1 << 21) | (1 << 19);
+pub(crate) const FRAX_XYZ: u32 = (1 << 23) | (1 << 21) | (1 << 19);
 
 impl Default for CsFlags {
     fn default() -> Self {

@@ -1,12 +1,12 @@
 //! CardState tests: I-variable replies, mirrors, M-variables on special registers, status
 //! words bit by bit, reset and factory semantics, Turbo answers.
 
-use super::status::{MotorFlags, MoveMode};
-use super::*;
 use super::error::StateError;
 use super::persist::PersistError;
-use crate::domain::Profile;
+use super::status::{MotorFlags, MoveMode};
+use super::*;
 use crate::domain::ast::{MDef, MFormat, XySpace};
+use crate::domain::Profile;
 
 fn card() -> CardState {
     CardState::new(Profile::Pmac2)

@@ -6,11 +6,11 @@
 use std::collections::VecDeque;
 
 /// Bytes kept at most; older output is dropped first (a host that never reads loses it).
-pub const UNSOLICITED_LIMIT: usize = 64 * 1024;
+pub(super) const UNSOLICITED_LIMIT: usize = 64 * 1024;
 
 /// The log: chunks numbered from 1.
 #[derive(Debug, Default, Clone)]
-pub struct Unsolicited {
+pub(crate) struct Unsolicited {
     chunks: VecDeque<(u64, Vec<u8>)>,
     bytes: usize,
     next: u64,
@@ -18,7 +18,7 @@ pub struct Unsolicited {
 
 impl Unsolicited {
     /// Append `bytes` (ignored when empty), dropping the oldest chunks beyond the limit.
-    pub fn push(&mut self, bytes: Vec<u8>) {
+    pub(crate) fn push(&mut self, bytes: Vec<u8>) {
         if bytes.is_empty() {
             return;
         }
@@ -38,12 +38,12 @@ impl Unsolicited {
     }
 
     /// Position after the newest chunk: a reader starting here sees only later output.
-    pub fn position(&self) -> u64 {
+    pub(crate) fn position(&self) -> u64 {
         self.next
     }
 
     /// Everything after position `from`, and the new position.
-    pub fn since(&self, from: u64) -> (Vec<u8>, u64) {
+    pub(crate) fn since(&self, from: u64) -> (Vec<u8>, u64) {
         let mut out = Vec::new();
         for (n, c) in &self.chunks {
             if *n > from {

@@ -148,7 +148,7 @@ impl Default for Motor {
 }
 
 /// Round a DAC value (bits) into the 24-bit register: `round(dac·256)`, two's complement.
-pub fn dac_to_reg0(dac: f64) -> u32 {
+pub(crate) fn dac_to_reg0(dac: f64) -> u32 {
     let v = (dac * 256.0).round().clamp(-8_388_608.0, 8_388_607.0) as i32;
     (v as u32) & 0xFF_FFFF
 }

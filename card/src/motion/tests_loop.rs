@@ -331,6 +331,7 @@ fn home_search_finds_flag_and_sets_zero_at_offset() {
 /// Servo tick cost: `cargo test -p mcc-card --release --lib motion::tests_loop::bench -- --ignored --nocapture`.
 #[test]
 #[ignore]
+#[allow(clippy::disallowed_methods)] // a timing probe, not a test
 fn bench_servo_tick_cost() {
     let mut rigs: Vec<Rig> = (0..8).map(|_| Rig::new(MotorParams::default())).collect();
     for r in &mut rigs {

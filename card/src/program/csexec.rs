@@ -8,33 +8,33 @@ use std::sync::Arc;
 use super::compile::{compile, Compiled};
 use super::config::{axis_defs, cs_axes, cs_config};
 use crate::coord::cs::CoordSystem;
-use crate::model::CardModel;
 use crate::domain::ast::{AssignOp, AxisDef, PreludeCall};
-use crate::motion::motor::Motor;
+use crate::model::CardModel;
 use crate::model::Space;
+use crate::motion::motor::Motor;
 
 /// Deepest CALL/GOSUB nesting (the top level counts as one): a 16th nested call is run-time
 /// error 5 (spec §5.2 decision).
-pub const MAX_FRAMES: usize = 16;
+pub(crate) const MAX_FRAMES: usize = 16;
 
 /// X:$0799: the run-time error code register.
-pub const RUNTIME_ERROR_ADDR: u16 = 0x0799;
+pub(crate) const RUNTIME_ERROR_ADDR: u16 = 0x0799;
 
 /// Run-time error codes (X:$0799, spec §5.2), plus this card's own 7-9.
-pub mod rte {
+pub(crate) mod rte {
     /// Program counter past program end (program missing or damaged while running).
-    pub const PAST_END: u32 = 3;
+    pub(crate) const PAST_END: u32 = 3;
     /// Unlinked conditional (structure the flattener could not link).
-    pub const UNLINKED: u32 = 4;
+    pub(crate) const UNLINKED: u32 = 4;
     /// Subroutine stack overflow.
-    pub const STACK: u32 = 5;
+    pub(crate) const STACK: u32 = 5;
     /// GOTO label not found (also a `B` label missing at R/S).
-    pub const LABEL: u32 = 6;
+    pub(crate) const LABEL: u32 = 6;
     /// [DECISION] a variable could not be read/written (bad number, read-only, out of range).
-    pub const VARIABLE: u32 = 7;
+    pub(crate) const VARIABLE: u32 = 7;
     /// [DECISION] a move COORD refused (no motors, bad time/feedrate, impossible circle, TA=TS=0,
     /// position out of range, missing transformation matrix, singular matrix).
-    pub const MOVE: u32 = 8;
+    pub(crate) const MOVE: u32 = 8;
 }
 
 /// Which buffer a frame executes.
@@ -288,7 +288,7 @@ impl CsExec {
 }
 
 /// Commanded positions of `list` (1-based motor numbers).
-pub fn commanded(motors: &[Motor], list: &[u16]) -> Vec<f64> {
+pub(crate) fn commanded(motors: &[Motor], list: &[u16]) -> Vec<f64> {
     list.iter()
         .map(|&m| {
             motors

@@ -26,16 +26,16 @@
 //! negative times, TA = TS = 0, impossible circle, missing/singular matrix), see
 //! [`csexec::rte`].
 
-pub mod compile;
-pub mod config;
-pub mod csexec;
-pub mod env;
-pub mod motion;
+pub(crate) mod compile;
+pub(crate) mod config;
+pub(crate) mod csexec;
+pub(crate) mod env;
+pub(crate) mod motion;
 mod motion_exec;
 mod motion_move;
-pub mod plc;
+pub(crate) mod plc;
 mod runctl;
-pub mod stmt;
+pub(crate) mod stmt;
 
 #[cfg(test)]
 mod tests_compile;
@@ -104,7 +104,12 @@ impl ProgramEngine {
     /// Take a coordinate-system or program action (R, S, Q, A, H, B, /, \, PC, PE, CTRL-R/S/Q/
     /// O/A, ...). Returns `false` when the action is not the engine's (motor actions) — and
     /// for `A`, CTRL-A and CTRL-K, whose motor side the servo loop also applies.
-    pub fn handle_action(&mut self, card: &mut CardModel, motors: &[Motor], action: &Action) -> bool {
+    pub fn handle_action(
+        &mut self,
+        card: &mut CardModel,
+        motors: &[Motor],
+        action: &Action,
+    ) -> bool {
         self.ensure(card);
         match &action.kind {
             ActionKind::AbortAll | ActionKind::KillAll => {

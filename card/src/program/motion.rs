@@ -12,14 +12,14 @@ use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait, MAX_FRAMES};
 use super::env;
 use super::stmt::QueuedCmd;
 use crate::coord::moves::{Feed, Mode};
-use crate::model::ProgLine;
-use crate::model::CardModel;
 use crate::domain::ast::{CodeLetter, LetterArg, PreludeCall, StmtKind};
-use crate::motion::motor::Motor;
+use crate::model::CardModel;
 use crate::model::MoveMode as StatusMode;
+use crate::model::ProgLine;
+use crate::motion::motor::Motor;
 
 /// Most instructions one calculation pass executes.
-pub const MAX_OPS_PER_PASS: u32 = 1000;
+pub(crate) const MAX_OPS_PER_PASS: u32 = 1000;
 
 /// Outcome of one statement.
 pub(super) enum Flow {
@@ -406,7 +406,7 @@ pub(super) fn label_number(v: f64) -> u32 {
 }
 
 /// `CALL{v}`: program int(v) at label N(frac × 100000).
-pub fn call_target(v: f64) -> (u32, u32) {
+pub(crate) fn call_target(v: f64) -> (u32, u32) {
     if !(0.0..4_294_967_296.0).contains(&v) {
         return (0, 0);
     }
@@ -415,7 +415,7 @@ pub fn call_target(v: f64) -> (u32, u32) {
 }
 
 /// G/M/T/D{c}: PROG 1000 + 10·hundreds + k at label N(rest × 1000).
-pub fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
+pub(crate) fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
     if !(c.is_finite() && (0.0..1000.0).contains(&c)) {
         return (0, 0);
     }

@@ -8,8 +8,8 @@ use super::motion_move::qs;
 use super::stmt::{exec_common, Common, Ctx};
 use crate::coord::axes::axis_index;
 use crate::coord::moves::Mode;
-use crate::model::CardModel;
 use crate::domain::ast::{AssignOp, Axis, MoveMode, Stmt, StmtKind};
+use crate::model::CardModel;
 use crate::motion::motor::Motor;
 
 impl CsExec {

@@ -7,8 +7,8 @@ use super::motion::Flow;
 use crate::coord::axes::axis_index;
 use crate::coord::cs::{CoordSystem, MoveWords};
 use crate::coord::CoordError;
-use crate::model::{Action, ActionKind, CardModel};
 use crate::domain::ast::{Axis, AxisExtra, AxisWord, NumRange};
+use crate::model::{Action, ActionKind, CardModel};
 
 impl CsExec {
     /// Apply a modal change to the trajectory (created on demand).

@@ -8,12 +8,12 @@ use std::sync::Arc;
 use super::compile::{compile, Compiled, Op};
 use super::env;
 use super::stmt::{exec_common, run_cmds, Commands, Common, Ctx, QueuedCmd};
-use crate::model::CardModel;
 use crate::domain::ast::PlcVerb;
+use crate::model::CardModel;
 
 /// Most instructions one PLC scan executes; a scan that reaches it ends there and the next
 /// scan continues from that point ([DECISION] the runaway guard).
-pub const PLC_SCAN_BUDGET: u32 = 2000;
+pub(crate) const PLC_SCAN_BUDGET: u32 = 2000;
 
 /// Run-state of one PLC.
 #[derive(Debug, Clone, Default)]

@@ -7,10 +7,10 @@ use crate::domain::ast::{AssignOp, Message, NumRange, PlcVerb, SendPort, StmtKin
 use crate::model::CardModel;
 
 /// Most bytes of unsolicited output kept for the host before the oldest are dropped.
-pub const MAX_OUTPUT: usize = 65_536;
+pub(crate) const MAX_OUTPUT: usize = 65_536;
 
 /// Most queued program commands (`CMD`) per calculation pass or PLC scan.
-pub const MAX_CMDS: usize = 64;
+pub(crate) const MAX_CMDS: usize = 64;
 
 /// A queued `CMD"…"` / `CMD^x` with the issuing program's addressing.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,7 +47,7 @@ impl Commands for NoCommands {
 }
 
 /// Execution context of one statement.
-pub struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     /// Motor for `CMD` lines without `#`.
     pub motor: u16,
     /// C.S. of the Q-variables and of `CMD` lines without `&`.
@@ -62,7 +62,7 @@ pub struct Ctx<'a> {
 
 /// What a shared statement did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Common {
+pub(crate) enum Common {
     /// Done.
     Done,
     /// A variable could not be read or written (bad number / value): run-time error.
@@ -79,7 +79,7 @@ pub enum Common {
 }
 
 /// Append `bytes` to the bounded output queue.
-pub fn emit(out: &mut Vec<u8>, bytes: &[u8]) {
+pub(crate) fn emit(out: &mut Vec<u8>, bytes: &[u8]) {
     out.extend_from_slice(bytes);
     if out.len() > MAX_OUTPUT {
         let cut = out.len() - MAX_OUTPUT;
@@ -107,7 +107,7 @@ fn send(card: &CardModel, out: &mut Vec<u8>, msg: &Message) {
 }
 
 /// Execute a shared statement.
-pub fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
+pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
     match s {
         StmtKind::Assign {
             target,
@@ -188,7 +188,7 @@ pub fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Com
 }
 
 /// Run queued program commands (after a PLC scan / calculation pass); their replies go to `out`.
-pub fn run_cmds(
+pub(crate) fn run_cmds(
     card: &mut CardModel,
     cmd: &mut dyn Commands,
     cmds: &mut Vec<QueuedCmd>,

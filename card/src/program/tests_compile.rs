@@ -1,10 +1,10 @@
 //! Tests of the flattener: jump targets of block and one-line structures, labels, offsets.
 
 use super::compile::{compile, Op, Unlinked};
-use crate::model::ProgLine;
 use crate::domain::ast::StmtKind;
 use crate::lang::ast::BufferKind;
 use crate::lang::parse_program_line;
+use crate::model::ProgLine;
 
 fn lines(text: &str, kind: BufferKind) -> Vec<ProgLine> {
     text.lines()

@@ -11,7 +11,7 @@ use crate::lang::interp::Session;
 use crate::servo::Servo;
 
 /// Servo rate the share of a core is computed for, Hz.
-pub const RATE_HZ: f64 = 2258.7;
+pub(crate) const RATE_HZ: f64 = 2258.7;
 
 /// Result of [`run_servo_bench`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,7 +94,7 @@ pub fn run_servo_bench() -> ServoBenchReport {
 }
 
 /// Servo ticks per phase of [`run_servo_load_bench`].
-pub const LOAD_TICKS: usize = 4_000;
+pub(crate) const LOAD_TICKS: usize = 4_000;
 
 /// Timing of one phase of the load benchmark, ns.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -201,7 +201,10 @@ fn phase(
             for m in 1..=MOTORS {
                 let target = if (c / 2000) % 2 == 0 { 10_000 } else { 0 };
                 let line = format!("#{m}J={target}");
-                let _ = runner.core.card.command_line(&mut Session::default(), line.as_bytes());
+                let _ = runner
+                    .core
+                    .card
+                    .command_line(&mut Session::default(), line.as_bytes());
             }
         }
         plant.step(&mut runner.core.card.model, &NODES);
@@ -235,7 +238,8 @@ pub fn run_servo_load_bench() -> std::io::Result<ServoLoadReport> {
     let dir = std::env::temp_dir().join(format!("mcc-bench-servo-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let storage = crate::service::storage::FileStorage::new(dir.join("card.sav"));
-    let (mut runner, handle) = crate::service::handle::channel(CardCore::new(turbo_card()), Some(storage));
+    let (mut runner, handle) =
+        crate::service::handle::channel(CardCore::new(turbo_card()), Some(storage));
     let mut plant = LoopbackPlant::default();
     let replies = Arc::new(AtomicU64::new(0));
     let idle = phase(&mut runner, &mut plant, 0, &replies);
@@ -275,7 +279,9 @@ pub fn run_servo_load_bench() -> std::io::Result<ServoLoadReport> {
     // Let the hosts' last requests finish.
     let deadline = Instant::now() + std::time::Duration::from_secs(30);
     while hosts.iter().any(|h| !h.is_finished()) && Instant::now() < deadline {
-        runner.pump(&mut crate::lang::interp::Budget::new(crate::core::SLICE_UNITS * 8));
+        runner.pump(&mut crate::lang::interp::Budget::new(
+            crate::core::SLICE_UNITS * 8,
+        ));
         std::thread::sleep(std::time::Duration::from_micros(200));
     }
     for h in hosts {

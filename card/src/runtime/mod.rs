@@ -4,18 +4,18 @@
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
-pub mod bench_servo;
-pub mod ring_app;
-pub mod standalone;
+pub(crate) mod bench_servo;
+pub(crate) mod ring_app;
+pub(crate) mod standalone;
 
 use anyhow::{anyhow, Context};
 use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
+use crate::core::CardCore;
 use crate::host::server::{serve, PortsConfig};
 use crate::host::zenoh_cmd::declare_cmd_queryable;
-use crate::core::CardCore;
 use crate::lang::interp::{Card, Profile};
 use crate::service::storage::{self, FileStorage};
 use crate::service::{chain, handle, sync_start};
@@ -133,7 +133,10 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
 /// `<file>.bad-<n>` and never silently overwritten (the next SAVE writes a fresh file).
 /// Stale temporaries of a SAVE cut short are removed. Returns the reason a bad image was
 /// refused.
-pub fn startup_card(profile: Profile, storage: Option<&FileStorage>) -> (Card, Option<String>) {
+pub(crate) fn startup_card(
+    profile: Profile,
+    storage: Option<&FileStorage>,
+) -> (Card, Option<String>) {
     let mut card = Card::new(profile);
     let Some(st) = storage else {
         return (card, None);

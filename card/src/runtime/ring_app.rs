@@ -14,9 +14,9 @@
 
 use mcc_ring::check::RingCheck;
 use mcc_ring::core::{RingApp, RingControl};
-use mcc_ring::settings::RingSettings;
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
+use mcc_ring::settings::RingSettings;
 
 use super::handle::{Runner, StartupLayer};
 use crate::core::{CardCore, SLICE_UNITS};
@@ -33,8 +33,7 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
     let max = card.state.limits().motors.min(8);
     for x in 1..=max {
         let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
-        let Some((node, 0)) =
-            crate::model::node_of(crate::model::Space::Y, (ix02 & 0xFFFF) as u16)
+        let Some((node, 0)) = crate::model::node_of(crate::model::Space::Y, (ix02 & 0xFFFF) as u16)
         else {
             continue;
         };
@@ -54,7 +53,7 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
 
 /// Convert latched node registers to the card's 24-bit register words (16-bit registers sit in
 /// bits 8-23, spec §6.5).
-pub fn regs_to_words(r: NodeRegs) -> [u32; 4] {
+pub(crate) fn regs_to_words(r: NodeRegs) -> [u32; 4] {
     [
         r.r0 & 0xFF_FFFF,
         u32::from(r.r1) << 8,
@@ -64,7 +63,7 @@ pub fn regs_to_words(r: NodeRegs) -> [u32; 4] {
 }
 
 /// Convert the card's command words to node registers.
-pub fn words_to_regs(w: [u32; 4]) -> NodeRegs {
+pub(crate) fn words_to_regs(w: [u32; 4]) -> NodeRegs {
     NodeRegs {
         r0: w[0] & 0xFF_FFFF,
         r1: ((w[1] >> 8) & 0xFFFF) as u16,
@@ -433,7 +432,10 @@ mod tests {
         let (mut app, h) = app(Card::new(Profile::Pmac2), &[0]);
         let conn = h.new_conn();
         let t = std::thread::spawn(move || {
-            h.host(conn, crate::core::HostRequest::Line(b"I3=2 P1=7 P1".to_vec()))
+            h.host(
+                conn,
+                crate::core::HostRequest::Line(b"I3=2 P1=7 P1".to_vec()),
+            )
         });
         let mut member = RingMember::new(RingSettings::new(0x30, 0x1));
         let mut cycle = 1;
@@ -476,7 +478,10 @@ mod tests {
         // I1001 from 0 to > 0 arms the check only at a reset (spec §6.8).
         assert_eq!(ask(&mut app, b"I1001=0"), b"\x06");
         core.tick_app(&mut app, 4, 0);
-        assert!(core.check().armed(), "armed at reset: stays armed, period 0");
+        assert!(
+            core.check().armed(),
+            "armed at reset: stays armed, period 0"
+        );
         assert_eq!(core.check().params().period, 0);
     }
 

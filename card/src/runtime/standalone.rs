@@ -7,12 +7,12 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use crate::host::server::{serve, PortsConfig};
 use crate::core::CardCore;
+use crate::host::server::{serve, PortsConfig};
 use crate::lang::interp::Profile;
+use crate::runtime::startup_card;
 use crate::service::handle::channel;
 use crate::service::storage::FileStorage;
-use crate::runtime::startup_card;
 
 /// Options of the standalone mode.
 #[derive(Debug, Clone, Default)]
@@ -30,7 +30,7 @@ pub struct StandaloneOpts {
 }
 
 /// The line printed once the ports listen.
-pub fn ports_json(ascii: u16, pmac_eth: u16) -> String {
+pub(crate) fn ports_json(ascii: u16, pmac_eth: u16) -> String {
     format!("{{\"ascii\":{ascii},\"pmac_eth\":{pmac_eth}}}")
 }
 

@@ -30,18 +30,18 @@
 use std::collections::HashMap;
 
 use mcc_ring::control::chain::{
-    chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE,
-    OP_QUERY_START, OP_TAKE_START,
+    chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE, OP_QUERY_START,
+    OP_TAKE_START,
 };
 use zenoh::Wait;
 
-use crate::lang::interp::overlong_probe;
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
-use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
 use crate::lang::ast::CmdKind;
+use crate::lang::interp::overlong_probe;
+use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
-pub const MAX_CONNECTIONS: usize = 64;
+pub(crate) const MAX_CONNECTIONS: usize = 64;
 
 /// One chain connection as seen by this card.
 #[derive(Debug)]
@@ -75,7 +75,7 @@ impl Conn {
 
 /// This card's receivers, one per chain connection (pure: bytes in, reply segments out).
 #[derive(Debug, Default)]
-pub struct ChainPort {
+pub(crate) struct ChainPort {
     conns: HashMap<u64, Conn>,
     clock: u64,
 }
@@ -86,25 +86,25 @@ fn hex_digit(b: u8) -> Option<u8> {
 
 impl ChainPort {
     /// No connections yet.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// Number of connections remembered.
     #[cfg(test)]
-    pub fn connections(&self) -> usize {
+    pub(crate) fn connections(&self) -> usize {
         self.conns.len()
     }
 
     /// Connection `id` is gone: close the buffer it left open, forget its state.
-    pub fn close(&mut self, card: &mut Card, id: u64) {
+    pub(crate) fn close(&mut self, card: &mut Card, id: u64) {
         if let Some(c) = self.conns.remove(&id) {
             card.end_session(&c.session);
         }
     }
 
     /// Run one request against the card; the encoded reply.
-    pub fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Vec<u8> {
+    pub(crate) fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Vec<u8> {
         match req.op {
             OP_CLOSE => {
                 self.close(card, req.conn);
@@ -117,7 +117,7 @@ impl ChainPort {
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
-    pub fn start_flags(&self, card: &mut Card, id: u64) -> u8 {
+    pub(crate) fn start_flags(&self, card: &mut Card, id: u64) -> u8 {
         match self.conns.get(&id) {
             Some(c) if starts_program(card, c) => {
                 FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
@@ -131,7 +131,7 @@ impl ChainPort {
     /// taken) when the line does not start a program. The card then stays silent at the
     /// `<CR>` that would have executed it, and the connection's motor/C.S. follow the line's
     /// `#n`/`&n` as if it had run here.
-    pub fn take_start(&mut self, card: &mut Card, id: u64) -> Vec<u8> {
+    pub(crate) fn take_start(&mut self, card: &mut Card, id: u64) -> Vec<u8> {
         let flags = self.start_flags(card, id);
         let Some(c) = self.conns.get_mut(&id) else {
             return Vec::new();
@@ -155,7 +155,7 @@ impl ChainPort {
     }
 
     /// Feed chain input of connection `id`; returns (position, reply bytes) segments.
-    pub fn feed(&mut self, card: &mut Card, id: u64, data: &[u8]) -> Vec<(u32, Vec<u8>)> {
+    pub(crate) fn feed(&mut self, card: &mut Card, id: u64, data: &[u8]) -> Vec<(u32, Vec<u8>)> {
         self.clock += 1;
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
             let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
@@ -321,7 +321,7 @@ fn execute(card: &mut Card, c: &mut Conn) -> Vec<u8> {
 
 /// Start-up: the card's chain number (I0) from the config and software addressing on (I1 bit
 /// 1), so the cluster's chain works out of the box. Config `ivars` applied later still win.
-pub fn apply_chain_defaults(card: &mut Card, number: u8) {
+pub(crate) fn apply_chain_defaults(card: &mut Card, number: u8) {
     let mut s = Session::default();
     let i1 = card.state.peek_ivar(1).unwrap_or(0.0) as u32 | 2;
     let line = format!("I0={} I1={i1}", number & 0xF);
@@ -329,7 +329,7 @@ pub fn apply_chain_defaults(card: &mut Card, number: u8) {
 }
 
 /// Declare the chain queryable of card `n` of `cluster`. Keep the returned value alive.
-pub async fn declare_chain_queryable(
+pub(crate) async fn declare_chain_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,

@@ -22,9 +22,9 @@ use crate::lang::interp::{Budget, Effect, EffectResult, Session, Storage};
 use crate::model::Unsolicited;
 
 /// Requests waiting for the servo thread at most.
-pub const QUEUE: usize = 1024;
+pub(crate) const QUEUE: usize = 1024;
 /// Longest a caller waits for a reply (a heavy line takes seconds; a dead card never answers).
-pub const REPLY_TIMEOUT: Duration = Duration::from_secs(120);
+pub(crate) const REPLY_TIMEOUT: Duration = Duration::from_secs(120);
 /// Requests taken from the channel per pump (the rest wait for the next one).
 const DRAIN_PER_PUMP: usize = 256;
 
@@ -63,7 +63,7 @@ struct Envelope {
 
 /// State shared with the host side that is not the card's: the unsolicited-output log.
 #[derive(Debug, Default)]
-pub struct Shared {
+pub(crate) struct Shared {
     unsolicited: Mutex<Unsolicited>,
     next_conn: AtomicU64,
 }
@@ -137,14 +137,14 @@ impl CardHandle {
 
 /// The thread that performs effects (file writes and reads) for the servo thread.
 #[derive(Debug)]
-pub struct IoWorker {
+pub(crate) struct IoWorker {
     tx: Sender<(u64, Effect)>,
     rx: Receiver<(u64, EffectResult)>,
 }
 
 impl IoWorker {
     /// Start the worker over `storage` (none: SAVE keeps nothing, nothing was saved).
-    pub fn start(storage: Option<FileStorage>) -> Self {
+    pub(crate) fn start(storage: Option<FileStorage>) -> Self {
         let (tx, jobs) = bounded::<(u64, Effect)>(64);
         let (done, rx) = bounded::<(u64, EffectResult)>(64);
         let spawned = std::thread::Builder::new()
@@ -178,7 +178,7 @@ impl IoWorker {
 
 /// What the card's start-up applies on top of its saved (or factory) image, and re-applies
 /// after every reset: the cluster config is the card's hardware setup.
-pub type StartupLayer = Box<dyn Fn(&mut crate::lang::interp::Card)>;
+pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::interp::Card)>;
 
 /// The servo thread's side: owns the [`CardCore`].
 pub struct Runner {
@@ -208,7 +208,7 @@ impl std::fmt::Debug for Runner {
 }
 
 /// A runner for `core` and the handle that reaches it.
-pub fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, CardHandle) {
+pub(crate) fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, CardHandle) {
     let (tx, rx) = bounded(QUEUE);
     let shared = Arc::new(Shared::default());
     let runner = Runner {

@@ -6,7 +6,7 @@
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
-pub mod chain;
-pub mod handle;
-pub mod storage;
-pub mod sync_start;
+pub(crate) mod chain;
+pub(crate) mod handle;
+pub(crate) mod storage;
+pub(crate) mod sync_start;

@@ -10,7 +10,7 @@ use crate::lang::interp::Storage;
 use crate::model::persist::{decode, encode, PersistError, PersistImage};
 
 /// Temporary file name used while writing `path`.
-pub fn temp_path(path: &Path) -> PathBuf {
+pub(crate) fn temp_path(path: &Path) -> PathBuf {
     let mut name = path
         .file_name()
         .map(|n| n.to_os_string())
@@ -21,7 +21,7 @@ pub fn temp_path(path: &Path) -> PathBuf {
 
 /// Write `bytes` to `path` atomically: temp file in the same directory, write, fsync, rename,
 /// fsync the directory.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let tmp = temp_path(path);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
@@ -43,13 +43,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// Save an image to `path` atomically.
 #[cfg(test)]
-pub fn save(path: &Path, image: &PersistImage) -> std::io::Result<()> {
+pub(crate) fn save(path: &Path, image: &PersistImage) -> std::io::Result<()> {
     write_atomic(path, &encode(image))
 }
 
 /// Load the image at `path`; `Ok(None)` when there is no file (fresh card).
 #[cfg(test)]
-pub fn load(path: &Path) -> Result<Option<PersistImage>, PersistError> {
+pub(crate) fn load(path: &Path) -> Result<Option<PersistImage>, PersistError> {
     match read(path).map_err(PersistError::Io)? {
         Some(bytes) => decode(&bytes).map(Some),
         None => Ok(None),
@@ -57,7 +57,7 @@ pub fn load(path: &Path) -> Result<Option<PersistImage>, PersistError> {
 }
 
 /// The bytes at `path`; `Ok(None)` when there is no file.
-pub fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
+pub(crate) fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
     match std::fs::read(path) {
         Ok(bytes) => Ok(Some(bytes)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
@@ -67,7 +67,7 @@ pub fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
 
 /// Remove temporaries a SAVE cut short left beside `path` (`<name>.tmp<pid>`: the process was
 /// killed between writing and renaming). Returns how many were removed.
-pub fn remove_stale_temporaries(path: &Path) -> usize {
+pub(crate) fn remove_stale_temporaries(path: &Path) -> usize {
     let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
         return 0;
     };
@@ -96,7 +96,7 @@ pub fn remove_stale_temporaries(path: &Path) -> usize {
 
 /// Move a refused state file aside (`<name>.bad-<n>`, the first free n) so nothing overwrites
 /// it; the new name, or `None` when it could not be moved.
-pub fn keep_aside(path: &Path) -> Option<PathBuf> {
+pub(crate) fn keep_aside(path: &Path) -> Option<PathBuf> {
     if !path.is_file() {
         return None;
     }

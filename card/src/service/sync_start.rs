@@ -30,17 +30,17 @@ use crate::lang::interp::{Card, MAX_LINE};
 use crate::model::Action;
 
 /// Most armed (pending) lines at once.
-pub const MAX_PENDING: usize = 16;
+pub(crate) const MAX_PENDING: usize = 16;
 /// Executed lines remembered for `result` queries.
-pub const MAX_RESULTS: usize = 64;
+pub(crate) const MAX_RESULTS: usize = 64;
 /// Furthest ahead a line may be armed, in ring cycles.
-pub const MAX_LEAD_CYCLES: u64 = 100_000_000;
+pub(crate) const MAX_LEAD_CYCLES: u64 = 100_000_000;
 /// Largest request accepted, bytes.
-pub const MAX_REQUEST: usize = 4096;
+pub(crate) const MAX_REQUEST: usize = 4096;
 /// Queries answered at once (more are refused as busy).
 const MAX_IN_FLIGHT: usize = 64;
 /// Test-only: answer each `at` query after a random delay of 0..=N ms.
-pub const DELAY_ENV: &str = "MCC_TEST_AT_DELAY_MS";
+pub(crate) const DELAY_ENV: &str = "MCC_TEST_AT_DELAY_MS";
 
 #[derive(Debug, Clone)]
 struct Pending {
@@ -312,7 +312,7 @@ impl SyncCore {
 }
 
 /// Ring fault and killed motors from the card's state.
-pub fn fill_card_info(card: &Card, r: &mut AtReply) {
+pub(crate) fn fill_card_info(card: &Card, r: &mut AtReply) {
     r.ring_fault = card.state.global.ring_fault;
     let mut activated = 0;
     let motors = usize::from(card.state.limits().motors);
@@ -330,7 +330,7 @@ pub fn fill_card_info(card: &Card, r: &mut AtReply) {
 }
 
 /// Parse one query payload and have the card answer it.
-pub fn answer_payload(card: &CardHandle, payload: &[u8]) -> AtReply {
+pub(crate) fn answer_payload(card: &CardHandle, payload: &[u8]) -> AtReply {
     if payload.len() > MAX_REQUEST {
         return AtReply::err(format!("request longer than {MAX_REQUEST} bytes"));
     }
@@ -358,7 +358,7 @@ fn test_delay() -> Option<Duration> {
 
 /// Declare the `at` queryable of card `n`. Each query is answered on a short-lived thread
 /// (never blocking zenoh's callback thread). Keep the returned value alive.
-pub fn declare_at_queryable(
+pub(crate) fn declare_at_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,

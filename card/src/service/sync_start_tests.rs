@@ -169,25 +169,19 @@ fn a_late_commit_stalls_the_tick_and_still_runs_at_its_cycle() {
 fn unscheduled_program_starts_are_recorded_at_the_tick_that_takes_them() {
     let mut t = ready_card(Duration::from_millis(5));
     t.tick(1, true);
-    let r = t
-        .card()
-        .command_line(&mut Session::default(), b"&1B1R");
+    let r = t.card().command_line(&mut Session::default(), b"&1B1R");
     assert!(!r.contains(&0x07), "{r:?}");
     t.tick(2, true);
     assert_eq!(t.program_start().0, Some(2));
     t.tick(3, true);
     assert_eq!(t.program_start().0, Some(2));
     // Without a consumer the actions stay queued: an old R is not a new start.
-    let _ = t
-        .card()
-        .command_line(&mut Session::default(), b"&1R");
+    let _ = t.card().command_line(&mut Session::default(), b"&1R");
     t.tick(4, false);
     t.tick(5, false);
     assert_eq!(t.program_start().0, Some(4));
     // A refused R (ERR015: no program) records nothing.
-    let r = t
-        .card()
-        .command_line(&mut Session::default(), b"&1B7R");
+    let r = t.card().command_line(&mut Session::default(), b"&1B7R");
     assert!(r.contains(&0x07));
     t.tick(6, false);
     assert_eq!(t.program_start().0, Some(4));

@@ -26,7 +26,7 @@ use crate::program::ProgramEngine;
 use super::registers::jog_register;
 
 /// Apply one drained action.
-pub fn apply_action(
+pub(super) fn apply_action(
     card: &mut CardModel,
     motors: &mut [Motor],
     params: &[MotorParams],

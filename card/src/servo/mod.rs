@@ -24,25 +24,23 @@ mod aux_copy;
 mod ect_pass;
 mod registers;
 
-
-
 use crate::model::CardModel;
+use crate::model::Space;
+use crate::model::{gather_tick, CardState};
 use crate::motion::flags::{FlagInputs, AMP_ENABLE_BIT};
 use crate::motion::motor::{Motor, TickInput, TickOutput, TripScope};
 use crate::motion::params::MotorParams;
 use crate::program::{Commands, ProgramEngine};
-use crate::model::Space;
-use crate::model::{gather_tick, CardState};
 
 use ect_pass::EctPass;
 
 /// Servo cycles after an amplifier enable during which the amp-fault input is ignored: the
 /// enable and the fault flag each take a few ring cycles to travel (spec §6.7, firmware 1.16D
 /// "flags are transferred every 2 cycles"; the ring adds 2-3).
-pub const AMP_FAULT_DELAY: u32 = 8;
+pub(crate) const AMP_FAULT_DELAY: u32 = 8;
 
 /// Default I10: servo interrupt time in 1/2^23 ms (2258.7 Hz).
-pub const DEFAULT_I10: f64 = 3_713_707.0;
+pub(crate) const DEFAULT_I10: f64 = 3_713_707.0;
 
 /// The servo side of one card: motors, ECT state, program engine.
 #[derive(Debug)]
@@ -120,7 +118,9 @@ impl Servo {
         }
         self.ring_fault_seen = ring_fault;
         let dt_ms = Self::cycle_ms(card);
-        let setpoints = self.engine.servo_tick(card, cmd, &self.motors, cycle, dt_ms);
+        let setpoints = self
+            .engine
+            .servo_tick(card, cmd, &self.motors, cycle, dt_ms);
         let mut trips = Vec::new();
         self.outs.clear();
         self.outs.resize(self.motors.len(), TickOutput::default());

@@ -7,9 +7,9 @@ use super::{ClusterConfig, ConfigError, SYNC_NODE};
 /// Most members one ring may hold.
 pub const MAX_MEMBERS: usize = 64;
 /// Highest accepted ring rate, Hz.
-pub const MAX_RATE_HZ: f64 = 1_000_000.0;
+pub(super) const MAX_RATE_HZ: f64 = 1_000_000.0;
 /// Highest I-variable number accepted in `ivars` (Turbo numbering).
-pub const MAX_IVAR: u32 = 8191;
+pub(super) const MAX_IVAR: u32 = 8191;
 const MAX_NAME: usize = 64;
 
 type R = Result<(), ConfigError>;
@@ -64,7 +64,7 @@ fn check_nodes(key: &str, nodes: &[u8]) -> R {
 }
 
 /// Check every rule of the config format.
-pub fn validate(cfg: &ClusterConfig) -> R {
+pub(super) fn validate(cfg: &ClusterConfig) -> R {
     check_name("cluster", &cfg.cluster)?;
     check_name("ring.name", &cfg.ring.name)?;
     if !cfg.rate_hz.is_finite() || cfg.rate_hz <= 0.0 || cfg.rate_hz > MAX_RATE_HZ {

@@ -4,13 +4,13 @@
 use super::exec::Out;
 use super::reply::{command_checksum, control_line};
 use super::{Pmac, Session};
-use crate::model::{Action, ActionKind};
 use crate::lang::ast::CmdKind;
 use crate::model::format_position;
+use crate::model::{Action, ActionKind};
 
 /// CTRL-N reply: the checksum of the characters received so far on the current line (the host
 /// port owns the partial line and answers CTRL-N with this byte itself).
-pub fn ctrl_n(partial_line: &[u8]) -> Vec<u8> {
+pub(crate) fn ctrl_n(partial_line: &[u8]) -> Vec<u8> {
     vec![command_checksum(partial_line)]
 }
 
@@ -24,7 +24,8 @@ impl Pmac<'_> {
     }
 
     fn motor_reports(&self, pick: impl Fn(&(f64, f64, f64)) -> f64) -> String {
-        self.model.run
+        self.model
+            .run
             .report
             .iter()
             .map(|r| format_position(pick(r)))
@@ -62,7 +63,12 @@ impl Pmac<'_> {
                     self.model.state.coords[cs as usize - 1].continuous_request = false;
                 }
                 for m in 1..=self.model.state.limits().motors {
-                    let active = self.model.state.peek_ivar(100 * u32::from(m)).unwrap_or(0.0) != 0.0;
+                    let active = self
+                        .model
+                        .state
+                        .peek_ivar(100 * u32::from(m))
+                        .unwrap_or(0.0)
+                        != 0.0;
                     if let Some(fl) = self.model.state.motors.get_mut(m as usize - 1) {
                         if active {
                             fl.open_loop = false;
@@ -71,22 +77,34 @@ impl Pmac<'_> {
                         }
                     }
                 }
-                self.model.run.motors.iter_mut().for_each(|r| r.moving = false);
+                self.model
+                    .run
+                    .motors
+                    .iter_mut()
+                    .for_each(|r| r.moving = false);
                 self.ctrl_action(s, ActionKind::AbortAll);
                 Vec::new()
             }
             0x02 => {
                 let n = self.model.state.limits().motors;
-                let t: Vec<String> = (1..=n).map(|m| self.model.state.motor_status_text(m)).collect();
+                let t: Vec<String> = (1..=n)
+                    .map(|m| self.model.state.motor_status_text(m))
+                    .collect();
                 control_line(f, t.join(" ").as_bytes())
             }
             0x03 => {
                 let n = self.model.state.limits().coords;
-                let t: Vec<String> = (1..=n).map(|x| self.model.state.cs_status_text(x)).collect();
+                let t: Vec<String> = (1..=n)
+                    .map(|x| self.model.state.cs_status_text(x))
+                    .collect();
                 control_line(f, t.join(" ").as_bytes())
             }
             0x04 => {
-                self.model.run.plc.iter_mut().for_each(|p| p.enabled = false);
+                self.model
+                    .run
+                    .plc
+                    .iter_mut()
+                    .for_each(|p| p.enabled = false);
                 Vec::new()
             }
             0x06 => control_line(f, self.motor_reports(|r| r.2).as_bytes()),
@@ -108,13 +126,18 @@ impl Pmac<'_> {
                     cs.running = false;
                     cs.continuous_request = false;
                 }
-                self.model.run.motors.iter_mut().for_each(|r| r.moving = false);
+                self.model
+                    .run
+                    .motors
+                    .iter_mut()
+                    .for_each(|r| r.moving = false);
                 self.ctrl_action(s, ActionKind::KillAll);
                 Vec::new()
             }
             0x0C => {
                 if self
-                    .mem.open
+                    .mem
+                    .open
                     .is_some_and(|o| o.id == crate::model::BufId::Rot)
                 {
                     let _ = self.close_buffer();

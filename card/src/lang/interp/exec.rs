@@ -28,7 +28,7 @@ pub(crate) struct Out {
 
 impl Out {
     /// Add a reply line.
-    pub fn line(&mut self, s: impl Into<String>) {
+    pub(crate) fn line(&mut self, s: impl Into<String>) {
         self.lines.push(s.into());
     }
 }

@@ -192,7 +192,11 @@ impl Pmac<'_> {
                 let o = self.open_for(s).ok_or(5u16)?;
                 match o.id {
                     BufId::Rot => self.rotary_lines(s.coord, long, None),
-                    id => list_lines(&self.model.bufs.program(id).ok_or(5u16)?.lines, render(long), None),
+                    id => list_lines(
+                        &self.model.bufs.program(id).ok_or(5u16)?.lines,
+                        render(long),
+                        None,
+                    ),
                 }
             }
             ListTarget::Prog(n, span) | ListTarget::Plc(n, span) => {
@@ -240,7 +244,8 @@ impl Pmac<'_> {
         long: bool,
         offsets: Option<(u32, Option<u32>)>,
     ) -> Vec<String> {
-        self.model.bufs
+        self.model
+            .bufs
             .rotary
             .get(&(cs as u8))
             .map(|r| list_lines(&r.lines, render(long), offsets))

@@ -2,11 +2,11 @@
 //! §9 item 17): define bottom-up, delete top-down (ERR003; ERR007 for `DELETE TBUF`);
 //! `DEFINE GATHER` without a size takes all free memory.
 
-use crate::model::{BufId, Rotary};
-use crate::model::{CompTable, Layer, TableKind, TBUF_WORDS};
 use super::exec::Exec;
 use super::{Pmac, Session};
 use crate::lang::ast::{DefineTarget, DeleteTarget};
+use crate::model::{BufId, Rotary};
+use crate::model::{CompTable, Layer, TableKind, TBUF_WORDS};
 
 impl Pmac<'_> {
     fn rot_keys(&self) -> Vec<u8> {
@@ -139,8 +139,12 @@ impl Pmac<'_> {
     pub(crate) fn delete(&mut self, s: &Session, t: DeleteTarget) -> Exec {
         let cs = s.coord as u8;
         let m = s.motor as u8;
-        let above =
-            |c: &Pmac<'_>, l: Layer| c.model.bufs.defines.something_above(l, c.rot_keys().into_iter());
+        let above = |c: &Pmac<'_>, l: Layer| {
+            c.model
+                .bufs
+                .defines
+                .something_above(l, c.rot_keys().into_iter())
+        };
         match t {
             DeleteTarget::Rotary => {
                 if !self.model.bufs.rotary.contains_key(&cs) {

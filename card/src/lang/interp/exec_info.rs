@@ -8,17 +8,17 @@ use crate::lang::ast::CmdKind;
 
 /// `VERSION` reply. [DECISION] `1.17` rather than the digest's `1.17C`: host software requires
 /// `^\d+\.\d+$` (host-protocols §0 item 2).
-pub const VERSION: &str = "1.17";
+pub(super) const VERSION: &str = "1.17";
 /// `DATE` reply (firmware date, `mm/dd/yy`).
-pub const DATE: &str = "06/12/02";
+pub(super) const DATE: &str = "06/12/02";
 /// `TYPE` reply (spec §3.2.2 [DECISION]).
-pub const TYPE: &str = "PMAC2, ISA, FLASH, PID, CLK X1";
+pub(super) const TYPE: &str = "PMAC2, ISA, FLASH, PID, CLK X1";
 /// `EAVERSION`: PMAC2 (1), AMD flash (1), standard (0), released (0), no revision letter (0), 117.
-pub const EAVERSION: &str = "11000117";
+pub(super) const EAVERSION: &str = "11000117";
 /// `CHECKSUM`: firmware reference checksum, hex without `$`.
-pub const CHECKSUM: &str = "5A17C3";
+pub(super) const CHECKSUM: &str = "5A17C3";
 /// `LIST LINK` dummy line (no compiled-PLC support).
-pub const LIST_LINK: &str = "000000 000000 000000 000000 000000 000000";
+pub(super) const LIST_LINK: &str = "000000 000000 000000 000000 000000 000000";
 
 impl Pmac<'_> {
     pub(crate) fn exec_info(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
@@ -105,18 +105,18 @@ impl Pmac<'_> {
 
     /// I1 bit 1: the card obeys `@` addressing (otherwise it assumes it is alone on its port
     /// and answers everything).
-    pub fn software_addressing(&self) -> bool {
+    pub(crate) fn software_addressing(&self) -> bool {
         self.model.state.peek_ivar(1).unwrap_or(0.0) as u32 & 2 != 0
     }
 
     /// This card's serial number (I0).
-    pub fn card_number(&self) -> u8 {
+    pub(crate) fn card_number(&self) -> u8 {
         (self.model.state.peek_ivar(0).unwrap_or(0.0) as u32 & 0xF) as u8
     }
 
     /// `@n` (`Some(n)`) or `@@` (`None`) received on `s`'s connection: update its addressing
     /// and the `???` word-1 chain bits. ERR003 without software addressing (I1 bit 1).
-    pub fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), u16> {
+    pub(crate) fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), u16> {
         self.chain_allowed()?;
         match card {
             Some(n) => {
@@ -135,12 +135,12 @@ impl Pmac<'_> {
 
     /// Whether `s` currently takes commands on this card: always without software addressing,
     /// else when addressed by `@n` or `@@`.
-    pub fn chain_listening(&self, s: &Session) -> bool {
+    pub(crate) fn chain_listening(&self, s: &Session) -> bool {
         !self.software_addressing() || s.chain_addressed
     }
 
     /// Whether this card answers on `s`: it takes commands and, under `@@`, it is card 0.
-    pub fn chain_talking(&self, s: &Session) -> bool {
+    pub(crate) fn chain_talking(&self, s: &Session) -> bool {
         !self.software_addressing()
             || (s.chain_addressed && (!s.chain_all || self.card_number() == 0))
     }

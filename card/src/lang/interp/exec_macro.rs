@@ -9,7 +9,7 @@ use crate::model::Space;
 use crate::model::AUX_ERROR_VALUE;
 
 /// X:$0798 value for an auxiliary timeout.
-pub const AUX_TIMEOUT: u32 = 0x01_0000;
+pub(super) const AUX_TIMEOUT: u32 = 0x01_0000;
 
 fn node_ok(node: u32) -> Exec {
     if node <= 15 {
@@ -78,6 +78,8 @@ impl Pmac<'_> {
     /// Record an auxiliary failure (timeout) in the status bit and X:$0798.
     fn macro_failed(&mut self) {
         self.model.state.global.macro_aux_error = true;
-        self.model.state.write(Space::X, AUX_ERROR_VALUE, AUX_TIMEOUT);
+        self.model
+            .state
+            .write(Space::X, AUX_ERROR_VALUE, AUX_TIMEOUT);
     }
 }

@@ -3,12 +3,12 @@
 //! bookkeeping needed for its own replies and refusals (ERR001, ERR010-ERR016).
 
 use super::exec::{Exec, Out};
-use crate::model::{axis_def_legal, axis_def_text};
 use super::{Pmac, Session};
-use crate::model::{Action, ActionKind};
 use crate::coord::axes::AXES;
 use crate::lang::ast::{Axis, CmdKind, JogKind};
+use crate::model::{axis_def_legal, axis_def_text};
 use crate::model::{format_position, format_value};
+use crate::model::{Action, ActionKind};
 
 /// `??` word-1 (feedrate bit, incremental bit) of each motion axis.
 fn axis_bits(a: Axis) -> Option<(u32, u32)> {
@@ -81,7 +81,10 @@ impl Pmac<'_> {
     }
 
     fn motor_busy(&self, m: u16) -> bool {
-        self.model.run.cs_of(m).is_some_and(|cs| self.cs_running(cs))
+        self.model
+            .run
+            .cs_of(m)
+            .is_some_and(|cs| self.cs_running(cs))
     }
 
     /// Apply the immediate servo-state effect of a motor command to motor `m` (1-based).
@@ -167,7 +170,12 @@ impl Pmac<'_> {
                 if *v < 0.0 || !v.is_finite() {
                     return Err(3);
                 }
-                let i10 = self.model.state.peek_ivar(10).unwrap_or(3_713_707.0).max(1.0);
+                let i10 = self
+                    .model
+                    .state
+                    .peek_ivar(10)
+                    .unwrap_or(3_713_707.0)
+                    .max(1.0);
                 let max = 8_388_608.0 / i10 * 100.0;
                 self.model.run.cs[csk].override_pct = v.min(max);
                 self.action(s, cmd);
@@ -320,7 +328,13 @@ impl Pmac<'_> {
     fn run_checks(&self, cs: u16) -> Exec {
         let motors = self.model.run.motors_in(cs);
         let flags = |m: u16| self.model.state.motors.get(m as usize - 1);
-        let ivar = |m: u16| self.model.state.peek_ivar(100 * u32::from(m)).unwrap_or(0.0) != 0.0;
+        let ivar = |m: u16| {
+            self.model
+                .state
+                .peek_ivar(100 * u32::from(m))
+                .unwrap_or(0.0)
+                != 0.0
+        };
         if motors
             .iter()
             .any(|&m| flags(m).is_some_and(|f| f.neg_limit && f.pos_limit))
@@ -328,7 +342,8 @@ impl Pmac<'_> {
             return Err(10);
         }
         let moving = |m: u16| {
-            self.model.run
+            self.model
+                .run
                 .motors
                 .get(m as usize - 1)
                 .is_some_and(|r| r.moving)
@@ -397,8 +412,8 @@ impl Pmac<'_> {
 
     /// Word offset of label N`label` in PROG `prog` (0 for N0 or when absent).
     pub(crate) fn label_offset(&self, prog: u32, label: u32) -> u32 {
-        use crate::model::StoredLine;
         use crate::lang::ast::StmtKind;
+        use crate::model::StoredLine;
         let Some(p) = u16::try_from(prog)
             .ok()
             .and_then(|n| self.model.bufs.progs.get(&n))

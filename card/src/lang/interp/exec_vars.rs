@@ -4,9 +4,9 @@
 use super::exec::{Exec, Out};
 use super::{Pmac, Session};
 use crate::lang::ast::{CmdKind, Expr, MemSpace, VarIndex, VarKind, VarList, VarSel};
+use crate::model::format_value;
 use crate::model::CardState;
 use crate::model::Space;
-use crate::model::format_value;
 
 /// Most variables one on-line command may address (a whole Turbo family).
 const MAX_SELECTION: usize = 8192;
@@ -22,7 +22,7 @@ pub(crate) struct VarEnv<'a> {
 
 impl VarEnv<'_> {
     /// Read one variable (`None` when the number is out of range).
-    pub fn get(&mut self, kind: VarKind, n: u32) -> Option<f64> {
+    pub(super) fn get(&mut self, kind: VarKind, n: u32) -> Option<f64> {
         match kind {
             VarKind::I => self.state.read_ivar(n).ok(),
             VarKind::P => self.state.vars.p(n).ok(),
@@ -32,7 +32,7 @@ impl VarEnv<'_> {
     }
 
     /// Write one variable; `Err(code)` on rejection.
-    pub fn set(&mut self, kind: VarKind, n: u32, v: f64) -> Exec {
+    pub(super) fn set(&mut self, kind: VarKind, n: u32, v: f64) -> Exec {
         let r = match kind {
             VarKind::I => self.state.set_ivar(n, v).map(|_| ()),
             VarKind::P => self.state.vars.set_p(n, v).map(|_| ()),
@@ -137,7 +137,10 @@ impl Pmac<'_> {
                     return Err(3);
                 }
                 for n in self.indices(cs, v)? {
-                    self.model.state.set_mdef(n, *def).map_err(|e| e.err_code())?;
+                    self.model
+                        .state
+                        .set_mdef(n, *def)
+                        .map_err(|e| e.err_code())?;
                 }
                 Ok(())
             }
@@ -155,7 +158,8 @@ impl Pmac<'_> {
                         _ => self.mem.pending_table = None,
                     }
                 }
-                self.model.state
+                self.model
+                    .state
                     .vars
                     .set_p(0, num.value)
                     .map_err(|e| e.err_code())?;
@@ -182,7 +186,10 @@ impl Pmac<'_> {
                     match space {
                         MemSpace::X => self.model.state.write(Space::X, at, (i as u32) & 0xFF_FFFF),
                         MemSpace::Y => self.model.state.write(Space::Y, at, (i as u32) & 0xFF_FFFF),
-                        MemSpace::L => self.model.state.write_long(at, (i as u64) & 0xFFFF_FFFF_FFFF),
+                        MemSpace::L => self
+                            .model
+                            .state
+                            .write_long(at, (i as u64) & 0xFFFF_FFFF_FFFF),
                     }
                 }
                 Ok(())

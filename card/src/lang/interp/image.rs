@@ -11,7 +11,7 @@ use crate::domain::ast::AxisDef;
 use crate::model::{persist, user_memory_words, Buffers, ProgLine, RunState, PLCS};
 
 /// `???` word 1 bit 10: saved data bad, factory defaults used.
-pub const EAROM_ERROR: u32 = 1 << 10;
+pub(super) const EAROM_ERROR: u32 = 1 << 10;
 
 /// An operating-system request a command waits for.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,7 +41,7 @@ pub trait Storage: std::fmt::Debug {
 
 /// INTERP's part of the saved image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct InterpImage {
+pub(super) struct InterpImage {
     /// Programs, PLCs, rotary and DEFINE'd buffers.
     pub bufs: Buffers<ProgLine>,
     /// Axis definitions per motor.
@@ -72,21 +72,26 @@ impl Pmac<'_> {
             let mut img: InterpImage = img;
             img.bufs.capacity = user_memory_words(profile);
             self.model.bufs = img.bufs;
-            for (k, a) in img.axes.into_iter().enumerate().take(self.model.run.axes.len()) {
+            for (k, a) in img
+                .axes
+                .into_iter()
+                .enumerate()
+                .take(self.model.run.axes.len())
+            {
                 self.model.run.axes[k] = a.filter(|(c, _)| *c >= 1 && *c <= lim.coords);
             }
         }
     }
 
     /// The encoded image `SAVE` writes.
-    pub fn save_image(&self) -> Vec<u8> {
+    pub(crate) fn save_image(&self) -> Vec<u8> {
         persist::encode(&self.model.state.to_image(self.interp_blob()))
     }
 
     /// `$$$` / start-up with the result of [`Effect::Load`]: reload the saved image (factory
     /// defaults without one, or when it is bad: then `???` word 1 bit 10 is set and the reason
     /// is returned).
-    pub fn apply_loaded(&mut self, loaded: EffectResult) -> Result<(), String> {
+    pub(crate) fn apply_loaded(&mut self, loaded: EffectResult) -> Result<(), String> {
         let image = match loaded {
             EffectResult::Loaded(Ok(Some(bytes))) => {
                 persist::decode(&bytes).map(Some).map_err(|e| e.to_string())

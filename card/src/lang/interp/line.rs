@@ -121,7 +121,7 @@ impl Pmac<'_> {
 
     /// Begin a host line: control characters in it act at once (their replies lead the
     /// reply); `remember` = it becomes the "last line" of CTRL-I / CTRL-Y.
-    pub fn start_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> LineRun {
+    pub(crate) fn start_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> LineRun {
         let mut reply = Reply::new();
         // Control characters act on arrival and never belong to the line (§1.3); LF is ignored.
         let mut clean = Vec::with_capacity(line.len());
@@ -160,7 +160,12 @@ impl Pmac<'_> {
     }
 
     /// Advance `run` within `budget`.
-    pub fn step_line(&mut self, run: &mut LineRun, s: &mut Session, budget: &mut Budget) -> Step {
+    pub(crate) fn step_line(
+        &mut self,
+        run: &mut LineRun,
+        s: &mut Session,
+        budget: &mut Budget,
+    ) -> Step {
         if run.waiting.is_some() {
             return Step::Yield;
         }
@@ -258,7 +263,12 @@ impl Pmac<'_> {
     }
 
     /// The effect `run` waited for is done: the command finishes with `result`.
-    pub fn finish_effect(&mut self, run: &mut LineRun, s: &mut Session, result: EffectResult) {
+    pub(crate) fn finish_effect(
+        &mut self,
+        run: &mut LineRun,
+        s: &mut Session,
+        result: EffectResult,
+    ) {
         let Some(e) = run.waiting.take() else {
             return;
         };

@@ -23,17 +23,17 @@ mod line;
 mod program_cmd;
 mod reply;
 
-pub use control::ctrl_n;
+pub(crate) use control::ctrl_n;
 pub use image::{Effect, EffectResult, Storage};
 pub use line::{Budget, LineRun, Step};
 
 use std::ops::{Deref, DerefMut};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-pub use crate::domain::Profile;
+pub(crate) use crate::domain::Profile;
+use crate::model::TableKind;
 use crate::model::{BufId, CardModel};
 use crate::program::Commands;
-use crate::model::TableKind;
 
 /// Longest command line accepted (characters before the CR); longer lines get ERR003.
 pub const MAX_LINE: usize = 1024;
@@ -41,7 +41,7 @@ pub const MAX_LINE: usize = 1024;
 /// A line one byte longer than the interpreter accepts: the card rejects it with its own
 /// ERR003 framing (I3/I4/I6) before parsing anything. A port discards over-long lines itself
 /// (bounded memory) and hands the card this instead.
-pub fn overlong_probe() -> Vec<u8> {
+pub(crate) fn overlong_probe() -> Vec<u8> {
     vec![b'U'; MAX_LINE + 1]
 }
 

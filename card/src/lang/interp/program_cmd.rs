@@ -12,7 +12,7 @@ impl Pmac<'_> {
     /// Execute a command line issued by a program (`CMD"..."`) with the program's addressing
     /// (motion program: #1 &1 or its own C.S.; PLC: its `ADDRESS`). Returns the unsolicited
     /// output to send to the host (possibly empty).
-    pub fn program_command(&mut self, motor: u16, coord: u16, line: &[u8]) -> Vec<u8> {
+    pub(crate) fn program_command(&mut self, motor: u16, coord: u16, line: &[u8]) -> Vec<u8> {
         let i = |c: &Pmac<'_>, n: u32| c.model.state.peek_ivar(n).unwrap_or(0.0) != 0.0;
         let mut s = Session {
             motor: motor.max(1),

@@ -6,17 +6,17 @@
 //! answers `ver` (and the final acknowledge) in the new framing (host-protocols §0 item 3).
 
 /// Line feed.
-pub const LF: u8 = 0x0A;
+pub(super) const LF: u8 = 0x0A;
 /// Carriage return.
-pub const CR: u8 = 0x0D;
+pub(super) const CR: u8 = 0x0D;
 /// Acknowledge.
-pub const ACK: u8 = 0x06;
+pub(super) const ACK: u8 = 0x06;
 /// Bell (error indicator).
-pub const BELL: u8 = 0x07;
+pub(super) const BELL: u8 = 0x07;
 
 /// The communication I-variables that shape a reply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Framing {
+pub(crate) struct Framing {
     /// I3: handshake / line delimiting (0..3).
     pub i3: u8,
     /// I4: bit 0 = checksums enabled.
@@ -38,7 +38,7 @@ impl Default for Framing {
 
 impl Framing {
     /// Build from raw I-variable values (out-of-range values are masked to their 2 low bits).
-    pub fn from_ivars(i3: i64, i4: i64, i6: i64) -> Self {
+    pub(crate) fn from_ivars(i3: i64, i4: i64, i6: i64) -> Self {
         Framing {
             i3: (i3 & 3) as u8,
             i4: (i4 & 3) as u8,
@@ -56,12 +56,12 @@ impl Framing {
 }
 
 /// Low 8 bits of the unsigned byte sum (spec §2.3 [DECISION]).
-pub fn checksum(bytes: &[u8]) -> u8 {
+pub(super) fn checksum(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0u8, |a, &b| a.wrapping_add(b))
 }
 
 /// Host→card checksum: over the printable characters of the command line only.
-pub fn command_checksum(line: &[u8]) -> u8 {
+pub(super) fn command_checksum(line: &[u8]) -> u8 {
     line.iter()
         .filter(|b| (0x20..0x7F).contains(*b))
         .fold(0u8, |a, &b| a.wrapping_add(b))
@@ -69,7 +69,7 @@ pub fn command_checksum(line: &[u8]) -> u8 {
 
 /// How a command line ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
+pub(crate) enum Outcome {
     /// Every command succeeded: send the acknowledge (and command checksum).
     Ok,
     /// A command failed with `ERRnnn` (1..=17): data already produced stays, then the error.
@@ -80,18 +80,18 @@ pub enum Outcome {
 
 /// Accumulates one framed reply.
 #[derive(Debug, Default, Clone)]
-pub struct Reply {
+pub(super) struct Reply {
     out: Vec<u8>,
 }
 
 impl Reply {
     /// An empty reply.
-    pub fn new() -> Self {
+    pub(super) fn new() -> Self {
         Reply { out: Vec::new() }
     }
 
     /// Append one data line (`text` without terminator): `[<LF>]text<CR>[checksum]`.
-    pub fn data_line(&mut self, f: Framing, text: &[u8]) {
+    pub(super) fn data_line(&mut self, f: Framing, text: &[u8]) {
         let start = self.out.len();
         if f.lf_prefix() {
             self.out.push(LF);
@@ -105,7 +105,7 @@ impl Reply {
     }
 
     /// Finish the reply for the command line `line` (without its CR) with `outcome`.
-    pub fn finish(&mut self, f: Framing, outcome: Outcome, line: &[u8]) {
+    pub(super) fn finish(&mut self, f: Framing, outcome: Outcome, line: &[u8]) {
         match outcome {
             Outcome::Silent => {}
             Outcome::Ok => match f.i3 {
@@ -125,7 +125,7 @@ impl Reply {
     }
 
     /// Append an error report per I6 (and I3 for the `<LF>` before `ERR`).
-    pub fn error(&mut self, f: Framing, code: u16) {
+    pub(super) fn error(&mut self, f: Framing, code: u16) {
         self.out.push(BELL);
         if f.i6 == 3 {
             self.out.push(CR);
@@ -141,25 +141,25 @@ impl Reply {
     }
 
     /// Append raw bytes (control-character replies that carry their own terminator).
-    pub fn raw(&mut self, bytes: &[u8]) {
+    pub(super) fn raw(&mut self, bytes: &[u8]) {
         self.out.extend_from_slice(bytes);
     }
 
     /// Bytes produced so far.
     #[cfg(test)]
-    pub fn as_bytes(&self) -> &[u8] {
+    pub(super) fn as_bytes(&self) -> &[u8] {
         &self.out
     }
 
     /// The finished reply.
-    pub fn into_bytes(self) -> Vec<u8> {
+    pub(super) fn into_bytes(self) -> Vec<u8> {
         self.out
     }
 }
 
 /// Frame the text reply of a control character (`<CTRL-B>`, `<CTRL-G>`, ...): `text<CR>` with a
 /// line checksum when I4 bit 0 is set; never an `<LF>` prefix nor an acknowledge (§2.1 [DECISION]).
-pub fn control_line(f: Framing, text: &[u8]) -> Vec<u8> {
+pub(super) fn control_line(f: Framing, text: &[u8]) -> Vec<u8> {
     let mut v = Vec::with_capacity(text.len() + 2);
     v.extend_from_slice(text);
     v.push(CR);

@@ -88,10 +88,7 @@ fn motion_commands_are_queued_as_actions() {
     let a = c.take_actions();
     assert_eq!(a.len(), 2);
     assert_eq!(a[0].motor, 2);
-    assert!(matches!(
-        a[1].kind,
-        ActionKind::Kill
-    ));
+    assert!(matches!(a[1].kind, ActionKind::Kill));
     assert!(c.take_actions().is_empty());
 }
 

@@ -1,8 +1,8 @@
 //! I-variable tables: factory default, allowed range, integer/float, hex printing and
 //! read-only flags, per profile. Tables are computed once per card ([`IVarTable::new`]).
 
-pub mod pmac2;
-pub mod turbo;
+pub(super) mod pmac2;
+pub(super) mod turbo;
 
 use crate::domain::profile::{limits, Profile};
 
@@ -33,9 +33,9 @@ pub struct IVarSpec {
 }
 
 /// Range of a 24-bit unsigned register.
-pub const U24: f64 = 16_777_215.0;
+pub(super) const U24: f64 = 16_777_215.0;
 /// Largest positive 24-bit signed value.
-pub const S24MAX: f64 = 8_388_607.0;
+pub(super) const S24MAX: f64 = 8_388_607.0;
 
 impl IVarSpec {
     /// Integer variable with range `min..=max`.

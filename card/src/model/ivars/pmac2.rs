@@ -8,17 +8,17 @@ use super::{IVarSpec as S, S24MAX, U24};
 /// 2^35, the range of the ±2^35 software limits and rollover.
 const P35: f64 = 34_359_738_368.0;
 /// Servo-node base register of motor x (1-based): node 0,1,4,5,8,9,12,13 → $C0A0 + 4(x-1).
-pub fn motor_node_reg(x: u16) -> u32 {
+pub(crate) fn motor_node_reg(x: u16) -> u32 {
     0xC0A0 + 4 * (x as u32).saturating_sub(1)
 }
 /// MACRO servo node number of motor x (1-based): 0,1,4,5,8,9,12,13.
-pub fn motor_node(x: u16) -> u32 {
+pub(crate) fn motor_node(x: u16) -> u32 {
     let k = (x as u32).saturating_sub(1);
     (k / 2) * 4 + (k % 2)
 }
 
 /// Spec of global I-variable `n` (0..=99).
-pub fn global(n: u16) -> S {
+pub(crate) fn global(n: u16) -> S {
     match n {
         0 => S::int(0.0, 0.0, 15.0),
         1 | 2 | 4 | 5 | 45 => S::int(0.0, 0.0, 3.0),
@@ -53,7 +53,7 @@ pub fn global(n: u16) -> S {
 }
 
 /// Spec of motor variable Ixnn for motor `x` (1-based), nn = 0..=86.
-pub fn motor(x: u16, nn: u16) -> S {
+pub(crate) fn motor(x: u16, nn: u16) -> S {
     let node_reg = motor_node_reg(x) as f64;
     let s24 = |d: f64| S::int(d, -8_388_608.0, S24MAX);
     let u23 = |d: f64| S::int(d, 0.0, S24MAX);
@@ -110,7 +110,7 @@ pub fn motor(x: u16, nn: u16) -> S {
 }
 
 /// Spec of coordinate-system variable Ixnn for C.S. `x` (1-based), nn = 87..=99.
-pub fn coord(x: u16, nn: u16) -> S {
+pub(crate) fn coord(x: u16, nn: u16) -> S {
     match nn {
         87 => S::int(0.0, 0.0, S24MAX),
         88 => S::int(50.0, 0.0, S24MAX),
@@ -129,7 +129,7 @@ pub fn coord(x: u16, nn: u16) -> S {
 }
 
 /// Spec of hardware variable `n` (900..=999).
-pub fn hardware(n: u16) -> S {
+pub(crate) fn hardware(n: u16) -> S {
     match n {
         900 | 906 | 992 => S::int(6527.0, 0.0, 32_767.0),
         901 | 997 => S::int(0.0, 0.0, 15.0),
@@ -151,7 +151,7 @@ pub fn hardware(n: u16) -> S {
 }
 
 /// Spec of MACRO/reserved variable `n` (1000..=1023).
-pub fn macro_sw(n: u16) -> S {
+pub(crate) fn macro_sw(n: u16) -> S {
     match n {
         1000 | 1002 => S::hex(0.0, 65_535.0),
         1001 | 1003 => S::int(0.0, 0.0, 255.0),
@@ -163,7 +163,7 @@ pub fn macro_sw(n: u16) -> S {
 
 /// Spec of I-variable `n` of a PMAC2 card (n < 1024; larger numbers get a generic spec but the
 /// table only asks for 0..1024).
-pub fn spec(n: u16) -> S {
+pub(crate) fn spec(n: u16) -> S {
     match n {
         0..=99 => global(n),
         100..=899 => {

@@ -9,7 +9,7 @@
 use super::{pmac2, IVarSpec as S, U24};
 
 /// Spec of Turbo motor variable Ixxnn for motor `m` (1..=32).
-pub fn motor(m: u16, nn: u16) -> S {
+pub(crate) fn motor(m: u16, nn: u16) -> S {
     match nn {
         // Turbo flag control word: bit 0 = PMAC2-style flags, bit 18 = flags via MACRO.
         24 => S::hex(if m <= 8 { 0x40001 as f64 } else { 0.0 }, U24),
@@ -25,7 +25,7 @@ pub fn motor(m: u16, nn: u16) -> S {
 }
 
 /// Spec of Turbo I-variable `n` (0..=8191).
-pub fn spec(n: u16) -> S {
+pub(crate) fn spec(n: u16) -> S {
     match n {
         20..=23 => S::hex(0.0, 0.0).ro(),
         68 => S::int(15.0, 0.0, 15.0),
