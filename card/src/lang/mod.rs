@@ -29,9 +29,7 @@ mod tests_program;
 
 pub(crate) use parse_program::allowed;
 
-#[cfg(test)]
-use ast::Stmt;
-use ast::{BufferKind, Command, Item};
+use ast::{BufferKind, Command, Item, Stmt};
 use lexer::Cursor;
 
 /// ERR003: data error or unrecognised command (any syntax error).
@@ -249,7 +247,6 @@ pub(crate) fn parse_line_prefix(line: &[u8]) -> (Vec<Command>, Option<ParseError
 
 /// Parse a line entered into an open buffer of `kind`, requiring that every item is a storable
 /// statement (an immediate command → ERR003). Used for stored/reloaded program text.
-#[cfg(test)]
 pub(crate) fn parse_program_line(line: &[u8], kind: BufferKind) -> Result<Vec<Stmt>, ParseError> {
     let mut p = LineParser::new(line)?;
     let mut out = Vec::new();

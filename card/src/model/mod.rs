@@ -34,12 +34,12 @@ mod vars;
 #[cfg(test)]
 pub(crate) use actions::MAX_ACTIONS;
 pub use actions::{Action, ActionKind};
-pub(crate) use buffers::{list_lines, BufErr, BufId, Buffers, Rotary, StoredLine};
+pub(crate) use buffers::{list_lines, BufErr, BufId, Buffers, Program, Rotary, StoredLine};
 pub use card::CardModel;
 pub(crate) use card::{user_memory_words, PLCS};
 pub use card_state::CardState;
 pub(crate) use card_state::I995_STATUS_BITS;
-pub(crate) use defines::{CompTable, Layer, TableKind, TBUF_WORDS};
+pub(crate) use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
 pub use float48::*;
 pub(crate) use gather::gather_tick;
 pub use memory::*;

@@ -272,4 +272,97 @@ mod tests {
         assert_eq!(send(&mut c2, &mut s, "???"), b"\n000000000800\r\n");
         let _ = std::fs::remove_dir_all(&dir);
     }
+
+    /// What the golden save file holds (written by `golden_card`, checked by the test).
+    const GOLDEN_SETUP: &[&str] = &[
+        "I3=2 I6=1 I130=1500 I1001=16 P1=5 P1023=0.25 Q3=7 M3->Y:$1FF0,4,8,S M4->*",
+        "OPEN PROG 3 CLEAR LINEAR INC TA200 TS50 F5000 X10 Y-2.5 CLOSE",
+        "OPEN PROG 4 CLEAR",
+        "IF (P1>2) X(P1*2) ELSE DWELL 10 ENDIF",
+        "WHILE (P2<3) P2=P2+1 ENDWHILE",
+        "CMD\"#1J+\" SEND\"DONE\"",
+        "CLOSE",
+        "OPEN PLC 17 CLEAR P2=P2+1 IF (M3=1) P3=SIN(30) ENDIF CLOSE",
+        "&1 #1->1000X #2->8660X-5000Y+10",
+        "DEFINE GATHER 100",
+    ];
+
+    /// The golden file of save format 2 (`tests/golden/`): later versions must load it.
+    fn golden_path() -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/golden/card-pmac2-format2.sav")
+    }
+
+    /// Regenerate with `MCC_WRITE_GOLDEN=1 cargo test -p mcc-card golden` (only when a new
+    /// format version is introduced: the old file stays and a new one is added).
+    #[test]
+    fn golden_save_file_of_format_2_loads() {
+        let path = golden_path();
+        if std::env::var_os("MCC_WRITE_GOLDEN").is_some() {
+            let mut c = Card::new(Profile::Pmac2);
+            let mut s = Session::default();
+            for l in GOLDEN_SETUP {
+                let r = c.command_line(&mut s, l.as_bytes());
+                assert!(!r.contains(&7), "{l}: {:?}", String::from_utf8_lossy(&r));
+            }
+            write_atomic(&path, &c.save_image()).unwrap();
+        }
+        let bytes = std::fs::read(&path).expect("the golden file is committed");
+        assert_eq!(&bytes[..8], b"MCCSAVE\0");
+        assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 2);
+        let mut c = Card::with_storage(Profile::Pmac2, Box::new(FileStorage::new(&path)));
+        let mut s = Session::default();
+        let ask = |c: &mut Card, s: &mut Session, l: &str| {
+            String::from_utf8_lossy(&c.command_line(s, l.as_bytes())).into_owned()
+        };
+        assert_eq!(
+            ask(&mut c, &mut s, "???"),
+            "000000000800\r\x06",
+            "loaded cleanly"
+        );
+        assert_eq!(
+            ask(&mut c, &mut s, "I130 I1001 P1 Q3 M3-> M4->"),
+            "1500\r16\r5\r7\rY:$1FF0,4,8,S\r*\r\x06"
+        );
+        let listings = [
+            ("LIST PROG 3", "LIN INC TA200 TS50 F5000 X10 Y-2.5\rRET\r\x06"),
+            (
+                "LIST PROG 4",
+                "IF (P1>2) X(P1*2) ELSE DWE10 ENDI\rWHILE (P2<3) P2=P2+1 ENDW\rCMD\"#1J+\" SEND\"DONE\"\rRET\r\x06",
+            ),
+            ("LIST PLC 17", "P2=P2+1\rIF (M3=1)\rP3=SIN(30)\rENDI\rRET\r\x06"),
+        ];
+        // The same text a card that never saved lists.
+        let mut fresh = Card::new(Profile::Pmac2);
+        let mut fs = Session::default();
+        for l in GOLDEN_SETUP {
+            let _ = fresh.command_line(&mut fs, l.as_bytes());
+        }
+        for (cmd, want) in listings {
+            assert_eq!(ask(&mut c, &mut s, cmd), want, "{cmd}");
+            assert_eq!(ask(&mut fresh, &mut fs, cmd), want, "{cmd} (never saved)");
+        }
+        assert_eq!(
+            ask(&mut c, &mut s, "&1 #1-> #2->"),
+            "1000X\r8660X-5000Y+10\r\x06"
+        );
+        // PROG 4 loaded valid: R stops at motor 1 being open loop (ERR012), not at ERR016.
+        assert_eq!(ask(&mut c, &mut s, "&1B4R"), "\x07ERR012\r");
+    }
+
+    #[test]
+    fn a_save_file_of_a_newer_format_is_refused_with_a_clear_message() {
+        let mut bytes = Card::new(Profile::Pmac2).save_image();
+        bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+        let e = crate::model::persist::decode(&bytes)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("format version 3") && e.contains("reads versions 1 to 2"),
+            "{e}"
+        );
+        let mut c = Card::new(Profile::Pmac2);
+        let r = c.apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(Some(bytes))));
+        assert_eq!(r.unwrap_err(), e);
+    }
 }
