@@ -205,7 +205,7 @@ impl Motor {
         &self.traj
     }
 
-    /// Resolve a parsed jog into a [`JogCmd`] against this motor: `J=` goes to the pre-jog
+    /// Resolve a parsed jog into a `JogCmd` against this motor: `J=` goes to the pre-jog
     /// position, `J==` also sets it, `J:` is relative to the commanded and `J^` to the actual
     /// position; the `*` forms take `jog_register` (Mx72). `J!` gives `None` (use
     /// [`MotorCommand::Round`]).

@@ -72,7 +72,7 @@ pub(crate) fn words_to_regs(w: [u32; 4]) -> NodeRegs {
     }
 }
 
-/// The card's ring application: owns the card (through its [`Runner`]) on the ring driver's
+/// The card's ring application: owns the card (through its `Runner`) on the ring driver's
 /// thread. Each tick runs synchronized starts due now, the servo cycle, then a bounded slice
 /// of host work.
 pub struct CardRingApp {

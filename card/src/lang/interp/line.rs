@@ -3,10 +3,10 @@
 //! On the first error the rest of the line is dropped; data already produced is sent, then
 //! the error report, no acknowledge (§2.8 [DECISION]).
 //!
-//! A line is a [`LineRun`] that [`Card::step_line`] advances within a [`Budget`] of work units
+//! A line is a [`LineRun`] that `Card::step_line` advances within a [`Budget`] of work units
 //! (one per command, one per variable a selection reads), so a heavy legal line (`P0..8191`
 //! queried a hundred times over) is served in slices; a command that needs the operating
-//! system stops the run with an [`Effect`] until [`Card::finish_effect`] hands the result back.
+//! system stops the run with an [`Effect`] until `Card::finish_effect` hands the result back.
 
 use super::exec::{Flow, Out};
 use super::image::{Effect, EffectResult};
@@ -53,9 +53,9 @@ impl Budget {
 pub enum Step {
     /// The line is finished: its whole framed reply.
     Done(Vec<u8>),
-    /// The budget ran out: call [`Card::step_line`] again (next slice).
+    /// The budget ran out: call `Card::step_line` again (next slice).
     Yield,
-    /// A command needs this done before the line can go on ([`Card::finish_effect`]).
+    /// A command needs this done before the line can go on (`Card::finish_effect`).
     Effect(Effect),
 }
 

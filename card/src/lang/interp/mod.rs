@@ -282,7 +282,7 @@ impl Card {
     /// Execute one control-character command (0x01..=0x1A other than CR, LF, TAB/CTRL-I, BS).
     /// Returns the framed reply (possibly empty). CTRL-I (0x09) re-executes the last command
     /// line; CTRL-Y returns the last line (the host port puts it back into its line buffer);
-    /// CTRL-N needs the partial line, see [`ctrl_n`].
+    /// CTRL-N needs the partial line, see `ctrl_n`.
     pub fn control_char(&mut self, session: &mut Session, c: u8) -> Vec<u8> {
         self.view().control(session, c)
     }
