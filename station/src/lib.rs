@@ -6,6 +6,7 @@
 
 pub mod config;
 pub mod emcl;
+pub mod emcl_rt;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;

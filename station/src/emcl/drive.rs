@@ -289,6 +289,16 @@ impl Drive {
         std::mem::take(&mut self.dirty)
     }
 
+    /// A setting was stored and must reach the disk before the drive answers.
+    pub fn dirty_now(&self) -> bool {
+        self.dirty == Dirty::Now
+    }
+
+    /// Download mode is on (132 … 133).
+    pub fn downloading(&self) -> bool {
+        self.download.is_some()
+    }
+
     pub(crate) fn mark_dirty(&mut self, d: Dirty) {
         if d == Dirty::Now || self.dirty == Dirty::Clean {
             self.dirty = d;
