@@ -278,6 +278,15 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     // Stand-alone drive: its own inputs.
     assert_eq!(value(&mut s, f(2, 15, 0, 0, 0)), (100, 1));
     assert_eq!(value(&mut s, f(2, 15, 0, 1, 0)), (100, 1234));
+    // A bus collision: solo (secondary address 9) takes address 1 as well. Both answer a
+    // frame to 1; the line carries the wired-AND, which is no valid reply.
+    assert_eq!(value(&mut s, f(2, 9, 87, 0, 9)).0, 100);
+    assert_eq!(ask(&mut s, f(2, 9, 66, 0, 1))[1], 1);
+    let r = ask(&mut s, f(1, 15, 0, 1, 0));
+    assert!(Reply::parse(&r).is_none(), "collision: {r:02X?}");
+    assert_eq!(value(&mut s, f(9, 9, 66, 0, 2)).0, 100);
+    assert_eq!(value(&mut s, f(2, 9, 87, 0, 0)).0, 100);
+    assert_eq!(value(&mut s, f(1, 15, 0, 1, 0)), (100, 0), "drive0 alone again");
     // Store settings on both drives; download a program into drive0.
     assert_eq!(value(&mut s, f(1, 5, 4, 0, 77777)).0, 100);
     assert_eq!(value(&mut s, f(1, 7, 4, 0, 0)).0, 100);

@@ -237,7 +237,20 @@ impl Drive {
         self.plant.pullups = true;
         self.plant.power_on = true;
         self.plant.slip = 0;
-        let stored = self.eeprom.axis.clone();
+        // Only values the tables accept are restored (an image is CRC-checked, but it may
+        // come from another firmware); anything else keeps its factory value.
+        let stored: Vec<(u8, i32)> = self
+            .eeprom
+            .axis
+            .iter()
+            .copied()
+            .filter(|&(n, v)| {
+                params::axis(n).is_some_and(|p| p.access == params::Access::RW && p.range.contains(v))
+            })
+            .collect();
+        for n in params::AXIS_PARAMS.iter().filter(|p| p.access == params::Access::RW) {
+            self.restore_ap(n.num, self.spec.axis_default(n.num));
+        }
         for &(n, v) in stored.iter().filter(|(n, _)| *n != 209) {
             self.restore_ap(n, v);
         }
@@ -246,8 +259,17 @@ impl Drive {
         if let Some(&(n, v)) = stored.iter().find(|(n, _)| *n == 209) {
             self.restore_ap(n, v);
         }
+        for p in params::GLOBAL_PARAMS.iter().filter(|p| params::global_is_eeprom(p.num)) {
+            self.gp[usize::from(p.num)] = self.spec.global_default(p.num);
+        }
         for (n, v) in self.eeprom.global.clone() {
-            self.gp[usize::from(n)] = v;
+            let ok = match n {
+                73 => v == 0 || v == 1,
+                _ => params::global_is_eeprom(n) && params::global(n).is_some_and(|p| p.range.contains(v)),
+            };
+            if ok {
+                self.gp[usize::from(n)] = v;
+            }
         }
         for (k, v) in self.eeprom.user.iter().enumerate() {
             if let Some(u) = self.user.get_mut(k) {

@@ -170,3 +170,64 @@ impl Drive {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::emcl::codec::{Instr, Request};
+    use crate::emcl::spec::DriveSpec;
+
+    fn host(addrs: &[u8]) -> DriveHost {
+        DriveHost::new(
+            addrs
+                .iter()
+                .map(|&a| HostedDrive {
+                    name: format!("d{a}"),
+                    drive: Drive::new(DriveSpec {
+                        address: a,
+                        ..DriveSpec::default()
+                    }),
+                })
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn ring_time_drives_whole_ms_ticks() {
+        let mut h = host(&[1]);
+        let period = 442_733u64;
+        for k in 0..10_000u64 {
+            h.advance(1_000_000_000 + k * period, None);
+        }
+        let want = (1_000_000_000 + 9_999 * period) / 1_000_000 - 1000;
+        assert_eq!(h.drives[0].drive.now_ms(), want);
+        // A jump of a minute runs at most MAX_MS_PER_ADVANCE ticks and counts the rest.
+        h.advance(1_000_000_000 + 9_999 * period + 60_000_000_000, None);
+        assert_eq!(h.drives[0].drive.now_ms(), want + MAX_MS_PER_ADVANCE);
+        assert_eq!(h.skipped_ms, 50_000);
+        // Time going backwards runs nothing.
+        h.advance(5, None);
+        assert_eq!(h.drives[0].drive.now_ms(), want + MAX_MS_PER_ADVANCE);
+    }
+
+    #[test]
+    fn frames_reach_the_addressed_drive_only() {
+        let mut h = host(&[1, 2, 3]);
+        let f = Request {
+            addr: 2,
+            instr: Instr::new(10, 66, 0, 0),
+        }
+        .to_bytes();
+        let a = h.frame(&f);
+        assert_eq!(a.len(), 1);
+        assert_eq!(a[0].0, 1);
+        let none = Request {
+            addr: 9,
+            instr: Instr::new(10, 66, 0, 0),
+        }
+        .to_bytes();
+        assert!(h.frame(&none).is_empty());
+        let st = h.status(2, "station0").unwrap();
+        assert_eq!((st.name.as_str(), st.address), ("d3", 3));
+    }
+}

@@ -28,3 +28,5 @@ mod tests_vectors;
 mod tests_program;
 #[cfg(test)]
 mod tests_drive;
+#[cfg(test)]
+mod tests_fuzz;

@@ -504,3 +504,54 @@ fn autostart_runs_the_stored_program_at_power_up() {
     d2.run_ms(500);
     assert_eq!(d2.get_ap(3), Ok(2000));
 }
+
+#[test]
+fn wait_for_switches_and_the_reference_search() {
+    // WAIT REFSW: the home window at 5000..6000 is reached while rotating.
+    let mut d = Drive::new(DriveSpec::default());
+    load(
+        &mut d,
+        &[i(1, 0, 0, 20000), i(27, 2, 0, 0), i(3, 0, 0, 0), i(28, 0, 0, 0)],
+    );
+    run_at(&mut d, 0);
+    let mut t = 0;
+    while d.prog.state == AppState::Run && t < 5000 {
+        d.tick_ms();
+        t += 1;
+    }
+    assert_eq!(d.prog.pc, 3);
+    let p = d.get_ap(1).unwrap();
+    assert!((5000..8000).contains(&p), "stopped after the home switch: {p}");
+    // WAIT LIMSW with a timeout: no switch within 5 ticks → ETO.
+    let mut d = Drive::new(DriveSpec {
+        right_limit: Some(1500),
+        ..DriveSpec::default()
+    });
+    load(
+        &mut d,
+        &[
+            i(27, 3, 0, 5),
+            i(21, 8, 0, 4),
+            i(28, 0, 0, 0),
+            i(28, 0, 0, 0),
+            i(1, 0, 0, 20000),
+            i(27, 3, 0, 0),
+            i(28, 0, 0, 0),
+        ],
+    );
+    run_at(&mut d, 0);
+    d.run_ms(3000);
+    assert!(d.prog.flags.eto);
+    assert_eq!((d.prog.pc, d.prog.state), (6, AppState::Stop));
+    assert_eq!(d.get_ap(10), Ok(1), "stopped on the right limit");
+    // WAIT RFS: the search finishes, then the program goes on.
+    let mut d = Drive::new(DriveSpec::default());
+    load(&mut d, &[i(13, 0, 0, 0), i(27, 4, 0, 0), i(19, 9, 0, 1), i(28, 0, 0, 0)]);
+    direct(&mut d, i(5, 1, 0, 123));
+    run_at(&mut d, 0);
+    d.run_ms(100);
+    assert_eq!(d.prog.pc, 1, "waiting for the search");
+    d.run_ms(20_000);
+    assert_eq!((d.prog.accu, d.prog.state), (1, AppState::Stop));
+    assert_eq!(d.get_ap(1), Ok(0));
+}
