@@ -16,6 +16,7 @@ mod gather;
 mod launch;
 mod rundir;
 mod send;
+mod serve;
 mod status;
 mod supervisor;
 mod syncstart;

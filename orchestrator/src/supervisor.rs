@@ -116,7 +116,7 @@ impl Supervisor {
             }
         }
         let chain = crate::chain::server::ChainOptions::from_env()
-            .and_then(|o| crate::chain::server::ChainServer::start(&sup.session, &sup.cfg, &o));
+            .and_then(|o| crate::chain::server::start(&sup.session, &sup.cfg, &o));
         match chain {
             Ok(c) => {
                 sup.info.daisy_chain = Some(c.addr().to_string());
@@ -129,9 +129,8 @@ impl Supervisor {
             }
         }
         if !sup.cfg.drives.is_empty() {
-            let bus = crate::emcl::server::BusOptions::resolve(&sup.cfg).and_then(|o| {
-                crate::emcl::server::BusServer::start(&sup.session, &sup.cfg, &o)
-            });
+            let bus = crate::emcl::server::BusOptions::resolve(&sup.cfg)
+                .and_then(|o| crate::emcl::server::start(&sup.session, &sup.cfg, &o));
             match bus {
                 Ok(b) => {
                     sup.info.emcl_bus = Some(b.addr().to_string());

@@ -80,7 +80,10 @@ fn wait_ap(s: &mut TcpStream, addr: u8, ap: u8, want: i32) {
         if v == want {
             return;
         }
-        assert!(Instant::now() < deadline, "AP {ap} stayed {v}, wanted {want}");
+        assert!(
+            Instant::now() < deadline,
+            "AP {ap} stayed {v}, wanted {want}"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
 }
@@ -89,7 +92,15 @@ fn wait_ap(s: &mut TcpStream, addr: u8, ap: u8, want: i32) {
 fn emcl_bus_frames_over_tcp_and_pty_byte_for_byte() {
     let c = Cluster::up(
         "emcl",
-        &["--clock", "lockstep", "--cards", "1", "--stations", "1", "--pty"],
+        &[
+            "--clock",
+            "lockstep",
+            "--cards",
+            "1",
+            "--stations",
+            "1",
+            "--pty",
+        ],
     );
     let doc = c.status();
     let addr = bus_addr(&doc);
@@ -100,7 +111,10 @@ fn emcl_bus_frames_over_tcp_and_pty_byte_for_byte() {
     assert_eq!(d0["host"], "station0");
     assert_eq!(d0["mode"], "direct");
     assert_eq!(d0["program"], "stop");
-    assert!(d0["eeprom"].as_str().unwrap().starts_with("factory"), "{d0:#}");
+    assert!(
+        d0["eeprom"].as_str().unwrap().starts_with("factory"),
+        "{d0:#}"
+    );
     let mut s = connect(&addr);
     // Spec §15 vectors through the whole path.
     assert_eq!(
@@ -170,25 +184,44 @@ fn emcl_bus_frames_over_tcp_and_pty_byte_for_byte() {
         .open(pty)
         .expect("open the pty");
     p.write_all(&hex("01 88 01 00 00 00 00 00 8A")).unwrap();
-    assert_eq!(read_frame(&mut p, REPLY), Some(hex("02 01 64 88 05 50 01 31 76")));
+    assert_eq!(
+        read_frame(&mut p, REPLY),
+        Some(hex("02 01 64 88 05 50 01 31 76"))
+    );
     // Bytes that a cooked tty would eat (^C, ^Q, ^S, CR) pass: SGP 66,0,3 then back to 1.
     p.write_all(&hex("01 09 42 00 00 00 00 03 4F")).unwrap();
     let r = read_frame(&mut p, REPLY).unwrap();
-    assert_eq!((r[1], r[2]), (3, 100), "the reply already comes from address 3");
+    assert_eq!(
+        (r[1], r[2]),
+        (3, 100),
+        "the reply already comes from address 3"
+    );
     p.write_all(&f(3, 9, 66, 0, 1)).unwrap();
     assert_eq!(read_frame(&mut p, REPLY).map(|r| r[2]), Some(100));
 
     // `mcc emcl send` and the status table.
     let out = c.mcc(&["emcl", "send", "1", "6", "1", "0", "0"]);
-    assert!(text(&out.stdout).contains("status 100 instruction 6"), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("status 100 instruction 6"),
+        "{}",
+        text(&out.stdout)
+    );
     let table = text(&c.mcc(&["status"]).stdout);
     assert!(table.contains("emcl bus 127.0.0.1:"), "{table}");
-    assert!(table.lines().any(|l| l.starts_with("drive0") && l.contains("station0")), "{table}");
+    assert!(
+        table
+            .lines()
+            .any(|l| l.starts_with("drive0") && l.contains("station0")),
+        "{table}"
+    );
 }
 
 #[test]
 fn hosts_share_the_line_a_flood_a_half_frame_and_a_deaf_host_stop_nobody() {
-    let c = Cluster::up("emclshare", &["--clock", "lockstep", "--cards", "1", "--stations", "1"]);
+    let c = Cluster::up(
+        "emclshare",
+        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
+    );
     let addr = bus_addr(&c.status());
     // A: floods 3000 frames and never reads its replies.
     let mut a = connect(&addr);
@@ -214,7 +247,10 @@ fn hosts_share_the_line_a_flood_a_half_frame_and_a_deaf_host_stop_nobody() {
     let mut d = connect(&addr);
     assert_eq!(value(&mut d, f(1, 10, 66, 0, 0)), (100, 1));
     let doc = c.status();
-    assert!(doc["drives"][0]["frames"].as_u64().unwrap() >= 81, "{doc:#}");
+    assert!(
+        doc["drives"][0]["frames"].as_u64().unwrap() >= 81,
+        "{doc:#}"
+    );
 }
 
 /// `mcc up --detach` of a cluster with this exact name (so a second `up` finds the same run
@@ -273,7 +309,11 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
         .iter()
         .map(|m| m["name"].as_str().unwrap())
         .collect();
-    assert_eq!(members, ["card0", "station0"], "the drive is not a ring member");
+    assert_eq!(
+        members,
+        ["card0", "station0"],
+        "the drive is not a ring member"
+    );
     let mut s = connect(&addr);
     // Stand-alone drive: its own inputs.
     assert_eq!(value(&mut s, f(2, 15, 0, 0, 0)), (100, 1));
@@ -286,7 +326,11 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     assert!(Reply::parse(&r).is_none(), "collision: {r:02X?}");
     assert_eq!(value(&mut s, f(9, 9, 66, 0, 2)).0, 100);
     assert_eq!(value(&mut s, f(2, 9, 87, 0, 0)).0, 100);
-    assert_eq!(value(&mut s, f(1, 15, 0, 1, 0)), (100, 0), "drive0 alone again");
+    assert_eq!(
+        value(&mut s, f(1, 15, 0, 1, 0)),
+        (100, 0),
+        "drive0 alone again"
+    );
     // Store settings on both drives; download a program into drive0.
     assert_eq!(value(&mut s, f(1, 5, 4, 0, 77777)).0, 100);
     assert_eq!(value(&mut s, f(1, 7, 4, 0, 0)).0, 100);
@@ -296,7 +340,10 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     assert_eq!(value(&mut s, f(1, 30, 4, 255, 0)).0, 100);
     assert_eq!(value(&mut s, f(2, 9, 75, 0, 3)).0, 100);
     assert_eq!(value(&mut s, f(1, 132, 0, 0, 0)).0, 100);
-    for (k, i) in [f(1, 19, 9, 0, 5), f(1, 35, 11, 2, 0), f(1, 28, 0, 0, 0)].iter().enumerate() {
+    for (k, i) in [f(1, 19, 9, 0, 5), f(1, 35, 11, 2, 0), f(1, 28, 0, 0, 0)]
+        .iter()
+        .enumerate()
+    {
         let r = Reply::parse(&ask(&mut s, *i)).unwrap();
         assert_eq!(r.status, 101, "slot {k}");
     }
@@ -308,7 +355,11 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     assert_eq!(value(&mut s, f(1, 5, 4, 0, 1)).0, 100);
     assert_eq!(value(&mut s, f(1, 7, 4, 0, 0)), (5, 0));
     assert_eq!(value(&mut s, f(1, 9, 66, 0, 7)), (5, 0));
-    assert_eq!(std::fs::read(&file).unwrap(), before, "the image did not change");
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        before,
+        "the image did not change"
+    );
     drop(s);
     drop(c);
 
@@ -319,7 +370,11 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     let mut s = connect(&bus_addr(&doc));
     assert_eq!(value(&mut s, f(1, 6, 4, 0, 0)), (100, 77777));
     assert_eq!(value(&mut s, f(1, 10, 10, 2, 0)), (100, -5));
-    assert_eq!(value(&mut s, f(1, 31, 4, 0, 0)), (100, 0), "coordinates load only with GP 84");
+    assert_eq!(
+        value(&mut s, f(1, 31, 4, 0, 0)),
+        (100, 0),
+        "coordinates load only with GP 84"
+    );
     assert_eq!(value(&mut s, f(1, 31, 4, 255, 0)), (100, 4444));
     assert_eq!(value(&mut s, f(1, 10, 73, 0, 0)), (100, 1), "still locked");
     assert_eq!(value(&mut s, f(2, 10, 75, 0, 0)), (100, 3));
@@ -327,7 +382,10 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     assert_eq!(value(&mut s, f(1, 129, 1, 0, 0)).0, 100);
     let deadline = Instant::now() + Duration::from_secs(60);
     while value(&mut s, f(1, 10, 11, 2, 0)).1 != 5 {
-        assert!(Instant::now() < deadline, "the downloaded program did not run");
+        assert!(
+            Instant::now() < deadline,
+            "the downloaded program did not run"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     drop(s);
@@ -370,7 +428,14 @@ fn bad_drive_configs_are_refused_before_anything_starts() {
         let name = unique("emclbad");
         let p = write_config(&dir, &name, &body);
         let out = mcc(
-            &["up", "--detach", "--cluster", &name, "--config", p.to_str().unwrap()],
+            &[
+                "up",
+                "--detach",
+                "--cluster",
+                &name,
+                "--config",
+                p.to_str().unwrap(),
+            ],
             Duration::from_secs(60),
         );
         assert!(!out.status.success());

@@ -8,13 +8,10 @@
 use std::sync::{Arc, Mutex};
 
 use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::{wire_macro_motors, CardRingApp};
-use mcc_ring::config::{ClusterConfig, DriveConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
+use mcc_card::runtime::ring_app::CardRingApp;
+use mcc_ring::config::{ClusterConfig, DriveConfig};
+use mcc_ring::core::RingApp;
 use mcc_ring::member::RingMember;
-use mcc_ring::runtime::process::card_check;
-use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::PlantConfig;
 use mcc_station::emcl::codec::{Instr, Reply, Request};
@@ -51,8 +48,6 @@ impl Bench {
         let mut cfg = ClusterConfig::default_cluster(1, 1);
         cfg.drives[0].node = Some(1);
         let cfg = cfg.resolve().unwrap();
-        let period = cfg.period_ns();
-        let n = cfg.ring.order.len();
         let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let dc: &DriveConfig = &cfg.drives[0];
         let drive = Drive::power_up(spec_from_config(dc).unwrap(), None, dc.node);
@@ -65,47 +60,29 @@ impl Bench {
             errors: Vec::new(),
             member: "station0".into(),
         }));
-        let mut members = Vec::new();
-        for name in cfg.ring.order.clone() {
-            let pos = cfg.position(&name).unwrap();
-            let rs = cfg.ring_settings(&name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let (kind, check, app) = match cfg.member(&name).unwrap() {
-                MemberRef::Card(cc) => {
-                    let mut c = card.lock().unwrap();
-                    let mut s = Session::default();
-                    let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
-                    c.command_line(&mut s, line.as_bytes());
-                    wire_macro_motors(&mut c, &cc.nodes);
-                    for (k, v) in &cc.ivars {
-                        c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
-                    }
-                    drop(c);
-                    let app = CardRingApp::new(Arc::clone(&card), &cc.nodes).with_wiring(true);
-                    (MemberKind::Card, card_check(&cc.ivars), App::Card(Box::new(app)))
-                }
-                MemberRef::Station(sc) => {
-                    let bound = mcc_station::emcl_rt::app::bound_nodes(&cfg, &sc.name);
-                    assert_eq!(bound, [1]);
-                    let nodes: Vec<u8> =
-                        sc.nodes.iter().copied().filter(|n| !bound.contains(n)).collect();
-                    let st = StationApp::new(&nodes, &[], &PlantConfig::default()).unwrap();
-                    let app = DriveStationApp::new(st, Arc::clone(&drives), None);
-                    let check = mcc_ring::check::RingCheck::station(
-                        sc.check.period,
-                        sc.check.min_syncs,
-                        sc.check.max_errors,
-                    );
-                    (MemberKind::Station, check, App::Station(Box::new(app)))
-                }
-            };
-            let mut cc = CoreConfig::new(&name, kind, pos as u16, settings, period * 100);
-            cc.check = check;
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            members.push((MemberCore::new(cc), app));
-        }
+        let bound = mcc_station::emcl_rt::app::bound_nodes(&cfg, "station0");
+        assert_eq!(bound, [1]);
+        let sim = mcc_tests::inproc::ring(
+            &cfg,
+            &card,
+            |sc| {
+                let nodes: Vec<u8> = sc
+                    .nodes
+                    .iter()
+                    .copied()
+                    .filter(|n| !bound.contains(n))
+                    .collect();
+                let st = StationApp::new(&nodes, &[], &PlantConfig::default()).unwrap();
+                App::Station(Box::new(DriveStationApp::new(
+                    st,
+                    Arc::clone(&drives),
+                    None,
+                )))
+            },
+            |c| App::Card(Box::new(c)),
+        );
         Bench {
-            sim: RingSim::new(members, period),
+            sim,
             card,
             drives,
             session: Session::default(),
@@ -113,11 +90,7 @@ impl Bench {
     }
 
     fn cmd(&mut self, line: &str) -> String {
-        let mut c = self.card.lock().unwrap();
-        let r = c.command_line(&mut self.session, line.as_bytes());
-        String::from_utf8_lossy(&r)
-            .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
-            .to_string()
+        mcc_tests::inproc::command(&self.card, &mut self.session, line)
     }
 
     fn run(&mut self, cycles: usize) {
@@ -191,4 +164,3 @@ fn a_card_motor_moves_a_bound_drive_to_its_target() {
     let st = b.drives.lock().unwrap().host.status(0, "station0").unwrap();
     assert_eq!(st.velocity, 0);
 }
-

@@ -23,19 +23,8 @@ pub fn run(args: &BenchEmclArgs) -> Result<()> {
     let mut cfg = ClusterConfig::default_cluster(1, 1);
     cfg.cluster = format!("bench-emcl-{}", std::process::id());
     cfg.clock = args.clock.unwrap_or(ClockMode::Lockstep);
-    let cfg = cfg.resolve().map_err(|e| anyhow!(e))?;
     let rd = RunDir::for_cluster(&cfg.cluster)?;
-    rd.claim(std::process::id())?;
-    rd.write_config(&cfg.to_toml_string()?)?;
-    let sup = match Supervisor::start(rd.clone(), cfg.clone()) {
-        Ok(s) => s,
-        Err(e) => {
-            let _ = rd.cleanup();
-            return Err(e);
-        }
-    };
-    let res = measure(&sup, &cfg, args);
-    sup.shutdown(Duration::from_secs(6));
+    let res = crate::bench::syncstart::with_cluster(cfg, |sup, cfg| measure(sup, cfg, args));
     // The bench's drive image is not worth keeping.
     let _ = std::fs::remove_dir_all(rd.dir.join("drives"));
     let _ = std::fs::remove_dir(&rd.dir);
@@ -62,8 +51,7 @@ fn round_trip(s: &mut TcpStream) -> Result<u64> {
     }
 }
 
-fn measure(sup: &Supervisor, cfg: &ClusterConfig, args: &BenchEmclArgs) -> Result<()> {
-    crate::up::wait_locked(sup.session(), cfg, Duration::from_secs(60), || None)?;
+fn measure(sup: &mut Supervisor, cfg: &ClusterConfig, args: &BenchEmclArgs) -> Result<()> {
     let addr = sup
         .info()
         .emcl_bus

@@ -8,9 +8,9 @@
 //! which is how a host that sent garbage or half a frame gets back in step. Options:
 //! `MCC_EMCL_PORT` / `[emcl] port` (TCP port, 0 = any free port), the pty as above.
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -65,84 +65,44 @@ pub fn export_up_options(args: &crate::cli::UpArgs) {
     }
 }
 
-/// A running bus server. Dropping it stops accepting.
-#[derive(Debug)]
-pub struct BusServer {
-    addr: String,
-    pty: Option<String>,
-    stop: Arc<AtomicBool>,
-}
+/// A running bus server (its endpoints). Dropping it stops accepting.
+pub type BusServer = crate::serve::Endpoints;
 
-impl BusServer {
-    /// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
-    pub fn start(session: &zenoh::Session, cfg: &ClusterConfig, opts: &BusOptions) -> Result<Self> {
-        let bus = Bus::start(session.clone(), cfg).context("EMCL bus: cannot start the line")?;
-        let listener = TcpListener::bind(("127.0.0.1", opts.port))
-            .with_context(|| format!("EMCL bus: cannot listen on 127.0.0.1:{}", opts.port))?;
-        let addr = listener.local_addr()?.to_string();
-        listener.set_nonblocking(true)?;
-        let stop = Arc::new(AtomicBool::new(false));
-        {
-            let (bus, stop) = (bus.clone(), Arc::clone(&stop));
-            std::thread::Builder::new()
-                .name("mcc-emcl-accept".into())
-                .spawn(move || accept_loop(listener, bus, stop))?;
-        }
-        let pty = if opts.pty {
-            Some(pty::start(bus.clone(), Arc::clone(&stop))?)
-        } else {
-            None
-        };
-        Ok(BusServer { addr, pty, stop })
+/// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
+pub fn start(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    opts: &BusOptions,
+) -> Result<BusServer> {
+    let bus = Bus::start(session.clone(), cfg).context("EMCL bus: cannot start the line")?;
+    let listener = TcpListener::bind(("127.0.0.1", opts.port))
+        .with_context(|| format!("EMCL bus: cannot listen on 127.0.0.1:{}", opts.port))?;
+    let addr = listener.local_addr()?.to_string();
+    listener.set_nonblocking(true)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let (bus, stop) = (bus.clone(), Arc::clone(&stop));
+        let stop2 = Arc::clone(&stop);
+        let serve = Arc::new(move |stream: TcpStream| serve_tcp(stream, &bus, &stop2));
+        std::thread::Builder::new()
+            .name("mcc-emcl-accept".into())
+            .spawn(move || {
+                crate::serve::accept_loop(
+                    listener,
+                    "EMCL bus",
+                    "mcc-emcl-conn",
+                    MAX_CONNECTIONS,
+                    stop,
+                    serve,
+                )
+            })?;
     }
-
-    /// `127.0.0.1:PORT`.
-    pub fn addr(&self) -> &str {
-        &self.addr
-    }
-
-    /// The pseudo-terminal's slave path, when serving one.
-    pub fn pty_path(&self) -> Option<&str> {
-        self.pty.as_deref()
-    }
-}
-
-impl Drop for BusServer {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-}
-
-fn accept_loop(listener: TcpListener, bus: Bus, stop: Arc<AtomicBool>) {
-    let live = Arc::new(AtomicUsize::new(0));
-    while !stop.load(Ordering::Relaxed) {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                if live.load(Ordering::Relaxed) >= MAX_CONNECTIONS {
-                    tracing::warn!("EMCL bus: too many connections; refusing one");
-                    continue;
-                }
-                live.fetch_add(1, Ordering::Relaxed);
-                let (bus, stop, live) = (bus.clone(), Arc::clone(&stop), Arc::clone(&live));
-                let spawned = std::thread::Builder::new()
-                    .name("mcc-emcl-conn".into())
-                    .spawn(move || {
-                        serve_tcp(stream, &bus, &stop);
-                        live.fetch_sub(1, Ordering::Relaxed);
-                    });
-                if spawned.is_err() {
-                    tracing::warn!("EMCL bus: cannot start a connection thread");
-                }
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(e) => {
-                tracing::warn!("EMCL bus accept: {e}");
-                std::thread::sleep(Duration::from_millis(100));
-            }
-        }
-    }
+    let pty = if opts.pty {
+        Some(pty::start(bus.clone(), Arc::clone(&stop))?)
+    } else {
+        None
+    };
+    Ok(crate::serve::Endpoints::new(addr, pty, stop))
 }
 
 fn now_ms(t0: Instant) -> u64 {
@@ -176,61 +136,32 @@ fn serve_tcp(mut stream: TcpStream, bus: &Bus, stop: &AtomicBool) {
         return;
     };
     let t0 = Instant::now();
-    let mut asm = FrameAssembler::new(SILENCE_MS);
-    let mut buf = [0u8; 4096];
-    while !stop.load(Ordering::Relaxed) {
-        match stream.read(&mut buf) {
-            Ok(0) => return,
-            Ok(n) => {
-                let data = buf.get(..n).unwrap_or_default();
-                if !serve_bytes(&mut asm, data, now_ms(t0), bus, &mut out) {
-                    return;
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock
-                        | std::io::ErrorKind::TimedOut
-                        | std::io::ErrorKind::Interrupted
-                ) =>
-            {
-                asm.expire(now_ms(t0));
-            }
-            Err(_) => return,
-        }
-    }
+    let asm = std::cell::RefCell::new(FrameAssembler::new(SILENCE_MS));
+    let data = |chunk: &[u8]| serve_bytes(&mut asm.borrow_mut(), chunk, now_ms(t0), bus, &mut out);
+    let idle = || {
+        asm.borrow_mut().expire(now_ms(t0));
+    };
+    crate::serve::read_loop(&mut stream, stop, 4096, data, idle);
 }
 
 mod pty {
     //! The pseudo-terminal: raw mode (no echo, no signals, no CR/NL or XON/XOFF handling, so
     //! every byte value passes), the slave kept open by us so that hosts may come and go.
 
-    use std::fs::File;
     use std::io::Read;
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
     use std::time::Instant;
 
-    use anyhow::{anyhow, Result};
+    use anyhow::Result;
     use mcc_station::emcl::codec::FrameAssembler;
-    use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
     use super::super::bus::Bus;
     use super::{now_ms, serve_bytes, SILENCE_MS};
 
     /// Open the pty and serve it from a thread; the slave path.
     pub fn start(bus: Bus, stop: Arc<AtomicBool>) -> Result<String> {
-        let p = nix::pty::openpty(None, None).map_err(|e| anyhow!("EMCL bus: openpty: {e}"))?;
-        let mut t = tcgetattr(&p.slave).map_err(|e| anyhow!("EMCL bus pty: {e}"))?;
-        cfmakeraw(&mut t);
-        tcsetattr(&p.slave, SetArg::TCSANOW, &t).map_err(|e| anyhow!("EMCL bus pty: {e}"))?;
-        let path = nix::unistd::ttyname(&p.slave)
-            .map_err(|e| anyhow!("EMCL bus pty name: {e}"))?
-            .display()
-            .to_string();
-        let slave = p.slave;
-        let mut master = File::from(p.master);
+        let (slave, mut master, path) = crate::serve::open_raw_pty("EMCL bus")?;
         let mut out = master.try_clone()?;
         std::thread::Builder::new()
             .name("mcc-emcl-pty".into())

@@ -22,7 +22,12 @@ pub fn query(
     let hosts = cfg.drive_hosts();
     let gets: Vec<_> = hosts
         .iter()
-        .map(|h| session.get(status_key(&cfg.cluster, h)).timeout(timeout).wait())
+        .map(|h| {
+            session
+                .get(status_key(&cfg.cluster, h))
+                .timeout(timeout)
+                .wait()
+        })
         .collect();
     let mut rows: Vec<DriveStatus> = Vec::new();
     for get in gets {
@@ -129,7 +134,11 @@ pub fn render(doc: &ClusterStatus) -> String {
 
 /// Wait until every drive answers its status query (stations answer once locked; a
 /// stand-alone drive process once it has declared its queryables).
-pub fn wait_ready(session: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) -> anyhow::Result<()> {
+pub fn wait_ready(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+) -> anyhow::Result<()> {
     if cfg.drives.is_empty() {
         return Ok(());
     }

@@ -37,7 +37,12 @@ pub fn parse_frame(words: &[String]) -> Result<[u8; FRAME_LEN]> {
                 .map_err(|_| anyhow!("value {value} does not fit 32 bits"))?;
             Ok(Request {
                 addr: b(0, "address")?,
-                instr: Instr::new(b(1, "instruction")?, b(2, "type")?, b(3, "motor/bank")?, value),
+                instr: Instr::new(
+                    b(1, "instruction")?,
+                    b(2, "type")?,
+                    b(3, "motor/bank")?,
+                    value,
+                ),
             }
             .to_bytes())
         }
@@ -54,7 +59,10 @@ pub fn parse_frame(words: &[String]) -> Result<[u8; FRAME_LEN]> {
 }
 
 fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02X}")).collect::<Vec<_>>().join(" ")
+    b.iter()
+        .map(|x| format!("{x:02X}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// `mcc emcl ...`.
@@ -149,6 +157,9 @@ mod tests {
         );
         assert!(parse_frame(&w("1 2 3")).is_err());
         assert!(parse_frame(&w("256 1 0 0 0")).is_err());
-        assert_eq!(parse_frame(&w("1 9 0x49 0 0xFFFFFFFF")).unwrap()[4..8], [0xFF; 4]);
+        assert_eq!(
+            parse_frame(&w("1 9 0x49 0 0xFFFFFFFF")).unwrap()[4..8],
+            [0xFF; 4]
+        );
     }
 }

@@ -264,7 +264,10 @@ pub fn validate_drives(cfg: &ClusterConfig) -> Result<(), ConfigError> {
         if !names.insert(d.name.as_str()) {
             return bad(
                 format!("{key}.name"),
-                format!("duplicate name {:?} (members and drives share one namespace)", d.name),
+                format!(
+                    "duplicate name {:?} (members and drives share one namespace)",
+                    d.name
+                ),
             );
         }
         if let Some(other) = addresses.insert(d.address, d.name.as_str()) {
@@ -336,9 +339,15 @@ fn validate_motor(key: &str, m: &DriveMotor) -> Result<(), ConfigError> {
     if m.full_steps == 0 {
         return bad(format!("{key}.full_steps"), "must be 1-65535");
     }
-    for (f, v) in [("max_velocity", m.max_velocity), ("max_acceleration", m.max_acceleration)] {
+    for (f, v) in [
+        ("max_velocity", m.max_velocity),
+        ("max_acceleration", m.max_acceleration),
+    ] {
         if !(0..=8_388_607).contains(&v) {
-            return bad(format!("{key}.{f}"), format!("{v} is out of range 0-8388607"));
+            return bad(
+                format!("{key}.{f}"),
+                format!("{v} is out of range 0-8388607"),
+            );
         }
     }
     if m.encoder_lines < 0 {
@@ -347,13 +356,19 @@ fn validate_motor(key: &str, m: &DriveMotor) -> Result<(), ConfigError> {
     if m.limits && m.left_limit >= m.right_limit {
         return bad(
             format!("{key}.left_limit"),
-            format!("{} must be below right_limit {}", m.left_limit, m.right_limit),
+            format!(
+                "{} must be below right_limit {}",
+                m.left_limit, m.right_limit
+            ),
         );
     }
     if m.switches != "normally_open" && m.switches != "normally_closed" {
         return bad(
             format!("{key}.switches"),
-            format!("{:?}: expected \"normally_open\" or \"normally_closed\"", m.switches),
+            format!(
+                "{:?}: expected \"normally_open\" or \"normally_closed\"",
+                m.switches
+            ),
         );
     }
     if m.home_width < 0 {
@@ -368,7 +383,10 @@ fn validate_motor(key: &str, m: &DriveMotor) -> Result<(), ConfigError> {
         }
     }
     if m.load > 1023 {
-        return bad(format!("{key}.load"), format!("{} is out of range 0-1023", m.load));
+        return bad(
+            format!("{key}.load"),
+            format!("{} is out of range 0-1023", m.load),
+        );
     }
     Ok(())
 }
@@ -381,7 +399,10 @@ fn validate_io(key: &str, io: &DriveIo) -> Result<(), ConfigError> {
         return bad(format!("{key}.inputs[{k}]"), format!("{v} is not 0 or 1"));
     }
     if io.analog > 4095 {
-        return bad(format!("{key}.analog"), format!("{} is out of range 0-4095", io.analog));
+        return bad(
+            format!("{key}.analog"),
+            format!("{} is out of range 0-4095", io.analog),
+        );
     }
     for (f, v) in [("enable_in", io.enable_in), ("reset_in", io.reset_in)] {
         if v > 1 {
@@ -421,7 +442,10 @@ master = 0
         assert_eq!(d.station.as_deref(), Some("station0"));
         assert_eq!(c.drive_hosts(), vec!["station0".to_string()]);
         let c0 = ClusterConfig::default_cluster(1, 0);
-        assert_eq!(c0.drives[0].station, None, "no station: drive0 stands alone");
+        assert_eq!(
+            c0.drives[0].station, None,
+            "no station: drive0 stands alone"
+        );
         assert_eq!(c0.standalone_drives().count(), 1);
         // The resolved config survives the trip through the run directory.
         let text = c.to_toml_string().unwrap();
@@ -454,14 +478,26 @@ address = 8
 "#,
         )
         .unwrap();
-        assert_eq!(c.emcl, EmclConfig { port: 4711, pty: true });
+        assert_eq!(
+            c.emcl,
+            EmclConfig {
+                port: 4711,
+                pty: true
+            }
+        );
         let x = c.drive("x").unwrap();
         assert_eq!(x.node, Some(4));
         assert_eq!(x.motor.full_steps, 400);
         assert_eq!(x.motor.hard_stop_plus, Some(100));
         assert_eq!(x.io.inputs, vec![1, 0, 1]);
-        assert_eq!(DriveConfig::overrides(&x.axis).unwrap(), vec![(12, 3), (4, 1000)]);
-        assert_eq!(c.drive_hosts(), vec!["station0".to_string(), "solo".to_string()]);
+        assert_eq!(
+            DriveConfig::overrides(&x.axis).unwrap(),
+            vec![(12, 3), (4, 1000)]
+        );
+        assert_eq!(
+            c.drive_hosts(),
+            vec!["station0".to_string(), "solo".to_string()]
+        );
     }
 
     #[test]

@@ -47,7 +47,8 @@ impl Drive {
         } else if b.lockout && !aena {
             b.lockout = false;
         }
-        let enabled = aena && !self.bound.lockout && !ring_fault && self.driver_on() && !self.pos_error;
+        let enabled =
+            aena && !self.bound.lockout && !ring_fault && self.driver_on() && !self.pos_error;
         let v = if enabled {
             i64::from(cmd.r2 as i16) * self.spec.pulse_full_scale / 32768
         } else {
@@ -64,7 +65,8 @@ impl Drive {
         b.acc -= steps * 1_000_000_000;
         let steps = steps as i64;
         if steps != 0 {
-            self.motion.set_position(self.motion.pos.wrapping_add(steps as i32));
+            self.motion
+                .set_position(self.motion.pos.wrapping_add(steps as i32));
             self.motion.target_pos = self.motion.pos;
         }
         self.move_shaft(steps);

@@ -39,7 +39,11 @@ fn assembler_cuts_every_nine_bytes_whatever_the_segmentation() {
             // Segments arrive close together (well inside the silence timeout).
             got.extend(a.push(chunk, k as u64));
         }
-        assert_eq!(got, (0..5).map(frame).collect::<Vec<_>>(), "segments of {seg}");
+        assert_eq!(
+            got,
+            (0..5).map(frame).collect::<Vec<_>>(),
+            "segments of {seg}"
+        );
         assert_eq!(a.pending(), 0);
     }
 }

@@ -245,10 +245,14 @@ impl Drive {
             .iter()
             .copied()
             .filter(|&(n, v)| {
-                params::axis(n).is_some_and(|p| p.access == params::Access::RW && p.range.contains(v))
+                params::axis(n)
+                    .is_some_and(|p| p.access == params::Access::RW && p.range.contains(v))
             })
             .collect();
-        for n in params::AXIS_PARAMS.iter().filter(|p| p.access == params::Access::RW) {
+        for n in params::AXIS_PARAMS
+            .iter()
+            .filter(|p| p.access == params::Access::RW)
+        {
             self.restore_ap(n.num, self.spec.axis_default(n.num));
         }
         for &(n, v) in stored.iter().filter(|(n, _)| *n != 209) {
@@ -259,13 +263,19 @@ impl Drive {
         if let Some(&(n, v)) = stored.iter().find(|(n, _)| *n == 209) {
             self.restore_ap(n, v);
         }
-        for p in params::GLOBAL_PARAMS.iter().filter(|p| params::global_is_eeprom(p.num)) {
+        for p in params::GLOBAL_PARAMS
+            .iter()
+            .filter(|p| params::global_is_eeprom(p.num))
+        {
             self.gp[usize::from(p.num)] = self.spec.global_default(p.num);
         }
         for (n, v) in self.eeprom.global.clone() {
             let ok = match n {
                 73 => v == 0 || v == 1,
-                _ => params::global_is_eeprom(n) && params::global(n).is_some_and(|p| p.range.contains(v)),
+                _ => {
+                    params::global_is_eeprom(n)
+                        && params::global(n).is_some_and(|p| p.range.contains(v))
+                }
             };
             if ok {
                 self.gp[usize::from(n)] = v;

@@ -159,9 +159,8 @@ impl EepromImage {
             return Err("checksum mismatch".into());
         }
         let cfg = bincode::config::standard().with_limit::<MAX_PAYLOAD>();
-        let (mut img, used): (EepromImage, usize) =
-            bincode::serde::decode_from_slice(payload, cfg)
-                .map_err(|e| format!("payload does not decode: {e}"))?;
+        let (mut img, used): (EepromImage, usize) = bincode::serde::decode_from_slice(payload, cfg)
+            .map_err(|e| format!("payload does not decode: {e}"))?;
         if used != payload.len() {
             return Err("trailing bytes after the payload".into());
         }

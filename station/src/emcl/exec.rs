@@ -61,7 +61,7 @@ impl Drive {
             6 => {
                 motor0(i)?;
                 let v = self.get_ap(i.typ)?;
-                self.to_accu(ctx, v);
+                self.load_accu(ctx, v);
                 Ok(v)
             }
             7 => {
@@ -80,7 +80,7 @@ impl Drive {
             }
             10 => {
                 let v = self.get_gp(i.typ, i.motor)?;
-                self.to_accu(ctx, v);
+                self.load_accu(ctx, v);
                 Ok(v)
             }
             11 => {
@@ -108,7 +108,7 @@ impl Drive {
             }
             15 => {
                 let v = self.get_io(i.typ, i.motor)?;
-                self.to_accu(ctx, v);
+                self.load_accu(ctx, v);
                 Ok(v)
             }
             19 => {
@@ -267,7 +267,7 @@ impl Drive {
         }
     }
 
-    fn to_accu(&mut self, ctx: Ctx, v: i32) {
+    fn load_accu(&mut self, ctx: Ctx, v: i32) {
         if ctx == Ctx::Program {
             self.prog.load(v);
         }
@@ -412,7 +412,7 @@ impl Drive {
             _ => return Err(status::INVALID_VALUE),
         }
         let v = self.coords[n];
-        self.to_accu(ctx, v);
+        self.load_accu(ctx, v);
         Ok(v)
     }
 }

@@ -23,10 +23,10 @@ pub use host::{DriveHost, HostedDrive};
 pub use spec::DriveSpec;
 
 #[cfg(test)]
-mod tests_vectors;
-#[cfg(test)]
-mod tests_program;
-#[cfg(test)]
 mod tests_drive;
 #[cfg(test)]
 mod tests_fuzz;
+#[cfg(test)]
+mod tests_program;
+#[cfg(test)]
+mod tests_vectors;

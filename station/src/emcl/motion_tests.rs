@@ -91,10 +91,12 @@ fn velocity_mode_ramps_and_reverses_through_zero() {
     assert!(seen_zero);
     assert_eq!(m.v, -100);
     // Position bookkeeping: 1 pps for 1000 ms is exactly one µstep.
-    let mut m = Motion::default();
-    m.v = 1;
-    m.mode = Mode::Velocity;
-    m.target_vel = 1;
+    let mut m = Motion {
+        v: 1,
+        mode: Mode::Velocity,
+        target_vel: 1,
+        ..Motion::default()
+    };
     for _ in 0..999 {
         m.step(&r, Blocks::default());
     }

@@ -120,7 +120,10 @@ pub const AXIS_PARAMS: &[ParamInfo] = &[
     rw(164, R03),
     rw(165, Range::Span(-3, 12)),
     rw(166, Range::Span(0, 8)),
-    rw(167, Range::OneOf(&[0, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15])),
+    rw(
+        167,
+        Range::OneOf(&[0, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15]),
+    ),
     rw(168, B01),
     rw(169, R03),
     rw(170, Range::Span(0, 15)),

@@ -150,7 +150,8 @@ impl Drive {
         }
         if let Some(w) = self.prog.wait {
             let met = self.wait_met(w.kind, w.until_ms);
-            let timed_out = w.kind != WaitKind::Ticks && w.until_ms.is_some_and(|t| self.now_ms >= t);
+            let timed_out =
+                w.kind != WaitKind::Ticks && w.until_ms.is_some_and(|t| self.now_ms >= t);
             if met || timed_out {
                 if !met {
                     self.prog.flags.eto = true;

@@ -148,7 +148,8 @@ impl DriveSpec {
                     "global parameter {n}: only the EEPROM parameters 64-87 (not 73) have factory values"
                 ));
             }
-            let p = params::global(n).ok_or_else(|| format!("global parameter {n} does not exist"))?;
+            let p =
+                params::global(n).ok_or_else(|| format!("global parameter {n} does not exist"))?;
             if !p.range.contains(v) {
                 return Err(format!("global parameter {n}: {v} is out of range"));
             }
@@ -157,7 +158,10 @@ impl DriveSpec {
             return Err(format!("load {} is out of range 0-1023", self.load));
         }
         if self.analog > 4095 {
-            return Err(format!("analog input {} is out of range 0-4095", self.analog));
+            return Err(format!(
+                "analog input {} is out of range 0-4095",
+                self.analog
+            ));
         }
         if self.home_width < 0 {
             return Err("home_width must be ≥ 0".into());
@@ -175,7 +179,9 @@ impl DriveSpec {
         }
         if let (Some(l), Some(r)) = (self.hard_stop_minus, self.hard_stop_plus) {
             if l >= r {
-                return Err(format!("hard_stop_minus {l} must be below hard_stop_plus {r}"));
+                return Err(format!(
+                    "hard_stop_minus {l} must be below hard_stop_plus {r}"
+                ));
             }
         }
         Ok(())

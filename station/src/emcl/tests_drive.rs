@@ -33,14 +33,34 @@ fn axis_parameters_ranges_access_and_unknown_numbers() {
     assert_eq!(direct(&mut d, i(5, 6, 0, 176)), (status::OK, 176));
     assert_eq!(direct(&mut d, i(6, 6, 0, 0)), (status::OK, 176));
     assert_eq!(direct(&mut d, i(5, 6, 0, 256)).0, status::INVALID_VALUE);
-    assert_eq!(direct(&mut d, i(5, 6, 1, 10)).0, status::INVALID_VALUE, "motor 1");
+    assert_eq!(
+        direct(&mut d, i(5, 6, 1, 10)).0,
+        status::INVALID_VALUE,
+        "motor 1"
+    );
     assert_eq!(direct(&mut d, i(6, 6, 1, 0)).0, status::INVALID_VALUE);
-    assert_eq!(direct(&mut d, i(5, 3, 0, 10)).0, status::WRONG_TYPE, "AP 3 (D16)");
-    assert_eq!(direct(&mut d, i(5, 180, 0, 1)).0, status::WRONG_TYPE, "AP 180 (D16)");
+    assert_eq!(
+        direct(&mut d, i(5, 3, 0, 10)).0,
+        status::WRONG_TYPE,
+        "AP 3 (D16)"
+    );
+    assert_eq!(
+        direct(&mut d, i(5, 180, 0, 1)).0,
+        status::WRONG_TYPE,
+        "AP 180 (D16)"
+    );
     assert_eq!(direct(&mut d, i(5, 8, 0, 1)).0, status::WRONG_TYPE);
     for n in [9u8, 14, 130, 135, 140, 153, 154, 194, 204, 251] {
-        assert_eq!(direct(&mut d, i(6, n, 0, 0)).0, status::WRONG_TYPE, "GAP {n}");
-        assert_eq!(direct(&mut d, i(5, n, 0, 0)).0, status::WRONG_TYPE, "SAP {n}");
+        assert_eq!(
+            direct(&mut d, i(6, n, 0, 0)).0,
+            status::WRONG_TYPE,
+            "GAP {n}"
+        );
+        assert_eq!(
+            direct(&mut d, i(5, n, 0, 0)).0,
+            status::WRONG_TYPE,
+            "SAP {n}"
+        );
     }
     assert_eq!(direct(&mut d, i(5, 12, 0, 2)).0, status::INVALID_VALUE);
     assert_eq!(direct(&mut d, i(5, 12, 0, 3)).0, status::OK);
@@ -79,7 +99,11 @@ fn store_restore_and_power_up_from_the_eeprom_image() {
     let mut d2 = Drive::power_up(DriveSpec::default(), Some(&image), None);
     assert_eq!(*d2.eeprom_load(), EepromLoad::Loaded);
     assert_eq!(direct(&mut d2, i(6, 4, 0, 0)).1, 12345);
-    assert_eq!(direct(&mut d2, i(6, 5, 0, 0)).1, 51200, "AP 5 was never stored");
+    assert_eq!(
+        direct(&mut d2, i(6, 5, 0, 0)).1,
+        51200,
+        "AP 5 was never stored"
+    );
     assert_eq!(direct(&mut d2, i(10, 7, 2, 0)).1, -42);
     assert_eq!(direct(&mut d2, i(10, 60, 2, 0)).1, 0);
     assert_eq!(direct(&mut d2, i(10, 75, 0, 0)).1, 15);
@@ -156,16 +180,26 @@ fn factory_reset_sends_no_reply_and_keeps_the_program() {
 #[test]
 fn addresses_primary_secondary_and_silence() {
     let mut d = drive();
-    assert!(send_to(&mut d, 2, i(6, 1, 0, 0)).is_none(), "other address: silent");
+    assert!(
+        send_to(&mut d, 2, i(6, 1, 0, 0)).is_none(),
+        "other address: silent"
+    );
     let bad = [2u8, 1, 0, 0, 0, 0, 0, 0, 0];
-    assert!(d.handle_frame(&bad).is_none(), "bad checksum elsewhere: silent");
+    assert!(
+        d.handle_frame(&bad).is_none(),
+        "bad checksum elsewhere: silent"
+    );
     // SGP 66: the reply already carries the new address.
     let r = send_to(&mut d, 1, i(9, 66, 0, 3)).unwrap();
     assert_eq!((r.module, r.status), (3, status::OK));
     assert!(send_to(&mut d, 1, i(6, 1, 0, 0)).is_none());
     direct_at(&mut d, 3, i(9, 87, 0, 9));
     let r = send_to(&mut d, 9, i(10, 66, 0, 0)).unwrap();
-    assert_eq!((r.module, r.value), (3, 3), "secondary address: reply with GP 66");
+    assert_eq!(
+        (r.module, r.value),
+        (3, 3),
+        "secondary address: reply with GP 66"
+    );
     // GP 76: the host address of replies.
     direct_at(&mut d, 3, i(9, 76, 0, 7));
     assert_eq!(send_to(&mut d, 3, i(6, 1, 0, 0)).unwrap().host, 7);
@@ -178,23 +212,59 @@ fn direct_at(d: &mut Drive, addr: u8, instr: Instr) {
 #[test]
 fn instruction_and_type_errors() {
     let mut d = drive();
-    for op in [0u8, 16, 17, 18, 25, 26, 29, 37, 38, 40, 64, 66, 71, 72, 127, 138, 139, 157, 255] {
-        assert_eq!(direct(&mut d, i(op, 0, 0, 0)).0, status::INVALID_INSTRUCTION, "op {op}");
+    for op in [
+        0u8, 16, 17, 18, 25, 26, 29, 37, 38, 40, 64, 66, 71, 72, 127, 138, 139, 157, 255,
+    ] {
+        assert_eq!(
+            direct(&mut d, i(op, 0, 0, 0)).0,
+            status::INVALID_INSTRUCTION,
+            "op {op}"
+        );
     }
     for op in [20u8, 21, 22, 23, 24, 27, 28, 36] {
-        assert_eq!(direct(&mut d, i(op, 0, 0, 0)).0, status::NOT_AVAILABLE, "op {op}");
+        assert_eq!(
+            direct(&mut d, i(op, 0, 0, 0)).0,
+            status::NOT_AVAILABLE,
+            "op {op}"
+        );
     }
-    assert_eq!(direct(&mut d, i(1, 0, 0, 16_777_217)).0, status::INVALID_VALUE);
-    assert_eq!(direct(&mut d, i(2, 0, 0, -16_777_217)).0, status::INVALID_VALUE);
+    assert_eq!(
+        direct(&mut d, i(1, 0, 0, 16_777_217)).0,
+        status::INVALID_VALUE
+    );
+    assert_eq!(
+        direct(&mut d, i(2, 0, 0, -16_777_217)).0,
+        status::INVALID_VALUE
+    );
     assert_eq!(direct(&mut d, i(1, 0, 0, 16_777_216)).0, status::OK);
-    assert_eq!(direct(&mut d, i(6, 2, 0, 0)).1, 16_777_216, "E4: stored in AP 2");
+    assert_eq!(
+        direct(&mut d, i(6, 2, 0, 0)).1,
+        16_777_216,
+        "E4: stored in AP 2"
+    );
     assert_eq!(direct(&mut d, i(4, 2, 0, 21)).0, status::INVALID_VALUE);
     assert_eq!(direct(&mut d, i(13, 3, 0, 0)).0, status::WRONG_TYPE);
-    assert_eq!(direct(&mut d, i(9, 0, 1, 0)).0, status::WRONG_TYPE, "bank 1");
-    assert_eq!(direct(&mut d, i(10, 0, 3, 0)).0, status::WRONG_TYPE, "bank 3");
-    assert_eq!(direct(&mut d, i(10, 0, 4, 0)).0, status::INVALID_VALUE, "bank 4");
+    assert_eq!(
+        direct(&mut d, i(9, 0, 1, 0)).0,
+        status::WRONG_TYPE,
+        "bank 1"
+    );
+    assert_eq!(
+        direct(&mut d, i(10, 0, 3, 0)).0,
+        status::WRONG_TYPE,
+        "bank 3"
+    );
+    assert_eq!(
+        direct(&mut d, i(10, 0, 4, 0)).0,
+        status::INVALID_VALUE,
+        "bank 4"
+    );
     assert_eq!(direct(&mut d, i(10, 67, 0, 0)).0, status::WRONG_TYPE);
-    assert_eq!(direct(&mut d, i(9, 128, 0, 1)).0, status::WRONG_TYPE, "read-only GP");
+    assert_eq!(
+        direct(&mut d, i(9, 128, 0, 1)).0,
+        status::WRONG_TYPE,
+        "read-only GP"
+    );
     assert_eq!(direct(&mut d, i(9, 65, 0, 12)).0, status::INVALID_VALUE);
     assert_eq!(direct(&mut d, i(65, 2, 0, 0)).0, status::WRONG_TYPE);
     assert_eq!(direct(&mut d, i(65, 0, 0, 2)).0, status::INVALID_VALUE);
@@ -221,7 +291,10 @@ fn positioning_is_exact_per_ms_tick() {
     }
     assert_eq!(vel[0], 10);
     assert_eq!(vel[99], 1000);
-    assert_eq!(pos[99], 50, "sum of 10+20+…+1000 over 1000 = 50.5 → 50 whole µsteps");
+    assert_eq!(
+        pos[99], 50,
+        "sum of 10+20+…+1000 over 1000 = 50.5 → 50 whole µsteps"
+    );
     assert!(vel.iter().all(|v| (0..=1000).contains(v)));
     // Monotonic, never past the target, and exactly on it at rest.
     assert!(pos.windows(2).all(|w| w[1] >= w[0]));
@@ -273,7 +346,11 @@ fn rotate_stop_and_six_point_ramp() {
     assert_eq!(d.get_ap(3), Ok(-20000));
     direct(&mut d, i(3, 0, 0, 0));
     d.run_ms(391);
-    assert_eq!(d.get_ap(3), Ok(0), "20000 pps at 51200 pps² stops in < 391 ms");
+    assert_eq!(
+        d.get_ap(3),
+        Ok(0),
+        "20000 pps at 51200 pps² stops in < 391 ms"
+    );
     // Start velocity 1000 and a gentle first segment up to the break velocity 5000.
     direct(&mut d, i(5, 15, 0, 1000));
     direct(&mut d, i(5, 16, 0, 10000));
@@ -325,7 +402,10 @@ fn limit_switches_stop_the_motor_and_report_their_state() {
     direct(&mut d, i(1, 0, 0, 20000));
     d.run_ms(3000);
     let p = d.get_ap(1).unwrap();
-    assert!((3000..3000 + 2100).contains(&p), "braked past the switch: {p}");
+    assert!(
+        (3000..3000 + 2100).contains(&p),
+        "braked past the switch: {p}"
+    );
 }
 
 #[test]
@@ -390,7 +470,10 @@ fn stall_detection_stops_at_a_hard_stop() {
     d.run_ms(2000);
     assert_eq!(direct(&mut d, i(6, 2, 0, 0)).1, 0);
     assert_eq!(d.get_ap(208).unwrap() & 1, 1);
-    assert!(d.get_ap(1).unwrap() <= 10_000 + 20, "stopped within one ms of the stall");
+    assert!(
+        d.get_ap(1).unwrap() <= 10_000 + 20,
+        "stopped within one ms of the stall"
+    );
     // POS_ERROR: lost steps beyond AP 212 latch; motion commands are ignored until
     // RESET_IN; MST works; OUT_2 shows it.
     let mut d = Drive::new(spec);
@@ -507,7 +590,11 @@ fn coordinates_ram_eeprom_and_mvp_coord() {
     assert_eq!(direct(&mut d, i(31, 3, 255, 0)).1, 1000);
     let img = d.eeprom().encode();
     let mut d2 = Drive::power_up(DriveSpec::default(), Some(&img), None);
-    assert_eq!(direct(&mut d2, i(31, 3, 0, 0)).1, 0, "GP 84 = 0: RAM only at power-up");
+    assert_eq!(
+        direct(&mut d2, i(31, 3, 0, 0)).1,
+        0,
+        "GP 84 = 0: RAM only at power-up"
+    );
     // GP 84 = 1: written through and loaded at power-up.
     direct(&mut d2, i(9, 84, 0, 1));
     direct(&mut d2, i(30, 5, 0, 55));
@@ -546,7 +633,11 @@ fn corrupt_image_and_magic_give_factory_defaults_visibly() {
     assert_eq!(direct(&mut d2, i(6, 4, 0, 0)).1, 51200);
     assert_eq!(direct(&mut d2, i(10, 64, 0, 0)).1, 0xE4);
     assert_eq!(d2.eeprom().program.len(), 4, "program kept");
-    assert_eq!(d2.take_dirty(), Dirty::Now, "the re-initialised image is written back");
+    assert_eq!(
+        d2.take_dirty(),
+        Dirty::Now,
+        "the re-initialised image is written back"
+    );
 }
 
 #[test]
@@ -572,11 +663,23 @@ fn bound_drive_follows_its_node_and_refuses_direct_motion() {
     spec.pulse_full_scale = 1_000_000;
     let mut d = Drive::power_up(spec, None, Some(4));
     assert!(d.is_bound());
-    for m in [i(1, 0, 0, 1), i(2, 0, 0, 1), i(3, 0, 0, 0), i(4, 0, 0, 1), i(13, 0, 0, 0), i(5, 0, 0, 5), i(5, 2, 0, 5)] {
+    for m in [
+        i(1, 0, 0, 1),
+        i(2, 0, 0, 1),
+        i(3, 0, 0, 0),
+        i(4, 0, 0, 1),
+        i(13, 0, 0, 0),
+        i(5, 0, 0, 5),
+        i(5, 2, 0, 5),
+    ] {
         assert_eq!(direct(&mut d, m).0, status::NOT_AVAILABLE, "{m:?}");
     }
     assert_eq!(direct(&mut d, i(6, 1, 0, 0)), (status::OK, 0), "reads work");
-    assert_eq!(direct(&mut d, i(5, 6, 0, 100)).0, status::OK, "settings work");
+    assert_eq!(
+        direct(&mut d, i(5, 6, 0, 100)).0,
+        status::OK,
+        "settings work"
+    );
     // r2 = 16384: half scale = 500000 pps; 1 ms = 500 µsteps, reported ×32 in register 0.
     let cmd = NodeRegs {
         r0: 0,
@@ -623,7 +726,9 @@ fn every_frame_is_answered_or_silent_never_a_panic() {
         if op == 137 {
             continue;
         }
-        for typ in [0u8, 1, 2, 3, 8, 9, 10, 11, 20, 21, 64, 66, 73, 81, 129, 130, 254, 255] {
+        for typ in [
+            0u8, 1, 2, 3, 8, 9, 10, 11, 20, 21, 64, 66, 73, 81, 129, 130, 254, 255,
+        ] {
             for motor in [0u8, 1, 2, 3, 4, 255] {
                 for v in values {
                     let f: [u8; FRAME_LEN] = Request {

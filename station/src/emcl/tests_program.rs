@@ -55,10 +55,10 @@ fn closed_loop_setup_example_runs_forever_between_0_and_512000() {
         i(5, 5, 0, 512000),
         i(5, 16, 0, 512000),
         i(5, 17, 0, 512000),
-        i(6, 133, 0, 0),   // 15 CInit: GAP 133
-        i(21, 0, 0, 15),   // 16 JC ZE, CInit (no COMP: Z from the accumulator load)
-        i(5, 1, 0, 0),     // 17
-        i(9, 0, 2, 0),     // 18 LOOP1: SGP 0,2,0
+        i(6, 133, 0, 0), // 15 CInit: GAP 133
+        i(21, 0, 0, 15), // 16 JC ZE, CInit (no COMP: Z from the accumulator load)
+        i(5, 1, 0, 0),   // 17
+        i(9, 0, 2, 0),   // 18 LOOP1: SGP 0,2,0
         i(4, ABS, 0, 512000),
         i(27, 1, 0, 0),
         i(27, 0, 0, 50),
@@ -73,7 +73,11 @@ fn closed_loop_setup_example_runs_forever_between_0_and_512000() {
     // The init loop spins until AP 133 = 1 (500 ms after SAP 129).
     d.run_ms(400);
     assert_eq!(d.get_ap(133), Ok(0));
-    assert!((15..=16).contains(&d.prog.pc), "still in CInit: pc {}", d.prog.pc);
+    assert!(
+        (15..=16).contains(&d.prog.pc),
+        "still in CInit: pc {}",
+        d.prog.pc
+    );
     // 512000 µsteps at 512000 pps and pps²: a 2 s triangle each way, 0.5 s pauses.
     let mut reached = Vec::new();
     let mut back = Vec::new();
@@ -101,7 +105,10 @@ fn closed_loop_setup_example_runs_forever_between_0_and_512000() {
     d.run_ms(1);
     let p = i64::from(d.get_ap(1).unwrap());
     let e = i64::from(d.get_ap(209).unwrap());
-    assert!((e - p * 10000 / 51200).abs() <= 1, "encoder {e} vs position {p}");
+    assert!(
+        (e - p * 10000 / 51200).abs() <= 1,
+        "encoder {e} vs position {p}"
+    );
 }
 
 #[test]
@@ -141,7 +148,12 @@ fn potentiometer_follower_moves_with_the_analog_input() {
     });
     load(
         &mut d,
-        &[i(15, 0, 1, 0), i(19, 2, 0, 4), i(34, 0, 0, 0), i(22, 0, 0, 0)],
+        &[
+            i(15, 0, 1, 0),
+            i(19, 2, 0, 4),
+            i(34, 0, 0, 0),
+            i(22, 0, 0, 0),
+        ],
     );
     run_at(&mut d, 0);
     d.run_ms(3000);
@@ -291,7 +303,11 @@ fn wait_timeouts_set_eto_and_cle_clears_it() {
     );
     run_at(&mut d, 0);
     d.run_ms(25);
-    assert_eq!((d.prog.pc, d.prog.flags.eto), (1, false), "3 ticks = 30 ms not over");
+    assert_eq!(
+        (d.prog.pc, d.prog.flags.eto),
+        (1, false),
+        "3 ticks = 30 ms not over"
+    );
     d.run_ms(15);
     assert!(d.prog.flags.eto || d.prog.pc > 3);
     d.run_ms(100);
@@ -404,13 +420,13 @@ fn errors_inside_a_program_are_no_ops() {
     load(
         &mut d,
         &[
-            i(5, 3, 0, 5),      // SAP 3: read-only
-            i(5, 6, 0, 999),    // out of range
-            i(99, 0, 0, 0),     // unknown instruction
-            i(28, 0, 0, 0),     // (slot 3: replaced by a host-control instruction below)
-            i(22, 0, 0, 5000),  // jump outside memory
-            i(9, 66, 7, 1),     // bank 7
-            i(19, 9, 0, 9),     // reached: accu 9
+            i(5, 3, 0, 5),     // SAP 3: read-only
+            i(5, 6, 0, 999),   // out of range
+            i(99, 0, 0, 0),    // unknown instruction
+            i(28, 0, 0, 0),    // (slot 3: replaced by a host-control instruction below)
+            i(22, 0, 0, 5000), // jump outside memory
+            i(9, 66, 7, 1),    // bank 7
+            i(19, 9, 0, 9),    // reached: accu 9
             i(28, 0, 0, 0),
         ],
     );
@@ -418,7 +434,10 @@ fn errors_inside_a_program_are_no_ops() {
     d.eeprom.set_slot(3, i(129, 1, 0, 0));
     run_at(&mut d, 0);
     d.run_ms(20);
-    assert_eq!((d.prog.accu, d.prog.state, d.prog.pc), (9, AppState::Stop, 7));
+    assert_eq!(
+        (d.prog.accu, d.prog.state, d.prog.pc),
+        (9, AppState::Stop, 7)
+    );
     assert_eq!(d.get_ap(6), Ok(128), "AP 6 untouched");
     assert_eq!(d.address(), 1);
 }
@@ -467,7 +486,11 @@ fn download_mode_rules() {
     let mut d = Drive::new(DriveSpec::default());
     assert_eq!(direct(&mut d, i(10, 129, 0, 0)).1, 0);
     assert_eq!(direct(&mut d, i(132, 0, 0, 2046)).0, status::OK);
-    assert_eq!(direct(&mut d, i(10, 129, 0, 0)).1, 0, "GGP is stored, not run");
+    assert_eq!(
+        direct(&mut d, i(10, 129, 0, 0)).1,
+        0,
+        "GGP is stored, not run"
+    );
     assert_eq!(d.eeprom().slot(2046), i(10, 129, 0, 0));
     assert_eq!(direct(&mut d, i(1, 0, 0, 5)), (status::STORED, 5));
     // Slot 2048 does not exist: status 4, nothing stored.
@@ -490,7 +513,10 @@ fn download_mode_rules() {
     assert_eq!(direct(&mut d, i(132, 0, 0, 0)).0, status::NOT_AVAILABLE);
     assert_eq!(d.eeprom().program.len(), 2048);
     assert_eq!(direct(&mut d, i(9, 81, 0, 0)).0, status::OK);
-    assert!(d.eeprom().program.is_empty(), "protection off: program erased");
+    assert!(
+        d.eeprom().program.is_empty(),
+        "protection off: program erased"
+    );
 }
 
 #[test]
@@ -511,7 +537,12 @@ fn wait_for_switches_and_the_reference_search() {
     let mut d = Drive::new(DriveSpec::default());
     load(
         &mut d,
-        &[i(1, 0, 0, 20000), i(27, 2, 0, 0), i(3, 0, 0, 0), i(28, 0, 0, 0)],
+        &[
+            i(1, 0, 0, 20000),
+            i(27, 2, 0, 0),
+            i(3, 0, 0, 0),
+            i(28, 0, 0, 0),
+        ],
     );
     run_at(&mut d, 0);
     let mut t = 0;
@@ -521,7 +552,10 @@ fn wait_for_switches_and_the_reference_search() {
     }
     assert_eq!(d.prog.pc, 3);
     let p = d.get_ap(1).unwrap();
-    assert!((5000..8000).contains(&p), "stopped after the home switch: {p}");
+    assert!(
+        (5000..8000).contains(&p),
+        "stopped after the home switch: {p}"
+    );
     // WAIT LIMSW with a timeout: no switch within 5 ticks → ETO.
     let mut d = Drive::new(DriveSpec {
         right_limit: Some(1500),
@@ -546,7 +580,15 @@ fn wait_for_switches_and_the_reference_search() {
     assert_eq!(d.get_ap(10), Ok(1), "stopped on the right limit");
     // WAIT RFS: the search finishes, then the program goes on.
     let mut d = Drive::new(DriveSpec::default());
-    load(&mut d, &[i(13, 0, 0, 0), i(27, 4, 0, 0), i(19, 9, 0, 1), i(28, 0, 0, 0)]);
+    load(
+        &mut d,
+        &[
+            i(13, 0, 0, 0),
+            i(27, 4, 0, 0),
+            i(19, 9, 0, 1),
+            i(28, 0, 0, 0),
+        ],
+    );
     direct(&mut d, i(5, 1, 0, 123));
     run_at(&mut d, 0);
     d.run_ms(100);

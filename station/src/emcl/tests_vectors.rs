@@ -42,7 +42,8 @@ fn checksum_is_the_low_byte_of_the_sum() {
 
 #[test]
 fn requests_printed_in_the_manual_15_1() {
-    let cases: &[(&str, (u8, u8, u8, i32))] = &[
+    type Fields = (u8, u8, u8, i32);
+    let cases: &[(&str, Fields)] = &[
         ("01 01 00 00 00 00 27 10 39", (1, 0, 0, 10000)),
         ("01 02 00 00 00 00 4E 20 71", (2, 0, 0, 20000)),
         ("01 03 00 00 00 00 00 00 04", (3, 0, 0, 0)),
@@ -217,7 +218,10 @@ fn computed_replies_15_4_from_a_drive() {
         send(&mut d, f9("01 88 00 00 00 00 00 00 89")),
         f9("02 31 33 36 30 56 31 33 31")
     );
-    assert_eq!(version_string_reply(2, b"1360V131"), f9("02 31 33 36 30 56 31 33 31"));
+    assert_eq!(
+        version_string_reply(2, b"1360V131"),
+        f9("02 31 33 36 30 56 31 33 31")
+    );
     assert_eq!(
         send(&mut d, f9("01 41 01 00 00 00 00 00 43")),
         f9("02 01 64 41 00 00 00 01 A9")

@@ -15,8 +15,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use mcc_ring::control::emcl::{
-    encode_answers, frame_key, io_key, status_key, BusAnswer, DriveStatus, IoRequest,
-    FRAME_LEN,
+    encode_answers, frame_key, io_key, status_key, BusAnswer, DriveStatus, IoRequest, FRAME_LEN,
 };
 use mcc_ring::control::CtlReply;
 use zenoh::Wait;
@@ -63,7 +62,10 @@ pub fn persist(shared: &Shared, k: usize, durable: bool) {
     let res = super::persist::write_atomic(&path, &bytes, durable);
     let mut st = lock(shared);
     if let Some(slot) = st.errors.get_mut(k) {
-        *slot = res.as_ref().err().map(|e| format!("{}: {e}", path.display()));
+        *slot = res
+            .as_ref()
+            .err()
+            .map(|e| format!("{}: {e}", path.display()));
     }
     if let Err(e) = res {
         tracing::warn!("EEPROM image {} not written: {e}", path.display());
