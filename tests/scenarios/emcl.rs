@@ -442,3 +442,53 @@ fn bad_drive_configs_are_refused_before_anything_starts() {
         assert!(text(&out.stderr).contains(want), "{}", text(&out.stderr));
     }
 }
+
+#[test]
+fn a_card_motor_moves_a_bound_drive_across_processes() {
+    let body = r#"
+clock = "lockstep"
+[[cards]]
+name = "card0"
+number = 0
+master = 0
+ivars = { I1001 = 16, I1004 = 2, I1005 = 4, I202 = 49318, I230 = 20000, I231 = 0, I232 = 2800 }
+[[stations]]
+name = "station0"
+master = 0
+[[drives]]
+name = "drive0"
+address = 1
+station = "station0"
+node = 1
+"#;
+    let name = unique("emclbound");
+    let cfg = write_config(&run_base().join("cfg"), &name, body);
+    let c = up_named(&name, &["--config", cfg.to_str().unwrap()]);
+    let doc = c.status();
+    assert_eq!(doc["drives"][0]["mode"], "bound", "{doc:#}");
+    assert_eq!(doc["drives"][0]["node"], 1);
+    let mut s = connect(&bus_addr(&doc));
+    assert_eq!(
+        value(&mut s, f(1, 1, 0, 0, 1000)),
+        (6, 0),
+        "direct motion refused"
+    );
+    assert_eq!(value(&mut s, f(1, 6, 254, 0, 0)), (100, 1));
+    // I202 = $C0A6: motor 2 commands node 1 register 2 (pulse frequency).
+    let out = c.mcc(&["send", "@0#2$", "@0#2J=20000"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        let p = value(&mut s, f(1, 6, 209, 0, 0)).1;
+        if (p - 20000).abs() <= 2 && value(&mut s, f(1, 6, 3, 0, 0)).1 == 0 {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the drive stayed at {p}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let p = text(&c.mcc(&["send", "@0#2P"]).stdout);
+    let p: f64 = p.trim().parse().unwrap_or_else(|_| panic!("#2P: {p:?}"));
+    assert!((p - 20000.0).abs() <= 2.0, "card position {p}");
+    let doc = c.status();
+    assert_eq!(doc["drives"][0]["motion"], "bound");
+}
