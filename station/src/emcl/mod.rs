@@ -5,6 +5,7 @@
 
 pub mod bound;
 pub mod codec;
+pub mod coords;
 pub mod drive;
 pub mod eeprom;
 pub mod exec;
@@ -13,6 +14,7 @@ pub mod io;
 pub mod motion;
 pub mod paramio;
 pub mod params;
+pub mod power;
 pub mod program;
 pub mod spec;
 pub mod tick;
