@@ -7,6 +7,9 @@
 #![warn(missing_docs, unreachable_pub)]
 
 pub mod config;
+pub mod emcl;
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives
+pub mod emcl_rt;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;

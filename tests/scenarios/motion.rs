@@ -3,14 +3,11 @@
 //! (config ring settings, `wire_macro_motors`, the config's card I-variables). Commands go in
 //! through `Card::command_line`; commands and feedback travel over the ring only.
 
-use mcc_card::{decode_fixed, wire_macro_motors, Card, CardRingApp, Profile, Session};
-use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp, RingControl};
+use mcc_card::{decode_fixed, Card, CardRingApp, Profile, Session};
+use mcc_ring::config::ClusterConfig;
+use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
-use mcc_ring::runtime::process::card_check;
-use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::{NodePlantConfig, PlantConfig};
 use mcc_station::station_app::StationApp;
@@ -55,64 +52,25 @@ impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
     fn new(plant: NodePlantConfig) -> Rig {
         let cfg = ClusterConfig::default_cluster(1, 1);
-        let period = cfg.period_ns();
-        let n = cfg.ring.order.len();
-        let mut card = Some(Card::new(Profile::Pmac2));
-        let mut members = Vec::new();
-        for name in cfg.ring.order.clone() {
-            let pos = cfg.position(&name).unwrap();
-            let rs = cfg.ring_settings(&name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let (kind, check, app) = match cfg.member(&name).unwrap() {
-                MemberRef::Card(cc) => {
-                    let mut c = card.take().expect("one card");
-                    // The process's start-up layer: ring settings, wiring, the config's
-                    // I-variables; applied again after every reset.
-                    let (nodes, ivars) = (cc.nodes.clone(), cc.ivars.clone());
-                    let (i995, i996) = (rs.i995, rs.i996);
-                    let layer = move |c: &mut Card| {
-                        let mut s = Session::default();
-                        let line = format!("I995=${i995:X} I996=${i996:X}");
-                        c.command_line(&mut s, line.as_bytes());
-                        wire_macro_motors(c, &nodes);
-                        for (k, v) in &ivars {
-                            c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
-                        }
-                    };
-                    layer(&mut c);
-                    let app = CardRingApp::for_card(c, &cc.nodes).with_startup(Box::new(layer));
-                    (
-                        MemberKind::Card,
-                        card_check(&cc.ivars),
-                        App::Card(Box::new(app)),
-                    )
-                }
-                MemberRef::Station(sc) => {
-                    let pc = PlantConfig {
-                        defaults: plant.clone(),
-                        ..PlantConfig::default()
-                    };
-                    let st = StationApp::new(&sc.nodes, &[], &pc).unwrap();
-                    let check = mcc_ring::check::RingCheck::station(
-                        sc.check.period,
-                        sc.check.min_syncs,
-                        sc.check.max_errors,
-                    );
-                    (MemberKind::Station, check, App::Station(Box::new(st)))
-                }
-            };
-            let mut cc = CoreConfig::new(&name, kind, pos as u16, settings, period * 100);
-            cc.check = check;
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            members.push((MemberCore::new(cc), app));
-        }
+        let sim = mcc_tests::inproc::ring(
+            &cfg,
+            Card::new(Profile::Pmac2),
+            |sc| {
+                let pc = PlantConfig {
+                    defaults: plant.clone(),
+                    ..PlantConfig::default()
+                };
+                App::Station(Box::new(StationApp::new(&sc.nodes, &[], &pc).unwrap()))
+            },
+            |c| App::Card(Box::new(c)),
+        );
         Rig {
-            sim: RingSim::new(members, period),
+            sim,
             session: Session::default(),
         }
     }
 
-    /// The card (its core owns it; the test drives it between ring cycles).
+    /// The card (its ring app owns it; the test drives it between ring cycles).
     fn card(&mut self) -> &mut Card {
         match self.sim.app_mut(0) {
             App::Card(a) => &mut a.core().card,
@@ -122,11 +80,9 @@ impl Rig {
 
     fn cmd(&mut self, line: &str) -> String {
         let mut s = self.session.clone();
-        let r = self.card().command_line(&mut s, line.as_bytes());
+        let r = mcc_tests::inproc::command(self.card(), &mut s, line);
         self.session = s;
-        String::from_utf8_lossy(&r)
-            .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
-            .to_string()
+        r
     }
 
     fn num(&mut self, line: &str) -> f64 {
