@@ -15,14 +15,16 @@ phase() {
 }
 # Scenario modules that start real multi-process clusters: timing-sensitive on 2 cores, so
 # they run one at a time; everything else runs in parallel.
-MULTI=(chain:: cluster:: drills:: gather::)
+MULTI=(chain:: cluster:: drills:: emcl:: gather::)
 skips=()
 for m in "${MULTI[@]}"; do skips+=(--skip "$m"); done
 phase fmt cargo fmt --all -- --check
 phase clippy cargo clippy --workspace --all-targets -- -D warnings
 phase doc cargo doc --workspace --no-deps -q
 phase build cargo build --workspace --bins
-phase unit-tests cargo test --workspace --exclude mcc-tests
-phase scenarios-in-process cargo test -p mcc-tests -- "${skips[@]}"
-phase scenarios-multi-process cargo test -p mcc-tests --test scenarios -- --test-threads=1 "${MULTI[@]}"
+# Always the whole workspace (one feature set: nothing is compiled twice).
+phase unit-tests cargo test --workspace --lib --bins
+phase doc-tests cargo test --workspace --doc
+phase scenarios-in-process cargo test --workspace --test scenarios -- "${skips[@]}"
+phase scenarios-multi-process cargo test --workspace --test scenarios -- --test-threads=1 "${MULTI[@]}"
 phase host-clients bash tests/clients/run.sh

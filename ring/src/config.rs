@@ -65,15 +65,18 @@ impl ClockMode {
     }
 }
 
+/// A clock mode name that is neither `realtime` nor `lockstep`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown clock mode {0:?} (expected realtime or lockstep)")]
+pub struct UnknownClockMode(pub String);
+
 impl std::str::FromStr for ClockMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownClockMode;
+    fn from_str(s: &str) -> Result<Self, UnknownClockMode> {
         match s {
             "realtime" => Ok(ClockMode::Realtime),
             "lockstep" => Ok(ClockMode::Lockstep),
-            other => Err(format!(
-                "unknown clock mode {other:?} (expected realtime or lockstep)"
-            )),
+            other => Err(UnknownClockMode(other.to_string())),
         }
     }
 }

@@ -321,7 +321,7 @@ impl MemberCore {
     }
 
     /// Inject a fault on this member's send path.
-    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), crate::fault::FaultError> {
         self.faults.inject(spec)
     }
 

@@ -4,8 +4,6 @@
 //! All queries share one session on the card, like one terminal: `#2` in one query addresses
 //! motor 2 for the next.
 
-use std::sync::Mutex;
-
 use zenoh::Wait;
 
 use super::ascii::AsciiCodec;
@@ -39,24 +37,19 @@ pub(crate) async fn declare_cmd_queryable(
     card: CardHandle,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
     let key = cmd_key(cluster, n);
-    let state = Mutex::new((CardPort::new(card), AsciiCodec::new()));
-    zsession
-        .declare_queryable(key)
-        .callback(move |query| {
-            let payload = query
-                .payload()
-                .map(|p| p.to_bytes().into_owned())
-                .unwrap_or_default();
-            let reply = {
-                let mut st = state.lock().unwrap_or_else(|e| e.into_inner());
-                let (port, codec) = &mut *st;
-                execute_payload(port, codec, &payload)
-            };
-            if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
-                tracing::warn!("card cmd reply failed: {e}");
-            }
-        })
-        .await
+    let mut state = (CardPort::new(card), AsciiCodec::new());
+    let worker = crate::service::handle::query_worker("cmd", move |query| {
+        let payload = query
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        let (port, codec) = &mut state;
+        let reply = execute_payload(port, codec, &payload);
+        if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
+            tracing::warn!("card cmd reply failed: {e}");
+        }
+    });
+    zsession.declare_queryable(key).callback(worker).await
 }
 
 #[cfg(test)]

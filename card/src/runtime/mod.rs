@@ -92,7 +92,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             &ctx.session,
             &ctx.config.cluster,
             u32::from(cc.number),
-            handle.clone(),
+            std::sync::Arc::clone(&runner.sync),
         )
         .map_err(|e| anyhow!("declare card at queryable: {e}"))?;
 

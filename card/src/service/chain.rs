@@ -335,25 +335,26 @@ pub(crate) async fn declare_chain_queryable(
     n: u32,
     card: CardHandle,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
+    let worker = handle::query_worker("chain", move |query| {
+        let payload = query
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        let res = match card.call(handle::Request::Chain(payload), REPLY_TIMEOUT) {
+            Some(Response::Chain(r)) => r,
+            _ => Err("the card did not answer".to_string()),
+        };
+        let sent = match res {
+            Ok(r) => query.reply(query.key_expr().clone(), r).wait(),
+            Err(e) => query.reply_err(e).wait(),
+        };
+        if let Err(e) = sent {
+            tracing::warn!("card chain reply failed: {e}");
+        }
+    });
     zsession
         .declare_queryable(chain_key(cluster, n))
-        .callback(move |query| {
-            let payload = query
-                .payload()
-                .map(|p| p.to_bytes().into_owned())
-                .unwrap_or_default();
-            let res = match card.call(handle::Request::Chain(payload), REPLY_TIMEOUT) {
-                Some(Response::Chain(r)) => r,
-                _ => Err("the card did not answer".to_string()),
-            };
-            let sent = match res {
-                Ok(r) => query.reply(query.key_expr().clone(), r).wait(),
-                Err(e) => query.reply_err(e).wait(),
-            };
-            if let Err(e) = sent {
-                tracing::warn!("card chain reply failed: {e}");
-            }
-        })
+        .callback(worker)
         .await
 }
 

@@ -16,7 +16,7 @@ use mcc_ring::control::sync_start::{AtReply, AtRequest};
 
 use super::chain::ChainPort;
 use super::storage::FileStorage;
-use super::sync_start::{fill_card_info, SyncCore};
+use super::sync_start::SyncShared;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 use crate::lang::interp::{Budget, Effect, EffectResult, Session, Storage};
 use crate::model::Unsolicited;
@@ -190,11 +190,9 @@ pub struct Runner {
     io: IoWorker,
     shared: Arc<Shared>,
     chain: ChainPort,
-    /// Synchronized start.
-    pub sync: SyncCore,
+    /// Synchronized start (shared with the `at` queryable).
+    pub sync: Arc<SyncShared>,
     sync_session: Session,
-    /// Requests taken from the channel but held (a stalled tick serves only `at` requests).
-    held: Vec<Envelope>,
     /// Every handle is gone.
     orphaned: bool,
 }
@@ -219,9 +217,8 @@ pub(crate) fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, 
         io: IoWorker::start(storage),
         shared: Arc::clone(&shared),
         chain: ChainPort::new(),
-        sync: SyncCore::default(),
+        sync: Arc::new(SyncShared::default()),
         sync_session: Session::default(),
-        held: Vec::new(),
         orphaned: false,
     };
     (runner, CardHandle { tx, shared })
@@ -244,11 +241,7 @@ impl Runner {
                 let _ = env.reply.send(Response::Chain(r));
             }
             Request::At(req) => {
-                let mut r = self.sync.request(&req);
-                if matches!(req, AtRequest::Info) {
-                    fill_card_info(&self.core.card, &mut r);
-                }
-                let _ = env.reply.send(Response::At(r));
+                let _ = env.reply.send(Response::At(self.sync.handle(&req)));
             }
         }
     }
@@ -256,9 +249,6 @@ impl Runner {
     /// Take what arrived (bounded), serve host work within `budget`, dispatch replies and
     /// effects, publish program output.
     pub fn pump(&mut self, budget: &mut Budget) {
-        for env in std::mem::take(&mut self.held) {
-            self.accept(env);
-        }
         for _ in 0..DRAIN_PER_PUMP {
             match self.rx.try_recv() {
                 Ok(env) => self.accept(env),
@@ -309,27 +299,23 @@ impl Runner {
     }
 
     /// Synchronized start at the start of the tick of `cycle`: wait (at most `stall`) for a
-    /// decision on lines due now, serving only `at` requests meanwhile; run the committed
-    /// lines; record program starts.
+    /// decision on lines due now (the `at` queryable answers on its own threads and wakes
+    /// this wait); run the committed lines; record program starts.
     pub fn sync_tick_start(&mut self, cycle: u64, stall: Duration) {
-        self.sync.begin_tick(cycle);
-        if self.sync.undecided_due(cycle) {
-            self.sync.stalls += 1;
-            let deadline = Instant::now() + stall;
-            while self.sync.undecided_due(cycle) {
-                match self.rx.recv_deadline(deadline) {
-                    Ok(env) => match env.req {
-                        Request::At(_) => self.accept(env),
-                        _ => self.held.push(env),
-                    },
-                    Err(_) => {
-                        self.sync.abandon_due(cycle);
-                        break;
-                    }
-                }
+        let sync = Arc::clone(&self.sync);
+        let undecided = {
+            let mut core = sync.lock();
+            core.begin_tick(cycle);
+            let u = core.undecided_due(cycle);
+            if u {
+                core.stalls += 1;
             }
+            u
+        };
+        if undecided && !sync.wait_decided(cycle, Instant::now() + stall) {
+            sync.lock().abandon_due(cycle);
         }
-        let due = self.sync.take_due(cycle);
+        let due = sync.lock().take_due(cycle);
         let mut scheduled_start = false;
         let card = &mut self.core.card;
         if !due.is_empty() {
@@ -337,7 +323,7 @@ impl Runner {
             for (id, line) in due {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 let reply = card.run_detached(&mut self.sync_session, &line);
-                self.sync.executed(id, cycle, ns, reply);
+                sync.lock().executed(id, cycle, ns, reply);
             }
             let fresh = card.model.take_actions();
             scheduled_start = fresh.iter().any(|a| a.kind.starts_program());
@@ -346,13 +332,21 @@ impl Runner {
             }
         }
         let now = mcc_ring::runtime::driver::monotonic_ns();
-        self.sync
+        sync.lock()
             .note_starts(card.model.actions(), cycle, now, scheduled_start);
     }
 
-    /// End of the tick.
+    /// Publish the card's state `info` reports (done at every tick end).
+    pub fn sync_tick_end_info(&mut self) {
+        self.sync.publish(&self.core.card);
+    }
+
+    /// End of the tick: the card's state for `info`, the actions left queued.
     pub fn sync_tick_end(&mut self) {
-        self.sync.end_tick(self.core.card.model.actions().len());
+        self.sync.publish(&self.core.card);
+        self.sync
+            .lock()
+            .end_tick(self.core.card.model.actions().len());
     }
 
     /// The standalone card (no ring, no servo loop): serve requests until `stop`, or until
@@ -384,4 +378,34 @@ pub fn spawn_card_thread(card: crate::lang::interp::Card) -> CardHandle {
         tracing::error!("cannot start the card thread: {e}");
     }
     handle
+}
+
+/// Queries a queryable's worker takes at most; beyond that a query is answered with an error
+/// at once (the callback never blocks).
+pub(crate) const QUERY_BACKLOG: usize = 256;
+
+/// Run `work` for each query on one worker thread of its own, in arrival order: a zenoh
+/// callback must never wait for the card (the card's tick may be waiting for a ring frame that
+/// the same zenoh threads deliver). Returns the callback to declare the queryable with.
+pub(crate) fn query_worker(
+    name: &str,
+    mut work: impl FnMut(zenoh::query::Query) + Send + 'static,
+) -> impl Fn(zenoh::query::Query) + Send + Sync + 'static {
+    let (tx, rx) = bounded::<zenoh::query::Query>(QUERY_BACKLOG);
+    let spawned = std::thread::Builder::new()
+        .name(format!("mcc-card-{name}"))
+        .spawn(move || {
+            for q in rx {
+                work(q);
+            }
+        });
+    if let Err(e) = spawned {
+        tracing::error!("cannot start the {name} query worker: {e}");
+    }
+    move |query: zenoh::query::Query| {
+        if let Err(e) = tx.try_send(query) {
+            let q = e.into_inner();
+            let _ = zenoh::Wait::wait(q.reply_err("busy: too many queries waiting for the card"));
+        }
+    }
 }

@@ -19,13 +19,12 @@
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
 use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
-use super::handle::{CardHandle, Request, Response, REPLY_TIMEOUT};
 use crate::lang::interp::{Card, MAX_LINE};
 use crate::model::Action;
 
@@ -60,7 +59,7 @@ struct Done {
 
 /// The pure bookkeeping of scheduled lines (no clock, no locks).
 #[derive(Debug, Default)]
-pub struct SyncCore {
+pub(crate) struct SyncCore {
     last_tick: Option<u64>,
     pending: Vec<Pending>,
     done: VecDeque<Done>,
@@ -76,7 +75,7 @@ fn is_program_start(a: &Action) -> bool {
 
 impl SyncCore {
     /// Handle a request that does not need the card (everything but the card part of `info`).
-    pub fn request(&mut self, req: &AtRequest) -> AtReply {
+    pub(crate) fn request(&mut self, req: &AtRequest) -> AtReply {
         let mut r = match req {
             AtRequest::Info => AtReply {
                 ok: true,
@@ -220,19 +219,19 @@ impl SyncCore {
     }
 
     /// The tick of `cycle` begins: from now on arms for `cycle` are late.
-    pub fn begin_tick(&mut self, cycle: u64) {
+    pub(crate) fn begin_tick(&mut self, cycle: u64) {
         self.last_tick = Some(cycle);
     }
 
     /// An armed line due at or before `cycle` is still undecided.
-    pub fn undecided_due(&self, cycle: u64) -> bool {
+    pub(crate) fn undecided_due(&self, cycle: u64) -> bool {
         self.pending
             .iter()
             .any(|p| p.cycle <= cycle && !p.committed)
     }
 
     /// Give up on undecided lines due at `cycle` (stall limit reached).
-    pub fn abandon_due(&mut self, cycle: u64) {
+    pub(crate) fn abandon_due(&mut self, cycle: u64) {
         let (gone, keep): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending)
             .into_iter()
             .partition(|p| p.cycle <= cycle && !p.committed);
@@ -253,7 +252,7 @@ impl SyncCore {
     }
 
     /// Take the committed lines due at `cycle` (in arming order).
-    pub fn take_due(&mut self, cycle: u64) -> Vec<(u64, Vec<u8>)> {
+    pub(crate) fn take_due(&mut self, cycle: u64) -> Vec<(u64, Vec<u8>)> {
         let (due, keep): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending)
             .into_iter()
             .partition(|p| p.cycle <= cycle && p.committed);
@@ -262,7 +261,7 @@ impl SyncCore {
     }
 
     /// Record a line's execution.
-    pub fn executed(&mut self, id: u64, cycle: u64, ns: u64, reply: Vec<u8>) {
+    pub(crate) fn executed(&mut self, id: u64, cycle: u64, ns: u64, reply: Vec<u8>) {
         self.push_done(Done {
             id,
             cycle,
@@ -281,7 +280,7 @@ impl SyncCore {
     /// Scan the interpreter's queued actions not seen at the previous tick (the servo loop
     /// drains them after this hook); a program start among them, or `scheduled_start`, records
     /// `cycle`/`now_ns` as the most recent program start.
-    pub fn note_starts(
+    pub(crate) fn note_starts(
         &mut self,
         actions: &[Action],
         cycle: u64,
@@ -301,12 +300,13 @@ impl SyncCore {
     }
 
     /// The tick has ended with `remaining` actions left queued.
-    pub fn end_tick(&mut self, remaining: usize) {
+    pub(crate) fn end_tick(&mut self, remaining: usize) {
         self.seen_actions = remaining;
     }
 
     /// Most recent program start (cycle, monotonic ns).
-    pub fn program_start(&self) -> (Option<u64>, Option<u64>) {
+    #[cfg(test)]
+    pub(crate) fn program_start(&self) -> (Option<u64>, Option<u64>) {
         (self.program_start_cycle, self.program_start_ns)
     }
 }
@@ -329,16 +329,73 @@ pub(crate) fn fill_card_info(card: &Card, r: &mut AtReply) {
     r.motors_killed = r.ring_fault && r.killed_motors.len() == activated;
 }
 
-/// Parse one query payload and have the card answer it.
-pub(crate) fn answer_payload(card: &CardHandle, payload: &[u8]) -> AtReply {
+/// The synchronized-start state, shared by the card's servo thread and the `at` queryable:
+/// `at` requests are answered at once, whatever the ring is doing (a follower card waiting for
+/// the sync packet still answers its arm and commit; a stalled tick waits on the condvar). The
+/// lock is held for bookkeeping only, never across I/O or a wait for the card.
+#[derive(Debug, Default)]
+pub struct SyncShared {
+    core: Mutex<SyncCore>,
+    cv: Condvar,
+    /// The card's ring fault and killed motors as of its last tick (for `info`).
+    card_info: Mutex<AtReply>,
+}
+
+impl SyncShared {
+    pub(crate) fn lock(&self) -> MutexGuard<'_, SyncCore> {
+        self.core.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Answer one request (arm/commit/abort wake a waiting tick).
+    pub fn handle(&self, req: &AtRequest) -> AtReply {
+        let mut r = {
+            let mut core = self.lock();
+            let r = core.request(req);
+            self.cv.notify_all();
+            r
+        };
+        if matches!(req, AtRequest::Info) {
+            let info = self.card_info.lock().unwrap_or_else(|e| e.into_inner());
+            r.ring_fault = info.ring_fault;
+            r.killed_motors.clone_from(&info.killed_motors);
+            r.motors_killed = info.motors_killed;
+        }
+        r
+    }
+
+    /// The servo thread: wait (at most until `deadline`) while a line due at `cycle` is
+    /// undecided; `true` when it was decided in time.
+    pub(crate) fn wait_decided(&self, cycle: u64, deadline: std::time::Instant) -> bool {
+        let mut core = self.lock();
+        while core.undecided_due(cycle) {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            if left.is_zero() {
+                return false;
+            }
+            core = self
+                .cv
+                .wait_timeout(core, left)
+                .map(|(g, _)| g)
+                .unwrap_or_else(|e| e.into_inner().0);
+        }
+        true
+    }
+
+    /// The servo thread publishes the card's state `info` reports.
+    pub(crate) fn publish(&self, card: &Card) {
+        let mut r = AtReply::default();
+        fill_card_info(card, &mut r);
+        *self.card_info.lock().unwrap_or_else(|e| e.into_inner()) = r;
+    }
+}
+
+/// Parse one query payload and answer it.
+pub(crate) fn answer_payload(sync: &SyncShared, payload: &[u8]) -> AtReply {
     if payload.len() > MAX_REQUEST {
         return AtReply::err(format!("request longer than {MAX_REQUEST} bytes"));
     }
     match serde_json::from_slice::<AtRequest>(payload) {
-        Ok(req) => match card.call(Request::At(req), REPLY_TIMEOUT) {
-            Some(Response::At(r)) => r,
-            _ => AtReply::err("the card did not answer"),
-        },
+        Ok(req) => sync.handle(&req),
         Err(e) => AtReply::err(format!("bad request: {e}")),
     }
 }
@@ -362,7 +419,7 @@ pub(crate) fn declare_at_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,
-    card: CardHandle,
+    sync: Arc<SyncShared>,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
     let in_flight = Arc::new(AtomicUsize::new(0));
     zsession
@@ -383,14 +440,14 @@ pub(crate) fn declare_at_queryable(
                     .wait();
                 return;
             }
-            let (card, flight) = (card.clone(), Arc::clone(&in_flight));
+            let (sync, flight) = (Arc::clone(&sync), Arc::clone(&in_flight));
             let spawned = std::thread::Builder::new()
                 .name("mcc-card-at".into())
                 .spawn(move || {
                     if let Some(d) = test_delay() {
                         std::thread::sleep(d);
                     }
-                    let r = answer_payload(&card, &payload);
+                    let r = answer_payload(&sync, &payload);
                     let body = serde_json::to_vec(&r).unwrap_or_default();
                     if let Err(e) = query.reply(query.key_expr().clone(), body).wait() {
                         tracing::warn!("card at reply failed: {e}");

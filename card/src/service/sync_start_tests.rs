@@ -9,15 +9,14 @@ fn arm(id: u64, cycle: u64, line: &str) -> AtRequest {
     }
 }
 
-use super::super::handle::{channel, CardHandle, Runner};
+use super::super::handle::{channel, Runner};
 use crate::core::CardCore;
-use crate::lang::interp::{Budget, Session};
+use crate::lang::interp::Session;
 
 /// A card with PROG 1 (a dwell), motor 1 in C.S. 1 with its loop closed: `&1B1R` starts it;
 /// owned by its runner as on the servo thread.
 struct T {
     runner: Runner,
-    h: CardHandle,
     stall: Duration,
 }
 
@@ -40,8 +39,8 @@ fn ready_card(stall: Duration) -> T {
         );
     }
     let _ = c.take_actions();
-    let (runner, h) = channel(CardCore::new(c), None);
-    T { runner, h, stall }
+    let (runner, _h) = channel(CardCore::new(c), None);
+    T { runner, stall }
 }
 
 impl T {
@@ -54,25 +53,18 @@ impl T {
     }
 
     fn handle(&mut self, req: &AtRequest) -> AtReply {
-        let mut r = self.runner.sync.request(req);
         if matches!(req, AtRequest::Info) {
-            fill_card_info(&self.runner.core.card, &mut r);
+            self.runner.sync_tick_end_info();
         }
-        r
+        self.runner.sync.handle(req)
     }
 
     fn program_start(&self) -> (Option<u64>, Option<u64>) {
-        self.runner.sync.program_start()
+        self.runner.sync.lock().program_start()
     }
 
     fn payload(&mut self, p: &[u8]) -> AtReply {
-        let (h, p) = (self.h.clone(), p.to_vec());
-        let t = std::thread::spawn(move || answer_payload(&h, &p));
-        while !t.is_finished() {
-            self.runner.pump(&mut Budget::unlimited());
-            std::thread::sleep(Duration::from_millis(1));
-        }
-        t.join().unwrap()
+        answer_payload(&self.runner.sync, p)
     }
 
     fn card(&mut self) -> &mut Card {
@@ -146,16 +138,10 @@ fn a_late_commit_stalls_the_tick_and_still_runs_at_its_cycle() {
     let mut t = ready_card(Duration::from_secs(5));
     t.tick(1, true);
     assert!(t.handle(&arm(9, 2, "&1B1R")).ok);
-    let h = t.h.clone();
+    let sync = Arc::clone(&t.runner.sync);
     let late = std::thread::spawn(move || {
         std::thread::sleep(Duration::from_millis(30));
-        match h.call(
-            super::super::handle::Request::At(AtRequest::Commit { id: 9 }),
-            Duration::from_secs(10),
-        ) {
-            Some(super::super::handle::Response::At(r)) => r,
-            other => panic!("{other:?}"),
-        }
+        sync.handle(&AtRequest::Commit { id: 9 })
     });
     t.tick(2, true);
     assert!(late.join().unwrap().ok);
