@@ -65,7 +65,7 @@ fn is_test_file(p: &Path) -> bool {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    name.starts_with("tests") || name.ends_with("_tests.rs")
+    name.starts_with("tests")
 }
 
 /// The non-test part of a source file: up to an inline `#[cfg(test)] mod … {`.
@@ -148,4 +148,22 @@ fn the_checker_sees_an_upward_use() {
     let text =
         "use crate::lang::interp::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
     assert_eq!(used_modules(production_part(text)), ["lang"]);
+}
+
+/// One test-file convention: unit tests live beside the code, inline (`mod tests { … }`) or
+/// in a file named `tests_<topic>.rs` in the module's folder.
+#[test]
+fn test_files_follow_one_convention() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let odd: Vec<_> = files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .filter(|n| n.contains("test") && !n.starts_with("tests"))
+        .collect();
+    assert!(
+        odd.is_empty(),
+        "test files not named tests_<topic>.rs: {odd:?}"
+    );
 }

@@ -8,6 +8,7 @@
 pub mod rig;
 
 #[cfg(test)]
+#[path = "tests_core.rs"]
 mod tests;
 #[cfg(test)]
 mod tests_servo;

@@ -346,5 +346,5 @@ pub(crate) fn error_code(reply: &[u8]) -> Option<u8> {
 }
 
 #[cfg(test)]
-#[path = "eth_codec_tests.rs"]
+#[path = "tests_eth_codec.rs"]
 mod tests;

@@ -248,5 +248,5 @@ async fn eth_conn(
 }
 
 #[cfg(test)]
-#[path = "server_tests.rs"]
+#[path = "tests_server.rs"]
 mod tests;

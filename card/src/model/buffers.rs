@@ -431,5 +431,5 @@ pub(crate) fn list_lines<L: StoredLine>(
 }
 
 #[cfg(test)]
-#[path = "buffers_tests.rs"]
+#[path = "tests_buffers.rs"]
 mod tests;

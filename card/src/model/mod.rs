@@ -52,4 +52,5 @@ pub(crate) use status::*;
 pub(crate) use unsolicited::Unsolicited;
 
 #[cfg(test)]
+#[path = "tests_state.rs"]
 mod tests;

@@ -201,5 +201,5 @@ pub(super) fn wrap_self(v: f64) -> i32 {
 }
 
 #[cfg(test)]
-#[path = "mvar_tests.rs"]
+#[path = "tests_mvar.rs"]
 mod tests;

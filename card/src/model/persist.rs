@@ -177,5 +177,5 @@ pub(crate) fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
 }
 
 #[cfg(test)]
-#[path = "persist_tests.rs"]
+#[path = "tests_persist.rs"]
 mod tests;

@@ -359,5 +359,5 @@ pub(crate) async fn declare_chain_queryable(
 }
 
 #[cfg(test)]
-#[path = "chain_tests.rs"]
+#[path = "tests_chain.rs"]
 mod tests;

@@ -462,5 +462,5 @@ pub(crate) fn declare_at_queryable(
 }
 
 #[cfg(test)]
-#[path = "sync_start_tests.rs"]
+#[path = "tests_sync_start.rs"]
 mod tests;

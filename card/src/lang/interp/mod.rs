@@ -349,4 +349,5 @@ impl Card {
 }
 
 #[cfg(test)]
+#[path = "tests_interp.rs"]
 mod tests;

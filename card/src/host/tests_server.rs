@@ -163,7 +163,7 @@ async fn connection_limit_closes_extra_connections() {
         let mut d = connect(p.ascii).await;
         d.write_all(b"UUU\r").await.unwrap();
         let mut buf = [0u8; 1];
-        if let Ok(Ok(1)) = tokio::time::timeout(Duration::from_millis(100), d.read(&mut buf)).await
+        if let Ok(Ok(1)) = tokio::time::timeout(Duration::from_millis(1000), d.read(&mut buf)).await
         {
             ok = true;
             break;
