@@ -58,6 +58,9 @@ pub fn attach(name: &str) -> Result<Attached> {
 
 /// `mcc status [--json]`.
 pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
+    if let Some(ms) = args.watch {
+        return crate::watch::watch(cluster, Duration::from_millis(ms));
+    }
     let a = attach(cluster)?;
     let st = ctl::query_statuses(
         &a.session,
