@@ -68,6 +68,8 @@ pub fn cmd_send(cluster: &str, args: &crate::cli::SendArgs) -> Result<()> {
         bail!("cluster {cluster:?} has no cards");
     }
     let link = link_for(&a, args.timeout_ms);
+    // A card not yet routable would look silent: give routing a moment first.
+    let _ = link.wait_ready(Duration::from_millis(args.timeout_ms.clamp(100, 3000)));
     let mut doc = Vec::new();
     for (i, line) in args.lines.iter().enumerate() {
         let mut bytes = Vec::new();
