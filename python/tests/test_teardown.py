@@ -3,10 +3,7 @@ never leave a cluster process behind. Each case runs an inner pytest session tha
 the pids of its cluster; the outer test checks they are gone."""
 
 import json
-import os
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -128,3 +125,12 @@ def test_xdist_workers_each_run_and_tear_down_their_clusters(inner, mcc):
     assert len(rows) == 2 and rows[0]["run"] != rows[1]["run"]
     for row in rows:
         assert wait_gone(row["pids"]) == []
+
+
+def test_the_readme_example_runs_as_written(inner, mcc):
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Testing your software against mcc", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    inner.makepyfile(test_jog=code)
+    res = run_inner(inner, mcc)
+    res.assert_outcomes(passed=1)
