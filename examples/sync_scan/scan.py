@@ -50,10 +50,11 @@ def program_lines(distance: float, feed: float) -> List[str]:
 
 
 def load(chain: DaisyChain, cards: Sequence[int], distance: float, feed: float) -> None:
-    """Motor 1 of each card is axis X of coordinate system 1, with the scan program."""
+    """Motor 1 of each card is axis X of coordinate system 1 (loop closed), with the scan
+    program."""
     for n in cards:
         chain.command(f"@{n:X}")
-        for line in ["&1#1->1000X", *program_lines(distance, feed)]:
+        for line in ["&1#1->1000X", "#1J/", *program_lines(distance, feed)]:
             chain.command(line)
 
 
