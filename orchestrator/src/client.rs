@@ -48,6 +48,15 @@ pub fn attach(name: &str) -> Result<Attached> {
         cfg.ring.order.len() + 1,
         Duration::from_millis(1500),
     )?;
+    // A fresh session may not route queries to every member yet, and a query nobody serves
+    // comes back empty at once (a start-sync or gather then blames a card): ask every member
+    // until each answered (bounded; a dead member only costs the budget).
+    let _ = ctl::query_statuses(
+        &session,
+        &cfg,
+        Duration::from_millis(300),
+        Duration::from_millis(1500),
+    );
     Ok(Attached {
         rd,
         info,
