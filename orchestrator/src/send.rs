@@ -29,23 +29,6 @@ pub fn status_line(
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::reply_error;
-
-    #[test]
-    fn errors_are_read_from_the_reply() {
-        assert_eq!(reply_error(b"\x07ERR003\r").as_deref(), Some("ERR003"));
-        assert_eq!(
-            reply_error(b"\x07\r\nERR015\r\n").as_deref(),
-            Some("ERR015")
-        );
-        assert_eq!(reply_error(b"\x07").as_deref(), Some("BELL"));
-        assert_eq!(reply_error(b"5\r\x06"), None);
-        assert_eq!(reply_error(b""), None);
-    }
-}
-
 fn link_for(a: &Attached, timeout_ms: u64) -> ChainLink {
     ChainLink::new(
         a.session.clone(),
@@ -138,4 +121,21 @@ pub fn cmd_term(cluster: &str, args: &crate::cli::TermArgs) -> Result<()> {
     let res = Terminal::new(&link, args.show_framing, status).run();
     link.close();
     res
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reply_error;
+
+    #[test]
+    fn errors_are_read_from_the_reply() {
+        assert_eq!(reply_error(b"\x07ERR003\r").as_deref(), Some("ERR003"));
+        assert_eq!(
+            reply_error(b"\x07\r\nERR015\r\n").as_deref(),
+            Some("ERR015")
+        );
+        assert_eq!(reply_error(b"\x07").as_deref(), Some("BELL"));
+        assert_eq!(reply_error(b"5\r\x06"), None);
+        assert_eq!(reply_error(b""), None);
+    }
 }
