@@ -853,3 +853,100 @@ impl Drop for Cluster {
         self.stop();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BASE: &str = r#"
+cluster = "mcc"
+clock = "realtime"
+[[cards]]
+name = "card0"
+number = 0
+master = 0
+profile = "pmac2"
+ivars = { I1001 = 16, I1004 = 2, I1005 = 4 }
+[[cards]]
+name = "card1"
+number = 1
+master = 1
+ivars = { I1001 = 16, I1004 = 2, I1005 = 4 }
+[[stations]]
+name = "station0"
+master = 0
+"#;
+
+    fn runner() -> Runner {
+        Runner {
+            mcc: PathBuf::from("/nonexistent/mcc"),
+            run_dir: PathBuf::from("/nonexistent"),
+            cluster: "x".into(),
+            env: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn options_edit_the_config() {
+        let doc = Cluster::builder()
+            .config_toml(BASE)
+            .clock("lockstep")
+            .card_profile(0, "turbo")
+            .ivar("i1001", 8.0)
+            .card_ivar(1, "I130", 2500.5)
+            .plant("coulomb = 0.0\n[nodes.1]\ninertia = 2e-5")
+            .station_plant("station0", "[nodes.1]\nhome_position = 9000")
+            .drive("name = \"drive0\"\naddress = 1\nstation = \"station0\"")
+            .extra("rtf", Toml::Float(2.0))
+            .build_config(&runner())
+            .unwrap();
+        assert_eq!(doc["clock"].as_str(), Some("lockstep"));
+        assert_eq!(doc["rtf"].as_float(), Some(2.0));
+        let cards = doc["cards"].as_array().unwrap();
+        // The Turbo card drops the PMAC2 ring-check defaults; the caller's spelling replaces
+        // the default's.
+        assert_eq!(cards[0]["profile"].as_str(), Some("turbo"));
+        assert_eq!(cards[0]["ivars"].to_string(), "{ i1001 = 8 }");
+        let iv1 = cards[1]["ivars"].as_table().unwrap();
+        assert_eq!(iv1.get("i1001").and_then(Toml::as_integer), Some(8));
+        assert!(iv1.get("I1001").is_none());
+        assert_eq!(iv1.get("I130").and_then(Toml::as_float), Some(2500.5));
+        let plant = doc["stations"][0]["plant"].as_table().unwrap();
+        assert_eq!(plant["coulomb"].as_float(), Some(0.0));
+        assert_eq!(plant["nodes"]["1"]["inertia"].as_float(), Some(2e-5));
+        assert_eq!(
+            plant["nodes"]["1"]["home_position"].as_integer(),
+            Some(9000)
+        );
+        assert_eq!(doc["drives"][0]["address"].as_integer(), Some(1));
+    }
+
+    #[test]
+    fn unknown_cards_and_stations_name_the_choices() {
+        let e = Cluster::builder()
+            .config_toml(BASE)
+            .card_profile(5, "turbo")
+            .build_config(&runner())
+            .unwrap_err();
+        assert_eq!(
+            e.kind,
+            ErrorKind::UnknownChoice {
+                choices: vec!["0".into(), "1".into()]
+            }
+        );
+        let e = Cluster::builder()
+            .config_toml(BASE)
+            .station_plant("station9", "coulomb = 0.0")
+            .build_config(&runner())
+            .unwrap_err();
+        assert!(
+            e.message.contains("station9") && e.message.contains("station0"),
+            "{e}"
+        );
+        let e = Cluster::builder()
+            .config_toml("cards = [")
+            .build_config(&runner())
+            .unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Config);
+    }
+}

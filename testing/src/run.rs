@@ -217,3 +217,56 @@ pub fn run_bounded(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::process::ExitStatusExt;
+
+    fn out(code: i32, stdout: &str, stderr: &str) -> Output {
+        Output {
+            status: std::process::ExitStatus::from_raw(code << 8),
+            stdout: stdout.as_bytes().to_vec(),
+            stderr: stderr.as_bytes().to_vec(),
+        }
+    }
+
+    #[test]
+    fn cli_errors_become_typed_errors() {
+        let e = error_from(&out(
+            1,
+            r#"{"error": {"kind": "lock-timeout", "message": "did not lock", "logs": {"card0": "tail"}}}"#,
+            "",
+        ));
+        assert_eq!(e.kind, ErrorKind::LockTimeout);
+        assert_eq!(e.logs["card0"], "tail");
+        assert!(e
+            .to_string()
+            .contains("--- last lines of card0.log ---\ntail"));
+        let e = error_from(&out(
+            1,
+            r#"{"error": {"kind": "config", "message": "config: x"}}"#,
+            "",
+        ));
+        assert_eq!(
+            (e.kind, e.message.as_str()),
+            (ErrorKind::Config, "config: x")
+        );
+        let e = error_from(&out(2, "", "error: invalid value 'x' for '--clock <MODE>'"));
+        assert_eq!(e.kind, ErrorKind::Config);
+        let e = error_from(&out(1, "", "mcc: ring 0\nmcc: error: boom\n"));
+        assert_eq!((e.kind, e.message.as_str()), (ErrorKind::Other, "boom"));
+        assert_eq!(documents("{\"a\":1}\n{\"b\":2}").len(), 2);
+        assert!(documents("nope").is_empty());
+    }
+
+    #[test]
+    fn a_hung_command_is_killed_at_its_bound() {
+        let t = std::time::Instant::now();
+        let mut c = Command::new("sleep");
+        c.arg("30").stdout(Stdio::piped()).stderr(Stdio::piped());
+        let e = run_bounded(c, None, Duration::from_millis(200)).unwrap_err();
+        assert!(e.contains("did not finish"), "{e}");
+        assert!(t.elapsed() < Duration::from_secs(10));
+    }
+}

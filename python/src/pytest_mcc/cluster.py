@@ -367,20 +367,24 @@ class Cluster:
                                     detail=result)
         return result
 
+    def _gather_args(self, motors: Iterable[int], cards: Iterable[int], cycles: int,
+                     period: int) -> List[str]:
+        self._need_running()
+        numbers = list(cards)
+        for n in numbers:
+            if n not in self.card_numbers:
+                raise UnknownChoice("card", n, self.card_numbers)
+        return ["gather", "--json", "--card", ",".join(map(str, numbers)),
+                "--motors", ",".join(str(int(m)) for m in motors),
+                "--cycles", str(int(cycles)), "--period", str(int(period))]
+
     def gather(self, motors: Iterable[int] = (1,), cards: Iterable[int] = (0,), *,
                cycles: int = 1000, period: int = 1, run: Optional[str] = None) -> Gathered:
         """Record commanded and actual positions of ``motors`` on ``cards`` with the cards'
         data gathering for ``cycles`` servo cycles (one sample every ``period``); gathering
         starts in the same ring cycle on every card, and ``run`` (e.g. ``"&1B1R"``) runs in
         that same tick. Returns arrays stamped with ring cycles."""
-        self._need_running()
-        numbers = list(cards)
-        for n in numbers:
-            if n not in self.card_numbers:
-                raise UnknownChoice("card", n, self.card_numbers)
-        args = ["gather", "--json", "--card", ",".join(map(str, numbers)),
-                "--motors", ",".join(str(int(m)) for m in motors),
-                "--cycles", str(int(cycles)), "--period", str(int(period))]
+        args = self._gather_args(motors, cards, cycles, period)
         if run is not None:
             args += ["--run", run]
         doc = self._runner.json(args, timeout=VERB_TIMEOUT + cycles / 100.0)
@@ -396,14 +400,7 @@ class Cluster:
             data = rec.result()
 
         Entering returns once gathering runs (from ring cycle ``rec.first_cycle``)."""
-        self._need_running()
-        numbers = list(cards)
-        for n in numbers:
-            if n not in self.card_numbers:
-                raise UnknownChoice("card", n, self.card_numbers)
-        args = ["gather", "--json", "--card", ",".join(map(str, numbers)),
-                "--motors", ",".join(str(int(m)) for m in motors),
-                "--cycles", str(int(cycles)), "--period", str(int(period))]
+        args = self._gather_args(motors, cards, cycles, period)
         return Recording(self, self._runner.argv(args), timeout, cycles)
 
     @property
