@@ -60,6 +60,7 @@ pub struct Builder {
     tag: String,
     lock_timeout: Duration,
     env: Vec<(String, String)>,
+    up_args: Vec<String>,
 }
 
 static NAMES: AtomicU32 = AtomicU32::new(0);
@@ -151,6 +152,11 @@ impl Builder {
     /// An environment variable for the cluster's processes.
     pub fn env(mut self, key: &str, value: &str) -> Self {
         self.env.push((key.to_string(), value.to_string()));
+        self
+    }
+    /// An extra `mcc up` argument (e.g. `--pty`, `--chain-port`, `4001`).
+    pub fn up_arg(mut self, arg: &str) -> Self {
+        self.up_args.push(arg.to_string());
         self
     }
 
@@ -270,7 +276,7 @@ impl Builder {
         let secs = self.lock_timeout.as_secs().max(1).to_string();
         let pid = std::process::id().to_string();
         let path = path.display().to_string();
-        let up = [
+        let mut up = vec![
             "up",
             "--detach",
             "--json",
@@ -281,6 +287,7 @@ impl Builder {
             "--owner-pid",
             &pid,
         ];
+        up.extend(self.up_args.iter().map(String::as_str));
         let st = cluster
             .runner
             .json(&up, self.lock_timeout + Duration::from_secs(90))?;
@@ -460,6 +467,7 @@ impl Cluster {
             tag: "t".into(),
             lock_timeout: Duration::from_secs(120),
             env: Vec::new(),
+            up_args: Vec::new(),
         }
     }
 
@@ -494,6 +502,12 @@ impl Cluster {
     pub fn mcc(&self, args: &[&str]) -> std::process::Output {
         self.runner
             .output(args, VERB_TIMEOUT)
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// `mcc --cluster NAME args…` with `input` on its stdin (then closed), bounded.
+    pub fn mcc_input(&self, args: &[&str], input: &[u8]) -> std::process::Output {
+        crate::run::run_bounded(self.runner.command(args), Some(input), VERB_TIMEOUT)
             .unwrap_or_else(|e| panic!("{e}"))
     }
 

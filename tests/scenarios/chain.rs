@@ -7,8 +7,9 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
+use mcc_testing::Cluster as TestCluster;
 use mcc_tests::cluster::{Cluster, Foreground};
-use mcc_tests::process::{mcc, mcc_with_input, run_base, text, unique};
+use mcc_tests::process::{bin_dir, run_base, text, unique};
 
 /// A host on the chain: write bytes, read the reply.
 trait Host: Read + Write {}
@@ -63,19 +64,16 @@ fn amp_and_loop(status_reply: &[u8]) -> u8 {
 
 #[test]
 fn daisy_chain_rules_over_tcp_pty_send_and_term() {
-    let c = Cluster::up(
-        "chain",
-        &[
-            "--clock",
-            "lockstep",
-            "--cards",
-            "2",
-            "--stations",
-            "1",
-            "--pty",
-        ],
-    );
-    let doc = c.status();
+    let mut c = TestCluster::builder()
+        .mcc(bin_dir().join("mcc"))
+        .clock("lockstep")
+        .cards(2)
+        .stations(1)
+        .up_arg("--pty")
+        .tag("chain")
+        .start()
+        .unwrap_or_else(|e| panic!("cluster up: {e}"));
+    let doc = c.status().unwrap().0;
     let addr = doc["daisy_chain"]
         .as_str()
         .expect("daisy_chain")
@@ -150,42 +148,17 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     drop(t);
 
     // `mcc send` for scripts.
-    let out = mcc(
-        &[
-            "send",
-            "--cluster",
-            &c.name,
-            "--card",
-            "1",
-            "P4=3",
-            "P4",
-            "P3",
-        ],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--card", "1", "P4=3", "P4", "P3"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(text(&out.stdout), "3\n7\n");
-    let out = mcc(
-        &[
-            "send",
-            "--cluster",
-            &c.name,
-            "--show-framing",
-            "@1P4",
-            "@7P4",
-        ],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--show-framing", "@1P4", "@7P4"]);
     assert_eq!(text(&out.stdout), "<LF>3<CR>\n<LF>\n");
     assert!(
         text(&out.stderr).contains("no card answered \"@7P4\""),
         "{}",
         text(&out.stderr)
     );
-    let out = mcc(
-        &["send", "--cluster", &c.name, "--card", "16", "P1"],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--card", "16", "P1"]);
     assert!(!out.status.success());
     assert!(
         text(&out.stderr).contains("--card"),
@@ -194,10 +167,9 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     );
 
     // `mcc term` through a pipe.
-    let out = mcc_with_input(
-        &["term", "--cluster", &c.name],
+    let out = c.mcc_input(
+        &["term"],
         b"@0P4\n@1P4\n.framing\nP1\n@\n.bogus\n.quit\nP1\n",
-        Duration::from_secs(60),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(
