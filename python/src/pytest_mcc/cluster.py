@@ -525,7 +525,8 @@ class Cluster:
         start = st.cycle if since is None else int(since)
         while True:
             self._remember(st)
-            if predicate(st) if with_status else predicate():
+            held = predicate(st) if with_status else predicate()  # type: ignore[call-arg]
+            if held:
                 if with_status:
                     return st
                 return stream.next(max(1.0, deadline - time.monotonic()))
