@@ -65,6 +65,12 @@ pub struct Builder {
 
 static NAMES: AtomicU32 = AtomicU32::new(0);
 
+/// A cluster name unique to this process: `rs<pid>-<tag>-<n>`.
+pub(crate) fn unique_name(tag: &str) -> String {
+    let n = NAMES.fetch_add(1, Ordering::Relaxed);
+    format!("rs{}-{tag}-{n}", std::process::id())
+}
+
 impl Builder {
     /// The `mcc` binary (default: `$MCC_BIN`, next to the test executable, or on `PATH`).
     pub fn mcc(mut self, path: impl Into<PathBuf>) -> Self {
@@ -246,8 +252,7 @@ impl Builder {
             Some(p) => p.clone(),
             None => find_mcc()?,
         };
-        let n = NAMES.fetch_add(1, Ordering::Relaxed);
-        let name = format!("rs{}-{}-{n}", std::process::id(), self.tag);
+        let name = unique_name(&self.tag);
         let dir = std::env::temp_dir().join(format!("mcc-{name}"));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir)

@@ -25,6 +25,7 @@
 
 mod cluster;
 mod error;
+mod foreground;
 pub mod procs;
 pub mod run;
 mod status;
@@ -33,4 +34,5 @@ pub use cluster::{
     Builder, CardStart, Cluster, FaultOptions, SyncStart, Trace, DRILLS, FAULT_KINDS,
 };
 pub use error::{Error, ErrorKind, Result};
+pub use foreground::Foreground;
 pub use status::{Status, StatusStream};

@@ -7,9 +7,8 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use mcc_testing::Cluster as TestCluster;
-use mcc_tests::cluster::{Cluster, Foreground};
-use mcc_tests::process::{bin_dir, run_base, text, unique};
+use mcc_testing::{Cluster, Foreground};
+use mcc_tests::process::{bin_dir, text};
 
 /// A host on the chain: write bytes, read the reply.
 trait Host: Read + Write {}
@@ -64,7 +63,7 @@ fn amp_and_loop(status_reply: &[u8]) -> u8 {
 
 #[test]
 fn daisy_chain_rules_over_tcp_pty_send_and_term() {
-    let mut c = TestCluster::builder()
+    let mut c = Cluster::builder()
         .mcc(bin_dir().join("mcc"))
         .clock("lockstep")
         .cards(2)
@@ -181,16 +180,19 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
 
 #[test]
 fn foreground_up_is_a_terminal_on_the_chain() {
-    let name = unique("fgterm");
-    let _guard = Cluster::guard(&name);
     let mut fg = Foreground::start(
-        &name,
+        &bin_dir().join("mcc"),
+        "fgterm",
         &["--clock", "lockstep", "--cards", "2", "--stations", "1"],
-    );
-    fg.wait_ready(Duration::from_secs(150));
+    )
+    .expect("mcc up");
+    fg.wait_ready(Duration::from_secs(150))
+        .expect("ring locked");
     let mut stdin = fg.child.stdin.take().expect("stdin");
     stdin.write_all(b"@1P7=42\n@1P7\n@0P7\n.quit\n").unwrap();
-    let status = fg.wait_exit("after .quit", Duration::from_secs(60));
+    let status = fg
+        .wait_exit(Duration::from_secs(60))
+        .expect("exit after .quit");
     assert!(status.success());
     let rest = fg.remaining_lines(Duration::from_secs(5));
     assert!(
@@ -200,5 +202,8 @@ fn foreground_up_is_a_terminal_on_the_chain() {
     let i = rest.iter().position(|l| l == "42").expect("reply 42");
     assert_eq!(rest.get(i + 1).map(String::as_str), Some("0"), "{rest:?}");
     assert!(rest.iter().any(|l| l.contains("stopped")), "{rest:?}");
-    assert!(!run_base().join(&name).exists(), "run dir left behind");
+    assert!(
+        !fg.run_base().join(fg.name()).exists(),
+        "run dir left behind"
+    );
 }
