@@ -61,6 +61,7 @@ pub struct Builder {
     lock_timeout: Duration,
     env: Vec<(String, String)>,
     up_args: Vec<String>,
+    owner: Option<u32>,
 }
 
 static NAMES: AtomicU32 = AtomicU32::new(0);
@@ -158,6 +159,11 @@ impl Builder {
     /// An environment variable for the cluster's processes.
     pub fn env(mut self, key: &str, value: &str) -> Self {
         self.env.push((key.to_string(), value.to_string()));
+        self
+    }
+    /// The process the cluster lives with (`mcc up --owner-pid`; default: this process).
+    pub fn owner(mut self, pid: u32) -> Self {
+        self.owner = Some(pid);
         self
     }
     /// An extra `mcc up` argument (e.g. `--pty`, `--chain-port`, `4001`).
@@ -279,7 +285,7 @@ impl Builder {
             .map_err(|e| Error::new(ErrorKind::Other, format!("{}: {e}", path.display())))?;
         cluster.started = true;
         let secs = self.lock_timeout.as_secs().max(1).to_string();
-        let pid = std::process::id().to_string();
+        let pid = self.owner.unwrap_or_else(std::process::id).to_string();
         let path = path.display().to_string();
         let mut up = vec![
             "up",
@@ -473,6 +479,7 @@ impl Cluster {
             lock_timeout: Duration::from_secs(120),
             env: Vec::new(),
             up_args: Vec::new(),
+            owner: None,
         }
     }
 

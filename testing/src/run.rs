@@ -172,7 +172,9 @@ pub fn error_from(out: &Output) -> Error {
         return e;
     }
     let message = cli_message(&stderr);
-    let kind = if out.status.code() == Some(2) && stderr.contains("error: invalid value") {
+    // clap refused an argument (exit status 2, usage text): a configuration the CLI refuses.
+    let usage = stderr.contains("error: invalid value") || stderr.contains("Usage:");
+    let kind = if out.status.code() == Some(2) && usage {
         ErrorKind::Config
     } else {
         ErrorKind::Other

@@ -178,3 +178,29 @@ fn a_ring_that_does_not_lock_fails_with_the_member_logs_and_leaves_nothing() {
     assert_eq!(left, 0, "the slow member was left running");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_cluster_follows_its_owner_process() {
+    // `mcc up --owner-pid`: the cluster stops by itself when the owner exits (a killed test
+    // runner never leaves members behind).
+    let mut owner = std::process::Command::new("sleep")
+        .arg("600")
+        .spawn()
+        .expect("spawn the owner");
+    let mut c = builder("owned")
+        .cards(1)
+        .stations(1)
+        .owner(owner.id())
+        .start()
+        .unwrap();
+    let pids = c.status().unwrap().pids();
+    assert_eq!(pids.len(), 3, "two members and the supervisor");
+    let _ = owner.kill();
+    let _ = owner.wait();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while pids.iter().any(|p| mcc_testing::procs::alive(*p)) {
+        assert!(Instant::now() < deadline, "the cluster outlived its owner");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(c.stop().is_empty());
+}
