@@ -10,6 +10,7 @@ mod client;
 mod ctl;
 mod down;
 mod drills;
+mod emcl;
 mod failure;
 mod fault;
 mod gather;
@@ -18,6 +19,7 @@ mod owner;
 mod precheck;
 mod rundir;
 mod send;
+mod serve;
 mod status;
 mod supervisor;
 mod syncstart;
@@ -37,6 +39,7 @@ fn main() {
     let res = match &cli.command {
         Command::Up(a) => {
             chain::server::export_up_options(a);
+            emcl::server::export_up_options(a);
             up::cmd_up(cli.cluster.as_deref(), a)
         }
         Command::Send(a) => send::cmd_send(&cluster, a),
@@ -54,6 +57,8 @@ fn main() {
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
+        Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
+        Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
     };
     if let Err(e) = res {
         if wants_json(&cli.command) {

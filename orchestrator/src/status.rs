@@ -31,8 +31,12 @@ pub struct ClusterStatus {
     pub daisy_chain: Option<String>,
     /// Daisy-chain pseudo-terminal path (`mcc up --pty`), else null.
     pub daisy_chain_pty: Option<String>,
-    /// EMCL bus endpoint (later issue).
+    /// EMCL bus TCP endpoint, `127.0.0.1:PORT` (null without drives).
     pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path (`mcc up --pty`, `[emcl] pty`), else null.
+    pub emcl_bus_pty: Option<String>,
+    /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
+    pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
     /// The supervising process.
     pub supervisor: SupervisorRow,
 }
@@ -315,7 +319,9 @@ pub fn build(
         stations,
         daisy_chain: info.daisy_chain.clone(),
         daisy_chain_pty: info.daisy_chain_pty.clone(),
-        emcl_bus: None,
+        emcl_bus: info.emcl_bus.clone(),
+        emcl_bus_pty: info.emcl_bus_pty.clone(),
+        drives: Vec::new(),
         supervisor: SupervisorRow {
             pid: info.pid,
             endpoint: info.endpoint.clone(),
@@ -410,6 +416,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
         let pty = s.daisy_chain_pty.as_deref().unwrap_or("-");
         let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
+    o.push_str(&crate::emcl::status::render(s));
     let _ = writeln!(
         o,
         "zenoh {}  run dir {}  (* = synchronizing master)",

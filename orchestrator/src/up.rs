@@ -41,12 +41,14 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         }
         cfg.rate_hz = rate;
     }
-    cfg.resolve().map_err(|e| match e {
+    let cfg = cfg.resolve().map_err(|e| match e {
         mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
             anyhow!("--cluster: {problem}")
         }
         other => anyhow!(other),
-    })
+    })?;
+    crate::emcl::validate(&cfg)?;
+    Ok(cfg)
 }
 
 /// Poll member status until every member is locked. Prints a progress line whenever the set
@@ -93,6 +95,7 @@ pub fn wait_locked(
             last = Some(locked);
         }
         if locked == st.len() {
+            crate::emcl::status::wait_ready(session, cfg, timeout.saturating_sub(start.elapsed()))?;
             return Ok(st);
         }
         if let Some(why) = dead() {
@@ -149,6 +152,7 @@ fn print_ready(
             None => println!("  daisy chain {d}"),
         }
     }
+    crate::emcl::status::print_ready(cfg, info);
     println!(
         "  zenoh endpoint {}",
         info.endpoint.as_deref().unwrap_or("-")

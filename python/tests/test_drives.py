@@ -1,7 +1,6 @@
-"""EDB step drives (``[[drives]]``) in a factory cluster.
-
-PENDING the emcl merge: until the ``mcc`` binary knows ``[[drives]]`` (the emcl work), this
-test is skipped with that reason; once it does, it runs as is."""
+"""EDB step drives (``[[drives]]``) in a factory cluster: the factory's ``drives`` replace the
+layout's (the embedded default has ``drive0`` on station0), and the cluster serves them on
+its EMCL bus. Skipped only against an ``mcc`` older than ``[[drives]]``."""
 
 import subprocess
 
@@ -21,8 +20,10 @@ def _mcc_knows_drives(mcc: str) -> bool:
 
 def test_drives_reach_the_cluster_and_its_emcl_bus(mcc, mcc_cluster_factory):
     if not _mcc_knows_drives(mcc):
-        pytest.skip("PENDING the emcl merge: this mcc does not know [[drives]] yet")
+        pytest.skip("this mcc does not know [[drives]] (older than the EMCL drives)")
     c = mcc_cluster_factory(cards=1, stations=1, drives=DRIVES)
     assert c.config["drives"] == DRIVES
     st = c.status()
     assert isinstance(st["emcl_bus"], str) and st["emcl_bus"].startswith("127.0.0.1:"), st
+    assert [(d["name"], d["address"], d["host"]) for d in st["drives"]] == [
+        ("drive7", 7, "station0")]

@@ -145,7 +145,8 @@ def build(
       card, or per card as above).
     - ``plant``: ``[stations.plant]`` keys for every station (``{"nodes": {"1": {...}}}`` for
       per-node overrides); ``plants``: the same per station name (merged over ``plant``).
-    - ``drives``: ``[[drives]]`` entries (EDB step drives: ``name``, ``address``, ``station``).
+    - ``drives``: ``[[drives]]`` entries (EDB step drives: ``name``, ``address``, ``station``),
+      replacing the layout's (the embedded default has ``drive0`` on station0).
     - ``extra``: any other top-level keys (e.g. ``{"rtf": 2.0}``), written as given.
     """
     doc = copy.deepcopy(dict(base))

@@ -66,6 +66,9 @@ fn embedded_default_matches_file_form() {
         "master = 1\n[[stations]]",
         "master = 1\nivars = { I1001 = 16, I1004 = 2, I1005 = 4 }\n[[stations]]",
     );
+    // …and it has one EMCL drive on station0.
+    let text =
+        format!("{text}\n[[drives]]\nname = \"drive0\"\naddress = 1\nstation = \"station0\"\n");
     let parsed = ClusterConfig::from_toml_str(&text).unwrap();
     assert_eq!(d, parsed);
     d.validate().unwrap();

@@ -109,7 +109,8 @@ pub fn validate(cfg: &ClusterConfig) -> R {
     }
     validate_cards(cfg)?;
     validate_stations(cfg)?;
-    validate_ring(cfg)
+    validate_ring(cfg)?;
+    super::drives::validate_drives(cfg)
 }
 
 fn validate_cards(cfg: &ClusterConfig) -> R {
@@ -252,6 +253,12 @@ fn validate_stations(cfg: &ClusterConfig) -> R {
 fn validate_ring(cfg: &ClusterConfig) -> R {
     let mut seen = BTreeSet::new();
     for (i, m) in cfg.ring.order.iter().enumerate() {
+        if cfg.member(m).is_none() && cfg.drive(m).is_some() {
+            return bad(
+                format!("ring.order[{i}]"),
+                format!("{m:?} is a drive: drives are on the EMCL bus, not on the ring"),
+            );
+        }
         if cfg.member(m).is_none() {
             return bad(
                 format!("ring.order[{i}]"),
