@@ -782,7 +782,7 @@ impl Cluster {
     fn stream(&mut self) -> Result<&mut StatusStream> {
         let dead = self.stream.as_mut().is_none_or(|s| !s.alive());
         if dead {
-            let cmd = self.runner.command(&["status", "--json", "--watch", "20"]);
+            let cmd = self.runner.command(&["status", "--json", "--watch", "50"]);
             self.stream = Some(StatusStream::start(cmd)?);
         }
         self.stream

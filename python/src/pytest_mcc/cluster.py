@@ -500,7 +500,7 @@ class Cluster:
         if self._stream is None or not self._stream.alive:
             if self._stream is not None:
                 self._stream.close()
-            self._stream = StatusStream(self._runner.argv(["status", "--json", "--watch", "20"]),
+            self._stream = StatusStream(self._runner.argv(["status", "--json", "--watch", "50"]),
                                         self._runner.env)
         return self._stream
 
@@ -515,7 +515,7 @@ class Cluster:
 
         Returns a status taken once the predicate held: for a status predicate the very
         document it held on; for a plain one the next document, so ``status.cycle`` is a
-        ring cycle by which the predicate held (statuses come every ~20 ms).
+        ring cycle by which the predicate held (statuses come every ~50 ms).
         """
         self._need_running()
         with_status = _wants_status(predicate)
