@@ -66,12 +66,16 @@ pub struct UpArgs {
     /// Number of stations in the embedded default cluster (default 2).
     #[arg(long, value_name = "M", conflicts_with = "config", value_parser = clap::value_parser!(u8).range(0..=48))]
     pub stations: Option<u8>,
-    /// Clock mode (overrides the config).
+    /// Clock mode: paced (default: lockstep paced by the wall clock), lockstep (as fast as
+    /// the ring goes) or realtime (free-running) (overrides the config).
     #[arg(long, value_name = "MODE", value_parser = parse_clock)]
     pub clock: Option<ClockMode>,
     /// Ring rate in Hz (overrides the config).
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
+    /// Paced clock: real-time factor, ring time per wall time (default 1; overrides the config).
+    #[arg(long, value_name = "X")]
+    pub rtf: Option<f64>,
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,

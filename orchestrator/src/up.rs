@@ -39,7 +39,20 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         }
         cfg.rate_hz = rate;
     }
+    if let Some(rtf) = args.rtf {
+        cfg.rtf = rtf;
+    }
+    // A value given on the command line is named as the option that gave it.
+    let flag = |key: &str| match key {
+        "cluster" => cluster_flag.map(|_| "--cluster"),
+        "rtf" => args.rtf.map(|_| "--rtf"),
+        "rate_hz" => args.rate.map(|_| "--rate"),
+        _ => None,
+    };
     cfg.resolve().map_err(|e| match e {
+        mcc_ring::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
+            anyhow!("{}: {problem}", flag(&key).unwrap_or_default())
+        }
         mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
             anyhow!("--cluster: {problem}")
         }
@@ -110,13 +123,16 @@ fn print_ready(
     st: &[Option<MemberStatus>],
 ) {
     let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
+    let clock = match cfg.clock {
+        mcc_ring::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
+        other => other.as_str().to_string(),
+    };
     println!(
-        "cluster {} up: {} members locked on ring {} at cycle {} ({}, {} Hz)",
+        "cluster {} up: {} members locked on ring {} at cycle {} ({clock}, {} Hz)",
         cfg.cluster,
         doc.members.len(),
         cfg.ring.name,
         doc.ring.cycle,
-        cfg.clock.as_str(),
         cfg.rate_hz
     );
     let port = |p: Option<u16>| {
@@ -333,4 +349,50 @@ pub fn cmd_supervise(cluster: &str) -> Result<()> {
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn resolve(args: &[&str]) -> Result<ClusterConfig> {
+        let mut full = vec!["mcc", "up"];
+        full.extend_from_slice(args);
+        let cli = crate::cli::Cli::try_parse_from(full).map_err(|e| anyhow!("{e}"))?;
+        let crate::cli::Command::Up(up) = &cli.command else {
+            bail!("not up")
+        };
+        resolve_config(cli.cluster.as_deref(), up)
+    }
+
+    #[test]
+    fn the_default_clock_is_paced_at_real_time() {
+        let c = resolve(&[]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Paced);
+        assert_eq!(c.rtf, 1.0);
+        let c = resolve(&["--rtf", "0.5"]).unwrap();
+        assert_eq!(c.rtf, 0.5);
+        let c = resolve(&["--clock", "lockstep"]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Lockstep);
+    }
+
+    #[test]
+    fn bad_clock_options_are_refused_naming_the_option() {
+        for (args, want) in [
+            (&["--rtf", "0"][..], "--rtf"),
+            (&["--rtf=-2"][..], "--rtf"),
+            (&["--rtf", "NaN"][..], "--rtf"),
+            (&["--rtf", "inf"][..], "--rtf"),
+            (&["--rtf", "1e12"][..], "--rtf"),
+            (&["--clock", "lockstep", "--rtf", "3"][..], "only the paced clock"),
+            (&["--clock", "sometimes"][..], "sometimes"),
+            (&["--rate", "0"][..], "--rate"),
+        ] {
+            let e = format!("{:#}", resolve(args).unwrap_err());
+            assert!(e.contains(want), "{args:?}: {e}");
+        }
+        let e = format!("{:#}", resolve(&["--rtf", "0"]).unwrap_err());
+        assert!(e.contains("real-time factor"), "{e}");
+    }
 }

@@ -78,19 +78,18 @@ fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
         .clone()
 }
 
-#[test]
-fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
-    let c = Cluster::up_with_env(
-        "sync4",
-        &["--cards", "4", "--stations", "4", "--clock", "lockstep"],
-        &[("MCC_TEST_AT_DELAY_MS", "15")],
-    );
+/// 4 cards + 4 stations, `repeat` synchronized starts with random delays (up to 15 ms) in
+/// every card's control path: every start executes on every card in the same ring cycle.
+fn synchronized_starts_never_split(tag: &str, clock: &[&str], repeat: u32) {
+    let mut args = vec!["--cards", "4", "--stations", "4"];
+    args.extend_from_slice(clock);
+    let c = Cluster::up_with_env(tag, &args, &[("MCC_TEST_AT_DELAY_MS", "15")]);
     for n in 0..4 {
         let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
     }
-    let outs = start_sync(&c, "0,1,2,3", 100);
-    assert_eq!(outs.len(), 100);
+    let outs = start_sync(&c, "0,1,2,3", repeat);
+    assert_eq!(outs.len(), repeat as usize);
     let mut retried = 0;
     for o in &outs {
         let t = o["cycle"].as_u64().unwrap();
@@ -103,16 +102,28 @@ fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
         }
         retried += u64::from(o["attempts"].as_u64().unwrap() > 1);
     }
-    eprintln!("100 synchronized starts, {retried} needed a retry");
+    eprintln!("{repeat} synchronized starts ({clock:?}), {retried} needed a retry");
     let last = outs.last().unwrap()["cycle"].as_u64().unwrap();
     let doc = c.status();
     for card in doc["cards"].as_array().unwrap() {
         assert_eq!(card["program_start_cycle"].as_u64(), Some(last), "{doc:#}");
     }
+    assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     // Bad input: unknown card, empty list.
     let out = c.mcc(&["start-sync", "--cards", "0,9", "&1B1R"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no card 9"));
+}
+
+#[test]
+fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
+    synchronized_starts_never_split("sync4", &["--clock", "lockstep"], 100);
+}
+
+#[test]
+fn paced_synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
+    // The default clock.
+    synchronized_starts_never_split("psync4", &[], 30);
 }
 
 /// Fault `member` with `args`, check every card in `cards` latches a ring fault and status
@@ -215,10 +226,11 @@ fn recover(c: &Cluster) {
         .all(|k| k["executed_cycle"] == t));
 }
 
-#[test]
-fn ring_faults_are_detected_localised_and_recovered() {
-    let c = Cluster::up("faults", &["--clock", "lockstep"]);
-    // Ring order: card0 (sync master), station0, card1, station1.
+/// The fault drills on the default 2 + 2 ring (card0 (sync master), station0, card1,
+/// station1): each fault detected by the cards within the bound, the broken link named, the
+/// ring recovered after clear + `$$$` + reset, and motion commanded again.
+fn fault_drills(tag: &str, clock: &[&str]) {
+    let c = Cluster::up(tag, clock);
     for n in 0..2 {
         let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
@@ -258,6 +270,37 @@ fn ring_faults_are_detected_localised_and_recovered() {
     // A thawed member whose zenoh session expired leaves; restart brings it back.
     restart(&c, "card1");
     recover(&c);
+    // The synchronizing master itself: killed, then frozen. The member downstream of it
+    // (station0) sees loss of light and runs on its own clock, so card1 counts the cycles;
+    // a restarted sync master takes up the ring's cycle count (or the ring its new one).
+    drill(
+        &c,
+        &["card0", "kill"],
+        "card0 → station0",
+        "station0",
+        &["card1"],
+    );
+    restart(&c, "card0");
+    recover(&c);
+    drill(
+        &c,
+        &["card0", "freeze"],
+        "card0 → station0",
+        "station0",
+        &["card1"],
+    );
+    restart(&c, "card0");
+    recover(&c);
+}
+
+#[test]
+fn ring_faults_are_detected_localised_and_recovered() {
+    fault_drills("faults", &["--clock", "lockstep"]);
+}
+
+#[test]
+fn paced_ring_faults_are_detected_within_the_same_cycle_bounds() {
+    fault_drills("pfaults", &[]);
 }
 
 #[test]
