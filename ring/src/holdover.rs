@@ -59,11 +59,12 @@ impl HoldoverClock {
         self.on_sync(cycle, now_ns);
     }
 
-    /// Make the next holdover cycle due now at the latest (nothing will come: the upstream
-    /// member is known dead). Does nothing before the first sync packet.
+    /// Skip the grace: nothing will come (the upstream member is known dead), so the next
+    /// holdover cycle is due now unless one is due within a period anyway (the clock already
+    /// runs). Does nothing before the first sync packet.
     pub fn expedite(&mut self, now_ns: u64) {
-        if self.last_cycle.is_some() {
-            self.due_ns = self.due_ns.min(now_ns);
+        if self.last_cycle.is_some() && self.due_ns > now_ns.saturating_add(self.period_ns) {
+            self.due_ns = now_ns;
         }
     }
 
@@ -129,6 +130,8 @@ mod tests {
         assert_eq!(h.poll(6000), None, "the grace is long");
         h.expedite(6000);
         assert_eq!(h.poll(6000), Some(11));
+        // Once running, expediting again changes nothing: one cycle per period.
+        h.expedite(6500);
         assert_eq!(h.poll(6999), None);
         assert_eq!(h.poll(7000), Some(12));
     }

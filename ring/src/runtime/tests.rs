@@ -409,6 +409,10 @@ fn a_dead_member_is_loss_of_light_downstream_and_the_ring_keeps_cycling() {
         }
         let sm = out[0].clock.clone().unwrap();
         assert!(!sm.ring_down, "{sm:?}");
+        // card1's own clock keeps the nominal rate: it does not run ahead of the ring (it goes
+        // on a little while the others stop after the sync master's last cycle).
+        let (c0, c1) = (out[0].core.cycle(), out[2].core.cycle());
+        assert!(c1 < 2 * c0, "{clock:?}: card1 at {c1}, sync master at {c0}");
     }
 }
 
