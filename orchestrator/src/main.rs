@@ -10,6 +10,7 @@ mod client;
 mod ctl;
 mod down;
 mod drills;
+mod events;
 mod fault;
 mod gather;
 mod launch;
@@ -49,6 +50,7 @@ fn main() {
         Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
+        Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Supervise => up::cmd_supervise(&cluster),
     };
     if let Err(e) = res {

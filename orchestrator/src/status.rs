@@ -105,6 +105,8 @@ pub struct MemberRow {
     pub dark_since_cycle: Option<u64>,
     /// Why its ring fault latched (while latched).
     pub fault_reason: Option<String>,
+    /// What its cycle thread got from the scheduler (realtime: SCHED_FIFO, locked memory).
+    pub sched: Option<String>,
     /// Faults injected on its send path.
     pub faults: Vec<FaultSpec>,
 }
@@ -283,6 +285,7 @@ pub fn build(
                 dark: v.dark,
                 dark_since_cycle: v.dark_since_cycle,
                 fault_reason: v.fault_reason.clone(),
+                sched: v.sched.clone(),
                 faults: v.faults.clone(),
             }
         })
@@ -399,9 +402,6 @@ pub fn timing_text(s: &ClusterStatus) -> String {
     }
     if t.ring_down {
         out.push_str(", RING DOWN (nothing comes back: cycles on the sync master's own clock)");
-    }
-    if !t.sched.is_empty() {
-        let _ = write!(out, ", {}", t.sched);
     }
     out
 }

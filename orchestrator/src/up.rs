@@ -163,6 +163,20 @@ fn print_ready(
             None => println!("  daisy chain {d}"),
         }
     }
+    if cfg.clock == mcc_ring::config::ClockMode::Realtime {
+        // What the realtime cycle threads got (SCHED_FIFO and locked memory when permitted).
+        let mut got: Vec<(String, Vec<&str>)> = Vec::new();
+        for m in &doc.members {
+            let s = m.sched.clone().unwrap_or_else(|| "unknown".into());
+            match got.iter_mut().find(|(k, _)| *k == s) {
+                Some((_, v)) => v.push(&m.name),
+                None => got.push((s, vec![&m.name])),
+            }
+        }
+        for (s, who) in got {
+            println!("  realtime cycle threads: {s} ({})", who.join(", "));
+        }
+    }
     println!(
         "  zenoh endpoint {}",
         info.endpoint.as_deref().unwrap_or("-")
@@ -288,15 +302,20 @@ fn up_foreground(
     };
     print_ready(sup.run_dir(), &cfg, sup.info(), &st);
     println!("  type PMAC commands for the daisy chain (.help); Ctrl-D, .quit, end of input or SIGINT stops the cluster");
-    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster.
+    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster. Cluster
+    // events are printed on their own lines as they happen.
+    let printer = crate::events::Printer::default();
+    let watcher = crate::events::spawn(session.clone(), cfg.clone(), printer.clone());
     let eof_rx = crate::term::spawn_foreground(
         session.clone(),
         cfg.clone(),
         sup.info().clone(),
         sup.run_dir().dir.display().to_string(),
         show_framing,
+        printer.clone(),
     );
-    run_until_stopped(&mut sup, &signals, Some(&eof_rx));
+    run_until_stopped(&mut sup, &signals, Some(&eof_rx), Some(&printer));
+    drop(watcher);
     sup.shutdown(STOP_TIMEOUT);
     println!("cluster {} stopped", cfg.cluster);
     Ok(())
@@ -306,6 +325,7 @@ fn run_until_stopped(
     sup: &mut Supervisor,
     signals: &mpsc::Receiver<String>,
     eof: Option<&mpsc::Receiver<()>>,
+    printer: Option<&crate::events::Printer>,
 ) {
     loop {
         match signals.recv_timeout(Duration::from_millis(200)) {
@@ -320,7 +340,10 @@ fn run_until_stopped(
             return;
         }
         for msg in sup.poll() {
-            eprintln!("mcc: {msg}");
+            match printer {
+                Some(p) => p.line(&format!("{} {msg}", crate::events::PREFIX)),
+                None => eprintln!("mcc: {msg}"),
+            }
         }
     }
 }
@@ -345,7 +368,7 @@ pub fn cmd_supervise(cluster: &str) -> Result<()> {
         "mcc supervise: cluster {cluster} running (pid {})",
         std::process::id()
     );
-    run_until_stopped(&mut sup, &signals, None);
+    run_until_stopped(&mut sup, &signals, None, None);
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");
     Ok(())

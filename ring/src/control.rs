@@ -119,6 +119,10 @@ pub struct MemberStatus {
     /// Synchronizing master: how the ring's clock is keeping time.
     #[serde(default)]
     pub clock: Option<ClockReport>,
+    /// What the cycle thread got from the scheduler (realtime: SCHED_FIFO and locked memory
+    /// when permitted).
+    #[serde(default)]
+    pub sched: Option<String>,
     /// Free-form extras by kind (card ports, station nodes, ...).
     #[serde(default)]
     pub extra: serde_json::Map<String, serde_json::Value>,
@@ -156,10 +160,6 @@ pub struct ClockReport {
     pub ring_down: bool,
     /// How often the ring went down.
     pub ring_down_count: u64,
-    /// What the cycle thread got from the scheduler (realtime: SCHED_FIFO and locked memory
-    /// when permitted).
-    #[serde(default)]
-    pub sched: String,
 }
 
 /// A fault-injection request for a member's send path.

@@ -756,6 +756,7 @@ impl MemberCore {
                 .flatten(),
             faults: self.faults.active(),
             clock: None,
+            sched: None,
             extra: serde_json::Map::new(),
         }
     }

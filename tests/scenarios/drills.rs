@@ -2,8 +2,6 @@
 //! delays in the control path), ring faults (drop-sync, cut link, killed station, frozen
 //! card) detected, localised and recovered, and a realtime synchronized start's skew.
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::time::Duration;
 
 use mcc_tests::cluster::Cluster;
@@ -21,38 +19,9 @@ const SETUP: &[&str] = &[
     "CLOSE",
 ];
 
-/// Card `n`'s ASCII port from a status document.
-fn card_port(doc: &Value, n: u64) -> u16 {
-    let c = doc["cards"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["number"] == n)
-        .expect("card");
-    c["ascii"].as_u64().expect("ascii port") as u16
-}
-
 /// Send lines to card `n`'s ASCII port; the replies.
 fn send(c: &Cluster, n: u64, lines: &[&str]) -> String {
-    let port = card_port(&c.status(), n);
-    let mut s = TcpStream::connect(("127.0.0.1", port)).expect("connect ascii port");
-    s.set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let mut all = Vec::new();
-    for l in lines {
-        s.write_all(format!("{l}\r").as_bytes()).unwrap();
-        let mut buf = [0u8; 4096];
-        while let Ok(k) = s.read(&mut buf) {
-            if k == 0 {
-                break;
-            }
-            all.extend_from_slice(&buf[..k]);
-            if buf[..k].ends_with(b"\n") || buf[..k].ends_with(b"\x06") {
-                break;
-            }
-        }
-    }
-    String::from_utf8_lossy(&all).into_owned()
+    c.ascii(n, lines)
 }
 
 fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {

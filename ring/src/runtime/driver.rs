@@ -42,6 +42,8 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
+    pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
     pub max_cycles: Option<u64>,
     /// Kind reported in status.
@@ -111,6 +113,8 @@ pub struct Driver<A: RingApp> {
     records: Vec<(u64, u64)>,
     /// The receive link closed (an in-process upstream whose loop ended): nothing will come.
     rx_closed: bool,
+    /// What the cycle thread got from the scheduler.
+    sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
     pub(super) clock: Option<super::timing::ClockStats>,
 }
@@ -146,6 +150,7 @@ impl<A: RingApp> Driver<A> {
             cycles_run: 0,
             records: Vec::new(),
             rx_closed: false,
+            sched: None,
             clock: None,
         }
     }
@@ -234,6 +239,13 @@ impl<A: RingApp> Driver<A> {
             #[cfg(target_os = "linux")]
             let _ = nix::sys::prctl::set_timerslack(1);
         }
+        if self.cfg.harden && self.cfg.clock == ClockMode::Realtime {
+            let got = super::rt::harden_cycle_thread();
+            info!(member = %self.cfg.name, "realtime cycle thread: {got}");
+            self.sched = Some(got);
+        } else if self.cfg.harden {
+            self.sched = Some(super::rt::NORMAL.to_string());
+        }
         info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
         let r = if self.core.is_sync_master() {
             let rtf = match self.cfg.clock {
@@ -302,6 +314,7 @@ impl<A: RingApp> Driver<A> {
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
+                    s.sched = self.sched.clone();
                     if let Some(c) = &s.clock {
                         s.late_cycles = s.late_cycles.max(c.late_cycles);
                     }

@@ -10,6 +10,7 @@ pub mod local;
 pub mod logging;
 pub mod pacer;
 pub mod process;
+pub mod rt;
 pub mod stepped;
 pub mod timing;
 

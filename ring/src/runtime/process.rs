@@ -189,6 +189,7 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        harden: true,
         max_cycles: None,
         kind,
         position,

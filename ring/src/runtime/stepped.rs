@@ -151,7 +151,8 @@ impl<A: RingApp> Driver<A> {
                     trace!(cycle = k, lost_ns = s.lost_ns, "paced clock re-based");
                 }
             }
-            if let Some(c) = self.clock.as_mut() {
+            if let Some(c) = self.clock.as_mut().filter(|_| returned.is_some()) {
+                // (From the moment the ring first closed: bring-up retries are not stalls.)
                 c.on_start(k, now, start);
             }
             if self.cfg.record > 0 {

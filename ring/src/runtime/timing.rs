@@ -207,7 +207,6 @@ pub struct ClockStats {
     below_since_ns: Option<u64>,
     ring_down: bool,
     ring_down_count: u64,
-    sched: String,
 }
 
 impl ClockStats {
@@ -229,13 +228,7 @@ impl ClockStats {
             below_since_ns: None,
             ring_down: false,
             ring_down_count: 0,
-            sched: String::new(),
         }
-    }
-
-    /// What the cycle thread got from the scheduler (realtime hardening), for the report.
-    pub fn set_sched(&mut self, sched: String) {
-        self.sched = sched;
     }
 
     /// Cycle `cycle` started at `now_ns`; `start` is the grid's verdict when the cycle had a
@@ -313,7 +306,6 @@ impl ClockStats {
             below_rtf_ms: below / 1_000_000,
             ring_down: self.ring_down,
             ring_down_count: self.ring_down_count,
-            sched: self.sched.clone(),
         }
     }
 }
