@@ -52,6 +52,8 @@ pub enum Command {
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// The EMCL bus: send a frame (`mcc emcl send 1 6 1 0 0`), set a drive's inputs.
+    Emcl(EmclArgs),
     /// Internal: the detached supervisor started by `mcc up --detach`.
     #[command(hide = true)]
     Supervise,
@@ -91,6 +93,9 @@ pub struct UpArgs {
     /// TCP port of the daisy chain on 127.0.0.1 (default: any free port).
     #[arg(long, value_name = "PORT")]
     pub chain_port: Option<u16>,
+    /// TCP port of the EMCL bus on 127.0.0.1 (default: `[emcl] port`, else any free port).
+    #[arg(long, value_name = "PORT")]
+    pub emcl_port: Option<u16>,
     /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
     #[arg(long)]
     pub show_framing: bool,
@@ -214,6 +219,52 @@ pub struct GatherArgs {
     pub out: PathBuf,
 }
 
+/// `mcc emcl`.
+#[derive(Debug, Args)]
+pub struct EmclArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: EmclCommand,
+}
+
+/// `mcc emcl` verbs.
+#[derive(Debug, Subcommand)]
+pub enum EmclCommand {
+    /// Send one frame on the bus and print the reply: `ADDR OP TYPE MOTOR VALUE` (numbers,
+    /// 0x hex allowed; the checksum is added) or nine hex bytes sent as they are.
+    Send {
+        /// Milliseconds to wait for the reply.
+        #[arg(long, value_name = "MS", default_value_t = 2000)]
+        timeout_ms: u64,
+        /// The frame.
+        #[arg(required = true, num_args = 5..=9, allow_negative_numbers = true, value_name = "WORD")]
+        words: Vec<String>,
+    },
+    /// Set input lines of a drive: in0..in2, analog, enable_in, reset_in; inject driver
+    /// faults: overtemp, short (e.g. `mcc emcl input drive0 in1=1 analog=2048`).
+    Input {
+        /// Drive name.
+        drive: String,
+        /// NAME=VALUE settings.
+        #[arg(required = true, value_name = "NAME=VALUE")]
+        settings: Vec<String>,
+    },
+}
+
+/// `mcc bench emcl`.
+#[derive(Debug, Args)]
+pub struct BenchEmclArgs {
+    /// Round trips to time on one connection.
+    #[arg(long, value_name = "K", default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub count: u32,
+    /// Host connections sharing the bus in the throughput run.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub connections: u32,
+    /// Clock mode of the benchmark cluster (default lockstep).
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
+}
+
 /// `mcc down`.
 #[derive(Debug, Args)]
 pub struct DownArgs {
@@ -239,6 +290,8 @@ pub enum BenchCommand {
     Faults(BenchFaultsArgs),
     /// Cluster bring-up time (`mcc up --detach` until locked).
     Bringup(BenchBringupArgs),
+    /// EMCL bus round trip p50/p99 and frames per second (TCP and in-process drive).
+    Emcl(BenchEmclArgs),
     /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
     /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
     Soak(BenchSoakArgs),

@@ -45,7 +45,7 @@ pub fn attach(name: &str) -> Result<Attached> {
         .ok_or_else(|| anyhow!("cluster {name:?} is still starting (no endpoint yet)"))?;
     let session = ctl::connect(
         &endpoint,
-        cfg.ring.order.len() + 1,
+        cfg.ring.order.len() + 1 + cfg.standalone_drives().count(),
         Duration::from_millis(1500),
     )?;
     Ok(Attached {
@@ -67,6 +67,7 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
     );
     let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
     crate::drills::enrich_status(&a.session, &a.cfg, &mut doc);
+    crate::emcl::status::enrich(&a.session, &a.cfg, &mut doc);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

@@ -311,7 +311,10 @@ mod tests {
     fn events_from_status_changes() {
         let cfg = ClusterConfig::default_cluster(2, 2);
         let mut w = Watch::default();
-        assert!(w.step(&cfg, &healthy(&cfg, 10)).is_empty(), "first poll: notes only");
+        assert!(
+            w.step(&cfg, &healthy(&cfg, 10)).is_empty(),
+            "first poll: notes only"
+        );
         assert!(w.step(&cfg, &healthy(&cfg, 20)).is_empty());
         // station0 cut: card1 latches with byte violations (dark input).
         let mut st = healthy(&cfg, 30);
@@ -340,7 +343,9 @@ mod tests {
         assert!(w.step(&cfg, &quiet).is_empty());
         assert_eq!(
             w.step(&cfg, &quiet),
-            vec![format!("{PREFIX} card0 does not answer (frozen or overloaded)")]
+            vec![format!(
+                "{PREFIX} card0 does not answer (frozen or overloaded)"
+            )]
         );
         assert_eq!(
             w.step(&cfg, &st),
@@ -373,14 +378,20 @@ mod tests {
             st
         };
         w.step(&cfg, &with(0, false, 1.0));
-        assert!(w.step(&cfg, &with(600, false, 0.7)).is_empty(), "not yet a second");
+        assert!(
+            w.step(&cfg, &with(600, false, 0.7)).is_empty(),
+            "not yet a second"
+        );
         assert_eq!(
             w.step(&cfg, &with(1200, false, 0.62)),
             vec![format!(
                 "{PREFIX} clock below the requested real-time factor for 1.2 s: rtf 0.62 of 1"
             )]
         );
-        assert!(w.step(&cfg, &with(1500, false, 0.6)).is_empty(), "said once");
+        assert!(
+            w.step(&cfg, &with(1500, false, 0.6)).is_empty(),
+            "said once"
+        );
         let ev = w.step(&cfg, &with(0, true, 1.0));
         assert_eq!(ev.len(), 2, "{ev:?}");
         assert!(ev[0].contains("clock back at rtf 1.00"));

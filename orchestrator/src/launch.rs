@@ -48,6 +48,8 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
     let bin = match cfg.member(name) {
         Some(MemberRef::Card(_)) => sibling_binary("mcc-card"),
         Some(MemberRef::Station(_)) => sibling_binary("mcc-station"),
+        // A stand-alone EMCL drive runs as the station binary in drive mode.
+        None if cfg.drive(name).is_some() => sibling_binary("mcc-station"),
         None => anyhow::bail!("member {name:?} is not in the config"),
     };
     let (out, err) = log_stdio(rd, name)?;

@@ -10,12 +10,14 @@ mod client;
 mod ctl;
 mod down;
 mod drills;
+mod emcl;
 mod events;
 mod fault;
 mod gather;
 mod launch;
 mod rundir;
 mod send;
+mod serve;
 mod status;
 mod supervisor;
 mod syncstart;
@@ -34,6 +36,7 @@ fn main() {
     let res = match &cli.command {
         Command::Up(a) => {
             chain::server::export_up_options(a);
+            emcl::server::export_up_options(a);
             up::cmd_up(cli.cluster.as_deref(), a)
         }
         Command::Send(a) => send::cmd_send(&cluster, a),
@@ -52,6 +55,8 @@ fn main() {
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Supervise => up::cmd_supervise(&cluster),
+        Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
+        Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
     };
     if let Err(e) = res {
         eprintln!("mcc: error: {e:#}");

@@ -24,7 +24,7 @@ pub const LOG_DIR: &str = "logs";
 pub struct MemberProc {
     /// Member name.
     pub name: String,
-    /// `card` or `station`.
+    /// `card`, `station` or `drive` (a stand-alone EMCL drive).
     pub kind: String,
     /// OS pid.
     pub pid: u32,
@@ -51,6 +51,12 @@ pub struct SupervisorInfo {
     /// Daisy-chain pseudo-terminal path, when one is served.
     #[serde(default)]
     pub daisy_chain_pty: Option<String>,
+    /// EMCL bus TCP endpoint (`127.0.0.1:PORT`) once serving.
+    #[serde(default)]
+    pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path, when one is served.
+    #[serde(default)]
+    pub emcl_bus_pty: Option<String>,
 }
 
 impl SupervisorInfo {
@@ -65,6 +71,8 @@ impl SupervisorInfo {
             message: None,
             daisy_chain: None,
             daisy_chain_pty: None,
+            emcl_bus: None,
+            emcl_bus_pty: None,
         }
     }
 }

@@ -43,8 +43,12 @@ pub struct ClusterStatus {
     pub daisy_chain: Option<String>,
     /// Daisy-chain pseudo-terminal path (`mcc up --pty`), else null.
     pub daisy_chain_pty: Option<String>,
-    /// EMCL bus endpoint (later issue).
+    /// EMCL bus TCP endpoint, `127.0.0.1:PORT` (null without drives).
     pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path (`mcc up --pty`, `[emcl] pty`), else null.
+    pub emcl_bus_pty: Option<String>,
+    /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
+    pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
     /// The supervising process.
     pub supervisor: SupervisorRow,
 }
@@ -348,7 +352,9 @@ pub fn build(
         stations,
         daisy_chain: info.daisy_chain.clone(),
         daisy_chain_pty: info.daisy_chain_pty.clone(),
-        emcl_bus: None,
+        emcl_bus: info.emcl_bus.clone(),
+        emcl_bus_pty: info.emcl_bus_pty.clone(),
+        drives: Vec::new(),
         supervisor: SupervisorRow {
             pid: info.pid,
             endpoint: info.endpoint.clone(),
@@ -398,7 +404,11 @@ pub fn timing_text(s: &ClusterStatus) -> String {
         let _ = write!(out, ", {} ms lost in {} re-bases", t.lost_ms, t.rebases);
     }
     if t.below_rtf_ms >= 1000 {
-        let _ = write!(out, ", BELOW the requested rtf for {:.1} s", t.below_rtf_ms as f64 / 1000.0);
+        let _ = write!(
+            out,
+            ", BELOW the requested rtf for {:.1} s",
+            t.below_rtf_ms as f64 / 1000.0
+        );
     }
     if t.ring_down {
         out.push_str(", RING DOWN (nothing comes back: cycles on the sync master's own clock)");
@@ -474,6 +484,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
         let pty = s.daisy_chain_pty.as_deref().unwrap_or("-");
         let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
+    o.push_str(&crate::emcl::status::render(s));
     let _ = writeln!(
         o,
         "zenoh {}  run dir {}  (* = synchronizing master)",

@@ -143,7 +143,13 @@ fn json_document_has_the_contract_fields() {
         assert!(doc.get(k).is_some(), "missing {k}");
     }
     assert_eq!(doc["clock"], "paced");
-    for k in ["rtf", "rtf_requested", "late_cycles", "max_lag_us", "timing"] {
+    for k in [
+        "rtf",
+        "rtf_requested",
+        "late_cycles",
+        "max_lag_us",
+        "timing",
+    ] {
         assert!(doc.get(k).is_some(), "missing {k}");
     }
     assert_eq!(doc["rate"], 2258.7);

@@ -49,7 +49,7 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         "rate_hz" => args.rate.map(|_| "--rate"),
         _ => None,
     };
-    cfg.resolve().map_err(|e| match e {
+    let cfg = cfg.resolve().map_err(|e| match e {
         mcc_ring::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
             anyhow!("{}: {problem}", flag(&key).unwrap_or_default())
         }
@@ -57,7 +57,9 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
             anyhow!("--cluster: {problem}")
         }
         other => anyhow!(other),
-    })
+    })?;
+    crate::emcl::validate(&cfg)?;
+    Ok(cfg)
 }
 
 /// Poll member status until every member is locked. Prints a progress line whenever the set
@@ -104,6 +106,7 @@ pub fn wait_locked(
             last = Some(locked);
         }
         if locked == st.len() {
+            crate::emcl::status::wait_ready(session, cfg, timeout.saturating_sub(start.elapsed()))?;
             return Ok(st);
         }
         if let Some(why) = dead() {
@@ -177,6 +180,7 @@ fn print_ready(
             println!("  realtime cycle threads: {s} ({})", who.join(", "));
         }
     }
+    crate::emcl::status::print_ready(cfg, info);
     println!(
         "  zenoh endpoint {}",
         info.endpoint.as_deref().unwrap_or("-")
@@ -408,7 +412,10 @@ mod tests {
             (&["--rtf", "NaN"][..], "--rtf"),
             (&["--rtf", "inf"][..], "--rtf"),
             (&["--rtf", "1e12"][..], "--rtf"),
-            (&["--clock", "lockstep", "--rtf", "3"][..], "only the paced clock"),
+            (
+                &["--clock", "lockstep", "--rtf", "3"][..],
+                "only the paced clock",
+            ),
             (&["--clock", "sometimes"][..], "sometimes"),
             (&["--rate", "0"][..], "--rate"),
         ] {

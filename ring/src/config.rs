@@ -26,7 +26,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod drives;
 mod validate;
+
+pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, MAX_DRIVES};
 
 pub use validate::{check_name, MAX_MEMBERS, MAX_RTF};
 
@@ -264,6 +267,12 @@ pub struct ClusterConfig {
     /// Stations.
     #[serde(default)]
     pub stations: Vec<StationConfig>,
+    /// The EMCL bus (`[emcl]`).
+    #[serde(default)]
+    pub emcl: EmclConfig,
+    /// EDB drives on the EMCL bus (`[[drives]]`).
+    #[serde(default)]
+    pub drives: Vec<DriveConfig>,
 }
 
 /// I995/I996 values a member derives from the config (spec §6.2, §6.3).
@@ -318,7 +327,8 @@ impl ConfigError {
 }
 
 impl ClusterConfig {
-    /// The embedded default: `cards` cards and `stations` stations in one ring. Card c has
+    /// The embedded default: `cards` cards and `stations` stations in one ring, and one EDB
+    /// drive `drive0` at address 1 hosted by station0 (standing alone without stations). Card c has
     /// number c and master number c; station s serves card `s % cards` (stations sharing a card
     /// split its nodes 0,1,4,5,8,9,12,13 between them); ring order is each card followed by the
     /// stations it serves; card0 is the synchronizing master.
@@ -363,7 +373,13 @@ impl ClusterConfig {
             zenoh: ZenohConfig::default(),
             ring: RingConfig::default(),
             cards: card_list,
+            drives: vec![DriveConfig::new(
+                "drive0",
+                1,
+                station_list.first().map(|s| s.name.as_str()),
+            )],
             stations: station_list,
+            emcl: EmclConfig::default(),
         };
         cfg.fill_defaults();
         cfg

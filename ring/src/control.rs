@@ -11,6 +11,7 @@
 //! - `mcc/<cluster>/card/<n>/at`: synchronized start, [`AtRequest`] JSON → [`AtReply`] JSON
 //!   ([`sync_start`]).
 //! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
+//! - `mcc/<cluster>/emcl/<host>/{frame,status,io}`: the EMCL bus to drive hosts ([`emcl`]).
 //! - `mcc/<cluster>/alive/<member>`: liveliness token of each member and of `orchestrator`.
 
 use serde::{Deserialize, Serialize};
@@ -18,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::fault::FaultSpec;
 
 pub mod chain;
+pub mod emcl;
 pub mod sync_start;
 
 pub use sync_start::{at_key, AtReply, AtRequest};

@@ -301,11 +301,18 @@ fn a_frame_without_its_sync_packet_still_runs_the_cycle_unlocked() {
     assert_eq!((ev.sync, ev.unlocked), (None, Some(4)));
     assert_eq!(ev.outgoing.len(), 1, "forwarded");
     let st = s.status();
-    assert!(!st.locked && st.cycle == 4 && st.holdover_cycles == 1, "{st:?}");
+    assert!(
+        !st.locked && st.cycle == 4 && st.holdover_cycles == 1,
+        "{st:?}"
+    );
     // An old frame does not tick again.
     let ev = s.on_frame(&frame(3, 4, &[cmd(2)]).encode(), P);
     assert_eq!((ev.sync, ev.unlocked), (None, None));
-    assert_eq!(s.on_frame(&frame(4, 5, &[Packet::sync(0, 15, 5)]).encode(), P).sync, Some(5));
+    assert_eq!(
+        s.on_frame(&frame(4, 5, &[Packet::sync(0, 15, 5)]).encode(), P)
+            .sync,
+        Some(5)
+    );
     assert!(s.status().locked);
 }
 
@@ -321,7 +328,10 @@ fn a_dark_frame_is_a_byte_violation_passed_on_dark() {
     assert_eq!((ev.sync, ev.unlocked), (None, Some(4)));
     // Darkness goes on: no light, no packets of this member either.
     let out = Frame::decode(&ev.outgoing[0].frame_bytes).unwrap();
-    assert!(out.is_dark() && out.cycle == 4 && out.sender == 1, "{out:?}");
+    assert!(
+        out.is_dark() && out.cycle == 4 && out.sender == 1,
+        "{out:?}"
+    );
     let st = s.status();
     assert!(st.dark && !st.locked, "{st:?}");
     assert_eq!(st.dark_since_cycle, Some(4));
@@ -331,7 +341,10 @@ fn a_dark_frame_is_a_byte_violation_passed_on_dark() {
     // Light again.
     s.on_frame(&frame(3, 5, &[Packet::sync(0, 15, 5)]).encode(), 2 * P);
     let st = s.status();
-    assert!(!st.dark && st.dark_since_cycle.is_none() && st.locked, "{st:?}");
+    assert!(
+        !st.dark && st.dark_since_cycle.is_none() && st.locked,
+        "{st:?}"
+    );
 }
 
 #[test]
@@ -346,7 +359,9 @@ fn after_loss_of_light_a_new_sync_masters_count_is_taken() {
     assert_eq!(sync(&mut s, 2, 10), None);
     // The upstream died: loss of light on the holdover clock.
     let ev = s.dark_input(5001, P);
-    assert!(Frame::decode(&ev.outgoing[0].frame_bytes).unwrap().is_dark());
+    assert!(Frame::decode(&ev.outgoing[0].frame_bytes)
+        .unwrap()
+        .is_dark());
     assert_eq!(ev.unlocked, Some(5001));
     assert!(s.status().dark);
     // A restarted sync master counts from 0: after the dark spell its count is taken.

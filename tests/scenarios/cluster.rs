@@ -276,13 +276,22 @@ fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
     let cmd: Vec<f64> = csv
         .lines()
         .skip(1)
-        .map(|l| l.split(',').nth(2).expect("column").parse().expect("number"))
+        .map(|l| {
+            l.split(',')
+                .nth(2)
+                .expect("column")
+                .parse()
+                .expect("number")
+        })
         .collect();
     let _ = std::fs::remove_dir_all(&out);
     assert_eq!(cmd.len(), 6001);
     let from = cmd[0];
     assert!(from.abs() < 10.0, "starts at home: {from}");
-    let first = cmd.iter().position(|v| (v - from).abs() > 1e-3).expect("moved");
+    let first = cmd
+        .iter()
+        .position(|v| (v - from).abs() > 1e-3)
+        .expect("moved");
     let last = cmd
         .iter()
         .position(|v| (v - 10_000.0).abs() < 1e-3)
@@ -293,7 +302,10 @@ fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
         "LINEAR X10 F5 TA200: {cycles} ring cycles (expected {want:.1}); the gather took {:?}",
         started.elapsed()
     );
-    assert!((cycles - want).abs() <= 3.0, "{cycles} cycles, want {want:.1}");
+    assert!(
+        (cycles - want).abs() <= 3.0,
+        "{cycles} cycles, want {want:.1}"
+    );
     let doc = c.status();
     assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     assert!(doc["rtf"].as_f64().is_some(), "{doc:#}");

@@ -3,6 +3,8 @@
 mod chain;
 mod cluster;
 mod drills;
+mod emcl;
+mod emcl_bound;
 mod gather;
 mod motion;
 mod programs;

@@ -488,7 +488,10 @@ fn cut_link_seen_downstream_localised_and_recovered() {
         .all(|r| r.faults.iter().all(|f| f.0 != 1 && f.0 != 2)));
     for i in [3, 4, 0] {
         let st = sim.member(i).status();
-        assert!(st.dark && st.dark_since_cycle == Some(11), "member {i}: {st:?}");
+        assert!(
+            st.dark && st.dark_since_cycle == Some(11),
+            "member {i}: {st:?}"
+        );
         assert!(st.errors.byte_violation >= 9, "member {i}: {st:?}");
     }
     for i in [3, 4, 0] {
@@ -584,7 +587,10 @@ fn a_cut_link_is_loss_of_light_downstream_and_faults_within_i1004_checks() {
         let at = first_fault_cycle(&reps, i).expect("faulted");
         assert_eq!(at, cut_at + 3, "member {i}");
         let st = sim.member(i).status();
-        assert!(st.errors.byte_violation >= 2 && st.dark, "member {i}: {st:?}");
+        assert!(
+            st.errors.byte_violation >= 2 && st.dark,
+            "member {i}: {st:?}"
+        );
         assert_eq!(st.errors.underrun, 0, "member {i}");
         assert!(at - cut_at <= 16 + 1);
     }

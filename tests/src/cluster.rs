@@ -75,8 +75,8 @@ impl Cluster {
             .and_then(|cards| cards.iter().find(|c| c["number"] == n))
             .and_then(|c| c["ascii"].as_u64())
             .unwrap_or_else(|| panic!("card {n} has no ascii port: {doc:#}"));
-        let mut s = std::net::TcpStream::connect(("127.0.0.1", port as u16))
-            .expect("connect ascii port");
+        let mut s =
+            std::net::TcpStream::connect(("127.0.0.1", port as u16)).expect("connect ascii port");
         s.set_read_timeout(Some(Duration::from_millis(300)))
             .expect("read timeout");
         let mut all = Vec::new();

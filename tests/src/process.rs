@@ -14,6 +14,8 @@ const SCRUBBED_ENV: &[&str] = &[
     "MCC_BIN_DIR",
     "MCC_CHAIN_PTY",
     "MCC_CHAIN_PORT",
+    "MCC_EMCL_PTY",
+    "MCC_EMCL_PORT",
     "MCC_TEST_AT_DELAY_MS",
 ];
 

@@ -2,6 +2,7 @@
 
 pub mod bringup;
 pub mod chain;
+pub mod emcl;
 pub mod faults;
 pub mod host;
 pub mod inproc;

@@ -69,7 +69,8 @@ fn faults_and_errors(st: &[Option<MemberStatus>]) -> (u64, u64) {
 /// Run the soak and print the report.
 pub fn run(args: &BenchSoakArgs) -> Result<()> {
     let clock = args.clock.unwrap_or_default();
-    let mut cfg = ClusterConfig::default_cluster(usize::from(args.cards), usize::from(args.stations));
+    let mut cfg =
+        ClusterConfig::default_cluster(usize::from(args.cards), usize::from(args.stations));
     cfg.cluster = format!("bench-soak-{}", std::process::id());
     cfg.clock = clock;
     if let Some(rtf) = args.rtf {
@@ -146,7 +147,9 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
                     t0.elapsed().as_secs_f64(),
                     f,
                     e - e0,
-                    sm(&st).map(|(_, t)| format!("{:.3}", t.rtf)).unwrap_or("?".into())
+                    sm(&st)
+                        .map(|(_, t)| format!("{:.3}", t.rtf))
+                        .unwrap_or("?".into())
                 );
             }
             if st.iter().all(Option::is_some) {

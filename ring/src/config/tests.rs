@@ -67,6 +67,9 @@ fn embedded_default_matches_file_form() {
         "master = 1\n[[stations]]",
         "master = 1\nivars = { I1001 = 16, I1004 = 2, I1005 = 4 }\n[[stations]]",
     );
+    // …and it has one EMCL drive on station0.
+    let text =
+        format!("{text}\n[[drives]]\nname = \"drive0\"\naddress = 1\nstation = \"station0\"\n");
     let parsed = ClusterConfig::from_toml_str(&text).unwrap();
     assert_eq!(d, parsed);
     d.validate().unwrap();
@@ -305,7 +308,13 @@ fn clock_keys_are_checked_before_anything_starts() {
     let c = ClusterConfig::from_toml_str(&with("rtf = 2.5")).unwrap();
     assert_eq!(c.rtf, 2.5);
     assert_eq!(c.wall_period_ns(), (442_733.0f64 / 2.5).round() as u64);
-    for bad in ["rtf = 0.0", "rtf = -1", "rtf = nan", "rtf = inf", "rtf = 1e9"] {
+    for bad in [
+        "rtf = 0.0",
+        "rtf = -1",
+        "rtf = nan",
+        "rtf = inf",
+        "rtf = 1e9",
+    ] {
         let (k, p) = invalid(&with(bad));
         assert_eq!(k, "rtf", "{bad}: {p}");
     }
@@ -313,7 +322,10 @@ fn clock_keys_are_checked_before_anything_starts() {
     assert!(p.contains("real-time factor"), "{p}");
     let (k, p) = invalid(&with("clock = \"lockstep\"\nrtf = 2"));
     assert_eq!(k, "rtf");
-    assert!(p.contains("only the paced clock") && p.contains("lockstep"), "{p}");
+    assert!(
+        p.contains("only the paced clock") && p.contains("lockstep"),
+        "{p}"
+    );
     assert!(ClusterConfig::from_toml_str(&with("clock = \"lockstep\"\nrtf = 1")).is_ok());
     let (k, p) = invalid(&with("rate_hz = 500000\nrtf = 100"));
     assert_eq!(k, "rtf");
@@ -325,7 +337,10 @@ fn clock_keys_are_checked_before_anything_starts() {
     let (k, _) = invalid(&with("rate_hz = 100\nrtf = 0.5\nmember_timeout_ms = 15"));
     assert_eq!(k, "member_timeout_ms");
     assert!(ClusterConfig::from_toml_str(&with("rate_hz = 100\nmember_timeout_ms = 10")).is_ok());
-    assert_eq!(invalid(&with("member_timeout_ms = 60001")).0, "member_timeout_ms");
+    assert_eq!(
+        invalid(&with("member_timeout_ms = 60001")).0,
+        "member_timeout_ms"
+    );
     // The old name of the key is still read.
     let c = ClusterConfig::from_toml_str(&with("lockstep_timeout_ms = 250")).unwrap();
     assert_eq!(c.member_timeout_ms, 250);

@@ -106,7 +106,8 @@ pub fn validate(cfg: &ClusterConfig) -> R {
     }
     validate_cards(cfg)?;
     validate_stations(cfg)?;
-    validate_ring(cfg)
+    validate_ring(cfg)?;
+    super::drives::validate_drives(cfg)
 }
 
 /// `rtf` and `member_timeout_ms` (the clock keys; `clock` itself is checked by the parser).
@@ -145,10 +146,7 @@ fn validate_clock(cfg: &ClusterConfig) -> R {
     }
     let t = cfg.member_timeout_ms;
     if t == 0 || t > 60_000 {
-        return bad(
-            "member_timeout_ms",
-            format!("{t} is out of range 1-60000"),
-        );
+        return bad("member_timeout_ms", format!("{t} is out of range 1-60000"));
     }
     let wall = cfg.wall_period_ns();
     if t.saturating_mul(1_000_000) < wall {
@@ -304,6 +302,12 @@ fn validate_stations(cfg: &ClusterConfig) -> R {
 fn validate_ring(cfg: &ClusterConfig) -> R {
     let mut seen = BTreeSet::new();
     for (i, m) in cfg.ring.order.iter().enumerate() {
+        if cfg.member(m).is_none() && cfg.drive(m).is_some() {
+            return bad(
+                format!("ring.order[{i}]"),
+                format!("{m:?} is a drive: drives are on the EMCL bus, not on the ring"),
+            );
+        }
         if cfg.member(m).is_none() {
             return bad(
                 format!("ring.order[{i}]"),

@@ -175,9 +175,15 @@ where
     .map_err(|e| anyhow!(e))?;
     info!(position, members = n, "joined ring {}", config.ring.name);
     // Loss of light when the upstream process dies (its liveliness token goes away).
-    let upstream = config.upstream(&args.name).unwrap_or(&args.name).to_string();
+    let upstream = config
+        .upstream(&args.name)
+        .unwrap_or(&args.name)
+        .to_string();
     let watch = if upstream != args.name {
-        Some(super::light::watch_upstream(&session, &config.cluster, &upstream).map_err(|e| anyhow!(e))?)
+        Some(
+            super::light::watch_upstream(&session, &config.cluster, &upstream)
+                .map_err(|e| anyhow!(e))?,
+        )
     } else {
         None
     };

@@ -266,10 +266,26 @@ fn checked_ring(
 ) -> Vec<(CoreConfig, Probe, DriverConfig)> {
     let period = (1e9 / RATE) as u64;
     let specs = [
-        ("card0", MemberKind::Card, RingSettings::new(0x30, 0x0F_0001)),
-        ("station0", MemberKind::Station, RingSettings::new(0x8080, 0x0F_8001)),
-        ("card1", MemberKind::Card, RingSettings::new(0x8090, 0x1F_8000)),
-        ("station1", MemberKind::Station, RingSettings::new(0x8080, 0x0F_8000)),
+        (
+            "card0",
+            MemberKind::Card,
+            RingSettings::new(0x30, 0x0F_0001),
+        ),
+        (
+            "station0",
+            MemberKind::Station,
+            RingSettings::new(0x8080, 0x0F_8001),
+        ),
+        (
+            "card1",
+            MemberKind::Card,
+            RingSettings::new(0x8090, 0x1F_8000),
+        ),
+        (
+            "station1",
+            MemberKind::Station,
+            RingSettings::new(0x8080, 0x0F_8000),
+        ),
     ];
     let n = specs.len();
     specs
@@ -433,7 +449,10 @@ fn a_frozen_member_takes_the_ring_down_after_the_member_timeout_and_back_when_th
     assert!(!sm.ring_down, "{sm:?}");
     // (card1's wait starts at its last frame, up to a period before the master's last start.)
     let waited = Duration::from_micros(sm.longest_stall_us + 1000);
-    assert!(waited >= timeout && waited < Duration::from_millis(1200), "{sm:?}");
+    assert!(
+        waited >= timeout && waited < Duration::from_millis(1200),
+        "{sm:?}"
+    );
     assert!(sm.lost_ms >= 300, "{sm:?}");
     assert_eq!(out[0].app.seen.len(), 4000);
     // Everyone but the frozen member latched: card0 counted the silence on its own clock,

@@ -50,7 +50,8 @@ impl PaceGrid {
     /// Wall-clock deadline of cycle `k`.
     pub fn deadline(&self, k: u64) -> u64 {
         let steps = k.saturating_sub(self.base) as f64;
-        self.origin_ns.saturating_add((steps * self.period_ns) as u64)
+        self.origin_ns
+            .saturating_add((steps * self.period_ns) as u64)
     }
 
     /// Cycle `k` is due at `now_ns` from here on (no lost time counted).
