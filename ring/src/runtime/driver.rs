@@ -375,6 +375,14 @@ impl<A: RingApp> Driver<A> {
         self.cycles_run += 1;
     }
 
+    /// Why the loop must end now, if it must (a stop request, or `max_cycles` reached).
+    pub(super) fn stop_or_done(&mut self) -> Option<DriverExit> {
+        if self.service() {
+            return Some(DriverExit::Stopped);
+        }
+        self.done().then_some(DriverExit::Done)
+    }
+
     pub(super) fn done(&self) -> bool {
         self.cfg.max_cycles.is_some_and(|m| self.cycles_run >= m)
     }
@@ -382,11 +390,8 @@ impl<A: RingApp> Driver<A> {
     fn run_sync_master_realtime(&mut self) -> DriverExit {
         let mut pacer = Pacer::new(self.cfg.rate_hz);
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
+            if let Some(exit) = self.stop_or_done() {
+                return exit;
             }
             // Receive until the next cycle is due, then start it.
             loop {
@@ -465,11 +470,8 @@ impl<A: RingApp> Driver<A> {
     fn run_follower(&mut self) -> DriverExit {
         let stepped = self.cfg.clock.is_stepped();
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
+            if let Some(exit) = self.stop_or_done() {
+                return exit;
             }
             if let Err(e) = self.flush_delayed() {
                 return DriverExit::Transport(e);

@@ -51,11 +51,8 @@ impl<A: RingApp> Driver<A> {
         // Lockstep: the grid is only followed on the own clock; re-based when that begins.
         let mut grid_live = paced;
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
+            if let Some(exit) = self.stop_or_done() {
+                return exit;
             }
             // Wait until cycle k may start, passing frames to the core meanwhile.
             loop {
