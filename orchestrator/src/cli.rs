@@ -76,12 +76,16 @@ pub struct UpArgs {
     /// Number of stations in the embedded default cluster (default 2).
     #[arg(long, value_name = "M", conflicts_with = "config", value_parser = clap::value_parser!(u8).range(0..=48))]
     pub stations: Option<u8>,
-    /// Clock mode (overrides the config).
+    /// Clock mode: paced (default: lockstep paced by the wall clock), lockstep (as fast as
+    /// the ring goes) or realtime (free-running) (overrides the config).
     #[arg(long, value_name = "MODE", value_parser = parse_clock)]
     pub clock: Option<ClockMode>,
     /// Ring rate in Hz (overrides the config).
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
+    /// Paced clock: real-time factor, ring time per wall time (default 1; overrides the config).
+    #[arg(long, value_name = "X")]
+    pub rtf: Option<f64>,
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -320,6 +324,35 @@ pub enum BenchCommand {
     Bringup(BenchBringupArgs),
     /// EMCL bus round trip p50/p99 and frames per second (TCP and in-process drive).
     Emcl(BenchEmclArgs),
+    /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
+    /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
+    Soak(BenchSoakArgs),
+}
+
+/// `mcc bench soak`.
+#[derive(Debug, Args)]
+pub struct BenchSoakArgs {
+    /// Duration, minutes.
+    #[arg(long, value_name = "N", default_value_t = 10.0)]
+    pub minutes: f64,
+    /// Duration in seconds (overrides --minutes; short runs in tests).
+    #[arg(long, value_name = "S")]
+    pub seconds: Option<f64>,
+    /// Clock mode: paced (default), lockstep or realtime.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
+    /// Paced clock: real-time factor.
+    #[arg(long, value_name = "X")]
+    pub rtf: Option<f64>,
+    /// Cards.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: u8,
+    /// Stations.
+    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: u8,
+    /// CPU-bound threads to run beside the cluster (load), e.g. 4 on a 2-core machine.
+    #[arg(long, value_name = "K", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub load: u32,
 }
 
 /// `mcc bench sync`.

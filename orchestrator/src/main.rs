@@ -11,6 +11,7 @@ mod ctl;
 mod down;
 mod drills;
 mod emcl;
+mod events;
 mod failure;
 mod fault;
 mod gather;
@@ -56,6 +57,7 @@ fn main() {
         Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
+        Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),

@@ -118,7 +118,11 @@ pub fn cmd_term(cluster: &str, args: &crate::cli::TermArgs) -> Result<()> {
         "mcc term: cluster {cluster}, {} cards on the daisy chain; .help for help, Ctrl-D or .quit to leave",
         a.cfg.cards.len()
     );
-    let res = Terminal::new(&link, args.show_framing, status).run();
+    let printer = crate::events::Printer::default();
+    let _watcher = crate::events::spawn(a.session.clone(), a.cfg.clone(), printer.clone());
+    let res = Terminal::new(&link, args.show_framing, status)
+        .with_printer(printer)
+        .run();
     link.close();
     res
 }

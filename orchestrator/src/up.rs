@@ -41,7 +41,20 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         }
         cfg.rate_hz = rate;
     }
+    if let Some(rtf) = args.rtf {
+        cfg.rtf = rtf;
+    }
+    // A value given on the command line is named as the option that gave it.
+    let flag = |key: &str| match key {
+        "cluster" => cluster_flag.map(|_| "--cluster"),
+        "rtf" => args.rtf.map(|_| "--rtf"),
+        "rate_hz" => args.rate.map(|_| "--rate"),
+        _ => None,
+    };
     let cfg = cfg.resolve().map_err(|e| match e {
+        mcc_ring::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
+            anyhow!("{}: {problem}", flag(&key).unwrap_or_default())
+        }
         mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
             anyhow!("--cluster: {problem}")
         }
@@ -115,13 +128,16 @@ fn print_ready(
     st: &[Option<MemberStatus>],
 ) {
     let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
+    let clock = match cfg.clock {
+        mcc_ring::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
+        other => other.as_str().to_string(),
+    };
     println!(
-        "cluster {} up: {} members locked on ring {} at cycle {} ({}, {} Hz)",
+        "cluster {} up: {} members locked on ring {} at cycle {} ({clock}, {} Hz)",
         cfg.cluster,
         doc.members.len(),
         cfg.ring.name,
         doc.ring.cycle,
-        cfg.clock.as_str(),
         cfg.rate_hz
     );
     let port = |p: Option<u16>| {
@@ -150,6 +166,20 @@ fn print_ready(
         match &info.daisy_chain_pty {
             Some(p) => println!("  daisy chain {d}  pty {p}"),
             None => println!("  daisy chain {d}"),
+        }
+    }
+    if cfg.clock == mcc_ring::config::ClockMode::Realtime {
+        // What the realtime cycle threads got (SCHED_FIFO and locked memory when permitted).
+        let mut got: Vec<(String, Vec<&str>)> = Vec::new();
+        for m in &doc.members {
+            let s = m.sched.clone().unwrap_or_else(|| "unknown".into());
+            match got.iter_mut().find(|(k, _)| *k == s) {
+                Some((_, v)) => v.push(&m.name),
+                None => got.push((s, vec![&m.name])),
+            }
+        }
+        for (s, who) in got {
+            println!("  realtime cycle threads: {s} ({})", who.join(", "));
         }
     }
     crate::emcl::status::print_ready(cfg, info);
@@ -295,15 +325,20 @@ fn up_foreground(
     };
     print_ready(sup.run_dir(), &cfg, sup.info(), &st);
     println!("  type PMAC commands for the daisy chain (.help); Ctrl-D, .quit, end of input or SIGINT stops the cluster");
-    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster.
+    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster. Cluster
+    // events are printed on their own lines as they happen.
+    let printer = crate::events::Printer::default();
+    let watcher = crate::events::spawn(session.clone(), cfg.clone(), printer.clone());
     let eof_rx = crate::term::spawn_foreground(
         session.clone(),
         cfg.clone(),
         sup.info().clone(),
         sup.run_dir().dir.display().to_string(),
         show_framing,
+        printer.clone(),
     );
-    run_until_stopped(&mut sup, &signals, Some(&eof_rx), owner);
+    run_until_stopped(&mut sup, &signals, Some(&eof_rx), owner, Some(&printer));
+    drop(watcher);
     sup.shutdown(STOP_TIMEOUT);
     println!("cluster {} stopped", cfg.cluster);
     Ok(())
@@ -314,6 +349,7 @@ fn run_until_stopped(
     signals: &mpsc::Receiver<String>,
     eof: Option<&mpsc::Receiver<()>>,
     owner: Option<Owner>,
+    printer: Option<&crate::events::Printer>,
 ) {
     loop {
         match signals.recv_timeout(Duration::from_millis(200)) {
@@ -332,7 +368,10 @@ fn run_until_stopped(
             return;
         }
         for msg in sup.poll() {
-            eprintln!("mcc: {msg}");
+            match printer {
+                Some(p) => p.line(&format!("{} {msg}", crate::events::PREFIX)),
+                None => eprintln!("mcc: {msg}"),
+            }
         }
     }
 }
@@ -361,8 +400,57 @@ pub fn cmd_supervise(cluster: &str, args: &crate::cli::SuperviseArgs) -> Result<
         "mcc supervise: cluster {cluster} running (pid {})",
         std::process::id()
     );
-    run_until_stopped(&mut sup, &signals, None, owner);
+    run_until_stopped(&mut sup, &signals, None, owner, None);
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn resolve(args: &[&str]) -> Result<ClusterConfig> {
+        let mut full = vec!["mcc", "up"];
+        full.extend_from_slice(args);
+        let cli = crate::cli::Cli::try_parse_from(full).map_err(|e| anyhow!("{e}"))?;
+        let crate::cli::Command::Up(up) = &cli.command else {
+            bail!("not up")
+        };
+        resolve_config(cli.cluster.as_deref(), up)
+    }
+
+    #[test]
+    fn the_default_clock_is_paced_at_real_time() {
+        let c = resolve(&[]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Paced);
+        assert_eq!(c.rtf, 1.0);
+        let c = resolve(&["--rtf", "0.5"]).unwrap();
+        assert_eq!(c.rtf, 0.5);
+        let c = resolve(&["--clock", "lockstep"]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Lockstep);
+    }
+
+    #[test]
+    fn bad_clock_options_are_refused_naming_the_option() {
+        for (args, want) in [
+            (&["--rtf", "0"][..], "--rtf"),
+            (&["--rtf=-2"][..], "--rtf"),
+            (&["--rtf", "NaN"][..], "--rtf"),
+            (&["--rtf", "inf"][..], "--rtf"),
+            (&["--rtf", "1e12"][..], "--rtf"),
+            (
+                &["--clock", "lockstep", "--rtf", "3"][..],
+                "only the paced clock",
+            ),
+            (&["--clock", "sometimes"][..], "sometimes"),
+            (&["--rate", "0"][..], "--rate"),
+        ] {
+            let e = format!("{:#}", resolve(args).unwrap_err());
+            assert!(e.contains(want), "{args:?}: {e}");
+        }
+        let e = format!("{:#}", resolve(&["--rtf", "0"]).unwrap_err());
+        assert!(e.contains("real-time factor"), "{e}");
+    }
 }
