@@ -28,3 +28,5 @@ phase doc-tests cargo test --workspace --doc
 phase scenarios-in-process cargo test --workspace --test scenarios -- "${skips[@]}"
 phase scenarios-multi-process cargo test --workspace --test scenarios -- --test-threads=1 "${MULTI[@]}"
 phase host-clients bash tests/clients/run.sh
+# The pytest plugin (python/) and the examples/, against real clusters (same venv).
+MCC_SKIP_BUILD=1 phase python-plugin bash python/run-tests.sh

@@ -7,6 +7,7 @@ pub mod faults;
 pub mod host;
 pub mod inproc;
 pub mod ring;
+pub mod soak;
 pub mod stats;
 pub mod syncstart;
 pub mod udp;
