@@ -318,12 +318,13 @@ impl Runner {
         let due = sync.lock().take_due(cycle);
         let mut scheduled_start = false;
         let card = &mut self.core.card;
+        let mut done = Vec::with_capacity(due.len());
         if !due.is_empty() {
             let saved = card.model.take_actions();
             for (id, line) in due {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 let reply = card.run_detached(&mut self.sync_session, &line);
-                sync.lock().executed(id, cycle, ns, reply);
+                done.push((id, ns, reply));
             }
             let fresh = card.model.take_actions();
             scheduled_start = fresh.iter().any(|a| a.kind.starts_program());
@@ -332,8 +333,13 @@ impl Runner {
             }
         }
         let now = mcc_ring::runtime::driver::monotonic_ns();
-        sync.lock()
-            .note_starts(card.model.actions(), cycle, now, scheduled_start);
+        // Results and the program start are published together: a query never sees a line
+        // executed without the start it made.
+        let mut core = sync.lock();
+        for (id, ns, reply) in done {
+            core.executed(id, cycle, ns, reply);
+        }
+        core.note_starts(card.model.actions(), cycle, now, scheduled_start);
     }
 
     /// Publish the card's state `info` reports (done at every tick end).
