@@ -88,9 +88,14 @@ pub struct LineRun {
 }
 
 impl LineRun {
-    /// The reply bytes produced so far by control characters inside the line.
+    /// The line waits for an effect.
     pub fn is_waiting(&self) -> bool {
         self.waiting.is_some()
+    }
+
+    /// Reply bytes produced and not yet taken (about: data lines before framing).
+    pub fn pending_output(&self) -> usize {
+        self.reply.len() + self.lines.iter().map(|(_, l)| l.len() + 2).sum::<usize>()
     }
 }
 
@@ -291,6 +296,20 @@ impl Pmac<'_> {
             // A result of the wrong kind: the command failed.
             _ => run.outcome = Some(Outcome::Err(3)),
         }
+    }
+
+    /// The data framed so far, to leave before the line ends (a streamed reply: a real card
+    /// sends data as it produces it); nothing while the card is not talking on the chain, and
+    /// nothing for a program's line (its caller frames the whole reply).
+    pub(crate) fn take_output(&mut self, run: &mut LineRun, s: &Session) -> Vec<u8> {
+        if run.program || !self.chain_talking(s) {
+            return Vec::new();
+        }
+        let mut reply = std::mem::take(&mut run.reply);
+        for (fr, l) in run.lines.drain(..) {
+            reply.data_line(fr, l.as_bytes());
+        }
+        reply.into_bytes()
     }
 
     fn finish_run(&mut self, run: &mut LineRun, s: &Session, outcome: Outcome) -> Vec<u8> {
