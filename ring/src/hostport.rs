@@ -106,7 +106,10 @@ impl HostLimits {
         if self.evict_idle_after_ms > 3_600_000 {
             return Some((
                 "host.evict_idle_after_ms",
-                format!("{} is not a time in 0..=3600000 ms", self.evict_idle_after_ms),
+                format!(
+                    "{} is not a time in 0..=3600000 ms",
+                    self.evict_idle_after_ms
+                ),
             ));
         }
         None
@@ -333,7 +336,10 @@ mod tests {
             ..HostLimits::default()
         };
         assert_eq!(bad.problem().map(|p| p.0), Some("host.request_timeout_ms"));
-        assert_eq!(HostLimits::default().line_timeout(), Duration::from_secs(60));
+        assert_eq!(
+            HostLimits::default().line_timeout(),
+            Duration::from_secs(60)
+        );
         assert_eq!(HostLimits::default().with_max(16).max_connections, 16);
         assert!(refusal_message("card0 ASCII port", 64).contains("64 connections"));
     }

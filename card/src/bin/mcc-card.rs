@@ -95,7 +95,10 @@ fn main() -> ExitCode {
         ..HostLimits::default()
     };
     if let Some((key, problem)) = limits.problem() {
-        eprintln!("mcc-card: --{}: {problem}", key.trim_start_matches("host.").replace('_', "-"));
+        eprintln!(
+            "mcc-card: --{}: {problem}",
+            key.trim_start_matches("host.").replace('_', "-")
+        );
         return ExitCode::from(2);
     }
     let opts = StandaloneOpts {

@@ -23,7 +23,7 @@ use crate::servo::Servo;
 pub const SLICE_UNITS: u64 = 400;
 
 /// A streamed line hands out its reply in parts of about this many bytes.
-pub(crate) const STREAM_CHUNK: usize = 32 * 1024;
+pub(crate) const STREAM_CHUNK: usize = 16 * 1024;
 
 /// Connections the core keeps sessions for; the least recently used is forgotten beyond it.
 pub(crate) const MAX_SESSIONS: usize = 512;
@@ -65,6 +65,8 @@ struct Job {
     waiting: Option<u64>,
     /// A streamed line whose last part is out: it waits for the host's [`HostRequest::More`].
     parked: bool,
+    /// A streamed line's reply framed so far and not yet handed out.
+    out: Vec<u8>,
 }
 
 /// The card core (see the module docs).
@@ -138,6 +140,7 @@ impl CardCore {
             run: None,
             waiting: None,
             parked: false,
+            out: Vec::new(),
         });
     }
 
@@ -210,11 +213,23 @@ impl CardCore {
                         None => self.card.start_line(&mut s, &line, true),
                     };
                     match self.card.step_line(&mut run, &mut s, budget) {
-                        Step::Done(r) => Some(r),
+                        Step::Done(r) if job.out.is_empty() => Some(r),
+                        Step::Done(r) => {
+                            let mut all = std::mem::take(&mut job.out);
+                            all.extend_from_slice(&r);
+                            Some(all)
+                        }
                         Step::Yield => {
                             let streamed = matches!(job.req, HostRequest::LineStreamed(_));
-                            if streamed && run.pending_output() >= STREAM_CHUNK {
-                                let part = self.card.take_output(&mut run, &s);
+                            // Framed at once: a data line waiting as text costs ~20 times
+                            // its bytes.
+                            if streamed {
+                                let framed = self.card.take_output(&mut run, &s);
+                                job.out.extend_from_slice(&framed);
+                            }
+                            if streamed && job.out.len() >= STREAM_CHUNK {
+                                let mut part = std::mem::take(&mut job.out);
+                                part.shrink_to_fit();
                                 let echo = self.card.echo();
                                 self.replies.push((
                                     job.token,

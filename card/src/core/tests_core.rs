@@ -106,7 +106,11 @@ fn a_streamed_line_comes_in_bounded_parts_that_add_up_to_the_whole_reply() {
         };
         assert_eq!(t, token, "each part answers the request that asked for it");
         // A part is at most a chunk plus one slice's output (a slice prints < 400 values).
-        assert!(r.bytes.len() <= STREAM_CHUNK + 400 * 16, "{}", r.bytes.len());
+        assert!(
+            r.bytes.len() <= STREAM_CHUNK + 400 * 16,
+            "{}",
+            r.bytes.len()
+        );
         got.extend_from_slice(&r.bytes);
         parts += 1;
         if !r.more {
@@ -133,7 +137,17 @@ fn a_new_request_abandons_a_parked_streamed_line() {
     c.submit(2, 7, HostRequest::Line(b"I3=2 P1=5 P1".to_vec()));
     let (_, r) = serve_all(&mut c);
     assert_eq!(r.len(), 1);
-    assert_eq!(r[0], (2, HostReply { bytes: b"5\r\x06".to_vec(), echo: false, more: false }));
+    assert_eq!(
+        r[0],
+        (
+            2,
+            HostReply {
+                bytes: b"5\r\x06".to_vec(),
+                echo: false,
+                more: false
+            }
+        )
+    );
     // More with nothing parked: an empty final part.
     c.submit(3, 7, HostRequest::More);
     let (_, r) = serve_all(&mut c);
@@ -151,11 +165,18 @@ fn a_short_query_is_not_held_behind_another_hosts_heavy_line() {
         c.serve(&mut Budget::new(SLICE_UNITS));
         let r = c.take_replies();
         if let Some((t, _)) = r.first() {
-            assert_eq!(*t, 3, "only the other connection's query can be done this early");
+            assert_eq!(
+                *t, 3,
+                "only the other connection's query can be done this early"
+            );
             assert_eq!(r.len(), 1);
             let (_, rest) = serve_all(&mut c);
             let order: Vec<u64> = rest.iter().map(|(t, _)| *t).collect();
-            assert_eq!(order, vec![1, 2], "a connection's own requests stay in order");
+            assert_eq!(
+                order,
+                vec![1, 2],
+                "a connection's own requests stay in order"
+            );
             return;
         }
         assert!(slice < 2, "the short query waited more than two slices");

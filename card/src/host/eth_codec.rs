@@ -197,9 +197,10 @@ impl EthConn {
             if !self.streaming {
                 self.run_deferred(interp, &mut out);
             }
-            self.pending.drain(..self.pos);
-            self.pos = 0;
-            self.pending.extend_from_slice(&out);
+            let mut next = Vec::with_capacity(self.pending_len() + out.len());
+            next.extend_from_slice(self.pending.get(self.pos..).unwrap_or_default());
+            next.extend_from_slice(&out);
+            self.set_pending(next);
         }
     }
 

@@ -1,13 +1,13 @@
 //! Server tests: real sockets on 127.0.0.1 port 0, every wait bounded by a timeout.
 
 use super::*;
-use mcc_ring::hostport::HostLimits;
 use crate::domain::Profile;
 use crate::host::ascii::MAX_LINE;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
 use crate::host::port::overlong_probe;
 use crate::lang::interp::{Card, Session};
 use crate::service::handle::{spawn_card_thread, CardHandle};
+use mcc_ring::hostport::HostLimits;
 
 const WAIT: Duration = Duration::from_secs(5);
 
@@ -311,7 +311,10 @@ async fn idle_connections_are_closed_after_the_idle_timeout() {
     let mut a = connect(p.ascii).await;
     let mut e = connect(p.pmac_eth).await;
     let text = String::from_utf8_lossy(&read_to_close(&mut a).await).into_owned();
-    assert!(text.contains("after 1 s idle (host.idle_timeout_s)"), "{text:?}");
+    assert!(
+        text.contains("after 1 s idle (host.idle_timeout_s)"),
+        "{text:?}"
+    );
     assert!(closed(&mut e).await);
     p.shutdown().await;
 }
@@ -330,7 +333,10 @@ async fn a_trickled_request_times_out_from_its_first_byte() {
         }
         tokio::time::sleep(Duration::from_millis(150)).await;
     }
-    assert!(closed_after.is_some() || closed(&mut e).await, "trickle must be cut");
+    assert!(
+        closed_after.is_some() || closed(&mut e).await,
+        "trickle must be cut"
+    );
     // An ASCII line gets six request timeouts (2.4 s) from its first byte.
     let mut a = connect(p.ascii).await;
     let started = std::time::Instant::now();
@@ -348,7 +354,10 @@ async fn a_trickled_request_times_out_from_its_first_byte() {
         }
     }
     let text = String::from_utf8_lossy(&text).into_owned();
-    assert!(text.contains("request not completed within 2400 ms"), "{text:?}");
+    assert!(
+        text.contains("request not completed within 2400 ms"),
+        "{text:?}"
+    );
     assert!(started.elapsed() >= Duration::from_millis(2_400));
     p.shutdown().await;
 }

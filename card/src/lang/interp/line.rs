@@ -92,11 +92,6 @@ impl LineRun {
     pub fn is_waiting(&self) -> bool {
         self.waiting.is_some()
     }
-
-    /// Reply bytes produced and not yet taken (about: data lines before framing).
-    pub fn pending_output(&self) -> usize {
-        self.reply.len() + self.lines.iter().map(|(_, l)| l.len() + 2).sum::<usize>()
-    }
 }
 
 impl Pmac<'_> {
@@ -306,7 +301,8 @@ impl Pmac<'_> {
             return Vec::new();
         }
         let mut reply = std::mem::take(&mut run.reply);
-        for (fr, l) in run.lines.drain(..) {
+        // Taken, not drained: the list's capacity (a slice's worth of lines) goes too.
+        for (fr, l) in std::mem::take(&mut run.lines) {
             reply.data_line(fr, l.as_bytes());
         }
         reply.into_bytes()

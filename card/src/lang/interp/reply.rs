@@ -145,11 +145,6 @@ impl Reply {
         self.out.extend_from_slice(bytes);
     }
 
-    /// Bytes produced so far (count).
-    pub(super) fn len(&self) -> usize {
-        self.out.len()
-    }
-
     /// Bytes produced so far.
     #[cfg(test)]
     pub(super) fn as_bytes(&self) -> &[u8] {
