@@ -302,6 +302,7 @@ fn open_endpoint(cfg: &ClusterConfig) -> Result<(zenoh::Session, String)> {
         match open_session(&SessionOptions {
             listen,
             connect: cfg.zenoh.connect.clone(),
+            low_latency: false,
         }) {
             Ok(s) => return Ok((s, endpoint)),
             Err(e) => last = e.to_string(),

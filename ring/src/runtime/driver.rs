@@ -230,6 +230,7 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    s.extra.insert("hop".into(), self.rx.hop_summary().to_json());
                     let _ = reply.send(s);
                 }
                 DriverCmd::Fault(req, reply) => {

@@ -94,11 +94,13 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                         SessionOptions {
                             listen: vec![first.clone()],
                             connect: vec![],
+                            low_latency: true,
                         }
                     } else {
                         SessionOptions {
                             listen: vec![free_loopback_endpoint()?],
                             connect: vec![first.clone()],
+                            low_latency: true,
                         }
                     };
                     sessions.push(open_session(&opts)?);

@@ -126,7 +126,11 @@ where
     } else {
         args.listen.clone()
     };
-    let session = open_session(&SessionOptions { listen, connect })?;
+    let session = open_session(&SessionOptions {
+        listen,
+        connect,
+        low_latency: true,
+    })?;
     let (tx, rx, _rx_guard) =
         zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
 

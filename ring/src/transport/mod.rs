@@ -5,13 +5,17 @@
 //! [`zenoh_link`] (real processes, zenoh peer mode) and [`loopback`] (in-process channels for
 //! deterministic tests and benchmarks).
 
+pub mod hops;
 pub mod loopback;
+pub mod queue;
 pub mod session;
 pub mod zenoh_link;
 
+use std::cell::RefCell;
 use std::time::Duration;
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, TryRecvError};
+use hops::{HopStats, HopSummary};
+use queue::{QueueReceiver, RecvError, Stamped};
 
 /// Upper bound of frames waiting in a member's receive queue; beyond it frames are dropped
 /// and counted (a real ring has no buffer at all).
@@ -37,34 +41,42 @@ pub trait LinkTx: Send {
 /// Receiving half: the frames of the upstream neighbour, in arrival order.
 #[derive(Debug)]
 pub struct LinkRx {
-    rx: Receiver<Vec<u8>>,
-    dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    rx: QueueReceiver,
+    hops: RefCell<HopStats>,
 }
 
 impl LinkRx {
-    pub(crate) fn new(
-        rx: Receiver<Vec<u8>>,
-        dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
-    ) -> Self {
-        LinkRx { rx, dropped }
+    pub(crate) fn new(rx: QueueReceiver) -> Self {
+        LinkRx {
+            rx,
+            hops: RefCell::new(HopStats::default()),
+        }
+    }
+
+    fn took(&self, r: Result<Stamped, RecvError>) -> Result<Option<Vec<u8>>, TransportError> {
+        match r {
+            Ok((frame, sent_ns)) => {
+                self.hops.borrow_mut().record(sent_ns, monotonic_ns());
+                Ok(Some(frame))
+            }
+            Err(RecvError::Timeout) => Ok(None),
+            Err(RecvError::Closed) => Err(TransportError::Closed),
+        }
     }
 
     /// Wait up to `timeout` for the next frame. `Ok(None)` on timeout.
     pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<Vec<u8>>, TransportError> {
-        match self.rx.recv_timeout(timeout) {
-            Ok(f) => Ok(Some(f)),
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(TransportError::Closed),
-        }
+        self.took(self.rx.recv_timeout(timeout))
     }
 
     /// The next frame if one is already waiting.
     pub fn try_recv(&self) -> Result<Option<Vec<u8>>, TransportError> {
-        match self.rx.try_recv() {
-            Ok(f) => Ok(Some(f)),
-            Err(TryRecvError::Empty) => Ok(None),
-            Err(TryRecvError::Disconnected) => Err(TransportError::Closed),
-        }
+        self.took(self.rx.try_recv())
+    }
+
+    /// Latency of the recent hops into this member (see [`hops`]).
+    pub fn hop_summary(&self) -> HopSummary {
+        self.hops.borrow().summary()
     }
 
     /// Frames waiting in the queue now.
@@ -74,19 +86,16 @@ impl LinkRx {
 
     /// Frames dropped because the receive queue was full (counted as overruns by the member).
     pub fn take_dropped(&self) -> u64 {
-        self.dropped.swap(0, std::sync::atomic::Ordering::Relaxed)
+        self.rx.take_dropped()
     }
 }
 
-/// Push a received frame into a bounded queue, counting what does not fit.
-pub(crate) fn deliver(
-    tx: &crossbeam_channel::Sender<Vec<u8>>,
-    dropped: &std::sync::atomic::AtomicU64,
-    frame: Vec<u8>,
-) {
-    if tx.try_send(frame).is_err() {
-        dropped.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    }
+/// System-wide monotonic clock in ns (`CLOCK_MONOTONIC`): comparable across the processes of
+/// one machine (the send stamps of [`hops`]).
+pub fn monotonic_ns() -> u64 {
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
+        .map(|t| (t.tv_sec() as u64).saturating_mul(1_000_000_000) + t.tv_nsec() as u64)
+        .unwrap_or(0)
 }
 
 /// Index of the upstream neighbour of member `k` in a ring of `n`.

@@ -6,6 +6,19 @@ use zenoh::Wait;
 
 use super::TransportError;
 
+/// The environment variable zenoh reads its thread-pool sizes from (RON), once, when the
+/// process first uses zenoh.
+pub const RUNTIME_ENV: &str = "ZENOH_RUNTIME";
+
+/// zenoh's thread pools for a ring member process: one runtime (the receive pool) that every
+/// other pool hands over to, with a single worker thread. A member receives one ring frame per
+/// cycle on one link plus a trickle of control traffic: one thread owns the sockets and runs the
+/// receive path, so a frame's arrival wakes exactly one thread (zenoh's default, five pools and
+/// two receive workers, wakes a socket-polling thread, then a receive worker, and moves tasks
+/// between them).
+pub const MEMBER_RUNTIME: &str =
+    "(rx: (worker_threads: 1), tx: (handover: rx), acc: (handover: rx), app: (handover: rx), net: (handover: rx))";
+
 /// Where a process listens and whom it connects to.
 #[derive(Debug, Clone, Default)]
 pub struct SessionOptions {
@@ -13,6 +26,11 @@ pub struct SessionOptions {
     pub listen: Vec<String>,
     /// Endpoints to connect to (the orchestrator's, a router, ...).
     pub connect: Vec<String>,
+    /// A ring member's session: zenoh's low-latency transport (no batching, no transmission
+    /// queue, a frame is written to the socket by the thread that publishes it). Links to a
+    /// session without it (the CLI's, a router) fall back to the ordinary transport, which
+    /// fragments large query replies; see [`zenoh_config`].
+    pub low_latency: bool,
 }
 
 /// Build the zenoh configuration for `opts`.
@@ -46,6 +64,16 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         "timestamping/enabled",
         "{ router: false, peer: false, client: false }".into(),
     )?;
+    if opts.low_latency {
+        // Member to member: each ring frame goes straight from the publishing thread to the
+        // socket (the ordinary transport queues it for a TX task: one more thread hand-off per
+        // hop). Negotiated per link: a peer without it gets the ordinary transport. It has no
+        // QoS priorities and no fragmentation (messages up to one batch, 64 KiB: ring frames
+        // are < 2 KiB; the large replies — gather data, daisy chain — go to the CLI's sessions,
+        // which do not ask for it).
+        set(&mut c, "transport/unicast/lowlatency", "true".into())?;
+        set(&mut c, "transport/unicast/qos/enabled", "false".into())?;
+    }
     Ok(c)
 }
 
@@ -84,6 +112,7 @@ mod tests {
         let c = zenoh_config(&SessionOptions {
             listen: vec![],
             connect: vec!["tcp/127.0.0.1:7447".into()],
+            low_latency: false,
         })
         .unwrap();
         let s = format!("{c}");
@@ -103,6 +132,7 @@ mod tests {
         let e = zenoh_config(&SessionOptions {
             listen: vec!["not-an-endpoint".into()],
             connect: vec![],
+            low_latency: false,
         });
         assert!(e.is_err());
     }

@@ -1,15 +1,12 @@
 //! Ring links over zenoh: member k publishes on `mcc/<cluster>/ring/<ring>/link/<k>` and
 //! subscribes to its upstream neighbour's key.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
-use crossbeam_channel::bounded;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
-use super::{deliver, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
+use super::queue::frame_queue;
+use super::{monotonic_ns, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
 use crate::control::link_key;
 
 /// Sending half of a zenoh ring link (a declared publisher, express, real-time priority).
@@ -25,8 +22,10 @@ impl std::fmt::Debug for ZenohTx {
 
 impl LinkTx for ZenohTx {
     fn send(&self, frame: &[u8]) -> Result<(), TransportError> {
+        // The send stamp travels out of band, as an attachment (hop latency, see `hops`).
         self.publisher
             .put(frame.to_vec())
+            .attachment(monotonic_ns().to_le_bytes().to_vec())
             .wait()
             .map_err(|e| TransportError::Io(e.to_string()))
     }
@@ -63,19 +62,22 @@ pub fn join(
         .express(true)
         .wait()
         .map_err(|e| TransportError::Io(format!("declare publisher: {e}")))?;
-    let (tx, rx) = bounded(RX_QUEUE_FRAMES);
-    let dropped = Arc::new(AtomicU64::new(0));
-    let d2 = Arc::clone(&dropped);
+    let (tx, rx) = frame_queue(RX_QUEUE_FRAMES);
     let subscriber = session
         .declare_subscriber(link_key(cluster, ring, upstream_of(k, n)))
         .callback(move |sample| {
-            deliver(&tx, &d2, sample.payload().to_bytes().into_owned());
+            let sent_ns = sample
+                .attachment()
+                .and_then(|a| <[u8; 8]>::try_from(a.to_bytes().as_ref()).ok())
+                .map(u64::from_le_bytes)
+                .unwrap_or(0);
+            tx.push(sample.payload().to_bytes().into_owned(), sent_ns);
         })
         .wait()
         .map_err(|e| TransportError::Io(format!("declare subscriber: {e}")))?;
     Ok((
         ZenohTx { publisher },
-        LinkRx::new(rx, dropped),
+        LinkRx::new(rx),
         ZenohRxGuard {
             _subscriber: subscriber,
         },
