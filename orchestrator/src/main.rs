@@ -49,6 +49,7 @@ fn main() {
         Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
+        Command::Bench(BenchCommand::UdpMember(a)) => bench::udp::member(a),
         Command::Supervise => up::cmd_supervise(&cluster),
     };
     if let Err(e) = res {

@@ -2,9 +2,11 @@
 
 pub mod bringup;
 pub mod chain;
+pub mod cluster;
 pub mod faults;
 pub mod host;
 pub mod inproc;
+pub mod procstat;
 pub mod ring;
 pub mod stats;
 pub mod syncstart;
