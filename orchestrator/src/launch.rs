@@ -69,9 +69,7 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
     if std::env::var_os(session::RUNTIME_ENV).is_none() {
         cmd.env(session::RUNTIME_ENV, session::MEMBER_RUNTIME);
     }
-    cmd.stdin(Stdio::null())
-        .stdout(out)
-        .stderr(err);
+    cmd.stdin(Stdio::null()).stdout(out).stderr(err);
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     sys::pre_exec(&mut cmd, sys::parent_death_signal_in_child);
     cmd.spawn()

@@ -17,7 +17,6 @@ use mcc_ring::transport::session::{free_loopback_endpoint, open_session, Session
 use mcc_ring::transport::zenoh_link;
 use zenoh::Wait;
 
-
 /// A member that computes nothing: the bench measures the ring, not the servo.
 struct Idle;
 
@@ -59,7 +58,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             open_session(&SessionOptions {
                 listen: vec![listen],
                 connect,
-                low_latency: true,
+                low_latency: false,
             })
             .map_err(|e| anyhow!("{e}"))?,
         );

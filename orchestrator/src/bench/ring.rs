@@ -79,7 +79,10 @@ fn sections(only: Option<&str>) -> Result<(bool, bool, bool)> {
 /// Run the benchmark and print the report.
 pub fn run(args: &BenchRingArgs) -> Result<()> {
     if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 1e6) {
-        bail!("--rate {}: must be a number of Hz in (0, 1000000]", args.rate);
+        bail!(
+            "--rate {}: must be a number of Hz in (0, 1000000]",
+            args.rate
+        );
     }
     for (name, v) in [
         ("--duration", args.duration),
@@ -121,8 +124,16 @@ fn run_lockstep(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
     );
     println!(
         "    {:<22} {:>9} {:>15} {:>9} {:>9}   {:>9} {:>15} {:>9} {:>9}   {:>6}",
-        "", "cycles/s", "hop p50/p99 µs", "CPU µs/c", "switch/c", "UDP c/s", "hop p50/p99 µs",
-        "CPU µs/c", "switch/c", "p50 ×"
+        "",
+        "cycles/s",
+        "hop p50/p99 µs",
+        "CPU µs/c",
+        "switch/c",
+        "UDP c/s",
+        "hop p50/p99 µs",
+        "CPU µs/c",
+        "switch/c",
+        "p50 ×"
     );
     let mut verdicts = Vec::new();
     for (i, &(c, s)) in sizes.iter().enumerate() {
@@ -298,13 +309,19 @@ mod tests {
 
     #[test]
     fn sizes_and_sections_parse_and_bad_ones_are_named() {
-        assert_eq!(parse_sizes("1+1, 2+2,4+8").unwrap(), [(1, 1), (2, 2), (4, 8)]);
+        assert_eq!(
+            parse_sizes("1+1, 2+2,4+8").unwrap(),
+            [(1, 1), (2, 2), (4, 8)]
+        );
         for bad in ["", "2", "0+2", "2+x", "17+1", "2+49"] {
             let e = parse_sizes(bad).unwrap_err().to_string();
             assert!(e.contains("--sizes"), "{bad}: {e}");
         }
         assert_eq!(sections(None).unwrap(), (true, true, true));
         assert_eq!(sections(Some("rtf1")).unwrap(), (false, true, false));
-        assert!(sections(Some("fast")).unwrap_err().to_string().contains("fast"));
+        assert!(sections(Some("fast"))
+            .unwrap_err()
+            .to_string()
+            .contains("fast"));
     }
 }

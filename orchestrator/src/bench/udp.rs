@@ -120,7 +120,8 @@ fn run_children(
         stdin.flush()?;
     }
     let pids: Vec<u32> = children.iter().map(Child::id).collect();
-    let sample = || -> Result<Vec<ProcSample>> { pids.iter().map(|p| procstat::sample(*p)).collect() };
+    let sample =
+        || -> Result<Vec<ProcSample>> { pids.iter().map(|p| procstat::sample(*p)).collect() };
     std::thread::sleep(warmup);
     let p0 = sample()?;
     let t0 = Instant::now();
@@ -146,10 +147,7 @@ fn run_children(
         cpu += d.cpu_s * 1e6 / cycles;
         sw += d.switches as f64 / cycles;
     }
-    let mut p50: Vec<f64> = reports
-        .iter()
-        .map(|r| r.hop.p50_ns as f64 / 1e3)
-        .collect();
+    let mut p50: Vec<f64> = reports.iter().map(|r| r.hop.p50_ns as f64 / 1e3).collect();
     p50.sort_by(f64::total_cmp);
     let p99 = reports
         .iter()

@@ -86,17 +86,20 @@ pub fn monotonic_ns() -> u64 {
 
 /// Everything the loop needs.
 pub struct Driver<A: RingApp> {
-    cfg: DriverConfig,
-    core: MemberCore,
+    pub(super) cfg: DriverConfig,
+    pub(super) core: MemberCore,
     app: A,
     tx: Box<dyn LinkTx>,
-    rx: LinkRx,
+    pub(super) rx: LinkRx,
     cmds: Receiver<DriverCmd>,
     stop: Arc<AtomicBool>,
     /// Frames held back by a `delay-us` fault: (due time, bytes).
     delayed: Vec<(Instant, Vec<u8>)>,
     cycles_run: u64,
     records: Vec<(u64, u64)>,
+    /// The tick of a frame handled on the receive thread, left for the member's thread (see
+    /// [`super::inline`]), not run yet.
+    pending_tick: Option<u64>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -129,7 +132,43 @@ impl<A: RingApp> Driver<A> {
             delayed: Vec::new(),
             cycles_run: 0,
             records: Vec::new(),
+            pending_tick: None,
         }
+    }
+
+    /// The same driver with application `app` instead of its own, which is given back (the
+    /// inline receive shares the driver with zenoh's receive thread but keeps the application
+    /// on the member's thread).
+    pub(super) fn swap_app<B: RingApp>(self, app: B) -> (Driver<B>, A) {
+        let Driver {
+            cfg,
+            core,
+            app: old,
+            tx,
+            rx,
+            cmds,
+            stop,
+            delayed,
+            cycles_run,
+            records,
+            pending_tick,
+        } = self;
+        (
+            Driver {
+                cfg,
+                core,
+                app,
+                tx,
+                rx,
+                cmds,
+                stop,
+                delayed,
+                cycles_run,
+                records,
+                pending_tick,
+            },
+            old,
+        )
     }
 
     /// The application (after the loop ended).
@@ -230,7 +269,8 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
-                    s.extra.insert("hop".into(), self.rx.hop_summary().to_json());
+                    s.extra
+                        .insert("hop".into(), self.rx.hop_summary().to_json());
                     let _ = reply.send(s);
                 }
                 DriverCmd::Fault(req, reply) => {
@@ -280,7 +320,24 @@ impl<A: RingApp> Driver<A> {
     fn tick(&mut self, cycle: u64) {
         let t = self.time_for(cycle);
         let was = self.core.ring_fault();
-        if let Some(fault) = self.core.tick_app(&mut self.app, cycle, t) {
+        let fault = self.core.tick_app(&mut self.app, cycle, t);
+        self.ticked(cycle, was, fault);
+    }
+
+    /// [`Self::tick`] with `app`, an application held outside the driver (see
+    /// [`Self::swap_app`]), or the driver's own (None).
+    pub(super) fn tick_with(&mut self, app: Option<&mut dyn RingApp>, cycle: u64) {
+        let t = self.time_for(cycle);
+        let was = self.core.ring_fault();
+        let fault = match app {
+            Some(app) => self.core.tick_app(app, cycle, t),
+            None => self.core.tick_app(&mut self.app, cycle, t),
+        };
+        self.ticked(cycle, was, fault);
+    }
+
+    fn ticked(&mut self, cycle: u64, was: bool, fault: Option<crate::check::CheckFault>) {
+        if let Some(fault) = fault {
             if !was {
                 warn!(member = %self.cfg.name, cycle, ?fault, "ring fault");
             }
@@ -416,56 +473,104 @@ impl<A: RingApp> Driver<A> {
 
     fn run_follower(&mut self) -> DriverExit {
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
-            }
-            if let Err(e) = self.flush_delayed() {
-                return DriverExit::Transport(e);
-            }
-            let wait = if self.delayed.is_empty() {
-                let until_holdover = self
-                    .core
-                    .holdover_due_ns()
-                    .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
-                    .unwrap_or(Duration::from_millis(2));
-                until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
-            } else {
-                Duration::from_micros(50)
+            let wait = match self.follower_housekeeping() {
+                Ok(w) => w,
+                Err(exit) => return exit,
             };
             match self.rx.recv_timeout(wait) {
                 Ok(Some(bytes)) => {
-                    let dropped = self.rx.take_dropped();
-                    for _ in 0..dropped {
-                        self.core.note_overrun();
-                    }
-                    let now = self.now_ns();
-                    let ev = self.core.on_frame(&bytes, now);
-                    if let Err(e) = self.send_all(ev.outgoing) {
+                    if let Err(e) = self.follower_frame(&bytes, false) {
                         return DriverExit::Transport(e);
-                    }
-                    if let Some(cycle) = ev.sync {
-                        if self.cfg.record > 0 {
-                            self.record(cycle, now);
-                        }
-                        self.align(ev.origin_ns);
-                        self.tick(cycle);
                     }
                 }
                 Ok(None) => {}
                 Err(e) => return DriverExit::Transport(e),
             }
-            // Holdover: no sync packet for too long → tick on the local clock.
-            let now = self.now_ns();
-            while let Some(cycle) = self.core.on_holdover(now) {
-                trace!(member = %self.cfg.name, cycle, "holdover tick");
+            self.follower_holdover();
+        }
+    }
+
+    /// Follower, between frames: control requests, the cycle limit, delayed frames; how long
+    /// to wait for the next frame (until the holdover clock is due), or why to stop.
+    pub(super) fn follower_housekeeping(&mut self) -> Result<Duration, DriverExit> {
+        if self.service() {
+            return Err(DriverExit::Stopped);
+        }
+        if self.done() {
+            return Err(DriverExit::Done);
+        }
+        self.flush_delayed().map_err(DriverExit::Transport)?;
+        Ok(if self.delayed.is_empty() {
+            let until_holdover = self
+                .core
+                .holdover_due_ns()
+                .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
+                .unwrap_or(Duration::from_millis(2));
+            until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
+        } else {
+            Duration::from_micros(50)
+        })
+    }
+
+    /// Follower: one frame from upstream — forward it, then run the cycle's tick, or with
+    /// `defer` leave the tick for the member's thread ([`Self::take_pending_tick`]).
+    pub(super) fn follower_frame(
+        &mut self,
+        bytes: &[u8],
+        defer: bool,
+    ) -> Result<(), TransportError> {
+        let dropped = self.rx.take_dropped();
+        for _ in 0..dropped {
+            self.core.note_overrun();
+        }
+        let now = self.now_ns();
+        let ev = self.core.on_frame(bytes, now);
+        self.send_all(ev.outgoing)?;
+        if let Some(cycle) = ev.sync {
+            if self.cfg.record > 0 {
+                self.record(cycle, now);
+            }
+            if defer {
+                self.pending_tick = Some(cycle);
+            } else {
+                self.align(ev.origin_ns);
                 self.tick(cycle);
-                if self.done() {
-                    break;
-                }
             }
         }
+        Ok(())
+    }
+
+    /// Follower: holdover — no sync packet for too long → tick on the local clock.
+    fn follower_holdover(&mut self) {
+        self.follower_holdover_with(None);
+    }
+
+    /// [`Self::follower_holdover`] with an application held outside the driver (None: its own).
+    pub(super) fn follower_holdover_with(&mut self, mut app: Option<&mut dyn RingApp>) {
+        let now = self.now_ns();
+        while let Some(cycle) = self.core.on_holdover(now) {
+            trace!(member = %self.cfg.name, cycle, "holdover tick");
+            let app: Option<&mut dyn RingApp> = match app.as_mut() {
+                Some(a) => Some(&mut **a),
+                None => None,
+            };
+            self.tick_with(app, cycle);
+            if self.done() {
+                break;
+            }
+        }
+    }
+
+    /// A tick [`Self::follower_frame`] left for the member's thread: run it now with `app`
+    /// (None: the driver's own).
+    pub(super) fn take_pending_tick(&mut self, app: Option<&mut dyn RingApp>) {
+        if let Some(cycle) = self.pending_tick.take() {
+            self.tick_with(app, cycle);
+        }
+    }
+
+    /// A frame handled on the receive thread left a tick for the member's thread.
+    pub(super) fn has_pending_tick(&self) -> bool {
+        self.pending_tick.is_some()
     }
 }

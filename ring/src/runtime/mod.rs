@@ -4,6 +4,7 @@
 
 pub mod control_plane;
 pub mod driver;
+pub mod inline;
 pub mod local;
 pub mod logging;
 pub mod pacer;

@@ -18,6 +18,7 @@ pub struct HopStats {
     recent: Vec<u32>,
     next: usize,
     count: u64,
+    inline: u64,
 }
 
 impl Default for HopStats {
@@ -26,6 +27,7 @@ impl Default for HopStats {
             recent: Vec::with_capacity(WINDOW),
             next: 0,
             count: 0,
+            inline: 0,
         }
     }
 }
@@ -35,6 +37,9 @@ impl Default for HopStats {
 pub struct HopSummary {
     /// Hops measured since start.
     pub count: u64,
+    /// Frames handled on the receive thread since start (the rest went through the queue to
+    /// the member's thread).
+    pub inline: u64,
     /// Hops in the window the percentiles are taken over.
     pub window: u64,
     /// Median, ns.
@@ -62,6 +67,11 @@ impl HopStats {
         self.count += 1;
     }
 
+    /// A frame was handled on the receive thread (see [`HopSummary::inline`]).
+    pub fn count_inline(&mut self) {
+        self.inline += 1;
+    }
+
     /// Percentiles over the window.
     pub fn summary(&self) -> HopSummary {
         let mut v = self.recent.clone();
@@ -75,6 +85,7 @@ impl HopStats {
         };
         HopSummary {
             count: self.count,
+            inline: self.inline,
             window: v.len() as u64,
             p50_ns: pick(50.0),
             p99_ns: pick(99.0),
@@ -89,6 +100,7 @@ impl HopSummary {
         let us = |ns: u64| (ns as f64 / 100.0).round() / 10.0;
         serde_json::json!({
             "count": self.count,
+            "inline": self.inline,
             "window": self.window,
             "p50_us": us(self.p50_ns),
             "p99_us": us(self.p99_ns),
@@ -120,9 +132,15 @@ mod tests {
             h.record(1, 8);
         }
         let s = h.summary();
-        assert_eq!((s.count, s.window, s.max_ns), (100 + WINDOW as u64, WINDOW as u64, 7));
+        assert_eq!(
+            (s.count, s.window, s.max_ns),
+            (100 + WINDOW as u64, WINDOW as u64, 7)
+        );
+        h.count_inline();
+        assert_eq!(h.summary().inline, 1);
         let j = s.to_json();
         assert_eq!(j["p50_us"], 0.0);
+        assert_eq!(j["inline"], 0);
         assert_eq!(j["window"], WINDOW as u64);
     }
 }

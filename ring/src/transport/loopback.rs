@@ -69,7 +69,7 @@ impl LoopbackRing {
                 cut: Arc::clone(&self.cut),
                 k,
             },
-            LinkRx::new(rx),
+            LinkRx::new(rx, None),
         ))
     }
 

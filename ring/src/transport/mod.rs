@@ -12,10 +12,11 @@ pub mod session;
 pub mod zenoh_link;
 
 use std::cell::RefCell;
+use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use hops::{HopStats, HopSummary};
-use queue::{QueueReceiver, RecvError, Stamped};
+use queue::{QueueReceiver, QueueSender, QueueWaker, RecvError, Stamped};
 
 /// Upper bound of frames waiting in a member's receive queue; beyond it frames are dropped
 /// and counted (a real ring has no buffer at all).
@@ -38,19 +39,90 @@ pub trait LinkTx: Send {
     fn send(&self, frame: &[u8]) -> Result<(), TransportError>;
 }
 
+/// Handles frames on the thread that delivers them (zenoh's receive thread), without a hand-off
+/// to the member's own thread; see [`LinkRx::set_inline`].
+pub trait InlineHandler: Send + Sync {
+    /// A frame stamped `sent_ns` arrived: handle it now, or give it back to be queued (the
+    /// member is busy, or frames are already waiting: order is kept).
+    fn offer(&self, frame: Vec<u8>, sent_ns: u64) -> Option<Stamped>;
+}
+
+/// Where a link's delivery side finds its inline handler, once installed.
+pub(crate) type InlineSlot = Arc<OnceLock<Arc<dyn InlineHandler>>>;
+
+/// The delivery side of a link: offer each frame to the inline handler if there is one, else
+/// (or when it declines) queue it.
+pub(crate) fn deliver(slot: &InlineSlot, queue: &QueueSender, frame: Vec<u8>, sent_ns: u64) {
+    let (frame, sent_ns) = match slot.get() {
+        Some(h) => match h.offer(frame, sent_ns) {
+            None => return,
+            Some(back) => back,
+        },
+        None => (frame, sent_ns),
+    };
+    queue.push(frame, sent_ns);
+}
+
 /// Receiving half: the frames of the upstream neighbour, in arrival order.
-#[derive(Debug)]
 pub struct LinkRx {
     rx: QueueReceiver,
     hops: RefCell<HopStats>,
+    /// Set when the link can deliver frames inline (zenoh: on its receive thread).
+    inline: Option<InlineSlot>,
+}
+
+impl std::fmt::Debug for LinkRx {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LinkRx")
+            .field("rx", &self.rx)
+            .field("inline", &self.inline.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl LinkRx {
-    pub(crate) fn new(rx: QueueReceiver) -> Self {
+    pub(crate) fn new(rx: QueueReceiver, inline: Option<InlineSlot>) -> Self {
         LinkRx {
             rx,
             hops: RefCell::new(HopStats::default()),
+            inline,
         }
+    }
+
+    /// From now on, offer each arriving frame to `handler` on the delivering thread before
+    /// queueing it. False when this link cannot (the in-process loopback: its delivering
+    /// thread is the upstream member's own) or a handler is already installed.
+    pub fn set_inline(&self, handler: Arc<dyn InlineHandler>) -> bool {
+        self.inline
+            .as_ref()
+            .is_some_and(|slot| slot.set(handler).is_ok())
+    }
+
+    /// Whether [`Self::set_inline`] can work on this link.
+    pub fn supports_inline(&self) -> bool {
+        self.inline.as_ref().is_some_and(|s| s.get().is_none())
+    }
+
+    /// No frame is queued.
+    pub fn is_empty(&self) -> bool {
+        self.rx.is_empty()
+    }
+
+    /// Wait until a frame is queued or [`Self::waker`] is poked (see [`QueueReceiver::wait`]).
+    pub fn wait(&self, timeout: Duration) -> bool {
+        self.rx.wait(timeout)
+    }
+
+    /// Wakes [`Self::wait`] without a frame.
+    pub fn waker(&self) -> QueueWaker {
+        self.rx.waker()
+    }
+
+    /// A frame stamped `sent_ns` was handled inline just now (hop statistics).
+    pub fn record_hop(&self, sent_ns: u64) {
+        let mut h = self.hops.borrow_mut();
+        h.record(sent_ns, monotonic_ns());
+        h.count_inline();
     }
 
     fn took(&self, r: Result<Stamped, RecvError>) -> Result<Option<Vec<u8>>, TransportError> {

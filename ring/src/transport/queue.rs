@@ -20,8 +20,10 @@ struct Inner {
     dropped: u64,
     /// Live senders; at 0 the queue is closed once drained.
     senders: usize,
-    /// The receiver is blocked in `recv_timeout`.
+    /// The receiver is blocked in `recv_timeout` or `wait`.
     waiting: bool,
+    /// [`QueueWaker::poke`] since the last [`QueueReceiver::wait`].
+    poked: bool,
 }
 
 #[derive(Debug)]
@@ -36,6 +38,30 @@ impl Shared {
         // A panic while holding this lock leaves a consistent queue (every update is a
         // single push/pop/counter step), so a poisoned lock is taken over.
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// See [`QueueReceiver::wait`].
+    fn wait(&self, timeout: Duration) -> bool {
+        let deadline = Instant::now().checked_add(timeout);
+        let mut g = self.lock();
+        loop {
+            if !g.frames.is_empty() || g.senders == 0 || std::mem::take(&mut g.poked) {
+                return true;
+            }
+            let left = match deadline {
+                Some(d) => d.saturating_duration_since(Instant::now()),
+                None => Duration::from_secs(3600),
+            };
+            if left.is_zero() {
+                return false;
+            }
+            g.waiting = true;
+            g = match self.ready.wait_timeout(g, left) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+            g.waiting = false;
+        }
     }
 }
 
@@ -112,6 +138,32 @@ impl QueueSender {
     }
 }
 
+/// Wakes the receiver's [`QueueReceiver::wait`] without a frame (work for the member's own
+/// thread), and can do that wait itself (for a receiver held elsewhere, behind a lock). Does
+/// not keep the queue open.
+#[derive(Debug, Clone)]
+pub struct QueueWaker {
+    shared: Arc<Shared>,
+}
+
+impl QueueWaker {
+    /// Wake the receiver (now, or at its next wait).
+    pub fn poke(&self) {
+        let mut g = self.shared.lock();
+        g.poked = true;
+        let wake = g.waiting;
+        drop(g);
+        if wake {
+            self.shared.ready.notify_one();
+        }
+    }
+
+    /// [`QueueReceiver::wait`], for the queue's single receiver.
+    pub fn wait(&self, timeout: Duration) -> bool {
+        self.shared.wait(timeout)
+    }
+}
+
 /// Receiving side (one per queue).
 #[derive(Debug)]
 pub struct QueueReceiver {
@@ -143,6 +195,19 @@ impl QueueReceiver {
                 Err(e) => e.into_inner().0,
             };
             g.waiting = false;
+        }
+    }
+
+    /// Wait up to `timeout` until a frame is queued, the queue is poked (the poke is consumed)
+    /// or closed, without taking anything. True unless it timed out.
+    pub fn wait(&self, timeout: Duration) -> bool {
+        self.shared.wait(timeout)
+    }
+
+    /// A handle that wakes [`Self::wait`].
+    pub fn waker(&self) -> QueueWaker {
+        QueueWaker {
+            shared: Arc::clone(&self.shared),
         }
     }
 
@@ -222,6 +287,29 @@ mod tests {
             rx.recv_timeout(Duration::from_secs(1)),
             Err(RecvError::Closed)
         );
+    }
+
+    #[test]
+    fn wait_returns_for_a_frame_or_a_poke_and_takes_nothing() {
+        let (tx, rx) = frame_queue(4);
+        let waker = rx.waker();
+        assert!(!rx.wait(Duration::from_millis(5)));
+        waker.poke();
+        assert!(rx.wait(Duration::from_secs(30)));
+        // The poke is consumed.
+        assert!(!rx.wait(Duration::ZERO));
+        let t = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(20));
+            waker.poke();
+        });
+        assert!(rx.wait(Duration::from_secs(30)));
+        t.join().unwrap();
+        tx.push(b"f".to_vec(), 7);
+        assert!(rx.wait(Duration::ZERO));
+        assert!(rx.wait(Duration::ZERO), "a queued frame stays until taken");
+        assert_eq!(rx.try_recv().unwrap(), (b"f".to_vec(), 7));
+        drop(tx);
+        assert!(rx.wait(Duration::from_secs(30)), "closed");
     }
 
     #[test]

@@ -5,8 +5,12 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
+use std::sync::{Arc, OnceLock};
+
 use super::queue::frame_queue;
-use super::{monotonic_ns, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
+use super::{
+    deliver, monotonic_ns, upstream_of, InlineSlot, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES,
+};
 use crate::control::link_key;
 
 /// Sending half of a zenoh ring link (a declared publisher, express, real-time priority).
@@ -63,6 +67,8 @@ pub fn join(
         .wait()
         .map_err(|e| TransportError::Io(format!("declare publisher: {e}")))?;
     let (tx, rx) = frame_queue(RX_QUEUE_FRAMES);
+    let slot: InlineSlot = Arc::new(OnceLock::new());
+    let slot2 = Arc::clone(&slot);
     let subscriber = session
         .declare_subscriber(link_key(cluster, ring, upstream_of(k, n)))
         .callback(move |sample| {
@@ -71,13 +77,18 @@ pub fn join(
                 .and_then(|a| <[u8; 8]>::try_from(a.to_bytes().as_ref()).ok())
                 .map(u64::from_le_bytes)
                 .unwrap_or(0);
-            tx.push(sample.payload().to_bytes().into_owned(), sent_ns);
+            deliver(
+                &slot2,
+                &tx,
+                sample.payload().to_bytes().into_owned(),
+                sent_ns,
+            );
         })
         .wait()
         .map_err(|e| TransportError::Io(format!("declare subscriber: {e}")))?;
     Ok((
         ZenohTx { publisher },
-        LinkRx::new(rx),
+        LinkRx::new(rx, Some(slot)),
         ZenohRxGuard {
             _subscriber: subscriber,
         },
