@@ -19,7 +19,6 @@ pub fn connect(endpoint: &str, expected: usize, settle: Duration) -> Result<zeno
     let session = open_session(&SessionOptions {
         listen: vec!["tcp/127.0.0.1:0".into()],
         connect: vec![endpoint.to_string()],
-        low_latency: false,
     })
     .map_err(|e| anyhow!("cannot reach the cluster at {endpoint}: {e}"))?;
     let deadline = Instant::now() + settle;

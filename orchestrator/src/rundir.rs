@@ -30,7 +30,7 @@ const MAX_SOCKET_PATH: usize = 107;
 pub struct MemberProc {
     /// Member name.
     pub name: String,
-    /// `card` or `station`.
+    /// `card`, `station` or `drive` (a stand-alone EMCL drive).
     pub kind: String,
     /// OS pid.
     pub pid: u32,
@@ -57,6 +57,12 @@ pub struct SupervisorInfo {
     /// Daisy-chain pseudo-terminal path, when one is served.
     #[serde(default)]
     pub daisy_chain_pty: Option<String>,
+    /// EMCL bus TCP endpoint (`127.0.0.1:PORT`) once serving.
+    #[serde(default)]
+    pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path, when one is served.
+    #[serde(default)]
+    pub emcl_bus_pty: Option<String>,
 }
 
 impl SupervisorInfo {
@@ -71,6 +77,8 @@ impl SupervisorInfo {
             message: None,
             daisy_chain: None,
             daisy_chain_pty: None,
+            emcl_bus: None,
+            emcl_bus_pty: None,
         }
     }
 }
@@ -208,7 +216,9 @@ impl RunDir {
     /// Remove the files mcc created (config, supervisor record, logs) and the directory if it
     /// is then empty. Anything else (e.g. a user's state file placed there) stays.
     pub fn cleanup(&self) -> Result<()> {
+        // (Plus the temporaries of `write_atomic`, left by a process killed while writing.)
         for f in [self.config_path(), self.info_path()] {
+            remove_if_exists(&f.with_extension("tmp"))?;
             remove_if_exists(&f)?;
         }
         let logs = self.dir.join(LOG_DIR);
@@ -307,7 +317,10 @@ mod tests {
         fs::write(path, "").unwrap();
         fs::write(format!("{path}.lock"), "").unwrap();
         fs::write(rd.dir.join(LINK_DIR).join("notes.txt"), "mine").unwrap();
+        // A temporary left by a supervisor killed while writing its record is ours.
+        fs::write(rd.info_path().with_extension("tmp"), "{").unwrap();
         rd.cleanup().unwrap();
+        assert!(!rd.info_path().with_extension("tmp").exists());
         assert!(!std::path::Path::new(path).exists());
         assert!(rd.dir.join(LINK_DIR).join("notes.txt").exists());
         assert!(rd.dir.join("card0.state").exists());

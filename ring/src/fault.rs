@@ -4,9 +4,12 @@
 //! classifies them: `corrupt` flips the check byte of the frame's last packet, `byte-violation`
 //! overwrites its header byte, `underrun` cuts 5 bytes off the end (or, in a frame without
 //! packets, declares one more packet than it carries), `overrun` appends 5 bytes beyond the
-//! declared packets. `drop-sync` removes the sync packet, `drop-packets` drops the whole frame,
-//! `cut` lets nothing leave (frames held by `delay` stay held), `delay` holds frames for N
-//! cycles, `delay-us` asks the transport to hold each frame N µs before sending.
+//! declared packets. `drop-sync` removes the sync packet, `drop-packets` removes every packet
+//! (the frame envelope still goes, so the ring keeps its cadence: the data is missing, not the
+//! cycle), `cut` replaces the frame with a dark frame (loss of light: the receiver reads a byte
+//! violation every cycle; frames held by `delay` stay held), `delay` holds frames for N cycles
+//! (an empty frame goes in their place), `delay-us` asks the transport to hold each frame N µs
+//! before sending.
 
 use std::collections::VecDeque;
 use std::fmt;
@@ -24,13 +27,13 @@ pub const MAX_FAULTS: usize = 32;
 /// Most frames held by `delay` at once (older ones are dropped beyond it).
 pub const MAX_HELD_FRAMES: usize = 1024;
 
-/// What a fault does to the frames a member sends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
+/// What a fault does to the frames a member sends. In JSON (the control plane, `mcc status
+/// --json`) it is always one string, the CLI word: `"cut"`, `"delay=3"`, `"delay-us=250"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FaultKind {
     /// Remove the sync packet.
     DropSync,
-    /// Drop the whole frame.
+    /// Drop every packet of the frame (the empty envelope still goes).
     DropPackets,
     /// Wrong check byte (checksum error downstream).
     Corrupt,
@@ -41,12 +44,10 @@ pub enum FaultKind {
     /// Truncated packet (underrun downstream).
     Underrun,
     /// Hold frames for this many ring cycles.
-    #[serde(rename = "delay")]
     DelayCycles(u32),
     /// Hold each frame this many µs before it leaves (transport-side sleep).
-    #[serde(rename = "delay-us")]
     DelayMicros(u32),
-    /// Nothing leaves: the link is cut.
+    /// The link is cut: only dark frames leave (loss of light).
     Cut,
 }
 
@@ -120,6 +121,19 @@ impl FromStr for FaultKind {
     }
 }
 
+impl Serialize for FaultKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for FaultKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let word = <std::borrow::Cow<'de, str>>::deserialize(d)?;
+        word.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -163,6 +177,17 @@ impl FaultSpec {
     }
 }
 
+/// A frame the fault layer lets through, before the member stamps its link sequence number
+/// (frames a `delay` releases late get a fresh one, so the receiver reads them as late data
+/// rather than as stale duplicates).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Sent {
+    /// The frame.
+    pub frame: Frame,
+    /// Hold it this long before sending (0 = now).
+    pub delay_us: u32,
+}
+
 /// A frame to put on the link.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Outgoing {
@@ -193,7 +218,7 @@ impl Active {
 pub struct FaultLayer {
     sync_node: u8,
     faults: Vec<Active>,
-    held: VecDeque<(u64, Vec<u8>)>,
+    held: VecDeque<(u64, Frame)>,
 }
 
 impl FaultLayer {
@@ -252,7 +277,7 @@ impl FaultLayer {
     }
 
     /// Expire faults and release frames held by `delay` whose time has come.
-    pub fn poll(&mut self, cycle: u64) -> Vec<Outgoing> {
+    pub fn poll(&mut self, cycle: u64) -> Vec<Sent> {
         self.expire(cycle);
         let mut out = Vec::new();
         if self.cut_for_sure() {
@@ -262,11 +287,8 @@ impl FaultLayer {
             if *release > cycle {
                 break;
             }
-            if let Some((_, bytes)) = self.held.pop_front() {
-                out.push(Outgoing {
-                    frame_bytes: bytes,
-                    delay_us: 0,
-                });
+            if let Some((_, frame)) = self.held.pop_front() {
+                out.push(Sent { frame, delay_us: 0 });
             }
         }
         out
@@ -274,7 +296,7 @@ impl FaultLayer {
 
     /// Pass one frame of ring cycle `cycle` through the active faults: 0, 1 or more frames
     /// to put on the link now (held frames released first, in order).
-    pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Outgoing> {
+    pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Sent> {
         let mut out = self.poll(cycle);
         let (mut drop, mut cut) = (false, false);
         let (mut delay_cycles, mut delay_us) = (0u32, 0u32);
@@ -302,30 +324,43 @@ impl FaultLayer {
             }
         }
         if cut {
-            // Nothing leaves, not even frames released by the poll above: put them back.
+            // No light leaves, not even frames released by the poll above: put them back.
             for o in out.into_iter().rev() {
-                self.held.push_front((cycle, o.frame_bytes));
+                self.held.push_front((cycle, o.frame));
             }
-            return Vec::new();
+            let dark = Frame::dark(
+                frame.sender,
+                frame.seq,
+                frame.sent_ns,
+                frame.cycle,
+                frame.origin_ns,
+            );
+            return vec![Sent {
+                frame: dark,
+                delay_us,
+            }];
         }
         if drop {
-            return out;
+            emptied(&mut frame);
         }
-        let bytes = frame.encode();
         if delay_cycles > 0 {
             if self.held.len() >= MAX_HELD_FRAMES {
                 self.held.pop_front();
             }
-            self.held
-                .push_back((cycle.saturating_add(u64::from(delay_cycles)), bytes));
-        } else {
-            out.push(Outgoing {
-                frame_bytes: bytes,
-                delay_us,
-            });
+            let release = cycle.saturating_add(u64::from(delay_cycles));
+            self.held.push_back((release, frame.clone()));
+            // The cycle still happens: an empty frame takes the held one's place.
+            emptied(&mut frame);
         }
+        out.push(Sent { frame, delay_us });
         out
     }
+}
+
+/// The frame without its packets (the envelope, with its cycle, still travels).
+fn emptied(frame: &mut Frame) {
+    frame.packets.clear();
+    frame.declared = 0;
 }
 
 fn drop_sync(frame: &mut Frame, sync_node: u8) {

@@ -5,6 +5,8 @@
 //! [`config::PlantConfig`]. The station meets the card only through ring packets.
 
 pub mod config;
+pub mod emcl;
+pub mod emcl_rt;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;

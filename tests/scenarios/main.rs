@@ -3,8 +3,11 @@
 mod chain;
 mod cluster;
 mod drills;
+mod emcl;
+mod emcl_bound;
 mod gather;
 mod motion;
 mod programs;
 mod ring_inprocess;
+mod testing_api;
 mod transcripts;

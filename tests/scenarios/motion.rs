@@ -6,15 +6,12 @@
 use std::sync::{Arc, Mutex};
 
 use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::{wire_macro_motors, CardRingApp};
+use mcc_card::runtime::ring_app::CardRingApp;
 use mcc_card::state::float48::decode_fixed;
-use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
+use mcc_ring::config::ClusterConfig;
+use mcc_ring::core::RingApp;
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
-use mcc_ring::runtime::process::card_check;
-use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::{NodePlantConfig, PlantConfig};
 use mcc_station::station_app::StationApp;
@@ -54,65 +51,28 @@ impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
     fn new(plant: NodePlantConfig) -> Rig {
         let cfg = ClusterConfig::default_cluster(1, 1);
-        let period = cfg.period_ns();
-        let n = cfg.ring.order.len();
         let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-        let mut members = Vec::new();
-        for name in cfg.ring.order.clone() {
-            let pos = cfg.position(&name).unwrap();
-            let rs = cfg.ring_settings(&name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let (kind, check, app) = match cfg.member(&name).unwrap() {
-                MemberRef::Card(cc) => {
-                    {
-                        let mut c = card.lock().unwrap();
-                        let mut s = Session::default();
-                        let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
-                        c.command_line(&mut s, line.as_bytes());
-                        wire_macro_motors(&mut c, &cc.nodes);
-                        for (k, v) in &cc.ivars {
-                            c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
-                        }
-                    }
-                    let app = CardRingApp::new(Arc::clone(&card), &cc.nodes).with_wiring(true);
-                    (
-                        MemberKind::Card,
-                        card_check(&cc.ivars),
-                        App::Card(Box::new(app)),
-                    )
-                }
-                MemberRef::Station(sc) => {
-                    let pc = PlantConfig {
-                        defaults: plant.clone(),
-                        ..PlantConfig::default()
-                    };
-                    let st = StationApp::new(&sc.nodes, &[], &pc).unwrap();
-                    let check = mcc_ring::check::RingCheck::station(
-                        sc.check.period,
-                        sc.check.min_syncs,
-                        sc.check.max_errors,
-                    );
-                    (MemberKind::Station, check, App::Station(Box::new(st)))
-                }
-            };
-            let mut cc = CoreConfig::new(&name, kind, pos as u16, settings, period * 100);
-            cc.check = check;
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            members.push((MemberCore::new(cc), app));
-        }
+        let sim = mcc_tests::inproc::ring(
+            &cfg,
+            &card,
+            |sc| {
+                let pc = PlantConfig {
+                    defaults: plant.clone(),
+                    ..PlantConfig::default()
+                };
+                App::Station(Box::new(StationApp::new(&sc.nodes, &[], &pc).unwrap()))
+            },
+            |c| App::Card(Box::new(c)),
+        );
         Rig {
-            sim: RingSim::new(members, period),
+            sim,
             card,
             session: Session::default(),
         }
     }
 
     fn cmd(&mut self, line: &str) -> String {
-        let mut c = self.card.lock().unwrap();
-        let r = c.command_line(&mut self.session, line.as_bytes());
-        String::from_utf8_lossy(&r)
-            .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
-            .to_string()
+        mcc_tests::inproc::command(&self.card, &mut self.session, line)
     }
 
     fn num(&mut self, line: &str) -> f64 {

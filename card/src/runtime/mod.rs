@@ -84,7 +84,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
         // well under the lockstep timeout so a stall never looks like a dead ring.
         let stall =
-            std::time::Duration::from_millis((ctx.config.lockstep_timeout_ms / 2).clamp(1, 25));
+            std::time::Duration::from_millis((ctx.config.member_timeout_ms / 2).clamp(1, 25));
         let sync = sync_start::SyncStart::new(stall);
         let at_queryable = sync_start::declare_at_queryable(
             &ctx.session,

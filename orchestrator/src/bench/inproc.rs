@@ -58,7 +58,6 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             open_session(&SessionOptions {
                 listen: vec![listen],
                 connect,
-                low_latency: false,
             })
             .map_err(|e| anyhow!("{e}"))?,
         );
@@ -88,19 +87,18 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             .ring_settings(name)
             .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
-        let core = MemberCore::new(CoreConfig::new(
-            name,
-            kind,
-            k as u16,
-            settings,
-            cfg.period_ns(),
-        ));
+        let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
+        mcc_ring::runtime::process::apply_clock(&mut core_cfg, cfg);
+        let core = MemberCore::new(core_cfg);
         let sync = cfg.ring.sync_master == *name;
         let dcfg = DriverConfig {
             name: name.clone(),
             clock: cfg.clock,
             rate_hz: cfg.rate_hz,
-            lockstep_timeout: Duration::from_millis(cfg.lockstep_timeout_ms.max(1)),
+            rtf: cfg.rtf,
+            member_timeout: cfg.member_timeout(),
+            upstream_dead: None,
+            harden: false,
             max_cycles: sync.then_some(cycles),
             kind,
             position: k,

@@ -167,7 +167,7 @@ fn follow<B: RingApp>(
             }
             d.take_pending_tick(reborrow(&mut app));
             loop {
-                match d.rx.try_recv() {
+                match d.recv(std::time::Duration::ZERO) {
                     Ok(Some(bytes)) => {
                         if let Err(e) = d.follower_frame(&bytes, true) {
                             return DriverExit::Transport(e);
@@ -178,7 +178,9 @@ fn follow<B: RingApp>(
                     Err(e) => return DriverExit::Transport(e),
                 }
             }
-            d.follower_holdover_with(reborrow(&mut app));
+            if let Err(e) = d.follower_holdover_with(reborrow(&mut app)) {
+                return DriverExit::Transport(e);
+            }
             match d.follower_housekeeping() {
                 Ok(w) => w,
                 Err(exit) => return exit,

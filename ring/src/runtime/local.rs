@@ -59,6 +59,8 @@ pub struct MemberResult<A> {
     pub app: A,
     /// Timing samples ([`DriverConfig::record`]).
     pub records: Vec<(u64, u64)>,
+    /// The synchronizing master's clock report at the end.
+    pub clock: Option<crate::control::ClockReport>,
 }
 
 /// One member of a local ring.
@@ -115,13 +117,11 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                         SessionOptions {
                             listen: vec![first.clone()],
                             connect: vec![],
-                            low_latency: false,
                         }
                     } else {
                         SessionOptions {
                             listen: vec![free_loopback_endpoint()?],
                             connect: vec![first.clone()],
-                            low_latency: false,
                         }
                     };
                     sessions.push(open_session(&opts)?);
@@ -163,12 +163,14 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                         }
                     };
                     let records = d.take_records();
+                    let clock = d.clock_report();
                     let (core, app) = d.into_parts();
                     MemberResult {
                         exit,
                         core,
                         app,
                         records,
+                        clock,
                     }
                 })
                 .map_err(|e| TransportError::Io(e.to_string()))?;

@@ -26,14 +26,6 @@ pub struct SessionOptions {
     pub listen: Vec<String>,
     /// Endpoints to connect to (the orchestrator's, a router, ...).
     pub connect: Vec<String>,
-    /// zenoh's low-latency transport (no batching, no transmission task: a message is written
-    /// to the socket by the thread that publishes it). Negotiated per link: a peer without it
-    /// gets the ordinary transport. Not used by ring members: their frames are forwarded on
-    /// zenoh's receive thread (`runtime::inline`), where the low-latency transport hands the
-    /// worker over to another thread for every write (`block_in_place`) — measured 5.6 context
-    /// switches per member and cycle against 1.9 with the ordinary transport, whose express
-    /// messages are written by the same thread right after the callback returns.
-    pub low_latency: bool,
 }
 
 /// Build the zenoh configuration for `opts`.
@@ -67,12 +59,13 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         "timestamping/enabled",
         "{ router: false, peer: false, client: false }".into(),
     )?;
-    if opts.low_latency {
-        // Each message goes straight from the publishing thread to the socket. It has no QoS
-        // priorities and no fragmentation: messages up to one batch (64 KiB).
-        set(&mut c, "transport/unicast/lowlatency", "true".into())?;
-        set(&mut c, "transport/unicast/qos/enabled", "false".into())?;
-    }
+    // No batching: a message never waits for others to share its batch (ring frames are
+    // published express anyway; this holds for everything else too).
+    set(
+        &mut c,
+        "transport/link/tx/queue/batching/enabled",
+        "false".into(),
+    )?;
     Ok(c)
 }
 
@@ -111,11 +104,15 @@ mod tests {
         let c = zenoh_config(&SessionOptions {
             listen: vec![],
             connect: vec!["tcp/127.0.0.1:7447".into()],
-            low_latency: false,
         })
         .unwrap();
         let s = format!("{c}");
         assert!(s.contains("\"mode\":\"peer\""), "{s}");
+        assert_eq!(
+            c.get_json("transport/link/tx/queue/batching/enabled")
+                .unwrap(),
+            "false"
+        );
         assert!(s.contains("127.0.0.1:7447"), "{s}");
     }
 
@@ -131,7 +128,6 @@ mod tests {
         let e = zenoh_config(&SessionOptions {
             listen: vec!["not-an-endpoint".into()],
             connect: vec![],
-            low_latency: false,
         });
         assert!(e.is_err());
     }
