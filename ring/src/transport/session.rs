@@ -59,13 +59,6 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         "timestamping/enabled",
         "{ router: false, peer: false, client: false }".into(),
     )?;
-    // No batching: a message never waits for others to share its batch (ring frames are
-    // published express anyway; this holds for everything else too).
-    set(
-        &mut c,
-        "transport/link/tx/queue/batching/enabled",
-        "false".into(),
-    )?;
     Ok(c)
 }
 

@@ -13,7 +13,8 @@ use super::{
 };
 use crate::control::link_key;
 
-/// Sending half of a zenoh ring link (a declared publisher, express, real-time priority).
+/// Sending half of a zenoh ring link (a declared publisher: express, real-time priority, dropped
+/// rather than blocking when the link's queue is full).
 pub struct ZenohTx {
     publisher: Publisher<'static>,
 }
@@ -59,9 +60,13 @@ pub fn join(
             "member {k} out of range 0..{n}"
         )));
     }
+    // Express: never held back to share a batch with later messages. Drop: a frame that
+    // finds the link's queue full (the downstream member stopped reading) is lost, as on a
+    // fibre, instead of blocking the sender — which may be zenoh's single receive thread
+    // (`runtime::inline`), whose stall would stop everything else this process receives.
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))
-        .congestion_control(CongestionControl::Block)
+        .congestion_control(CongestionControl::Drop)
         .priority(Priority::RealTime)
         .express(true)
         .wait()
