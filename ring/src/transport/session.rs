@@ -101,11 +101,6 @@ mod tests {
         .unwrap();
         let s = format!("{c}");
         assert!(s.contains("\"mode\":\"peer\""), "{s}");
-        assert_eq!(
-            c.get_json("transport/link/tx/queue/batching/enabled")
-                .unwrap(),
-            "false"
-        );
         assert!(s.contains("127.0.0.1:7447"), "{s}");
     }
 
