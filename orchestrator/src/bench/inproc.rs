@@ -98,6 +98,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             rtf: cfg.rtf,
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
+            in_flight: cfg.ring.in_flight,
             harden: false,
             max_cycles: sync.then_some(cycles),
             kind,

@@ -42,6 +42,8 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
+    pub in_flight: u64,
     /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
     pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
@@ -277,6 +279,23 @@ impl<A: RingApp> Driver<A> {
 
     /// Run until stopped. Blocks the calling thread.
     pub fn run(&mut self) -> DriverExit {
+        self.prepare();
+        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
+        let r = if self.core.is_sync_master() {
+            match self.cfg.clock {
+                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
+                ClockMode::Realtime => self.run_sync_master_realtime(),
+            }
+        } else {
+            self.run_follower()
+        };
+        info!(member = %self.cfg.name, ?r, "ring member stopped");
+        r
+    }
+
+    /// Before the loop: the cycle thread's timer slack and scheduling, the sync master's clock
+    /// figures.
+    pub(super) fn prepare(&mut self) {
         if self.cfg.clock == ClockMode::Paced
             || (self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0)
         {
@@ -291,8 +310,7 @@ impl<A: RingApp> Driver<A> {
         } else if self.cfg.harden {
             self.sched = Some(super::rt::NORMAL.to_string());
         }
-        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
-        let r = if self.core.is_sync_master() {
+        if self.core.is_sync_master() {
             let rtf = match self.cfg.clock {
                 ClockMode::Paced => self.cfg.rtf,
                 _ => 1.0,
@@ -302,15 +320,7 @@ impl<A: RingApp> Driver<A> {
                 self.period_ns(),
                 rtf,
             ));
-            match self.cfg.clock {
-                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
-                ClockMode::Realtime => self.run_sync_master_realtime(),
-            }
-        } else {
-            self.run_follower()
-        };
-        info!(member = %self.cfg.name, ?r, "ring member stopped");
-        r
+        }
     }
 
     pub(super) fn send_all(&mut self, out: Vec<Outgoing>) -> Result<(), TransportError> {
@@ -588,7 +598,7 @@ impl<A: RingApp> Driver<A> {
                 self.record(cycle, now);
             }
             if defer {
-                self.pending_tick = Some(cycle);
+                self.defer_tick(cycle);
             } else {
                 if ev.sync.is_some() {
                     self.align(ev.origin_ns);
@@ -625,6 +635,11 @@ impl<A: RingApp> Driver<A> {
             }
         }
         Ok(())
+    }
+
+    /// Leave the tick of `cycle` for the member's thread.
+    pub(super) fn defer_tick(&mut self, cycle: u64) {
+        self.pending_tick = Some(cycle);
     }
 
     /// A tick [`Self::follower_frame`] left for the member's thread: run it now with `app`

@@ -19,15 +19,21 @@
 //! tick runs on the receive thread right after forwarding: for an application whose tick is
 //! computation only (a station).
 //!
-//! Used for followers (not the synchronizing master) of the paced and lockstep clocks on links
-//! that can deliver inline (zenoh); realtime followers align their ticks to the cycle's phase
-//! by sleeping, which must not happen on the receive thread.
+//! The synchronizing master of the paced and lockstep clocks does the same with the frames that
+//! come back: a return that lets the next cycle start starts it there and then (lockstep, or a
+//! paced cycle already due); a paced cycle not due yet is started by the member's thread at its
+//! deadline (see [`super::stepped`] for the order kept with several cycles in flight).
+//!
+//! Used on links that can deliver inline (zenoh), for the paced and lockstep clocks; realtime
+//! followers align their ticks to the cycle's phase by sleeping, which must not happen on the
+//! receive thread.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use tracing::{info, warn};
 
 use super::driver::{Driver, DriverExit};
+use super::stepped::Stepper;
 use crate::config::ClockMode;
 use crate::core::RingApp;
 use crate::member::RingMember;
@@ -42,9 +48,16 @@ impl RingApp for Parked {
     fn tick(&mut self, _cycle: u64, _time_ns: u64, _regs: &mut RingMember, _ring_fault: bool) {}
 }
 
-type Shared<B> = Arc<Mutex<Option<Driver<B>>>>;
+/// The member's state shared with the receive thread.
+struct Member<B: RingApp> {
+    d: Driver<B>,
+    /// The synchronizing master's cycle steps (None on a follower).
+    st: Option<Stepper>,
+}
 
-fn lock<B: RingApp>(shared: &Shared<B>) -> MutexGuard<'_, Option<Driver<B>>> {
+type Shared<B> = Arc<Mutex<Option<Member<B>>>>;
+
+fn lock<B: RingApp>(shared: &Shared<B>) -> MutexGuard<'_, Option<Member<B>>> {
     // The driver is only ever changed by whole-frame and whole-tick steps; a panic in one of
     // them ends the member anyway.
     shared.lock().unwrap_or_else(|e| e.into_inner())
@@ -63,15 +76,30 @@ impl<B: RingApp + Send> InlineHandler for Handler<B> {
         let Ok(mut g) = self.shared.try_lock() else {
             return Some((frame, sent_ns));
         };
-        let Some(d) = g.as_mut() else {
+        let Some(Member { d, st }) = g.as_mut() else {
             return Some((frame, sent_ns));
         };
         if !d.rx.is_empty() || d.has_pending_tick() {
             return Some((frame, sent_ns));
         }
-        d.rx.record_hop(sent_ns);
-        let res = d.follower_frame(&frame, self.defer);
-        let wake = d.has_pending_tick() || res.is_err();
+        let res = match st {
+            None => {
+                d.rx.record_hop(sent_ns);
+                d.follower_frame(&frame, self.defer)
+            }
+            Some(st) => {
+                let now = d.now_ns();
+                if d.step_due(st, now).hold_frames || !d.delayed.is_empty() {
+                    // The next cycle starts first (or delayed frames are due): the member's
+                    // thread takes it from here.
+                    return Some((frame, sent_ns));
+                }
+                d.rx.record_hop(sent_ns);
+                step_inline(d, st, &frame, self.defer)
+            }
+        };
+        // A sync master's thread always looks again (a tick, or the next start's deadline).
+        let wake = d.has_pending_tick() || res.is_err() || st.is_some();
         drop(g);
         if let Err(e) = res {
             *self.failed.lock().unwrap_or_else(|e| e.into_inner()) = Some(e);
@@ -83,9 +111,25 @@ impl<B: RingApp + Send> InlineHandler for Handler<B> {
     }
 }
 
+/// Sync master, on the receive thread: a frame came back; start the next cycle if it may
+/// start now (with `defer`, its tick left for the member's thread).
+fn step_inline<B: RingApp>(
+    d: &mut Driver<B>,
+    st: &mut Stepper,
+    frame: &[u8],
+    defer: bool,
+) -> Result<(), TransportError> {
+    d.step_frame(st, frame)?;
+    let now = d.now_ns();
+    if d.step_due(st, now).now(now) && !d.done() {
+        d.step_start(st, defer)?;
+    }
+    Ok(())
+}
+
 /// Whether `d` runs with inline receive (see the module documentation).
 fn eligible<A: RingApp>(d: &Driver<A>) -> bool {
-    !d.core.is_sync_master() && d.cfg.clock != ClockMode::Realtime && d.rx.supports_inline()
+    d.cfg.clock != ClockMode::Realtime && d.rx.supports_inline()
 }
 
 /// Run the member's loop until it ends — with inline receive where it applies, ticks on the
@@ -131,13 +175,22 @@ fn shared_loop<B: RingApp + Send + 'static>(
     }
     info!(member = %driver.cfg.name, clock = driver.cfg.clock.as_str(), ticks = if defer {
         "on the member's thread" } else { "on the receive thread" },
-        "ring member running, frames forwarded on the receive thread");
-    *lock(&shared) = Some(driver);
-    let exit = follow(&shared, &handler, app);
+        "ring member running, frames handled on the receive thread");
+    driver.prepare();
+    let name = driver.cfg.name.clone();
+    let st = driver.core.is_sync_master().then(|| driver.stepper());
+    let sync = st.is_some();
+    *lock(&shared) = Some(Member { d: driver, st });
+    let exit = if sync {
+        lead(&shared, &handler, app)
+    } else {
+        follow(&shared, &handler, app)
+    };
     // From here the receive thread finds no driver and queues what still arrives.
-    let driver = lock(&shared).take();
-    match driver {
-        Some(d) => (exit, d),
+    info!(member = %name, ?exit, "ring member stopped");
+    let member = lock(&shared).take();
+    match member {
+        Some(m) => (exit, m.d),
         // Only this function takes the driver out.
         None => unreachable!("the member's driver disappeared"),
     }
@@ -153,17 +206,11 @@ fn follow<B: RingApp>(
     loop {
         let wait = {
             let mut g = lock(shared);
-            let Some(d) = g.as_mut() else {
+            let Some(Member { d, .. }) = g.as_mut() else {
                 return DriverExit::Stopped;
             };
-            if let Some(e) = handler
-                .failed
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take()
-            {
-                warn!(member = %d.cfg.name, "ring transport failed on the receive thread: {e}");
-                return DriverExit::Transport(e);
+            if let Some(exit) = failed(handler, d) {
+                return exit;
             }
             d.take_pending_tick(reborrow(&mut app));
             loop {
@@ -189,6 +236,82 @@ fn follow<B: RingApp>(
         // Waiting needs no lock on the driver: the queue has its own.
         handler.waker.wait(wait);
     }
+}
+
+/// The synchronizing master's thread: the ticks the receive thread left, cycles whose start
+/// is due (paced deadlines, the own clock), frames the receive thread handed over (in order);
+/// sleeps until the next start is due, a frame is queued or the receive thread pokes it.
+fn lead<B: RingApp>(
+    shared: &Shared<B>,
+    handler: &Handler<B>,
+    mut app: Option<&mut dyn RingApp>,
+) -> DriverExit {
+    loop {
+        let (wait, hold) = {
+            let mut g = lock(shared);
+            let Some(Member { d, st: Some(st) }) = g.as_mut() else {
+                return DriverExit::Stopped;
+            };
+            if let Some(exit) = failed(handler, d) {
+                return exit;
+            }
+            d.take_pending_tick(reborrow(&mut app));
+            let due = loop {
+                if let Some(exit) = d.stop_or_done() {
+                    return exit;
+                }
+                if let Err(e) = d.flush_delayed() {
+                    return DriverExit::Transport(e);
+                }
+                let now = d.now_ns();
+                let due = d.step_due(st, now);
+                if due.now(now) {
+                    if let Err(e) = d.step_start(st, true) {
+                        return DriverExit::Transport(e);
+                    }
+                    d.take_pending_tick(reborrow(&mut app));
+                    continue;
+                }
+                if due.hold_frames {
+                    break due;
+                }
+                match d.recv(std::time::Duration::ZERO) {
+                    Ok(Some(bytes)) => {
+                        if let Err(e) = d.step_frame(st, &bytes) {
+                            return DriverExit::Transport(e);
+                        }
+                    }
+                    Ok(None) => break due,
+                    Err(e) => return DriverExit::Transport(e),
+                }
+            };
+            let now = d.now_ns();
+            let wait = if d.delayed.is_empty() {
+                due.wait(now, std::time::Duration::from_millis(5))
+            } else {
+                std::time::Duration::from_micros(50)
+            };
+            (wait, due.hold_frames)
+        };
+        // Waiting needs no lock on the driver: the queue has its own. While the next start
+        // waits for its deadline, queued returns stay where they are.
+        if hold {
+            handler.waker.wait_poke(wait);
+        } else {
+            handler.waker.wait(wait);
+        }
+    }
+}
+
+/// The receive thread failed to send: the loop ends.
+fn failed<B: RingApp>(handler: &Handler<B>, d: &Driver<B>) -> Option<DriverExit> {
+    let e = handler
+        .failed
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take()?;
+    warn!(member = %d.cfg.name, "ring transport failed on the receive thread: {e}");
+    Some(DriverExit::Transport(e))
 }
 
 fn reborrow<'a>(app: &'a mut Option<&mut dyn RingApp>) -> Option<&'a mut dyn RingApp> {

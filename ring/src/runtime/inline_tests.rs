@@ -145,13 +145,16 @@ fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
         waker: driver.rx.waker(),
         failed: Mutex::new(None),
     };
-    *lock(&shared) = Some(driver);
+    *lock(&shared) = Some(Member {
+        d: driver,
+        st: None,
+    });
     let f = master_frames(4);
 
     // Idle member: handled at once — forwarded, its tick left for the member's thread.
     assert!(handler.offer(f[0].clone(), 1).is_none());
     assert_eq!(sent.0.lock().unwrap().len(), 1);
-    assert!(lock(&shared).as_ref().unwrap().has_pending_tick());
+    assert!(lock(&shared).as_ref().unwrap().d.has_pending_tick());
     assert!(
         handler.waker.wait(Duration::ZERO),
         "the member's thread is woken"
@@ -161,7 +164,7 @@ fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
     qtx.push(f[1].clone(), 2);
     {
         let mut g = lock(&shared);
-        g.as_mut().unwrap().take_pending_tick(Some(&mut Parked));
+        g.as_mut().unwrap().d.take_pending_tick(Some(&mut Parked));
     }
     // A frame queued before this one: order is kept.
     assert_eq!(handler.offer(f[2].clone(), 3), Some((f[2].clone(), 3)));

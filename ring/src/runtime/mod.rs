@@ -16,4 +16,6 @@ pub mod stepped;
 pub mod timing;
 
 #[cfg(test)]
+mod pipeline_tests;
+#[cfg(test)]
 mod tests;

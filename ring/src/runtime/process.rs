@@ -220,6 +220,7 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        in_flight: config.ring.in_flight,
         harden: true,
         max_cycles: None,
         kind,

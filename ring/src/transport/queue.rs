@@ -40,12 +40,12 @@ impl Shared {
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// See [`QueueReceiver::wait`].
-    fn wait(&self, timeout: Duration) -> bool {
+    /// See [`QueueReceiver::wait`]; with `frames` false a queued frame does not end the wait.
+    fn wait(&self, timeout: Duration, frames: bool) -> bool {
         let deadline = Instant::now().checked_add(timeout);
         let mut g = self.lock();
         loop {
-            if !g.frames.is_empty() || g.senders == 0 || std::mem::take(&mut g.poked) {
+            if (frames && !g.frames.is_empty()) || g.senders == 0 || std::mem::take(&mut g.poked) {
                 return true;
             }
             let left = match deadline {
@@ -160,7 +160,13 @@ impl QueueWaker {
 
     /// [`QueueReceiver::wait`], for the queue's single receiver.
     pub fn wait(&self, timeout: Duration) -> bool {
-        self.shared.wait(timeout)
+        self.shared.wait(timeout, true)
+    }
+
+    /// Like [`Self::wait`], but frames already queued (or arriving) do not end it: only a poke,
+    /// the queue closing, or the timeout (a receiver that must not take frames yet).
+    pub fn wait_poke(&self, timeout: Duration) -> bool {
+        self.shared.wait(timeout, false)
     }
 }
 
@@ -201,7 +207,7 @@ impl QueueReceiver {
     /// Wait up to `timeout` until a frame is queued, the queue is poked (the poke is consumed)
     /// or closed, without taking anything. True unless it timed out.
     pub fn wait(&self, timeout: Duration) -> bool {
-        self.shared.wait(timeout)
+        self.shared.wait(timeout, true)
     }
 
     /// A handle that wakes [`Self::wait`].
@@ -305,6 +311,11 @@ mod tests {
         assert!(rx.wait(Duration::from_secs(30)));
         t.join().unwrap();
         tx.push(b"f".to_vec(), 7);
+        let waker = rx.waker();
+        assert!(
+            !waker.wait_poke(Duration::from_millis(5)),
+            "frames do not end a poke wait"
+        );
         assert!(rx.wait(Duration::ZERO));
         assert!(rx.wait(Duration::ZERO), "a queued frame stays until taken");
         assert_eq!(rx.try_recv().unwrap(), (b"f".to_vec(), 7));
