@@ -180,7 +180,9 @@ impl<A: RingApp> Driver<A> {
             st.grid.rebase(st.k, now);
         }
         st.returned = st.returned.max(Some(c));
-        if st.down && c.saturating_add(1) >= st.k {
+        // Back to normal once a cycle of the current window comes back (with N in flight the
+        // frame of k-N is the newest that can).
+        if st.down && c.saturating_add(st.in_flight) >= st.k {
             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
             st.down = false;
             if let Some(s) = self.clock.as_mut() {
