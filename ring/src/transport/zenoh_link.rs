@@ -66,7 +66,7 @@ pub fn join(
     // (`runtime::inline`), whose stall would stop everything else this process receives.
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))
-        .congestion_control(CongestionControl::Drop)
+        .congestion_control(CongestionControl::Block)
         .priority(Priority::RealTime)
         .express(true)
         .wait()
