@@ -457,6 +457,7 @@ pub struct BenchUdpMemberArgs {
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {
     s.parse()
+        .map_err(|e: mcc_ring::config::UnknownClockMode| e.to_string())
 }
 
 #[cfg(test)]
