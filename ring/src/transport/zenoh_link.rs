@@ -13,8 +13,8 @@ use super::{
 };
 use crate::control::link_key;
 
-/// Sending half of a zenoh ring link (a declared publisher: express, real-time priority, dropped
-/// rather than blocking when the link's queue is full).
+/// Sending half of a zenoh ring link (a declared publisher: express, real-time priority, a link
+/// queue that a healthy ring can never fill; see [`join`]).
 pub struct ZenohTx {
     publisher: Publisher<'static>,
 }
@@ -60,13 +60,24 @@ pub fn join(
             "member {k} out of range 0..{n}"
         )));
     }
-    // Express: never held back to share a batch with later messages. Drop: a frame that
-    // finds the link's queue full (the downstream member stopped reading) is lost, as on a
-    // fibre, instead of blocking the sender — which may be zenoh's single receive thread
-    // (`runtime::inline`), whose stall would stop everything else this process receives.
+    // Express: never held back to share a batch with later messages; real-time priority: no
+    // other traffic shares its queue.
+    //
+    // Drop, not Block, and still no frame is lost while the ring is healthy: a paced or lockstep
+    // ring carries at most `ring.in_flight` (<= 8) frames per link at a time (cycle k+N starts
+    // only once the frame of cycle k came back, so the frame of k on this link was written and
+    // read), and the link's real-time queue holds `session::RING_TX_QUEUE_BATCHES` (16) express
+    // frames: a put always finds room and never waits. The queue can only fill when the
+    // downstream member truly stopped reading (frozen, hung) while the sync master runs the
+    // downed ring on its own clock. Then Drop loses frames to a member that is not listening, as
+    // light into a dead fibre; Block would stall the put, which runs on zenoh's single receive
+    // thread (`runtime::inline`) — the same thread that runs this link's transmit task, so it
+    // would wait for itself — stopping everything else this process receives (status, control,
+    // the upstream frames) for zenoh's 5 s block timeout and then closing the link.
+    // (tests/scenarios/cluster.rs `lockstep_rings_under_full_load_lose_no_frame`.)
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))
-        .congestion_control(CongestionControl::Block)
+        .congestion_control(CongestionControl::Drop)
         .priority(Priority::RealTime)
         .express(true)
         .wait()
