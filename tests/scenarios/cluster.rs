@@ -334,7 +334,10 @@ fn the_foreground_terminal_prints_cluster_events_as_they_happen() {
     };
     // A cut: the cards latch (member, class, cycle), each on its own line.
     verb(&["fault", "station0", "cut"]);
-    let l = fg.wait_line("ring fault latched: card1 at cycle", Duration::from_secs(60));
+    let l = fg.wait_line(
+        "ring fault latched: card1 at cycle",
+        Duration::from_secs(60),
+    );
     assert!(l.starts_with("mcc event: "), "{l}");
     assert!(l.contains("byte violations (loss of light)"), "{l}");
     // Mended and reset: healthy again.
@@ -351,7 +354,10 @@ fn the_foreground_terminal_prints_cluster_events_as_they_happen() {
         for n in 0..2 {
             guard.ascii(n, &["$$$"]);
         }
-        let _ = mcc(&["fault", "reset", "--cluster", &name], Duration::from_secs(30));
+        let _ = mcc(
+            &["fault", "reset", "--cluster", &name],
+            Duration::from_secs(30),
+        );
         guard.status()["ring"]["faulted"] == false
     });
     fg.wait_line("ring healthy again at cycle", Duration::from_secs(60));
@@ -387,9 +393,16 @@ fn a_short_soak_on_the_default_clock_has_no_ring_fault_even_under_load() {
         assert!(t.contains(want), "missing {want:?} in:\n{t}");
     }
     // Bad input is refused before anything starts.
-    let out = mcc(&["bench", "soak", "--seconds", "0"], Duration::from_secs(30));
+    let out = mcc(
+        &["bench", "soak", "--seconds", "0"],
+        Duration::from_secs(30),
+    );
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("--minutes/--seconds"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("--minutes/--seconds"),
+        "{}",
+        text(&out.stderr)
+    );
     let out = mcc(&["bench", "soak", "--rtf", "0"], Duration::from_secs(30));
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("rtf"), "{}", text(&out.stderr));

@@ -273,7 +273,12 @@ fn drill(
         format!("{lo}..{hi}")
     };
     let notice = noticed
-        .map(|d| format!("; loss of light downstream after {:.0} ms", d.as_secs_f64() * 1000.0))
+        .map(|d| {
+            format!(
+                "; loss of light downstream after {:.0} ms",
+                d.as_secs_f64() * 1000.0
+            )
+        })
         .unwrap_or_default();
     Ok(format!("{when:<17} {}{notice}", parts.join(", ")))
 }

@@ -244,7 +244,7 @@ impl<A: RingApp> Driver<A> {
             info!(member = %self.cfg.name, "realtime cycle thread: {got}");
             self.sched = Some(got);
         } else if self.cfg.harden {
-            self.sched = Some(super::rt::NORMAL.to_string());
+            self.sched = Some(super::rt::current_scheduling());
         }
         info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
         let r = if self.core.is_sync_master() {
