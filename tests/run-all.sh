@@ -7,3 +7,5 @@ export MCC_LOG="${MCC_LOG:-warn}"
 cargo build --workspace --bins
 cargo test --workspace -- --test-threads="${MCC_TEST_THREADS:-1}"
 bash tests/clients/run.sh
+# The pytest plugin (python/) and the examples/, against real clusters (same venv).
+MCC_SKIP_BUILD=1 bash python/run-tests.sh

@@ -56,7 +56,15 @@ pub enum Command {
     Emcl(EmclArgs),
     /// Internal: the detached supervisor started by `mcc up --detach`.
     #[command(hide = true)]
-    Supervise,
+    Supervise(SuperviseArgs),
+}
+
+/// `mcc supervise` (hidden).
+#[derive(Debug, Args)]
+pub struct SuperviseArgs {
+    /// Stop the cluster when this process exits (`mcc up --owner-pid`).
+    #[arg(long, value_name = "PID")]
+    pub owner_pid: Option<u32>,
 }
 
 /// `mcc up`.
@@ -99,6 +107,18 @@ pub struct UpArgs {
     /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
     #[arg(long)]
     pub show_framing: bool,
+    /// With --detach: print the status document (`mcc status --json`) once the ring is locked,
+    /// and on failure a JSON error (`{"error": {"kind", "message", "logs"}}`) on stdout.
+    #[arg(long, requires = "detach")]
+    pub json: bool,
+    /// Stop the cluster when process PID exits (test harnesses: a killed test runner never
+    /// leaves a cluster behind).
+    #[arg(long, value_name = "PID")]
+    pub owner_pid: Option<u32>,
+    /// Print the resolved, checked config (TOML: the file or the embedded default with the
+    /// options applied) and exit without starting anything.
+    #[arg(long, conflicts_with_all = ["detach", "json"])]
+    pub print_config: bool,
 }
 
 /// `mcc send`.
@@ -113,6 +133,9 @@ pub struct SendArgs {
     /// Milliseconds a card has to answer.
     #[arg(long, value_name = "MS", default_value_t = 2000)]
     pub timeout_ms: u64,
+    /// Print one JSON array of `{"line", "reply", "error"}` (one per LINE) instead of text.
+    #[arg(long)]
+    pub json: bool,
     /// Command lines (`^K` = control character).
     #[arg(required = true, value_name = "LINE")]
     pub lines: Vec<String>,
@@ -149,6 +172,10 @@ pub struct StatusArgs {
     /// Print the JSON status document instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Keep printing a status document (one compact JSON line) every MS milliseconds until
+    /// the cluster stops or the reader goes away.
+    #[arg(long, value_name = "MS", requires = "json", value_parser = clap::value_parser!(u64).range(10..=60_000))]
+    pub watch: Option<u64>,
 }
 
 /// `mcc fault`.
@@ -199,9 +226,10 @@ pub struct StartSyncArgs {
 /// `mcc gather`.
 #[derive(Debug, Args)]
 pub struct GatherArgs {
-    /// Card number (I0).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=15))]
-    pub card: u8,
+    /// Card number(s) (I0), comma-separated: gathering starts on every one in the same ring
+    /// cycle.
+    #[arg(long, value_name = "N[,N...]")]
+    pub card: String,
     /// Motors (1-8), comma-separated: commanded and actual position of each.
     #[arg(long, value_name = "M,M,...", default_value = "1")]
     pub motors: String,
@@ -211,12 +239,16 @@ pub struct GatherArgs {
     /// Servo cycles between samples (I19).
     #[arg(long, value_name = "P", default_value_t = 1)]
     pub period: u32,
-    /// Command line sent to the card right after gathering starts (e.g. "#1J=2000").
+    /// Command line run on each card in the ring cycle gathering starts (e.g. "#1J=2000").
     #[arg(long, value_name = "LINE")]
     pub run: Option<String>,
-    /// Directory for gather.csv and gather.png.
-    #[arg(long, value_name = "DIR", default_value = ".")]
-    pub out: PathBuf,
+    /// Directory for gather.csv and gather.png (several cards: gather-card<N>.csv/.png);
+    /// default `.`, or no files with --json.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Print the samples as JSON (ring cycle of every sample, positions per card and motor).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mcc emcl`.
@@ -443,6 +475,34 @@ mod tests {
         assert_eq!(up.clock, Some(ClockMode::Lockstep));
         assert_eq!(up.rate, Some(1000.0));
         assert!(up.detach);
+    }
+
+    #[test]
+    fn harness_options_parse_and_combine_only_where_they_mean_something() {
+        let cli =
+            Cli::try_parse_from(["mcc", "up", "--detach", "--json", "--owner-pid", "42"]).unwrap();
+        let Command::Up(up) = cli.command else {
+            panic!()
+        };
+        assert!(up.json && up.detach);
+        assert_eq!(up.owner_pid, Some(42));
+        // --json needs --detach (the foreground `up` is a terminal); --print-config starts
+        // nothing, so it takes neither.
+        assert!(Cli::try_parse_from(["mcc", "up", "--json"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "up", "--print-config", "--detach"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "up", "--print-config", "--cards", "3"]).is_ok());
+        let st = Cli::try_parse_from(["mcc", "status", "--json", "--watch", "50"]).unwrap();
+        let Command::Status(st) = st.command else {
+            panic!()
+        };
+        assert_eq!(st.watch, Some(50));
+        assert!(Cli::try_parse_from(["mcc", "status", "--watch", "50"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "status", "--json", "--watch", "5"]).is_err());
+        let g = Cli::try_parse_from(["mcc", "gather", "--card", "0,1", "--json"]).unwrap();
+        let Command::Gather(g) = g.command else {
+            panic!()
+        };
+        assert_eq!((g.card.as_str(), g.json, g.out), ("0,1", true, None));
     }
 
     #[test]

@@ -48,6 +48,15 @@ pub fn attach(name: &str) -> Result<Attached> {
         cfg.ring.order.len() + 1 + cfg.standalone_drives().count(),
         Duration::from_millis(1500),
     )?;
+    // A fresh session may not route queries to every member yet, and a query nobody serves
+    // comes back empty at once (a start-sync or gather then blames a card): ask every member
+    // until each answered (bounded; a dead member only costs the budget).
+    let _ = ctl::query_statuses(
+        &session,
+        &cfg,
+        Duration::from_millis(300),
+        Duration::from_millis(1500),
+    );
     Ok(Attached {
         rd,
         info,
@@ -58,6 +67,9 @@ pub fn attach(name: &str) -> Result<Attached> {
 
 /// `mcc status [--json]`.
 pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
+    if let Some(ms) = args.watch {
+        return crate::watch::watch(cluster, Duration::from_millis(ms));
+    }
     let a = attach(cluster)?;
     let st = ctl::query_statuses(
         &a.session,

@@ -12,9 +12,12 @@ mod down;
 mod drills;
 mod emcl;
 mod events;
+mod failure;
 mod fault;
 mod gather;
 mod launch;
+mod owner;
+mod precheck;
 mod rundir;
 mod send;
 mod serve;
@@ -24,6 +27,7 @@ mod syncstart;
 mod sys;
 mod term;
 mod up;
+mod watch;
 
 use cli::{BenchCommand, Cli, Command};
 
@@ -54,12 +58,27 @@ fn main() {
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
-        Command::Supervise => up::cmd_supervise(&cluster),
+        Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
     };
     if let Err(e) = res {
+        if wants_json(&cli.command) {
+            println!("{}", failure::error_json(&e));
+        }
         eprintln!("mcc: error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// Verbs asked for JSON output print their errors as JSON too (`failure::error_json`).
+fn wants_json(c: &Command) -> bool {
+    match c {
+        Command::Up(a) => a.json,
+        Command::Status(a) => a.json,
+        Command::Send(a) => a.json,
+        Command::StartSync(a) => a.json,
+        Command::Gather(a) => a.json,
+        _ => false,
     }
 }

@@ -8,6 +8,8 @@ use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::MemberStatus;
 
 use crate::cli::{UpArgs, DEFAULT_CLUSTER};
+use crate::failure::Failure;
+use crate::owner::Owner;
 use crate::rundir::RunDir;
 use crate::supervisor::{stop_signals, Supervisor};
 use crate::{ctl, down, launch, status, sys};
@@ -190,31 +192,48 @@ fn print_ready(
 
 /// `mcc up`.
 pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
-    let cfg = resolve_config(cluster_flag, args)?;
-    let rd = RunDir::for_cluster(&cfg.cluster)?;
-    rd.claim(std::process::id())?;
+    let config = |e: anyhow::Error| anyhow::Error::new(Failure::new("config", e));
+    let cfg = resolve_config(cluster_flag, args).map_err(config)?;
+    crate::precheck::check_members(&cfg).map_err(config)?;
+    if args.print_config {
+        print!("{}", cfg.to_toml_string()?);
+        return Ok(());
+    }
+    let owner = args.owner_pid.map(Owner::new).transpose().map_err(config)?;
+    let rd = RunDir::for_cluster(&cfg.cluster).map_err(config)?;
+    rd.claim(std::process::id())
+        .map_err(|e| anyhow::Error::new(Failure::new("running", e)))?;
     if let Err(e) = rd.write_config(&cfg.to_toml_string()?) {
         let _ = rd.cleanup();
         return Err(e);
     }
     let timeout = Duration::from_secs(args.timeout.max(1));
     if args.detach {
-        up_detached(&rd, &cfg, timeout)
+        up_detached(&rd, &cfg, timeout, owner, args.json)
     } else {
-        up_foreground(rd, cfg, timeout, args.show_framing)
+        up_foreground(rd, cfg, timeout, args.show_framing, owner)
     }
 }
 
-fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()> {
+fn up_detached(
+    rd: &RunDir,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+    owner: Option<Owner>,
+    json: bool,
+) -> Result<()> {
     let fail = |rd: &RunDir, e: anyhow::Error| -> Result<()> {
-        let tail = rd.log_tail("supervisor", 10);
+        let kind = if e.to_string().contains("did not lock") {
+            "lock-timeout"
+        } else {
+            "start"
+        };
+        let e = e.context(format!("cluster {} failed to start", rd.cluster));
+        let failure = Failure::new(kind, e).with_logs(rd, &cfg.ring.order);
         let _ = down::stop(rd, STOP_TIMEOUT, false);
-        Err(e.context(format!(
-            "cluster {} failed to start; supervisor log:\n{tail}",
-            rd.cluster
-        )))
+        Err(anyhow::Error::new(failure))
     };
-    let pid = match launch::spawn_supervisor(rd) {
+    let pid = match launch::spawn_supervisor(rd, owner.map(|o| o.pid)) {
         Ok(p) => p,
         Err(e) => return fail(rd, e),
     };
@@ -254,14 +273,7 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
         info.members
             .iter()
             .find(|m| !sys::pid_alive(m.pid))
-            .map(|m| {
-                format!(
-                    "member {} (pid {}) exited; log:\n{}",
-                    m.name,
-                    m.pid,
-                    rd.log_tail(&m.name, 10)
-                )
-            })
+            .map(|m| format!("member {} (pid {}) exited", m.name, m.pid))
     };
     let st = match wait_locked(&session, cfg, timeout, dead) {
         Ok(st) => st,
@@ -270,6 +282,12 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
             return fail(rd, e);
         }
     };
+    if json {
+        let mut doc = status::build(cfg, &info, &rd.dir.display().to_string(), &st);
+        crate::drills::enrich_status(&session, cfg, &mut doc);
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
     print_ready(rd, cfg, &info, &st);
     println!("  stop with: mcc down --cluster {}", cfg.cluster);
     Ok(())
@@ -280,6 +298,7 @@ fn up_foreground(
     cfg: ClusterConfig,
     timeout: Duration,
     show_framing: bool,
+    owner: Option<Owner>,
 ) -> Result<()> {
     let (_rt, signals) = stop_signals()?;
     let mut sup = match Supervisor::start(rd.clone(), cfg) {
@@ -318,7 +337,7 @@ fn up_foreground(
         show_framing,
         printer.clone(),
     );
-    run_until_stopped(&mut sup, &signals, Some(&eof_rx), Some(&printer));
+    run_until_stopped(&mut sup, &signals, Some(&eof_rx), owner, Some(&printer));
     drop(watcher);
     sup.shutdown(STOP_TIMEOUT);
     println!("cluster {} stopped", cfg.cluster);
@@ -329,6 +348,7 @@ fn run_until_stopped(
     sup: &mut Supervisor,
     signals: &mpsc::Receiver<String>,
     eof: Option<&mpsc::Receiver<()>>,
+    owner: Option<Owner>,
     printer: Option<&crate::events::Printer>,
 ) {
     loop {
@@ -343,6 +363,10 @@ fn run_until_stopped(
         if eof.is_some_and(|r| r.try_recv().is_ok()) {
             return;
         }
+        if let Some(o) = owner.filter(|o| !o.alive()) {
+            eprintln!("mcc: owner process {} exited: stopping the cluster", o.pid);
+            return;
+        }
         for msg in sup.poll() {
             match printer {
                 Some(p) => p.line(&format!("{} {msg}", crate::events::PREFIX)),
@@ -354,7 +378,11 @@ fn run_until_stopped(
 
 /// `mcc supervise` (hidden): the detached supervisor. The run dir was claimed and the config
 /// written by `mcc up --detach`.
-pub fn cmd_supervise(cluster: &str) -> Result<()> {
+pub fn cmd_supervise(cluster: &str, args: &crate::cli::SuperviseArgs) -> Result<()> {
+    // The owner may already be gone (then the cluster stops at once).
+    let owner = args
+        .owner_pid
+        .map(|pid| Owner::new(pid).unwrap_or(Owner::gone(pid)));
     let rd = RunDir::for_cluster(cluster)?;
     let (_rt, signals) = stop_signals()?;
     let cfg = ClusterConfig::from_file(&rd.config_path()).context("supervise")?;
@@ -372,7 +400,7 @@ pub fn cmd_supervise(cluster: &str) -> Result<()> {
         "mcc supervise: cluster {cluster} running (pid {})",
         std::process::id()
     );
-    run_until_stopped(&mut sup, &signals, None, None);
+    run_until_stopped(&mut sup, &signals, None, owner, None);
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");
     Ok(())

@@ -9,4 +9,5 @@ mod gather;
 mod motion;
 mod programs;
 mod ring_inprocess;
+mod testing_api;
 mod transcripts;
