@@ -568,7 +568,7 @@ fn default_rtf() -> f64 {
     1.0
 }
 /// Default frozen-member wait, ms (see `member_timeout_ms`).
-pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 2000;
+pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 10_000;
 fn default_member_timeout() -> u64 {
     DEFAULT_MEMBER_TIMEOUT_MS
 }

@@ -122,6 +122,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
             rtf: cfg.rtf,
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
+            upstream_probe: None,
             harden: false,
             max_cycles: sync.then_some(cycles),
             kind,

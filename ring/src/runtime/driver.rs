@@ -42,6 +42,9 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Whether the upstream process (on this machine) is stopped: consulted once nothing has
+    /// come from upstream for [`STOP_PROBE_AFTER`].
+    pub upstream_probe: Option<super::light::StopProbe>,
     /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
     pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
@@ -62,6 +65,12 @@ pub struct DriverConfig {
     /// packet arrives later than that ticks at once. 0 = tick on arrival.
     pub phase_delay_ns: u64,
 }
+
+/// Silence from upstream after which the member looks at whether the upstream process is
+/// stopped (a fact on this machine, not a timeout: a slow process is never "stopped").
+pub const STOP_PROBE_AFTER: Duration = Duration::from_millis(20);
+/// How often a silent member looks again.
+const STOP_PROBE_EVERY_NS: u64 = 10_000_000;
 
 /// Phase alignment spins (instead of sleeping) for the last this many ns before the moment.
 const ALIGN_SPIN_NS: u64 = 60_000;
@@ -113,6 +122,10 @@ pub struct Driver<A: RingApp> {
     records: Vec<(u64, u64)>,
     /// The receive link closed (an in-process upstream whose loop ended): nothing will come.
     rx_closed: bool,
+    /// When the last frame came from upstream (monotonic ns).
+    last_rx_ns: u64,
+    /// The stop probe's last look: (when, upstream stopped).
+    probed: (u64, bool),
     /// What the cycle thread got from the scheduler.
     sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
@@ -150,6 +163,8 @@ impl<A: RingApp> Driver<A> {
             cycles_run: 0,
             records: Vec::new(),
             rx_closed: false,
+            last_rx_ns: monotonic_ns(),
+            probed: (0, false),
             sched: None,
             clock: None,
         }
@@ -204,14 +219,33 @@ impl<A: RingApp> Driver<A> {
         }
     }
 
-    /// The upstream member is known dead (its link carries no light).
-    pub(super) fn upstream_dead(&self) -> bool {
-        self.rx_closed
+    /// The upstream member is known dead, or its process is stopped and nothing comes from it:
+    /// its link carries no light.
+    pub(super) fn upstream_dead(&mut self) -> bool {
+        if self.rx_closed
             || self
                 .cfg
                 .upstream_dead
                 .as_ref()
                 .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            return true;
+        }
+        let Some(probe) = &self.cfg.upstream_probe else {
+            return false;
+        };
+        let now = monotonic_ns();
+        if now.saturating_sub(self.last_rx_ns) < STOP_PROBE_AFTER.as_nanos() as u64 {
+            return false;
+        }
+        if now.saturating_sub(self.probed.0) >= STOP_PROBE_EVERY_NS {
+            let stopped = probe.stopped();
+            if stopped && !self.probed.1 {
+                warn!(member = %self.cfg.name, "upstream process is stopped: loss of light");
+            }
+            self.probed = (now, stopped);
+        }
+        self.probed.1
     }
 
     /// The next frame from upstream within `wait`. A closed link is a dead upstream (loss of
@@ -222,6 +256,11 @@ impl<A: RingApp> Driver<A> {
                 Err(TransportError::Closed) => {
                     warn!(member = %self.cfg.name, "receive link closed: loss of light");
                     self.rx_closed = true;
+                }
+                Ok(Some(frame)) => {
+                    self.last_rx_ns = monotonic_ns();
+                    self.probed.1 = false;
+                    return Ok(Some(frame));
                 }
                 other => return other,
             }
@@ -315,6 +354,7 @@ impl<A: RingApp> Driver<A> {
                     s.extra = self.cfg.extra.clone();
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
                     s.sched = self.sched.clone();
+                    s.host_id = super::light::host_id();
                     if let Some(c) = &s.clock {
                         s.late_cycles = s.late_cycles.max(c.late_cycles);
                     }

@@ -180,10 +180,10 @@ where
         .unwrap_or(&args.name)
         .to_string();
     let watch = if upstream != args.name {
-        Some(
-            super::light::watch_upstream(&session, &config.cluster, &upstream)
-                .map_err(|e| anyhow!(e))?,
-        )
+        let w =
+            super::light::watch_upstream(&session, &config.cluster, &upstream, Arc::clone(&stop))
+                .map_err(|e| anyhow!(e))?;
+        Some(w)
     } else {
         None
     };
@@ -195,6 +195,7 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,

@@ -61,6 +61,7 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         rtf: 1.0,
         member_timeout: Duration::from_millis(1000),
         upstream_dead: None,
+        upstream_probe: None,
         harden: false,
         max_cycles: Some(cycles),
         kind,
@@ -471,4 +472,38 @@ fn a_frozen_member_takes_the_ring_down_after_the_member_timeout_and_back_when_th
         assert!(s.last_rx_cycle.is_some_and(|c| c >= 3990), "{s:?}");
         assert!(s.dark_since_cycle.is_none_or(|c| c >= 3999), "{s:?}");
     }
+}
+
+#[test]
+fn a_stopped_upstream_process_is_loss_of_light_at_once_not_after_the_member_timeout() {
+    // station0 stalls 1.5 s in cycle 200 while card1's stop probe sees a stopped process (a
+    // SIGSTOPped `sleep` stands in for station0's process): card1 goes dark ~20 ms into the
+    // silence, the ring keeps cycling on its clock, and nobody waits the 10 s member timeout.
+    let mut sleeper = std::process::Command::new("sleep")
+        .arg("60")
+        .spawn()
+        .expect("spawn sleep");
+    let pid = sleeper.id();
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(pid as i32),
+        nix::sys::signal::Signal::SIGSTOP,
+    )
+    .unwrap();
+    let timeout = Duration::from_secs(10);
+    let mut m = checked_ring(ClockMode::Paced, 2500, timeout);
+    m[1].1.stall_at = Some((200, Duration::from_millis(1500)));
+    m[2].2.upstream_probe = Some(super::light::StopProbe::with_pid(pid));
+    let out = run_to_end(m, Duration::from_secs(60));
+    let _ = sleeper.kill();
+    let _ = sleeper.wait();
+    let sm = out[0].clock.clone().unwrap();
+    assert!(
+        sm.longest_stall_us < 1_000_000,
+        "the ring waited for the stalled member: {sm:?}"
+    );
+    assert_eq!(sm.ring_down_count, 0, "{sm:?}");
+    let card1 = out[2].core.status();
+    assert!(card1.ring_fault_count >= 1, "{card1:?}");
+    assert!(card1.errors.byte_violation > 0, "{card1:?}");
+    assert!(out[0].core.status().ring_fault_count >= 1);
 }
