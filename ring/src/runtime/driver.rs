@@ -126,6 +126,10 @@ pub struct Driver<A: RingApp> {
     last_rx_ns: u64,
     /// The stop probe's last look: (when, upstream stopped).
     probed: (u64, bool),
+    /// Attended silence on the input (the frozen-member judgement).
+    pub(super) silence: super::silence::Silence,
+    /// The upstream member has been judged frozen (for logging the change once).
+    frozen: bool,
     /// What the cycle thread got from the scheduler.
     sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
@@ -165,6 +169,8 @@ impl<A: RingApp> Driver<A> {
             rx_closed: false,
             last_rx_ns: monotonic_ns(),
             probed: (0, false),
+            silence: super::silence::Silence::default(),
+            frozen: false,
             sched: None,
             clock: None,
         }
@@ -248,6 +254,25 @@ impl<A: RingApp> Driver<A> {
         self.probed.1
     }
 
+    /// Follower, paced and lockstep: the upstream member has stopped answering — nothing came
+    /// from it for the frozen-member wait of attended silence (see [`super::silence`]).
+    fn upstream_frozen(&mut self) -> bool {
+        let attended = self.silence.look(monotonic_ns());
+        let frozen = attended >= self.cfg.member_timeout.as_nanos() as u64;
+        if frozen != self.frozen {
+            self.frozen = frozen;
+            if frozen {
+                warn!(
+                    member = %self.cfg.name,
+                    "nothing from upstream for {} ms: the upstream member stopped answering, \
+                     cycles run on the own clock",
+                    attended / 1_000_000
+                );
+            }
+        }
+        frozen
+    }
+
     /// The next frame from upstream within `wait`. A closed link is a dead upstream (loss of
     /// light), not the end of this member: it then just waits.
     pub(super) fn recv(&mut self, wait: Duration) -> Result<Option<Vec<u8>>, TransportError> {
@@ -259,6 +284,7 @@ impl<A: RingApp> Driver<A> {
                 }
                 Ok(Some(frame)) => {
                     self.last_rx_ns = monotonic_ns();
+                    self.silence.reset(self.last_rx_ns);
                     self.probed.1 = false;
                     return Ok(Some(frame));
                 }
@@ -516,15 +542,18 @@ impl<A: RingApp> Driver<A> {
             if let Err(e) = self.flush_delayed() {
                 return DriverExit::Transport(e);
             }
-            let dead = self.upstream_dead();
-            if dead {
-                // Nothing will come: run the own clock now, not after the frozen-member wait.
+            // Paced and lockstep: the own clock runs only once the upstream member is known
+            // dead (or stopped), or stopped answering (attended silence, not wall time).
+            let own_clock = self.upstream_dead() || (stepped && self.upstream_frozen());
+            if own_clock {
+                // Nothing will come: run the own clock now.
                 self.core.expedite_holdover(self.now_ns());
             }
             let wait = if self.delayed.is_empty() {
                 let until_holdover = self
                     .core
                     .holdover_due_ns()
+                    .filter(|_| own_clock || !stepped)
                     .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
                     .unwrap_or(Duration::from_millis(2));
                 until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
@@ -558,6 +587,9 @@ impl<A: RingApp> Driver<A> {
             // Holdover: no frame for too long → tick on the local clock. In paced and lockstep
             // mode that only happens once the upstream member stopped answering (the frozen
             // wait) or is known dead: its link is dark, each such cycle a byte violation.
+            if stepped && !(self.upstream_dead() || self.upstream_frozen()) {
+                continue;
+            }
             let now = self.now_ns();
             while let Some(cycle) = self.core.on_holdover(now) {
                 trace!(member = %self.cfg.name, cycle, "holdover tick");

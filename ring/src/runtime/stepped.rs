@@ -10,7 +10,8 @@
 //! - `lockstep`: as fast as the ring allows.
 //!
 //! The one wall-clock judgement: if nothing comes back within the frozen-member wait
-//! (`member_timeout_ms`), a member has stopped answering and the ring is down. The master then
+//! (`member_timeout_ms`, counted as attended silence: time this loop was running to see it,
+//! see [`super::silence`]), a member has stopped answering and the ring is down. The master then
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
 //! counts the silence — until a frame of the current cycle comes back. When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
@@ -65,7 +66,9 @@ impl<A: RingApp> Driver<A> {
                     grid_live = own_clock;
                     grid.rebase(k, now);
                 }
-                let since = now.saturating_sub(last_start);
+                // Silence since the cycle in flight started, counted only while this loop
+                // was running to see it (a stall of this process is no frozen member).
+                let attended = self.silence.look(now);
                 let back = returned.is_some_and(|r| r.saturating_add(1) >= k);
                 // When may k start (None: not before a frame comes back)?
                 let due = if k == 0 {
@@ -76,7 +79,7 @@ impl<A: RingApp> Driver<A> {
                     Some(last_start.saturating_add(BRINGUP_RETRY_NS))
                 } else if back {
                     Some(if paced { grid.deadline(k) } else { now })
-                } else if since >= frozen_ns {
+                } else if attended >= frozen_ns {
                     warn!(
                         member = %self.cfg.name,
                         cycle = k - 1,
@@ -94,7 +97,10 @@ impl<A: RingApp> Driver<A> {
                 if due.is_some_and(|d| now >= d) {
                     break;
                 }
-                let until = due.unwrap_or(last_start.saturating_add(frozen_ns)) - now;
+                let until = match due {
+                    Some(d) => d.saturating_sub(now),
+                    None => frozen_ns.saturating_sub(attended),
+                };
                 let wait = if self.delayed.is_empty() {
                     Duration::from_nanos(until).min(Duration::from_millis(5))
                 } else {
@@ -119,7 +125,10 @@ impl<A: RingApp> Driver<A> {
                             // The ring is up: the schedule starts now.
                             grid.rebase(k, now);
                         }
-                        returned = returned.max(Some(c));
+                        // A frame numbered beyond the cycle in flight (a member that ran on
+                        // its own clock) is the return of the cycle in flight, no more: the
+                        // ring's count is this master's.
+                        returned = returned.max(Some(c.min(k.saturating_sub(1))));
                         if down && c.saturating_add(1) >= k {
                             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
                             down = false;
@@ -167,6 +176,7 @@ impl<A: RingApp> Driver<A> {
                 returned = returned.max(Some(k));
             }
             last_start = now;
+            self.silence.reset(now);
             k += 1;
         }
     }
