@@ -207,6 +207,31 @@ fn bad_config_and_arguments_get_a_message_naming_the_problem() {
     refused(&["up", "--cluster", "../evil", "--detach"], &["--cluster"]);
     refused(&["up", "--clock", "sometimes"], &["sometimes"]);
     refused(&["up", "--rate=-3", "--cluster", &name], &["--rate"]);
+    // The clock keys: refused before anything starts, the key and the problem named.
+    for (args, problem) in [
+        (&["--rtf", "0"][..], "real-time factor"),
+        (&["--rtf=-1"][..], "real-time factor"),
+        (&["--rtf", "NaN"][..], "real-time factor"),
+        (&["--rtf", "1e9"][..], "rtf"),
+        (
+            &["--clock", "lockstep", "--rtf", "2"][..],
+            "only the paced clock",
+        ),
+    ] {
+        let mut a = vec!["up", "--detach", "--cluster", &name];
+        a.extend_from_slice(args);
+        refused(&a, &["rtf", problem]);
+        assert!(!run_base().join(&name).exists(), "{args:?} left a run dir");
+    }
+    std::fs::write(
+        &file,
+        "rate_hz = 100\nmember_timeout_ms = 5\n[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\n",
+    )
+    .unwrap();
+    refused(
+        &up_with_config,
+        &["member_timeout_ms", "shorter than one ring period"],
+    );
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir(run_base());
 }

@@ -126,6 +126,8 @@ pub struct Driver<A: RingApp> {
     last_rx_ns: u64,
     /// The stop probe's last look: (when, upstream stopped).
     probed: (u64, bool),
+    /// The dead flag's last check: (when, the upstream process was still there).
+    dead_checked: (u64, bool),
     /// Attended silence on the input (the frozen-member judgement).
     pub(super) silence: super::silence::Silence,
     /// The upstream member has been judged frozen (for logging the change once).
@@ -169,6 +171,7 @@ impl<A: RingApp> Driver<A> {
             rx_closed: false,
             last_rx_ns: monotonic_ns(),
             probed: (0, false),
+            dead_checked: (0, false),
             silence: super::silence::Silence::default(),
             frozen: false,
             sched: None,
@@ -228,19 +231,35 @@ impl<A: RingApp> Driver<A> {
     /// The upstream member is known dead, or its process is stopped and nothing comes from it:
     /// its link carries no light.
     pub(super) fn upstream_dead(&mut self) -> bool {
-        if self.rx_closed
-            || self
-                .cfg
-                .upstream_dead
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::Relaxed))
-        {
+        if self.rx_closed {
             return true;
+        }
+        let now = monotonic_ns();
+        if self
+            .cfg
+            .upstream_dead
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            // Its liveliness went away: dead unless its process (on this machine) is still
+            // there. Looked at every 10 ms.
+            if now.saturating_sub(self.dead_checked.0) >= STOP_PROBE_EVERY_NS {
+                let alive = self.cfg.upstream_probe.as_ref().is_some_and(|p| p.alive());
+                if alive && !self.dead_checked.1 {
+                    warn!(member = %self.cfg.name,
+                        "upstream liveliness went away but its process is still there: not dead");
+                }
+                self.dead_checked = (now, alive);
+            }
+            if !self.dead_checked.1 {
+                return true;
+            }
+        } else {
+            self.dead_checked = (0, false);
         }
         let Some(probe) = &self.cfg.upstream_probe else {
             return false;
         };
-        let now = monotonic_ns();
         if now.saturating_sub(self.last_rx_ns) < STOP_PROBE_AFTER.as_nanos() as u64 {
             return false;
         }

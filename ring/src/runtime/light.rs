@@ -6,7 +6,9 @@
 //!   status report, asked again whenever its liveliness token (re)appears.
 //!
 //! A member that is merely slow (descheduled on a loaded machine) is neither: the ring waits for
-//! it. Only a member on another machine, or one that runs but never answers, is left to the
+//! it. And a liveliness token that goes away while the upstream process (on this machine) still
+//! exists is no death (a zenoh lease that expired during a stall, a routing change): only a
+//! process that is gone or a zombie is dead. Only a member on another machine, or one that runs but never answers, is left to the
 //! frozen-member wait.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -46,6 +48,19 @@ pub fn process_stopped(pid: u32) -> bool {
         .is_some_and(|c| c == 'T' || c == 't')
 }
 
+/// Whether process `pid` (of this machine) exists and is not a zombie: a process whose zenoh
+/// liveliness token went away while it still runs has not died (a lease that expired during a
+/// stall, a routing change): its silence is left to the frozen-member wait.
+pub fn process_alive(pid: u32) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    stat.rfind(')')
+        .and_then(|i| stat.get(i + 1..))
+        .and_then(|rest| rest.trim_start().chars().next())
+        .is_some_and(|c| !matches!(c, 'Z' | 'X' | 'x'))
+}
+
 /// The upstream's process, when it runs on this machine: is it stopped?
 #[derive(Debug, Clone, Default)]
 pub struct StopProbe {
@@ -65,6 +80,14 @@ impl StopProbe {
         match self.pid.load(Ordering::Relaxed) {
             0 => false,
             pid => process_stopped(pid),
+        }
+    }
+
+    /// The upstream process is known, local and still there (not dead, not a zombie).
+    pub fn alive(&self) -> bool {
+        match self.pid.load(Ordering::Relaxed) {
+            0 => false,
+            pid => process_alive(pid),
         }
     }
 }
@@ -150,7 +173,7 @@ pub fn watch_upstream(
                     .spawn(move || learn_pid(s, k, p, st));
             }
             SampleKind::Delete => {
-                pid.store(0, Ordering::Relaxed);
+                // (The pid stays known: the member checks the process really is gone.)
                 if seen.load(Ordering::Relaxed) && !flag.swap(true, Ordering::Relaxed) {
                     warn!(upstream = %name, "upstream member went away: loss of light on the input");
                 }
@@ -188,6 +211,7 @@ mod tests {
             std::thread::sleep(Duration::from_millis(5));
         }
         assert!(probe.stopped());
+        assert!(probe.alive(), "a stopped process is alive");
         nix::sys::signal::kill(
             nix::unistd::Pid::from_raw(pid as i32),
             nix::sys::signal::Signal::SIGCONT,
@@ -198,8 +222,17 @@ mod tests {
             std::thread::sleep(Duration::from_millis(5));
         }
         assert!(!probe.stopped());
+        assert!(probe.alive());
         let _ = child.kill();
+        // Killed but not yet reaped: a zombie is dead.
+        let t0 = std::time::Instant::now();
+        while probe.alive() && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(!probe.alive(), "a zombie is not alive");
         let _ = child.wait();
+        assert!(!probe.alive(), "a reaped process is not alive");
+        assert!(!StopProbe::default().alive(), "unknown pid");
         assert!(!process_stopped(u32::MAX), "no such process");
         assert!(!StopProbe::default().stopped(), "unknown pid");
         assert!(host_id().is_some_and(|h| h.len() > 8));

@@ -409,7 +409,9 @@ fn a_dead_member_is_loss_of_light_downstream_and_the_ring_keeps_cycling() {
             std::thread::sleep(Duration::from_millis(2));
         }
         dead.store(true, Ordering::Relaxed);
+        let dead_at = std::time::Instant::now();
         let out = r.join_member(0, Duration::from_secs(60));
+        let own_clock = dead_at.elapsed();
         assert!(matches!(out[0].exit, DriverExit::Done), "{:?}", out[0].exit);
         // The ring kept cycling on card1's own clock: card0 ran all its cycles.
         assert_eq!(out[0].app.seen.len(), 700, "{clock:?}");
@@ -431,10 +433,15 @@ fn a_dead_member_is_loss_of_light_downstream_and_the_ring_keeps_cycling() {
         }
         let sm = out[0].clock.clone().unwrap();
         assert!(!sm.ring_down, "{sm:?}");
-        // card1's own clock keeps the nominal rate: it does not run ahead of the ring (it goes
-        // on a little while the others stop after the sync master's last cycle).
-        let (c0, c1) = (out[0].core.cycle(), out[2].core.cycle());
-        assert!(c1 < 2 * c0, "{clock:?}: card1 at {c1}, sync master at {c0}");
+        // card1's own clock keeps the nominal rate (it goes on a little while the others stop
+        // after the sync master's last cycle): no more cycles than the wall time allows. (Not
+        // compared with the sync master's count: on a loaded machine the ring may run slower.)
+        let c1 = out[2].core.cycle();
+        let allowed = 210.0 + own_clock.as_secs_f64() * RATE * 1.1 + 50.0;
+        assert!(
+            (c1 as f64) < allowed,
+            "{clock:?}: card1 at {c1} after {own_clock:?} on its own clock"
+        );
     }
 }
 
@@ -497,8 +504,9 @@ fn a_stopped_upstream_process_is_loss_of_light_at_once_not_after_the_member_time
     let _ = sleeper.kill();
     let _ = sleeper.wait();
     let sm = out[0].clock.clone().unwrap();
+    // Nobody waited the member timeout (the longest stall may include the load's own).
     assert!(
-        sm.longest_stall_us < 1_000_000,
+        sm.longest_stall_us < timeout.as_micros() as u64,
         "the ring waited for the stalled member: {sm:?}"
     );
     assert_eq!(sm.ring_down_count, 0, "{sm:?}");
@@ -506,4 +514,25 @@ fn a_stopped_upstream_process_is_loss_of_light_at_once_not_after_the_member_time
     assert!(card1.ring_fault_count >= 1, "{card1:?}");
     assert!(card1.errors.byte_violation > 0, "{card1:?}");
     assert!(out[0].core.status().ring_fault_count >= 1);
+}
+
+#[test]
+fn a_liveliness_flap_of_an_upstream_whose_process_is_still_there_is_no_loss_of_light() {
+    // card1's watch says station0 went away (its zenoh lease expired during a stall, say), but
+    // station0's process is still there (this test process stands in for it): no loss of
+    // light, no error anywhere. Without a process to look at (another machine) the flag
+    // counts, as `a_dead_member_is_loss_of_light...` shows.
+    let mut m = checked_ring(ClockMode::Lockstep, 600, Duration::from_secs(10));
+    for (_, _, d) in &mut m {
+        d.max_cycles = Some(600);
+    }
+    m[2].2.upstream_dead = Some(Arc::new(AtomicBool::new(true)));
+    m[2].2.upstream_probe = Some(super::light::StopProbe::with_pid(std::process::id()));
+    let out = run_to_end(m, Duration::from_secs(60));
+    assert_eq!(out[0].app.seen.len(), 600);
+    for r in &out {
+        let s = r.core.status();
+        assert_eq!(s.errors, Default::default(), "{}", s.name);
+        assert!(!s.dark && s.ring_fault_count == 0, "{s:?}");
+    }
 }
