@@ -369,7 +369,7 @@ fn a_stall_of_any_length_under_the_member_timeout_is_no_ring_error() {
         for (_, _, d) in &mut m {
             d.max_cycles = Some(1000);
         }
-        let out = run_to_end(m, Duration::from_secs(60));
+        let out = run_to_end(m, Duration::from_secs(240));
         for r in &out {
             let s = r.core.status();
             assert_eq!(s.errors, Default::default(), "{clock:?} {}", s.name);
@@ -410,7 +410,7 @@ fn a_dead_member_is_loss_of_light_downstream_and_the_ring_keeps_cycling() {
         }
         dead.store(true, Ordering::Relaxed);
         let dead_at = std::time::Instant::now();
-        let out = r.join_member(0, Duration::from_secs(60));
+        let out = r.join_member(0, Duration::from_secs(240));
         let own_clock = dead_at.elapsed();
         assert!(matches!(out[0].exit, DriverExit::Done), "{:?}", out[0].exit);
         // The ring kept cycling on card1's own clock: card0 ran all its cycles.
@@ -450,17 +450,15 @@ fn a_frozen_member_takes_the_ring_down_after_the_member_timeout_and_back_when_th
     let timeout = Duration::from_millis(300);
     let mut m = checked_ring(ClockMode::Paced, 4000, timeout);
     m[1].1.stall_at = Some((200, Duration::from_millis(1200)));
-    let out = run_to_end(m, Duration::from_secs(60));
+    let out = run_to_end(m, Duration::from_secs(240));
     // The ring waited the member timeout once, then kept cycling: on card1's own clock (its
     // dark frames come round) or, if nothing came back first, on the sync master's.
     let sm = out[0].clock.clone().unwrap();
     assert!(!sm.ring_down, "{sm:?}");
     // (card1's wait starts at its last frame, up to a period before the master's last start.)
+    // (No upper bound: on a loaded machine the longest stall may be the load's own.)
     let waited = Duration::from_micros(sm.longest_stall_us + 1000);
-    assert!(
-        waited >= timeout && waited < Duration::from_millis(1200),
-        "{sm:?}"
-    );
+    assert!(waited >= timeout, "{sm:?}");
     assert!(sm.lost_ms + 10 >= 300, "{sm:?}");
     assert_eq!(out[0].app.seen.len(), 4000);
     // Everyone but the frozen member latched: card0 counted the silence on its own clock,
@@ -500,7 +498,7 @@ fn a_stopped_upstream_process_is_loss_of_light_at_once_not_after_the_member_time
     let mut m = checked_ring(ClockMode::Paced, 2500, timeout);
     m[1].1.stall_at = Some((200, Duration::from_millis(1500)));
     m[2].2.upstream_probe = Some(super::light::StopProbe::with_pid(pid));
-    let out = run_to_end(m, Duration::from_secs(60));
+    let out = run_to_end(m, Duration::from_secs(240));
     let _ = sleeper.kill();
     let _ = sleeper.wait();
     let sm = out[0].clock.clone().unwrap();
@@ -528,7 +526,7 @@ fn a_liveliness_flap_of_an_upstream_whose_process_is_still_there_is_no_loss_of_l
     }
     m[2].2.upstream_dead = Some(Arc::new(AtomicBool::new(true)));
     m[2].2.upstream_probe = Some(super::light::StopProbe::with_pid(std::process::id()));
-    let out = run_to_end(m, Duration::from_secs(60));
+    let out = run_to_end(m, Duration::from_secs(240));
     assert_eq!(out[0].app.seen.len(), 600);
     for r in &out {
         let s = r.core.status();
