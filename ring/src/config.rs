@@ -514,6 +514,20 @@ impl ClusterConfig {
         std::time::Duration::from_millis(self.member_timeout_ms.max(1))
     }
 
+    /// How long a card's servo tick may wait for the commit of a synchronized start due in
+    /// it. Paced and lockstep: a quarter of the frozen-member wait (the ring waits for the
+    /// card, so the wait only makes cycles late; on a loaded machine the orchestrator's commit
+    /// can take far longer than a few ms, and giving up would split the start). Realtime: at
+    /// most 25 ms, since a longer stall of the tick breaks the free-running ring.
+    pub fn sync_start_stall(&self) -> std::time::Duration {
+        let ms = if self.clock.is_stepped() {
+            (self.member_timeout_ms / 4).max(1)
+        } else {
+            (self.member_timeout_ms / 2).clamp(1, 25)
+        };
+        std::time::Duration::from_millis(ms)
+    }
+
     /// Nominal ring period in nanoseconds.
     pub fn period_ns(&self) -> u64 {
         if self.rate_hz > 0.0 && self.rate_hz.is_finite() {
@@ -596,7 +610,7 @@ fn default_rtf() -> f64 {
     1.0
 }
 /// Default frozen-member wait, ms (see `member_timeout_ms`).
-pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 1000;
+pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 10_000;
 fn default_member_timeout() -> u64 {
     DEFAULT_MEMBER_TIMEOUT_MS
 }

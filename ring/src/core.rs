@@ -806,6 +806,7 @@ impl MemberCore {
             faults: self.faults.active(),
             clock: None,
             sched: None,
+            host_id: None,
             extra: serde_json::Map::new(),
         }
     }

@@ -86,10 +86,9 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                 handle.clone(),
             ))
             .map_err(|e| anyhow!("declare card command queryable: {e}"))?;
-        // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
-        // well under the lockstep timeout so a stall never looks like a dead ring.
-        let stall =
-            std::time::Duration::from_millis((ctx.config.member_timeout_ms / 2).clamp(1, 25));
+        // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit
+        // (the clock's choice: well under the frozen-member wait).
+        let stall = ctx.config.sync_start_stall();
         let at_queryable = sync_start::declare_at_queryable(
             &ctx.session,
             &ctx.config.cluster,

@@ -99,6 +99,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
             in_flight: cfg.ring.in_flight,
+            upstream_probe: None,
             harden: false,
             max_cycles: sync.then_some(cycles),
             kind,

@@ -205,10 +205,10 @@ where
         .unwrap_or(&args.name)
         .to_string();
     let watch = if upstream != args.name {
-        Some(
-            super::light::watch_upstream(&session, &config.cluster, &upstream)
-                .map_err(|e| anyhow!(e))?,
-        )
+        let w =
+            super::light::watch_upstream(&session, &config.cluster, &upstream, Arc::clone(&stop))
+                .map_err(|e| anyhow!(e))?;
+        Some(w)
     } else {
         None
     };
@@ -221,6 +221,7 @@ where
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
         in_flight: config.ring.in_flight,
+        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,
