@@ -465,6 +465,12 @@ impl ClusterConfig {
         self.ring.order.get((k + n - 1) % n).map(String::as_str)
     }
 
+    /// Master number of the synchronizing master (the only master whose node-15 packet is the
+    /// ring's sync packet; see [`crate::core::CoreConfig::sync_source`]).
+    pub fn sync_source(&self) -> Option<u8> {
+        self.card(&self.ring.sync_master).map(|c| c.master & 0x0F)
+    }
+
     /// I995/I996 for a member (spec §6.2–§6.3): sync master $30; other cards $8090 (master,
     /// phase lock, no master check on node 15); stations $8080. I996 = master<<20 | 15<<16 |
     /// node bits | node 15 on every member but the sync master.

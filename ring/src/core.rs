@@ -86,6 +86,10 @@ pub struct CoreConfig {
     /// a gap is a real break); realtime on a general-purpose OS: more, so scheduling hiccups
     /// show as holdover and late cycles instead of killing the motors.
     pub timing_slack: u32,
+    /// Master number of the synchronizing master: only its sync-node packet clocks this
+    /// member (other masters' node-15 packets carry their auxiliary channel). None = any
+    /// sync-node packet whose address matches (I995/I996 alone).
+    pub sync_source: Option<u8>,
 }
 
 impl CoreConfig {
@@ -113,6 +117,7 @@ impl CoreConfig {
             seq_base: 0,
             check_after_lock: false,
             timing_slack: 1,
+            sync_source: None,
         }
     }
 }
@@ -187,9 +192,11 @@ pub struct MemberCore {
 impl MemberCore {
     /// A member core from its config.
     pub fn new(cfg: CoreConfig) -> Self {
+        let mut member = RingMember::new(cfg.settings);
+        member.set_sync_source(cfg.sync_source);
         MemberCore {
             faults: FaultLayer::new(cfg.settings.sync_node()),
-            member: RingMember::new(cfg.settings),
+            member,
             name: cfg.name,
             kind: cfg.kind,
             position: cfg.position,
@@ -334,7 +341,7 @@ impl MemberCore {
         self.last_tick = Some(cycle);
         let mut packets = vec![self.member.sync_packet(cycle)];
         packets.extend(self.member.take_held());
-        packets.extend(self.member.command_packets());
+        packets.extend(self.member.command_packets(cycle));
         let seq = self.next_seq();
         let frame = Frame::with_packets(self.position, seq, now_ns, cycle, &packets);
         self.faults.on_send(cycle, frame)
@@ -402,7 +409,7 @@ impl MemberCore {
             };
             let own = self.member.is_master()
                 && p.master & 0x0F == self.member.settings().master_number()
-                && p.node & 0x0F != self.member.settings().sync_node();
+                && !(self.is_sync_master() && p.node & 0x0F == self.member.settings().sync_node());
             let r = self.member.route(p);
             if own && r.forward.is_none() {
                 own_returned += 1;
@@ -460,7 +467,7 @@ impl MemberCore {
             self.member.hold(forwards);
             return ev;
         }
-        let commands = self.member.command_packets();
+        let commands = self.member.command_packets(frame.cycle);
         self.sent_cycle = (!commands.is_empty()).then_some(frame.cycle);
         forwards.extend(commands);
         let seq = self.next_seq();

@@ -5,6 +5,7 @@
 //! do I/O: [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's
 //! cycle loop and control plane).
 
+pub mod aux_channel;
 pub mod check;
 pub mod config;
 pub mod control;

@@ -111,13 +111,9 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
             .ring_settings(name)
             .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
-        let core = MemberCore::new(CoreConfig::new(
-            name,
-            kind,
-            k as u16,
-            settings,
-            cfg.period_ns(),
-        ));
+        let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
+        core_cfg.sync_source = cfg.sync_source();
+        let core = MemberCore::new(core_cfg);
         let sync = cfg.ring.sync_master == *name;
         let dcfg = DriverConfig {
             name: name.clone(),
