@@ -6,7 +6,7 @@
 //! reading"); the period's counters then restart. The sync-count and "error on every check"
 //! tests can only be made at the end of a period.
 
-use crate::status::{RingStatus, STATUS_ERRORS, STATUS_SYNC_RECEIVED};
+use crate::status::{RingStatus, STATUS_BYTE_VIOLATION, STATUS_ERRORS, STATUS_SYNC_RECEIVED};
 
 /// Why a ring check declared a ring fault.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
@@ -75,6 +75,10 @@ pub struct RingCheck {
     elapsed: u32,
     last_period_ok: Option<bool>,
     total_errors: u64,
+    byte_violations: u32,
+    fault_byte_violations: u32,
+    last_status: u32,
+    just_checked: bool,
 }
 
 impl RingCheck {
@@ -125,7 +129,37 @@ impl RingCheck {
             elapsed: 0,
             last_period_ok: None,
             total_errors: 0,
+            byte_violations: 0,
+            fault_byte_violations: 0,
+            last_status: 0,
+            just_checked: false,
         }
+    }
+
+    /// The latest [`RingCheck::on_servo_cycle`] read the status bits (an RTI check ran).
+    pub fn just_checked(&self) -> bool {
+        self.just_checked
+    }
+
+    /// Replace every parameter at run time (a station's MI8/MI9/MI10); re-arms when the
+    /// period is > 0 and restarts the period's counts.
+    pub fn set_params(&mut self, params: CheckParams) {
+        let total = self.total_errors;
+        let ok = self.last_period_ok;
+        *self = Self::with_params(params);
+        self.total_errors = total;
+        self.last_period_ok = ok;
+    }
+
+    /// Status bits read by the latest check (0 before any).
+    pub fn last_status(&self) -> u32 {
+        self.last_status
+    }
+
+    /// Checks with a byte violation in the period that declared the latest fault (the
+    /// station's break localisation compares them with the period's error count).
+    pub fn fault_byte_violations(&self) -> u32 {
+        self.fault_byte_violations
     }
 
     /// Checking is active (I1001 was > 0 at reset).
@@ -180,6 +214,7 @@ impl RingCheck {
     /// Call once per servo cycle. Every `rti` servo cycles it reads and clears the status
     /// bits (one read per RTI) and counts at most one error and one sync.
     pub fn on_servo_cycle(&mut self, status: &mut RingStatus) -> Option<CheckFault> {
+        self.just_checked = false;
         if !self.armed || self.params.period == 0 {
             return None;
         }
@@ -189,9 +224,14 @@ impl RingCheck {
         }
         self.servo_count = 0;
         let s = status.read_and_clear();
+        self.last_status = s;
+        self.just_checked = true;
         if s & STATUS_ERRORS != 0 {
             self.errors += 1;
             self.total_errors += 1;
+            if s & STATUS_BYTE_VIOLATION != 0 {
+                self.byte_violations += 1;
+            }
         }
         if s & STATUS_SYNC_RECEIVED != 0 {
             self.syncs += 1;
@@ -218,10 +258,14 @@ impl RingCheck {
         } else {
             None
         };
+        if fault.is_some() {
+            self.fault_byte_violations = self.byte_violations;
+        }
         self.errors = 0;
         self.syncs = 0;
         self.checks = 0;
         self.elapsed = 0;
+        self.byte_violations = 0;
         self.last_period_ok = Some(fault.is_none());
         fault
     }

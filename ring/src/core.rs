@@ -12,7 +12,7 @@
 //! synchronizing master calls [`MemberCore::start_cycle`] (send, then tick), and
 //! [`CoreEvents::cycle_complete`] tells it when its sync packet came back.
 
-use crate::check::{CheckFault, RingCheck, STATION_DEFAULTS};
+use crate::check::{CheckFault, CheckParams, RingCheck, STATION_DEFAULTS};
 use crate::control::{MemberKind, MemberStatus};
 use crate::fault::{FaultLayer, FaultSpec, Outgoing};
 use crate::frame::Frame;
@@ -42,6 +42,37 @@ pub trait RingApp {
     fn take_ring_reset(&mut self) -> bool {
         false
     }
+
+    /// Told before every tick what the member's ring check saw (stations keep their
+    /// MI-variable error counters and localise breaks from it).
+    fn on_check(&mut self, _report: &CheckReport) {}
+
+    /// Asked once after every tick: new ring-check parameters (a station's MI8/MI9/MI10).
+    fn take_check_params(&mut self) -> Option<CheckParams> {
+        None
+    }
+
+    /// Extra fields for the member's status report, merged over the static ones.
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        serde_json::Map::new()
+    }
+}
+
+/// What the ring check saw in one servo cycle ([`RingApp::on_check`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CheckReport {
+    /// The check ran this cycle (armed, and not still waiting for the first lock).
+    pub checked: bool,
+    /// The I995-style status bits it read and cleared (errors in bits 0-3, sync in bit 6).
+    pub status: u32,
+    /// A fault declared this cycle.
+    pub fault: Option<CheckFault>,
+    /// Checks with a byte violation in the period of the latest fault.
+    pub fault_byte_violations: u32,
+    /// The ring-fault latch after this cycle's check.
+    pub ring_fault: bool,
+    /// The last completed check period passed (or nothing checks).
+    pub healthy: bool,
 }
 
 impl<T: RingApp + ?Sized> RingApp for Box<T> {
@@ -51,6 +82,18 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
 
     fn take_ring_reset(&mut self) -> bool {
         (**self).take_ring_reset()
+    }
+
+    fn on_check(&mut self, report: &CheckReport) {
+        (**self).on_check(report);
+    }
+
+    fn take_check_params(&mut self) -> Option<CheckParams> {
+        (**self).take_check_params()
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        (**self).status_extra()
     }
 }
 
@@ -187,6 +230,8 @@ pub struct MemberCore {
     last_fault: Option<CheckFault>,
     holdover_cycles: u64,
     late_cycles: u64,
+    /// The ring check read the status bits in the latest servo cycle.
+    checked_now: bool,
 }
 
 impl MemberCore {
@@ -230,6 +275,7 @@ impl MemberCore {
             last_fault: None,
             holdover_cycles: 0,
             late_cycles: 0,
+            checked_now: false,
         }
     }
 
@@ -542,6 +588,7 @@ impl MemberCore {
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
         self.unconsumed = false;
+        self.checked_now = false;
         self.locked_streak = if self.locked {
             self.locked_streak.saturating_add(1)
         } else {
@@ -570,11 +617,18 @@ impl MemberCore {
             } else if self.last_rx_cycle.is_some() {
                 self.silent_ticks = self.silent_ticks.saturating_add(1);
                 if self.silent_ticks > self.timing_slack {
-                    self.status.record(ErrorClass::Underrun);
+                    // No light at all: a MACRO station's receiver sees byte violations (what
+                    // its break localisation counts); a card records a data underrun.
+                    self.status.record(match self.kind {
+                        MemberKind::Station => ErrorClass::ByteViolation,
+                        MemberKind::Card => ErrorClass::Underrun,
+                    });
                 }
             }
             self.rx_since_tick = false;
-            self.check.on_servo_cycle(&mut self.status)?
+            let f = self.check.on_servo_cycle(&mut self.status);
+            self.checked_now = self.check.just_checked();
+            f?
         };
         if !self.ring_fault {
             // The cycle at which the fault latched (later failing checks keep the latch).
@@ -594,9 +648,20 @@ impl MemberCore {
         time_ns: u64,
     ) -> Option<CheckFault> {
         let fault = self.run_check();
+        app.on_check(&CheckReport {
+            checked: self.checked_now,
+            status: if self.checked_now { self.check.last_status() } else { 0 },
+            fault,
+            fault_byte_violations: self.check.fault_byte_violations(),
+            ring_fault: self.ring_fault,
+            healthy: self.healthy(),
+        });
         app.tick(cycle, time_ns, &mut self.member, self.ring_fault);
         if app.take_ring_reset() {
             self.reset();
+        }
+        if let Some(p) = app.take_check_params() {
+            self.check.set_params(p);
         }
         fault
     }

@@ -230,6 +230,7 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    s.extra.extend(self.app.status_extra());
                     let _ = reply.send(s);
                 }
                 DriverCmd::Fault(req, reply) => {
