@@ -55,11 +55,12 @@ pub struct CheckParams {
     pub sync_min: u32,
 }
 
-/// Station defaults: a check every 8 cycles needing 4 syncs, at most 4 errors.
+/// Station defaults, as a 16-axis MACRO Station's MI8/MI9/MI10: a check every 8 cycles
+/// needing 4 sync packets, a fault on 4 errors.
 pub const STATION_DEFAULTS: CheckParams = CheckParams {
     period: 8,
     rti: 1,
-    error_limit: 5,
+    error_limit: 4,
     sync_min: 4,
 };
 
@@ -102,15 +103,21 @@ impl RingCheck {
         })
     }
 
-    /// A station's check: every `period` cycles, at least `sync_min` syncs, at most
-    /// `max_errors` checks with errors. `period` 0 disables it.
-    pub fn station(period: u32, sync_min: u32, max_errors: u32) -> Self {
-        Self::with_params(CheckParams {
-            period,
+    /// A MACRO station's check from MI8 (period, ring cycles), MI10 (sync packets required;
+    /// 0 = never a fault for lack of them) and MI9 (errors that make a fault), with a check
+    /// every cycle. MI8 = 0 and MI9 = 0 become 8 and 4, as at a station's reset.
+    pub fn station(mi8: u32, mi10: u32, mi9: u32) -> Self {
+        Self::with_params(Self::station_params(mi8, mi10, mi9))
+    }
+
+    /// The parameters [`RingCheck::station`] uses.
+    pub fn station_params(mi8: u32, mi10: u32, mi9: u32) -> CheckParams {
+        CheckParams {
+            period: if mi8 == 0 { 8 } else { mi8.min(255) },
             rti: 1,
-            error_limit: max_errors.saturating_add(1),
-            sync_min,
-        })
+            error_limit: if mi9 == 0 { 4 } else { mi9.min(255) },
+            sync_min: mi10.min(65_535),
+        }
     }
 
     /// A check with explicit parameters (armed when `period > 0`).
@@ -418,11 +425,11 @@ mod tests {
     #[test]
     fn station_defaults() {
         let mut c = RingCheck::with_params(STATION_DEFAULTS);
-        // 4 syncs and 4 errors in 8 cycles: healthy.
+        // 4 syncs and 3 errors in 8 cycles: healthy.
         assert!(run(&mut c, 8, |n, s| {
             if n % 2 == 0 {
                 s.set_sync_received();
-            } else {
+            } else if n < 7 {
                 s.record(ErrorClass::Underrun);
             }
         })
@@ -444,23 +451,37 @@ mod tests {
                 }
             )]
         );
-        // 5 errors: fault at once on the 5th.
+        // MI9 = 4 errors: fault at once on the 4th; 3 of them byte violations.
         let mut c = RingCheck::station(8, 4, 4);
-        let f = run(&mut c, 8, |_, s| {
+        let f = run(&mut c, 4, |n, s| {
             s.set_sync_received();
-            s.record(ErrorClass::Checksum);
+            s.record(if n == 2 {
+                ErrorClass::Checksum
+            } else {
+                ErrorClass::ByteViolation
+            });
         });
         assert_eq!(
             f,
             vec![(
-                5,
+                4,
                 CheckFault::Errors {
-                    errors: 5,
-                    limit: 5
+                    errors: 4,
+                    limit: 4
                 }
             )]
         );
+        assert_eq!(c.fault_byte_violations(), 3);
+        // MI10 = 0: never a fault for lack of sync packets; MI8 = MI9 = 0 take the defaults.
+        let mut c = RingCheck::station(0, 0, 0);
+        assert_eq!(c.params(), STATION_DEFAULTS_NO_SYNC);
+        assert!(run(&mut c, 40, |_, _| {}).is_empty());
     }
+
+    const STATION_DEFAULTS_NO_SYNC: CheckParams = CheckParams {
+        sync_min: 0,
+        ..STATION_DEFAULTS
+    };
 
     #[test]
     fn unarmed_never_reads_status() {
