@@ -22,7 +22,7 @@ fn slave(i995: u32) -> MemberCore {
         P,
     );
     cfg.upstream = Some(0);
-    cfg.check = RingCheck::station(0, 4, 4);
+    cfg.check = RingCheck::card(0, 0, 0, 0); // not checking
     MemberCore::new(cfg)
 }
 
