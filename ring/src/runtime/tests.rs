@@ -156,8 +156,12 @@ fn realtime_loopback_ring_runs_locked_without_errors() {
     assert!(m.seen.iter().any(|&(_, fb)| fb > 0), "feedback came back");
     for r in &out {
         let s = r.core.status();
-        // (Underruns are expected at the end: the sync master stops first.)
-        assert_eq!(s.errors.byte_violation + s.errors.checksum, 0);
+        // (Silence is expected at the end: the sync master stops first; cards count it as
+        // underruns, stations as byte violations, loss of light.)
+        assert_eq!(s.errors.checksum, 0);
+        if s.kind == Some(MemberKind::Card) {
+            assert_eq!(s.errors.byte_violation, 0);
+        }
     }
 }
 
