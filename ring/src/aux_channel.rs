@@ -380,6 +380,87 @@ pub fn stream_word(kind: WordKind, tag: u8, node: u8, msg: &[u16], k: u64) -> Au
     }
 }
 
+/// How a master's transaction ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Outcome {
+    /// A complete reply came back.
+    Reply(Reply),
+    /// No complete reply within the timeout.
+    Timeout,
+}
+
+#[derive(Clone, Debug)]
+struct Active {
+    node: u8,
+    msg: Vec<u16>,
+    sent: u64,
+    cycles: u32,
+    timeout: u32,
+}
+
+/// The master side of the channel: one transaction in flight at a time, streamed one word per
+/// cycle, finished by a complete reply with its tag or by the timeout (in servo cycles).
+#[derive(Clone, Debug, Default)]
+pub struct AuxMaster {
+    tag: u8,
+    active: Option<Active>,
+    collector: Collector,
+}
+
+impl AuxMaster {
+    /// A transaction is in flight.
+    pub fn busy(&self) -> bool {
+        self.active.is_some()
+    }
+
+    /// Start a transaction to `node` (15 = every station). Returns false (and changes
+    /// nothing) while another one is in flight.
+    pub fn start(&mut self, node: u8, request: Request, timeout_cycles: u32) -> bool {
+        if self.busy() {
+            return false;
+        }
+        self.tag = self.tag % 7 + 1;
+        self.collector.reset();
+        self.active = Some(Active {
+            node: node & 0xF,
+            msg: request.words(),
+            sent: 0,
+            cycles: 0,
+            timeout: timeout_cycles.max(1),
+        });
+        true
+    }
+
+    /// Give up the transaction in flight (the channel goes idle).
+    pub fn abort(&mut self) {
+        self.active = None;
+    }
+
+    /// One servo cycle: `returned` is the latest copy of this master's node-15 packet as it
+    /// came back around the ring (registers 2 and 3). Returns the outcome when the
+    /// transaction ends, and the registers 2 and 3 to send next.
+    pub fn tick(&mut self, returned: AuxWord) -> (Option<Outcome>, (u16, u16)) {
+        let Some(a) = self.active.as_mut() else {
+            return (None, AuxWord::IDLE.encode());
+        };
+        if returned.kind == WordKind::Reply && returned.tag == self.tag {
+            if let Some(words) = self.collector.push(&returned) {
+                self.active = None;
+                let r = Reply::from_words(&words).unwrap_or(Reply::Error(slave_error::BAD_REQUEST));
+                return (Some(Outcome::Reply(r)), AuxWord::IDLE.encode());
+            }
+        }
+        a.cycles += 1;
+        if a.cycles > a.timeout {
+            self.active = None;
+            return (Some(Outcome::Timeout), AuxWord::IDLE.encode());
+        }
+        let w = stream_word(WordKind::Request, self.tag, a.node, &a.msg, a.sent);
+        a.sent += 1;
+        (None, w.encode())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -438,6 +519,32 @@ mod tests {
         w[2..].copy_from_slice(&f64_words(f64::NAN));
         assert_eq!(Request::from_words(&w), None);
         assert_eq!(Reply::from_words(&[0xFE << 8]), None);
+    }
+
+    #[test]
+    fn master_streams_until_the_reply_or_the_timeout() {
+        let mut m = AuxMaster::default();
+        assert!(m.start(1, Request::ReadMi(8), 32));
+        assert!(!m.start(1, Request::ReadMi(9), 32), "one transaction in flight");
+        let (o, (r2, r3)) = m.tick(AuxWord::IDLE);
+        assert_eq!(o, None);
+        let w = AuxWord::decode(r2, r3);
+        assert_eq!((w.kind, w.tag, w.node, w.len, w.data), (WordKind::Request, 1, 1, 2, 1 << 8));
+        // a reply of another tag is ignored; the one with ours completes it
+        let reply = Reply::Value(8.0, ValueFormat::Decimal).words();
+        let stale = stream_word(WordKind::Reply, 7, 1, &reply, 0);
+        assert_eq!(m.tick(stale).0, None);
+        let mut out = None;
+        for k in 0..reply.len() as u64 {
+            out = m.tick(stream_word(WordKind::Reply, 1, 1, &reply, k)).0;
+        }
+        assert_eq!(out, Some(Outcome::Reply(Reply::Value(8.0, ValueFormat::Decimal))));
+        assert!(!m.busy());
+        assert_eq!(m.tick(AuxWord::IDLE).1, (0, 0), "idle after the reply");
+        // nobody answers: a timeout after exactly `timeout` cycles of waiting
+        assert!(m.start(3, Request::ReadMi(8), 4));
+        let ends: Vec<_> = (0..6).map(|_| m.tick(AuxWord::IDLE).0).collect();
+        assert_eq!(ends, vec![None, None, None, None, Some(Outcome::Timeout), None]);
     }
 
     #[test]

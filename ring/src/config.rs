@@ -205,6 +205,10 @@ pub struct StationConfig {
     /// per-node overrides in `[stations.plant.nodes.N]`; parsed and checked by the station.
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub plant: toml::Table,
+    /// Where `MS SAVE` writes and start-up reads the station's MI-variables (default
+    /// `<run dir>/state/<name>.state`; `mcc down` never removes it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_file: Option<PathBuf>,
 }
 
 /// The whole cluster.
@@ -325,6 +329,7 @@ impl ClusterConfig {
                     nodes,
                     check: StationCheck::default(),
                     plant: toml::Table::new(),
+                    state_file: None,
                 }
             })
             .collect();

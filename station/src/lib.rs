@@ -5,6 +5,9 @@
 //! [`config::PlantConfig`]. The station meets the card only through ring packets.
 
 pub mod config;
+pub mod macro_aux;
+pub mod mi;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;
+pub mod station_mi;

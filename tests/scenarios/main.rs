@@ -7,4 +7,5 @@ mod gather;
 mod motion;
 mod programs;
 mod ring_inprocess;
+mod station_aux;
 mod transcripts;

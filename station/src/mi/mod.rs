@@ -137,7 +137,7 @@ fn global(n: u16) -> Option<G> {
 }
 
 /// Node variables: MI912/MI913 (capture) and the plant block MI950-MI970.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum N {
     CaptureControl,
     CaptureFlag,
