@@ -14,6 +14,7 @@ pub mod coord;
 pub mod host;
 pub mod interp;
 pub mod lang;
+pub mod macro_aux;
 pub mod motion;
 pub mod program;
 pub mod runtime;

@@ -173,7 +173,12 @@ pub enum Request {
 
 fn f64_words(v: f64) -> [u16; 4] {
     let b = v.to_bits();
-    [(b >> 48) as u16, (b >> 32) as u16, (b >> 16) as u16, b as u16]
+    [
+        (b >> 48) as u16,
+        (b >> 32) as u16,
+        (b >> 16) as u16,
+        b as u16,
+    ]
 }
 
 fn words_f64(w: &[u16]) -> Option<f64> {
@@ -476,13 +481,17 @@ mod tests {
             data: 0xBEEF,
         };
         let (r2, r3) = w.encode();
-        assert_eq!((r2, r3), (0xBEEF, 0b01_101_011_1100_0110));
+        assert_eq!((r2, r3), (0xBEEF, 0x6BC6));
         assert_eq!(AuxWord::decode(r2, r3), w);
         assert_eq!(AuxWord::IDLE.encode(), (0, 0));
         assert_eq!(AuxWord::decode(0, 0), AuxWord::IDLE);
         assert_eq!(AuxWord::decode(1, 0xC001).kind, WordKind::Idle, "kind 3");
         assert_eq!(AuxWord::decode(1, 0x4800).kind, WordKind::Idle, "len 0");
-        assert_eq!(AuxWord::decode(1, 0x4B02).kind, WordKind::Idle, "index ≥ len");
+        assert_eq!(
+            AuxWord::decode(1, 0x4B02).kind,
+            WordKind::Idle,
+            "index ≥ len"
+        );
         assert_eq!(AuxWord::decode(1, 0x4001).kind, WordKind::Idle, "tag 0");
     }
 
@@ -525,11 +534,17 @@ mod tests {
     fn master_streams_until_the_reply_or_the_timeout() {
         let mut m = AuxMaster::default();
         assert!(m.start(1, Request::ReadMi(8), 32));
-        assert!(!m.start(1, Request::ReadMi(9), 32), "one transaction in flight");
+        assert!(
+            !m.start(1, Request::ReadMi(9), 32),
+            "one transaction in flight"
+        );
         let (o, (r2, r3)) = m.tick(AuxWord::IDLE);
         assert_eq!(o, None);
         let w = AuxWord::decode(r2, r3);
-        assert_eq!((w.kind, w.tag, w.node, w.len, w.data), (WordKind::Request, 1, 1, 2, 1 << 8));
+        assert_eq!(
+            (w.kind, w.tag, w.node, w.len, w.data),
+            (WordKind::Request, 1, 1, 2, 1 << 8)
+        );
         // a reply of another tag is ignored; the one with ours completes it
         let reply = Reply::Value(8.0, ValueFormat::Decimal).words();
         let stale = stream_word(WordKind::Reply, 7, 1, &reply, 0);
@@ -538,13 +553,19 @@ mod tests {
         for k in 0..reply.len() as u64 {
             out = m.tick(stream_word(WordKind::Reply, 1, 1, &reply, k)).0;
         }
-        assert_eq!(out, Some(Outcome::Reply(Reply::Value(8.0, ValueFormat::Decimal))));
+        assert_eq!(
+            out,
+            Some(Outcome::Reply(Reply::Value(8.0, ValueFormat::Decimal)))
+        );
         assert!(!m.busy());
         assert_eq!(m.tick(AuxWord::IDLE).1, (0, 0), "idle after the reply");
         // nobody answers: a timeout after exactly `timeout` cycles of waiting
         assert!(m.start(3, Request::ReadMi(8), 4));
         let ends: Vec<_> = (0..6).map(|_| m.tick(AuxWord::IDLE).0).collect();
-        assert_eq!(ends, vec![None, None, None, None, Some(Outcome::Timeout), None]);
+        assert_eq!(
+            ends,
+            vec![None, None, None, None, Some(Outcome::Timeout), None]
+        );
     }
 
     #[test]
@@ -561,7 +582,9 @@ mod tests {
         }
         assert_eq!(done.as_deref(), Some(&msg[..]));
         let other = Request::ReadMi(1).words();
-        assert!(c.push(&stream_word(WordKind::Request, 2, 0, &other, 1)).is_none());
+        assert!(c
+            .push(&stream_word(WordKind::Request, 2, 0, &other, 1))
+            .is_none());
         assert_eq!(
             c.push(&stream_word(WordKind::Request, 2, 0, &other, 0)),
             Some(other)

@@ -650,7 +650,11 @@ impl MemberCore {
         let fault = self.run_check();
         app.on_check(&CheckReport {
             checked: self.checked_now,
-            status: if self.checked_now { self.check.last_status() } else { 0 },
+            status: if self.checked_now {
+                self.check.last_status()
+            } else {
+                0
+            },
             fault,
             fault_byte_violations: self.check.fault_byte_violations(),
             ring_fault: self.ring_fault,

@@ -374,13 +374,7 @@ fn check_after_lock_waits_for_the_first_lock() {
 #[test]
 fn timing_slack_tolerates_silence_and_backlog_before_counting_errors() {
     let make = |slack, kind| {
-        let mut cfg = CoreConfig::new(
-            "s",
-            kind,
-            1,
-            RingSettings::new(0x80, 0x0F_8001),
-            P,
-        );
+        let mut cfg = CoreConfig::new("s", kind, 1, RingSettings::new(0x80, 0x0F_8001), P);
         cfg.check = RingCheck::card(0, 0, 0, 0);
         cfg.timing_slack = slack;
         MemberCore::new(cfg)

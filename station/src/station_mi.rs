@@ -12,7 +12,9 @@
 
 use std::path::PathBuf;
 
-use mcc_ring::aux_channel::{slave_error, AuxWord, Reply, Request, StationCmd, ValueFormat, AUX_NODE};
+use mcc_ring::aux_channel::{
+    slave_error, AuxWord, Reply, Request, StationCmd, ValueFormat, AUX_NODE,
+};
 use mcc_ring::check::{CheckFault, CheckParams, RingCheck};
 use mcc_ring::core::CheckReport;
 use mcc_ring::member::RingMember;
@@ -130,7 +132,10 @@ impl StationMi {
             self.window_errors = self.window_errors.saturating_add(1);
             let max = self.setup.globals.max_errors_per_second;
             if max > 0 && self.window_errors > max && !self.per_second_fault {
-                warn!(errors = self.window_errors, max, "ring errors per second over MI6: ring fault");
+                warn!(
+                    errors = self.window_errors,
+                    max, "ring errors per second over MI6: ring fault"
+                );
                 self.per_second_fault = true;
             }
         }
@@ -154,7 +159,12 @@ impl StationMi {
 
     /// One tick, before the plant: track the fault latch, serve the auxiliary channel, apply
     /// changed parameters to the servo nodes. Returns the effective fault latch.
-    pub fn tick(&mut self, regs: &mut RingMember, ring_fault: bool, nodes: &mut [ServoNode]) -> bool {
+    pub fn tick(
+        &mut self,
+        regs: &mut RingMember,
+        ring_fault: bool,
+        nodes: &mut [ServoNode],
+    ) -> bool {
         self.core_fault = ring_fault;
         let settings = regs.settings();
         self.live.i995 = settings.i995 & 0xFFFF;
@@ -269,7 +279,11 @@ impl StationMi {
         match c {
             StationCmd::Reset | StationCmd::Reinit => {
                 self.setup = match (c, self.state_file.as_deref().map(persist::load)) {
-                    (StationCmd::Reset, Some(Loaded::Setup(s))) if same_nodes(&s, &self.factory) => s,
+                    (StationCmd::Reset, Some(Loaded::Setup(s)))
+                        if same_nodes(&s, &self.factory) =>
+                    {
+                        s
+                    }
                     _ => self.factory.clone(),
                 };
                 self.live.errors = 0;
@@ -284,7 +298,10 @@ impl StationMi {
             }
             StationCmd::ClearFault => {
                 self.clear_faults();
-                for s in nodes.iter_mut().filter(|s| node == AUX_NODE || s.node() == node) {
+                for s in nodes
+                    .iter_mut()
+                    .filter(|s| node == AUX_NODE || s.node() == node)
+                {
                     s.clear_amp_fault();
                 }
                 Reply::Done

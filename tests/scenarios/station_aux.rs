@@ -96,12 +96,10 @@ fn ring(cards: usize, stations: usize, state_dir: Option<&std::path::Path>) -> R
                 MemberRef::Station(sc) => {
                     let plant = PlantConfig::from_table(&sc.plant).unwrap();
                     let c = sc.check;
-                    let st = StationApp::new(&sc.nodes, &[], &plant)
-                        .unwrap()
-                        .with_setup(
-                            Globals::from_check(c.period, c.min_syncs, c.max_errors),
-                            state_dir.map(|d| d.join(format!("{name}.state"))),
-                        );
+                    let st = StationApp::new(&sc.nodes, &[], &plant).unwrap().with_setup(
+                        Globals::from_check(c.period, c.min_syncs, c.max_errors),
+                        state_dir.map(|d| d.join(format!("{name}.state"))),
+                    );
                     (MemberKind::Station, App::Station(Box::new(st)))
                 }
             };
@@ -130,7 +128,12 @@ fn station(sim: &RingSim<App>, i: usize) -> &StationApp {
 }
 
 /// Queue requests on card `i`, run until all are answered (at most `limit` cycles).
-fn ask(sim: &mut RingSim<App>, i: usize, reqs: &[(u8, Request)], limit: u64) -> Vec<(Outcome, u64)> {
+fn ask(
+    sim: &mut RingSim<App>,
+    i: usize,
+    reqs: &[(u8, Request)],
+    limit: u64,
+) -> Vec<(Outcome, u64)> {
     let c = card(sim, i);
     c.done.clear();
     c.queue = reqs.iter().map(|&(n, r)| (n, r, 32)).collect();
@@ -187,11 +190,20 @@ fn masters_read_and_write_station_mi_variables_over_node_15() {
     assert_eq!(station(&sim, 1).mi().setup().nodes[&4].inertia, 2.5e-5);
     assert_eq!(station(&sim, 1).mi().setup().nodes[&5].inertia, 1.25e-5);
     // card1 talks to its own station over its own node-15 packet; the ring stays locked
-    let got = ask(&mut sim, 2, &[(5, Request::WriteMi(912, 10.0)), (5, Request::ReadMi(912))], 200);
+    let got = ask(
+        &mut sim,
+        2,
+        &[(5, Request::WriteMi(912, 10.0)), (5, Request::ReadMi(912))],
+        200,
+    );
     assert_eq!(got[0].0, Outcome::Reply(Reply::Done));
     assert_eq!(got[1].0, value(10.0));
     assert_eq!(station(&sim, 3).mi().setup().nodes[&5].capture_control, 10);
-    assert_eq!(station(&sim, 1).mi().setup().nodes[&5].capture_control, 2, "station0 untouched");
+    assert_eq!(
+        station(&sim, 1).mi().setup().nodes[&5].capture_control,
+        2,
+        "station0 untouched"
+    );
     for i in 0..4 {
         assert!(!sim.member(i).ring_fault(), "member {i}");
     }
@@ -240,8 +252,17 @@ fn slave_errors_timeouts_and_broadcasts() {
         n
     });
     for s in [1, 2] {
-        assert_eq!(station(&sim, s).mi().setup().globals.check_period, 12, "station {s}");
-        assert!(station(&sim, s).mi().setup().nodes.values().all(|c| c.inertia == 3e-5));
+        assert_eq!(
+            station(&sim, s).mi().setup().globals.check_period,
+            12,
+            "station {s}"
+        );
+        assert!(station(&sim, s)
+            .mi()
+            .setup()
+            .nodes
+            .values()
+            .all(|c| c.inertia == 3e-5));
     }
     // a cut link: the request never comes back
     sim.inject(1, FaultSpec::always(FaultKind::Cut)).unwrap();
@@ -259,7 +280,10 @@ fn a_break_upstream_latches_the_station_fault_until_clrf_on_a_healthy_ring() {
     sim.run(30);
     let s1 = station(&sim, 2);
     assert!(s1.mi().faulted());
-    assert!(s1.mi().suspected_break(), "byte violations: the break is upstream");
+    assert!(
+        s1.mi().suspected_break(),
+        "byte violations: the break is upstream"
+    );
     assert!(s1.ring_fault());
     // the FAULT flag of every node reads faulted (low-true: bit clear) while latched
     for n in s1.servo_nodes() {
@@ -267,9 +291,17 @@ fn a_break_upstream_latches_the_station_fault_until_clrf_on_a_healthy_ring() {
     }
     sim.clear_faults(1);
     sim.run(30);
-    assert!(station(&sim, 2).mi().faulted(), "latched after the ring heals");
+    assert!(
+        station(&sim, 2).mi().faulted(),
+        "latched after the ring heals"
+    );
     // CLRF from the card, through node 15
-    let got = ask(&mut sim, 0, &[(8, Request::Command(StationCmd::ClearFault))], 200);
+    let got = ask(
+        &mut sim,
+        0,
+        &[(8, Request::Command(StationCmd::ClearFault))],
+        200,
+    );
     assert_eq!(got[0].0, Outcome::Reply(Reply::Done));
     sim.run(2);
     let s1 = station(&sim, 2);
@@ -302,12 +334,28 @@ fn station_save_survives_a_restart_and_a_corrupt_file_is_reported() {
     // a new station process on the same state file starts from the saved setup
     let mut sim = ring(1, 1, Some(&dir));
     sim.run(20);
-    let got = ask(&mut sim, 0, &[(0, Request::Command(StationCmd::ConfigRead)), (1, Request::ReadMi(966))], 200);
+    let got = ask(
+        &mut sim,
+        0,
+        &[
+            (0, Request::Command(StationCmd::ConfigRead)),
+            (1, Request::ReadMi(966)),
+        ],
+        200,
+    );
     assert_eq!(got[0].0, value(37.0));
     assert_eq!(got[1].0, value(50_000.0));
     assert!(station(&sim, 1).mi().config_error().is_none());
     // $$$*** goes back to the config values (without touching the file)
-    let got = ask(&mut sim, 0, &[(0, Request::Command(StationCmd::Reinit)), (0, Request::ReadMi(2))], 200);
+    let got = ask(
+        &mut sim,
+        0,
+        &[
+            (0, Request::Command(StationCmd::Reinit)),
+            (0, Request::ReadMi(2)),
+        ],
+        200,
+    );
     assert_eq!(got[1].0, value(0.0));
     // a corrupt file: config values, MI4 bit 2, and the reason
     let path = dir.join("station0.state");
@@ -319,8 +367,16 @@ fn station_save_survives_a_restart_and_a_corrupt_file_is_reported() {
     sim.run(5);
     let st = station(&sim, 1);
     assert!(st.mi().config_error().unwrap().contains("checksum"));
-    let got = ask(&mut sim, 0, &[(0, Request::ReadMi(4)), (0, Request::ReadMi(2))], 200);
-    assert_eq!(got[0].0, Outcome::Reply(Reply::Value(4.0, ValueFormat::Hex)));
+    let got = ask(
+        &mut sim,
+        0,
+        &[(0, Request::ReadMi(4)), (0, Request::ReadMi(2))],
+        200,
+    );
+    assert_eq!(
+        got[0].0,
+        Outcome::Reply(Reply::Value(4.0, ValueFormat::Hex))
+    );
     assert_eq!(got[1].0, value(0.0));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -310,7 +310,10 @@ mod tests {
         assert_eq!(s.read(&live, 0, 0), Ok((1.104, ValueFormat::Version)));
         assert_eq!(s.read(&live, 1, 8), Ok((8.0, ValueFormat::Decimal)));
         assert_eq!(s.read(&live, 0, 9), Ok((4.0, ValueFormat::Decimal)));
-        assert_eq!(s.read(&live, 0, 996), Ok((f64::from(0x0F_8003), ValueFormat::Hex)));
+        assert_eq!(
+            s.read(&live, 0, 996),
+            Ok((f64::from(0x0F_8003), ValueFormat::Hex))
+        );
         assert_eq!(s.read(&live, 0, 958), Ok((1.25e-5, ValueFormat::Decimal)));
         assert_eq!(s.read(&live, 1, 912), Ok((2.0, ValueFormat::Decimal)));
         assert_eq!(s.read(&live, 0, 7), Err(slave_error::UNKNOWN_VARIABLE));
@@ -324,7 +327,7 @@ mod tests {
         let before = s.clone();
         for (node, n, v, e) in [
             (0u8, 958u16, -1.0, slave_error::OUT_OF_RANGE), // inertia must be > 0
-            (0, 912, 1.0, slave_error::OUT_OF_RANGE),        // index capture: no index channel
+            (0, 912, 1.0, slave_error::OUT_OF_RANGE),       // index capture: no index channel
             (0, 913, 4.0, slave_error::OUT_OF_RANGE),
             (0, 950, 3.0, slave_error::OUT_OF_RANGE),
             (0, 967, 2e6, slave_error::OUT_OF_RANGE), // −limit above +limit

@@ -155,7 +155,9 @@ mod tests {
         assert!(decode(&flipped).unwrap_err().contains("checksum"));
         assert!(decode(&good[..good.len() / 2]).is_err());
         assert!(decode(b"").unwrap_err().contains("header"));
-        assert!(decode(b"MCCSAVE\0 1\n{}").unwrap_err().contains("not a station"));
+        assert!(decode(b"MCCSAVE\0 1\n{}")
+            .unwrap_err()
+            .contains("not a station"));
         // a good checksum over bad values
         let mut s = setup();
         s.nodes.get_mut(&0).unwrap().inertia = -1.0;
