@@ -115,8 +115,10 @@ mod tests {
     use crate::mi::Globals;
 
     fn setup() -> Setup {
-        let mut n = NodePlantConfig::default();
-        n.inertia = 3e-5;
+        let n = NodePlantConfig {
+            inertia: 3e-5,
+            ..Default::default()
+        };
         Setup {
             globals: Globals {
                 config_number: 37,
