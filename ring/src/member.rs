@@ -19,7 +19,7 @@
 //! sync node and the Type 1 auxiliary channel, [`crate::aux_channel`]) registers 0-1 always
 //! carry the ring cycle number and registers 2-3 the master's auxiliary word: the sync
 //! master's node-15 packet is the sync packet; another master sends its own node-15 packet
-//! each cycle if node 15 is activated. With a sync source set ([`RingMember::set_sync_source`])
+//! each cycle while its channel is busy (node 15 activated, a non-idle word). With a sync source set ([`RingMember::set_sync_source`])
 //! only the sync-node packet of that master number is a sync packet. A slave forwards node-15
 //! packets of its master unchanged except for registers 2-3 while it has an auxiliary reply
 //! armed ([`RingMember::set_aux_reply`]).
@@ -162,6 +162,13 @@ impl RingMember {
         let s = self.settings;
         s.active_nodes()
             .filter(|n| !(s.is_sync_master() && *n == s.sync_node()))
+            // another master's node-15 packet exists while its auxiliary channel is busy
+            .filter(|n| {
+                *n != AUX_NODE || {
+                    let w = self.write_regs(AUX_NODE);
+                    (w.r2, w.r3) != (0, 0)
+                }
+            })
             .map(|n| {
                 if n == AUX_NODE {
                     let mut p = Packet::sync(s.master_number(), n, cycle);
