@@ -52,9 +52,19 @@ pub enum Command {
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// The EMCL bus: send a frame (`mcc emcl send 1 6 1 0 0`), set a drive's inputs.
+    Emcl(EmclArgs),
     /// Internal: the detached supervisor started by `mcc up --detach`.
     #[command(hide = true)]
-    Supervise,
+    Supervise(SuperviseArgs),
+}
+
+/// `mcc supervise` (hidden).
+#[derive(Debug, Args)]
+pub struct SuperviseArgs {
+    /// Stop the cluster when this process exits (`mcc up --owner-pid`).
+    #[arg(long, value_name = "PID")]
+    pub owner_pid: Option<u32>,
 }
 
 /// `mcc up`.
@@ -66,12 +76,16 @@ pub struct UpArgs {
     /// Number of stations in the embedded default cluster (default 2).
     #[arg(long, value_name = "M", conflicts_with = "config", value_parser = clap::value_parser!(u8).range(0..=48))]
     pub stations: Option<u8>,
-    /// Clock mode (overrides the config).
+    /// Clock mode: paced (default: lockstep paced by the wall clock), lockstep (as fast as
+    /// the ring goes) or realtime (free-running) (overrides the config).
     #[arg(long, value_name = "MODE", value_parser = parse_clock)]
     pub clock: Option<ClockMode>,
     /// Ring rate in Hz (overrides the config).
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
+    /// Paced clock: real-time factor, ring time per wall time (default 1; overrides the config).
+    #[arg(long, value_name = "X")]
+    pub rtf: Option<f64>,
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -87,9 +101,24 @@ pub struct UpArgs {
     /// TCP port of the daisy chain on 127.0.0.1 (default: any free port).
     #[arg(long, value_name = "PORT")]
     pub chain_port: Option<u16>,
+    /// TCP port of the EMCL bus on 127.0.0.1 (default: `[emcl] port`, else any free port).
+    #[arg(long, value_name = "PORT")]
+    pub emcl_port: Option<u16>,
     /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
     #[arg(long)]
     pub show_framing: bool,
+    /// With --detach: print the status document (`mcc status --json`) once the ring is locked,
+    /// and on failure a JSON error (`{"error": {"kind", "message", "logs"}}`) on stdout.
+    #[arg(long, requires = "detach")]
+    pub json: bool,
+    /// Stop the cluster when process PID exits (test harnesses: a killed test runner never
+    /// leaves a cluster behind).
+    #[arg(long, value_name = "PID")]
+    pub owner_pid: Option<u32>,
+    /// Print the resolved, checked config (TOML: the file or the embedded default with the
+    /// options applied) and exit without starting anything.
+    #[arg(long, conflicts_with_all = ["detach", "json"])]
+    pub print_config: bool,
 }
 
 /// `mcc send`.
@@ -104,6 +133,9 @@ pub struct SendArgs {
     /// Milliseconds a card has to answer.
     #[arg(long, value_name = "MS", default_value_t = 2000)]
     pub timeout_ms: u64,
+    /// Print one JSON array of `{"line", "reply", "error"}` (one per LINE) instead of text.
+    #[arg(long)]
+    pub json: bool,
     /// Command lines (`^K` = control character).
     #[arg(required = true, value_name = "LINE")]
     pub lines: Vec<String>,
@@ -140,6 +172,10 @@ pub struct StatusArgs {
     /// Print the JSON status document instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Keep printing a status document (one compact JSON line) every MS milliseconds until
+    /// the cluster stops or the reader goes away.
+    #[arg(long, value_name = "MS", requires = "json", value_parser = clap::value_parser!(u64).range(10..=60_000))]
+    pub watch: Option<u64>,
 }
 
 /// `mcc fault`.
@@ -190,9 +226,10 @@ pub struct StartSyncArgs {
 /// `mcc gather`.
 #[derive(Debug, Args)]
 pub struct GatherArgs {
-    /// Card number (I0).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=15))]
-    pub card: u8,
+    /// Card number(s) (I0), comma-separated: gathering starts on every one in the same ring
+    /// cycle.
+    #[arg(long, value_name = "N[,N...]")]
+    pub card: String,
     /// Motors (1-8), comma-separated: commanded and actual position of each.
     #[arg(long, value_name = "M,M,...", default_value = "1")]
     pub motors: String,
@@ -202,12 +239,62 @@ pub struct GatherArgs {
     /// Servo cycles between samples (I19).
     #[arg(long, value_name = "P", default_value_t = 1)]
     pub period: u32,
-    /// Command line sent to the card right after gathering starts (e.g. "#1J=2000").
+    /// Command line run on each card in the ring cycle gathering starts (e.g. "#1J=2000").
     #[arg(long, value_name = "LINE")]
     pub run: Option<String>,
-    /// Directory for gather.csv and gather.png.
-    #[arg(long, value_name = "DIR", default_value = ".")]
-    pub out: PathBuf,
+    /// Directory for gather.csv and gather.png (several cards: gather-card<N>.csv/.png);
+    /// default `.`, or no files with --json.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Print the samples as JSON (ring cycle of every sample, positions per card and motor).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `mcc emcl`.
+#[derive(Debug, Args)]
+pub struct EmclArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: EmclCommand,
+}
+
+/// `mcc emcl` verbs.
+#[derive(Debug, Subcommand)]
+pub enum EmclCommand {
+    /// Send one frame on the bus and print the reply: `ADDR OP TYPE MOTOR VALUE` (numbers,
+    /// 0x hex allowed; the checksum is added) or nine hex bytes sent as they are.
+    Send {
+        /// Milliseconds to wait for the reply.
+        #[arg(long, value_name = "MS", default_value_t = 2000)]
+        timeout_ms: u64,
+        /// The frame.
+        #[arg(required = true, num_args = 5..=9, allow_negative_numbers = true, value_name = "WORD")]
+        words: Vec<String>,
+    },
+    /// Set input lines of a drive: in0..in2, analog, enable_in, reset_in; inject driver
+    /// faults: overtemp, short (e.g. `mcc emcl input drive0 in1=1 analog=2048`).
+    Input {
+        /// Drive name.
+        drive: String,
+        /// NAME=VALUE settings.
+        #[arg(required = true, value_name = "NAME=VALUE")]
+        settings: Vec<String>,
+    },
+}
+
+/// `mcc bench emcl`.
+#[derive(Debug, Args)]
+pub struct BenchEmclArgs {
+    /// Round trips to time on one connection.
+    #[arg(long, value_name = "K", default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub count: u32,
+    /// Host connections sharing the bus in the throughput run.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub connections: u32,
+    /// Clock mode of the benchmark cluster (default lockstep).
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
 }
 
 /// `mcc down`.
@@ -235,6 +322,37 @@ pub enum BenchCommand {
     Faults(BenchFaultsArgs),
     /// Cluster bring-up time (`mcc up --detach` until locked).
     Bringup(BenchBringupArgs),
+    /// EMCL bus round trip p50/p99 and frames per second (TCP and in-process drive).
+    Emcl(BenchEmclArgs),
+    /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
+    /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
+    Soak(BenchSoakArgs),
+}
+
+/// `mcc bench soak`.
+#[derive(Debug, Args)]
+pub struct BenchSoakArgs {
+    /// Duration, minutes.
+    #[arg(long, value_name = "N", default_value_t = 10.0)]
+    pub minutes: f64,
+    /// Duration in seconds (overrides --minutes; short runs in tests).
+    #[arg(long, value_name = "S")]
+    pub seconds: Option<f64>,
+    /// Clock mode: paced (default), lockstep or realtime.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
+    /// Paced clock: real-time factor.
+    #[arg(long, value_name = "X")]
+    pub rtf: Option<f64>,
+    /// Cards.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: u8,
+    /// Stations.
+    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: u8,
+    /// CPU-bound threads to run beside the cluster (load), e.g. 4 on a 2-core machine.
+    #[arg(long, value_name = "K", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub load: u32,
 }
 
 /// `mcc bench sync`.
@@ -312,6 +430,7 @@ pub struct BenchRingArgs {
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {
     s.parse()
+        .map_err(|e: mcc_ring::config::UnknownClockMode| e.to_string())
 }
 
 #[cfg(test)]
@@ -350,6 +469,34 @@ mod tests {
         assert_eq!(up.clock, Some(ClockMode::Lockstep));
         assert_eq!(up.rate, Some(1000.0));
         assert!(up.detach);
+    }
+
+    #[test]
+    fn harness_options_parse_and_combine_only_where_they_mean_something() {
+        let cli =
+            Cli::try_parse_from(["mcc", "up", "--detach", "--json", "--owner-pid", "42"]).unwrap();
+        let Command::Up(up) = cli.command else {
+            panic!()
+        };
+        assert!(up.json && up.detach);
+        assert_eq!(up.owner_pid, Some(42));
+        // --json needs --detach (the foreground `up` is a terminal); --print-config starts
+        // nothing, so it takes neither.
+        assert!(Cli::try_parse_from(["mcc", "up", "--json"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "up", "--print-config", "--detach"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "up", "--print-config", "--cards", "3"]).is_ok());
+        let st = Cli::try_parse_from(["mcc", "status", "--json", "--watch", "50"]).unwrap();
+        let Command::Status(st) = st.command else {
+            panic!()
+        };
+        assert_eq!(st.watch, Some(50));
+        assert!(Cli::try_parse_from(["mcc", "status", "--watch", "50"]).is_err());
+        assert!(Cli::try_parse_from(["mcc", "status", "--json", "--watch", "5"]).is_err());
+        let g = Cli::try_parse_from(["mcc", "gather", "--card", "0,1", "--json"]).unwrap();
+        let Command::Gather(g) = g.command else {
+            panic!()
+        };
+        assert_eq!((g.card.as_str(), g.json, g.out), ("0,1", true, None));
     }
 
     #[test]

@@ -45,9 +45,18 @@ pub fn attach(name: &str) -> Result<Attached> {
         .ok_or_else(|| anyhow!("cluster {name:?} is still starting (no endpoint yet)"))?;
     let session = ctl::connect(
         &endpoint,
-        cfg.ring.order.len() + 1,
+        cfg.ring.order.len() + 1 + cfg.standalone_drives().count(),
         Duration::from_millis(1500),
     )?;
+    // A fresh session may not route queries to every member yet, and a query nobody serves
+    // comes back empty at once (a start-sync or gather then blames a card): ask every member
+    // until each answered (bounded; a dead member only costs the budget).
+    let _ = ctl::query_statuses(
+        &session,
+        &cfg,
+        Duration::from_millis(300),
+        Duration::from_millis(1500),
+    );
     Ok(Attached {
         rd,
         info,
@@ -58,6 +67,9 @@ pub fn attach(name: &str) -> Result<Attached> {
 
 /// `mcc status [--json]`.
 pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
+    if let Some(ms) = args.watch {
+        return crate::watch::watch(cluster, Duration::from_millis(ms));
+    }
     let a = attach(cluster)?;
     let st = ctl::query_statuses(
         &a.session,
@@ -67,6 +79,7 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
     );
     let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
     crate::drills::enrich_status(&a.session, &a.cfg, &mut doc);
+    crate::emcl::status::enrich(&a.session, &a.cfg, &mut doc);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

@@ -7,8 +7,10 @@
 //! D:$0028 and actual position D:$002B (+ (x-1)·$3C), 48-bit words in 1/(Ix08·32) counts
 //! (card/src/servo/registers.rs); I21.. = `$80xxxx` (the X:Y pair). One sample every I19 = P
 //! servo cycles; the buffer holds exactly the samples of K cycles, so gathering stops by
-//! itself when full. `--run LINE` is sent right after `GATHER` (e.g. `#1J=2000`), so the move
-//! is recorded from its start.
+//! itself when full. `GATHER` runs through the synchronized start (`mcc start-sync`): on every
+//! card given in the tick of one ring cycle T, so sample k is ring cycle T + k·P on each of
+//! them; `--run LINE` runs in that same tick (`GATHER LINE`, e.g. `#1J=2000` or `&1B1R`), so
+//! the move is recorded from its start. `--json` prints the samples with their ring cycles.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -207,11 +209,11 @@ fn card_cycle(session: &zenoh::Session, cluster: &str, n: u32) -> Result<u64> {
         .ok_or_else(|| anyhow!("card {n} has not ticked yet: is the ring running?"))
 }
 
-/// Wait until card `n` has run `cycles` more ring cycles (bounded: the ring must move).
-fn wait_cycles(session: &zenoh::Session, cluster: &str, n: u32, cycles: u64) -> Result<()> {
-    let start = card_cycle(session, cluster, n)?;
-    let (mut last, mut moved) = (start, Instant::now());
-    while last < start + cycles {
+/// Wait until card `n` has run ring cycle `target` (bounded: the ring must move).
+fn wait_cycle(session: &zenoh::Session, cluster: &str, n: u32, target: u64) -> Result<()> {
+    let mut last = card_cycle(session, cluster, n)?;
+    let mut moved = Instant::now();
+    while last < target {
         std::thread::sleep(Duration::from_millis(20));
         let c = card_cycle(session, cluster, n)?;
         if c != last {
@@ -223,9 +225,52 @@ fn wait_cycles(session: &zenoh::Session, cluster: &str, n: u32, cycles: u64) -> 
     Ok(())
 }
 
+/// One card's part of a gather: its cmd key and the position scales of the motors.
+struct Source {
+    card: u32,
+    key: String,
+    ix08: Vec<f64>,
+    cycle_ms: f64,
+}
+
+/// Read the scales and set up (but not start) gathering on one card.
+fn prepare(
+    s: &zenoh::Session,
+    key: String,
+    card: u32,
+    motors: &[u16],
+    args: &GatherArgs,
+    words: u64,
+) -> Result<Source> {
+    let mut ix08 = Vec::new();
+    for &m in motors {
+        let k = value(s, &key, &format!("I{m}08"))?;
+        if !(k.is_finite() && k > 0.0) {
+            bail!("card {card}: motor {m}: I{m}08 = {k} is not a usable position scale");
+        }
+        ix08.push(k);
+    }
+    let i10 = value(s, &key, "I10")?;
+    // A gather left running or defined by someone else goes first.
+    let _ = cmd(s, &key, "ENDGATHER");
+    let _ = cmd(s, &key, "DELETE GATHER");
+    cmd(s, &key, &setup_line(motors, args.period))?;
+    cmd(s, &key, &format!("DEFINE GATHER {words}"))?;
+    Ok(Source {
+        card,
+        key,
+        ix08,
+        cycle_ms: if i10 > 0.0 { i10 / 8_388_608.0 } else { 0.0 },
+    })
+}
+
 /// `mcc gather`.
 pub fn cmd_gather(cluster: &str, args: &GatherArgs) -> Result<()> {
     let motors = parse_motors(&args.motors).map_err(anyhow::Error::msg)?;
+    let cards = crate::syncstart::parse_cards(&args.card).map_err(anyhow::Error::msg)?;
+    if cards.is_empty() {
+        bail!("--card: no card given (e.g. --card 0 or --card 0,1)");
+    }
     if args.cycles == 0 || args.cycles > MAX_CYCLES {
         bail!("--cycles must be 1-{MAX_CYCLES}");
     }
@@ -236,72 +281,163 @@ pub fn cmd_gather(cluster: &str, args: &GatherArgs) -> Result<()> {
     if samples > MAX_SAMPLES {
         bail!("{samples} samples are too many (at most {MAX_SAMPLES}: raise --period)");
     }
+    if args
+        .run
+        .as_deref()
+        .is_some_and(|r| r.contains(['\r', '\n']))
+    {
+        bail!("--run: one command line (no line breaks)");
+    }
     let a = attach(cluster)?;
-    let n = u32::from(args.card);
-    if !a.cfg.cards.iter().any(|c| u32::from(c.number) == n) {
-        let have: Vec<String> = a.cfg.cards.iter().map(|c| c.number.to_string()).collect();
-        bail!(
-            "cluster {cluster:?} has no card {n} (cards: {})",
-            have.join(", ")
-        );
+    for &n in &cards {
+        if !a.cfg.cards.iter().any(|c| u32::from(c.number) == n) {
+            let have: Vec<String> = a.cfg.cards.iter().map(|c| c.number.to_string()).collect();
+            bail!(
+                "cluster {cluster:?} has no card {n} (cards: {})",
+                have.join(", ")
+            );
+        }
     }
-    let key = mcc_ring::control::card_cmd_key(&a.cfg.cluster, n);
     let s = &a.session;
-    let mut ix08 = Vec::new();
-    for &m in &motors {
-        let k = value(s, &key, &format!("I{m}08"))?;
-        if !(k.is_finite() && k > 0.0) {
-            bail!("motor {m}: I{m}08 = {k} is not a usable position scale");
-        }
-        ix08.push(k);
-    }
-    let i10 = value(s, &key, "I10")?;
-    // A gather left running or defined by someone else goes first.
-    let _ = cmd(s, &key, "ENDGATHER");
-    let _ = cmd(s, &key, "DELETE GATHER");
-    cmd(s, &key, &setup_line(&motors, args.period))?;
     let words = samples * motors.len() as u64 * 2;
-    cmd(s, &key, &format!("DEFINE GATHER {words}"))?;
-    cmd(s, &key, "GATHER")?;
-    let res = (|| {
-        if let Some(line) = &args.run {
-            cmd(s, &key, line).context("--run")?;
-        }
-        wait_cycles(s, &a.cfg.cluster, n, args.cycles + 1)?;
-        cmd(s, &key, "ENDGATHER")?;
-        cmd(s, &key, "LIST GATHER")
-    })();
-    let _ = cmd(s, &key, "ENDGATHER");
-    let _ = cmd(s, &key, "DELETE GATHER");
-    let listed = res?;
-    let words = parse_words(&listed).map_err(anyhow::Error::msg)?;
-    let rec = Recording {
-        samples: decode(&words, &ix08),
-        motors,
-        period: args.period,
-        cycle_ms: if i10 > 0.0 { i10 / 8_388_608.0 } else { 0.0 },
-    };
-    if rec.samples.is_empty() {
-        bail!("the card gathered no samples: is its servo loop running?");
+    let mut sources = Vec::new();
+    for &n in &cards {
+        let key = mcc_ring::control::card_cmd_key(&a.cfg.cluster, n);
+        sources.push(prepare(s, key, n, &motors, args, words)?);
     }
-    write_outputs(&rec, &args.out, n)
+    // GATHER (and the --run line) on every card in the tick of one ring cycle T: the first
+    // sample is taken in that tick, sample k at T + k·period.
+    let line = match &args.run {
+        Some(r) => format!("GATHER {r}"),
+        None => "GATHER".to_string(),
+    };
+    let res = (|| {
+        let start = crate::syncstart::start_sync(
+            s,
+            &a.cfg.cluster,
+            &cards,
+            &line,
+            &crate::syncstart::SyncOptions::default(),
+        )
+        .context("starting the gather")?;
+        for c in &start.cards {
+            if c.raw_reply.contains('\u{7}') {
+                bail!("card {} refused {line:?}: {}", c.card, c.reply);
+            }
+        }
+        // For scripts that start motion of their own while this records.
+        eprintln!(
+            "mcc gather: gathering from ring cycle {} on card(s) {}",
+            start.cycle, args.card
+        );
+        let end = start.cycle + args.cycles + 1;
+        for &n in &cards {
+            wait_cycle(s, &a.cfg.cluster, n, end)?;
+        }
+        let mut listed = Vec::new();
+        for src in &sources {
+            cmd(s, &src.key, "ENDGATHER")?;
+            listed.push(cmd(s, &src.key, "LIST GATHER")?);
+        }
+        Ok((start.cycle, listed))
+    })();
+    for src in &sources {
+        let _ = cmd(s, &src.key, "ENDGATHER");
+        let _ = cmd(s, &src.key, "DELETE GATHER");
+    }
+    let (first_cycle, listed) = res?;
+    let mut recs = Vec::new();
+    for (src, reply) in sources.iter().zip(&listed) {
+        let words = parse_words(reply).map_err(anyhow::Error::msg)?;
+        let rec = Recording {
+            samples: decode(&words, &src.ix08),
+            motors: motors.clone(),
+            period: args.period,
+            cycle_ms: src.cycle_ms,
+        };
+        if rec.samples.is_empty() {
+            bail!(
+                "card {} gathered no samples: is its servo loop running?",
+                src.card
+            );
+        }
+        recs.push((src.card, rec));
+    }
+    if args.json {
+        println!("{}", json_doc(first_cycle, &recs));
+    }
+    let out = match (&args.out, args.json) {
+        (Some(d), _) => Some(d.clone()),
+        (None, false) => Some(PathBuf::from(".")),
+        (None, true) => None,
+    };
+    if let Some(dir) = out {
+        let several = recs.len() > 1;
+        for (card, rec) in &recs {
+            let stem = if several {
+                format!("gather-card{card}")
+            } else {
+                "gather".to_string()
+            };
+            write_outputs(rec, &dir, *card, &stem, !args.json)?;
+        }
+    }
+    Ok(())
 }
 
-fn write_outputs(rec: &Recording, dir: &Path, card: u32) -> Result<()> {
+/// The `--json` document: `first_cycle` (ring cycle of sample 0), `period`, `cycle_ms`,
+/// `motors`, and per card `cycle` (ring cycle of each sample), `commanded`/`actual` per motor.
+pub fn json_doc(first_cycle: u64, recs: &[(u32, Recording)]) -> serde_json::Value {
+    let cards: Vec<serde_json::Value> = recs
+        .iter()
+        .map(|(card, rec)| {
+            let cycles: Vec<u64> = (0..rec.samples.len() as u64)
+                .map(|k| first_cycle + k * u64::from(rec.period))
+                .collect();
+            let mut commanded = serde_json::Map::new();
+            let mut actual = serde_json::Map::new();
+            for (i, m) in rec.motors.iter().enumerate() {
+                let col = |f: fn(&(f64, f64)) -> f64| -> Vec<f64> {
+                    rec.samples.iter().filter_map(|r| r.get(i).map(f)).collect()
+                };
+                commanded.insert(m.to_string(), col(|p| p.0).into());
+                actual.insert(m.to_string(), col(|p| p.1).into());
+            }
+            serde_json::json!({
+                "card": card,
+                "cycle_ms": rec.cycle_ms,
+                "cycle": cycles,
+                "commanded": commanded,
+                "actual": actual,
+            })
+        })
+        .collect();
+    let first = recs.first().map(|(_, r)| r);
+    serde_json::json!({
+        "first_cycle": first_cycle,
+        "period": first.map(|r| r.period).unwrap_or(1),
+        "motors": first.map(|r| r.motors.clone()).unwrap_or_default(),
+        "cards": cards,
+    })
+}
+
+fn write_outputs(rec: &Recording, dir: &Path, card: u32, stem: &str, talk: bool) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let csv: PathBuf = dir.join("gather.csv");
+    let csv: PathBuf = dir.join(format!("{stem}.csv"));
     std::fs::write(&csv, rec.csv()).with_context(|| format!("writing {}", csv.display()))?;
-    let png = dir.join("gather.png");
+    let png = dir.join(format!("{stem}.png"));
     let labelled = plot::draw(rec, &png, &format!("card {card}"))
         .with_context(|| format!("drawing {}", png.display()))?;
-    println!(
-        "{} samples of motor(s) {:?} every {} servo cycle(s) ({:.3} ms)",
-        rec.samples.len(),
-        rec.motors,
-        rec.period,
-        rec.cycle_ms * f64::from(rec.period)
-    );
-    println!("wrote {} and {}", csv.display(), png.display());
+    if talk {
+        println!(
+            "card {card}: {} samples of motor(s) {:?} every {} servo cycle(s) ({:.3} ms)",
+            rec.samples.len(),
+            rec.motors,
+            rec.period,
+            rec.cycle_ms * f64::from(rec.period)
+        );
+        println!("wrote {} and {}", csv.display(), png.display());
+    }
     if !labelled {
         eprintln!("mcc gather: no TrueType font found (set MCC_PLOT_FONT=FILE.ttf): plot drawn without text");
     }

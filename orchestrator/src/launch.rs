@@ -48,6 +48,8 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
     let bin = match cfg.member(name) {
         Some(MemberRef::Card(_)) => sibling_binary("mcc-card"),
         Some(MemberRef::Station(_)) => sibling_binary("mcc-station"),
+        // A stand-alone EMCL drive runs as the station binary in drive mode.
+        None if cfg.drive(name).is_some() => sibling_binary("mcc-station"),
         None => anyhow::bail!("member {name:?} is not in the config"),
     };
     let (out, err) = log_stdio(rd, name)?;
@@ -67,15 +69,16 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
         .with_context(|| format!("cannot start {name} ({})", bin.display()))
 }
 
-/// Re-execute `mcc supervise --cluster <name>` as a daemon: new session (no terminal),
-/// stdin null, output to `logs/supervisor.log`. Returns its pid.
-pub fn spawn_supervisor(rd: &RunDir) -> Result<u32> {
+/// Re-execute `mcc supervise --cluster <name> [--owner-pid PID]` as a daemon: new session (no
+/// terminal), stdin null, output to `logs/supervisor.log`. Returns its pid.
+pub fn spawn_supervisor(rd: &RunDir, owner_pid: Option<u32>) -> Result<u32> {
     let exe = std::env::current_exe().context("cannot find the mcc executable")?;
     let (out, err) = log_stdio(rd, "supervisor")?;
     let mut cmd = Command::new(&exe);
     cmd.arg("--cluster")
         .arg(&rd.cluster)
         .arg("supervise")
+        .args(owner_pid.map(|p| format!("--owner-pid={p}")))
         .stdin(Stdio::null())
         .stdout(out)
         .stderr(err);

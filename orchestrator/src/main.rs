@@ -10,17 +10,24 @@ mod client;
 mod ctl;
 mod down;
 mod drills;
+mod emcl;
+mod events;
+mod failure;
 mod fault;
 mod gather;
 mod launch;
+mod owner;
+mod precheck;
 mod rundir;
 mod send;
+mod serve;
 mod status;
 mod supervisor;
 mod syncstart;
 mod sys;
 mod term;
 mod up;
+mod watch;
 
 use cli::{BenchCommand, Cli, Command};
 
@@ -33,6 +40,7 @@ fn main() {
     let res = match &cli.command {
         Command::Up(a) => {
             chain::server::export_up_options(a);
+            emcl::server::export_up_options(a);
             up::cmd_up(cli.cluster.as_deref(), a)
         }
         Command::Send(a) => send::cmd_send(&cluster, a),
@@ -49,10 +57,28 @@ fn main() {
         Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
-        Command::Supervise => up::cmd_supervise(&cluster),
+        Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
+        Command::Supervise(a) => up::cmd_supervise(&cluster, a),
+        Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
+        Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
     };
     if let Err(e) = res {
+        if wants_json(&cli.command) {
+            println!("{}", failure::error_json(&e));
+        }
         eprintln!("mcc: error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// Verbs asked for JSON output print their errors as JSON too (`failure::error_json`).
+fn wants_json(c: &Command) -> bool {
+    match c {
+        Command::Up(a) => a.json,
+        Command::Status(a) => a.json,
+        Command::Send(a) => a.json,
+        Command::StartSync(a) => a.json,
+        Command::Gather(a) => a.json,
+        _ => false,
     }
 }

@@ -24,7 +24,7 @@ pub const LOG_DIR: &str = "logs";
 pub struct MemberProc {
     /// Member name.
     pub name: String,
-    /// `card` or `station`.
+    /// `card`, `station` or `drive` (a stand-alone EMCL drive).
     pub kind: String,
     /// OS pid.
     pub pid: u32,
@@ -51,6 +51,12 @@ pub struct SupervisorInfo {
     /// Daisy-chain pseudo-terminal path, when one is served.
     #[serde(default)]
     pub daisy_chain_pty: Option<String>,
+    /// EMCL bus TCP endpoint (`127.0.0.1:PORT`) once serving.
+    #[serde(default)]
+    pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path, when one is served.
+    #[serde(default)]
+    pub emcl_bus_pty: Option<String>,
 }
 
 impl SupervisorInfo {
@@ -65,6 +71,8 @@ impl SupervisorInfo {
             message: None,
             daisy_chain: None,
             daisy_chain_pty: None,
+            emcl_bus: None,
+            emcl_bus_pty: None,
         }
     }
 }
@@ -185,7 +193,9 @@ impl RunDir {
     /// Remove the files mcc created (config, supervisor record, logs) and the directory if it
     /// is then empty. Anything else (e.g. a user's state file placed there) stays.
     pub fn cleanup(&self) -> Result<()> {
+        // (Plus the temporaries of `write_atomic`, left by a process killed while writing.)
         for f in [self.config_path(), self.info_path()] {
+            remove_if_exists(&f.with_extension("tmp"))?;
             remove_if_exists(&f)?;
         }
         let logs = self.dir.join(LOG_DIR);
@@ -267,7 +277,10 @@ mod tests {
         fs::write(rd.log_path("card0"), "hello\nworld\n").unwrap();
         assert_eq!(rd.log_tail("card0", 1), "world");
         fs::write(rd.dir.join("card0.state"), "saved").unwrap();
+        // A temporary left by a supervisor killed while writing its record is ours.
+        fs::write(rd.info_path().with_extension("tmp"), "{").unwrap();
         rd.cleanup().unwrap();
+        assert!(!rd.info_path().with_extension("tmp").exists());
         assert!(rd.dir.join("card0.state").exists());
         assert!(!rd.config_path().exists() && !rd.info_path().exists());
         fs::remove_dir_all(&rd.dir).unwrap();

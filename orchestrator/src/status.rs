@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::{ErrorCounters, MemberStatus};
+use mcc_ring::control::{ClockReport, ErrorCounters, MemberStatus};
 use mcc_ring::fault::FaultSpec;
 use serde::Serialize;
 
@@ -15,10 +15,22 @@ use crate::rundir::SupervisorInfo;
 pub struct ClusterStatus {
     /// Cluster name.
     pub cluster: String,
-    /// `realtime` or `lockstep`.
+    /// `paced`, `lockstep` or `realtime`.
     pub clock: String,
     /// Nominal ring rate, Hz.
     pub rate: f64,
+    /// Real-time factor asked for (paced; 1 otherwise).
+    pub rtf_requested: f64,
+    /// Real-time factor achieved over the last second (ring time / wall time), from the
+    /// synchronizing master; null when it did not answer.
+    pub rtf: Option<f64>,
+    /// Cycles that started more than a period late (the real-time interrupt warning).
+    pub late_cycles: u64,
+    /// Worst start lag behind the wall-clock schedule, µs.
+    pub max_lag_us: u64,
+    /// The synchronizing master's full clock report (lag percentiles, lost time, longest
+    /// stall, ring down, scheduling), null when it did not answer.
+    pub timing: Option<ClockReport>,
     /// Ring summary.
     pub ring: RingState,
     /// Every member in ring order.
@@ -31,8 +43,12 @@ pub struct ClusterStatus {
     pub daisy_chain: Option<String>,
     /// Daisy-chain pseudo-terminal path (`mcc up --pty`), else null.
     pub daisy_chain_pty: Option<String>,
-    /// EMCL bus endpoint (later issue).
+    /// EMCL bus TCP endpoint, `127.0.0.1:PORT` (null without drives).
     pub emcl_bus: Option<String>,
+    /// EMCL bus pseudo-terminal path (`mcc up --pty`, `[emcl] pty`), else null.
+    pub emcl_bus_pty: Option<String>,
+    /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
+    pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
     /// The supervising process.
     pub supervisor: SupervisorRow,
 }
@@ -85,8 +101,16 @@ pub struct MemberRow {
     pub ring_fault_cycle: Option<u64>,
     /// Cycles run on the holdover clock.
     pub holdover_cycles: u64,
-    /// Realtime cycles that started late.
+    /// Cycles that started late on the wall clock.
     pub late_cycles: u64,
+    /// Its input carries no light (loss of light upstream: a byte violation every cycle).
+    pub dark: bool,
+    /// First cycle it ran with a dark input.
+    pub dark_since_cycle: Option<u64>,
+    /// Why its ring fault latched (while latched).
+    pub fault_reason: Option<String>,
+    /// What its cycle thread got from the scheduler (realtime: SCHED_FIFO, locked memory).
+    pub sched: Option<String>,
     /// Faults injected on its send path.
     pub faults: Vec<FaultSpec>,
 }
@@ -116,6 +140,9 @@ pub struct CardRow {
     pub program_start_cycle: Option<u64>,
     /// CLOCK_MONOTONIC ns of that start.
     pub program_start_ns: Option<u64>,
+    /// Why the card's state file was refused at start-up (it started from factory defaults;
+    /// the file was kept aside), `null` when it loaded or there was none.
+    pub state_file_error: Option<String>,
 }
 
 /// One station.
@@ -201,8 +228,8 @@ pub fn broken_link(
             None => reference,
         };
         // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
-        // its holdover clock, unlocked, with a ring fault.
-        if lag > threshold || (!s.locked && s.ring_fault && s.sync_count > 0) {
+        // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.
+        if lag > threshold || s.dark || (!s.locked && s.ring_fault && s.sync_count > 0) {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
         }
     }
@@ -271,12 +298,17 @@ pub fn build(
                 ring_fault_cycle: v.ring_fault_cycle,
                 holdover_cycles: v.holdover_cycles,
                 late_cycles: v.late_cycles,
+                dark: v.dark,
+                dark_since_cycle: v.dark_since_cycle,
+                fault_reason: v.fault_reason.clone(),
+                sched: v.sched.clone(),
                 faults: v.faults.clone(),
             }
         })
         .collect();
     let link = broken_link(cfg, st, lag_threshold(cfg));
     let sm_cycle = status_of(&cfg.ring.sync_master).map(|s| s.cycle);
+    let timing = status_of(&cfg.ring.sync_master).and_then(|s| s.clock.clone());
     let ring = RingState {
         name: cfg.ring.name.clone(),
         locked: !members.is_empty() && members.iter().all(|m| m.alive && m.locked),
@@ -301,6 +333,10 @@ pub fn build(
                 killed_motors: Vec::new(),
                 program_start_cycle: None,
                 program_start_ns: None,
+                state_file_error: s
+                    .and_then(|s| s.extra.get("state_file_error"))
+                    .and_then(|v| v.as_str())
+                    .map(str::to_string),
             }
         })
         .collect();
@@ -325,13 +361,23 @@ pub fn build(
         cluster: cfg.cluster.clone(),
         clock: cfg.clock.as_str().into(),
         rate: cfg.rate_hz,
+        rtf_requested: match cfg.clock {
+            mcc_ring::config::ClockMode::Paced => cfg.rtf,
+            _ => 1.0,
+        },
+        rtf: timing.as_ref().map(|t| t.rtf),
+        late_cycles: timing.as_ref().map_or(0, |t| t.late_cycles),
+        max_lag_us: timing.as_ref().map_or(0, |t| t.max_lag_us),
+        timing,
         ring,
         members,
         cards,
         stations,
         daisy_chain: info.daisy_chain.clone(),
         daisy_chain_pty: info.daisy_chain_pty.clone(),
-        emcl_bus: None,
+        emcl_bus: info.emcl_bus.clone(),
+        emcl_bus_pty: info.emcl_bus_pty.clone(),
+        drives: Vec::new(),
         supervisor: SupervisorRow {
             pid: info.pid,
             endpoint: info.endpoint.clone(),
@@ -359,6 +405,40 @@ fn card_state_text(c: &CardRow) -> String {
     t
 }
 
+/// `rtf 1.00 of 1 requested, 3 late cycles, worst lag 1.2 ms` plus what is unusual.
+pub fn timing_text(s: &ClusterStatus) -> String {
+    let Some(t) = &s.timing else {
+        return "unknown (the synchronizing master did not answer)".into();
+    };
+    let mut out = if s.clock == "lockstep" {
+        format!("rtf {:.2} (lockstep: unthrottled)", t.rtf)
+    } else {
+        format!("rtf {:.2} of {} requested", t.rtf, t.rtf_requested)
+    };
+    let _ = write!(
+        out,
+        ", {} late cycles, worst lag {:.1} ms (p99 {:.1} ms), longest stall {:.1} ms",
+        t.late_cycles,
+        t.max_lag_us as f64 / 1000.0,
+        t.lag_p99_us as f64 / 1000.0,
+        t.longest_stall_us as f64 / 1000.0
+    );
+    if t.lost_ms > 0 {
+        let _ = write!(out, ", {} ms lost in {} re-bases", t.lost_ms, t.rebases);
+    }
+    if t.below_rtf_ms >= 1000 {
+        let _ = write!(
+            out,
+            ", BELOW the requested rtf for {:.1} s",
+            t.below_rtf_ms as f64 / 1000.0
+        );
+    }
+    if t.ring_down {
+        out.push_str(", RING DOWN (nothing comes back: cycles on the sync master's own clock)");
+    }
+    out
+}
+
 /// The human-readable table.
 pub fn render_table(s: &ClusterStatus) -> String {
     let mut o = String::new();
@@ -381,6 +461,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
             .map(|l| format!("  broken link: {l}"))
             .unwrap_or_default()
     );
+    let _ = writeln!(o, "time: {}", timing_text(s));
     let _ = writeln!(
         o,
         "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} faults",
@@ -405,7 +486,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
             e.overrun,
             e.underrun,
             e.bad_frames,
-            if m.ring_fault { "YES" } else { "no" },
+            if m.ring_fault { "YES" } else if m.dark { "dark" } else { "no" },
             if faults.is_empty() { "-".into() } else { faults.join(",") }
         );
     }
@@ -426,6 +507,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
         let pty = s.daisy_chain_pty.as_deref().unwrap_or("-");
         let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
+    o.push_str(&crate::emcl::status::render(s));
     let _ = writeln!(
         o,
         "zenoh {}  run dir {}  (* = synchronizing master)",

@@ -142,7 +142,16 @@ fn json_document_has_the_contract_fields() {
     ] {
         assert!(doc.get(k).is_some(), "missing {k}");
     }
-    assert_eq!(doc["clock"], "realtime");
+    assert_eq!(doc["clock"], "paced");
+    for k in [
+        "rtf",
+        "rtf_requested",
+        "late_cycles",
+        "max_lag_us",
+        "timing",
+    ] {
+        assert!(doc.get(k).is_some(), "missing {k}");
+    }
     assert_eq!(doc["rate"], 2258.7);
     assert_eq!(doc["daisy_chain"], serde_json::Value::Null);
     for k in ["name", "locked", "cycle", "faulted", "broken_link"] {
@@ -174,4 +183,43 @@ fn json_document_has_the_contract_fields() {
     let table = render_table(&build(&cfg, &info(), "/run/x", &st));
     assert!(table.contains("card0*"), "{table}");
     assert!(table.contains("ascii 127.0.0.1:5001"), "{table}");
+}
+
+#[test]
+fn a_dark_input_names_the_link_and_the_clock_comes_from_the_sync_master() {
+    // station0 cut (dark frames): card1, station1 and card0 get no light; their last frame
+    // with light is recent enough that only darkness tells.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    for i in [2, 3, 0] {
+        let m = st[i].as_mut().unwrap();
+        m.dark = true;
+        m.dark_since_cycle = Some(2995);
+        m.last_rx_cycle = Some(2994);
+    }
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("station0 → card1")
+    );
+    st[0].as_mut().unwrap().clock = Some(ClockReport {
+        mode: "paced".into(),
+        rtf_requested: 1.0,
+        rtf: 0.997,
+        late_cycles: 12,
+        max_lag_us: 2500,
+        ..Default::default()
+    });
+    let doc = build(&cfg, &info(), "/run/x", &st);
+    assert_eq!(doc.rtf, Some(0.997));
+    assert_eq!((doc.late_cycles, doc.max_lag_us), (12, 2500));
+    let j = serde_json::to_value(&doc).unwrap();
+    assert_eq!(j["members"][2]["dark"], true);
+    assert_eq!(j["members"][2]["dark_since_cycle"], 2995);
+    assert_eq!(j["timing"]["late_cycles"], 12);
+    let table = render_table(&doc);
+    assert!(
+        table.contains("rtf 1.00 of 1 requested, 12 late cycles, worst lag 2.5 ms"),
+        "{table}"
+    );
+    assert!(table.contains("dark"), "{table}");
 }

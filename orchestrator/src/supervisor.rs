@@ -39,6 +39,8 @@ pub struct Supervisor {
     )>,
     /// The daisy chain (TCP port, optional pty) while the cluster runs.
     chain: Option<crate::chain::server::ChainServer>,
+    /// The EMCL bus (TCP port, optional pty) when the cluster has drives.
+    emcl: Option<crate::emcl::server::BusServer>,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -72,6 +74,7 @@ impl Supervisor {
             info,
             restarts: None,
             chain: None,
+            emcl: None,
         };
         let (rtx, rrx) = mpsc::sync_channel(16);
         let q = sup
@@ -83,12 +86,15 @@ impl Supervisor {
             .wait()
             .map_err(|e| anyhow!("cannot declare the restart queryable: {e}"))?;
         sup.restarts = Some((q, rrx));
-        let order = sup.cfg.ring.order.clone();
+        let mut order = sup.cfg.ring.order.clone();
+        // Stand-alone EMCL drives are processes of their own (not on the ring).
+        order.extend(sup.cfg.standalone_drives().map(|d| d.name.clone()));
         for name in &order {
             match launch::spawn_member(&sup.rd, &sup.cfg, name, &endpoint) {
                 Ok(child) => {
                     let kind = match sup.cfg.member(name) {
                         Some(MemberRef::Card(_)) => "card",
+                        None if sup.cfg.drive(name).is_some() => "drive",
                         _ => "station",
                     };
                     tracing::info!(member = %name, pid = child.id(), "started");
@@ -110,7 +116,7 @@ impl Supervisor {
             }
         }
         let chain = crate::chain::server::ChainOptions::from_env()
-            .and_then(|o| crate::chain::server::ChainServer::start(&sup.session, &sup.cfg, &o));
+            .and_then(|o| crate::chain::server::start(&sup.session, &sup.cfg, &o));
         match chain {
             Ok(c) => {
                 sup.info.daisy_chain = Some(c.addr().to_string());
@@ -120,6 +126,21 @@ impl Supervisor {
             Err(e) => {
                 sup.shutdown(Duration::from_secs(3));
                 return Err(e);
+            }
+        }
+        if !sup.cfg.drives.is_empty() {
+            let bus = crate::emcl::server::BusOptions::resolve(&sup.cfg)
+                .and_then(|o| crate::emcl::server::start(&sup.session, &sup.cfg, &o));
+            match bus {
+                Ok(b) => {
+                    sup.info.emcl_bus = Some(b.addr().to_string());
+                    sup.info.emcl_bus_pty = b.pty_path().map(str::to_string);
+                    sup.emcl = Some(b);
+                }
+                Err(e) => {
+                    sup.shutdown(Duration::from_secs(3));
+                    return Err(e);
+                }
             }
         }
         sup.info.phase = "running".into();

@@ -34,6 +34,9 @@ pub struct Terminal<'a> {
     /// Show framing characters.
     pub show_framing: bool,
     status: Box<dyn Fn() -> String + 'a>,
+    /// Where asynchronous cluster events are printed (the editor's external printer while the
+    /// editor runs, so the line being typed is kept).
+    printer: Option<crate::events::Printer>,
 }
 
 impl std::fmt::Debug for Terminal<'_> {
@@ -52,7 +55,14 @@ impl<'a> Terminal<'a> {
             link,
             show_framing,
             status: Box::new(status),
+            printer: None,
         }
+    }
+
+    /// Print asynchronous events through `printer` (installs the editor's external printer).
+    pub fn with_printer(mut self, printer: crate::events::Printer) -> Self {
+        self.printer = Some(printer);
+        self
     }
 
     /// Handle one typed line, writing what the user sees to `out` (notes to `err`).
@@ -123,8 +133,25 @@ impl<'a> Terminal<'a> {
     }
 
     fn run_editor(&mut self) -> Result<()> {
-        use rustyline::error::ReadlineError;
         let mut ed = rustyline::DefaultEditor::new()?;
+        if let Some(p) = &self.printer {
+            // Events appear above the prompt; the line being typed is redrawn.
+            if let Ok(mut ext) = ed.create_external_printer() {
+                use rustyline::ExternalPrinter as _;
+                p.install(Box::new(move |line| {
+                    let _ = ext.print(line);
+                }));
+            }
+        }
+        let r = self.editor_loop(&mut ed);
+        if let Some(p) = &self.printer {
+            p.uninstall();
+        }
+        r
+    }
+
+    fn editor_loop(&mut self, ed: &mut rustyline::DefaultEditor) -> Result<()> {
+        use rustyline::error::ReadlineError;
         loop {
             match ed.readline("mcc> ") {
                 Ok(line) => {
@@ -164,6 +191,15 @@ pub fn one_line(doc: &ClusterStatus) -> String {
         doc.cards.len(),
         doc.clock
     );
+    if let Some(t) = &doc.timing {
+        s.push_str(&format!(
+            " rtf {:.2} of {}, {} late cycles, worst lag {:.1} ms",
+            t.rtf,
+            doc.rtf_requested,
+            t.late_cycles,
+            t.max_lag_us as f64 / 1000.0
+        ));
+    }
     if let Some(l) = &r.broken_link {
         s.push_str(&format!(", broken link {l}"));
     }
@@ -187,12 +223,14 @@ pub fn spawn_foreground(
     info: crate::rundir::SupervisorInfo,
     run_dir: String,
     show_framing: bool,
+    printer: crate::events::Printer,
 ) -> std::sync::mpsc::Receiver<()> {
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let link = ChainLink::new(session.clone(), &cfg, crate::chain::link::DEFAULT_TIMEOUT);
         let status = crate::send::status_line(session, cfg, info, run_dir);
-        if let Err(e) = Terminal::new(&link, show_framing, status).run() {
+        let term = Terminal::new(&link, show_framing, status).with_printer(printer);
+        if let Err(e) = { term }.run() {
             eprintln!("mcc: terminal: {e:#}");
         }
         link.close();

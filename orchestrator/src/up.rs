@@ -8,6 +8,8 @@ use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::MemberStatus;
 
 use crate::cli::{UpArgs, DEFAULT_CLUSTER};
+use crate::failure::Failure;
+use crate::owner::Owner;
 use crate::rundir::RunDir;
 use crate::supervisor::{stop_signals, Supervisor};
 use crate::{ctl, down, launch, status, sys};
@@ -39,12 +41,27 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         }
         cfg.rate_hz = rate;
     }
-    cfg.resolve().map_err(|e| match e {
+    if let Some(rtf) = args.rtf {
+        cfg.rtf = rtf;
+    }
+    // A value given on the command line is named as the option that gave it.
+    let flag = |key: &str| match key {
+        "cluster" => cluster_flag.map(|_| "--cluster"),
+        "rtf" => args.rtf.map(|_| "--rtf"),
+        "rate_hz" => args.rate.map(|_| "--rate"),
+        _ => None,
+    };
+    let cfg = cfg.resolve().map_err(|e| match e {
+        mcc_ring::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
+            anyhow!("{}: {problem}", flag(&key).unwrap_or_default())
+        }
         mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
             anyhow!("--cluster: {problem}")
         }
         other => anyhow!(other),
-    })
+    })?;
+    crate::emcl::validate(&cfg)?;
+    Ok(cfg)
 }
 
 /// Poll member status until every member is locked. Prints a progress line whenever the set
@@ -91,6 +108,7 @@ pub fn wait_locked(
             last = Some(locked);
         }
         if locked == st.len() {
+            crate::emcl::status::wait_ready(session, cfg, timeout.saturating_sub(start.elapsed()))?;
             return Ok(st);
         }
         if let Some(why) = dead() {
@@ -110,13 +128,16 @@ fn print_ready(
     st: &[Option<MemberStatus>],
 ) {
     let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
+    let clock = match cfg.clock {
+        mcc_ring::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
+        other => other.as_str().to_string(),
+    };
     println!(
-        "cluster {} up: {} members locked on ring {} at cycle {} ({}, {} Hz)",
+        "cluster {} up: {} members locked on ring {} at cycle {} ({clock}, {} Hz)",
         cfg.cluster,
         doc.members.len(),
         cfg.ring.name,
         doc.ring.cycle,
-        cfg.clock.as_str(),
         cfg.rate_hz
     );
     let port = |p: Option<u16>| {
@@ -147,6 +168,21 @@ fn print_ready(
             None => println!("  daisy chain {d}"),
         }
     }
+    if cfg.clock == mcc_ring::config::ClockMode::Realtime {
+        // What the realtime cycle threads got (SCHED_FIFO and locked memory when permitted).
+        let mut got: Vec<(String, Vec<&str>)> = Vec::new();
+        for m in &doc.members {
+            let s = m.sched.clone().unwrap_or_else(|| "unknown".into());
+            match got.iter_mut().find(|(k, _)| *k == s) {
+                Some((_, v)) => v.push(&m.name),
+                None => got.push((s, vec![&m.name])),
+            }
+        }
+        for (s, who) in got {
+            println!("  realtime cycle threads: {s} ({})", who.join(", "));
+        }
+    }
+    crate::emcl::status::print_ready(cfg, info);
     println!(
         "  zenoh endpoint {}",
         info.endpoint.as_deref().unwrap_or("-")
@@ -156,31 +192,48 @@ fn print_ready(
 
 /// `mcc up`.
 pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
-    let cfg = resolve_config(cluster_flag, args)?;
-    let rd = RunDir::for_cluster(&cfg.cluster)?;
-    rd.claim(std::process::id())?;
+    let config = |e: anyhow::Error| anyhow::Error::new(Failure::new("config", e));
+    let cfg = resolve_config(cluster_flag, args).map_err(config)?;
+    crate::precheck::check_members(&cfg).map_err(config)?;
+    if args.print_config {
+        print!("{}", cfg.to_toml_string()?);
+        return Ok(());
+    }
+    let owner = args.owner_pid.map(Owner::new).transpose().map_err(config)?;
+    let rd = RunDir::for_cluster(&cfg.cluster).map_err(config)?;
+    rd.claim(std::process::id())
+        .map_err(|e| anyhow::Error::new(Failure::new("running", e)))?;
     if let Err(e) = rd.write_config(&cfg.to_toml_string()?) {
         let _ = rd.cleanup();
         return Err(e);
     }
     let timeout = Duration::from_secs(args.timeout.max(1));
     if args.detach {
-        up_detached(&rd, &cfg, timeout)
+        up_detached(&rd, &cfg, timeout, owner, args.json)
     } else {
-        up_foreground(rd, cfg, timeout, args.show_framing)
+        up_foreground(rd, cfg, timeout, args.show_framing, owner)
     }
 }
 
-fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()> {
+fn up_detached(
+    rd: &RunDir,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+    owner: Option<Owner>,
+    json: bool,
+) -> Result<()> {
     let fail = |rd: &RunDir, e: anyhow::Error| -> Result<()> {
-        let tail = rd.log_tail("supervisor", 10);
+        let kind = if e.to_string().contains("did not lock") {
+            "lock-timeout"
+        } else {
+            "start"
+        };
+        let e = e.context(format!("cluster {} failed to start", rd.cluster));
+        let failure = Failure::new(kind, e).with_logs(rd, &cfg.ring.order);
         let _ = down::stop(rd, STOP_TIMEOUT, false);
-        Err(e.context(format!(
-            "cluster {} failed to start; supervisor log:\n{tail}",
-            rd.cluster
-        )))
+        Err(anyhow::Error::new(failure))
     };
-    let pid = match launch::spawn_supervisor(rd) {
+    let pid = match launch::spawn_supervisor(rd, owner.map(|o| o.pid)) {
         Ok(p) => p,
         Err(e) => return fail(rd, e),
     };
@@ -220,14 +273,7 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
         info.members
             .iter()
             .find(|m| !sys::pid_alive(m.pid))
-            .map(|m| {
-                format!(
-                    "member {} (pid {}) exited; log:\n{}",
-                    m.name,
-                    m.pid,
-                    rd.log_tail(&m.name, 10)
-                )
-            })
+            .map(|m| format!("member {} (pid {}) exited", m.name, m.pid))
     };
     let st = match wait_locked(&session, cfg, timeout, dead) {
         Ok(st) => st,
@@ -236,6 +282,12 @@ fn up_detached(rd: &RunDir, cfg: &ClusterConfig, timeout: Duration) -> Result<()
             return fail(rd, e);
         }
     };
+    if json {
+        let mut doc = status::build(cfg, &info, &rd.dir.display().to_string(), &st);
+        crate::drills::enrich_status(&session, cfg, &mut doc);
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
     print_ready(rd, cfg, &info, &st);
     println!("  stop with: mcc down --cluster {}", cfg.cluster);
     Ok(())
@@ -246,6 +298,7 @@ fn up_foreground(
     cfg: ClusterConfig,
     timeout: Duration,
     show_framing: bool,
+    owner: Option<Owner>,
 ) -> Result<()> {
     let (_rt, signals) = stop_signals()?;
     let mut sup = match Supervisor::start(rd.clone(), cfg) {
@@ -272,15 +325,20 @@ fn up_foreground(
     };
     print_ready(sup.run_dir(), &cfg, sup.info(), &st);
     println!("  type PMAC commands for the daisy chain (.help); Ctrl-D, .quit, end of input or SIGINT stops the cluster");
-    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster.
+    // The terminal on the daisy chain; leaving it (or end of input) stops the cluster. Cluster
+    // events are printed on their own lines as they happen.
+    let printer = crate::events::Printer::default();
+    let watcher = crate::events::spawn(session.clone(), cfg.clone(), printer.clone());
     let eof_rx = crate::term::spawn_foreground(
         session.clone(),
         cfg.clone(),
         sup.info().clone(),
         sup.run_dir().dir.display().to_string(),
         show_framing,
+        printer.clone(),
     );
-    run_until_stopped(&mut sup, &signals, Some(&eof_rx));
+    run_until_stopped(&mut sup, &signals, Some(&eof_rx), owner, Some(&printer));
+    drop(watcher);
     sup.shutdown(STOP_TIMEOUT);
     println!("cluster {} stopped", cfg.cluster);
     Ok(())
@@ -290,6 +348,8 @@ fn run_until_stopped(
     sup: &mut Supervisor,
     signals: &mpsc::Receiver<String>,
     eof: Option<&mpsc::Receiver<()>>,
+    owner: Option<Owner>,
+    printer: Option<&crate::events::Printer>,
 ) {
     loop {
         match signals.recv_timeout(Duration::from_millis(200)) {
@@ -303,15 +363,26 @@ fn run_until_stopped(
         if eof.is_some_and(|r| r.try_recv().is_ok()) {
             return;
         }
+        if let Some(o) = owner.filter(|o| !o.alive()) {
+            eprintln!("mcc: owner process {} exited: stopping the cluster", o.pid);
+            return;
+        }
         for msg in sup.poll() {
-            eprintln!("mcc: {msg}");
+            match printer {
+                Some(p) => p.line(&format!("{} {msg}", crate::events::PREFIX)),
+                None => eprintln!("mcc: {msg}"),
+            }
         }
     }
 }
 
 /// `mcc supervise` (hidden): the detached supervisor. The run dir was claimed and the config
 /// written by `mcc up --detach`.
-pub fn cmd_supervise(cluster: &str) -> Result<()> {
+pub fn cmd_supervise(cluster: &str, args: &crate::cli::SuperviseArgs) -> Result<()> {
+    // The owner may already be gone (then the cluster stops at once).
+    let owner = args
+        .owner_pid
+        .map(|pid| Owner::new(pid).unwrap_or(Owner::gone(pid)));
     let rd = RunDir::for_cluster(cluster)?;
     let (_rt, signals) = stop_signals()?;
     let cfg = ClusterConfig::from_file(&rd.config_path()).context("supervise")?;
@@ -329,8 +400,57 @@ pub fn cmd_supervise(cluster: &str) -> Result<()> {
         "mcc supervise: cluster {cluster} running (pid {})",
         std::process::id()
     );
-    run_until_stopped(&mut sup, &signals, None);
+    run_until_stopped(&mut sup, &signals, None, owner, None);
     sup.shutdown(STOP_TIMEOUT);
     eprintln!("mcc supervise: cluster {cluster} stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn resolve(args: &[&str]) -> Result<ClusterConfig> {
+        let mut full = vec!["mcc", "up"];
+        full.extend_from_slice(args);
+        let cli = crate::cli::Cli::try_parse_from(full).map_err(|e| anyhow!("{e}"))?;
+        let crate::cli::Command::Up(up) = &cli.command else {
+            bail!("not up")
+        };
+        resolve_config(cli.cluster.as_deref(), up)
+    }
+
+    #[test]
+    fn the_default_clock_is_paced_at_real_time() {
+        let c = resolve(&[]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Paced);
+        assert_eq!(c.rtf, 1.0);
+        let c = resolve(&["--rtf", "0.5"]).unwrap();
+        assert_eq!(c.rtf, 0.5);
+        let c = resolve(&["--clock", "lockstep"]).unwrap();
+        assert_eq!(c.clock, mcc_ring::config::ClockMode::Lockstep);
+    }
+
+    #[test]
+    fn bad_clock_options_are_refused_naming_the_option() {
+        for (args, want) in [
+            (&["--rtf", "0"][..], "--rtf"),
+            (&["--rtf=-2"][..], "--rtf"),
+            (&["--rtf", "NaN"][..], "--rtf"),
+            (&["--rtf", "inf"][..], "--rtf"),
+            (&["--rtf", "1e12"][..], "--rtf"),
+            (
+                &["--clock", "lockstep", "--rtf", "3"][..],
+                "only the paced clock",
+            ),
+            (&["--clock", "sometimes"][..], "sometimes"),
+            (&["--rate", "0"][..], "--rate"),
+        ] {
+            let e = format!("{:#}", resolve(args).unwrap_err());
+            assert!(e.contains(want), "{args:?}: {e}");
+        }
+        let e = format!("{:#}", resolve(&["--rtf", "0"]).unwrap_err());
+        assert!(e.contains("real-time factor"), "{e}");
+    }
 }

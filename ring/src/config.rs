@@ -3,7 +3,8 @@
 //!
 //! ```toml
 //! cluster = "mcc"
-//! clock = "lockstep"          # or "realtime"
+//! clock = "paced"             # (default) or "lockstep" or "realtime"
+//! rtf = 1.0                   # paced: real-time factor
 //! rate_hz = 2258.7
 //! [ring]
 //! order = ["card0", "station0", "card1", "station1"]
@@ -25,9 +26,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod drives;
 mod validate;
 
-pub use validate::{check_name, MAX_MEMBERS};
+pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, MAX_DRIVES};
+
+pub use validate::{check_name, MAX_MEMBERS, MAX_RTF};
 
 #[cfg(test)]
 mod tests;
@@ -45,32 +49,52 @@ pub const MAX_CONFIG_BYTES: usize = 1 << 20;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ClockMode {
-    /// The sync master paces cycles by the monotonic clock at `rate_hz`.
+    /// Lockstep semantics (a cycle starts only when the previous cycle's frame has come back
+    /// around) paced by the wall clock: the sync master never starts cycle k before
+    /// origin + k × period / rtf. Scheduling delays make cycles late (counted), never ring
+    /// errors.
     #[default]
-    Realtime,
-    /// Cycle k+1 starts when cycle k's sync packet has come back around.
+    Paced,
+    /// Cycle k+1 starts when cycle k's frame has come back around, as fast as the ring allows.
     Lockstep,
+    /// The sync master free-runs on the monotonic clock at `rate_hz`; late data is judged as
+    /// hardware would judge it.
+    Realtime,
 }
 
 impl ClockMode {
     /// The config / CLI word for this mode.
     pub fn as_str(self) -> &'static str {
         match self {
+            ClockMode::Paced => "paced",
             ClockMode::Realtime => "realtime",
             ClockMode::Lockstep => "lockstep",
         }
     }
+
+    /// Cycles wait for the previous cycle's frame to come back (paced and lockstep): only the
+    /// ring's content makes ring errors.
+    pub fn is_stepped(self) -> bool {
+        matches!(self, ClockMode::Paced | ClockMode::Lockstep)
+    }
 }
 
+/// The clock words, for messages.
+pub const CLOCK_WORDS: &str = "paced, lockstep or realtime";
+
+/// A clock mode name that is none of [`CLOCK_WORDS`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown clock mode {0:?} (expected paced, lockstep or realtime)")]
+pub struct UnknownClockMode(pub String);
+
 impl std::str::FromStr for ClockMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownClockMode;
+    fn from_str(s: &str) -> Result<Self, UnknownClockMode> {
         match s {
+            "paced" => Ok(ClockMode::Paced),
             "realtime" => Ok(ClockMode::Realtime),
             "lockstep" => Ok(ClockMode::Lockstep),
-            other => Err(format!(
-                "unknown clock mode {other:?} (expected realtime or lockstep)"
-            )),
+            other => Err(UnknownClockMode(other.to_string())),
         }
     }
 }
@@ -224,9 +248,16 @@ pub struct ClusterConfig {
     /// Nominal ring rate, Hz.
     #[serde(default = "default_rate")]
     pub rate_hz: f64,
-    /// Lockstep: wall time after which the sync master starts the next cycle anyway (counted).
-    #[serde(default = "default_lockstep_timeout")]
-    pub lockstep_timeout_ms: u64,
+    /// Paced clock: ring time advances at this multiple of wall time (1.0 = real time).
+    #[serde(default = "default_rtf")]
+    pub rtf: f64,
+    /// Paced and lockstep: a member that has passed nothing on for this long has stopped
+    /// answering (frozen): the ring is down, the sync master runs cycles on its own clock and
+    /// the member downstream of the silence sees loss of light. The only wall-clock judgement
+    /// of those clocks; generous (see the README for the longest stall measured under load).
+    /// Formerly `lockstep_timeout_ms`.
+    #[serde(default = "default_member_timeout", alias = "lockstep_timeout_ms")]
+    pub member_timeout_ms: u64,
     /// Realtime: every member runs its tick of cycle k this long after the sync master started
     /// it, so all cards act at the same instant (default: half a period; 0 = tick on arrival).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -243,6 +274,12 @@ pub struct ClusterConfig {
     /// Stations.
     #[serde(default)]
     pub stations: Vec<StationConfig>,
+    /// The EMCL bus (`[emcl]`).
+    #[serde(default)]
+    pub emcl: EmclConfig,
+    /// EDB drives on the EMCL bus (`[[drives]]`).
+    #[serde(default)]
+    pub drives: Vec<DriveConfig>,
 }
 
 /// I995/I996 values a member derives from the config (spec §6.2, §6.3).
@@ -297,7 +334,8 @@ impl ConfigError {
 }
 
 impl ClusterConfig {
-    /// The embedded default: `cards` cards and `stations` stations in one ring. Card c has
+    /// The embedded default: `cards` cards and `stations` stations in one ring, and one EDB
+    /// drive `drive0` at address 1 hosted by station0 (standing alone without stations). Card c has
     /// number c and master number c; station s serves card `s % cards` (stations sharing a card
     /// split its nodes 0,1,4,5,8,9,12,13 between them); ring order is each card followed by the
     /// stations it serves; card0 is the synchronizing master.
@@ -337,12 +375,19 @@ impl ClusterConfig {
             cluster: default_cluster_name(),
             clock: ClockMode::default(),
             rate_hz: DEFAULT_RATE_HZ,
-            lockstep_timeout_ms: default_lockstep_timeout(),
+            rtf: default_rtf(),
+            member_timeout_ms: default_member_timeout(),
             phase_delay_us: None,
             zenoh: ZenohConfig::default(),
             ring: RingConfig::default(),
             cards: card_list,
+            drives: vec![DriveConfig::new(
+                "drive0",
+                1,
+                station_list.first().map(|s| s.name.as_str()),
+            )],
             stations: station_list,
+            emcl: EmclConfig::default(),
         };
         cfg.fill_defaults();
         cfg
@@ -361,7 +406,9 @@ impl ClusterConfig {
         cfg.resolve()
     }
 
-    /// Read and parse a file (see [`ClusterConfig::from_toml_str`]).
+    /// Read and parse a file (see [`ClusterConfig::from_toml_str`]); a card `state_file` that
+    /// is an existing directory is refused (SAVE could never write it).
+    #[allow(clippy::disallowed_methods)] // reading the config file is this function's job
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
         let io_err = |e: std::io::Error| ConfigError::Io {
             path: path.display().to_string(),
@@ -376,10 +423,19 @@ impl ClusterConfig {
             )));
         }
         let text = std::fs::read_to_string(path).map_err(io_err)?;
-        Self::from_toml_str(&text).map_err(|e| match e {
+        let cfg = Self::from_toml_str(&text).map_err(|e| match e {
             ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", path.display())),
             other => other,
-        })
+        })?;
+        for (i, c) in cfg.cards.iter().enumerate() {
+            if let Some(p) = c.state_file.as_ref().filter(|p| p.is_dir()) {
+                return Err(ConfigError::invalid(
+                    format!("cards[{i}].state_file"),
+                    format!("{} is a directory; give the path of a file", p.display()),
+                ));
+            }
+        }
+        Ok(cfg)
     }
 
     /// Fill the implicit defaults, then validate.
@@ -430,6 +486,23 @@ impl ClusterConfig {
             Some(us) => u64::from(us) * 1000,
             None => self.period_ns() / 2,
         }
+    }
+
+    /// Wall-clock length of one ring cycle in ns: the nominal period divided by the real-time
+    /// factor on the paced clock, the nominal period otherwise.
+    pub fn wall_period_ns(&self) -> u64 {
+        let p = self.period_ns();
+        match self.clock {
+            ClockMode::Paced if self.rtf.is_finite() && self.rtf > 0.0 => {
+                (p as f64 / self.rtf).round().max(1.0) as u64
+            }
+            _ => p,
+        }
+    }
+
+    /// The frozen-member wait ([`ClusterConfig::member_timeout_ms`]).
+    pub fn member_timeout(&self) -> std::time::Duration {
+        std::time::Duration::from_millis(self.member_timeout_ms.max(1))
     }
 
     /// Nominal ring period in nanoseconds.
@@ -516,8 +589,13 @@ fn default_ring_name() -> String {
 fn default_rate() -> f64 {
     DEFAULT_RATE_HZ
 }
-fn default_lockstep_timeout() -> u64 {
-    50
+fn default_rtf() -> f64 {
+    1.0
+}
+/// Default frozen-member wait, ms (see `member_timeout_ms`).
+pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 1000;
+fn default_member_timeout() -> u64 {
+    DEFAULT_MEMBER_TIMEOUT_MS
 }
 fn default_profile() -> String {
     "pmac2".to_string()

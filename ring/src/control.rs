@@ -11,6 +11,7 @@
 //! - `mcc/<cluster>/card/<n>/at`: synchronized start, [`AtRequest`] JSON → [`AtReply`] JSON
 //!   ([`sync_start`]).
 //! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
+//! - `mcc/<cluster>/emcl/<host>/{frame,status,io}`: the EMCL bus to drive hosts ([`emcl`]).
 //! - `mcc/<cluster>/alive/<member>`: liveliness token of each member and of `orchestrator`.
 
 use serde::{Deserialize, Serialize};
@@ -18,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::fault::FaultSpec;
 
 pub mod chain;
+pub mod emcl;
 pub mod sync_start;
 
 pub use sync_start::{at_key, AtReply, AtRequest};
@@ -101,13 +103,65 @@ pub struct MemberStatus {
     pub ring_fault_cycle: Option<u64>,
     /// Cycles run on the local holdover clock (no sync packet arrived in time).
     pub holdover_cycles: u64,
-    /// Realtime mode: cycles that started late (the real-time interrupt warning).
+    /// Cycles that started late on the wall clock (paced, realtime: the real-time interrupt
+    /// warning; counted, never an error).
     pub late_cycles: u64,
+    /// The link into this member carries no light (loss of light: a cut or dead sender
+    /// upstream; a byte violation every cycle).
+    #[serde(default)]
+    pub dark: bool,
+    /// First ring cycle this member ran with a dark input (while `dark`).
+    #[serde(default)]
+    pub dark_since_cycle: Option<u64>,
+    /// Why the latched ring fault was declared (while `ring_fault`).
+    #[serde(default)]
+    pub fault_reason: Option<String>,
     /// Faults currently injected on this member's send path.
     pub faults: Vec<FaultSpec>,
+    /// Synchronizing master: how the ring's clock is keeping time.
+    #[serde(default)]
+    pub clock: Option<ClockReport>,
+    /// What the cycle thread got from the scheduler (realtime: SCHED_FIFO and locked memory
+    /// when permitted).
+    #[serde(default)]
+    pub sched: Option<String>,
     /// Free-form extras by kind (card ports, station nodes, ...).
     #[serde(default)]
     pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+/// How the ring's clock keeps time, as the synchronizing master sees it.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ClockReport {
+    /// `paced`, `lockstep` or `realtime`.
+    pub mode: String,
+    /// The real-time factor asked for (paced; 1 otherwise).
+    pub rtf_requested: f64,
+    /// Ring time over wall time during the last second.
+    pub rtf: f64,
+    /// Cycles that started more than one period after their deadline (the real-time interrupt
+    /// warning: counted, never an error).
+    pub late_cycles: u64,
+    /// Worst start lag behind the schedule, µs.
+    pub max_lag_us: u64,
+    /// Median start lag, µs.
+    pub lag_p50_us: u64,
+    /// 99th-percentile start lag, µs.
+    pub lag_p99_us: u64,
+    /// Wall time given up when the ring fell more than the backlog behind (re-based), ms.
+    pub lost_ms: u64,
+    /// How often the schedule was re-based.
+    pub rebases: u64,
+    /// Longest wall time between two consecutive cycle starts, µs.
+    pub longest_stall_us: u64,
+    /// For how long the achieved real-time factor has been below the requested one, ms
+    /// (0 = it is not).
+    pub below_rtf_ms: u64,
+    /// Nothing came back within the frozen-member wait: the sync master runs cycles on its
+    /// own clock.
+    pub ring_down: bool,
+    /// How often the ring went down.
+    pub ring_down_count: u64,
 }
 
 /// A fault-injection request for a member's send path.

@@ -12,9 +12,9 @@
 //! synchronizing master calls [`MemberCore::start_cycle`] (send, then tick), and
 //! [`CoreEvents::cycle_complete`] tells it when its sync packet came back.
 
-use crate::check::{CheckFault, CheckParams, RingCheck, STATION_DEFAULTS};
+use crate::check::{CheckFault, RingCheck, STATION_DEFAULTS};
 use crate::control::{MemberKind, MemberStatus};
-use crate::fault::{FaultLayer, FaultSpec, Outgoing};
+use crate::fault::{FaultLayer, FaultSpec, Outgoing, Sent};
 use crate::frame::Frame;
 use crate::holdover::HoldoverClock;
 use crate::member::RingMember;
@@ -43,14 +43,16 @@ pub trait RingApp {
         false
     }
 
+    /// Called once before every tick (before the ring check): the application reads and
+    /// changes its member's ring settings through `ring` (a card's I995/I996/I1001/I1004/
+    /// I1005 are these settings). The default leaves them alone.
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        let _ = ring;
+    }
+
     /// Told before every tick what the member's ring check saw (stations keep their
     /// MI-variable error counters and localise breaks from it).
     fn on_check(&mut self, _report: &CheckReport) {}
-
-    /// Asked once after every tick: new ring-check parameters (a station's MI8/MI9/MI10).
-    fn take_check_params(&mut self) -> Option<CheckParams> {
-        None
-    }
 
     /// Extra fields for the member's status report, merged over the static ones.
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
@@ -88,12 +90,49 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
         (**self).on_check(report);
     }
 
-    fn take_check_params(&mut self) -> Option<CheckParams> {
-        (**self).take_check_params()
-    }
-
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         (**self).status_extra()
+    }
+
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        (**self).sync_ring(ring);
+    }
+}
+
+/// The part of a member core its application may read and change: the I995/I996 settings,
+/// the ring check's parameters, and the I995 status bits latched since the check last read
+/// them. The one place each of these settings lives; the application mirrors them.
+#[derive(Debug)]
+pub struct RingControl<'a> {
+    core: &'a mut MemberCore,
+}
+
+impl RingControl<'_> {
+    /// I995 (configuration bits) and I996.
+    pub fn settings(&self) -> RingSettings {
+        self.core.member.settings()
+    }
+
+    /// Change I995/I996 (routing, sync node, master number) from the next frame on.
+    pub fn set_settings(&mut self, settings: RingSettings) {
+        self.core.set_settings(settings);
+    }
+
+    /// The ring check (I1001 period, I1004 error limit, I1005 sync minimum, armed or not).
+    pub fn check(&self) -> &RingCheck {
+        &self.core.check
+    }
+
+    /// The ring check, to change its parameters ([`RingCheck::set_period`], …) or replace it
+    /// (a card reset re-arms it from I1001 > 0).
+    pub fn check_mut(&mut self) -> &mut RingCheck {
+        &mut self.core.check
+    }
+
+    /// I995 status bits (0-3 errors, 6 sync received) latched since the check last read them
+    /// (not cleared: the check reads them once per RTI).
+    pub fn status_bits(&self) -> u32 {
+        self.core.status.peek()
     }
 }
 
@@ -114,6 +153,10 @@ pub struct CoreConfig {
     pub check: RingCheck,
     /// Nominal ring cycle period in ns (holdover clock).
     pub period_ns: u64,
+    /// How late a sync packet may be before the holdover clock runs a cycle on its own; `None`
+    /// = half a period. Paced and lockstep: the frozen-member wait (a member only runs on its
+    /// own clock once its upstream has stopped answering or is known dead).
+    pub holdover_grace_ns: Option<u64>,
     /// First link sequence number minus one: give a restarted process a larger base (e.g. a
     /// wall-clock ns reading) so its downstream neighbour does not reject it as stale.
     pub seq_base: u64,
@@ -157,6 +200,7 @@ impl CoreConfig {
             settings,
             check,
             period_ns,
+            holdover_grace_ns: None,
             seq_base: 0,
             check_after_lock: false,
             timing_slack: 1,
@@ -172,8 +216,15 @@ pub struct CoreEvents {
     pub outgoing: Vec<Outgoing>,
     /// A sync packet for a new cycle arrived: run this cycle's tick (after sending).
     pub sync: Option<u64>,
+    /// A frame of a new cycle arrived without a sync packet (dropped, or a dark frame): run
+    /// this cycle's tick unlocked (after sending). The ring keeps its cadence; the ring check
+    /// counts the missing sync packets and the errors.
+    pub unlocked: Option<u64>,
     /// Synchronizing master: its sync packet for this cycle came back.
     pub cycle_complete: Option<u64>,
+    /// Synchronizing master: a frame of this ring cycle came back around (with or without its
+    /// sync packet, light or dark): the cycle has gone round the ring.
+    pub returned: Option<u64>,
     /// When the synchronizing master started the frame's ring cycle (see `Frame::origin_ns`).
     pub origin_ns: u64,
     /// The frame was rejected before packet parsing (counted in `bad_frames`): why.
@@ -224,6 +275,11 @@ pub struct MemberCore {
     locked_streak: u32,
     /// [`CoreConfig::timing_slack`].
     timing_slack: u32,
+    /// The link into this member carries no light (dark frames, or the upstream member is
+    /// known dead): a byte violation every cycle.
+    dark: bool,
+    /// First cycle run with a dark input.
+    dark_since: Option<u64>,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -248,7 +304,10 @@ impl MemberCore {
             upstream: cfg.upstream,
             status: RingStatus::new(),
             check: cfg.check,
-            holdover: HoldoverClock::new(cfg.period_ns),
+            holdover: match cfg.holdover_grace_ns {
+                Some(g) => HoldoverClock::with_grace(cfg.period_ns, g),
+                None => HoldoverClock::new(cfg.period_ns),
+            },
             tx_seq: cfg.seq_base,
             last_rx_seq: None,
             last_rx_cycle: None,
@@ -269,6 +328,8 @@ impl MemberCore {
             check_after_lock: cfg.check_after_lock,
             locked_streak: 0,
             timing_slack: cfg.timing_slack.max(1),
+            dark: false,
+            dark_since: None,
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -326,7 +387,7 @@ impl MemberCore {
     }
 
     /// Inject a fault on this member's send path.
-    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), crate::fault::FaultError> {
         self.faults.inject(spec)
     }
 
@@ -370,6 +431,24 @@ impl MemberCore {
         self.tx_seq
     }
 
+    /// Stamp the link sequence numbers (in sending order) and encode.
+    fn emit(&mut self, sent: Vec<Sent>) -> Vec<Outgoing> {
+        sent.into_iter()
+            .map(|mut s| {
+                s.frame.seq = self.next_seq();
+                Outgoing {
+                    frame_bytes: s.frame.encode(),
+                    delay_us: s.delay_us,
+                }
+            })
+            .collect()
+    }
+
+    /// The link into this member is dark (loss of light).
+    pub fn is_dark(&self) -> bool {
+        self.dark
+    }
+
     /// Synchronizing master: start ring cycle `cycle` — the frame with the sync packet, the
     /// packets held from last cycle, and one command packet per activated node. The caller
     /// sends it, then runs the tick. Returns nothing on a member that is not the sync master.
@@ -388,9 +467,9 @@ impl MemberCore {
         let mut packets = vec![self.member.sync_packet(cycle)];
         packets.extend(self.member.take_held());
         packets.extend(self.member.command_packets(cycle));
-        let seq = self.next_seq();
-        let frame = Frame::with_packets(self.position, seq, now_ns, cycle, &packets);
-        self.faults.on_send(cycle, frame)
+        let frame = Frame::with_packets(self.position, 0, now_ns, cycle, &packets);
+        let sent = self.faults.on_send(cycle, frame);
+        self.emit(sent)
     }
 
     fn reject(&mut self, why: String) -> CoreEvents {
@@ -420,8 +499,22 @@ impl MemberCore {
             ));
         }
         self.last_rx_seq = Some(frame.seq);
-        self.last_rx_cycle = Some(frame.cycle);
         self.rx_frames += 1;
+        self.process(frame, now_ns)
+    }
+
+    /// Loss of light on this member's input for ring cycle `cycle` (its upstream member is
+    /// known dead, or stopped answering): what a dark frame of that cycle would do — a byte
+    /// violation, a dark frame forwarded (or, on the synchronizing master, the cycle counted
+    /// as returned). The caller runs the tick of a cycle it got from [`Self::on_holdover`] or
+    /// started itself; a newer cycle is run unlocked.
+    pub fn dark_input(&mut self, cycle: u64, now_ns: u64) -> CoreEvents {
+        let up = self.upstream.unwrap_or(self.position);
+        self.process(Frame::dark(up, 0, now_ns, cycle, 0), now_ns)
+    }
+
+    /// A frame that passed the link checks (or a synthesized dark one).
+    fn process(&mut self, frame: Frame, now_ns: u64) -> CoreEvents {
         let mut ev = CoreEvents {
             origin_ns: frame.origin_ns,
             ..Default::default()
@@ -431,6 +524,16 @@ impl MemberCore {
             ev.errors.push(ErrorClass::Overrun);
         }
         self.unconsumed = true;
+        if self.is_sync_master() {
+            ev.returned = Some(frame.cycle);
+        }
+        if frame.is_dark() {
+            return self.on_dark(&frame, now_ns, ev);
+        }
+        self.last_rx_cycle = Some(frame.cycle);
+        // Light again: a newly started sync master's numbering may be adopted (see on_sync).
+        let was_dark = std::mem::take(&mut self.dark);
+        self.dark_since = None;
 
         let intact = usize::from(frame.declared) * PACKET_LEN;
         let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
@@ -506,7 +609,9 @@ impl MemberCore {
         }
 
         if let Some(c) = sync {
-            self.on_sync(c, now_ns, &mut ev);
+            self.on_sync(c, now_ns, was_dark, &mut ev);
+        } else {
+            self.on_cycle_without_sync(frame.cycle, now_ns, &mut ev);
         }
         if self.is_sync_master() {
             // The cycle ends here: other masters' packets go out again next cycle.
@@ -516,14 +621,50 @@ impl MemberCore {
         let commands = self.member.command_packets(frame.cycle);
         self.sent_cycle = (!commands.is_empty()).then_some(frame.cycle);
         forwards.extend(commands);
-        let seq = self.next_seq();
-        let mut out = Frame::with_packets(self.position, seq, now_ns, frame.cycle, &forwards);
+        let mut out = Frame::with_packets(self.position, 0, now_ns, frame.cycle, &forwards);
         out.origin_ns = frame.origin_ns;
-        ev.outgoing = self.faults.on_send(self.cycle, out);
+        let sent = self.faults.on_send(self.cycle, out);
+        ev.outgoing = self.emit(sent);
         ev
     }
 
-    fn on_sync(&mut self, c: u64, now_ns: u64, ev: &mut CoreEvents) {
+    /// A dark frame: a byte violation (the receiver reads zeros), the cycle run unlocked, and
+    /// darkness passed on (a member that receives no light sends none).
+    fn on_dark(&mut self, frame: &Frame, now_ns: u64, mut ev: CoreEvents) -> CoreEvents {
+        ev.errors.push(ErrorClass::ByteViolation);
+        self.status.record(ErrorClass::ByteViolation);
+        if !self.dark {
+            self.dark = true;
+            self.dark_since = Some(frame.cycle);
+        }
+        if self.is_sync_master() {
+            return ev;
+        }
+        self.on_cycle_without_sync(frame.cycle, now_ns, &mut ev);
+        let dark = Frame::dark(self.position, 0, now_ns, frame.cycle, frame.origin_ns);
+        let sent = self.faults.on_send(self.cycle, dark);
+        ev.outgoing = self.emit(sent);
+        ev
+    }
+
+    /// A frame of ring cycle `c` without a sync packet: a follower runs a newer cycle
+    /// unlocked (the ring keeps its cadence; the check counts the missing sync packets).
+    fn on_cycle_without_sync(&mut self, c: u64, now_ns: u64, ev: &mut CoreEvents) {
+        if self.is_sync_master() || !self.member.settings().phase_lock() {
+            return;
+        }
+        if self.last_tick.is_some_and(|t| c <= t) {
+            return;
+        }
+        self.locked = false;
+        self.holdover_cycles += 1;
+        self.cycle = c;
+        self.last_tick = Some(c);
+        self.holdover.on_sync(c, now_ns);
+        ev.unlocked = Some(c);
+    }
+
+    fn on_sync(&mut self, c: u64, now_ns: u64, was_dark: bool, ev: &mut CoreEvents) {
         if !self.member.settings().phase_lock() {
             // Not phase-locked (I995 bit 7 clear): run on the own clock, started from the
             // first sync packet's cycle number.
@@ -542,8 +683,11 @@ impl MemberCore {
             self.locked = true;
             return;
         }
-        if self.last_tick.is_some_and(|t| c < t) {
-            return; // a delayed sync packet of an old cycle: latched, not run
+        // A delayed sync packet of an old cycle is latched, not run — unless the input was
+        // dark until now: after loss of light the member locks to whatever numbering the
+        // (possibly restarted) synchronizing master sends.
+        if self.last_tick.is_some_and(|t| c < t) && !was_dark {
+            return;
         }
         self.cycle = c;
         self.last_tick = Some(c);
@@ -571,6 +715,14 @@ impl MemberCore {
         Some(c)
     }
 
+    /// The upstream member is known dead: run the holdover clock now rather than after its
+    /// grace (nothing will come).
+    pub fn expedite_holdover(&mut self, now_ns: u64) {
+        if !self.is_sync_master() {
+            self.holdover.expedite(now_ns);
+        }
+    }
+
     /// When the holdover clock next wants to run a cycle (for the runtime's timer).
     pub fn holdover_due_ns(&self) -> Option<u64> {
         if self.is_sync_master() {
@@ -582,7 +734,8 @@ impl MemberCore {
 
     /// Frames the fault layer releases without a new frame to send (delayed frames).
     pub fn poll_faults(&mut self) -> Vec<Outgoing> {
-        self.faults.poll(self.cycle)
+        let sent = self.faults.poll(self.cycle);
+        self.emit(sent)
     }
 
     /// Run the ring check for one servo cycle; latches the ring fault.
@@ -647,6 +800,7 @@ impl MemberCore {
         cycle: u64,
         time_ns: u64,
     ) -> Option<CheckFault> {
+        app.sync_ring(&mut RingControl { core: self });
         let fault = self.run_check();
         app.on_check(&CheckReport {
             checked: self.checked_now,
@@ -664,9 +818,6 @@ impl MemberCore {
         if app.take_ring_reset() {
             self.reset();
         }
-        if let Some(p) = app.take_check_params() {
-            self.check.set_params(p);
-        }
         fault
     }
 
@@ -680,6 +831,8 @@ impl MemberCore {
     pub fn reset(&mut self) -> bool {
         if self.ring_fault && self.healthy() {
             self.ring_fault = false;
+            self.ring_fault_cycle = None;
+            self.last_fault = None;
         }
         !self.ring_fault
     }
@@ -708,7 +861,15 @@ impl MemberCore {
             ring_fault_cycle: self.ring_fault_cycle,
             holdover_cycles: self.holdover_cycles,
             late_cycles: self.late_cycles,
+            dark: self.dark,
+            dark_since_cycle: self.dark_since,
+            fault_reason: self
+                .ring_fault
+                .then(|| self.last_fault.map(|f| f.to_string()))
+                .flatten(),
             faults: self.faults.active(),
+            clock: None,
+            sched: None,
             extra: serde_json::Map::new(),
         }
     }

@@ -282,8 +282,122 @@ fn fault_latch_and_reset() {
         assert_eq!(m.run_check(), None);
     }
     assert!(m.ring_fault());
+    assert_eq!(m.status().ring_fault_cycle, Some(0));
+    assert!(m.status().fault_reason.unwrap().contains("sync packets"));
     assert!(m.reset() && !m.ring_fault());
     assert_eq!(m.status().ring_fault_count, 1);
+    // The reset forgets the latch's cycle and reason (the count stays).
+    assert_eq!(m.status().ring_fault_cycle, None);
+    assert_eq!(m.status().fault_reason, None);
+}
+
+#[test]
+fn a_frame_without_its_sync_packet_still_runs_the_cycle_unlocked() {
+    let mut s = slave(0x80);
+    let ev = s.on_frame(&frame(1, 3, &[Packet::sync(0, 15, 3), cmd(1)]).encode(), 0);
+    assert_eq!((ev.sync, ev.unlocked), (Some(3), None));
+    // sync dropped upstream: the frame of cycle 4 still drives the tick, unlocked.
+    let ev = s.on_frame(&frame(2, 4, &[cmd(2)]).encode(), P);
+    assert_eq!((ev.sync, ev.unlocked), (None, Some(4)));
+    assert_eq!(ev.outgoing.len(), 1, "forwarded");
+    let st = s.status();
+    assert!(
+        !st.locked && st.cycle == 4 && st.holdover_cycles == 1,
+        "{st:?}"
+    );
+    // An old frame does not tick again.
+    let ev = s.on_frame(&frame(3, 4, &[cmd(2)]).encode(), P);
+    assert_eq!((ev.sync, ev.unlocked), (None, None));
+    assert_eq!(
+        s.on_frame(&frame(4, 5, &[Packet::sync(0, 15, 5)]).encode(), P)
+            .sync,
+        Some(5)
+    );
+    assert!(s.status().locked);
+}
+
+#[test]
+fn a_dark_frame_is_a_byte_violation_passed_on_dark() {
+    let mut s = slave(0x80);
+    s.member_mut().write_regs_mut(1).r0 = 9;
+    s.on_frame(&frame(1, 3, &[Packet::sync(0, 15, 3), cmd(1)]).encode(), 0);
+    s.run_check();
+    s.ring_status_mut().read_and_clear();
+    let ev = s.on_frame(&Frame::dark(0, 2, 0, 4, 0).encode(), P);
+    assert_eq!(ev.errors, vec![crate::status::ErrorClass::ByteViolation]);
+    assert_eq!((ev.sync, ev.unlocked), (None, Some(4)));
+    // Darkness goes on: no light, no packets of this member either.
+    let out = Frame::decode(&ev.outgoing[0].frame_bytes).unwrap();
+    assert!(
+        out.is_dark() && out.cycle == 4 && out.sender == 1,
+        "{out:?}"
+    );
+    let st = s.status();
+    assert!(st.dark && !st.locked, "{st:?}");
+    assert_eq!(st.dark_since_cycle, Some(4));
+    // last_rx_cycle is the last frame with light.
+    assert_eq!(st.last_rx_cycle, Some(3));
+    assert_eq!(st.errors.byte_violation, 1);
+    // Light again.
+    s.on_frame(&frame(3, 5, &[Packet::sync(0, 15, 5)]).encode(), 2 * P);
+    let st = s.status();
+    assert!(
+        !st.dark && st.dark_since_cycle.is_none() && st.locked,
+        "{st:?}"
+    );
+}
+
+#[test]
+fn after_loss_of_light_a_new_sync_masters_count_is_taken() {
+    let mut s = slave(0x80);
+    let sync = |s: &mut MemberCore, seq, c| {
+        s.on_frame(&frame(seq, c, &[Packet::sync(0, 15, c)]).encode(), 0)
+            .sync
+    };
+    assert_eq!(sync(&mut s, 1, 5000), Some(5000));
+    // While locked, an older sync packet is a delayed one: not run.
+    assert_eq!(sync(&mut s, 2, 10), None);
+    // The upstream died: loss of light on the holdover clock.
+    let ev = s.dark_input(5001, P);
+    assert!(Frame::decode(&ev.outgoing[0].frame_bytes)
+        .unwrap()
+        .is_dark());
+    assert_eq!(ev.unlocked, Some(5001));
+    assert!(s.status().dark);
+    // A restarted sync master counts from 0: after the dark spell its count is taken.
+    assert_eq!(sync(&mut s, 3, 0), Some(0));
+    assert_eq!(sync(&mut s, 4, 1), Some(1));
+    let st = s.status();
+    assert!(st.locked && !st.dark && st.cycle == 1, "{st:?}");
+}
+
+#[test]
+fn sync_master_sees_every_returned_frame_and_dark_input() {
+    let mut cfg = CoreConfig::new(
+        "c",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x30, 0x0F_0001),
+        P,
+    );
+    cfg.upstream = Some(2);
+    let mut m = MemberCore::new(cfg);
+    m.start_cycle(1, 0);
+    // The frame came back without the sync packet (dropped): returned, not complete.
+    let f = Frame::with_packets(2, 1, 0, 1, &[]);
+    let ev = m.on_frame(&f.encode(), 0);
+    assert_eq!((ev.returned, ev.cycle_complete), (Some(1), None));
+    m.run_check();
+    m.start_cycle(2, 0);
+    let ev = m.on_frame(&Frame::dark(2, 2, 0, 2, 0).encode(), 0);
+    assert_eq!(ev.returned, Some(2));
+    assert_eq!(ev.errors, vec![crate::status::ErrorClass::ByteViolation]);
+    m.run_check();
+    m.start_cycle(3, 0);
+    let ev = m.dark_input(3, 0);
+    assert_eq!(ev.returned, Some(3));
+    assert!(ev.outgoing.is_empty());
+    assert!(m.status().dark && m.status().errors.byte_violation == 2);
 }
 
 proptest! {
@@ -408,4 +522,47 @@ fn timing_slack_tolerates_silence_and_backlog_before_counting_errors() {
         }
         assert_eq!(first, Some(slack + 1), "slack {slack}");
     }
+}
+
+/// An application that rewrites its member's ring settings through [`crate::core::RingControl`]
+/// and records what it saw.
+struct Tuner {
+    seen: Vec<(u32, u32, u32)>,
+}
+
+impl crate::core::RingApp for Tuner {
+    fn tick(&mut self, _: u64, _: u64, _: &mut crate::member::RingMember, _: bool) {}
+
+    fn sync_ring(&mut self, ring: &mut crate::core::RingControl<'_>) {
+        let s = ring.settings();
+        self.seen
+            .push((s.i995, ring.check().params().period, ring.status_bits()));
+        ring.set_settings(RingSettings::new(s.i995 | 0x80, s.i996));
+        ring.check_mut().set_period(32);
+    }
+}
+
+#[test]
+fn the_application_reads_and_changes_the_ring_settings_before_each_tick() {
+    let mut cfg = CoreConfig::new(
+        "c",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x10, 0x0F_8001),
+        P,
+    );
+    cfg.check = RingCheck::card(16, 2, 4, 2);
+    let mut core = MemberCore::new(cfg);
+    let mut app = Tuner { seen: Vec::new() };
+    core.ring_status_mut().set_sync_received();
+    core.tick_app(&mut app, 1, 0);
+    core.tick_app(&mut app, 2, 0);
+    assert_eq!(app.seen[0], (0x10, 16, STATUS_SYNC_RECEIVED));
+    assert_eq!(app.seen[1].0, 0x90, "I995 written by the app is the core's");
+    assert_eq!(
+        app.seen[1].1, 32,
+        "I1001 written by the app is the check's period"
+    );
+    assert_eq!(core.member().settings().i995, 0x90);
+    assert_eq!(core.check().params().period, 32);
 }

@@ -4,9 +4,12 @@
 //! classifies them: `corrupt` flips the check byte of the frame's last packet, `byte-violation`
 //! overwrites its header byte, `underrun` cuts 5 bytes off the end (or, in a frame without
 //! packets, declares one more packet than it carries), `overrun` appends 5 bytes beyond the
-//! declared packets. `drop-sync` removes the sync packet, `drop-packets` drops the whole frame,
-//! `cut` lets nothing leave (frames held by `delay` stay held), `delay` holds frames for N
-//! cycles, `delay-us` asks the transport to hold each frame N µs before sending.
+//! declared packets. `drop-sync` removes the sync packet, `drop-packets` removes every packet
+//! (the frame envelope still goes, so the ring keeps its cadence: the data is missing, not the
+//! cycle), `cut` replaces the frame with a dark frame (loss of light: the receiver reads a byte
+//! violation every cycle; frames held by `delay` stay held), `delay` holds frames for N cycles
+//! (an empty frame goes in their place), `delay-us` asks the transport to hold each frame N µs
+//! before sending.
 
 use std::collections::VecDeque;
 use std::fmt;
@@ -24,13 +27,13 @@ pub const MAX_FAULTS: usize = 32;
 /// Most frames held by `delay` at once (older ones are dropped beyond it).
 pub const MAX_HELD_FRAMES: usize = 1024;
 
-/// What a fault does to the frames a member sends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
+/// What a fault does to the frames a member sends. In JSON (the control plane, `mcc status
+/// --json`) it is always one string, the CLI word: `"cut"`, `"delay=3"`, `"delay-us=250"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FaultKind {
     /// Remove the sync packet.
     DropSync,
-    /// Drop the whole frame.
+    /// Drop every packet of the frame (the empty envelope still goes).
     DropPackets,
     /// Wrong check byte (checksum error downstream).
     Corrupt,
@@ -41,12 +44,10 @@ pub enum FaultKind {
     /// Truncated packet (underrun downstream).
     Underrun,
     /// Hold frames for this many ring cycles.
-    #[serde(rename = "delay")]
     DelayCycles(u32),
     /// Hold each frame this many µs before it leaves (transport-side sleep).
-    #[serde(rename = "delay-us")]
     DelayMicros(u32),
-    /// Nothing leaves: the link is cut.
+    /// The link is cut: only dark frames leave (loss of light).
     Cut,
 }
 
@@ -66,17 +67,43 @@ impl fmt::Display for FaultKind {
     }
 }
 
+/// Why a fault could not be parsed or injected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FaultError {
+    /// Not one of [`FAULT_WORDS`].
+    #[error("unknown fault kind '{0}' (expected one of: {FAULT_WORDS})")]
+    UnknownKind(String),
+    /// `delay` / `delay-us` without `=N`.
+    #[error("fault kind '{0}' needs an amount ({0}=N)")]
+    NeedsAmount(String),
+    /// An amount on a kind that takes none.
+    #[error("fault kind '{0}' takes no amount")]
+    TakesNoAmount(String),
+    /// The amount is not a number.
+    #[error("fault amount '{0}' is not a number 0-4294967295")]
+    BadAmount(String),
+    /// Probability outside 0..1.
+    #[error("fault probability {0} is not between 0 and 1")]
+    BadProbability(f64),
+    /// The member already carries [`MAX_FAULTS`] faults.
+    #[error("too many faults on this member (at most {MAX_FAULTS})")]
+    TooMany,
+    /// No member at this ring position (in-process simulations).
+    #[error("no member {0}")]
+    NoMember(usize),
+}
+
 /// The fault words, for error messages and help text.
 pub const FAULT_WORDS: &str =
     "drop-sync, drop-packets, corrupt, byte-violation, overrun, underrun, delay=N, delay-us=N, cut";
 
 impl FaultKind {
     /// Parse a fault word plus the amount that `delay` and `delay-us` need.
-    pub fn parse_with(word: &str, amount: Option<u32>) -> Result<FaultKind, String> {
+    pub fn parse_with(word: &str, amount: Option<u32>) -> Result<FaultKind, FaultError> {
         let needs = |k: fn(u32) -> FaultKind| {
             amount
                 .map(k)
-                .ok_or_else(|| format!("fault kind '{word}' needs an amount ({word}=N)"))
+                .ok_or_else(|| FaultError::NeedsAmount(word.to_string()))
         };
         let kind = match word {
             "drop-sync" => FaultKind::DropSync,
@@ -88,24 +115,20 @@ impl FaultKind {
             "cut" => FaultKind::Cut,
             "delay" => return needs(FaultKind::DelayCycles),
             "delay-us" => return needs(FaultKind::DelayMicros),
-            _ => {
-                return Err(format!(
-                    "unknown fault kind '{word}' (expected one of: {FAULT_WORDS})"
-                ))
-            }
+            _ => return Err(FaultError::UnknownKind(word.to_string())),
         };
         match amount {
             None => Ok(kind),
-            Some(_) => Err(format!("fault kind '{word}' takes no amount")),
+            Some(_) => Err(FaultError::TakesNoAmount(word.to_string())),
         }
     }
 }
 
 impl FromStr for FaultKind {
-    type Err = String;
+    type Err = FaultError;
 
     /// `word`, or `word=N` / `word:N` for `delay` and `delay-us`.
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, FaultError> {
         let s = s.trim();
         match s.split_once(['=', ':']) {
             None => FaultKind::parse_with(s, None),
@@ -113,10 +136,23 @@ impl FromStr for FaultKind {
                 let n: u32 = n
                     .trim()
                     .parse()
-                    .map_err(|_| format!("fault amount '{n}' is not a number 0-4294967295"))?;
+                    .map_err(|_| FaultError::BadAmount(n.to_string()))?;
                 FaultKind::parse_with(word.trim(), Some(n))
             }
         }
+    }
+}
+
+impl Serialize for FaultKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for FaultKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let word = <std::borrow::Cow<'de, str>>::deserialize(d)?;
+        word.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -152,15 +188,23 @@ impl FaultSpec {
     }
 
     /// Check the spec's values.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FaultError> {
         if !(0.0..=1.0).contains(&self.probability) {
-            return Err(format!(
-                "fault probability {} is not between 0 and 1",
-                self.probability
-            ));
+            return Err(FaultError::BadProbability(self.probability));
         }
         Ok(())
     }
+}
+
+/// A frame the fault layer lets through, before the member stamps its link sequence number
+/// (frames a `delay` releases late get a fresh one, so the receiver reads them as late data
+/// rather than as stale duplicates).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Sent {
+    /// The frame.
+    pub frame: Frame,
+    /// Hold it this long before sending (0 = now).
+    pub delay_us: u32,
 }
 
 /// A frame to put on the link.
@@ -193,7 +237,7 @@ impl Active {
 pub struct FaultLayer {
     sync_node: u8,
     faults: Vec<Active>,
-    held: VecDeque<(u64, Vec<u8>)>,
+    held: VecDeque<(u64, Frame)>,
 }
 
 impl FaultLayer {
@@ -212,12 +256,10 @@ impl FaultLayer {
     }
 
     /// Add a fault.
-    pub fn inject(&mut self, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject(&mut self, spec: FaultSpec) -> Result<(), FaultError> {
         spec.validate()?;
         if self.faults.len() >= MAX_FAULTS {
-            return Err(format!(
-                "too many faults on this member (at most {MAX_FAULTS})"
-            ));
+            return Err(FaultError::TooMany);
         }
         let rng = StdRng::seed_from_u64(spec.seed);
         self.faults.push(Active {
@@ -252,7 +294,7 @@ impl FaultLayer {
     }
 
     /// Expire faults and release frames held by `delay` whose time has come.
-    pub fn poll(&mut self, cycle: u64) -> Vec<Outgoing> {
+    pub fn poll(&mut self, cycle: u64) -> Vec<Sent> {
         self.expire(cycle);
         let mut out = Vec::new();
         if self.cut_for_sure() {
@@ -262,11 +304,8 @@ impl FaultLayer {
             if *release > cycle {
                 break;
             }
-            if let Some((_, bytes)) = self.held.pop_front() {
-                out.push(Outgoing {
-                    frame_bytes: bytes,
-                    delay_us: 0,
-                });
+            if let Some((_, frame)) = self.held.pop_front() {
+                out.push(Sent { frame, delay_us: 0 });
             }
         }
         out
@@ -274,7 +313,7 @@ impl FaultLayer {
 
     /// Pass one frame of ring cycle `cycle` through the active faults: 0, 1 or more frames
     /// to put on the link now (held frames released first, in order).
-    pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Outgoing> {
+    pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Sent> {
         let mut out = self.poll(cycle);
         let (mut drop, mut cut) = (false, false);
         let (mut delay_cycles, mut delay_us) = (0u32, 0u32);
@@ -302,30 +341,43 @@ impl FaultLayer {
             }
         }
         if cut {
-            // Nothing leaves, not even frames released by the poll above: put them back.
+            // No light leaves, not even frames released by the poll above: put them back.
             for o in out.into_iter().rev() {
-                self.held.push_front((cycle, o.frame_bytes));
+                self.held.push_front((cycle, o.frame));
             }
-            return Vec::new();
+            let dark = Frame::dark(
+                frame.sender,
+                frame.seq,
+                frame.sent_ns,
+                frame.cycle,
+                frame.origin_ns,
+            );
+            return vec![Sent {
+                frame: dark,
+                delay_us,
+            }];
         }
         if drop {
-            return out;
+            emptied(&mut frame);
         }
-        let bytes = frame.encode();
         if delay_cycles > 0 {
             if self.held.len() >= MAX_HELD_FRAMES {
                 self.held.pop_front();
             }
-            self.held
-                .push_back((cycle.saturating_add(u64::from(delay_cycles)), bytes));
-        } else {
-            out.push(Outgoing {
-                frame_bytes: bytes,
-                delay_us,
-            });
+            let release = cycle.saturating_add(u64::from(delay_cycles));
+            self.held.push_back((release, frame.clone()));
+            // The cycle still happens: an empty frame takes the held one's place.
+            emptied(&mut frame);
         }
+        out.push(Sent { frame, delay_us });
         out
     }
+}
+
+/// The frame without its packets (the envelope, with its cycle, still travels).
+fn emptied(frame: &mut Frame) {
+    frame.packets.clear();
+    frame.declared = 0;
 }
 
 fn drop_sync(frame: &mut Frame, sync_node: u8) {

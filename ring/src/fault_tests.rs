@@ -16,9 +16,10 @@ fn frame(cycle: u64) -> Frame {
     Frame::with_packets(0, cycle, 0, cycle, &[sync, cmd])
 }
 
-fn sent(out: &[Outgoing]) -> Vec<Frame> {
+fn sent(out: &[Sent]) -> Vec<Frame> {
+    // Through the encoder, as the member sends them.
     out.iter()
-        .map(|o| Frame::decode(&o.frame_bytes).unwrap())
+        .map(|o| Frame::decode(&o.frame.encode()).unwrap())
         .collect()
 }
 
@@ -30,18 +31,22 @@ fn words_parse_and_serde() {
     assert!("delay"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("needs an amount"));
     assert!("cut=2"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("takes no amount"));
     assert!("melt"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("unknown fault kind 'melt'"));
     assert!("delay=x"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("not a number"));
     for k in ["byte-violation", "delay=7", "delay-us=9", "cut", "overrun"] {
         assert_eq!(k.parse::<FaultKind>().unwrap().to_string(), k);
@@ -55,8 +60,17 @@ fn words_parse_and_serde() {
     .unwrap();
     assert_eq!(
         j,
-        r#"{"kind":{"delay":2},"cycles":5,"probability":1.0,"seed":0}"#
+        r#"{"kind":"delay=2","cycles":5,"probability":1.0,"seed":0}"#
     );
+    // One shape for every kind: a string.
+    let back: FaultSpec = serde_json::from_str(&j).unwrap();
+    assert_eq!(back.kind, FaultKind::DelayCycles(2));
+    for k in ["cut", "delay-us=9"] {
+        let v = serde_json::to_value(FaultSpec::always(k.parse().unwrap())).unwrap();
+        assert_eq!(v["kind"], k);
+    }
+    assert!(serde_json::from_str::<FaultSpec>(r#"{"kind":"melt"}"#).is_err());
+    assert!(serde_json::from_str::<FaultSpec>(r#"{"kind":{"delay":2}}"#).is_err());
     assert!(FaultLayer::new(15)
         .inject(FaultSpec {
             probability: 1.5,
@@ -71,8 +85,8 @@ fn no_fault_passes_frame_unchanged() {
     let out = l.on_send(1, frame(1));
     assert_eq!(
         out,
-        vec![Outgoing {
-            frame_bytes: frame(1).encode(),
+        vec![Sent {
+            frame: frame(1),
             delay_us: 0
         }]
     );
@@ -109,13 +123,23 @@ fn drop_sync_drop_and_cut() {
     let f = &sent(&l.on_send(1, frame(1)))[0];
     assert_eq!(f.declared, 1);
     assert_eq!(Packet::decode(&f.packets).unwrap().node, 1);
-    for k in [FaultKind::DropPackets, FaultKind::Cut] {
-        let mut l = FaultLayer::new(15);
-        l.inject(FaultSpec::always(k)).unwrap();
-        assert!(l.on_send(1, frame(1)).is_empty());
-        l.clear();
-        assert_eq!(l.on_send(2, frame(2)).len(), 1);
-    }
+    // drop-packets: the envelope of the cycle goes, empty.
+    let mut l = FaultLayer::new(15);
+    l.inject(FaultSpec::always(FaultKind::DropPackets)).unwrap();
+    let f = sent(&l.on_send(1, frame(1)));
+    assert_eq!(f.len(), 1);
+    assert_eq!((f[0].cycle, f[0].declared, f[0].packets.len()), (1, 0, 0));
+    l.clear();
+    assert_eq!(sent(&l.on_send(2, frame(2)))[0], frame(2));
+    // cut: a dark frame of the same cycle (loss of light), until cleared.
+    let mut l = FaultLayer::new(15);
+    l.inject(FaultSpec::always(FaultKind::Cut)).unwrap();
+    let f = sent(&l.on_send(7, frame(7)));
+    assert_eq!(f.len(), 1);
+    assert!(f[0].is_dark(), "{f:?}");
+    assert_eq!(f[0].cycle, 7);
+    l.clear();
+    assert_eq!(sent(&l.on_send(8, frame(8)))[0], frame(8));
 }
 
 #[test]
@@ -126,10 +150,11 @@ fn expiry_after_cycles() {
         ..FaultSpec::always(FaultKind::DropPackets)
     })
     .unwrap();
-    assert!(l.on_send(10, frame(10)).is_empty());
-    assert!(l.on_send(11, frame(11)).is_empty());
+    let empty = |out: Vec<Sent>| out.len() == 1 && out[0].frame.declared == 0;
+    assert!(empty(l.on_send(10, frame(10))));
+    assert!(empty(l.on_send(11, frame(11))));
     assert_eq!(l.active().len(), 1);
-    assert_eq!(l.on_send(12, frame(12)).len(), 1);
+    assert_eq!(l.on_send(12, frame(12))[0].frame, frame(12));
     assert!(l.active().is_empty());
 }
 
@@ -141,12 +166,19 @@ fn delay_cycles_hold_and_release() {
         ..FaultSpec::always(FaultKind::DelayCycles(3))
     })
     .unwrap();
-    assert!(l.on_send(1, frame(1)).is_empty());
-    assert!(l.on_send(2, frame(2)).is_empty());
+    // Held frames leave an empty frame of their cycle in their place.
+    let cycles_and_sizes = |out: &[Sent]| {
+        out.iter()
+            .map(|o| (o.frame.cycle, o.frame.declared))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(cycles_and_sizes(&l.on_send(1, frame(1))), vec![(1, 0)]);
+    assert_eq!(cycles_and_sizes(&l.on_send(2, frame(2))), vec![(2, 0)]);
     assert!(l.poll(3).is_empty());
     // cycle 4: frame 1 released, then frame 4 (fault expired) goes at once.
     let out = sent(&l.on_send(4, frame(4)));
     assert_eq!(out.iter().map(|f| f.cycle).collect::<Vec<_>>(), vec![1, 4]);
+    assert_eq!(out[0], frame(1));
     assert_eq!(
         sent(&l.poll(5)).iter().map(|f| f.cycle).collect::<Vec<_>>(),
         vec![2]
@@ -172,7 +204,7 @@ fn probability_is_seeded() {
         })
         .unwrap();
         (0..64)
-            .map(|c| l.on_send(c, frame(c)).is_empty())
+            .map(|c| l.on_send(c, frame(c))[0].frame.declared == 0)
             .collect::<Vec<_>>()
     };
     assert_eq!(pattern(7), pattern(7));

@@ -42,6 +42,11 @@ pub struct Frame {
     pub packets: Vec<u8>,
 }
 
+/// What a dark link carries in place of packets: one packet's worth of zero bytes. A receiver
+/// reads it as a byte violation (0x00 is not a packet code), as a MACRO receiver reads a fibre
+/// with no light.
+pub const DARK_BYTES: [u8; PACKET_LEN] = [0; PACKET_LEN];
+
 /// Why a frame envelope was rejected (counted as `bad_frames`).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FrameError {
@@ -79,6 +84,27 @@ impl Frame {
             declared: u16::try_from(packets.len()).unwrap_or(u16::MAX),
             packets: bytes,
         }
+    }
+
+    /// A dark frame for ring cycle `cycle` (loss of light: see [`DARK_BYTES`]). The envelope
+    /// still carries the cycle, so the ring keeps cycling and every member downstream of a
+    /// break counts the cycles it sees no light.
+    pub fn dark(sender: u16, seq: u64, sent_ns: u64, cycle: u64, origin_ns: u64) -> Self {
+        Frame {
+            version: FORMAT_VERSION,
+            sender,
+            seq,
+            sent_ns,
+            cycle,
+            origin_ns,
+            declared: 1,
+            packets: DARK_BYTES.to_vec(),
+        }
+    }
+
+    /// Is this a dark frame (nothing but [`DARK_BYTES`])?
+    pub fn is_dark(&self) -> bool {
+        self.declared == 1 && self.packets == DARK_BYTES
     }
 
     /// Encode with bincode (standard configuration).
@@ -137,6 +163,26 @@ mod tests {
         ];
         assert_eq!(f.encode(), want);
         assert_eq!(Frame::decode(&want), Ok(f));
+    }
+
+    #[test]
+    fn dark_frames_are_recognised_and_read_as_byte_violations() {
+        let d = Frame::dark(3, 9, 1, 77, 2);
+        assert!(d.is_dark());
+        let back = Frame::decode(&d.encode()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!((back.cycle, back.origin_ns), (77, 2));
+        assert!(matches!(
+            Packet::decode(&back.packets),
+            Err(crate::packet::PacketError::ByteViolation(_))
+        ));
+        // A frame whose only packet was hit by a byte violation is not dark.
+        let sync = Packet::new(0, 15, NodeRegs::default());
+        let mut f = Frame::with_packets(1, 1, 0, 5, &[sync]);
+        assert!(!f.is_dark());
+        f.packets[0] = 0;
+        assert!(!f.is_dark());
+        assert!(!Frame::with_packets(1, 1, 0, 5, &[]).is_dark());
     }
 
     #[test]

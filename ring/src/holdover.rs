@@ -59,6 +59,15 @@ impl HoldoverClock {
         self.on_sync(cycle, now_ns);
     }
 
+    /// Skip the grace: nothing will come (the upstream member is known dead), so the next
+    /// holdover cycle is due now unless one is due within a period anyway (the clock already
+    /// runs). Does nothing before the first sync packet.
+    pub fn expedite(&mut self, now_ns: u64) {
+        if self.last_cycle.is_some() && self.due_ns > now_ns.saturating_add(self.period_ns) {
+            self.due_ns = now_ns;
+        }
+    }
+
     /// When the next holdover cycle is due, if the clock runs.
     pub fn due_ns(&self) -> Option<u64> {
         self.last_cycle.map(|_| self.due_ns)
@@ -110,6 +119,21 @@ mod tests {
         h.on_sync(20, 10_100);
         assert_eq!(h.poll(11_500), None);
         assert_eq!(h.poll(11_600), Some(21));
+    }
+
+    #[test]
+    fn expedite_runs_now_and_then_every_period() {
+        let mut h = HoldoverClock::with_grace(1000, 1_000_000);
+        h.expedite(5);
+        assert_eq!(h.poll(5), None, "nothing before the first sync");
+        h.on_sync(10, 5000);
+        assert_eq!(h.poll(6000), None, "the grace is long");
+        h.expedite(6000);
+        assert_eq!(h.poll(6000), Some(11));
+        // Once running, expediting again changes nothing: one cycle per period.
+        h.expedite(6500);
+        assert_eq!(h.poll(6999), None);
+        assert_eq!(h.poll(7000), Some(12));
     }
 
     #[test]

@@ -3,9 +3,10 @@
 //!
 //! [`RingSim::step`] runs one ring cycle k at simulated time k × period: frames delayed into
 //! this cycle land first, then the synchronizing master starts cycle k (sends, then ticks) and
-//! the frame travels member to member (each forwards, then ticks on the sync packet) until it
-//! returns or is dropped. Members that got no sync packet run cycle k on their holdover clock
-//! three quarters of a period later. Every tick runs the member's ring check, then its app.
+//! the frame travels member to member (each forwards, then ticks on the sync packet, or unlocked
+//! on a frame without one: a dropped sync packet, a dark frame downstream of a cut) until it
+//! returns. Members that got no frame at all run cycle k on their holdover clock three quarters
+//! of a period later. Every tick runs the member's ring check, then its app.
 //! Frames a `delay-us` fault holds for a period or more land in a later cycle. Same faults
 //! and seeds → same run.
 
@@ -22,6 +23,8 @@ pub enum TickKind {
     Start,
     /// On the sync packet's arrival.
     Sync,
+    /// On a frame of a new cycle that carried no sync packet (dropped, or a dark frame).
+    Unlocked,
     /// On its own holdover clock.
     Holdover,
 }
@@ -111,10 +114,10 @@ impl<A: RingApp> RingSim<A> {
     }
 
     /// Inject a fault on member `i`'s send path.
-    pub fn inject(&mut self, i: usize, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject(&mut self, i: usize, spec: FaultSpec) -> Result<(), crate::fault::FaultError> {
         self.members
             .get_mut(i)
-            .ok_or_else(|| format!("no member {i}"))?
+            .ok_or(crate::fault::FaultError::NoMember(i))?
             .inject_fault(spec)
     }
 
@@ -216,6 +219,8 @@ impl<A: RingApp> RingSim<A> {
             }
             if let Some(c) = ev.sync {
                 self.tick(to, c, TickKind::Sync, rep);
+            } else if let Some(c) = ev.unlocked {
+                self.tick(to, c, TickKind::Unlocked, rep);
             }
         }
     }

@@ -14,8 +14,7 @@
 
 use std::path::PathBuf;
 
-use mcc_ring::check::CheckParams;
-use mcc_ring::core::{CheckReport, RingApp};
+use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 
@@ -156,8 +155,10 @@ impl RingApp for StationApp {
         self.mi.take_ring_reset()
     }
 
-    fn take_check_params(&mut self) -> Option<CheckParams> {
-        self.mi.take_check_params()
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        if let Some(p) = self.mi.take_check_params() {
+            ring.check_mut().set_params(p);
+        }
     }
 
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Runs the Python host-client tests (dls-pmaclib against a real `mcc-card --standalone`).
+# Runs the Python host-client tests (dls-pmaclib against a real `mcc-card --standalone`;
+# pytrinamic and pyTMCL against a running cluster's EMCL bus).
 # Creates a venv under target/ on first use; safe to re-run. Exits non-zero on failure.
-# Env: MCC_CARD_BIN (default target/debug/mcc-card), PYTHON (default python3.11 or python3),
+# Env: MCC_CARD_BIN (default target/debug/mcc-card), MCC_BIN (default target/debug/mcc),
+#      PYTHON (default python3.11 or python3),
 #      MCC_SKIP_BUILD=1 to skip `cargo build -p mcc-card --bin mcc-card`.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -11,13 +13,18 @@ py="${PYTHON:-$(command -v python3.11 || command -v python3)}"
 if [ ! -x "$venv/bin/python" ]; then
     "$py" -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c 'import dls_pmaclib, pytest' 2>/dev/null; then
+if ! "$venv/bin/python" -c 'import dls_pmaclib, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
         -r "$here/requirements.txt"
 fi
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_CARD_BIN:-}" ]; then
     (cd "$root" && cargo build -q -p mcc-card --bin mcc-card)
 fi
+# The TMCL client tests start a cluster: mcc, mcc-card and mcc-station.
+if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_BIN:-}" ]; then
+    (cd "$root" && cargo build -q -p mcc-orchestrator -p mcc-card -p mcc-station --bins)
+fi
+export MCC_BIN="${MCC_BIN:-$root/target/debug/mcc}"
 bin="${MCC_CARD_BIN:-$root/target/debug/mcc-card}"
 export MCC_CARD_BIN="$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")"
 cd "$here"

@@ -7,8 +7,8 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use mcc_tests::cluster::{Cluster, Foreground};
-use mcc_tests::process::{mcc, mcc_with_input, run_base, text, unique};
+use mcc_testing::{Cluster, Foreground};
+use mcc_tests::process::{bin_dir, text};
 
 /// A host on the chain: write bytes, read the reply.
 trait Host: Read + Write {}
@@ -63,19 +63,16 @@ fn amp_and_loop(status_reply: &[u8]) -> u8 {
 
 #[test]
 fn daisy_chain_rules_over_tcp_pty_send_and_term() {
-    let c = Cluster::up(
-        "chain",
-        &[
-            "--clock",
-            "lockstep",
-            "--cards",
-            "2",
-            "--stations",
-            "1",
-            "--pty",
-        ],
-    );
-    let doc = c.status();
+    let mut c = Cluster::builder()
+        .mcc(bin_dir().join("mcc"))
+        .clock("lockstep")
+        .cards(2)
+        .stations(1)
+        .up_arg("--pty")
+        .tag("chain")
+        .start()
+        .unwrap_or_else(|e| panic!("cluster up: {e}"));
+    let doc = c.status().unwrap().0;
     let addr = doc["daisy_chain"]
         .as_str()
         .expect("daisy_chain")
@@ -150,42 +147,17 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     drop(t);
 
     // `mcc send` for scripts.
-    let out = mcc(
-        &[
-            "send",
-            "--cluster",
-            &c.name,
-            "--card",
-            "1",
-            "P4=3",
-            "P4",
-            "P3",
-        ],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--card", "1", "P4=3", "P4", "P3"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(text(&out.stdout), "3\n7\n");
-    let out = mcc(
-        &[
-            "send",
-            "--cluster",
-            &c.name,
-            "--show-framing",
-            "@1P4",
-            "@7P4",
-        ],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--show-framing", "@1P4", "@7P4"]);
     assert_eq!(text(&out.stdout), "<LF>3<CR>\n<LF>\n");
     assert!(
         text(&out.stderr).contains("no card answered \"@7P4\""),
         "{}",
         text(&out.stderr)
     );
-    let out = mcc(
-        &["send", "--cluster", &c.name, "--card", "16", "P1"],
-        Duration::from_secs(60),
-    );
+    let out = c.mcc(&["send", "--card", "16", "P1"]);
     assert!(!out.status.success());
     assert!(
         text(&out.stderr).contains("--card"),
@@ -194,10 +166,9 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
     );
 
     // `mcc term` through a pipe.
-    let out = mcc_with_input(
-        &["term", "--cluster", &c.name],
+    let out = c.mcc_input(
+        &["term"],
         b"@0P4\n@1P4\n.framing\nP1\n@\n.bogus\n.quit\nP1\n",
-        Duration::from_secs(60),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(
@@ -209,16 +180,19 @@ fn daisy_chain_rules_over_tcp_pty_send_and_term() {
 
 #[test]
 fn foreground_up_is_a_terminal_on_the_chain() {
-    let name = unique("fgterm");
-    let _guard = Cluster::guard(&name);
     let mut fg = Foreground::start(
-        &name,
+        &bin_dir().join("mcc"),
+        "fgterm",
         &["--clock", "lockstep", "--cards", "2", "--stations", "1"],
-    );
-    fg.wait_ready(Duration::from_secs(150));
+    )
+    .expect("mcc up");
+    fg.wait_ready(Duration::from_secs(150))
+        .expect("ring locked");
     let mut stdin = fg.child.stdin.take().expect("stdin");
     stdin.write_all(b"@1P7=42\n@1P7\n@0P7\n.quit\n").unwrap();
-    let status = fg.wait_exit("after .quit", Duration::from_secs(60));
+    let status = fg
+        .wait_exit(Duration::from_secs(60))
+        .expect("exit after .quit");
     assert!(status.success());
     let rest = fg.remaining_lines(Duration::from_secs(5));
     assert!(
@@ -228,5 +202,8 @@ fn foreground_up_is_a_terminal_on_the_chain() {
     let i = rest.iter().position(|l| l == "42").expect("reply 42");
     assert_eq!(rest.get(i + 1).map(String::as_str), Some("0"), "{rest:?}");
     assert!(rest.iter().any(|l| l.contains("stopped")), "{rest:?}");
-    assert!(!run_base().join(&name).exists(), "run dir left behind");
+    assert!(
+        !fg.run_base().join(fg.name()).exists(),
+        "run dir left behind"
+    );
 }

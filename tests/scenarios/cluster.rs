@@ -203,3 +203,110 @@ fn bad_config_and_arguments_get_a_message_naming_the_problem() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir(run_base());
 }
+
+/// The number in a card's reply (`9995.6<CR><ACK>` → 9995.6).
+fn number(reply: &str) -> f64 {
+    let t = reply.trim_matches(|c: char| c.is_control() || c.is_whitespace());
+    t.parse()
+        .unwrap_or_else(|_| panic!("not a number: {reply:?}"))
+}
+
+/// `#1?` second status word (home complete = bit 10, in position = bit 0).
+fn status_word2(reply: &str) -> u32 {
+    let t = reply.trim_matches(|c: char| c.is_control() || c.is_whitespace());
+    assert_eq!(t.len(), 12, "{reply:?}");
+    u32::from_str_radix(&t[6..], 16).expect("hex")
+}
+
+#[test]
+fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
+    // No --clock: the default.
+    let c = Cluster::up("paced", &[]);
+    let doc = c.status();
+    assert_eq!(doc["clock"], "paced", "{doc:#}");
+    assert_eq!(doc["rtf_requested"], 1.0);
+    assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
+    let wait = |what: &str, f: &mut dyn FnMut() -> bool| {
+        wait_until(what, Duration::from_secs(120), f);
+    };
+    // Jog to 10000 counts and stop there.
+    let r = c.ascii(0, &["#1J=10000"]);
+    assert!(!r.contains('\x07'), "{r:?}");
+    wait("the jog to end at 10000", &mut || {
+        let p = number(&c.ascii(0, &["#1P"]));
+        let w2 = status_word2(&c.ascii(0, &["#1?"]));
+        (p - 10000.0).abs() < 10.0 && w2 & 1 == 1
+    });
+    // Home: the search runs back down to the home switch (5000-6000 counts on the plant),
+    // the trigger becomes zero and the motor settles there.
+    let r = c.ascii(0, &["I123=-32", "#1HM"]);
+    assert!(!r.contains('\x07'), "{r:?}");
+    wait("home complete", &mut || {
+        let w2 = status_word2(&c.ascii(0, &["#1?"]));
+        w2 & 0x400 != 0 && w2 & 1 == 1
+    });
+    let p = number(&c.ascii(0, &["#1P"]));
+    assert!(p.abs() < 10.0, "homed at {p}");
+    // LINEAR 10 units at F5 with TA200: 10/5 s + 0.2 s = 2.2 s of ring time = 4969 servo
+    // cycles at I10 = 3713707 (0.44271 ms), recorded by the card's own data gathering.
+    let setup = c.ascii(
+        0,
+        &[
+            "&1#1->1000X",
+            "OPEN PROG 2 CLEAR",
+            "LINEAR ABS TA200 TS0 F5",
+            "X10",
+            "CLOSE",
+        ],
+    );
+    assert!(!setup.contains('\x07'), "{setup:?}");
+    let out = run_base().join(format!("paced-gather-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let dir = out.to_string_lossy().into_owned();
+    let started = std::time::Instant::now();
+    let text = mcc_tests::process::ok(
+        c.mcc(&[
+            "gather", "--card", "0", "--motors", "1", "--cycles", "6000", "--run", "&1B2R",
+            "--out", &dir,
+        ]),
+        "mcc gather",
+    );
+    assert!(text.contains("gather.csv"), "{text}");
+    let csv = std::fs::read_to_string(out.join("gather.csv")).expect("gather.csv");
+    let cmd: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .nth(2)
+                .expect("column")
+                .parse()
+                .expect("number")
+        })
+        .collect();
+    let _ = std::fs::remove_dir_all(&out);
+    assert_eq!(cmd.len(), 6001);
+    let from = cmd[0];
+    assert!(from.abs() < 10.0, "starts at home: {from}");
+    let first = cmd
+        .iter()
+        .position(|v| (v - from).abs() > 1e-3)
+        .expect("moved");
+    let last = cmd
+        .iter()
+        .position(|v| (v - 10_000.0).abs() < 1e-3)
+        .expect("reached X10 = 10000 counts");
+    let cycles = (last - first + 1) as f64;
+    let want = 2.2e3 / (3_713_707.0 / 8_388_608.0);
+    eprintln!(
+        "LINEAR X10 F5 TA200: {cycles} ring cycles (expected {want:.1}); the gather took {:?}",
+        started.elapsed()
+    );
+    assert!(
+        (cycles - want).abs() <= 3.0,
+        "{cycles} cycles, want {want:.1}"
+    );
+    let doc = c.status();
+    assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
+    assert!(doc["rtf"].as_f64().is_some(), "{doc:#}");
+}

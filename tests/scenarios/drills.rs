@@ -2,8 +2,6 @@
 //! delays in the control path), ring faults (drop-sync, cut link, killed station, frozen
 //! card) detected, localised and recovered, and a realtime synchronized start's skew.
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::time::Duration;
 
 use mcc_tests::cluster::Cluster;
@@ -21,38 +19,9 @@ const SETUP: &[&str] = &[
     "CLOSE",
 ];
 
-/// Card `n`'s ASCII port from a status document.
-fn card_port(doc: &Value, n: u64) -> u16 {
-    let c = doc["cards"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["number"] == n)
-        .expect("card");
-    c["ascii"].as_u64().expect("ascii port") as u16
-}
-
 /// Send lines to card `n`'s ASCII port; the replies.
 fn send(c: &Cluster, n: u64, lines: &[&str]) -> String {
-    let port = card_port(&c.status(), n);
-    let mut s = TcpStream::connect(("127.0.0.1", port)).expect("connect ascii port");
-    s.set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let mut all = Vec::new();
-    for l in lines {
-        s.write_all(format!("{l}\r").as_bytes()).unwrap();
-        let mut buf = [0u8; 4096];
-        while let Ok(k) = s.read(&mut buf) {
-            if k == 0 {
-                break;
-            }
-            all.extend_from_slice(&buf[..k]);
-            if buf[..k].ends_with(b"\n") || buf[..k].ends_with(b"\x06") {
-                break;
-            }
-        }
-    }
-    String::from_utf8_lossy(&all).into_owned()
+    c.ascii(n, lines)
 }
 
 fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
@@ -78,19 +47,18 @@ fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
         .clone()
 }
 
-#[test]
-fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
-    let c = Cluster::up_with_env(
-        "sync4",
-        &["--cards", "4", "--stations", "4", "--clock", "lockstep"],
-        &[("MCC_TEST_AT_DELAY_MS", "15")],
-    );
+/// 4 cards + 4 stations, `repeat` synchronized starts with random delays (up to 15 ms) in
+/// every card's control path: every start executes on every card in the same ring cycle.
+fn synchronized_starts_never_split(tag: &str, clock: &[&str], repeat: u32) {
+    let mut args = vec!["--cards", "4", "--stations", "4"];
+    args.extend_from_slice(clock);
+    let c = Cluster::up_with_env(tag, &args, &[("MCC_TEST_AT_DELAY_MS", "15")]);
     for n in 0..4 {
         let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
     }
-    let outs = start_sync(&c, "0,1,2,3", 100);
-    assert_eq!(outs.len(), 100);
+    let outs = start_sync(&c, "0,1,2,3", repeat);
+    assert_eq!(outs.len(), repeat as usize);
     let mut retried = 0;
     for o in &outs {
         let t = o["cycle"].as_u64().unwrap();
@@ -103,16 +71,28 @@ fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
         }
         retried += u64::from(o["attempts"].as_u64().unwrap() > 1);
     }
-    eprintln!("100 synchronized starts, {retried} needed a retry");
+    eprintln!("{repeat} synchronized starts ({clock:?}), {retried} needed a retry");
     let last = outs.last().unwrap()["cycle"].as_u64().unwrap();
     let doc = c.status();
     for card in doc["cards"].as_array().unwrap() {
         assert_eq!(card["program_start_cycle"].as_u64(), Some(last), "{doc:#}");
     }
+    assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     // Bad input: unknown card, empty list.
     let out = c.mcc(&["start-sync", "--cards", "0,9", "&1B1R"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no card 9"));
+}
+
+#[test]
+fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
+    synchronized_starts_never_split("sync4", &["--clock", "lockstep"], 100);
+}
+
+#[test]
+fn paced_synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
+    // The default clock.
+    synchronized_starts_never_split("psync4", &[], 30);
 }
 
 /// Fault `member` with `args`, check every card in `cards` latches a ring fault and status
@@ -189,18 +169,24 @@ fn recover(c: &Cluster) {
             .iter()
             .all(|m| m["alive"] == true && m["locked"] == true)
     });
-    for n in 0..2 {
-        send(c, n, &["$$$"]);
-    }
-    let doc = c.wait("ring fault cleared", Duration::from_secs(30), |d| {
+    // The usual reset: `$$$` on every card whose ring-fault bit is set, then the members'
+    // latches; again while the ring is still settling (a latch only clears after a healthy
+    // check period).
+    c.wait("ring fault cleared", Duration::from_secs(30), |d| {
+        for card in d["cards"].as_array().unwrap() {
+            if card["ring_fault"] != false {
+                send(c, card["number"].as_u64().unwrap(), &["$$$"]);
+            }
+        }
         let _ = c.mcc(&["fault", "reset"]);
-        d["ring"]["faulted"] == false && d["ring"]["locked"] == true
+        d["ring"]["faulted"] == false
+            && d["ring"]["locked"] == true
+            && d["cards"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|c| c["ring_fault"] == false)
     });
-    assert!(doc["cards"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .all(|c| c["ring_fault"] == false));
     // Motion can be commanded again.
     for n in 0..2 {
         let r = send(c, n, SETUP);
@@ -215,10 +201,11 @@ fn recover(c: &Cluster) {
         .all(|k| k["executed_cycle"] == t));
 }
 
-#[test]
-fn ring_faults_are_detected_localised_and_recovered() {
-    let c = Cluster::up("faults", &["--clock", "lockstep"]);
-    // Ring order: card0 (sync master), station0, card1, station1.
+/// The fault drills on the default 2 + 2 ring (card0 (sync master), station0, card1,
+/// station1): each fault detected by the cards within the bound, the broken link named, the
+/// ring recovered after clear + `$$$` + reset, and motion commanded again.
+fn fault_drills(tag: &str, clock: &[&str]) {
+    let c = Cluster::up(tag, clock);
     for n in 0..2 {
         let r = send(&c, n, SETUP);
         assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
@@ -258,6 +245,37 @@ fn ring_faults_are_detected_localised_and_recovered() {
     // A thawed member whose zenoh session expired leaves; restart brings it back.
     restart(&c, "card1");
     recover(&c);
+    // The synchronizing master itself: killed, then frozen. The member downstream of it
+    // (station0) sees loss of light and runs on its own clock, so card1 counts the cycles;
+    // a restarted sync master takes up the ring's cycle count (or the ring its new one).
+    drill(
+        &c,
+        &["card0", "kill"],
+        "card0 → station0",
+        "station0",
+        &["card1"],
+    );
+    restart(&c, "card0");
+    recover(&c);
+    drill(
+        &c,
+        &["card0", "freeze"],
+        "card0 → station0",
+        "station0",
+        &["card1"],
+    );
+    restart(&c, "card0");
+    recover(&c);
+}
+
+#[test]
+fn ring_faults_are_detected_localised_and_recovered() {
+    fault_drills("faults", &["--clock", "lockstep"]);
+}
+
+#[test]
+fn paced_ring_faults_are_detected_within_the_same_cycle_bounds() {
+    fault_drills("pfaults", &[]);
 }
 
 #[test]

@@ -5,13 +5,18 @@
 use std::path::Path;
 use std::time::Duration;
 
-use mcc_tests::cluster::Cluster;
-use mcc_tests::process::ok;
+use mcc_testing::Cluster;
+use mcc_tests::process::{bin_dir, ok};
 use serde_json::Value;
 
 /// A lockstep cluster with the default cards and stations.
 fn lockstep(tag: &str) -> Cluster {
-    Cluster::up(tag, &["--clock", "lockstep"])
+    Cluster::builder()
+        .mcc(bin_dir().join("mcc"))
+        .clock("lockstep")
+        .tag(tag)
+        .start()
+        .unwrap_or_else(|e| panic!("cluster up: {e}"))
 }
 
 /// `mcc send --show-framing LINE…` on the chain: the printed replies.
@@ -32,7 +37,7 @@ fn start_cycles(doc: &Value) -> Vec<Option<u64>> {
 
 #[test]
 fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
-    let c = lockstep("chainsync");
+    let mut c = lockstep("chainsync");
     // The same short program on both cards (under @@ every card takes the line).
     let setup = send(
         &c,
@@ -46,11 +51,11 @@ fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
     );
     assert!(!setup.contains("<BELL>"), "{setup}");
     std::thread::sleep(Duration::from_millis(500));
-    assert_eq!(start_cycles(&c.status()), [None, None]);
+    assert_eq!(start_cycles(&c.status().unwrap().0), [None, None]);
     // A start on one card only runs at the <CR> as before: card 1 has no start recorded.
     let single = send(&c, &["@0&1B1R"]);
     assert!(!single.contains("<BELL>"), "{single}");
-    let first = start_cycles(&c.status());
+    let first = start_cycles(&c.status().unwrap().0);
     assert!(first[0].is_some() && first[1].is_none(), "{first:?}");
     let mut last = first[0];
     for round in 0..3 {
@@ -58,7 +63,7 @@ fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
         let r = send(&c, &["@0&1B1R@1&1B1R"]);
         // Card 1 is addressed at the <CR>: its reply is the only one, as for one card.
         assert_eq!(r, single, "round {round}");
-        let s = start_cycles(&c.status());
+        let s = start_cycles(&c.status().unwrap().0);
         assert!(s[0].is_some() && s[0] != last, "round {round}: {s:?}");
         assert_eq!(s[0], s[1], "round {round}: split start");
         last = s[0];
@@ -67,7 +72,7 @@ fn a_chain_line_starting_programs_on_two_cards_starts_them_in_one_ring_cycle() {
     std::thread::sleep(Duration::from_millis(100));
     let r = send(&c, &["@@&1B1R"]);
     assert_eq!(r, single);
-    let s = start_cycles(&c.status());
+    let s = start_cycles(&c.status().unwrap().0);
     assert_eq!(s[0], s[1]);
     assert_ne!(s[0], last);
     // A refused start still answers in PMAC terms (program 9 does not exist: ERR015 on

@@ -3,9 +3,12 @@
 mod chain;
 mod cluster;
 mod drills;
+mod emcl;
+mod emcl_bound;
 mod gather;
 mod motion;
 mod programs;
 mod ring_inprocess;
 mod station_aux;
+mod testing_api;
 mod transcripts;

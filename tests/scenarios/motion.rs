@@ -3,18 +3,11 @@
 //! (config ring settings, `wire_macro_motors`, the config's card I-variables). Commands go in
 //! through `Card::command_line`; commands and feedback travel over the ring only.
 
-use std::sync::{Arc, Mutex};
-
-use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::{wire_macro_motors, CardRingApp};
-use mcc_card::state::float48::decode_fixed;
-use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
+use mcc_card::{decode_fixed, Card, CardRingApp, Profile, Session};
+use mcc_ring::config::ClusterConfig;
+use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
-use mcc_ring::runtime::process::card_check;
-use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::{NodePlantConfig, PlantConfig};
 use mcc_station::station_app::StationApp;
@@ -42,11 +35,16 @@ impl RingApp for App {
             App::Station(a) => a.take_ring_reset(),
         }
     }
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        match self {
+            App::Card(a) => a.sync_ring(ring),
+            App::Station(a) => a.sync_ring(ring),
+        }
+    }
 }
 
 struct Rig {
     sim: RingSim<App>,
-    card: Arc<Mutex<Card>>,
     session: Session,
 }
 
@@ -54,65 +52,37 @@ impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
     fn new(plant: NodePlantConfig) -> Rig {
         let cfg = ClusterConfig::default_cluster(1, 1);
-        let period = cfg.period_ns();
-        let n = cfg.ring.order.len();
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-        let mut members = Vec::new();
-        for name in cfg.ring.order.clone() {
-            let pos = cfg.position(&name).unwrap();
-            let rs = cfg.ring_settings(&name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let (kind, check, app) = match cfg.member(&name).unwrap() {
-                MemberRef::Card(cc) => {
-                    {
-                        let mut c = card.lock().unwrap();
-                        let mut s = Session::default();
-                        let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
-                        c.command_line(&mut s, line.as_bytes());
-                        wire_macro_motors(&mut c, &cc.nodes);
-                        for (k, v) in &cc.ivars {
-                            c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
-                        }
-                    }
-                    let app = CardRingApp::new(Arc::clone(&card), &cc.nodes).with_wiring(true);
-                    (
-                        MemberKind::Card,
-                        card_check(&cc.ivars),
-                        App::Card(Box::new(app)),
-                    )
-                }
-                MemberRef::Station(sc) => {
-                    let pc = PlantConfig {
-                        defaults: plant.clone(),
-                        ..PlantConfig::default()
-                    };
-                    let st = StationApp::new(&sc.nodes, &[], &pc).unwrap();
-                    let check = mcc_ring::check::RingCheck::station(
-                        sc.check.period,
-                        sc.check.min_syncs,
-                        sc.check.max_errors,
-                    );
-                    (MemberKind::Station, check, App::Station(Box::new(st)))
-                }
-            };
-            let mut cc = CoreConfig::new(&name, kind, pos as u16, settings, period * 100);
-            cc.check = check;
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            members.push((MemberCore::new(cc), app));
-        }
+        let sim = mcc_tests::inproc::ring(
+            &cfg,
+            Card::new(Profile::Pmac2),
+            |sc| {
+                let pc = PlantConfig {
+                    defaults: plant.clone(),
+                    ..PlantConfig::default()
+                };
+                App::Station(Box::new(StationApp::new(&sc.nodes, &[], &pc).unwrap()))
+            },
+            |c| App::Card(Box::new(c)),
+        );
         Rig {
-            sim: RingSim::new(members, period),
-            card,
+            sim,
             session: Session::default(),
         }
     }
 
+    /// The card (its ring app owns it; the test drives it between ring cycles).
+    fn card(&mut self) -> &mut Card {
+        match self.sim.app_mut(0) {
+            App::Card(a) => &mut a.core().card,
+            App::Station(_) => panic!("member 0 is the card"),
+        }
+    }
+
     fn cmd(&mut self, line: &str) -> String {
-        let mut c = self.card.lock().unwrap();
-        let r = c.command_line(&mut self.session, line.as_bytes());
-        String::from_utf8_lossy(&r)
-            .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
-            .to_string()
+        let mut s = self.session.clone();
+        let r = mcc_tests::inproc::command(self.card(), &mut s, line);
+        self.session = s;
+        r
     }
 
     fn num(&mut self, line: &str) -> f64 {
@@ -133,8 +103,8 @@ impl Rig {
 
     /// Motor x's D: register at calculation-block offset `off` (D:$0028 commanded, $002B
     /// actual, $004B following error), counts.
-    fn d_reg(&self, x: u16, off: u16) -> f64 {
-        let mut c = self.card.lock().unwrap();
+    fn d_reg(&mut self, x: u16, off: u16) -> f64 {
+        let c = self.card();
         decode_fixed(c.state.read_long(0x0020 + (x - 1) * 0x3C + off)) / D_UNITS
     }
 
@@ -280,7 +250,7 @@ fn default_jog_following_error_bound_and_reports() {
     assert_eq!(rig.status(1), (0x81_2000, 0x00_4001));
     // CTRL-P lists all 8 motors; motors 2-8 hold 0.
     let mut s = Session::default();
-    let r = rig.card.lock().unwrap().control_char(&mut s, 0x10);
+    let r = rig.card().control_char(&mut s, 0x10);
     let text = String::from_utf8_lossy(&r).trim().to_string();
     let vals: Vec<&str> = text.split(' ').collect();
     assert_eq!(vals.len(), 8);

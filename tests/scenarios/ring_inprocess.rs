@@ -305,9 +305,10 @@ fn delayed_frames_arrive_as_overrun() {
         },
     )
     .unwrap();
-    // cycle 4 is held one cycle; in cycle 5 the held frame and cycle 5's frame arrive together.
+    // cycle 4 is held one cycle (an empty frame keeps the cycle: member 2 runs it unlocked);
+    // in cycle 5 the held frame and cycle 5's frame arrive together.
     let rep = sim.step();
-    assert_eq!(rep.ticks[2], Some((4, TickKind::Holdover)));
+    assert_eq!(rep.ticks[2], Some((4, TickKind::Unlocked)));
     sim.step();
     assert_eq!(sim.member(2).status().errors.overrun, 1);
     assert_eq!(sim.member(2).cycle(), 5);
@@ -465,15 +466,34 @@ fn cut_link_seen_downstream_localised_and_recovered() {
     sim.run(10);
     sim.inject(2, FaultSpec::always(FaultKind::Cut)).unwrap();
     let reps = sim.run(10);
+    // The ring keeps cycling on dark frames, but no sync packet comes back.
     assert!(reps.iter().all(|r| !r.completed));
-    // stations 3, 4 and the sync master (downstream of link 2) fault at the end of the
-    // period 9-16 (2 syncs < 4); stations 1 and 2 upstream of the cut stay healthy.
+    // Loss of light downstream of link 2: a byte violation every cycle. Stations 3 and 4 (5
+    // checks with errors) fault in cycle 15, the sync master (I1004 = 2; a cycle's dark frame
+    // comes back after its tick, so it is read one check later) in cycle 13; stations 1 and 2
+    // upstream of the cut stay healthy.
     let faulted: Vec<(u64, usize)> = reps
         .iter()
         .flat_map(|r| r.faults.iter().map(move |f| (r.cycle, f.0)))
-        .filter(|f| f.0 == 16)
-        .collect();
-    assert_eq!(faulted, vec![(16, 0), (16, 3), (16, 4)]);
+        .filter(|f| [0, 3, 4].contains(&f.1) && f.0 <= 16)
+        .fold(Vec::new(), |mut v, f| {
+            if !v.iter().any(|(_, m)| *m == f.1) {
+                v.push(f);
+            }
+            v
+        });
+    assert_eq!(faulted, vec![(13, 0), (15, 3), (15, 4)]);
+    assert!(reps
+        .iter()
+        .all(|r| r.faults.iter().all(|f| f.0 != 1 && f.0 != 2)));
+    for i in [3, 4, 0] {
+        let st = sim.member(i).status();
+        assert!(
+            st.dark && st.dark_since_cycle == Some(11),
+            "member {i}: {st:?}"
+        );
+        assert!(st.errors.byte_violation >= 9, "member {i}: {st:?}");
+    }
     for i in [3, 4, 0] {
         let st = sim.member(i).status();
         assert!(st.ring_fault && !st.locked, "member {i}");
@@ -547,7 +567,7 @@ fn first_fault_cycle(reps: &[mcc_ring::sim::StepReport], i: usize) -> Option<u64
 }
 
 #[test]
-fn a_dead_link_is_a_data_underrun_downstream_and_faults_within_one_check_period() {
+fn a_cut_link_is_loss_of_light_downstream_and_faults_within_i1004_checks() {
     // RTI every servo cycle (I8 = 0), I1001 = 16, I1004 = 2, I1005 = 4.
     let check = || RingCheck::card(16, 2, 4, 0);
     let mut sim = ring(vec![
@@ -559,18 +579,25 @@ fn a_dead_link_is_a_data_underrun_downstream_and_faults_within_one_check_period(
     sim.inject(1, FaultSpec::always(FaultKind::Cut)).unwrap();
     let cut_at = sim.cycle();
     let reps = sim.run(40);
-    // Downstream of the cut nothing arrives: the second silent tick records an underrun, the
-    // next one the second error (I1004 = 2); the first silent tick runs on the holdover clock
-    // half a period late → fault at cut + 4, well inside I1001 + 1.
+    // Downstream of the cut every cycle brings a dark frame: a byte violation. Station 2
+    // faults on its third cycle with an error (max_errors = 2), the sync master on its second
+    // check with one (I1004 = 2; the dark frame of a cycle is read at the next tick): both at
+    // cut + 3, well inside I1001 + 1. No timeout is involved: the ring keeps cycling.
     for i in [2, 0] {
         let at = first_fault_cycle(&reps, i).expect("faulted");
-        assert_eq!(at, cut_at + 4, "member {i}");
-        assert!(sim.member(i).status().errors.underrun >= 2, "member {i}");
+        assert_eq!(at, cut_at + 3, "member {i}");
+        let st = sim.member(i).status();
+        assert!(
+            st.errors.byte_violation >= 2 && st.dark,
+            "member {i}: {st:?}"
+        );
+        assert_eq!(st.errors.underrun, 0, "member {i}");
         assert!(at - cut_at <= 16 + 1);
     }
+    assert!(reps.iter().all(|r| r.ticks.iter().all(|t| t.is_some())));
     // Upstream of the cut the station keeps receiving: no fault.
     assert!(first_fault_cycle(&reps, 1).is_none());
-    assert_eq!(sim.member(1).status().errors.underrun, 0);
+    assert_eq!(sim.member(1).status().errors, Default::default());
 }
 
 #[test]

@@ -70,10 +70,10 @@ impl RingApp for App {
             s.on_check(r);
         }
     }
-    fn take_check_params(&mut self) -> Option<CheckParams> {
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
         match self {
-            App::Station(s) => s.take_check_params(),
-            App::Card(_) => None,
+            App::Station(s) => s.sync_ring(ring),
+            App::Card(c) => c.sync_ring(ring),
         }
     }
 }

@@ -64,6 +64,38 @@ impl Cluster {
         serde_json::from_str(&out).expect("status JSON")
     }
 
+    /// Send command lines to card `n`'s ASCII terminal port (from the status document) and
+    /// return everything it answered (each line's reply up to its final `<LF>` or `<ACK>`, or
+    /// 300 ms of silence).
+    pub fn ascii(&self, n: u64, lines: &[&str]) -> String {
+        use std::io::{Read, Write};
+        let doc = self.status();
+        let port = doc["cards"]
+            .as_array()
+            .and_then(|cards| cards.iter().find(|c| c["number"] == n))
+            .and_then(|c| c["ascii"].as_u64())
+            .unwrap_or_else(|| panic!("card {n} has no ascii port: {doc:#}"));
+        let mut s =
+            std::net::TcpStream::connect(("127.0.0.1", port as u16)).expect("connect ascii port");
+        s.set_read_timeout(Some(Duration::from_millis(300)))
+            .expect("read timeout");
+        let mut all = Vec::new();
+        for l in lines {
+            s.write_all(format!("{l}\r").as_bytes()).expect("write");
+            let mut buf = [0u8; 4096];
+            while let Ok(k) = s.read(&mut buf) {
+                if k == 0 {
+                    break;
+                }
+                all.extend_from_slice(&buf[..k]);
+                if buf[..k].ends_with(b"\n") || buf[..k].ends_with(b"\x06") {
+                    break;
+                }
+            }
+        }
+        String::from_utf8_lossy(&all).into_owned()
+    }
+
     /// `mcc down` (default stop timeout).
     pub fn down(&self) -> Output {
         self.mcc(&["down"])

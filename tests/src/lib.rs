@@ -1,5 +1,6 @@
 //! Shared helpers for the scenario tests: running the cluster's binaries ([`process`]) and
-//! multi-process clusters under a cleanup guard ([`cluster`]).
+//! multi-process clusters under a cleanup guard ([`cluster`]), in-process rings ([`inproc`]).
 
 pub mod cluster;
+pub mod inproc;
 pub mod process;

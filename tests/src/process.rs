@@ -2,7 +2,6 @@
 //! directory private to the test process, `mcc` invocations bounded in time, and process
 //! helpers (alive, signal, bounded waits).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -14,6 +13,8 @@ const SCRUBBED_ENV: &[&str] = &[
     "MCC_BIN_DIR",
     "MCC_CHAIN_PTY",
     "MCC_CHAIN_PORT",
+    "MCC_EMCL_PTY",
+    "MCC_EMCL_PORT",
     "MCC_TEST_AT_DELAY_MS",
 ];
 
@@ -84,44 +85,9 @@ pub fn mcc_command(args: &[&str]) -> Command {
     c
 }
 
-/// Run `cmd` with `input` on its stdin (then closed), reading its output while it runs (a
-/// long reply cannot fill the pipe). After `timeout` it is killed: an error naming it, with
-/// what it printed.
-pub fn run_bounded(
-    mut cmd: Command,
-    input: Option<&[u8]>,
-    timeout: Duration,
-) -> Result<Output, String> {
-    let what = format!("{:?}", cmd.get_args().collect::<Vec<_>>());
-    if input.is_some() {
-        cmd.stdin(Stdio::piped());
-    }
-    let mut child = cmd.spawn().map_err(|e| format!("spawn {what}: {e}"))?;
-    let pid = child.id();
-    let stdin = child.stdin.take();
-    let input = input.unwrap_or_default().to_vec();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        if let Some(mut i) = stdin {
-            let _ = i.write_all(&input);
-        }
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(timeout) {
-        Ok(out) => out.map_err(|e| format!("{what}: {e}")),
-        Err(_) => {
-            send_signal(u64::from(pid), "-KILL");
-            let out = rx
-                .recv_timeout(Duration::from_secs(5))
-                .ok()
-                .and_then(Result::ok);
-            let (o, e) = out.map_or_else(Default::default, |o| (text(&o.stdout), text(&o.stderr)));
-            Err(format!(
-                "mcc {what} did not finish within {timeout:?}\nstdout: {o}\nstderr: {e}"
-            ))
-        }
-    }
-}
+/// Run `cmd` with `input` on its stdin (then closed), reading its output while it runs; killed
+/// after `timeout` (the test API's runner).
+pub use mcc_testing::run::run_bounded;
 
 /// `mcc args…`, killed (and the test failed) after `timeout`.
 pub fn mcc(args: &[&str], timeout: Duration) -> Output {

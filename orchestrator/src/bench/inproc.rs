@@ -113,13 +113,17 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
         let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
         core_cfg.sync_source = cfg.sync_source();
+        mcc_ring::runtime::process::apply_clock(&mut core_cfg, cfg);
         let core = MemberCore::new(core_cfg);
         let sync = cfg.ring.sync_master == *name;
         let dcfg = DriverConfig {
             name: name.clone(),
             clock: cfg.clock,
             rate_hz: cfg.rate_hz,
-            lockstep_timeout: Duration::from_millis(cfg.lockstep_timeout_ms.max(1)),
+            rtf: cfg.rtf,
+            member_timeout: cfg.member_timeout(),
+            upstream_dead: None,
+            harden: false,
             max_cycles: sync.then_some(cycles),
             kind,
             position: k,

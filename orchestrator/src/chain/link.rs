@@ -233,6 +233,27 @@ impl ChainLink {
             .collect()
     }
 
+    /// Wait (up to `budget`) until every card's chain queryable answers: a session that has
+    /// just connected may not yet route queries to every card, and a query nobody serves
+    /// comes back empty at once (a card that seems silent). Returns the cards still not
+    /// reachable.
+    pub fn wait_ready(&self, budget: Duration) -> Vec<u32> {
+        let deadline = std::time::Instant::now() + budget;
+        let mut pending: Vec<u32> = self.cards.iter().map(|(n, _)| *n).collect();
+        loop {
+            let answered: Vec<u32> = self
+                .ask(OP_QUERY_START, &pending)
+                .into_iter()
+                .map(|(n, _)| n)
+                .collect();
+            pending.retain(|n| !answered.contains(n));
+            if pending.is_empty() || std::time::Instant::now() >= deadline {
+                return pending;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// Tell every card this connection is gone.
     pub fn close(&self) {
         let _ = self.exchange(&encode_request(OP_CLOSE, self.conn, &[]));

@@ -5,9 +5,9 @@
 //! Options come from the environment so that the detached supervisor gets them too:
 //! `MCC_CHAIN_PORT` (TCP port, default 0 = any free port) and `MCC_CHAIN_PTY=1`.
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -48,149 +48,79 @@ impl ChainOptions {
     }
 }
 
-/// A running chain server. Dropping it stops accepting; open connections end with the process.
-#[derive(Debug)]
-pub struct ChainServer {
-    addr: String,
-    pty: Option<String>,
-    stop: Arc<AtomicBool>,
-}
+/// A running chain server (its endpoints). Dropping it stops accepting; open connections end
+/// with the process.
+pub type ChainServer = crate::serve::Endpoints;
 
-impl ChainServer {
-    /// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
-    pub fn start(
-        session: &zenoh::Session,
-        cfg: &ClusterConfig,
-        opts: &ChainOptions,
-    ) -> Result<Self> {
-        let listener = TcpListener::bind(("127.0.0.1", opts.port))
-            .with_context(|| format!("daisy chain: cannot listen on 127.0.0.1:{}", opts.port))?;
-        let addr = listener.local_addr()?.to_string();
-        listener.set_nonblocking(true)?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let live = Arc::new(AtomicUsize::new(0));
-        {
-            let (session, cfg, stop) = (session.clone(), cfg.clone(), Arc::clone(&stop));
-            std::thread::Builder::new()
-                .name("mcc-chain-accept".into())
-                .spawn(move || accept_loop(listener, session, cfg, stop, live))?;
-        }
-        let pty = if opts.pty {
-            Some(pty::start(session.clone(), cfg.clone())?)
-        } else {
-            None
-        };
-        Ok(ChainServer { addr, pty, stop })
+/// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
+pub fn start(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    opts: &ChainOptions,
+) -> Result<ChainServer> {
+    let listener = TcpListener::bind(("127.0.0.1", opts.port))
+        .with_context(|| format!("daisy chain: cannot listen on 127.0.0.1:{}", opts.port))?;
+    let addr = listener.local_addr()?.to_string();
+    listener.set_nonblocking(true)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let (session, cfg, stop) = (session.clone(), cfg.clone(), Arc::clone(&stop));
+        let stop2 = Arc::clone(&stop);
+        let serve = Arc::new(move |stream: TcpStream| {
+            let link = ChainLink::new(session.clone(), &cfg, DEFAULT_TIMEOUT);
+            serve_tcp(stream, &link, &stop2);
+            link.close();
+        });
+        std::thread::Builder::new()
+            .name("mcc-chain-accept".into())
+            .spawn(move || {
+                crate::serve::accept_loop(
+                    listener,
+                    "daisy chain",
+                    "mcc-chain-conn",
+                    MAX_CONNECTIONS,
+                    stop,
+                    serve,
+                )
+            })?;
     }
-
-    /// `127.0.0.1:PORT`.
-    pub fn addr(&self) -> &str {
-        &self.addr
-    }
-
-    /// The pseudo-terminal's slave path, when serving one.
-    pub fn pty_path(&self) -> Option<&str> {
-        self.pty.as_deref()
-    }
-}
-
-impl Drop for ChainServer {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-}
-
-fn accept_loop(
-    listener: TcpListener,
-    session: zenoh::Session,
-    cfg: ClusterConfig,
-    stop: Arc<AtomicBool>,
-    live: Arc<AtomicUsize>,
-) {
-    while !stop.load(Ordering::Relaxed) {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                if live.load(Ordering::Relaxed) >= MAX_CONNECTIONS {
-                    tracing::warn!("daisy chain: too many connections; refusing one");
-                    continue;
-                }
-                live.fetch_add(1, Ordering::Relaxed);
-                let link = ChainLink::new(session.clone(), &cfg, DEFAULT_TIMEOUT);
-                let (stop, live) = (Arc::clone(&stop), Arc::clone(&live));
-                let spawned = std::thread::Builder::new()
-                    .name("mcc-chain-conn".into())
-                    .spawn(move || {
-                        serve_tcp(stream, &link, &stop);
-                        link.close();
-                        live.fetch_sub(1, Ordering::Relaxed);
-                    });
-                if spawned.is_err() {
-                    tracing::warn!("daisy chain: cannot start a connection thread");
-                }
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(e) => {
-                tracing::warn!("daisy chain accept: {e}");
-                std::thread::sleep(Duration::from_millis(100));
-            }
-        }
-    }
+    let pty = if opts.pty {
+        Some(pty::start(session.clone(), cfg.clone())?)
+    } else {
+        None
+    };
+    Ok(crate::serve::Endpoints::new(addr, pty, stop))
 }
 
 fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool) {
     let _ = stream.set_nonblocking(false);
     let _ = stream.set_nodelay(true);
     let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
-    let mut buf = vec![0u8; MAX_CHUNK];
-    while !stop.load(Ordering::Relaxed) {
-        match stream.read(&mut buf) {
-            Ok(0) => return,
-            Ok(n) => {
-                let reply = link.send(buf.get(..n).unwrap_or_default());
-                if !reply.bytes.is_empty() && stream.write_all(&reply.bytes).is_err() {
-                    return;
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock
-                        | std::io::ErrorKind::TimedOut
-                        | std::io::ErrorKind::Interrupted
-                ) => {}
-            Err(_) => return,
-        }
-    }
+    let Ok(mut out) = stream.try_clone() else {
+        return;
+    };
+    let data = |chunk: &[u8]| {
+        let reply = link.send(chunk);
+        reply.bytes.is_empty() || out.write_all(&reply.bytes).is_ok()
+    };
+    crate::serve::read_loop(&mut stream, stop, MAX_CHUNK, data, || {});
 }
 
 mod pty {
     //! The pseudo-terminal: raw mode (no echo, no CR/NL translation), the slave kept open by
     //! us so that hosts may come and go.
 
-    use std::fs::File;
     use std::io::{Read, Write};
 
-    use anyhow::{anyhow, Result};
+    use anyhow::Result;
     use mcc_ring::config::ClusterConfig;
     use mcc_ring::control::chain::MAX_CHUNK;
-    use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
     use super::super::link::{ChainLink, DEFAULT_TIMEOUT};
 
     /// Open the pty and serve it from a thread; the slave path.
     pub fn start(session: zenoh::Session, cfg: ClusterConfig) -> Result<String> {
-        let p = nix::pty::openpty(None, None).map_err(|e| anyhow!("daisy chain: openpty: {e}"))?;
-        let mut t = tcgetattr(&p.slave).map_err(|e| anyhow!("daisy chain pty: {e}"))?;
-        cfmakeraw(&mut t);
-        tcsetattr(&p.slave, SetArg::TCSANOW, &t).map_err(|e| anyhow!("daisy chain pty: {e}"))?;
-        let path = nix::unistd::ttyname(&p.slave)
-            .map_err(|e| anyhow!("daisy chain pty name: {e}"))?
-            .display()
-            .to_string();
-        let slave = p.slave;
-        let mut master = File::from(p.master);
+        let (slave, mut master, path) = crate::serve::open_raw_pty("daisy chain")?;
         std::thread::Builder::new()
             .name("mcc-chain-pty".into())
             .spawn(move || {

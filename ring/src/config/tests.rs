@@ -35,9 +35,10 @@ master = 1
 fn minimal_file_gets_defaults() {
     let c = ClusterConfig::from_toml_str(TWO_BY_TWO).unwrap();
     assert_eq!(c.cluster, "mcc");
-    assert_eq!(c.clock, ClockMode::Realtime);
+    assert_eq!(c.clock, ClockMode::Paced);
     assert_eq!(c.rate_hz, 2258.7);
-    assert_eq!(c.lockstep_timeout_ms, 50);
+    assert_eq!(c.rtf, 1.0);
+    assert_eq!(c.member_timeout_ms, DEFAULT_MEMBER_TIMEOUT_MS);
     assert_eq!(c.ring.name, "0");
     assert_eq!(c.ring.order, ["card0", "station0", "card1", "station1"]);
     assert_eq!(c.ring.sync_master, "card0");
@@ -66,6 +67,9 @@ fn embedded_default_matches_file_form() {
         "master = 1\n[[stations]]",
         "master = 1\nivars = { I1001 = 16, I1004 = 2, I1005 = 4 }\n[[stations]]",
     );
+    // …and it has one EMCL drive on station0.
+    let text =
+        format!("{text}\n[[drives]]\nname = \"drive0\"\naddress = 1\nstation = \"station0\"\n");
     let parsed = ClusterConfig::from_toml_str(&text).unwrap();
     assert_eq!(d, parsed);
     d.validate().unwrap();
@@ -210,8 +214,8 @@ fn more_validation_rules() {
     assert_eq!(invalid(&with("rate_hz = nan")).0, "rate_hz");
     assert_eq!(invalid(&with("cluster = \"a/b\"")).0, "cluster");
     assert_eq!(
-        invalid(&with("lockstep_timeout_ms = 0")).0,
-        "lockstep_timeout_ms"
+        invalid(&with("member_timeout_ms = 0")).0,
+        "member_timeout_ms"
     );
     let ring = |body: &str| with(&format!("[ring]\n{body}"));
     let (k, p) = invalid(&ring("order = [\"card0\", \"station0\", \"card1\"]"));
@@ -278,4 +282,99 @@ fn missing_file_is_an_io_error() {
     let e = ClusterConfig::from_file(Path::new("/nonexistent/mcc.toml")).unwrap_err();
     assert!(matches!(e, ConfigError::Io { .. }), "{e}");
     assert!(e.to_string().contains("/nonexistent/mcc.toml"));
+}
+
+#[test]
+#[allow(clippy::disallowed_methods)] // writes a config file
+fn a_directory_as_state_file_is_refused_naming_the_key() {
+    let (key, problem) = invalid(
+        r#"
+[[cards]]
+name = "card0"
+number = 0
+master = 0
+state_file = "/tmp/"
+"#,
+    );
+    assert_eq!(key, "cards[0].state_file");
+    assert!(problem.contains("directory"), "{problem}");
+    // An existing directory given without a trailing slash is caught when the file is read.
+    let dir = std::env::temp_dir().join(format!("mcc-cfg-dir-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("cluster.toml");
+    let text = format!(
+        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nstate_file = {:?}\n",
+        dir.display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    match ClusterConfig::from_file(&file) {
+        Err(ConfigError::Invalid { key, problem }) => {
+            assert_eq!(key, "cards[0].state_file");
+            assert!(problem.contains("is a directory"), "{problem}");
+        }
+        other => panic!("expected Invalid, got {other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn clock_keys_are_checked_before_anything_starts() {
+    let with = |extra: &str| format!("{extra}\n{TWO_BY_TWO}");
+    // The clock words.
+    for (word, mode) in [
+        ("paced", ClockMode::Paced),
+        ("lockstep", ClockMode::Lockstep),
+        ("realtime", ClockMode::Realtime),
+    ] {
+        let c = ClusterConfig::from_toml_str(&with(&format!("clock = \"{word}\""))).unwrap();
+        assert_eq!(c.clock, mode);
+        assert_eq!(word.parse::<ClockMode>(), Ok(mode));
+        assert_eq!(mode.as_str(), word);
+    }
+    let e = "sometimes".parse::<ClockMode>().unwrap_err().to_string();
+    assert!(e.contains("sometimes") && e.contains("paced"), "{e}");
+    match err_of(&with("clock = \"sometimes\"")) {
+        ConfigError::Parse(m) => assert!(m.contains("sometimes") && m.contains("paced"), "{m}"),
+        other => panic!("{other}"),
+    }
+    // The real-time factor: positive, finite, not absurd, paced only.
+    let c = ClusterConfig::from_toml_str(&with("rtf = 2.5")).unwrap();
+    assert_eq!(c.rtf, 2.5);
+    assert_eq!(c.wall_period_ns(), (442_733.0f64 / 2.5).round() as u64);
+    for bad in [
+        "rtf = 0.0",
+        "rtf = -1",
+        "rtf = nan",
+        "rtf = inf",
+        "rtf = 1e9",
+    ] {
+        let (k, p) = invalid(&with(bad));
+        assert_eq!(k, "rtf", "{bad}: {p}");
+    }
+    let (_, p) = invalid(&with("rtf = 0"));
+    assert!(p.contains("real-time factor"), "{p}");
+    let (k, p) = invalid(&with("clock = \"lockstep\"\nrtf = 2"));
+    assert_eq!(k, "rtf");
+    assert!(
+        p.contains("only the paced clock") && p.contains("lockstep"),
+        "{p}"
+    );
+    assert!(ClusterConfig::from_toml_str(&with("clock = \"lockstep\"\nrtf = 1")).is_ok());
+    let (k, p) = invalid(&with("rate_hz = 500000\nrtf = 100"));
+    assert_eq!(k, "rtf");
+    assert!(p.contains("cycles per second"), "{p}");
+    // The frozen-member wait: at least one ring period of wall time.
+    let (k, p) = invalid(&with("rate_hz = 100\nmember_timeout_ms = 5"));
+    assert_eq!(k, "member_timeout_ms");
+    assert!(p.contains("shorter than one ring period"), "{p}");
+    let (k, _) = invalid(&with("rate_hz = 100\nrtf = 0.5\nmember_timeout_ms = 15"));
+    assert_eq!(k, "member_timeout_ms");
+    assert!(ClusterConfig::from_toml_str(&with("rate_hz = 100\nmember_timeout_ms = 10")).is_ok());
+    assert_eq!(
+        invalid(&with("member_timeout_ms = 60001")).0,
+        "member_timeout_ms"
+    );
+    // The old name of the key is still read.
+    let c = ClusterConfig::from_toml_str(&with("lockstep_timeout_ms = 250")).unwrap();
+    assert_eq!(c.member_timeout_ms, 250);
 }

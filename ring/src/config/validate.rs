@@ -2,14 +2,16 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{ClusterConfig, ConfigError, SYNC_NODE};
+use super::{ClockMode, ClusterConfig, ConfigError, SYNC_NODE};
 
 /// Most members one ring may hold.
 pub const MAX_MEMBERS: usize = 64;
 /// Highest accepted ring rate, Hz.
-pub const MAX_RATE_HZ: f64 = 1_000_000.0;
+pub(super) const MAX_RATE_HZ: f64 = 1_000_000.0;
+/// Largest real-time factor of the paced clock.
+pub const MAX_RTF: f64 = 1000.0;
 /// Highest I-variable number accepted in `ivars` (Turbo numbering).
-pub const MAX_IVAR: u32 = 8191;
+pub(super) const MAX_IVAR: u32 = 8191;
 const MAX_NAME: usize = 64;
 
 type R = Result<(), ConfigError>;
@@ -64,7 +66,7 @@ fn check_nodes(key: &str, nodes: &[u8]) -> R {
 }
 
 /// Check every rule of the config format.
-pub fn validate(cfg: &ClusterConfig) -> R {
+pub(super) fn validate(cfg: &ClusterConfig) -> R {
     check_name("cluster", &cfg.cluster)?;
     check_name("ring.name", &cfg.ring.name)?;
     if !cfg.rate_hz.is_finite() || cfg.rate_hz <= 0.0 || cfg.rate_hz > MAX_RATE_HZ {
@@ -73,12 +75,7 @@ pub fn validate(cfg: &ClusterConfig) -> R {
             format!("{} is not a rate in (0, {MAX_RATE_HZ}] Hz", cfg.rate_hz),
         );
     }
-    if cfg.lockstep_timeout_ms == 0 || cfg.lockstep_timeout_ms > 60_000 {
-        return bad(
-            "lockstep_timeout_ms",
-            format!("{} is out of range 1-60000", cfg.lockstep_timeout_ms),
-        );
-    }
+    validate_clock(cfg)?;
     for (list, eps) in [
         ("listen", &cfg.zenoh.listen),
         ("connect", &cfg.zenoh.connect),
@@ -109,7 +106,60 @@ pub fn validate(cfg: &ClusterConfig) -> R {
     }
     validate_cards(cfg)?;
     validate_stations(cfg)?;
-    validate_ring(cfg)
+    validate_ring(cfg)?;
+    super::drives::validate_drives(cfg)
+}
+
+/// `rtf` and `member_timeout_ms` (the clock keys; `clock` itself is checked by the parser).
+fn validate_clock(cfg: &ClusterConfig) -> R {
+    let rtf = cfg.rtf;
+    if !rtf.is_finite() || rtf <= 0.0 {
+        return bad(
+            "rtf",
+            format!("{rtf} is not a real-time factor (a number > 0, e.g. 1.0)"),
+        );
+    }
+    if rtf > MAX_RTF {
+        return bad(
+            "rtf",
+            format!("{rtf} is larger than the largest real-time factor {MAX_RTF}"),
+        );
+    }
+    if rtf != 1.0 && cfg.clock != ClockMode::Paced {
+        return bad(
+            "rtf",
+            format!(
+                "{rtf}: only the paced clock runs at a real-time factor (clock is {})",
+                cfg.clock.as_str()
+            ),
+        );
+    }
+    if cfg.rate_hz * rtf > MAX_RATE_HZ {
+        return bad(
+            "rtf",
+            format!(
+                "{rtf} at {} Hz asks for {} cycles per second of wall time (at most {MAX_RATE_HZ})",
+                cfg.rate_hz,
+                cfg.rate_hz * rtf
+            ),
+        );
+    }
+    let t = cfg.member_timeout_ms;
+    if t == 0 || t > 60_000 {
+        return bad("member_timeout_ms", format!("{t} is out of range 1-60000"));
+    }
+    let wall = cfg.wall_period_ns();
+    if t.saturating_mul(1_000_000) < wall {
+        return bad(
+            "member_timeout_ms",
+            format!(
+                "{t} ms is shorter than one ring period ({:.3} ms of wall time at {} Hz, rtf {rtf})",
+                wall as f64 / 1e6,
+                cfg.rate_hz
+            ),
+        );
+    }
+    Ok(())
 }
 
 fn validate_cards(cfg: &ClusterConfig) -> R {
@@ -174,6 +224,15 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
             }
         }
         check_nodes(&format!("{key}.nodes"), &c.nodes)?;
+        if let Some(p) = &c.state_file {
+            let text = p.to_string_lossy();
+            if text.is_empty() || text.ends_with('/') || p.ends_with(".") || p.ends_with("..") {
+                return bad(
+                    format!("{key}.state_file"),
+                    format!("{text:?} names a directory; give the path of a file"),
+                );
+            }
+        }
         for (name, value) in &c.ivars {
             let num = name
                 .strip_prefix(['I', 'i'])
@@ -252,6 +311,12 @@ fn validate_stations(cfg: &ClusterConfig) -> R {
 fn validate_ring(cfg: &ClusterConfig) -> R {
     let mut seen = BTreeSet::new();
     for (i, m) in cfg.ring.order.iter().enumerate() {
+        if cfg.member(m).is_none() && cfg.drive(m).is_some() {
+            return bad(
+                format!("ring.order[{i}]"),
+                format!("{m:?} is a drive: drives are on the EMCL bus, not on the ring"),
+            );
+        }
         if cfg.member(m).is_none() {
             return bad(
                 format!("ring.order[{i}]"),

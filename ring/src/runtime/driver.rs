@@ -1,15 +1,22 @@
 //! The member's cycle loop: one dedicated thread per member that owns its [`MemberCore`] and
 //! its application (card or station logic), moves frames between the transport and the core,
-//! runs the clock (realtime pacing, lockstep, holdover) and answers control requests.
+//! runs the clock (paced and lockstep in [`super::stepped`], realtime pacing, holdover) and
+//! answers control requests.
 //!
 //! Forward first, compute after: a received frame is forwarded before the tick runs.
+//!
+//! Followers tick on every frame of a new ring cycle (locked when it carries the sync packet,
+//! unlocked when it does not: a dropped sync packet or a dark frame). In paced and lockstep
+//! mode they fall back to their own (holdover) clock only when their upstream member is known
+//! dead (its liveliness went away) or has passed nothing on for the frozen-member wait; each
+//! such cycle is loss of light on their input (a byte violation, a dark frame forwarded).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
-use tracing::{debug, info, trace, warn};
+use tracing::{info, trace, warn};
 
 use super::pacer::Pacer;
 use crate::config::ClockMode;
@@ -27,9 +34,16 @@ pub struct DriverConfig {
     pub clock: ClockMode,
     /// Nominal ring rate (Hz).
     pub rate_hz: f64,
-    /// Lockstep: how long the sync master waits for its sync packet to come back before it
-    /// starts the next cycle anyway; also the holdover period of the other members.
-    pub lockstep_timeout: Duration,
+    /// Paced: the real-time factor (ring time advances at `rtf` × wall time).
+    pub rtf: f64,
+    /// Paced and lockstep: the frozen-member wait. A sync master whose cycle has not come back
+    /// within it declares the ring down and runs cycles on its own clock.
+    pub member_timeout: Duration,
+    /// Raised while the upstream member is known dead (its liveliness token went away): its
+    /// link carries no light.
+    pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
+    pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
     pub max_cycles: Option<u64>,
     /// Kind reported in status.
@@ -86,17 +100,23 @@ pub fn monotonic_ns() -> u64 {
 
 /// Everything the loop needs.
 pub struct Driver<A: RingApp> {
-    cfg: DriverConfig,
-    core: MemberCore,
+    pub(super) cfg: DriverConfig,
+    pub(super) core: MemberCore,
     app: A,
     tx: Box<dyn LinkTx>,
-    rx: LinkRx,
+    pub(super) rx: LinkRx,
     cmds: Receiver<DriverCmd>,
     stop: Arc<AtomicBool>,
     /// Frames held back by a `delay-us` fault: (due time, bytes).
-    delayed: Vec<(Instant, Vec<u8>)>,
+    pub(super) delayed: Vec<(Instant, Vec<u8>)>,
     cycles_run: u64,
     records: Vec<(u64, u64)>,
+    /// The receive link closed (an in-process upstream whose loop ended): nothing will come.
+    rx_closed: bool,
+    /// What the cycle thread got from the scheduler.
+    sched: Option<String>,
+    /// Synchronizing master: the clock figures for the status report.
+    pub(super) clock: Option<super::timing::ClockStats>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -129,6 +149,9 @@ impl<A: RingApp> Driver<A> {
             delayed: Vec::new(),
             cycles_run: 0,
             records: Vec::new(),
+            rx_closed: false,
+            sched: None,
+            clock: None,
         }
     }
 
@@ -137,45 +160,105 @@ impl<A: RingApp> Driver<A> {
         (self.core, self.app)
     }
 
+    /// The synchronizing master's clock report (None on other members).
+    pub fn clock_report(&self) -> Option<crate::control::ClockReport> {
+        self.clock.as_ref().map(|c| c.report(monotonic_ns()))
+    }
+
     /// Timing samples recorded so far (see [`DriverConfig::record`]).
     pub fn take_records(&mut self) -> Vec<(u64, u64)> {
         std::mem::take(&mut self.records)
     }
 
-    fn record(&mut self, cycle: u64, ns: u64) {
+    pub(super) fn record(&mut self, cycle: u64, ns: u64) {
         if self.records.len() < self.cfg.record {
             self.records.push((cycle, ns));
         }
     }
 
-    fn now_ns(&self) -> u64 {
+    pub(super) fn now_ns(&self) -> u64 {
         monotonic_ns()
     }
 
-    fn period_ns(&self) -> u64 {
+    pub(super) fn period_ns(&self) -> u64 {
         (1e9 / self.cfg.rate_hz.max(1e-3)) as u64
     }
 
-    /// Time the core and the application see for ring cycle `cycle`: simulated (one nominal
-    /// period per cycle) in lockstep, the monotonic clock in realtime.
-    fn time_for(&self, cycle: u64) -> u64 {
+    /// Wall time of one ring cycle: the period divided by the real-time factor when paced.
+    pub(super) fn wall_period_ns(&self) -> u64 {
         match self.cfg.clock {
-            ClockMode::Lockstep => cycle.saturating_mul(self.period_ns()),
+            ClockMode::Paced if self.cfg.rtf.is_finite() && self.cfg.rtf > 0.0 => {
+                ((self.period_ns() as f64 / self.cfg.rtf) as u64).max(1)
+            }
+            _ => self.period_ns(),
+        }
+    }
+
+    /// Time the core and the application see for ring cycle `cycle`: ring time (one nominal
+    /// period per cycle) in paced and lockstep mode — so one program gives the same trajectory
+    /// cycle for cycle in both — the monotonic clock in realtime.
+    pub(super) fn time_for(&self, cycle: u64) -> u64 {
+        match self.cfg.clock {
+            ClockMode::Paced | ClockMode::Lockstep => cycle.saturating_mul(self.period_ns()),
             ClockMode::Realtime => self.now_ns(),
         }
     }
 
+    /// The upstream member is known dead (its link carries no light).
+    pub(super) fn upstream_dead(&self) -> bool {
+        self.rx_closed
+            || self
+                .cfg
+                .upstream_dead
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
+    }
+
+    /// The next frame from upstream within `wait`. A closed link is a dead upstream (loss of
+    /// light), not the end of this member: it then just waits.
+    pub(super) fn recv(&mut self, wait: Duration) -> Result<Option<Vec<u8>>, TransportError> {
+        if !self.rx_closed {
+            match self.rx.recv_timeout(wait) {
+                Err(TransportError::Closed) => {
+                    warn!(member = %self.cfg.name, "receive link closed: loss of light");
+                    self.rx_closed = true;
+                }
+                other => return other,
+            }
+        }
+        std::thread::sleep(wait);
+        Ok(None)
+    }
+
     /// Run until stopped. Blocks the calling thread.
     pub fn run(&mut self) -> DriverExit {
-        if self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0 {
+        if self.cfg.clock == ClockMode::Paced
+            || (self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0)
+        {
             // Sleeps end within a few µs of their deadline instead of the default 50 µs slack.
             #[cfg(target_os = "linux")]
             let _ = nix::sys::prctl::set_timerslack(1);
         }
+        if self.cfg.harden && self.cfg.clock == ClockMode::Realtime {
+            let got = super::rt::harden_cycle_thread();
+            info!(member = %self.cfg.name, "realtime cycle thread: {got}");
+            self.sched = Some(got);
+        } else if self.cfg.harden {
+            self.sched = Some(super::rt::NORMAL.to_string());
+        }
         info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
         let r = if self.core.is_sync_master() {
+            let rtf = match self.cfg.clock {
+                ClockMode::Paced => self.cfg.rtf,
+                _ => 1.0,
+            };
+            self.clock = Some(super::timing::ClockStats::new(
+                self.cfg.clock.as_str(),
+                self.period_ns(),
+                rtf,
+            ));
             match self.cfg.clock {
-                ClockMode::Lockstep => self.run_sync_master_lockstep(),
+                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
                 ClockMode::Realtime => self.run_sync_master_realtime(),
             }
         } else {
@@ -185,7 +268,7 @@ impl<A: RingApp> Driver<A> {
         r
     }
 
-    fn send_all(&mut self, out: Vec<Outgoing>) -> Result<(), TransportError> {
+    pub(super) fn send_all(&mut self, out: Vec<Outgoing>) -> Result<(), TransportError> {
         for o in out {
             if o.delay_us > 0 {
                 let due = Instant::now() + Duration::from_micros(u64::from(o.delay_us));
@@ -197,7 +280,7 @@ impl<A: RingApp> Driver<A> {
         Ok(())
     }
 
-    fn flush_delayed(&mut self) -> Result<(), TransportError> {
+    pub(super) fn flush_delayed(&mut self) -> Result<(), TransportError> {
         let released = self.core.poll_faults();
         self.send_all(released)?;
         if self.delayed.is_empty() {
@@ -217,7 +300,7 @@ impl<A: RingApp> Driver<A> {
     }
 
     /// Handle control requests; true when the loop must stop.
-    fn service(&mut self) -> bool {
+    pub(super) fn service(&mut self) -> bool {
         if self.stop.load(Ordering::Relaxed) {
             return true;
         }
@@ -231,6 +314,11 @@ impl<A: RingApp> Driver<A> {
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
                     s.extra.extend(self.app.status_extra());
+                    s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
+                    s.sched = self.sched.clone();
+                    if let Some(c) = &s.clock {
+                        s.late_cycles = s.late_cycles.max(c.late_cycles);
+                    }
                     let _ = reply.send(s);
                 }
                 DriverCmd::Fault(req, reply) => {
@@ -242,7 +330,7 @@ impl<A: RingApp> Driver<A> {
                                 Err(e) => {
                                     let _ = reply.send(CtlReply {
                                         ok: false,
-                                        message: e,
+                                        message: e.to_string(),
                                     });
                                     continue;
                                 }
@@ -277,7 +365,7 @@ impl<A: RingApp> Driver<A> {
     }
 
     /// One servo tick of this member for `cycle` (after forwarding).
-    fn tick(&mut self, cycle: u64) {
+    pub(super) fn tick(&mut self, cycle: u64) {
         let t = self.time_for(cycle);
         let was = self.core.ring_fault();
         if let Some(fault) = self.core.tick_app(&mut self.app, cycle, t) {
@@ -288,72 +376,23 @@ impl<A: RingApp> Driver<A> {
         self.cycles_run += 1;
     }
 
-    fn done(&self) -> bool {
-        self.cfg.max_cycles.is_some_and(|m| self.cycles_run >= m)
+    /// Why the loop must end now, if it must (a stop request, or `max_cycles` reached).
+    pub(super) fn stop_or_done(&mut self) -> Option<DriverExit> {
+        if self.service() {
+            return Some(DriverExit::Stopped);
+        }
+        self.done().then_some(DriverExit::Done)
     }
 
-    fn run_sync_master_lockstep(&mut self) -> DriverExit {
-        let mut cycle: u64 = 0;
-        loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
-            }
-            let t = self.time_for(cycle);
-            let out = self.core.start_cycle(cycle, t);
-            if let Err(e) = self.send_all(out) {
-                return DriverExit::Transport(e);
-            }
-            self.tick(cycle);
-            // Wait for the sync packet to come back around (or give up after the timeout).
-            let deadline = Instant::now() + self.cfg.lockstep_timeout;
-            loop {
-                if let Err(e) = self.flush_delayed() {
-                    return DriverExit::Transport(e);
-                }
-                let left = deadline.saturating_duration_since(Instant::now());
-                if left.is_zero() {
-                    debug!(member = %self.cfg.name, cycle, "sync packet did not come back");
-                    break;
-                }
-                let wait = if self.delayed.is_empty() {
-                    left.min(Duration::from_millis(5))
-                } else {
-                    Duration::from_micros(50)
-                };
-                match self.rx.recv_timeout(wait) {
-                    Ok(Some(bytes)) => {
-                        let now = self.time_for(cycle);
-                        let ev = self.core.on_frame(&bytes, now);
-                        if let Err(e) = self.send_all(ev.outgoing) {
-                            return DriverExit::Transport(e);
-                        }
-                        if ev.cycle_complete.is_some_and(|c| c >= cycle) {
-                            break;
-                        }
-                    }
-                    Ok(None) => {
-                        if self.service() {
-                            return DriverExit::Stopped;
-                        }
-                    }
-                    Err(e) => return DriverExit::Transport(e),
-                }
-            }
-            cycle += 1;
-        }
+    pub(super) fn done(&self) -> bool {
+        self.cfg.max_cycles.is_some_and(|m| self.cycles_run >= m)
     }
 
     fn run_sync_master_realtime(&mut self) -> DriverExit {
         let mut pacer = Pacer::new(self.cfg.rate_hz);
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
+            if let Some(exit) = self.stop_or_done() {
+                return exit;
             }
             // Receive until the next cycle is due, then start it.
             loop {
@@ -364,7 +403,7 @@ impl<A: RingApp> Driver<A> {
                 if left < Duration::from_micros(150) {
                     break;
                 }
-                match self.rx.recv_timeout(left - Duration::from_micros(100)) {
+                match self.recv(left - Duration::from_micros(100)) {
                     Ok(Some(bytes)) => {
                         let now = self.now_ns();
                         let ev = self.core.on_frame(&bytes, now);
@@ -387,12 +426,27 @@ impl<A: RingApp> Driver<A> {
                 self.core.note_late();
             }
             let t = self.now_ns();
+            if let Some(c) = self.clock.as_mut() {
+                c.on_start(
+                    cycle,
+                    t,
+                    Some(super::timing::Start {
+                        lag_ns: lateness,
+                        late: lateness as f64 > pacer.period_ns() * 0.5,
+                        lost_ns: 0,
+                    }),
+                );
+            }
             let out = self.core.start_cycle(cycle, t);
             if let Err(e) = self.send_all(out) {
                 return DriverExit::Transport(e);
             }
             self.align(t);
             self.tick(cycle);
+            if self.upstream_dead() {
+                // Loss of light on the way back: nothing returns.
+                let _ = self.core.dark_input(cycle, t);
+            }
         }
     }
 
@@ -415,15 +469,18 @@ impl<A: RingApp> Driver<A> {
     }
 
     fn run_follower(&mut self) -> DriverExit {
+        let stepped = self.cfg.clock.is_stepped();
         loop {
-            if self.service() {
-                return DriverExit::Stopped;
-            }
-            if self.done() {
-                return DriverExit::Done;
+            if let Some(exit) = self.stop_or_done() {
+                return exit;
             }
             if let Err(e) = self.flush_delayed() {
                 return DriverExit::Transport(e);
+            }
+            let dead = self.upstream_dead();
+            if dead {
+                // Nothing will come: run the own clock now, not after the frozen-member wait.
+                self.core.expedite_holdover(self.now_ns());
             }
             let wait = if self.delayed.is_empty() {
                 let until_holdover = self
@@ -435,7 +492,7 @@ impl<A: RingApp> Driver<A> {
             } else {
                 Duration::from_micros(50)
             };
-            match self.rx.recv_timeout(wait) {
+            match self.recv(wait) {
                 Ok(Some(bytes)) => {
                     let dropped = self.rx.take_dropped();
                     for _ in 0..dropped {
@@ -446,21 +503,31 @@ impl<A: RingApp> Driver<A> {
                     if let Err(e) = self.send_all(ev.outgoing) {
                         return DriverExit::Transport(e);
                     }
-                    if let Some(cycle) = ev.sync {
+                    if let Some(cycle) = ev.sync.or(ev.unlocked) {
                         if self.cfg.record > 0 {
                             self.record(cycle, now);
                         }
-                        self.align(ev.origin_ns);
+                        if ev.sync.is_some() {
+                            self.align(ev.origin_ns);
+                        }
                         self.tick(cycle);
                     }
                 }
                 Ok(None) => {}
                 Err(e) => return DriverExit::Transport(e),
             }
-            // Holdover: no sync packet for too long → tick on the local clock.
+            // Holdover: no frame for too long → tick on the local clock. In paced and lockstep
+            // mode that only happens once the upstream member stopped answering (the frozen
+            // wait) or is known dead: its link is dark, each such cycle a byte violation.
             let now = self.now_ns();
             while let Some(cycle) = self.core.on_holdover(now) {
                 trace!(member = %self.cfg.name, cycle, "holdover tick");
+                if stepped || self.upstream_dead() {
+                    let ev = self.core.dark_input(cycle, now);
+                    if let Err(e) = self.send_all(ev.outgoing) {
+                        return DriverExit::Transport(e);
+                    }
+                }
                 self.tick(cycle);
                 if self.done() {
                     break;

@@ -39,6 +39,8 @@ pub struct MemberResult<A> {
     pub app: A,
     /// Timing samples ([`DriverConfig::record`]).
     pub records: Vec<(u64, u64)>,
+    /// The synchronizing master's clock report at the end.
+    pub clock: Option<crate::control::ClockReport>,
 }
 
 /// One member of a local ring.
@@ -129,12 +131,14 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                     let mut d = Driver::new(dcfg, core, app, tx, rx, crx, stop2);
                     let exit = d.run();
                     let records = d.take_records();
+                    let clock = d.clock_report();
                     let (core, app) = d.into_parts();
                     MemberResult {
                         exit,
                         core,
                         app,
                         records,
+                        clock,
                     }
                 })
                 .map_err(|e| TransportError::Io(e.to_string()))?;

@@ -1,13 +1,18 @@
-//! The I/O edge of a ring member: its cycle loop ([`driver`]), realtime pacing ([`pacer`]),
+//! The I/O edge of a ring member: its cycle loop ([`driver`]; the paced and lockstep sync
+//! master in [`stepped`], their wall-clock bookkeeping in [`timing`]), realtime pacing ([`pacer`]),
 //! the control plane over zenoh ([`control_plane`]), the common process `main` ([`process`])
 //! and its logging set-up ([`logging`]).
 
 pub mod control_plane;
 pub mod driver;
+pub mod light;
 pub mod local;
 pub mod logging;
 pub mod pacer;
 pub mod process;
+pub mod rt;
+pub mod stepped;
+pub mod timing;
 
 #[cfg(test)]
 mod tests;

@@ -6,7 +6,6 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use crossbeam_channel::unbounded;
@@ -78,6 +77,23 @@ pub fn card_check(ivars: &std::collections::BTreeMap<String, IVarValue>) -> Ring
     )
 }
 
+/// The clock-dependent parts of a member core's set-up: holdover period and grace, timing
+/// slack.
+pub fn apply_clock(core_cfg: &mut CoreConfig, config: &ClusterConfig) {
+    if config.clock.is_stepped() {
+        // The ring waits: a gap is a real break, and a member runs on its own clock only once
+        // its upstream stopped answering (the frozen-member wait) or is known dead.
+        core_cfg.period_ns = config.wall_period_ns().max(1);
+        core_cfg.holdover_grace_ns = Some(config.member_timeout_ms.max(1) * 1_000_000);
+        core_cfg.timing_slack = 1;
+    } else {
+        core_cfg.period_ns = config.period_ns().max(1) * 3 / 2;
+        core_cfg.holdover_grace_ns = None;
+        // ≈ 3.5 ms at the PMAC servo rate before silence counts as a broken link.
+        core_cfg.timing_slack = REALTIME_TIMING_SLACK;
+    }
+}
+
 /// Run member `args.name` until it is stopped. `make_app` builds the card or station logic and
 /// returns extra status fields (ports, nodes, ...).
 pub fn run_member<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
@@ -139,11 +155,7 @@ where
     };
     let (app, extra) = make_app(&ctx)?;
 
-    let holdover_ns = match config.clock {
-        crate::config::ClockMode::Lockstep => config.lockstep_timeout_ms.max(1) * 1_000_000,
-        crate::config::ClockMode::Realtime => config.period_ns().max(1) * 3 / 2,
-    };
-    let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, holdover_ns);
+    let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, 0);
     core_cfg.check = check;
     core_cfg.upstream = Some(((position + n - 1) % n) as u16);
     core_cfg.sync_source = config.sync_source();
@@ -151,11 +163,7 @@ where
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.
     core_cfg.check_after_lock = true;
-    core_cfg.timing_slack = match config.clock {
-        crate::config::ClockMode::Lockstep => 1,
-        // ≈ 3.5 ms at the PMAC servo rate before silence counts as a broken link.
-        crate::config::ClockMode::Realtime => REALTIME_TIMING_SLACK,
-    };
+    apply_clock(&mut core_cfg, &config);
     let core = MemberCore::new(core_cfg);
     let (cmd_tx, cmd_rx) = unbounded();
     let _plane = control_plane::start(
@@ -167,12 +175,28 @@ where
     )
     .map_err(|e| anyhow!(e))?;
     info!(position, members = n, "joined ring {}", config.ring.name);
+    // Loss of light when the upstream process dies (its liveliness token goes away).
+    let upstream = config
+        .upstream(&args.name)
+        .unwrap_or(&args.name)
+        .to_string();
+    let watch = if upstream != args.name {
+        Some(
+            super::light::watch_upstream(&session, &config.cluster, &upstream)
+                .map_err(|e| anyhow!(e))?,
+        )
+    } else {
+        None
+    };
 
     let dcfg = DriverConfig {
         name: args.name.clone(),
         clock: config.clock,
         rate_hz: config.rate_hz,
-        lockstep_timeout: Duration::from_millis(config.lockstep_timeout_ms.max(1)),
+        rtf: config.rtf,
+        member_timeout: config.member_timeout(),
+        upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        harden: true,
         max_cycles: None,
         kind,
         position,
@@ -189,6 +213,7 @@ where
     let exit = driver.run();
     stop.store(true, Ordering::Relaxed);
     drop(_plane);
+    drop(watch);
     let _ = zenoh::Wait::wait(session.close());
     match exit {
         DriverExit::Stopped | DriverExit::Done => Ok(()),

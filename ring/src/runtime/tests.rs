@@ -1,5 +1,7 @@
 //! Runtime tests: whole rings of driver threads over the loopback transport, lockstep.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use super::driver::{DriverConfig, DriverExit};
@@ -56,7 +58,10 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         name: name.into(),
         clock: ClockMode::Lockstep,
         rate_hz: 2258.7,
-        lockstep_timeout: Duration::from_millis(200),
+        rtf: 1.0,
+        member_timeout: Duration::from_millis(1000),
+        upstream_dead: None,
+        harden: false,
         max_cycles: Some(cycles),
         kind,
         position,
@@ -156,12 +161,9 @@ fn realtime_loopback_ring_runs_locked_without_errors() {
     assert!(m.seen.iter().any(|&(_, fb)| fb > 0), "feedback came back");
     for r in &out {
         let s = r.core.status();
-        // (Silence is expected at the end: the sync master stops first; cards count it as
-        // underruns, stations as byte violations, loss of light.)
+        // (Underruns and loss of light are expected at the end: the sync master stops first.)
         assert_eq!(s.errors.checksum, 0);
-        if s.kind == Some(MemberKind::Card) {
-            assert_eq!(s.errors.byte_violation, 0);
-        }
+        assert!(s.dark_since_cycle.is_none_or(|c| c >= 399), "{s:?}");
     }
 }
 
@@ -225,4 +227,248 @@ fn realtime_phase_alignment_ticks_every_member_after_origin_plus_delay() {
         }
     }
     assert!(checked >= 600, "checked {checked} ticks");
+}
+
+/// A member app for the stepped-clock tests: records what it saw each tick; may stall (sleep)
+/// in one tick, as a descheduled process would.
+#[derive(Debug, Default)]
+struct Probe {
+    master: bool,
+    seen: Vec<(u64, u64, u32, bool)>,
+    stall_at: Option<(u64, Duration)>,
+}
+
+impl RingApp for Probe {
+    fn tick(&mut self, cycle: u64, t: u64, regs: &mut RingMember, fault: bool) {
+        if let Some((at, d)) = self.stall_at {
+            if at == cycle {
+                std::thread::sleep(d);
+            }
+        }
+        self.seen.push((cycle, t, regs.read_regs(0).r0, fault));
+        let v = if self.master {
+            (cycle * 3) as u32
+        } else {
+            regs.read_regs(0).r0 + 7
+        };
+        regs.write_regs_mut(0).r0 = v & 0xFF_FFFF;
+    }
+}
+
+const RATE: f64 = 2258.7;
+
+/// card0 (sync master, check armed) → station0 (node 0) → card1 (master 1, no nodes) →
+/// station1 (listener): every member checks the ring, as the default cluster does.
+fn checked_ring(
+    clock: ClockMode,
+    cycles: u64,
+    timeout: Duration,
+) -> Vec<(CoreConfig, Probe, DriverConfig)> {
+    let period = (1e9 / RATE) as u64;
+    let specs = [
+        (
+            "card0",
+            MemberKind::Card,
+            RingSettings::new(0x30, 0x0F_0001),
+        ),
+        (
+            "station0",
+            MemberKind::Station,
+            RingSettings::new(0x8080, 0x0F_8001),
+        ),
+        (
+            "card1",
+            MemberKind::Card,
+            RingSettings::new(0x8090, 0x1F_8000),
+        ),
+        (
+            "station1",
+            MemberKind::Station,
+            RingSettings::new(0x8080, 0x0F_8000),
+        ),
+    ];
+    let n = specs.len();
+    specs
+        .iter()
+        .enumerate()
+        .map(|(k, (name, kind, s))| {
+            let mut c = CoreConfig::new(name, *kind, k as u16, *s, period);
+            c.upstream = Some(((k + n - 1) % n) as u16);
+            c.check = match kind {
+                MemberKind::Card => crate::check::RingCheck::card(16, 2, 4, 2),
+                MemberKind::Station => crate::check::RingCheck::station(8, 4, 4),
+            };
+            c.holdover_grace_ns = Some(timeout.as_nanos() as u64);
+            let mut d = dcfg(name, *kind, k, cycles);
+            d.clock = clock;
+            d.member_timeout = timeout;
+            if k > 0 {
+                d.max_cycles = None;
+            }
+            let app = Probe {
+                master: k == 0,
+                ..Probe::default()
+            };
+            (c, app, d)
+        })
+        .collect()
+}
+
+fn run_to_end(
+    members: Vec<(CoreConfig, Probe, DriverConfig)>,
+    bound: Duration,
+) -> Vec<super::local::MemberResult<Probe>> {
+    let r = LocalRing::start(members, LocalTransport::Loopback).unwrap();
+    r.join_member(0, bound)
+}
+
+#[test]
+fn paced_and_lockstep_give_the_same_trajectory_cycle_for_cycle() {
+    let cycles = 500;
+    let lock = run_to_end(
+        checked_ring(ClockMode::Lockstep, cycles, Duration::from_secs(1)),
+        Duration::from_secs(60),
+    );
+    let started = std::time::Instant::now();
+    let paced = run_to_end(
+        checked_ring(ClockMode::Paced, cycles, Duration::from_secs(1)),
+        Duration::from_secs(60),
+    );
+    let elapsed = started.elapsed();
+    // The paced clock never runs ahead of the wall clock (a lower bound: load cannot break it).
+    let period = 1e9 / RATE;
+    assert!(
+        elapsed.as_nanos() as f64 >= (cycles - 1) as f64 * period,
+        "{cycles} paced cycles took only {elapsed:?}"
+    );
+    // Same cycles, same ring time, same feedback, at every member.
+    for (a, b) in lock.iter().zip(&paced) {
+        let n = a.app.seen.len().min(b.app.seen.len());
+        assert!(n >= cycles as usize - 2, "{}: {n}", a.core.name());
+        assert_eq!(a.app.seen[..n], b.app.seen[..n], "{}", a.core.name());
+        for (c, t, _, fault) in &a.app.seen[..n] {
+            assert_eq!(*t, c * period as u64, "ring time is cycle x period");
+            assert!(!fault);
+        }
+    }
+    let sm = &paced[0].app.seen;
+    assert_eq!(sm.len(), cycles as usize);
+    // Feedback: the station answers command + 7, latched 3 cycles later.
+    assert_eq!(sm[100].2, (97 * 3 + 7) as u32);
+}
+
+#[test]
+fn a_stall_of_any_length_under_the_member_timeout_is_no_ring_error() {
+    // station0 stalls 150 ms in cycle 300 (a descheduled process; three times the old 50 ms
+    // lockstep timeout): in paced and lockstep mode the ring waits, then catches up.
+    for clock in [ClockMode::Paced, ClockMode::Lockstep] {
+        let mut m = checked_ring(clock, 1000, Duration::from_secs(2));
+        m[1].1.stall_at = Some((300, Duration::from_millis(150)));
+        // Everyone stops after the same cycle (no one sees a closed link at the end).
+        for (_, _, d) in &mut m {
+            d.max_cycles = Some(1000);
+        }
+        let out = run_to_end(m, Duration::from_secs(60));
+        for r in &out {
+            let s = r.core.status();
+            assert_eq!(s.errors, Default::default(), "{clock:?} {}", s.name);
+            assert!(!s.ring_fault && s.ring_fault_count == 0, "{clock:?} {s:?}");
+            // No cycle skipped: consecutive ticks.
+            let cycles: Vec<u64> = r.app.seen.iter().map(|t| t.0).collect();
+            assert!(cycles.windows(2).all(|w| w[1] == w[0] + 1), "{clock:?}");
+        }
+        let sm = out[0].core.status();
+        assert_eq!(out[0].app.seen.len(), 1000);
+        if clock == ClockMode::Paced {
+            // The stall made cycles late (counted) and the missed ones ran back to back.
+            assert!(sm.late_cycles > 10, "{sm:?}");
+        } else {
+            assert_eq!(sm.late_cycles, 0);
+        }
+    }
+}
+
+/// Cycle at which member `r` latched its ring fault, and the cycle its input went dark.
+fn fault_and_dark(r: &super::local::MemberResult<Probe>) -> (Option<u64>, Option<u64>) {
+    let s = r.core.status();
+    (s.ring_fault_cycle, s.dark_since_cycle)
+}
+
+#[test]
+fn a_dead_member_is_loss_of_light_downstream_and_the_ring_keeps_cycling() {
+    for clock in [ClockMode::Paced, ClockMode::Lockstep] {
+        let mut m = checked_ring(clock, 700, Duration::from_secs(5));
+        // station0's process "dies" after 200 cycles; card1 learns it from liveliness.
+        m[1].2.max_cycles = Some(200);
+        let dead = Arc::new(AtomicBool::new(false));
+        m[2].2.upstream_dead = Some(Arc::clone(&dead));
+        let r = LocalRing::start(m, LocalTransport::Loopback).unwrap();
+        let t0 = std::time::Instant::now();
+        while !r.is_finished(1) && t0.elapsed() < Duration::from_secs(30) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        dead.store(true, Ordering::Relaxed);
+        let out = r.join_member(0, Duration::from_secs(60));
+        assert!(matches!(out[0].exit, DriverExit::Done), "{:?}", out[0].exit);
+        // The ring kept cycling on card1's own clock: card0 ran all its cycles.
+        assert_eq!(out[0].app.seen.len(), 700, "{clock:?}");
+        let card1 = out[2].core.status();
+        assert!(card1.dark && card1.errors.byte_violation > 100, "{card1:?}");
+        let dark_at = card1.dark_since_cycle.expect("dark since");
+        assert!((200..=202).contains(&dark_at), "{clock:?} {card1:?}");
+        // Every member downstream of the dead one, and the sync master, count the cycles:
+        // cards fault on the second RTI with an error (I1004 = 2, RTI = 3 cycles), stations
+        // on the fifth cycle with errors.
+        for (i, bound) in [(2usize, 6u64), (3, 5), (0, 7)] {
+            let (f, d) = fault_and_dark(&out[i]);
+            let f = f.unwrap_or_else(|| panic!("{clock:?}: member {i} did not fault"));
+            let from = d.unwrap_or(dark_at);
+            assert!(
+                f >= from && f - from <= bound,
+                "{clock:?}: member {i} faulted at {f}, dark from {from}"
+            );
+        }
+        let sm = out[0].clock.clone().unwrap();
+        assert!(!sm.ring_down, "{sm:?}");
+        // card1's own clock keeps the nominal rate: it does not run ahead of the ring (it goes
+        // on a little while the others stop after the sync master's last cycle).
+        let (c0, c1) = (out[0].core.cycle(), out[2].core.cycle());
+        assert!(c1 < 2 * c0, "{clock:?}: card1 at {c1}, sync master at {c0}");
+    }
+}
+
+#[test]
+fn a_frozen_member_takes_the_ring_down_after_the_member_timeout_and_back_when_thawed() {
+    let timeout = Duration::from_millis(300);
+    let mut m = checked_ring(ClockMode::Paced, 4000, timeout);
+    m[1].1.stall_at = Some((200, Duration::from_millis(1200)));
+    let out = run_to_end(m, Duration::from_secs(60));
+    // The ring waited the member timeout once, then kept cycling: on card1's own clock (its
+    // dark frames come round) or, if nothing came back first, on the sync master's.
+    let sm = out[0].clock.clone().unwrap();
+    assert!(!sm.ring_down, "{sm:?}");
+    // (card1's wait starts at its last frame, up to a period before the master's last start.)
+    let waited = Duration::from_micros(sm.longest_stall_us + 1000);
+    assert!(
+        waited >= timeout && waited < Duration::from_millis(1200),
+        "{sm:?}"
+    );
+    assert!(sm.lost_ms + 10 >= 300, "{sm:?}");
+    assert_eq!(out[0].app.seen.len(), 4000);
+    // Everyone but the frozen member latched: card0 counted the silence on its own clock,
+    // card1 and station1 saw loss of light after the wait.
+    for i in [0usize, 2, 3] {
+        let s = out[i].core.status();
+        assert!(s.ring_fault_count >= 1, "{s:?}");
+    }
+    let card1 = out[2].core.status();
+    assert!(card1.errors.byte_violation > 0, "{card1:?}");
+    // Thawed, the frozen member's light is back: everyone received light (sync packets of the
+    // sync master's count) up to its last cycles. (After its last cycle the members see loss of
+    // light: the sync master has stopped first.)
+    for r in &out[1..] {
+        let s = r.core.status();
+        assert!(s.last_rx_cycle.is_some_and(|c| c >= 3990), "{s:?}");
+        assert!(s.dark_since_cycle.is_none_or(|c| c >= 3999), "{s:?}");
+    }
 }

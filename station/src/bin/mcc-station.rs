@@ -31,7 +31,16 @@ struct Cli {
 fn main() -> std::process::ExitCode {
     mcc_ring::runtime::logging::init_logging();
     let cli = Cli::parse();
-    let cli_config = cli.config.clone();
+    // A `[[drives]]` entry without a station runs as a process of its own (not on the ring).
+    if let Some(r) = mcc_station::emcl_rt::standalone::maybe_run(
+        &cli.config,
+        &cli.name,
+        &cli.connect,
+        &cli.listen,
+    ) {
+        return exit_code(r);
+    }
+    let run_dir = cli.config.parent().map(PathBuf::from).unwrap_or_default();
     let args = MemberArgs {
         config: cli.config,
         name: cli.name,
@@ -45,17 +54,21 @@ fn main() -> std::process::ExitCode {
         };
         let plant = PlantConfig::from_table(&st.plant)
             .map_err(|e| anyhow::anyhow!("stations.{}: {e}", st.name))?;
+        // Nodes bound to EMCL drives are served by the drives, not by a plant.
+        let bound = mcc_station::emcl_rt::app::bound_nodes(&ctx.config, &st.name);
+        let servo: Vec<u8> = st
+            .nodes
+            .iter()
+            .copied()
+            .filter(|n| !bound.contains(n))
+            .collect();
         // The run directory holds the resolved config; station state lives beside it in
         // state/, which `mcc down` leaves alone.
         let state_file = st.state_file.clone().unwrap_or_else(|| {
-            let run_dir = cli_config
-                .parent()
-                .map(std::path::Path::to_path_buf)
-                .unwrap_or_default();
             run_dir.join("state").join(format!("{}.state", st.name))
         });
         let globals = Globals::from_check(st.check.period, st.check.min_syncs, st.check.max_errors);
-        let app = StationApp::new(&st.nodes, &[], &plant)
+        let app = StationApp::new(&servo, &[], &plant)
             .map_err(anyhow::Error::msg)?
             .with_setup(globals, Some(state_file));
         if let Some(e) = app.mi().config_error() {
@@ -63,8 +76,13 @@ fn main() -> std::process::ExitCode {
         }
         let mut extra = serde_json::Map::new();
         extra.insert("nodes".into(), serde_json::json!(st.nodes));
+        let app = mcc_station::emcl_rt::app::with_drives(ctx, app, &mut extra, &run_dir)?;
         Ok((app, extra))
     });
+    exit_code(r)
+}
+
+fn exit_code(r: anyhow::Result<()>) -> std::process::ExitCode {
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {

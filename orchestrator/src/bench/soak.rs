@@ -1,0 +1,233 @@
+//! `mcc bench soak --minutes N [--clock paced|lockstep|realtime] [--cards C --stations S]
+//! [--rtf X] [--load K]`: a cluster of its own (real member processes) runs for N minutes
+//! while a bare OS timer probe sleeps to absolute deadlines at the same wall period beside it
+//! (and, with `--load`, K CPU-bound threads compete for the cores). Reports ring faults and
+//! receive errors (a paced or lockstep ring must have none), the real-time factor achieved, late
+//! cycles, the sync master's start lag p50/p99/max, lost time and the longest stall, next to
+//! the probe's lateness and longest gap.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Result};
+use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_ring::control::{ClockReport, MemberStatus};
+use mcc_ring::runtime::timing::LagHistogram;
+
+use crate::bench::syncstart::with_cluster;
+use crate::cli::BenchSoakArgs;
+use crate::ctl::query_statuses;
+
+/// What the OS timer probe saw.
+#[derive(Debug, Default)]
+struct Probe {
+    lateness: LagHistogram,
+    max_late_ns: u64,
+    longest_gap_ns: u64,
+}
+
+/// Sleep to each absolute deadline `period_ns` apart until `stop`; record wake − deadline and
+/// the longest gap between wakes.
+fn timer_probe(period_ns: u64, stop: &AtomicBool) -> Probe {
+    let mut p = Probe::default();
+    let start = Instant::now();
+    let mut last = start;
+    let mut k: u64 = 1;
+    while !stop.load(Ordering::Relaxed) {
+        let deadline = start + Duration::from_nanos(period_ns.saturating_mul(k));
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        }
+        let woke = Instant::now();
+        let late = woke.saturating_duration_since(deadline).as_nanos() as u64;
+        p.lateness.add(late / 1000);
+        p.max_late_ns = p.max_late_ns.max(late);
+        p.longest_gap_ns = p
+            .longest_gap_ns
+            .max(woke.saturating_duration_since(last).as_nanos() as u64);
+        last = woke;
+        // A probe far behind (stopped) resumes from the present, as the paced clock re-bases.
+        let behind = woke.saturating_duration_since(start).as_nanos() as u64 / period_ns.max(1);
+        k = (k + 1).max(behind);
+    }
+    p
+}
+
+/// Sum of the members' ring-fault counts and receive errors.
+fn faults_and_errors(st: &[Option<MemberStatus>]) -> (u64, u64) {
+    st.iter().flatten().fold((0, 0), |(f, e), m| {
+        let x = &m.errors;
+        (
+            f + m.ring_fault_count,
+            e + x.byte_violation + x.checksum + x.overrun + x.underrun,
+        )
+    })
+}
+
+/// Run the soak and print the report.
+pub fn run(args: &BenchSoakArgs) -> Result<()> {
+    let clock = args.clock.unwrap_or_default();
+    let mut cfg =
+        ClusterConfig::default_cluster(usize::from(args.cards), usize::from(args.stations));
+    cfg.cluster = format!("bench-soak-{}", std::process::id());
+    cfg.clock = clock;
+    if let Some(rtf) = args.rtf {
+        cfg.rtf = rtf;
+    }
+    let cfg = cfg
+        .resolve()
+        .map_err(|e| anyhow::anyhow!("{e}").context("bench soak"))?;
+    let seconds = args.seconds.unwrap_or(args.minutes * 60.0);
+    if !seconds.is_finite() || seconds <= 0.0 || seconds > 7.0 * 86_400.0 {
+        bail!("--minutes/--seconds: {seconds} s is not a duration between 0 and 7 days");
+    }
+    let run_for = Duration::from_secs_f64(seconds);
+    let period = cfg.wall_period_ns().max(1);
+    println!(
+        "bench soak: {} clock{}, {} Hz, {} cards + {} stations, {:.0} s, {} CPU-bound threads beside it",
+        clock.as_str(),
+        if clock == ClockMode::Paced {
+            format!(" at rtf {}", cfg.rtf)
+        } else {
+            String::new()
+        },
+        cfg.rate_hz,
+        args.cards,
+        args.stations,
+        seconds,
+        args.load
+    );
+    with_cluster(cfg, |sup, cfg| {
+        let s = sup.session().clone();
+        let stop = Arc::new(AtomicBool::new(false));
+        let load: Vec<_> = (0..args.load)
+            .map(|_| {
+                let stop = Arc::clone(&stop);
+                std::thread::spawn(move || {
+                    let mut x: u64 = 1;
+                    while !stop.load(Ordering::Relaxed) {
+                        x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+                        std::hint::black_box(x);
+                    }
+                })
+            })
+            .collect();
+        let probe = {
+            let stop = Arc::clone(&stop);
+            std::thread::spawn(move || timer_probe(period, &stop))
+        };
+        let poll = |d: Duration| query_statuses(&s, cfg, d, d * 2);
+        let first = poll(Duration::from_millis(700));
+        let (f0, e0) = faults_and_errors(&first);
+        let sm_index = cfg.position(&cfg.ring.sync_master).unwrap_or(0);
+        let sm = |st: &[Option<MemberStatus>]| -> Option<(u64, ClockReport)> {
+            let m = st.get(sm_index)?.as_ref()?;
+            Some((m.cycle, m.clock.clone()?))
+        };
+        let c0 = sm(&first).map(|(c, _)| c).unwrap_or(0);
+        let t0 = Instant::now();
+        let mut min_rtf = f64::INFINITY;
+        let mut last = first;
+        let mut next_print = Duration::from_secs(60);
+        while t0.elapsed() < run_for {
+            std::thread::sleep(Duration::from_secs(1).min(run_for.saturating_sub(t0.elapsed())));
+            let st = poll(Duration::from_millis(700));
+            if let Some((_, t)) = sm(&st) {
+                if t0.elapsed() > Duration::from_secs(2) {
+                    min_rtf = min_rtf.min(t.rtf);
+                }
+            }
+            if t0.elapsed() >= next_print {
+                next_print += Duration::from_secs(60);
+                let (f, e) = faults_and_errors(&st);
+                println!(
+                    "  {:>5.0} s: {} ring faults, {} receive errors, rtf {}",
+                    t0.elapsed().as_secs_f64(),
+                    f,
+                    e - e0,
+                    sm(&st)
+                        .map(|(_, t)| format!("{:.3}", t.rtf))
+                        .unwrap_or("?".into())
+                );
+            }
+            if st.iter().all(Option::is_some) {
+                last = st;
+            }
+        }
+        let wall = t0.elapsed();
+        stop.store(true, Ordering::Relaxed);
+        for t in load {
+            let _ = t.join();
+        }
+        let probe = probe.join().unwrap_or_default();
+        // Ring faults since the members started (bring-up included); errors during the soak.
+        let (f1, e1) = faults_and_errors(&last);
+        let _ = f0;
+        let Some((c1, clock_report)) = sm(&last) else {
+            bail!("the sync master did not report its clock at the end");
+        };
+        let faulted: Vec<&str> = last
+            .iter()
+            .flatten()
+            .filter(|m| m.ring_fault_count > 0)
+            .map(|m| m.name.as_str())
+            .collect();
+        let nominal = cfg.period_ns() as f64;
+        let cycles = c1.saturating_sub(c0);
+        let rtf = cycles as f64 * nominal / wall.as_nanos() as f64;
+        let ms = |us: u64| us as f64 / 1000.0;
+        println!(
+            "  ring faults: {} ({}), receive errors during the soak: {}",
+            f1,
+            if faulted.is_empty() {
+                "no member latched one".to_string()
+            } else {
+                format!("latched by {}", faulted.join(", "))
+            },
+            e1 - e0
+        );
+        println!(
+            "  ring cycles: {cycles} in {:.1} s: achieved rtf {rtf:.3} over the run, lowest rtf over a second {:.3}",
+            wall.as_secs_f64(),
+            if min_rtf.is_finite() { min_rtf } else { rtf }
+        );
+        let t = &clock_report;
+        println!(
+            "  late cycles: {} ({:.2} %); start lag p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; lost {} ms in {} re-bases; ring down {} times",
+            t.late_cycles,
+            100.0 * t.late_cycles as f64 / (c1.max(1)) as f64,
+            ms(t.lag_p50_us),
+            ms(t.lag_p99_us),
+            ms(t.max_lag_us),
+            t.lost_ms,
+            t.rebases,
+            t.ring_down_count
+        );
+        println!(
+            "  longest stall: ring {:.1} ms between two cycle starts; OS timer probe at the same period: lateness p50 {:.3} ms, p99 {:.3} ms, max {:.1} ms, longest gap {:.1} ms",
+            ms(t.longest_stall_us),
+            ms(probe.lateness.quantile(0.5)),
+            ms(probe.lateness.quantile(0.99)),
+            probe.max_late_ns as f64 / 1e6,
+            probe.longest_gap_ns as f64 / 1e6
+        );
+        if let Some(m) = last.iter().flatten().find_map(|m| m.sched.clone()) {
+            println!("  scheduling: {m}");
+        }
+        println!(
+            "  frozen-member wait {} ms: margin {:.1}× over the longest stall",
+            cfg.member_timeout_ms,
+            cfg.member_timeout_ms as f64 * 1000.0 / t.longest_stall_us.max(1) as f64
+        );
+        if clock.is_stepped() && f1 > 0 {
+            bail!(
+                "{} ring fault(s) on a {} ring: scheduling must never make ring errors",
+                f1,
+                clock.as_str()
+            );
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,42 @@
+//! Checks of member settings the members themselves parse (a station's `plant` table), run by
+//! `mcc up` before anything starts, so a bad file is refused with the key and the problem
+//! rather than with a member that exits during start-up.
+
+use anyhow::{anyhow, Result};
+use mcc_ring::config::ClusterConfig;
+use mcc_station::config::PlantConfig;
+use mcc_station::station_app::StationApp;
+
+/// Every station's plant parses, and names only servo nodes of that station.
+pub fn check_members(cfg: &ClusterConfig) -> Result<()> {
+    for st in &cfg.stations {
+        let plant = PlantConfig::from_table(&st.plant)
+            .map_err(|e| anyhow!("config: stations.{}: {e}", st.name))?;
+        StationApp::new(&st.nodes, &[], &plant)
+            .map_err(|e| anyhow!("config: stations.{}: {e}", st.name))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_plants_are_named_before_anything_starts() {
+        let good = ClusterConfig::default_cluster(1, 1);
+        check_members(&good).unwrap();
+        let mut bad = good.clone();
+        let t: toml::Table = toml::from_str("[nodes.1]\ninertia = -1\n").unwrap();
+        bad.stations[0].plant = t;
+        let e = check_members(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("stations.station0") && e.contains("inertia"),
+            "{e}"
+        );
+        let t: toml::Table = toml::from_str("[nodes.3]\ninertia = 1\n").unwrap();
+        bad.stations[0].plant = t;
+        let e = check_members(&bad).unwrap_err().to_string();
+        assert!(e.contains("node 3"), "{e}");
+    }
+}
