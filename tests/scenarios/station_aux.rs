@@ -6,10 +6,9 @@
 use mcc_ring::aux_channel::{
     slave_error, AuxMaster, AuxWord, Outcome, Reply, Request, StationCmd, ValueFormat, AUX_NODE,
 };
-use mcc_ring::check::CheckParams;
 use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CheckReport, CoreConfig, MemberCore, RingApp};
+use mcc_ring::core::{CheckReport, CoreConfig, MemberCore, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
 use mcc_ring::settings::RingSettings;
@@ -73,7 +72,7 @@ impl RingApp for App {
     fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
         match self {
             App::Station(s) => s.sync_ring(ring),
-            App::Card(c) => c.sync_ring(ring),
+            App::Card(_) => {}
         }
     }
 }

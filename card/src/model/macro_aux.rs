@@ -8,6 +8,7 @@
 //! collected with [`MacroAux::take_finished`] by whoever started it (the on-line command, a
 //! PLC's MSR/MSW/MXR/MXW).
 
+use crate::domain::ast::SlaveVar;
 use mcc_ring::aux_channel::{AuxMaster, AuxWord, Outcome, Reply, Request, ValueFormat, AUX_NODE};
 
 /// X:$0798 after a timeout.
@@ -54,23 +55,56 @@ impl AuxFailure {
 /// How a finished transaction ended for the card.
 pub type Finished = Result<Reply, AuxFailure>;
 
+/// Who started a transaction (and alone collects its result).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AuxOwner {
+    /// A host command line (its id from [`MacroAux::line_id`]).
+    Line(u64),
+    /// A background PLC's `MSR`/`MSW`/`MXR`/`MXW`.
+    Plc(u8),
+}
+
+/// What [`MacroAux::begin`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Begin {
+    /// The transaction is on its way.
+    Started,
+    /// Another owner's transaction is in flight (or its result not yet collected): try again
+    /// later (the caller waits its turn).
+    Busy,
+}
+
+/// Servo ticks a finished result waits for its owner before it is dropped (a PLC disabled
+/// while its access was in flight never collects it).
+pub const UNCLAIMED_TICKS: u32 = 64;
+
 /// The card's auxiliary channel.
 #[derive(Clone, Debug, Default)]
 pub struct MacroAux {
     master: AuxMaster,
-    finished: Option<Finished>,
+    owner: Option<AuxOwner>,
+    finished: Option<(AuxOwner, Finished, u32)>,
+    next_line: u64,
 }
 
 impl MacroAux {
-    /// Start an access to `node`. Checks the protocol's preconditions; refuses (the caller
-    /// answers ERR008) when they fail or another access is in flight.
+    /// A fresh owner id for a host command.
+    pub fn line_id(&mut self) -> AuxOwner {
+        self.next_line += 1;
+        AuxOwner::Line(self.next_line)
+    }
+
+    /// Start an access to `node` for `owner`. Checks the protocol's preconditions (refused:
+    /// the caller reports the failure, ERR008); [`Begin::Busy`] while another owner's access
+    /// is in flight or its result is not yet collected.
     pub fn begin(
         &mut self,
+        owner: AuxOwner,
         proto: Protocol,
         node: u8,
         request: Request,
         s: AuxSettings,
-    ) -> Result<(), AuxFailure> {
+    ) -> Result<Begin, AuxFailure> {
         let timeout = match proto {
             Protocol::Type0 => {
                 if s.i1000 & (1 << (node & 0xF)) == 0 {
@@ -86,11 +120,14 @@ impl MacroAux {
                 s.i1003.min(255)
             }
         };
-        if !self.master.start(node, request, timeout) {
-            return Err(AuxFailure::timeout());
+        if self.master.busy() || self.finished.is_some() {
+            return Ok(Begin::Busy);
         }
-        self.finished = None;
-        Ok(())
+        if !self.master.start(node, request, timeout) {
+            return Ok(Begin::Busy);
+        }
+        self.owner = Some(owner);
+        Ok(Begin::Started)
     }
 
     /// An access is in flight.
@@ -98,32 +135,61 @@ impl MacroAux {
         self.master.busy()
     }
 
+    /// `owner`'s access is in flight or its result waits to be collected.
+    pub fn holds(&self, owner: AuxOwner) -> bool {
+        (self.master.busy() && self.owner == Some(owner))
+            || self.finished.as_ref().is_some_and(|f| f.0 == owner)
+    }
+
     /// One servo cycle: `returned` = registers 2 and 3 of the latched copy of this card's
     /// node-15 packet. Returns registers 2 and 3 to send.
     pub fn servo_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
+        if let Some(f) = self.finished.as_mut() {
+            f.2 += 1;
+            if f.2 > UNCLAIMED_TICKS {
+                self.finished = None;
+            }
+        }
         let (out, regs) = self.master.tick(AuxWord::decode(returned.0, returned.1));
         if let Some(o) = out {
-            self.finished = Some(match o {
+            let r = match o {
                 Outcome::Reply(Reply::Error(code)) => Err(AuxFailure {
                     x0798: u32::from(code) << 8 | 0xFE,
                 }),
                 Outcome::Reply(r) => Ok(r),
                 Outcome::Timeout => Err(AuxFailure::timeout()),
-            });
+            };
+            if let Some(owner) = self.owner.take() {
+                self.finished = Some((owner, r, 0));
+            }
         }
         regs
     }
 
-    /// The result of the access that finished, once.
-    pub fn take_finished(&mut self) -> Option<Finished> {
-        self.finished.take()
+    /// The result of `owner`'s access once it has finished (once).
+    pub fn take_finished(&mut self, owner: AuxOwner) -> Option<Finished> {
+        if self.finished.as_ref()?.0 != owner {
+            return None;
+        }
+        self.finished.take().map(|f| f.1)
     }
 
     /// `$$$`: drop any access in flight.
     pub fn reset(&mut self) {
         self.master.abort();
+        self.owner = None;
         self.finished = None;
     }
+}
+
+/// The Type 1 request for a station variable access: `MI{n}` read or write, `C{n}` a
+/// C-command (a read sends its value as 0, as `MSR`'s "dummy variable" suggests).
+pub fn slave_request(var: SlaveVar, value: Option<f64>) -> Option<Request> {
+    Some(match (var, value) {
+        (SlaveVar::Mi(n), None) => Request::ReadMi(u16::try_from(n).ok()?),
+        (SlaveVar::Mi(n), Some(v)) => Request::WriteMi(u16::try_from(n).ok()?, v),
+        (SlaveVar::Mc(n), v) => Request::CCommand(u16::try_from(n).ok()?, v.unwrap_or(0.0)),
+    })
 }
 
 /// The text a reported station value gets: numbers as the card prints them (`number`),
@@ -162,6 +228,8 @@ mod tests {
     #[test]
     fn preconditions_of_each_protocol() {
         let mut a = MacroAux::default();
+        let me = a.line_id();
+        let other = a.line_id();
         let fail = Err(AuxFailure { x0798: 0x01_0000 });
         for bad in [
             AuxSettings { i1003: 0, ..MASTER }, // Type 1 disabled
@@ -174,26 +242,27 @@ mod tests {
                 ..MASTER
             }, // node 15 aux copy on
         ] {
-            assert_eq!(a.begin(Protocol::Type1, 0, Request::ReadMi(8), bad), fail);
+            assert_eq!(a.begin(me, Protocol::Type1, 0, Request::ReadMi(8), bad), fail);
         }
         assert_eq!(
-            a.begin(Protocol::Type0, 2, Request::ReadParam(8), MASTER),
+            a.begin(me, Protocol::Type0, 2, Request::ReadParam(8), MASTER),
             fail
         );
         assert_eq!(
-            a.begin(Protocol::Type0, 1, Request::ReadParam(8), MASTER),
-            Ok(())
+            a.begin(me, Protocol::Type0, 1, Request::ReadParam(8), MASTER),
+            Ok(Begin::Started)
         );
         assert_eq!(
-            a.begin(Protocol::Type1, 0, Request::ReadMi(8), MASTER),
-            fail,
+            a.begin(other, Protocol::Type1, 0, Request::ReadMi(8), MASTER),
+            Ok(Begin::Busy),
             "one access in flight"
         );
-        assert!(a.busy());
+        assert!(a.busy() && a.holds(me) && !a.holds(other));
         a.reset();
         assert!(!a.busy());
         assert_eq!(
             a.begin(
+                other,
                 Protocol::Type1,
                 0,
                 Request::ReadMi(8),
@@ -202,7 +271,7 @@ mod tests {
                     ..MASTER
                 }
             ),
-            Ok(())
+            Ok(Begin::Started)
         );
     }
 
@@ -210,7 +279,9 @@ mod tests {
     fn slave_errors_and_timeouts_set_x0798() {
         let mut a = MacroAux::default();
         let s = AuxSettings { i1003: 3, ..MASTER };
-        a.begin(Protocol::Type1, 0, Request::ReadMi(7), s).unwrap();
+        let me = AuxOwner::Plc(3);
+        a.begin(me, Protocol::Type1, 0, Request::ReadMi(7), s)
+            .unwrap();
         let first = a.servo_tick((0, 0));
         let tag = AuxWord::decode(first.0, first.1).tag;
         let err = Reply::Error(slave_error::UNKNOWN_VARIABLE).words();
@@ -218,16 +289,40 @@ mod tests {
             let (r2, r3) = stream_word(WordKind::Reply, tag, 0, &err, k).encode();
             a.servo_tick((r2, r3));
         }
-        assert_eq!(a.take_finished(), Some(Err(AuxFailure { x0798: 0x0001FE })));
-        assert_eq!(a.take_finished(), None);
-        a.begin(Protocol::Type1, 0, Request::ReadMi(7), s).unwrap();
+        assert_eq!(a.take_finished(AuxOwner::Plc(4)), None, "not the owner");
+        assert_eq!(
+            a.take_finished(me),
+            Some(Err(AuxFailure { x0798: 0x0001FE }))
+        );
+        assert_eq!(a.take_finished(me), None);
+        a.begin(me, Protocol::Type1, 0, Request::ReadMi(7), s)
+            .unwrap();
         let mut n = 0;
-        while a.take_finished().is_none() {
+        while a.take_finished(me).is_none() {
             a.servo_tick((0, 0));
             n += 1;
             assert!(n < 10);
         }
         assert_eq!(n, 4, "I1003 = 3 cycles of waiting, then the timeout");
+        // an uncollected result blocks others until it expires
+        a.begin(me, Protocol::Type1, 0, Request::ReadMi(7), s)
+            .unwrap();
+        for _ in 0..4 {
+            a.servo_tick((0, 0));
+        }
+        let other = AuxOwner::Plc(9);
+        assert_eq!(
+            a.begin(other, Protocol::Type1, 0, Request::ReadMi(7), s),
+            Ok(Begin::Busy)
+        );
+        for _ in 0..UNCLAIMED_TICKS {
+            a.servo_tick((0, 0));
+        }
+        assert!(!a.holds(me));
+        assert_eq!(
+            a.begin(other, Protocol::Type1, 0, Request::ReadMi(7), s),
+            Ok(Begin::Started)
+        );
     }
 
     #[test]
