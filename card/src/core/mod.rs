@@ -148,20 +148,29 @@ impl CardCore {
 
     /// Serve queued requests, oldest first, within `budget`. A request whose line waits for
     /// an effect holds the requests behind it (a connection's lines run in order; effects are
-    /// short).
+    /// short). A line waiting for a MACRO auxiliary access ([`Step::Wait`], many ring cycles)
+    /// holds back only the later requests of its own connection.
     pub fn serve(&mut self, budget: &mut Budget) {
-        while let Some(job) = self.jobs.front_mut() {
+        let mut i = 0;
+        let mut held: Vec<u64> = Vec::new();
+        while i < self.jobs.len() {
+            let job = &self.jobs[i];
             if job.waiting.is_some() {
                 return;
+            }
+            if held.contains(&job.conn) {
+                i += 1;
+                continue;
             }
             if budget.exhausted() {
                 return;
             }
             let conn = job.conn;
             let mut s = self.session(conn);
-            let Some(mut job) = self.jobs.pop_front() else {
+            let Some(mut job) = self.jobs.remove(i) else {
                 return;
             };
+            let mut wait = false;
             let done = match job.req.clone() {
                 HostRequest::End => {
                     self.card.end_session(&s);
@@ -183,6 +192,11 @@ impl CardCore {
                             job.run = Some(run);
                             None
                         }
+                        Step::Wait => {
+                            job.run = Some(run);
+                            wait = true;
+                            None
+                        }
                         Step::Effect(e) => {
                             let t = self.next_effect;
                             self.next_effect += 1;
@@ -202,7 +216,11 @@ impl CardCore {
                     self.replies.push((job.token, HostReply { bytes, echo }));
                 }
                 None => {
-                    self.jobs.push_front(job);
+                    self.jobs.insert(i, job);
+                    if wait {
+                        held.push(conn);
+                        i += 1;
+                    }
                 }
             }
         }
@@ -256,6 +274,13 @@ impl CardCore {
     /// Replies ready, with their request tokens.
     pub fn take_replies(&mut self) -> Vec<(u64, HostReply)> {
         std::mem::take(&mut self.replies)
+    }
+
+    /// One servo cycle of the MACRO auxiliary channel: `returned` = registers 2 and 3 of this
+    /// card's node-15 packet as it came back around the ring (the latched copy); returns the
+    /// registers 2 and 3 to send in this cycle's node-15 packet.
+    pub fn aux_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
+        self.card.model.aux.servo_tick(returned)
     }
 
     /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the interpreter).

@@ -12,13 +12,13 @@ use crate::domain::ast::SlaveVar;
 use mcc_ring::aux_channel::{AuxMaster, AuxWord, Outcome, Reply, Request, ValueFormat, AUX_NODE};
 
 /// X:$0798 after a timeout.
-pub const X0798_TIMEOUT: u32 = 0x01_0000;
+pub(crate) const X0798_TIMEOUT: u32 = 0x01_0000;
 /// The fixed Type 0 (MX/MXR/MXW) timeout, servo cycles.
-pub const TYPE0_TIMEOUT: u32 = 32;
+pub(crate) const TYPE0_TIMEOUT: u32 = 32;
 
 /// Which protocol an access uses (their preconditions and timeouts differ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Protocol {
+pub(crate) enum Protocol {
     /// `MX`, `MXR`, `MXW`: needs I1000 bit n; 32 servo cycles.
     Type0,
     /// `MS…`, `MSR`, `MSW`: needs a master (I995 $xx90/$xx30), I1000 bit 15 = 0 and
@@ -28,7 +28,7 @@ pub enum Protocol {
 
 /// The ring settings the preconditions read.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AuxSettings {
+pub(crate) struct AuxSettings {
     /// I995.
     pub i995: u32,
     /// I1000.
@@ -39,7 +39,7 @@ pub struct AuxSettings {
 
 /// Why an access failed: the value X:$0798 gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct AuxFailure {
+pub(crate) struct AuxFailure {
     /// X:$0798: $010000 timeout (also: the access could not be sent), $xxxxFE slave error.
     pub x0798: u32,
 }
@@ -53,11 +53,11 @@ impl AuxFailure {
 }
 
 /// How a finished transaction ended for the card.
-pub type Finished = Result<Reply, AuxFailure>;
+pub(crate) type Finished = Result<Reply, AuxFailure>;
 
 /// Who started a transaction (and alone collects its result).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AuxOwner {
+pub(crate) enum AuxOwner {
     /// A host command line (its id from [`MacroAux::line_id`]).
     Line(u64),
     /// A background PLC's `MSR`/`MSW`/`MXR`/`MXW`.
@@ -66,7 +66,7 @@ pub enum AuxOwner {
 
 /// What [`MacroAux::begin`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Begin {
+pub(crate) enum Begin {
     /// The transaction is on its way.
     Started,
     /// Another owner's transaction is in flight (or its result not yet collected): try again
@@ -76,11 +76,11 @@ pub enum Begin {
 
 /// Servo ticks a finished result waits for its owner before it is dropped (a PLC disabled
 /// while its access was in flight never collects it).
-pub const UNCLAIMED_TICKS: u32 = 64;
+pub(crate) const UNCLAIMED_TICKS: u32 = 64;
 
 /// The card's auxiliary channel.
 #[derive(Clone, Debug, Default)]
-pub struct MacroAux {
+pub(crate) struct MacroAux {
     master: AuxMaster,
     owner: Option<AuxOwner>,
     finished: Option<(AuxOwner, Finished, u32)>,
@@ -89,7 +89,7 @@ pub struct MacroAux {
 
 impl MacroAux {
     /// A fresh owner id for a host command.
-    pub fn line_id(&mut self) -> AuxOwner {
+    pub(crate) fn line_id(&mut self) -> AuxOwner {
         self.next_line += 1;
         AuxOwner::Line(self.next_line)
     }
@@ -97,7 +97,7 @@ impl MacroAux {
     /// Start an access to `node` for `owner`. Checks the protocol's preconditions (refused:
     /// the caller reports the failure, ERR008); [`Begin::Busy`] while another owner's access
     /// is in flight or its result is not yet collected.
-    pub fn begin(
+    pub(crate) fn begin(
         &mut self,
         owner: AuxOwner,
         proto: Protocol,
@@ -130,20 +130,15 @@ impl MacroAux {
         Ok(Begin::Started)
     }
 
-    /// An access is in flight.
-    pub fn busy(&self) -> bool {
-        self.master.busy()
-    }
-
     /// `owner`'s access is in flight or its result waits to be collected.
-    pub fn holds(&self, owner: AuxOwner) -> bool {
+    pub(crate) fn holds(&self, owner: AuxOwner) -> bool {
         (self.master.busy() && self.owner == Some(owner))
             || self.finished.as_ref().is_some_and(|f| f.0 == owner)
     }
 
     /// One servo cycle: `returned` = registers 2 and 3 of the latched copy of this card's
     /// node-15 packet. Returns registers 2 and 3 to send.
-    pub fn servo_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
+    pub(crate) fn servo_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
         if let Some(f) = self.finished.as_mut() {
             f.2 += 1;
             if f.2 > UNCLAIMED_TICKS {
@@ -167,7 +162,7 @@ impl MacroAux {
     }
 
     /// The result of `owner`'s access once it has finished (once).
-    pub fn take_finished(&mut self, owner: AuxOwner) -> Option<Finished> {
+    pub(crate) fn take_finished(&mut self, owner: AuxOwner) -> Option<Finished> {
         if self.finished.as_ref()?.0 != owner {
             return None;
         }
@@ -175,7 +170,7 @@ impl MacroAux {
     }
 
     /// `$$$`: drop any access in flight.
-    pub fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         self.master.abort();
         self.owner = None;
         self.finished = None;
@@ -184,7 +179,7 @@ impl MacroAux {
 
 /// The Type 1 request for a station variable access: `MI{n}` read or write, `C{n}` a
 /// C-command (a read sends its value as 0, as `MSR`'s "dummy variable" suggests).
-pub fn slave_request(var: SlaveVar, value: Option<f64>) -> Option<Request> {
+pub(crate) fn slave_request(var: SlaveVar, value: Option<f64>) -> Option<Request> {
     Some(match (var, value) {
         (SlaveVar::Mi(n), None) => Request::ReadMi(u16::try_from(n).ok()?),
         (SlaveVar::Mi(n), Some(v)) => Request::WriteMi(u16::try_from(n).ok()?, v),
@@ -195,7 +190,7 @@ pub fn slave_request(var: SlaveVar, value: Option<f64>) -> Option<Request> {
 /// The text a reported station value gets: numbers as the card prints them (`number`),
 /// hexadecimal with `$` when I9 bit 1 is set, versions with three decimals, dates
 /// `MM/DD/YYYY`.
-pub fn format_value(v: f64, f: ValueFormat, i9: u32, number: impl Fn(f64) -> String) -> String {
+pub(crate) fn format_value(v: f64, f: ValueFormat, i9: u32, number: impl Fn(f64) -> String) -> String {
     match f {
         ValueFormat::Decimal => number(v),
         ValueFormat::Hex => {
@@ -257,9 +252,9 @@ mod tests {
             Ok(Begin::Busy),
             "one access in flight"
         );
-        assert!(a.busy() && a.holds(me) && !a.holds(other));
+        assert!(a.holds(me) && !a.holds(other));
         a.reset();
-        assert!(!a.busy());
+        assert!(!a.holds(me));
         assert_eq!(
             a.begin(
                 other,

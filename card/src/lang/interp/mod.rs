@@ -225,6 +225,8 @@ impl Card {
             match self.step_line(&mut run, session, &mut Budget::unlimited()) {
                 Step::Done(r) => return r,
                 Step::Yield => {}
+                // No servo loop turns meanwhile: the access fails as a timeout.
+                Step::Wait => self.view().abandon_aux(&mut run),
                 Step::Effect(e) => {
                     let r = self.perform(&e);
                     self.finish_effect(&mut run, session, r);
