@@ -182,6 +182,13 @@ impl CardRingApp {
         CardRingApp::new(runner, nodes)
     }
 
+    /// A ring app owning `card`, and a handle to send it host requests as a port would
+    /// (in-process simulations: the request is served at the next tick).
+    pub fn with_handle(card: Card, nodes: &[u8]) -> (Self, super::handle::CardHandle) {
+        let (runner, handle) = super::handle::channel(CardCore::new(card), None);
+        (CardRingApp::new(runner, nodes), handle)
+    }
+
     /// The card core (tests, tools).
     pub fn core(&mut self) -> &mut CardCore {
         &mut self.runner.core
