@@ -7,11 +7,11 @@
 #![warn(missing_docs, unreachable_pub)]
 
 pub mod config;
-pub mod macro_aux;
-pub mod mi;
 pub mod emcl;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives
 pub mod emcl_rt;
+pub mod macro_aux;
+pub mod mi;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;

@@ -274,7 +274,9 @@ fn a_station_cut_off_the_ring_times_out_and_clrf_clears_its_fault_once_healthy()
     let mut rig = Rig::new(2, None);
     // cut the fibre from station0 into station1: it faults (loss of light), card0's requests for its
     // nodes do not come back
-    rig.sim.inject(1, FaultSpec::always(FaultKind::Cut)).unwrap();
+    rig.sim
+        .inject(1, FaultSpec::always(FaultKind::Cut))
+        .unwrap();
     rig.sim.run(40);
     assert!(rig.station(2).mi().faulted());
     let (r, cycles) = {
@@ -285,9 +287,12 @@ fn a_station_cut_off_the_ring_times_out_and_clrf_clears_its_fault_once_healthy()
     assert!(cycles >= 32, "{cycles}");
     rig.sim.clear_faults(1);
     rig.sim.run(40);
-    assert!(rig.station(2).mi().faulted(), "latched after the ring heals");
+    assert!(
+        rig.station(2).mi().faulted(),
+        "latched after the ring heals"
+    );
     // the card's own latch is cleared by $$$ / CLRF of the card; the station's by MS CLRF
-    transcript(&mut rig, &[("MS CLRF8", "\x06"), ("MS8,MI4", "0\r\x06")]);
+    transcript(&mut rig, &[("MS CLRF8", "\x06"), ("MS8,MI4", "$0\r\x06")]);
     assert!(!rig.station(2).mi().faulted());
 }
 

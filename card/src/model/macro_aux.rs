@@ -190,7 +190,12 @@ pub(crate) fn slave_request(var: SlaveVar, value: Option<f64>) -> Option<Request
 /// The text a reported station value gets: numbers as the card prints them (`number`),
 /// hexadecimal with `$` when I9 bit 1 is set, versions with three decimals, dates
 /// `MM/DD/YYYY`.
-pub(crate) fn format_value(v: f64, f: ValueFormat, i9: u32, number: impl Fn(f64) -> String) -> String {
+pub(crate) fn format_value(
+    v: f64,
+    f: ValueFormat,
+    i9: u32,
+    number: impl Fn(f64) -> String,
+) -> String {
     match f {
         ValueFormat::Decimal => number(v),
         ValueFormat::Hex => {
@@ -237,7 +242,10 @@ mod tests {
                 ..MASTER
             }, // node 15 aux copy on
         ] {
-            assert_eq!(a.begin(me, Protocol::Type1, 0, Request::ReadMi(8), bad), fail);
+            assert_eq!(
+                a.begin(me, Protocol::Type1, 0, Request::ReadMi(8), bad),
+                fail
+            );
         }
         assert_eq!(
             a.begin(me, Protocol::Type0, 2, Request::ReadParam(8), MASTER),

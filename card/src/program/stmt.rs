@@ -4,8 +4,8 @@
 //! statement while its access is on the ring, see [`Common::AuxWait`]).
 
 use super::env;
-use crate::domain::ast::{AssignOp, Message, NumRange, PlcVerb, SendPort, StmtKind};
 use crate::domain::ast::VarRef;
+use crate::domain::ast::{AssignOp, Message, NumRange, PlcVerb, SendPort, StmtKind};
 use crate::model::macro_aux::{slave_request, AuxOwner, Protocol};
 use crate::model::CardModel;
 use mcc_ring::aux_channel::{Reply, Request};
@@ -253,9 +253,11 @@ fn macro_stmt(card: &mut CardModel, cs: u16, owner: AuxOwner, s: &StmtKind) -> C
     card.state.global.macro_aux_error = false;
     let value_of = |card: &mut CardModel, v: &VarRef| env::read(card, cs, v).ok();
     let (proto, node, req) = match s {
-        StmtKind::MacroAuxRead { node, param, .. } => {
-            (Protocol::Type0, *node, Some(Request::ReadParam(*param as u16)))
-        }
+        StmtKind::MacroAuxRead { node, param, .. } => (
+            Protocol::Type0,
+            *node,
+            Some(Request::ReadParam(*param as u16)),
+        ),
         StmtKind::MacroAuxWrite { node, param, var } => {
             let v = value_of(card, var);
             let req = v
@@ -268,7 +270,11 @@ fn macro_stmt(card: &mut CardModel, cs: u16, owner: AuxOwner, s: &StmtKind) -> C
         }
         StmtKind::MacroSlaveWrite { node, var, src } => {
             let v = value_of(card, src);
-            (Protocol::Type1, *node, v.and_then(|v| slave_request(*var, Some(v))))
+            (
+                Protocol::Type1,
+                *node,
+                v.and_then(|v| slave_request(*var, Some(v))),
+            )
         }
         _ => return Common::NotMine,
     };
@@ -276,7 +282,10 @@ fn macro_stmt(card: &mut CardModel, cs: u16, owner: AuxOwner, s: &StmtKind) -> C
         return Common::BadVariable;
     };
     let settings = card.aux_settings();
-    match card.aux.begin(owner, proto, (node & 0xF) as u8, req, settings) {
+    match card
+        .aux
+        .begin(owner, proto, (node & 0xF) as u8, req, settings)
+    {
         Ok(_) => Common::AuxWait,
         Err(f) => {
             card.aux_failed(f);

@@ -64,9 +64,10 @@ fn main() -> std::process::ExitCode {
             .collect();
         // The run directory holds the resolved config; station state lives beside it in
         // state/, which `mcc down` leaves alone.
-        let state_file = st.state_file.clone().unwrap_or_else(|| {
-            run_dir.join("state").join(format!("{}.state", st.name))
-        });
+        let state_file = st
+            .state_file
+            .clone()
+            .unwrap_or_else(|| run_dir.join("state").join(format!("{}.state", st.name)));
         let globals = Globals::from_check(st.check.period, st.check.min_syncs, st.check.max_errors);
         let app = StationApp::new(&servo, &[], &plant)
             .map_err(anyhow::Error::msg)?

@@ -11,10 +11,10 @@ use super::exec::{Exec, Out};
 use super::line::LineRun;
 use super::{Pmac, Session};
 use crate::lang::ast::{CmdKind, SlaveCmd, SlaveVar, VarIndex, VarRef};
+use crate::model::format_value as number;
 use crate::model::macro_aux::{
     format_value, slave_request, AuxFailure, AuxOwner, Begin, Protocol, X0798_TIMEOUT,
 };
-use crate::model::format_value as number;
 use crate::program::env;
 use mcc_ring::aux_channel::{Reply, Request, StationCmd};
 
@@ -143,7 +143,9 @@ impl Pmac<'_> {
                     return Err(3);
                 }
                 AuxJob {
-                    reqs: (*first..=*last).map(|n| Request::ReadMi(n as u16)).collect(),
+                    reqs: (*first..=*last)
+                        .map(|n| Request::ReadMi(n as u16))
+                        .collect(),
                     ..one(Protocol::Type1, node, Request::ReadMi(0), AuxThen::Print)
                 }
             }
