@@ -141,7 +141,7 @@ impl MacroAux {
     pub(crate) fn servo_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
         if let Some(f) = self.finished.as_mut() {
             f.2 += 1;
-            if f.2 > UNCLAIMED_TICKS {
+            if f.2 >= UNCLAIMED_TICKS {
                 self.finished = None;
             }
         }
