@@ -11,5 +11,6 @@ mod motion;
 mod programs;
 mod ring_inprocess;
 mod station_aux;
+mod stations;
 mod testing_api;
 mod transcripts;

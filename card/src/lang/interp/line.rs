@@ -409,10 +409,21 @@ impl Pmac<'_> {
     pub(crate) fn run_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> Vec<u8> {
         let mut run = self.start_line(s, line, remember);
         loop {
-            match self.step_line(&mut run, s, &mut Budget::unlimited()) {
-                Step::Done(r) => return r,
+            match self.step_detached(&mut run, s) {
+                Some(r) => return r,
+                None => self.abandon_aux(&mut run),
+            }
+        }
+    }
+
+    /// Run `run` as far as it goes with effects detached: its reply, or `None` while a MACRO
+    /// auxiliary command waits for the ring (call again after a servo tick).
+    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+        loop {
+            match self.step_line(run, s, &mut Budget::unlimited()) {
+                Step::Done(r) => return Some(r),
                 Step::Yield => {}
-                Step::Wait => self.abandon_aux(&mut run),
+                Step::Wait => return None,
                 Step::Effect(e) => {
                     run.waiting = None;
                     if e == Effect::Load {

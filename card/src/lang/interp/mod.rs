@@ -281,6 +281,18 @@ impl Card {
         self.view().run_line(session, line, true)
     }
 
+    /// Begin a line run on the servo thread with effects detached (the daisy chain): see
+    /// [`Card::step_detached`].
+    pub(crate) fn start_detached(&mut self, session: &mut Session, line: &[u8]) -> LineRun {
+        self.view().start_line(session, line, true)
+    }
+
+    /// Advance a detached line run: its reply, or `None` while a MACRO auxiliary command
+    /// waits for the ring (call again after a servo tick).
+    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+        self.view().step_detached(run, s)
+    }
+
     /// Execute one control-character command (0x01..=0x1A other than CR, LF, TAB/CTRL-I, BS).
     /// Returns the framed reply (possibly empty). CTRL-I (0x09) re-executes the last command
     /// line; CTRL-Y returns the last line (the host port puts it back into its line buffer);
