@@ -84,8 +84,6 @@ fn station_cmd(c: SlaveCmd) -> Request {
 
 impl Pmac<'_> {
     pub(crate) fn exec_macro(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
-        // The error bit is cleared at the start of each auxiliary command.
-        self.model.state.global.macro_aux_error = false;
         let one = |proto, node, req, then| AuxJob {
             proto,
             node,
@@ -171,6 +169,9 @@ impl Pmac<'_> {
             }
             _ => return Err(3),
         };
+        // The error bit is cleared at the start of each auxiliary command (one that passed its
+        // argument checks: an ERR003 leaves it as it was).
+        self.model.state.global.macro_aux_error = false;
         out.aux = Some(job);
         Ok(())
     }
