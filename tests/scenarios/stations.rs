@@ -114,8 +114,8 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
         "mcc send",
     );
     let doc: serde_json::Value = serde_json::from_str(&out).expect("send JSON");
-    assert_eq!(doc[0]["reply"], "8\r4\r\u{6}", "{doc:#}");
-    assert_eq!(doc[1]["reply"], "4\r\u{6}", "{doc:#}");
+    assert_eq!(doc[0]["reply"], "8\n4\n", "{doc:#}");
+    assert_eq!(doc[1]["reply"], "4\n", "{doc:#}");
     // A PLC copies a station variable and waits for the ring at the statement.
     p.transcript(&[
         ("OPEN PLC 1 CLEAR", "\x06"),
