@@ -77,7 +77,7 @@ impl Conn {
 /// of its request is fed once it is done.
 #[derive(Debug)]
 struct Parked {
-    run: LineRun,
+    run: Box<LineRun>,
     session: Session,
     talking: bool,
     /// Position of the line's `<CR>` in the request.
@@ -90,7 +90,7 @@ struct Parked {
 /// What executing a `<CR>` gave.
 enum Exec {
     Reply(Vec<u8>),
-    Wait(LineRun, Session, bool),
+    Wait(Box<LineRun>, Session, bool),
 }
 
 /// This card's receivers, one per chain connection (pure: bytes in, reply segments out).
@@ -414,7 +414,7 @@ fn execute(card: &mut Card, c: &mut Conn) -> Exec {
     };
     let mut run = card.start_detached(&mut s, &line);
     let Some(r) = card.step_detached(&mut run, &mut s) else {
-        return Exec::Wait(run, s, talking);
+        return Exec::Wait(Box::new(run), s, talking);
     };
     restore(c, &s);
     Exec::Reply(if talking { r } else { Vec::new() })

@@ -181,6 +181,9 @@ impl IoWorker {
 /// after every reset: the cluster config is the card's hardware setup.
 pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::interp::Card)>;
 
+/// Chain requests (payload, reply channel) of one connection, waiting in order.
+type ChainQueue = VecDeque<(Vec<u8>, Sender<Response>)>;
+
 /// The servo thread's side: owns the [`CardCore`].
 pub struct Runner {
     /// The card core.
@@ -193,7 +196,7 @@ pub struct Runner {
     chain: ChainPort,
     /// Daisy-chain requests waiting behind a line that waits for the ring, per connection
     /// (the first is the parked line's own request).
-    chain_wait: HashMap<u64, VecDeque<(Vec<u8>, Sender<Response>)>>,
+    chain_wait: HashMap<u64, ChainQueue>,
     /// Synchronized start (shared with the `at` queryable).
     pub sync: Arc<SyncShared>,
     sync_session: Session,
