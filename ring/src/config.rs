@@ -239,6 +239,10 @@ pub struct StationConfig {
     /// per-node overrides in `[stations.plant.nodes.N]`; parsed and checked by the station.
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub plant: toml::Table,
+    /// Where `MS SAVE` writes and start-up reads the station's MI-variables (default
+    /// `<run dir>/state/<name>.state`; `mcc down` never removes it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_file: Option<PathBuf>,
 }
 
 /// The whole cluster.
@@ -376,6 +380,7 @@ impl ClusterConfig {
                     nodes,
                     check: StationCheck::default(),
                     plant: toml::Table::new(),
+                    state_file: None,
                 }
             })
             .collect();
@@ -564,6 +569,12 @@ impl ClusterConfig {
         let n = self.ring.order.len();
         let k = self.position(name)?;
         self.ring.order.get((k + n - 1) % n).map(String::as_str)
+    }
+
+    /// Master number of the synchronizing master (the only master whose node-15 packet is the
+    /// ring's sync packet; see [`crate::core::CoreConfig::sync_source`]).
+    pub fn sync_source(&self) -> Option<u8> {
+        self.card(&self.ring.sync_master).map(|c| c.master & 0x0F)
     }
 
     /// I995/I996 for a member (spec §6.2–§6.3): sync master $30; other cards $8090 (master,

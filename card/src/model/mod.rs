@@ -20,6 +20,7 @@ mod float48;
 mod gather;
 mod ivars;
 mod lifecycle;
+pub(crate) mod macro_aux;
 mod memory;
 mod mvar;
 mod number;

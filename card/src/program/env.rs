@@ -68,6 +68,16 @@ pub(crate) fn var_number(card: &mut CardModel, cs: u16, v: &VarRef) -> Result<u3
     )
 }
 
+/// The value of variable `v` (computed indices evaluated) for C.S. `cs`.
+pub(crate) fn read(card: &mut CardModel, cs: u16, v: &VarRef) -> Result<f64, EvalError> {
+    let n = var_number(card, cs, v)?;
+    ProgEnv {
+        state: &mut card.state,
+        cs,
+    }
+    .var(v.kind, n)
+}
+
 /// Write variable `kind` `n` (C.S. `cs` for Q). `false` when the card refused it.
 pub(crate) fn write(card: &mut CardModel, cs: u16, kind: VarKind, n: u32, v: f64) -> bool {
     let st = &mut card.state;

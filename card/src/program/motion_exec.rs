@@ -268,6 +268,7 @@ impl CsExec {
                     cmds: io.cmds,
                     out: io.out,
                     cmd: io.cmd,
+                    plc: None,
                 };
                 match exec_common(card, &mut ctx, &s.kind) {
                     Common::BadVariable => {

@@ -154,8 +154,14 @@ impl PlcRunner {
                         cmds: &mut cmds,
                         out,
                         cmd,
+                        // MACRO auxiliary statements: background PLCs only (§5.9 table)
+                        plc: (n > 0).then_some(n),
                     };
                     let r = exec_common(card, &mut ctx, &s.kind);
+                    if r == Common::AuxWait {
+                        // the PLC waits at this statement; the next scan tries it again
+                        break;
+                    }
                     pc += 1;
                     match r {
                         Common::Address(m, c) => {

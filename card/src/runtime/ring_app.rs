@@ -12,6 +12,7 @@
 //! 3). With the factory Ix02/Ix03/Ix25 and ECT defaults that is the Ultralite's "motor on node"
 //! minimum set (spec §6.6), so the default cluster's motors work out of the box.
 
+use mcc_ring::aux_channel::AUX_NODE;
 use mcc_ring::check::RingCheck;
 use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::member::RingMember;
@@ -24,8 +25,8 @@ use crate::lang::interp::{Budget, Card, Session};
 use crate::model::I995_STATUS_BITS;
 
 /// Activate motors 1-8 whose Ix02 register belongs to one of `nodes` (servo nodes only) and
-/// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002). Returns the motors
-/// activated.
+/// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002) and Type 1 MACRO
+/// auxiliary communications (I1003 = 32 when it is 0). Returns the motors activated.
 pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
     let mut s = Session::default();
     let mut aux = 0u32;
@@ -44,6 +45,11 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
         motors.push(x);
     }
     let mut line = format!("I1000=${aux:X} I1002=${aux:X}");
+    // A card on a ring of 16-axis MACRO Stations talks to them over Type 1 auxiliary
+    // communications: I1003 = 32 (the suggested timeout) unless the card has its own value.
+    if card.state.peek_ivar(1003).unwrap_or(0.0) == 0.0 {
+        line.push_str(" I1003=32");
+    }
     for x in &motors {
         line.push_str(&format!(" I{x}00=1"));
     }
@@ -176,6 +182,13 @@ impl CardRingApp {
         CardRingApp::new(runner, nodes)
     }
 
+    /// A ring app owning `card`, and a handle to send it host requests as a port would
+    /// (in-process simulations: the request is served at the next tick).
+    pub fn with_handle(card: Card, nodes: &[u8]) -> (Self, super::handle::CardHandle) {
+        let (runner, handle) = super::handle::channel(CardCore::new(card), None);
+        (CardRingApp::new(runner, nodes), handle)
+    }
+
     /// The card core (tests, tools).
     pub fn core(&mut self) -> &mut CardCore {
         &mut self.runner.core
@@ -303,6 +316,15 @@ impl RingApp for CardRingApp {
                 .set_node_feedback(usize::from(n), regs_to_words(regs.read_regs(n)));
         }
         self.runner.core.tick(cycle);
+        // The MACRO auxiliary channel (MS/MX, PLC MSR/MSW): registers 2-3 of this card's
+        // node-15 packet, read from its copy as it came back around the ring.
+        let me = regs.settings().master_number();
+        let back = regs
+            .latched_copy(me, AUX_NODE)
+            .map_or((0, 0), |r| (r.r2, r.r3));
+        let (r2, r3) = self.runner.core.aux_tick(back);
+        let w = regs.write_regs_mut(AUX_NODE);
+        (w.r2, w.r3) = (r2, r3);
         let card = &mut self.runner.core.card;
         let latched = card.state.global.ring_fault;
         for &n in &self.nodes {

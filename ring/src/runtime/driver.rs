@@ -462,6 +462,7 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    s.extra.extend(self.app.status_extra());
                     s.extra
                         .insert("hop".into(), self.rx.hop_summary().to_json());
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));

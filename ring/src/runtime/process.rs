@@ -183,6 +183,7 @@ where
     let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, 0);
     core_cfg.check = check;
     core_cfg.upstream = Some(((position + n - 1) % n) as u16);
+    core_cfg.sync_source = config.sync_source();
     // A restarted member must not look stale to its downstream neighbour.
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.

@@ -225,6 +225,8 @@ impl Card {
             match self.step_line(&mut run, session, &mut Budget::unlimited()) {
                 Step::Done(r) => return r,
                 Step::Yield => {}
+                // No servo loop turns meanwhile: the access fails as a timeout.
+                Step::Wait => self.view().abandon_aux(&mut run),
                 Step::Effect(e) => {
                     let r = self.perform(&e);
                     self.finish_effect(&mut run, session, r);
@@ -282,6 +284,18 @@ impl Card {
     /// written in the background, `$$$` resets once its image is loaded.
     pub fn run_detached(&mut self, session: &mut Session, line: &[u8]) -> Vec<u8> {
         self.view().run_line(session, line, true)
+    }
+
+    /// Begin a line run on the servo thread with effects detached (the daisy chain): see
+    /// [`Card::step_detached`].
+    pub(crate) fn start_detached(&mut self, session: &mut Session, line: &[u8]) -> LineRun {
+        self.view().start_line(session, line, true)
+    }
+
+    /// Advance a detached line run: its reply, or `None` while a MACRO auxiliary command
+    /// waits for the ring (call again after a servo tick).
+    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+        self.view().step_detached(run, s)
     }
 
     /// Execute one control-character command (0x01..=0x1A other than CR, LF, TAB/CTRL-I, BS).
