@@ -144,6 +144,40 @@ impl MotorFlags {
             | bit(self.in_position, 0)
     }
 
+    /// Turbo status word 1 (X:$00B0 for motor 1, the first six `?` digits on a Turbo card):
+    /// as PMAC2's word 1 for bits 10-18 and 21-23, but bit 19 = amplifier enabled, bit 6 =
+    /// phased motor, bit 4 = following (handwheel) enabled (Turbo SRM `?`).
+    pub fn turbo_word1(&self, s: MotorSetup) -> u32 {
+        (self.word1(s) & !((1 << 20) | (1 << 19)))
+            | bit(self.amp_enabled, 19)
+            | bit(s.phased, 6)
+            | bit(s.handwheel, 4)
+    }
+
+    /// Turbo status word 2 (Y:$00C0 for motor 1): (C.S. − 1) in bits 20-23, bit 15 = assigned
+    /// to a C.S., no amplifier-enabled bit (it is word 1 bit 19); bits 0-13 as PMAC2's.
+    pub fn turbo_word2(&self) -> u32 {
+        let cs = match self.coord {
+            Some(c) if c >= 1 => (1 << 15) | ((((c - 1) & 15) as u32) << 20),
+            _ => 0,
+        };
+        cs | (self.word2() & 0x3FFF & !(1 << 14))
+    }
+
+    /// Take the dynamic bits of a written Turbo word 1.
+    pub fn set_turbo_word1(&mut self, w: u32) {
+        self.set_word1(w);
+        self.amp_enabled = has(w, 19);
+    }
+
+    /// Take every bit of a written Turbo word 2.
+    pub fn set_turbo_word2(&mut self, w: u32) {
+        let amp = self.amp_enabled;
+        self.set_word2(w & 0x3FFF);
+        self.amp_enabled = amp;
+        self.coord = has(w, 15).then(|| (((w >> 20) & 15) + 1) as u8);
+    }
+
     /// Take the dynamic bits from a written word 1 (W/M-variable write); setup bits ignored.
     pub fn set_word1(&mut self, w: u32) {
         self.neg_limit = has(w, 22);
