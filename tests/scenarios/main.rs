@@ -11,3 +11,4 @@ mod programs;
 mod ring_inprocess;
 mod testing_api;
 mod transcripts;
+mod turbo;

@@ -358,7 +358,7 @@ mod tests {
         assert_eq!(m.classify(Space::X, 0x0006), Some(Special::Global(1)));
         assert_eq!(m.classify(Space::X, 0x00B0), Some(Special::Motor(1, 1)));
         assert_eq!(m.classify(Space::Y, 0x0140), Some(Special::Motor(2, 2)));
-        assert_eq!(m.classify(Space::Y, 0x0FC0), Some(Special::Motor(32, 2)));
+        assert_eq!(m.classify(Space::Y, 0x1040), Some(Special::Motor(32, 2)));
         assert_eq!(m.classify(Space::X, 0x2140), Some(Special::Coord(2, 1)));
         assert_eq!(m.classify(Space::Y, 0x203F), Some(Special::Coord(1, 2)));
         assert_eq!(m.classify(Space::Y, 0x2040), Some(Special::Coord(1, 3)));

@@ -430,3 +430,33 @@ impl GlobalFlags {
         self.ring_fault = has(w, 4);
     }
 }
+
+#[cfg(test)]
+mod turbo_tests {
+    use super::*;
+
+    /// Issue 14 item 4: the Turbo `?` layout (dls-pmaccontrol's labels: word 1 bit 19
+    /// "Amplifier enabled", word 2 bit 15 "Assigned to C.S.", bits 20-23 "(C.S. -1) Number").
+    #[test]
+    fn turbo_motor_words() {
+        let f = MotorFlags {
+            amp_enabled: true,
+            open_loop: false,
+            coord: Some(3),
+            in_position: true,
+            ..MotorFlags::default()
+        };
+        let s = MotorSetup {
+            activated: true,
+            phased: true,
+            ..MotorSetup::default()
+        };
+        assert_eq!(f.turbo_word1(s), (1 << 23) | (1 << 19) | (1 << 6));
+        assert_eq!(f.turbo_word2(), (2 << 20) | (1 << 15) | 1);
+        assert_eq!(f.word2(), (1 << 23) | (2 << 20) | (1 << 14) | 1);
+        let mut g = MotorFlags::default();
+        g.set_turbo_word1(f.turbo_word1(s));
+        g.set_turbo_word2(f.turbo_word2());
+        assert_eq!((g.amp_enabled, g.coord, g.in_position), (true, Some(3), true));
+    }
+}

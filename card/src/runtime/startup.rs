@@ -123,6 +123,7 @@ mod tests {
 
     fn q(card: &mut Card, line: &str) -> String {
         let mut s = Session::default();
+        card.command_line(&mut s, b"I3=2");
         String::from_utf8_lossy(&card.command_line(&mut s, line.as_bytes()))
             .trim_matches(|c: char| c.is_control() || c.is_whitespace())
             .to_string()
@@ -152,7 +153,7 @@ mod tests {
         assert_eq!(motors, [1, 2, 3, 4, 5, 6, 7, 8]);
         assert_eq!(q(&mut card, "I6840 I6841"), "$8090\r$8F3333");
         assert_eq!(q(&mut card, "I70 I71"), "$3333\r$3333");
-        assert_eq!(q(&mut card, "I800 I900 I1000 I1002"), "1\r0\r0\r0");
+        assert_eq!(q(&mut card, "I800 I900 I1000 I1002"), "1\r0\r0\r$0");
         assert_eq!(q(&mut card, "I20 I21"), "$78400\r$0");
         assert_eq!(q(&mut card, "I995"), "0");
     }

@@ -122,3 +122,23 @@ pub(super) fn count_timers(st: &mut CardState) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Profile;
+
+    #[test]
+    fn turbo_timers_count_down_and_wrap() {
+        let mut st = CardState::new(Profile::Turbo);
+        st.vars.set_i(5111, 3.0).unwrap();
+        st.vars.set_i(6612, -8_388_608.0).unwrap();
+        count_timers(&mut st);
+        assert_eq!(st.vars.i(5111), Ok(2.0));
+        assert_eq!(st.vars.i(5112), Ok(-1.0));
+        assert_eq!(st.vars.i(6612), Ok(8_388_607.0), "24-bit wrap");
+        let mut p2 = CardState::new(Profile::Pmac2);
+        count_timers(&mut p2);
+        assert_eq!(p2.vars.i(511), Ok(32_000.0), "PMAC2: I511 is motor 5's Ix11");
+    }
+}
