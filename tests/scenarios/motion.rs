@@ -110,7 +110,7 @@ impl Rig {
     /// actual, $004B following error), counts.
     fn d_reg(&mut self, x: u16, off: u16) -> f64 {
         let c = self.card();
-        decode_fixed(c.state.read_long(0x0020 + (x - 1) * 0x3C + off)) / D_UNITS
+        decode_fixed(c.state.read_long(u32::from(0x0020 + (x - 1) * 0x3C + off))) / D_UNITS
     }
 
     pub(crate) fn station(&mut self) -> &mut StationApp {
