@@ -44,7 +44,10 @@ fn turbo_start_up_speaks_turbo_numbering() {
     );
     assert_eq!(rig.cmd("I995 I996 I1000 I1002"), "0\r0\r0\r$0");
     assert_eq!(rig.cmd("I80 I81 I82"), "16\r2\r4");
-    assert_eq!(rig.cmd("I102 I103 I124 I125"), "$78420\r$3502\r$40001\r$3440");
+    assert_eq!(
+        rig.cmd("I102 I103 I124 I125"),
+        "$78420\r$3502\r$40001\r$3440"
+    );
 }
 
 /// Items 1 and 4: every MACRO motor of a Turbo ring card runs (motor 1 on node 0, motor 8 on
@@ -63,7 +66,10 @@ fn turbo_ring_card_runs_every_macro_motor() {
     let p1 = rig.node_position(0);
     assert!((p1 - 1000.0).abs() < 10.0, "node 0 at {p1}");
     assert!((rig.node_position(13) + 2000.0).abs() < 10.0, "node 13");
-    assert!((rig.num("#1P") - p1).abs() < 1.0, "#1P is the node's position");
+    assert!(
+        (rig.num("#1P") - p1).abs() < 1.0,
+        "#1P is the node's position"
+    );
     assert!((rig.num("#8P") + 2000.0).abs() < 10.0);
     assert!((rig.num("M162") / D_UNITS - p1).abs() < 1.0, "D:$00008B");
     let (w1, w2) = rig.status(1);
@@ -112,4 +118,32 @@ fn turbo_countdown_timers_count_servo_cycles() {
     assert_eq!(rig.num("P1"), 0.0, "the PLC is still waiting");
     rig.run(60);
     assert_eq!(rig.num("P1"), 1.0, "the timer ran out");
+}
+
+/// Item 16: `R` right after `#1J/` or `#1HMZ` on a motor at rest is accepted (a motor that
+/// does not move has no move in progress), while a real jog still answers ERR011 (seed: "R"
+/// with a motor in the C.S. jogging).
+#[test]
+fn run_after_a_stop_or_hmz_at_rest_is_accepted() {
+    let mut rig = Rig::with_card(
+        NodePlantConfig::default(),
+        ClusterConfig::default_cluster(1, 1),
+        Profile::Pmac2,
+    );
+    rig.cmd("I3=2");
+    rig.run(20);
+    rig.cmd("#1J/");
+    rig.run(50);
+    rig.cmd("&1 #1->1000X OPEN PROG 1 CLEAR X0.1 CLOSE");
+    rig.cmd("#1J=500");
+    rig.run(1);
+    assert_eq!(rig.cmd("&1 B1 R"), "ERR011", "a jog in progress");
+    rig.run(2000);
+    rig.cmd("#1J/");
+    rig.run(1);
+    assert_eq!(rig.cmd("&1 B1 R"), "", "J/ at rest is no move");
+    rig.run(2000);
+    rig.cmd("#1HMZ");
+    rig.run(1);
+    assert_eq!(rig.cmd("&1 B1 R"), "", "HMZ at rest is no move");
 }

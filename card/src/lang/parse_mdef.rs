@@ -80,8 +80,7 @@ pub(crate) fn axis_def(c: &mut Cursor, motor: u32) -> Result<CmdKind, ParseError
 /// $7FFFF) is checked when the definition is stored.
 fn addr16(c: &mut Cursor) -> Result<u32, ParseError> {
     let n = c.req_uint("address expected")?;
-    u32::try_from(n)
-        .ok()
+    Some(n)
         .filter(|&a| a <= 0xFF_FFFF)
         .ok_or_else(|| c.syntax("address above $FFFFFF"))
 }

@@ -203,7 +203,9 @@ impl CardState {
         }
         mvar::validate(&def)?;
         if def.address().is_some_and(|a| a > self.map.max_addr) {
-            return Err(StateError::BadDefinition("address beyond the memory map".into()));
+            return Err(StateError::BadDefinition(
+                "address beyond the memory map".into(),
+            ));
         }
         self.mdefs[n as usize] = def;
         self.mself[n as usize] = 0;
@@ -322,7 +324,9 @@ impl CardState {
             Some(Special::EctWord(n)) => self.vars.force_i(n, value as f64),
             Some(Special::P(n)) => {
                 let old = encode_float(self.vars.p(n).unwrap_or(0.0));
-                let _ = self.vars.set_p(n, decode_float(set_half(old, space, value)));
+                let _ = self
+                    .vars
+                    .set_p(n, decode_float(set_half(old, space, value)));
             }
             Some(Special::Q(n)) => {
                 let old = encode_float(self.vars.q(1, n).unwrap_or(0.0));
@@ -361,7 +365,8 @@ impl CardState {
     pub fn latch_ring_status(&mut self, bits: u32) {
         let a = self.map.ring_cfg_addr;
         let w = self.memory.read(Space::Y, a);
-        self.memory.write(Space::Y, a, w | (bits & I995_STATUS_BITS));
+        self.memory
+            .write(Space::Y, a, w | (bits & I995_STATUS_BITS));
     }
 
     /// Auxiliary images of `node`: `(X read/status image, Y write/command image)` (PMAC2

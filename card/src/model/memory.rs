@@ -88,7 +88,8 @@ impl Memory {
             (Space::Y, Some(a)) => self.y[a] = value & WORD,
             _ => {
                 // Bounded: at most one entry per 24-bit address ever written.
-                self.high.insert((space == Space::X, addr & WORD), value & WORD);
+                self.high
+                    .insert((space == Space::X, addr & WORD), value & WORD);
             }
         }
     }

@@ -327,7 +327,10 @@ mod tests {
         assert_eq!(m.classify(Space::X, 0x0814), None);
         assert_eq!(m.classify(Space::X, 0x01F9), None);
         let r = m.motor_regs(2).unwrap();
-        assert_eq!((r.actual, r.target, r.bias, r.jog), (0x0067, 0x08CB, 0x08D3, 0x08EB));
+        assert_eq!(
+            (r.actual, r.target, r.bias, r.jog),
+            (0x0067, 0x08CB, 0x08D3, 0x08EB)
+        );
     }
 
     #[test]

@@ -457,6 +457,9 @@ mod turbo_tests {
         let mut g = MotorFlags::default();
         g.set_turbo_word1(f.turbo_word1(s));
         g.set_turbo_word2(f.turbo_word2());
-        assert_eq!((g.amp_enabled, g.coord, g.in_position), (true, Some(3), true));
+        assert_eq!(
+            (g.amp_enabled, g.coord, g.in_position),
+            (true, Some(3), true)
+        );
     }
 }

@@ -39,16 +39,27 @@ pub(crate) fn send(card: &mut Card, line: &str) -> Result<(), StartupError> {
             .to_string();
         return Err(StartupError {
             line: line.to_string(),
-            reply: if text.is_empty() { "<BELL>".into() } else { text },
+            reply: if text.is_empty() {
+                "<BELL>".into()
+            } else {
+                text
+            },
         });
     }
     Ok(())
 }
 
 /// The ring settings (I995/I996 on PMAC2, I6840/I6841 on Turbo) the config derives.
-pub(crate) fn apply_ring_settings(card: &mut Card, cfg: u32, nodes: u32) -> Result<(), StartupError> {
+pub(crate) fn apply_ring_settings(
+    card: &mut Card,
+    cfg: u32,
+    nodes: u32,
+) -> Result<(), StartupError> {
     let rv = card.state.ring_ivars();
-    send(card, &format!("I{}=${cfg:X} I{}=${nodes:X}", rv.cfg, rv.nodes))
+    send(
+        card,
+        &format!("I{}=${cfg:X} I{}=${nodes:X}", rv.cfg, rv.nodes),
+    )
 }
 
 /// Activate the motors whose Ix02 (Turbo Ixx02) register is register 0 of one of `nodes`

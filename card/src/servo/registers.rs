@@ -17,11 +17,11 @@
 //! memory registers; every motor gets its `?` flags and its `P`/`V`/`F` report.
 
 use crate::model::encode_fixed;
+use crate::model::Addr;
 use crate::model::CardModel;
 use crate::model::CardState;
 use crate::model::MotorFlags;
 use crate::model::Space;
-use crate::model::Addr;
 use crate::motion::motor::{Motor, TickOutput};
 use crate::motion::params::MotorParams;
 
@@ -72,7 +72,8 @@ pub(super) fn write_motor_registers(
     let vel = (m.velocity() * k09)
         .round()
         .clamp(-8_388_608.0, 8_388_607.0) as i32;
-    st.memory.write(Space::X, r.velocity, vel as u32 & 0xFF_FFFF);
+    st.memory
+        .write(Space::X, r.velocity, vel as u32 & 0xFF_FFFF);
     st.memory.write(Space::X, r.filter, out.reg0);
     for a in st.map().following_regs(x) {
         write_d(st, a, m.following_error() * k08);
@@ -139,6 +140,10 @@ mod tests {
         assert_eq!(st.vars.i(6612), Ok(8_388_607.0), "24-bit wrap");
         let mut p2 = CardState::new(Profile::Pmac2);
         count_timers(&mut p2);
-        assert_eq!(p2.vars.i(511), Ok(32_000.0), "PMAC2: I511 is motor 5's Ix11");
+        assert_eq!(
+            p2.vars.i(511),
+            Ok(32_000.0),
+            "PMAC2: I511 is motor 5's Ix11"
+        );
     }
 }

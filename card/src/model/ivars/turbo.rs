@@ -32,7 +32,12 @@ pub(crate) fn motor_node_reg(x: u16) -> u32 {
 /// Spec of Turbo motor variable Ixxnn for motor `m` (1..=32).
 pub(crate) fn motor(m: u16, nn: u16) -> S {
     let on_ic0 = (1..=8).contains(&m);
-    let addr = |v: u32| S::hex(if on_ic0 { f64::from(v) } else { 0.0 }, f64::from(0x7_FFFFu32));
+    let addr = |v: u32| {
+        S::hex(
+            if on_ic0 { f64::from(v) } else { 0.0 },
+            f64::from(0x7_FFFFu32),
+        )
+    };
     match nn {
         2 => addr(motor_node_reg(m)),
         3 | 4 => addr(ECT_START + 1 + 2 * u32::from(m.saturating_sub(1))),
