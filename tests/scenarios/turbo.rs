@@ -119,31 +119,3 @@ fn turbo_countdown_timers_count_servo_cycles() {
     rig.run(60);
     assert_eq!(rig.num("P1"), 1.0, "the timer ran out");
 }
-
-/// Item 16: `R` right after `#1J/` or `#1HMZ` on a motor at rest is accepted (a motor that
-/// does not move has no move in progress), while a real jog still answers ERR011 (seed: "R"
-/// with a motor in the C.S. jogging).
-#[test]
-fn run_after_a_stop_or_hmz_at_rest_is_accepted() {
-    let mut rig = Rig::with_card(
-        NodePlantConfig::default(),
-        ClusterConfig::default_cluster(1, 1),
-        Profile::Pmac2,
-    );
-    rig.cmd("I3=2");
-    rig.run(20);
-    rig.cmd("#1J/");
-    rig.run(50);
-    rig.cmd("&1 #1->1000X OPEN PROG 1 CLEAR X0.1 CLOSE");
-    rig.cmd("#1J=500");
-    rig.run(1);
-    assert_eq!(rig.cmd("&1 B1 R"), "ERR011", "a jog in progress");
-    rig.run(2000);
-    rig.cmd("#1J/");
-    rig.run(1);
-    assert_eq!(rig.cmd("&1 B1 R"), "", "J/ at rest is no move");
-    rig.run(2000);
-    rig.cmd("#1HMZ");
-    rig.run(1);
-    assert_eq!(rig.cmd("&1 B1 R"), "", "HMZ at rest is no move");
-}

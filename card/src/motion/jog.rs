@@ -156,13 +156,6 @@ impl Trajectory {
         }
     }
 
-    /// True when the motor is not moving and nothing pending will move it: finished, or
-    /// every plan (running and pending) stands still. A motor at rest that was told `J/` or
-    /// `HMZ` has no move in progress (seed: `R` right after them is not ERR011).
-    pub fn at_rest(&self) -> bool {
-        self.finished() || self.plans.iter().all(|(_, p)| p.is_still())
-    }
-
     /// The end position of the last plan (`None` for an endless jog).
     pub fn target(&self) -> Option<f64> {
         self.plans.last().and_then(|(_, p)| p.end_position())
@@ -185,17 +178,6 @@ mod tests {
             ramp: RampParams::new(0.0, 100.0, 0.0),
             speed: 10.0,
         }
-    }
-
-    #[test]
-    fn a_stop_or_zero_move_at_rest_is_no_move() {
-        let mut tr = Trajectory::new(5.0);
-        tr.command(10.0, |k| JogCmd::Stop.plan(k, &jp()));
-        assert!(!tr.finished() && tr.at_rest(), "J/ at rest");
-        tr.command(10.0, |k| JogCmd::To(k.p).plan(k, &jp()));
-        assert!(tr.at_rest(), "J= to where it stands");
-        tr.command(10.0, |k| JogCmd::To(k.p + 1.0).plan(k, &jp()));
-        assert!(!tr.at_rest(), "a real move pending");
     }
 
     #[test]

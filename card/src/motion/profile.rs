@@ -305,18 +305,6 @@ impl Plan {
         }
     }
 
-    /// True when the plan never moves: it ends where it starts and no segment has speed
-    /// (`J/` or `J=` to the present position on a motor at rest, issue 14 item 16).
-    pub fn is_still(&self) -> bool {
-        const EPS: f64 = 1e-9;
-        let speed = |s: &Seg| match *s {
-            Seg::Ramp { v0, v1, .. } => v0.abs().max(v1.abs()),
-            Seg::Cruise { v, .. } => v.abs(),
-        };
-        self.end.is_some_and(|e| (e - self.p0).abs() < EPS)
-            && self.segs[..self.n].iter().all(|s| speed(s) < EPS)
-    }
-
     /// True when `t` is at or past the end of a finite plan.
     pub fn done_at(&self, t: f64) -> bool {
         self.end.is_some() && t >= self.duration()

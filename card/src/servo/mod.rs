@@ -159,7 +159,7 @@ impl Servo {
         }
         for (k, m) in self.motors.iter().enumerate() {
             if let Some(r) = card.run.motors.get_mut(k) {
-                r.moving = m.closed_loop() && !m.trajectory().at_rest();
+                r.moving = m.closed_loop() && !m.trajectory().finished();
             }
         }
         registers::report(card, &self.motors);
