@@ -15,3 +15,4 @@ mod station_aux;
 mod stations;
 mod testing_api;
 mod transcripts;
+mod turbo;

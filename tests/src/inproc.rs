@@ -5,7 +5,7 @@
 //! card app is wrapped. The card is owned by its ring app (as on the servo thread): reach it
 //! through the app between ring cycles.
 
-use mcc_card::{wire_macro_motors, Card, CardHandle, CardRingApp, Session};
+use mcc_card::{ring_startup, Card, CardHandle, CardRingApp, Session};
 use mcc_ring::config::{ClusterConfig, MemberRef, StationConfig};
 use mcc_ring::control::MemberKind;
 use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
@@ -47,9 +47,10 @@ pub fn ring_with_handle<A: RingApp>(
                 let (i995, i996) = (rs.i995, rs.i996);
                 let layer = move |c: &mut Card| {
                     let mut s = Session::default();
-                    let line = format!("I995=${i995:X} I996=${i996:X}");
-                    c.command_line(&mut s, line.as_bytes());
-                    wire_macro_motors(c, &nodes);
+                    let ring = Some((u32::from(i995), i996));
+                    if let Err(e) = ring_startup(c, ring, &nodes, true) {
+                        panic!("test cluster start-up: {e}");
+                    }
                     for (k, v) in &ivars {
                         c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
                     }

@@ -157,8 +157,8 @@ pub enum MDef {
     Bits {
         /// X or Y.
         space: XySpace,
-        /// Address 0..=$FFFF.
-        addr: u16,
+        /// Address 0..=$FFFF (PMAC2), 0..=$7FFFF (Turbo).
+        addr: u32,
         /// Lowest bit, 0..=23.
         offset: u8,
         /// 1, 4, 8, 12, 16, 20 or 24.
@@ -167,13 +167,13 @@ pub enum MDef {
         format: MFormat,
     },
     /// `D:{addr}`: 48-bit signed fixed point, X high.
-    D(u16),
+    D(u32),
     /// `L:{addr}`: 48-bit PMAC floating point.
-    L(u16),
+    L(u32),
     /// `F:{addr}`: 32-bit IEEE float in DPRAM layout.
-    F(u16),
+    F(u32),
     /// `DP:{addr}`: 32-bit signed integer in DPRAM layout.
-    Dp(u16),
+    Dp(u32),
     /// `TWB:{mux},{offset},{size}[,{U|S}]`.
     Twb {
         /// Multiplexer address 0..=255.
@@ -210,6 +210,17 @@ pub enum MDef {
         /// Multiplexer address 0..=127.
         mux: u8,
     },
+}
+
+impl MDef {
+    /// The memory address the definition points at (`None` for `*` and thumbwheel forms).
+    pub fn address(&self) -> Option<u32> {
+        match *self {
+            MDef::Bits { addr, .. } => Some(addr),
+            MDef::D(a) | MDef::L(a) | MDef::F(a) | MDef::Dp(a) => Some(a),
+            _ => None,
+        }
+    }
 }
 
 impl MDef {

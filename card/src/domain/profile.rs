@@ -25,6 +25,53 @@ pub struct Limits {
     pub cs_status_digits: u8,
 }
 
+/// The I-variable numbers of the MACRO ring setup (MACRO IC 0 on Turbo).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct RingIvars {
+    /// Ring configuration/status (PMAC2 I995, Turbo I6840).
+    pub(crate) cfg: u32,
+    /// Node activation, sync node, master number (I996 / I6841).
+    pub(crate) nodes: u32,
+    /// Node auxiliary register copy enable (I1000 / I70).
+    pub(crate) aux_enable: u32,
+    /// Ring check period (I1001 / I80).
+    pub(crate) check_period: u32,
+    /// Node protocol type, 1 = Type 1 flags in register 3 (I1002 / I71).
+    pub(crate) protocol: u32,
+    /// Master/slave auxiliary communications timeout (I1003 / I78).
+    pub(crate) aux_timeout: u32,
+    /// Ring error count limit (I1004 / I81).
+    pub(crate) error_limit: u32,
+    /// Minimum sync packets per check period (I1005 / I82).
+    pub(crate) sync_min: u32,
+}
+
+/// The ring I-variable numbers of `profile`.
+pub(crate) const fn ring_ivars(profile: Profile) -> RingIvars {
+    match profile {
+        Profile::Pmac2 => RingIvars {
+            cfg: 995,
+            nodes: 996,
+            aux_enable: 1000,
+            check_period: 1001,
+            protocol: 1002,
+            aux_timeout: 1003,
+            error_limit: 1004,
+            sync_min: 1005,
+        },
+        Profile::Turbo => RingIvars {
+            cfg: 6840,
+            nodes: 6841,
+            aux_enable: 70,
+            check_period: 80,
+            protocol: 71,
+            aux_timeout: 78,
+            error_limit: 81,
+            sync_min: 82,
+        },
+    }
+}
+
 /// The dimensions of `profile`.
 pub(crate) fn limits(profile: Profile) -> Limits {
     match profile {

@@ -422,7 +422,10 @@ fn fmt_letter(f: MFormat) -> char {
 
 /// `X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002C`, `*` (the `Mn->` reply body).
 impl fmt::Display for MDef {
+    /// `X:$C001,24,S`; the alternate form (`{:#}`) prints six address digits as a Turbo card
+    /// does (`D:$00008B`).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = if f.alternate() { 6 } else { 4 };
         match *self {
             MDef::SelfRef => write!(f, "*"),
             MDef::Bits {
@@ -434,19 +437,19 @@ impl fmt::Display for MDef {
             } => {
                 let sp = if space == XySpace::X { 'X' } else { 'Y' };
                 match width {
-                    1 => write!(f, "{sp}:${addr:04X},{offset}"),
-                    24 => write!(f, "{sp}:${addr:04X},24,{}", fmt_letter(format)),
+                    1 => write!(f, "{sp}:${addr:0w$X},{offset}"),
+                    24 => write!(f, "{sp}:${addr:0w$X},24,{}", fmt_letter(format)),
                     _ => write!(
                         f,
-                        "{sp}:${addr:04X},{offset},{width},{}",
+                        "{sp}:${addr:0w$X},{offset},{width},{}",
                         fmt_letter(format)
                     ),
                 }
             }
-            MDef::D(a) => write!(f, "D:${a:04X}"),
-            MDef::L(a) => write!(f, "L:${a:04X}"),
-            MDef::F(a) => write!(f, "F:${a:04X}"),
-            MDef::Dp(a) => write!(f, "DP:${a:04X}"),
+            MDef::D(a) => write!(f, "D:${a:0w$X}"),
+            MDef::L(a) => write!(f, "L:${a:0w$X}"),
+            MDef::F(a) => write!(f, "F:${a:0w$X}"),
+            MDef::Dp(a) => write!(f, "DP:${a:0w$X}"),
             MDef::Twb {
                 mux,
                 offset,

@@ -18,7 +18,7 @@ use crate::motion::motor::Motor;
 pub(crate) const MAX_FRAMES: usize = 16;
 
 /// X:$0799: the run-time error code register.
-pub(crate) const RUNTIME_ERROR_ADDR: u16 = 0x0799;
+pub(crate) const RUNTIME_ERROR_ADDR: u32 = 0x0799;
 
 /// Run-time error codes (X:$0799, spec §5.2), plus this card's own 7-9.
 pub(crate) mod rte {

@@ -176,12 +176,12 @@ impl Pmac<'_> {
                 addr,
                 values,
             } => {
-                let a = u16::try_from(*addr).map_err(|_| 3u16)?;
+                let a = self.mem_addr(*addr)?;
                 if values.is_empty() || values.len() > 16 {
                     return Err(3);
                 }
                 for (k, v) in values.iter().enumerate() {
-                    let at = a.wrapping_add(k as u16);
+                    let at = (a + k as u32) & self.model.state.map().max_addr;
                     let i = v.value.round().clamp(-(2f64.powi(47)), 2f64.powi(48)) as i64;
                     match space {
                         MemSpace::X => self.model.state.write(Space::X, at, (i as u32) & 0xFF_FFFF),
@@ -213,6 +213,14 @@ impl Pmac<'_> {
     }
 
     /// Writes to I-variables may change what the interpreter caches (I18 buffer warning).
+    /// A `R`/`W` address inside the profile's map (PMAC2 $FFFF, Turbo $7FFFF), else ERR003.
+    fn mem_addr(&self, addr: u32) -> Result<u32, u16> {
+        if addr > self.model.state.map().max_addr {
+            return Err(3);
+        }
+        Ok(addr)
+    }
+
     fn after_ivar_write(&mut self, kind: VarKind) {
         if kind == VarKind::I {
             self.sync_global_flags();
@@ -227,13 +235,13 @@ impl Pmac<'_> {
         count: u32,
         out: &mut Out,
     ) -> Exec {
-        let a = u16::try_from(addr).map_err(|_| 3u16)?;
+        let a = self.mem_addr(addr)?;
         if !(1..=16).contains(&count) {
             return Err(3);
         }
         let mut words = Vec::with_capacity(count as usize);
         for k in 0..count {
-            let at = a.wrapping_add(k as u16);
+            let at = (a + k) & self.model.state.map().max_addr;
             let text = match space {
                 MemSpace::X | MemSpace::Y => {
                     let sp = if space == MemSpace::X {
