@@ -16,6 +16,7 @@ mod card_state;
 mod card_status;
 mod defines;
 mod error;
+mod ext;
 mod float48;
 mod gather;
 mod ivars;
@@ -38,6 +39,7 @@ pub(crate) use buffers::{list_lines, BufErr, BufId, Buffers, Program, Rotary, St
 pub use card::CardModel;
 pub(crate) use card::{user_memory_words, PLCS};
 pub use card_state::CardState;
+pub use ext::{ExtAt, ExtError, ExtVars, Thread};
 pub(crate) use card_state::I995_STATUS_BITS;
 pub(crate) use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
 pub use float48::*;
