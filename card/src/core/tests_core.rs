@@ -79,3 +79,29 @@ fn save_waits_for_its_effect_and_reports_a_failed_write() {
     let r = c.take_replies();
     assert_eq!(r[0].1.bytes, b"\x07\rERR003\r");
 }
+
+#[test]
+fn a_power_card_answers_every_connection_in_its_own_thread() {
+    let mut c = CardCore::new(Card::new(Profile::Power));
+    c.submit(1, 10, HostRequest::Line(b"#5 echo 1 cid".to_vec()));
+    c.submit(2, 11, HostRequest::Line(b"#".to_vec()));
+    c.submit(3, 10, HostRequest::Line(b"Ldata.Motor".to_vec()));
+    c.submit(4, 10, HostRequest::End);
+    c.submit(5, 10, HostRequest::Line(b"#".to_vec()));
+    let (_, replies) = serve_all(&mut c);
+    let text: Vec<(u64, String)> = replies
+        .into_iter()
+        .map(|(t, r)| (t, String::from_utf8(r.bytes).unwrap()))
+        .collect();
+    assert_eq!(
+        text,
+        vec![
+            (1, "604020\r\n\x06\r\n".to_string()),
+            (2, "#0\r\n\x06\r\n".to_string()),
+            (3, "5\r\n\x06\r\n".to_string()),
+            (4, String::new()),
+            // a new connection with the same id starts a fresh thread
+            (5, "#0\r\n\x06\r\n".to_string()),
+        ]
+    );
+}

@@ -14,6 +14,7 @@ pub(crate) mod ast;
 pub(crate) mod interp;
 mod lexer;
 pub(crate) mod listing;
+pub mod ppmac;
 mod parse_defs;
 mod parse_expr;
 mod parse_mdef;

@@ -49,7 +49,7 @@ impl CardState {
         let mut s = CardState {
             profile,
             limits,
-            vars: VarStore::new(IVarTable::new(profile), limits.coords),
+            vars: VarStore::for_limits(IVarTable::new(profile), &limits),
             mdefs: vec![MDef::SelfRef; n],
             mself: vec![0; n],
             memory: Memory::default(),
