@@ -14,4 +14,4 @@ pub(crate) mod words;
 
 pub use error::ErrCode;
 pub use ids::{CsNum, MotorNum, NodeNum};
-pub use profile::{Limits, Profile, Semantics};
+pub use profile::{Limits, Profile};

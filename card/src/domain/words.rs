@@ -66,9 +66,7 @@ pub(crate) fn word_count(s: &Stmt) -> u32 {
             1 + expr_words(d)
         }
         S::Switch(d) => 1 + expr_words(d),
-        S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) | S::DoWhile(c) => {
-            1 + cond_words(c)
-        }
+        S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) | S::DoWhile(c) => 1 + cond_words(c),
         S::IfLine(c, b) | S::WhileLine(c, b) => 1 + cond_words(c) + body(b),
         S::Else(b) => 1 + body(b),
         S::Call(d, a) | S::Code(_, d, a) => {

@@ -14,12 +14,12 @@ pub(crate) mod ast;
 pub(crate) mod interp;
 mod lexer;
 pub(crate) mod listing;
-pub mod ppmac;
 mod parse_defs;
 mod parse_expr;
 mod parse_mdef;
 mod parse_online;
 mod parse_program;
+pub(crate) mod ppmac;
 
 #[cfg(test)]
 mod tests_eval;

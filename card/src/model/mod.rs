@@ -39,9 +39,9 @@ pub(crate) use buffers::{list_lines, BufErr, BufId, Buffers, Program, Rotary, St
 pub use card::CardModel;
 pub(crate) use card::{user_memory_words, PLCS};
 pub use card_state::CardState;
-pub use ext::{ExtAt, ExtError, ExtVars, Thread};
 pub(crate) use card_state::I995_STATUS_BITS;
 pub(crate) use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
+pub(crate) use ext::{ExtAt, ExtVars, Thread};
 pub use float48::*;
 pub(crate) use gather::gather_tick;
 pub use memory::*;

@@ -42,7 +42,6 @@ impl VarStore {
         s
     }
 
-
     /// The I-variable table (specs).
     pub fn table(&self) -> &IVarTable {
         &self.table

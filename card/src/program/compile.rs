@@ -134,13 +134,7 @@ impl Builder {
 
     /// `break` / `continue`.
     fn jump_out(&mut self, cont: bool, head: bool) -> Result<(), Unlinked> {
-        let j = self.emit(
-            Op::Jump {
-                to: 0,
-                back: cont,
-            },
-            head,
-        );
+        let j = self.emit(Op::Jump { to: 0, back: cont }, head);
         let l = if cont {
             self.loops.iter_mut().rev().find(|l| l.is_loop)
         } else {

@@ -99,7 +99,14 @@ pub(crate) fn write(card: &mut CardModel, cs: u16, kind: VarKind, n: u32, v: f64
 
 /// Apply a synchronous assignment now (C.S. `cs`): `==` stores, the compound forms combine
 /// with the present value.
-pub(crate) fn apply_sync(card: &mut CardModel, cs: u16, kind: VarKind, m: u32, op: AssignOp, v: f64) {
+pub(crate) fn apply_sync(
+    card: &mut CardModel,
+    cs: u16,
+    kind: VarKind,
+    m: u32,
+    op: AssignOp,
+    v: f64,
+) {
     let b = match op {
         AssignOp::SyncAnd => Some(BinOp::And),
         AssignOp::SyncOr => Some(BinOp::Or),

@@ -206,7 +206,10 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
         if !matches!(c.profile.as_str(), "pmac2" | "turbo" | "power") {
             return bad(
                 format!("{key}.profile"),
-                format!("unknown profile {:?} (expected pmac2, turbo or power)", c.profile),
+                format!(
+                    "unknown profile {:?} (expected pmac2, turbo or power)",
+                    c.profile
+                ),
             );
         }
         for (field, port) in [

@@ -220,9 +220,7 @@ pub(crate) fn write(
             }
         }
         (St::Sys, "P") => {
-            st.vars
-                .set_p(k.sub[0], v)
-                .map_err(|_| ILLEGAL_PARAMETER)?;
+            st.vars.set_p(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?;
         }
         (St::Sys, "M") => st.write_m(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?,
         (St::Sys, "I") => write_ivar(card, store, k.sub[0], v)?,

@@ -52,7 +52,12 @@ struct Ctx<'a> {
 }
 
 /// Run one line for thread `th`: its framed output.
-pub(crate) fn run_line(card: &mut Card, store: &mut Store, th: &mut Thread, line: &[u8]) -> Vec<u8> {
+pub(crate) fn run_line(
+    card: &mut Card,
+    store: &mut Store,
+    th: &mut Thread,
+    line: &[u8],
+) -> Vec<u8> {
     th.lines += 1;
     let mut cx = Ctx {
         card,
@@ -205,7 +210,13 @@ impl Ctx<'_> {
                 let v = self.eval(x, elems)?;
                 let v = match e.bits {
                     Some((start, width)) => {
-                        let old = self.elem_read(&ElemRef { bits: None, ..e.clone() }, &k)?;
+                        let old = self.elem_read(
+                            &ElemRef {
+                                bits: None,
+                                ..e.clone()
+                            },
+                            &k,
+                        )?;
                         set_bits(old, start, width, v).ok_or(22u16)?
                     }
                     None => v,
@@ -241,7 +252,14 @@ impl Ctx<'_> {
     fn info(&mut self, w: &str) {
         match w {
             "cid" => {
-                let s = self.card.model.state.limits().cid.unwrap_or(604_020).to_string();
+                let s = self
+                    .card
+                    .model
+                    .state
+                    .limits()
+                    .cid
+                    .unwrap_or(604_020)
+                    .to_string();
                 self.say(&s);
             }
             "vers" => self.say("2.6.0.0"),
@@ -251,7 +269,11 @@ impl Ctx<'_> {
             "size" | "free" => {
                 let used = self.card.model.bufs.used() * 8;
                 let total = 16_777_216u64;
-                let prog = if w == "size" { total } else { total - used.min(total) };
+                let prog = if w == "size" {
+                    total
+                } else {
+                    total - used.min(total)
+                };
                 for l in [
                     format!("Program Buffer = {prog}"),
                     "User Buffer = 1048576".to_string(),
@@ -326,7 +348,11 @@ impl Ctx<'_> {
         let cs = self.th.coord + 1;
         let st = &mut self.card.model.state;
         match f {
-            Fam::P => st.vars.set_p(n, v).map(|_| ()).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::P => st
+                .vars
+                .set_p(n, v)
+                .map(|_| ())
+                .map_err(|_| ILLEGAL_PARAMETER),
             Fam::Q => st
                 .vars
                 .set_q(cs, n, v)
@@ -572,12 +598,20 @@ pub(crate) fn fmt(v: f64) -> String {
 
 fn get_bits(v: f64, start: u32, width: u32) -> f64 {
     let w = v as i64 as u64;
-    let mask = if width >= 64 { u64::MAX } else { (1u64 << width) - 1 };
+    let mask = if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    };
     ((w >> start) & mask) as f64
 }
 
 fn set_bits(old: f64, start: u32, width: u32, v: f64) -> Option<f64> {
-    let mask = if width >= 64 { u64::MAX } else { (1u64 << width) - 1 };
+    let mask = if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    };
     if !(v.is_finite() && v >= 0.0 && (v as u64) <= mask) {
         return None;
     }
@@ -592,7 +626,11 @@ pub(crate) fn motor_status(card: &CardModel, x: u16) -> [u32; 2] {
         return [0, 0];
     };
     let b = |c: bool, n: u32| u32::from(c) << n;
-    let active = card.state.peek_ivar(100 * (u32::from(x) + 1)).unwrap_or(0.0) != 0.0;
+    let active = card
+        .state
+        .peek_ivar(100 * (u32::from(x) + 1))
+        .unwrap_or(0.0)
+        != 0.0;
     let w0 = b(f.trigger_move, 31)
         | b(f.home_search, 30)
         | b(f.neg_limit, 29)

@@ -27,7 +27,7 @@ use std::collections::HashMap;
 use crate::lang::interp::Card;
 
 /// Longest command line accepted (bytes before the terminator).
-pub const MAX_LINE: usize = 1024;
+pub(crate) const MAX_LINE: usize = 1024;
 
 /// Connections the dialect keeps threads for; the least recently used is forgotten beyond.
 const MAX_THREADS: usize = 512;

@@ -412,7 +412,11 @@ impl<'a> Cur<'a> {
                     return Ok(l);
                 }
             };
-            self.i += if matches!(op, BinOp::Shl | BinOp::Shr) { 2 } else { 1 };
+            self.i += if matches!(op, BinOp::Shl | BinOp::Shr) {
+                2
+            } else {
+                1
+            };
             self.ws();
             let r = if level == 1 {
                 self.binary(2, depth + 1)?
@@ -469,7 +473,10 @@ impl<'a> Cur<'a> {
         let pos = Pos(at as u32);
         // A variable: family letter then a number or a parenthesised index.
         if let Some(f) = self.peek().and_then(Fam::of) {
-            if self.peek_at(1).is_some_and(|c| c.is_ascii_digit() || c == b'(') {
+            if self
+                .peek_at(1)
+                .is_some_and(|c| c.is_ascii_digit() || c == b'(')
+            {
                 self.i += 1;
                 let index = self.var_index(depth)?;
                 return Ok(Expr {
@@ -591,10 +598,7 @@ impl<'a> Cur<'a> {
                     1
                 };
                 if start > 63 || width == 0 || width > 64 || start + width > 64 {
-                    return Err(SyntaxError {
-                        at: dot,
-                        code: 21,
-                    });
+                    return Err(SyntaxError { at: dot, code: 21 });
                 }
                 bits = Some((start, width));
                 break;
@@ -829,7 +833,9 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     // Variables: a family letter followed by a number or `(`.
     if let Some(f) = Fam::of(ch) {
-        if c.peek_at(1).is_some_and(|d| d.is_ascii_digit() || d == b'(') {
+        if c.peek_at(1)
+            .is_some_and(|d| d.is_ascii_digit() || d == b'(')
+        {
             c.i += 1;
             return variable(c, f);
         }
@@ -862,13 +868,13 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "v" => motor(MotorCmd::Velocity),
         "f" => motor(MotorCmd::FollowingError),
         "d" => motor(MotorCmd::DesPos),
-        "out" => match {
+        "out" => {
             c.ws();
-            signed(c)
-        } {
-            Some(v) => motor(MotorCmd::Out(v)),
-            None => err(c.i),
-        },
+            match signed(c) {
+                Some(v) => motor(MotorCmd::Out(v)),
+                None => err(c.i),
+            }
+        }
         "r" | "run" => cs(CsCmd::Run),
         "s" | "step" => cs(CsCmd::Step),
         "q" | "pause" => cs(CsCmd::Quit),
@@ -921,14 +927,13 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
             } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
                 c.i += 1;
                 let n = c.uint().unwrap_or(0);
-                let step = if c.peek() == Some(b',')
-                    && c.peek_at(1).is_some_and(|d| d.is_ascii_digit())
-                {
-                    c.i += 1;
-                    c.uint().unwrap_or(1)
-                } else {
-                    1
-                };
+                let step =
+                    if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+                        c.i += 1;
+                        c.uint().unwrap_or(1)
+                    } else {
+                        1
+                    };
                 Sel::List(*a, n, step)
             } else {
                 Sel::One(index.clone())

@@ -47,9 +47,15 @@ fn variables_echo_and_ivar_aliases() {
     assert_eq!(t.send("I1"), "4\r\n");
     assert_eq!(t.send("P0..2"), "0\r\n3\r\n0\r\n");
     assert_eq!(t.send("echo 1"), "");
-    assert_eq!(t.send("Motor[1].JogSpeed=2001 Motor[1].JogSpeed"), "2001\r\n");
+    assert_eq!(
+        t.send("Motor[1].JogSpeed=2001 Motor[1].JogSpeed"),
+        "2001\r\n"
+    );
     // echo is per thread
-    assert_eq!(t.send_on(2, "Motor[1].JogSpeed"), "Motor[1].JogSpeed=2001\r\n");
+    assert_eq!(
+        t.send_on(2, "Motor[1].JogSpeed"),
+        "Motor[1].JogSpeed=2001\r\n"
+    );
 }
 
 #[test]
@@ -67,7 +73,11 @@ fn power_arithmetic() {
         ("1 << 4", "16"),
         ("2 + 3 * 4", "14"),
     ] {
-        assert_eq!(t.send(&format!("P5={e} P5")), format!("P5={want}\r\n"), "{e}");
+        assert_eq!(
+            t.send(&format!("P5={e} P5")),
+            format!("P5={want}\r\n"),
+            "{e}"
+        );
     }
 }
 
@@ -78,7 +88,10 @@ fn addressing_and_identity() {
     assert_eq!(t.send("&"), "&0\r\n");
     assert_eq!(t.send("#3 &2 # &"), "#3\r\n&2\r\n");
     // a list applies to the next command only
-    assert_eq!(t.send("#1,2? #"), "0000000000000000 0000000000000000\r\n#3\r\n");
+    assert_eq!(
+        t.send("#1,2? #"),
+        "0000000000000000 0000000000000000\r\n#3\r\n"
+    );
     assert_eq!(t.send("cid"), "604020\r\n");
     assert_eq!(t.send("type"), "PWR PMAC UMAC\r\n");
     assert_eq!(t.send("?"), "00000000\r\n");
@@ -126,4 +139,3 @@ fn jog_reaches_the_model_as_an_action() {
     assert_eq!(a.len(), 1, "{a:?}");
     assert_eq!(a[0].motor, 2, "Power motor 1 is model motor 2");
 }
-

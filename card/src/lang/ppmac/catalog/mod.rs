@@ -129,8 +129,7 @@ pub(crate) fn find(st: St, name: &str) -> Option<usize> {
 
 /// The element of `st` whose legacy I-variable number is `inum`.
 pub(crate) fn by_inum(st: St, inum: u32) -> Option<usize> {
-    DEFS.iter()
-        .position(|d| d.st == st && d.inum == Some(inum))
+    DEFS.iter().position(|d| d.st == st && d.inum == Some(inum))
 }
 
 #[cfg(test)]
@@ -141,8 +140,14 @@ mod tests {
     fn seed_elements_are_found() {
         let j = find(St::Motor, "jogspeed").map(|k| DEFS[k]);
         assert_eq!(j.map(|d| (d.inum, d.class)), Some((Some(22), Class::Saved)));
-        assert_eq!(by_inum(St::Motor, 22).map(|k| DEFS[k].name), Some("JogSpeed"));
-        assert_eq!(find(St::Motor, "ActPos").map(|k| DEFS[k].class), Some(Class::Status));
+        assert_eq!(
+            by_inum(St::Motor, 22).map(|k| DEFS[k].name),
+            Some("JogSpeed")
+        );
+        assert_eq!(
+            find(St::Motor, "ActPos").map(|k| DEFS[k].class),
+            Some(Class::Status)
+        );
         assert!(find(St::Gate3, "MacroEnableA").is_some());
         assert!(find(St::Motor, "NoSuchThing").is_none());
         assert_eq!(structure("ACC5E3"), Some((St::Gate3, "Acc5E3")));
