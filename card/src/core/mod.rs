@@ -205,7 +205,7 @@ impl CardCore {
             let done = match job.req.clone() {
                 HostRequest::End => {
                     if let Some(p) = self.power.as_mut() {
-                        p.end(conn);
+                        p.end(&mut self.card, conn);
                     }
                     self.card.end_session(&s);
                     self.sessions.remove(&conn);

@@ -52,7 +52,7 @@ pub enum VarKind {
     M,
     /// A variable family the command language defines beyond I/P/Q/M (thread-local
     /// variables, named data-structure elements, ...), numbered by the language. The model's
-    /// extension ([`crate::model::ExtVars`]) reads and writes it.
+    /// extension (`model::ExtVars`) reads and writes it.
     Ext(u16),
 }
 

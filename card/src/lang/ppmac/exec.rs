@@ -83,6 +83,24 @@ pub(crate) fn run_line(
     cx.out
 }
 
+/// The output of a line that prints nothing: its error (if any) and the ACK.
+pub(crate) fn frame(th: &Thread, line: &[u8], e: Option<parse::SyntaxError>) -> Vec<u8> {
+    let mut out = Vec::new();
+    if let Some(e) = e {
+        let s = format!(
+            "stdin:{}:{}: error #{}: {}: {}\r\n",
+            th.lines,
+            e.at + 1,
+            e.code,
+            error_text(e.code),
+            String::from_utf8_lossy(line).trim_end()
+        );
+        out.extend_from_slice(s.as_bytes());
+    }
+    out.extend_from_slice(ACK);
+    out
+}
+
 impl Ctx<'_> {
     fn error(&mut self, line: &[u8], at: usize, code: u16) {
         let text = String::from_utf8_lossy(line);
@@ -243,6 +261,34 @@ impl Ctx<'_> {
                     format!("{}.a={text}", self.elem_name(&k, e))
                 };
                 self.say(&s);
+            }
+            Cmd::AxisDef(m, text) => {
+                // The definition forms are the classic ones: run as a PMAC command with the
+                // model numbering (`#n->0` undefines).
+                let line = format!("&{}#{}->{}", self.th.coord + 1, m + 1, text);
+                let mut s = Session::with_id(0);
+                let r = self.card.command_line(&mut s, line.as_bytes());
+                let r = String::from_utf8_lossy(&r).into_owned();
+                if r.contains("ERR") {
+                    return Err(21);
+                }
+                if text.is_empty() {
+                    let def: String = r
+                        .chars()
+                        .filter(|c| !c.is_control())
+                        .collect::<String>()
+                        .trim()
+                        .to_string();
+                    self.say(&def);
+                }
+            }
+            Cmd::PlcCtl(on, n) => {
+                let line = format!("{} PLC {n}", if *on { "ENABLE" } else { "DISABLE" });
+                let mut s = Session::with_id(0);
+                let r = self.card.command_line(&mut s, line.as_bytes());
+                if String::from_utf8_lossy(&r).contains("ERR") {
+                    return Err(21);
+                }
             }
             Cmd::Motors(..) | Cmd::Coords(..) | Cmd::Motor(_) | Cmd::Cs(_) => {}
         }

@@ -18,6 +18,7 @@ mod catalog;
 mod elements;
 mod exec;
 mod parse;
+mod program;
 
 #[cfg(test)]
 mod tests;
@@ -25,6 +26,7 @@ mod tests;
 use std::collections::HashMap;
 
 use crate::lang::interp::Card;
+use crate::model::{BufId, ProgLine};
 
 /// Longest command line accepted (bytes before the terminator).
 pub(crate) const MAX_LINE: usize = 1024;
@@ -121,6 +123,16 @@ pub struct Power {
     threads: HashMap<u64, (Thread, u64)>,
     clock: u64,
     store: elements::Store,
+    open: Option<OpenBuf>,
+}
+
+/// The one buffer open on the card (seed §2.9: one at a time across all threads).
+#[derive(Debug)]
+struct OpenBuf {
+    conn: u64,
+    id: BufId,
+    blocks: program::Blocks,
+    lines: usize,
 }
 
 impl Power {
@@ -132,14 +144,135 @@ impl Power {
     /// Execute one command line of connection `conn` on `card`: the bytes to send back.
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
         let mut th = self.take_thread(conn);
-        let out = exec::run_line(card, &mut self.store, &mut th, line);
+        let out = match self.buffer_command(card, conn, &mut th, line) {
+            Some(out) => out,
+            None => exec::run_line(card, &mut self.store, &mut th, line),
+        };
         self.threads.insert(conn, (th, self.clock));
         out
     }
 
-    /// Connection `conn` closed: forget its thread.
-    pub fn end(&mut self, conn: u64) {
+    /// Connection `conn` closed: forget its thread, close a buffer it left open.
+    pub fn end(&mut self, card: &mut Card, conn: u64) {
         self.threads.remove(&conn);
+        if self.open.as_ref().is_some_and(|o| o.conn == conn) {
+            // A buffer left open by a vanished connection is closed (its errors have no one to
+            // go to).
+            let _ = self.close(card);
+        }
+    }
+
+    /// `open prog|plc n`, `close`, and the lines entered into an open buffer.
+    fn buffer_command(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        th: &mut Thread,
+        line: &[u8],
+    ) -> Option<Vec<u8>> {
+        let text = String::from_utf8_lossy(line).to_ascii_lowercase();
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let mine = self.open.as_ref().is_some_and(|o| o.conn == conn);
+        match words.as_slice() {
+            ["open", kind, n] => {
+                th.lines += 1;
+                let r = self.open_buffer(card, conn, kind, n);
+                return Some(exec::frame(th, line, r.err()));
+            }
+            ["close"] | ["close", "all", "buffers"] => {
+                th.lines += 1;
+                let r = if self.open.is_some() {
+                    self.close(card)
+                } else {
+                    Ok(())
+                };
+                return Some(exec::frame(th, line, r.err()));
+            }
+            _ if mine => {}
+            _ => return None,
+        }
+        th.lines += 1;
+        let o = self.open.as_mut()?;
+        let r = match program::parse_program_line(line, &mut o.blocks) {
+            Ok(stmts) if stmts.is_empty() => Ok(()),
+            Ok(stmts) => {
+                o.lines += 1;
+                card.model
+                    .bufs
+                    .append(o.id, ProgLine::new(stmts))
+                    .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+            }
+            Err(e) => Err(e),
+        };
+        Some(match r {
+            Ok(()) => exec::frame(th, line, None),
+            Err(e) => {
+                // Seed §2.9: a line that is not a valid buffer command erases and closes the
+                // open buffer.
+                let id = o.id;
+                self.open = None;
+                card.model.bufs.remove(id);
+                exec::frame(th, line, Some(e))
+            }
+        })
+    }
+
+    fn open_buffer(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        kind: &str,
+        n: &str,
+    ) -> Result<(), parse::SyntaxError> {
+        let bad = |code| parse::SyntaxError { at: 0, code };
+        if self.open.is_some() {
+            return Err(bad(21));
+        }
+        let n: u32 = n.parse().map_err(|_| bad(21))?;
+        let id = match kind {
+            "prog" if (1..=32_767).contains(&n) => BufId::Prog(n as u16),
+            "plc" if n <= 31 => BufId::Plc(n as u8),
+            "prog" | "plc" => return Err(bad(21)),
+            _ => return Err(bad(20)),
+        };
+        if card.model.state.coords.iter().any(|c| c.running) && matches!(id, BufId::Prog(_)) {
+            return Err(bad(26));
+        }
+        // Seed §2.9: `open` clears the buffer.
+        card.model.bufs.remove(id);
+        card.model.bufs.open(id).map_err(|_| bad(21))?;
+        match id {
+            BufId::Prog(_) => card.model.run.cs.iter_mut().for_each(|c| c.pointer = None),
+            BufId::Plc(k) => card.model.run.plc[usize::from(k)].enabled = false,
+            BufId::Rot => {}
+        }
+        self.open = Some(OpenBuf {
+            conn,
+            id,
+            blocks: Vec::new(),
+            lines: 0,
+        });
+        Ok(())
+    }
+
+    /// Close the open buffer: an empty one is deleted (seed: `open` then `close`), an
+    /// unbalanced one is erased with an error.
+    fn close(&mut self, card: &mut Card) -> Result<(), parse::SyntaxError> {
+        let Some(o) = self.open.take() else {
+            return Ok(());
+        };
+        if o.lines == 0 {
+            card.model.bufs.remove(o.id);
+            return Ok(());
+        }
+        if !o.blocks.is_empty() {
+            card.model.bufs.remove(o.id);
+            return Err(parse::SyntaxError { at: 0, code: 20 });
+        }
+        card.model
+            .bufs
+            .close(o.id)
+            .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
     }
 
     /// The thread of `conn` (a fresh one for a new connection).

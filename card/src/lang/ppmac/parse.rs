@@ -216,6 +216,10 @@ pub(crate) enum Cmd {
     Echo(Option<u32>),
     /// `cid`, `vers`, `type`, `cpu`, `date`, `size`, `free`, `buffer`
     Info(&'static str),
+    /// `#n->{definition}` (empty: the query `#n->`)
+    AxisDef(u16, String),
+    /// `enable plc n` / `disable plc n` (`true`: enable)
+    PlcCtl(bool, u32),
 }
 
 /// A command with where it started.
@@ -243,6 +247,7 @@ pub(crate) struct Cur<'a> {
     s: &'a [u8],
     pub(crate) i: usize,
     elems: Vec<ElemRef>,
+    ext: bool,
 }
 
 fn err<T>(at: usize) -> P<T> {
@@ -255,24 +260,60 @@ impl<'a> Cur<'a> {
             s,
             i: 0,
             elems: Vec::new(),
+            ext: false,
         }
     }
 
-    fn peek(&self) -> Option<u8> {
+    /// The bytes not yet parsed.
+    pub(crate) fn rest(&self) -> &'a [u8] {
+        self.s.get(self.i..).unwrap_or_default()
+    }
+
+    /// Elements, I-variables or thread-local variables were named in the expressions parsed
+    /// so far (they resolve per communication thread).
+    pub(crate) fn has_elems(&self) -> bool {
+        self.ext || !self.elems.is_empty()
+    }
+
+    /// `w` as a whole word (case ignored).
+    pub(crate) fn eat_word(&mut self, w: &str) -> bool {
+        let save = self.i;
+        if self.eat_str(w)
+            && !self
+                .peek()
+                .is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_')
+        {
+            return true;
+        }
+        self.i = save;
+        false
+    }
+
+    /// A word, lower-cased (letters, digits, underscore; starting with a letter).
+    pub(crate) fn word_lower(&mut self) -> Option<String> {
+        self.word()
+    }
+
+    /// A literal number with an optional sign.
+    pub(crate) fn signed_number(&mut self) -> Option<f64> {
+        signed(self)
+    }
+
+    pub(crate) fn peek(&self) -> Option<u8> {
         self.s.get(self.i).map(u8::to_ascii_lowercase)
     }
 
-    fn peek_at(&self, k: usize) -> Option<u8> {
+    pub(crate) fn peek_at(&self, k: usize) -> Option<u8> {
         self.s.get(self.i + k).map(u8::to_ascii_lowercase)
     }
 
-    fn ws(&mut self) {
+    pub(crate) fn ws(&mut self) {
         while matches!(self.peek(), Some(b' ' | b'\t')) {
             self.i += 1;
         }
     }
 
-    fn eat(&mut self, c: u8) -> bool {
+    pub(crate) fn eat(&mut self, c: u8) -> bool {
         if self.peek() == Some(c) {
             self.i += 1;
             true
@@ -281,7 +322,7 @@ impl<'a> Cur<'a> {
         }
     }
 
-    fn eat_str(&mut self, t: &str) -> bool {
+    pub(crate) fn eat_str(&mut self, t: &str) -> bool {
         let n = t.len();
         match self.s.get(self.i..self.i + n) {
             Some(w) if w.eq_ignore_ascii_case(t.as_bytes()) => {
@@ -292,7 +333,7 @@ impl<'a> Cur<'a> {
         }
     }
 
-    fn at_end(&self) -> bool {
+    pub(crate) fn at_end(&self) -> bool {
         self.i >= self.s.len()
     }
 
@@ -317,7 +358,7 @@ impl<'a> Cur<'a> {
         std::str::from_utf8(&self.s[st..self.i]).ok()
     }
 
-    fn uint(&mut self) -> Option<u32> {
+    pub(crate) fn uint(&mut self) -> Option<u32> {
         let st = self.i;
         while self.peek().is_some_and(|c| c.is_ascii_digit()) {
             self.i += 1;
@@ -479,6 +520,7 @@ impl<'a> Cur<'a> {
             {
                 self.i += 1;
                 let index = self.var_index(depth)?;
+                self.ext |= matches!(f.kind(), VarKind::Ext(_));
                 return Ok(Expr {
                     kind: ExprKind::Var(VarRef {
                         kind: f.kind(),
@@ -537,7 +579,7 @@ impl<'a> Cur<'a> {
     }
 
     /// `n` or `(expr)` after a family letter.
-    fn var_index(&mut self, depth: u32) -> P<VarIndex> {
+    pub(crate) fn var_index(&mut self, depth: u32) -> P<VarIndex> {
         if self.eat(b'(') {
             let e = self.expr(depth + 1)?;
             self.ws();
@@ -795,7 +837,21 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     match ch {
         b'#' => {
             c.i += 1;
-            return Ok(match c.num_list(motors)? {
+            let l = c.num_list(motors)?;
+            if let Some((v, false)) = &l {
+                if c.eat_str("->") {
+                    let st = c.i;
+                    while c
+                        .peek()
+                        .is_some_and(|d| !matches!(d, b' ' | b'\t' | b'#' | b'&'))
+                    {
+                        c.i += 1;
+                    }
+                    let text = String::from_utf8_lossy(&c.s[st..c.i]).into_owned();
+                    return Ok(Cmd::AxisDef(v[0], text));
+                }
+            }
+            return Ok(match l {
                 Some((v, list)) => Cmd::Motors(v, list),
                 None => Cmd::MotorQuery,
             });
@@ -884,6 +940,17 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "b" | "begin" => {
             c.ws();
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
+        }
+        "enable" | "disable" => {
+            c.ws();
+            if !c.eat_word("plc") {
+                return err(c.i);
+            }
+            c.ws();
+            match c.uint() {
+                Some(n) if n <= 31 => Ok(Cmd::PlcCtl(w == "enable", n)),
+                _ => Err(SyntaxError { at: c.i, code: 21 }),
+            }
         }
         "echo" => {
             let save = c.i;

@@ -139,3 +139,92 @@ fn jog_reaches_the_model_as_an_action() {
     assert_eq!(a.len(), 1, "{a:?}");
     assert_eq!(a[0].motor, 2, "Power motor 1 is model motor 2");
 }
+
+impl T {
+    /// `n` servo cycles of the card's servo loop (no plant).
+    fn ticks(&mut self, servo: &mut crate::servo::Servo, n: u64) {
+        for k in 0..n {
+            let (model, mut cmds) = self.card.split();
+            servo.tick(model, &mut cmds, k);
+        }
+    }
+}
+
+#[test]
+fn a_plc_runs_every_control_construct() {
+    let mut t = T::new();
+    let mut servo = crate::servo::Servo::new(&t.card.model);
+    for l in [
+        "open plc 1",
+        "P10=0 P11=0 P12=0 P13=0",
+        "while (P10 < 5) {",
+        "  P10 += 1",
+        "  if (P10 == 3) {",
+        "    continue",
+        "  } else {",
+        "    P11 = P11 + P10",
+        "  }",
+        "}",
+        "do {",
+        "  P12++",
+        "  if (P12 >= 4 && !(P12 > 4)) break",
+        "} while (1)",
+        "switch (P12) {",
+        "  case 3: P13 = 30",
+        "  case 4: P13 = 40",
+        "  break",
+        "  default: P13 = -1",
+        "}",
+        "P14 = -11 % 4",
+        "disable plc 1",
+        "close",
+    ] {
+        assert_eq!(t.send(l), "", "{l}");
+    }
+    assert_eq!(t.send("enable plc 1"), "");
+    t.ticks(&mut servo, 200);
+    assert_eq!(
+        t.send("P10..14"),
+        "P10=5\r\nP11=12\r\nP12=4\r\nP13=40\r\nP14=-3\r\n"
+    );
+}
+
+#[test]
+fn buffer_rules() {
+    let mut t = T::new();
+    // only one buffer open at a time, across threads
+    assert_eq!(t.send("open prog 5"), "");
+    assert!(t.send_on(2, "open prog 6").contains("error #21"));
+    assert_eq!(t.send("X10"), "");
+    // a bad line erases and closes the buffer
+    assert!(t.send("gooble").contains("error #20"));
+    assert!(t
+        .card
+        .model
+        .bufs
+        .program(crate::model::BufId::Prog(5))
+        .is_none());
+    // the next line is an on-line command again
+    assert_eq!(t.send("P1=2 P1"), "P1=2\r\n");
+    // open then close deletes; unbalanced braces are refused at close
+    assert_eq!(t.send("open prog 7"), "");
+    assert_eq!(t.send("close"), "");
+    assert!(t
+        .card
+        .model
+        .bufs
+        .program(crate::model::BufId::Prog(7))
+        .is_none());
+    assert_eq!(t.send("open prog 8"), "");
+    assert_eq!(t.send("if (P1 > 1) {"), "");
+    assert!(t.send("close").contains("error #20"));
+    assert!(t
+        .card
+        .model
+        .bufs
+        .program(crate::model::BufId::Prog(8))
+        .is_none());
+    // `system` is not offered
+    assert_eq!(t.send("open plc 2"), "");
+    assert!(t.send("system\"ls\"").contains("error #27"));
+}
