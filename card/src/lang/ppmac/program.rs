@@ -139,30 +139,24 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         }
     }
     // Axis words.
-    if axis_of(ch).is_some() {
-        if c.peek_at(1)
-            .is_some_and(|d| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$'))
-        {
-            let mut words = Vec::new();
-            while let Some(a) = c.peek().and_then(axis_of) {
-                if !c
-                    .peek_at(1)
-                    .is_some_and(|d| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$'))
-                {
-                    break;
-                }
-                c.i += 1;
-                let value = data(c)?;
-                words.push(AxisWord {
-                    axis: a,
-                    value,
-                    extra: None,
-                });
-                c.ws();
+    let starts_value = |d: u8| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$');
+    if axis_of(ch).is_some() && c.peek_at(1).is_some_and(starts_value) {
+        let mut words = Vec::new();
+        while let Some(a) = c.peek().and_then(axis_of) {
+            if !c.peek_at(1).is_some_and(starts_value) {
+                break;
             }
-            out.push(stmt(StmtKind::Move(words), at));
-            return Ok(());
+            c.i += 1;
+            let value = data(c)?;
+            words.push(AxisWord {
+                axis: a,
+                value,
+                extra: None,
+            });
+            c.ws();
         }
+        out.push(stmt(StmtKind::Move(words), at));
+        return Ok(());
     }
     let Some(w) = c.word_lower() else {
         return err(at);
