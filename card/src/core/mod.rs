@@ -15,7 +15,9 @@ mod tests_servo;
 
 use std::collections::{HashMap, VecDeque};
 
+use crate::domain::Profile;
 use crate::lang::interp::{Budget, Card, Effect, EffectResult, LineRun, Session, Step};
+use crate::lang::ppmac::Power;
 use crate::servo::Servo;
 
 /// Work units one slice of host service may use between two servo ticks (about 50-100 µs of
@@ -87,6 +89,8 @@ pub struct CardCore {
     clock: u64,
     /// Why the last image load failed (`None`: it loaded or there was none).
     pub load_error: Option<String>,
+    /// The Power PMAC dialect (a `power` card): it answers every host line.
+    pub power: Option<Power>,
 }
 
 /// Why a loaded image is refused (`None`: it is good, or there is none).
@@ -107,7 +111,9 @@ impl CardCore {
     /// A core for `card`.
     pub fn new(card: Card) -> Self {
         let servo = Servo::new(&card.model);
+        let power = (card.profile() == Profile::Power).then(Power::new);
         CardCore {
+            power,
             card,
             servo,
             sessions: HashMap::new(),
@@ -207,13 +213,28 @@ impl CardCore {
             let mut s = self.session(conn);
             let done = match job.req.clone() {
                 HostRequest::End => {
+                    if let Some(p) = self.power.as_mut() {
+                        p.end(&mut self.card, conn);
+                    }
                     self.card.end_session(&s);
                     self.sessions.remove(&conn);
                     Some(Vec::new())
                 }
                 HostRequest::Control(c) => {
                     budget.spend(1);
-                    Some(self.card.control_char(&mut s, c))
+                    match self.power.as_mut() {
+                        // A gpascii thread has no control-character commands.
+                        Some(_) => Some(Vec::new()),
+                        None => Some(self.card.control_char(&mut s, c)),
+                    }
+                }
+                HostRequest::Line(line) | HostRequest::LineStreamed(line)
+                    if self.power.is_some() =>
+                {
+                    budget.spend(1);
+                    self.power
+                        .as_mut()
+                        .map(|p| p.line(&mut self.card, conn, &line))
                 }
                 HostRequest::More => Some(Vec::new()),
                 HostRequest::Line(line) | HostRequest::LineStreamed(line) => {

@@ -21,7 +21,7 @@ use crate::domain::Profile;
 pub(crate) fn user_memory_words(profile: Profile) -> u32 {
     match profile {
         Profile::Pmac2 => 34_816,
-        Profile::Turbo => 4 * 34_816,
+        Profile::Turbo | Profile::Power => 4 * 34_816,
     }
 }
 
@@ -48,6 +48,13 @@ pub struct CardModel {
     resets: u64,
     /// The MACRO auxiliary channel (node 15; `MS`/`MX` commands, PLC `MSR`/`MSW`/`MXR`/`MXW`).
     pub(crate) aux: MacroAux,
+    /// The command language's own variable families (see [`super::ExtVars`]).
+    pub(super) ext: Option<Box<dyn super::ExtVars>>,
+    /// The thread the program engine (or the interpreter) is evaluating for: whose locals
+    /// extension variables are.
+    pub exec: super::ExtAt,
+    /// State of the pseudo-random generator (`rnd`, `randx`).
+    pub rng: [u64; 2],
 }
 
 impl CardModel {
@@ -65,6 +72,9 @@ impl CardModel {
             gather: GatherBuffer::default(),
             resets: 0,
             aux: MacroAux::default(),
+            ext: None,
+            exec: super::ExtAt::default(),
+            rng: [0x853C_49E6_748F_EA9B, 0xDA3E_39CB_94B9_5BDB],
         };
         c.state.power_on();
         c.sync_motor_coords();
@@ -173,6 +183,15 @@ impl CardModel {
             let cut = self.output.len() - UNSOLICITED_LIMIT;
             self.output.drain(..cut);
         }
+    }
+
+    /// The next pseudo-random number in [0, 1) (xorshift128+; deterministic from the seeds).
+    pub fn random(&mut self) -> f64 {
+        let [mut s1, s0] = self.rng;
+        let r = s1.wrapping_add(s0);
+        s1 ^= s1 << 23;
+        self.rng = [s0, s1 ^ s0 ^ (s1 >> 17) ^ (s0 >> 26)];
+        (r >> 11) as f64 / (1u64 << 53) as f64
     }
 
     /// Program output produced since the last call (`SEND`, program `CMD` replies).

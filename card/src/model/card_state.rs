@@ -53,7 +53,7 @@ impl CardState {
             limits,
             map: MemMap::of(profile),
             ring: ring_ivars(profile),
-            vars: VarStore::new(IVarTable::new(profile), limits.coords),
+            vars: VarStore::for_limits(IVarTable::new(profile), &limits),
             mdefs: vec![MDef::SelfRef; n],
             mself: vec![0; n],
             memory: Memory::new(profile),

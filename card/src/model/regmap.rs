@@ -127,7 +127,7 @@ impl MemMap {
                 addr_digits: 4,
                 max_addr: 0xFFFF,
             },
-            Profile::Turbo => MemMap {
+            Profile::Turbo | Profile::Power => MemMap {
                 global_status: 0x0006,
                 motor_status1: 0x00B0,
                 motor_stride1: 0x80,

@@ -116,6 +116,12 @@ impl PlcRunner {
             return;
         }
         self.scans[k] = self.scans[k].saturating_add(1);
+        card.exec = crate::model::ExtAt {
+            thread: crate::model::Thread::Plc(n),
+            coord: self.plcs[k].coord,
+            motor: self.plcs[k].motor,
+            depth: 0,
+        };
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         let mut pc = self.plcs[k].pc;
         let mut ops = 0;
@@ -142,6 +148,14 @@ impl PlcRunner {
                     // [DECISION] an unreadable variable in a condition reads as false.
                     let t = env::test(card, coord, cond).unwrap_or(false);
                     pc = if t { pc + 1 } else { *else_to };
+                }
+                Op::Switch {
+                    value,
+                    cases,
+                    default,
+                } => {
+                    let v = env::value(card, coord, value).unwrap_or(f64::NAN);
+                    pc = super::compile::switch_target(v, cases, *default);
                 }
                 Op::Exec(s) => {
                     if matches!(s.kind, crate::domain::ast::StmtKind::Return) {

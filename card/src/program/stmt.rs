@@ -120,16 +120,35 @@ fn send(card: &CardModel, out: &mut Vec<u8>, msg: &Message) {
 /// Execute a shared statement.
 pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
     match s {
-        StmtKind::Assign {
-            target,
-            op: AssignOp::Set,
-            value,
-        } => {
+        StmtKind::Assign { target, op, value } => {
             let Ok(n) = env::var_number(card, ctx.coord, target) else {
                 return Common::BadVariable;
             };
             let Ok(v) = env::value(card, ctx.coord, value) else {
                 return Common::BadVariable;
+            };
+            let v = match op {
+                AssignOp::Set | AssignOp::SyncSet => v,
+                AssignOp::Op(b) | AssignOp::SyncOp(b) => {
+                    let Ok(old) = env::value(
+                        card,
+                        ctx.coord,
+                        &crate::domain::ast::Expr {
+                            kind: crate::domain::ast::ExprKind::Var(crate::domain::ast::VarRef {
+                                kind: target.kind,
+                                index: crate::domain::ast::VarIndex::Const(n),
+                                pos: target.pos,
+                            }),
+                            pos: target.pos,
+                        },
+                    ) else {
+                        return Common::BadVariable;
+                    };
+                    env::combine(card, *b, old, v)
+                }
+                AssignOp::SyncAnd | AssignOp::SyncOr | AssignOp::SyncXor => {
+                    return Common::NotMine;
+                }
             };
             if env::write(card, ctx.coord, target.kind, n, v) {
                 Common::Done

@@ -28,10 +28,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(MemberRef::Card(c)) => c.clone(),
             _ => anyhow::bail!("'{}' is not a card in the config", ctx.name),
         };
-        let profile = match cc.profile.as_str() {
-            "turbo" => Profile::Turbo,
-            _ => Profile::Pmac2,
-        };
+        let profile = Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2);
         let storage = cc.state_file.as_ref().map(FileStorage::new);
         let (mut card, load_error) = startup_card(profile, storage.as_ref());
         // The start-up layer (in the profile's numbering, every reply checked: a refused line

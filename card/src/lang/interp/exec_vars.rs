@@ -28,6 +28,7 @@ impl VarEnv<'_> {
             VarKind::P => self.state.vars.p(n).ok(),
             VarKind::Q => self.state.vars.q(self.cs, n).ok(),
             VarKind::M => self.state.read_m(n).ok(),
+            VarKind::Ext(_) => None,
         }
     }
 
@@ -38,6 +39,7 @@ impl VarEnv<'_> {
             VarKind::P => self.state.vars.set_p(n, v).map(|_| ()),
             VarKind::Q => self.state.vars.set_q(self.cs, n, v).map(|_| ()),
             VarKind::M => self.state.write_m(n, v),
+            VarKind::Ext(_) => return Err(3),
         };
         r.map_err(|e| e.err_code())
     }

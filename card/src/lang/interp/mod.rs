@@ -312,6 +312,18 @@ impl Card {
         self.view().program_command(motor, coord, line)
     }
 
+    /// Execute one PMAC on-line command against this card (another dialect reusing the PMAC
+    /// executors for motors and coordinate systems): its reply lines, or the ERR code.
+    pub(crate) fn exec_pmac(
+        &mut self,
+        s: &mut Session,
+        cmd: &crate::lang::ast::CmdKind,
+    ) -> Result<Vec<String>, u16> {
+        let mut out = exec::Out::default();
+        self.view().exec_cmd(s, cmd, &mut out)?;
+        Ok(out.lines)
+    }
+
     /// Full-duplex echo toggled by CTRL-T (the host port echoes received characters when set).
     pub fn echo(&self) -> bool {
         self.mem.echo
