@@ -141,6 +141,9 @@ pub struct Driver<A: RingApp> {
     /// The tick of a frame handled on the receive thread, left for the member's thread (see
     /// [`super::inline`]), not run yet.
     pending_tick: Option<u64>,
+    /// The status fields of an application kept outside the driver (inline receive keeps it on
+    /// the member's thread): refreshed by that thread, reported instead of the driver's own.
+    pub(super) app_extra: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -182,6 +185,7 @@ impl<A: RingApp> Driver<A> {
             sched: None,
             clock: None,
             pending_tick: None,
+            app_extra: None,
         }
     }
 
@@ -209,6 +213,7 @@ impl<A: RingApp> Driver<A> {
             sched,
             clock,
             pending_tick,
+            app_extra,
         } = self;
         (
             Driver {
@@ -231,6 +236,7 @@ impl<A: RingApp> Driver<A> {
                 sched,
                 clock,
                 pending_tick,
+                app_extra,
             },
             old,
         )
@@ -462,7 +468,10 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
-                    s.extra.extend(self.app.status_extra());
+                    match &self.app_extra {
+                        Some(e) => s.extra.extend(e.clone()),
+                        None => s.extra.extend(self.app.status_extra()),
+                    }
                     s.extra
                         .insert("hop".into(), self.rx.hop_summary().to_json());
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
