@@ -31,7 +31,10 @@ fn cmd_pos(rig: &mut Rig) -> f64 {
 /// Reported position `P` is actual + bias: commanded + bias − following error (seed 8244).
 fn assert_reported(rig: &mut Rig, expected: f64) {
     let (p, f) = (rig.num("#1P"), rig.num("#1F"));
-    assert!((p + f - expected).abs() < 0.25, "P {p} F {f}, expected {expected} − F");
+    assert!(
+        (p + f - expected).abs() < 0.25,
+        "P {p} F {f}, expected {expected} − F"
+    );
 }
 
 fn rig_with(plant: NodePlantConfig) -> Rig {
@@ -77,7 +80,10 @@ fn settle(rig: &mut Rig, max: usize) {
             return;
         }
     }
-    panic!("motor 1 not in position after {max} cycles: {:?}", rig.status(1));
+    panic!(
+        "motor 1 not in position after {max} cycles: {:?}",
+        rig.status(1)
+    );
 }
 
 fn load(rig: &mut Rig, lines: &[&str]) {
@@ -117,7 +123,10 @@ fn stop_jog_away_return_with_j_equals_and_resume() {
     assert_eq!(rig.cmd("&1/"), "");
     run_out(&mut rig, 5000);
     let stop = rig.num("#1P");
-    assert!((stop - 4000.0).abs() < BAND, "stopped at the end of move 1: {stop}");
+    assert!(
+        (stop - 4000.0).abs() < BAND,
+        "stopped at the end of move 1: {stop}"
+    );
     assert_eq!(cmd_pos(&mut rig), 4000.0);
     rig.cmd("#1J+");
     rig.run(400);
@@ -190,7 +199,11 @@ fn run_right_after_jog_stop_or_hmz_at_rest() {
     assert_eq!(rig.cmd("&1B5 #1J/ &1R"), "");
     run_out(&mut rig, 10_000);
     rig.cmd("#1J==100");
-    assert_eq!(rig.num("M163"), 12_000.0 * D_UNITS, "takes effect on the next servo cycle");
+    assert_eq!(
+        rig.num("M163"),
+        12_000.0 * D_UNITS,
+        "takes effect on the next servo cycle"
+    );
     rig.run(2);
     assert_eq!(rig.num("M163"), 100.0 * D_UNITS);
     settle(&mut rig, 10_000);
@@ -234,26 +247,47 @@ fn position_bias_renames_reported_positions() {
     rig.run(3);
     assert_reported(&mut rig, 0.0);
     assert_eq!(rig.num("M164"), -2000.0 * D_UNITS);
-    assert_eq!(rig.num("M161"), 2000.0 * D_UNITS, "motor commanded unchanged");
+    assert_eq!(
+        rig.num("M161"),
+        2000.0 * D_UNITS,
+        "motor commanded unchanged"
+    );
     assert_eq!(rig.cmd("X=500"), "");
     rig.run(3);
     assert_reported(&mut rig, 500.0);
     let f = rig.num("#1F");
     let mut s = Session::default();
     let r = rig.card().control_char(&mut s, 0x10);
-    let first: f64 = String::from_utf8_lossy(&r).split(' ').next().unwrap().trim().parse().unwrap();
+    let first: f64 = String::from_utf8_lossy(&r)
+        .split(' ')
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
     assert!((first + f - 500.0).abs() < 0.25, "CTRL-P {first}");
     assert!((rig.node_position(0) - node).abs() < 0.5, "no motion");
     // A program move to X600 goes 100 counts from here; PSET renames in the program.
     load(
         &mut rig,
-        &["OPEN PROG 6 CLEAR", "LINEAR ABS TA50 TS0 TM200", "X600", "PSET X0", "X50", "CLOSE"],
+        &[
+            "OPEN PROG 6 CLEAR",
+            "LINEAR ABS TA50 TS0 TM200",
+            "X600",
+            "PSET X0",
+            "X50",
+            "CLOSE",
+        ],
     );
     rig.cmd("&1B6R");
     run_out(&mut rig, 10_000);
     assert_eq!(cmd_pos(&mut rig), 2150.0);
     assert_reported(&mut rig, 50.0);
-    assert_eq!(rig.num("M164"), (-2100.0 * D_UNITS), "bias after PSET: 0 - 2100");
+    assert_eq!(
+        rig.num("M164"),
+        (-2100.0 * D_UNITS),
+        "bias after PSET: 0 - 2100"
+    );
     // HMZ with an axis offset: reported = offset − FE (seed 8244-8246).
     rig.cmd("#1->X+300 #1HMZ");
     rig.run(3);
@@ -261,7 +295,15 @@ fn position_bias_renames_reported_positions() {
     assert_eq!(rig.num("M164"), 300.0 * D_UNITS);
     assert_eq!(rig.num("M161"), 0.0);
     // X0 is the home position now: motor commanded 0, reported 300.
-    load(&mut rig, &["OPEN PROG 7 CLEAR", "LINEAR ABS TA50 TS0 TM200", "X10", "CLOSE"]);
+    load(
+        &mut rig,
+        &[
+            "OPEN PROG 7 CLEAR",
+            "LINEAR ABS TA50 TS0 TM200",
+            "X10",
+            "CLOSE",
+        ],
+    );
     rig.cmd("&1B7R");
     run_out(&mut rig, 10_000);
     assert_reported(&mut rig, 310.0);
@@ -288,7 +330,11 @@ fn program_hold_allows_jogging_and_resumes() {
     let hold = rig.num("#1P");
     assert!(hold > 100.0 && hold < 4000.0, "held inside move 1: {hold}");
     let held = cmd_pos(&mut rig);
-    assert_eq!(rig.num("M163") / D_UNITS, held, "J= target is the hold point");
+    assert_eq!(
+        rig.num("M163") / D_UNITS,
+        held,
+        "J= target is the hold point"
+    );
     assert_eq!(rig.cmd("#1J:500"), "", "jogging in hold");
     settle(&mut rig, 8000);
     assert_eq!(cmd_pos(&mut rig), held + 500.0);
