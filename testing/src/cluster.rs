@@ -331,9 +331,7 @@ fn set_path(doc: &mut Table, path: &str, value: Toml) -> Result<()> {
             at.insert(k.to_string(), value);
             return Ok(());
         }
-        let next = at
-            .entry(k)
-            .or_insert_with(|| Toml::Table(Table::new()));
+        let next = at.entry(k).or_insert_with(|| Toml::Table(Table::new()));
         at = next.as_table_mut().ok_or_else(|| {
             Error::new(
                 ErrorKind::Config,

@@ -106,7 +106,11 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
     let st0 = &last["members"][1];
     assert_eq!(st0["faults"][0]["kind"], "cut", "{last:#}");
     // The CLI's own refusals (the test API refuses these before running mcc).
-    verb_refused(&c, &["fault", "nobody", "cut"], &["unknown member \"nobody\""]);
+    verb_refused(
+        &c,
+        &["fault", "nobody", "cut"],
+        &["unknown member \"nobody\""],
+    );
     verb_refused(
         &c,
         &["fault", "station0", "melt"],
@@ -369,10 +373,8 @@ fn the_foreground_terminal_prints_cluster_events_as_they_happen() {
         let out = fg.mcc(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
         assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
     };
-    let line = |fg: &Foreground, text: &str| {
-        fg.wait_line(text, WAIT)
-            .unwrap_or_else(|e| panic!("{e}"))
-    };
+    let line =
+        |fg: &Foreground, text: &str| fg.wait_line(text, WAIT).unwrap_or_else(|e| panic!("{e}"));
     // A cut: the cards latch (member, class, cycle), each on its own line.
     verb(&fg, &["fault", "station0", "cut"]);
     let l = line(&fg, "ring fault latched: card1 at cycle");

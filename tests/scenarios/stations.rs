@@ -148,7 +148,8 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     wait(&mut c, "station1 faulted", |d| {
         d["stations"][1]["ring_fault"] == true
     });
-    c.clear(None).unwrap_or_else(|e| panic!("mcc fault clear: {e}"));
+    c.clear(None)
+        .unwrap_or_else(|e| panic!("mcc fault clear: {e}"));
     let deadline = Instant::now() + REPLY_WAIT;
     loop {
         // the card's own latch first ($$$), then the station's through node 15
