@@ -65,11 +65,17 @@ fn errors(m: &Value) -> Vec<u64> {
     .collect()
 }
 
-/// Wait (bounded by `timeout`) until the ring has run to cycle `cycle`; that status.
+/// Wait (bounded by `timeout`) until the ring has run to cycle `cycle`, for a status every
+/// member answered (on a loaded machine one may answer too late for a given status round:
+/// its fields, and the sync master's timing, are then missing from that document); that
+/// status.
 fn wait_cycle(c: &mut Cluster, what: &str, timeout: Duration, cycle: u64) -> Value {
-    c.wait_until(None, timeout, |st: &Status| st.cycle() >= cycle)
-        .unwrap_or_else(|e| panic!("waiting for {what}: {e}"))
-        .0
+    c.wait_until(None, timeout, |st: &Status| {
+        let members = st.0["members"].as_array().cloned().unwrap_or_default();
+        st.cycle() >= cycle && members.iter().all(|m| m["alive"] == true)
+    })
+    .unwrap_or_else(|e| panic!("waiting for {what}: {e}"))
+    .0
 }
 
 fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
