@@ -44,6 +44,34 @@ fn healthy_ring_has_no_broken_link() {
 }
 
 #[test]
+fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
+    // corrupt on station1's sends: card0 (the sync master, downstream) latched on checksum
+    // errors; card1 latched too, only because its own packets did not come back (no link
+    // error of its own): the link named is station1 → card0.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    for i in [0, 2] {
+        let m = st[i].as_mut().unwrap();
+        m.ring_fault = true;
+        m.ring_fault_cycle = Some(2990);
+    }
+    st[0].as_mut().unwrap().link_error_cycle = Some(2999);
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("station1 → card0")
+    );
+    // Errors long past (the fault was cleared) name nothing while the latch waits for reset.
+    st[0].as_mut().unwrap().link_error_cycle = Some(2900);
+    assert_eq!(broken_link(&cfg, &st, 32), None);
+    // A tolerated burst (no latch) names nothing either.
+    for m in st.iter_mut().flatten() {
+        m.ring_fault = false;
+        m.link_error_cycle = Some(2999);
+    }
+    assert_eq!(broken_link(&cfg, &st, 32), None);
+}
+
+#[test]
 fn cut_is_localised_to_the_link_after_the_cutting_member() {
     // order: card0*, station0, card1, station1. station0 cut its outgoing link at cycle 1000:
     // card1 and station1 receive nothing since; the sync master's sync never returns.

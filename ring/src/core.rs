@@ -42,6 +42,12 @@ pub trait RingApp {
     fn take_ring_reset(&mut self) -> bool {
         false
     }
+
+    /// Asked for every status report: add the application's own fields (a station's
+    /// amplifiers, ...) to the member's `extra`. The default adds nothing.
+    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+        let _ = extra;
+    }
 }
 
 impl<T: RingApp + ?Sized> RingApp for Box<T> {
@@ -51,6 +57,10 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
 
     fn take_ring_reset(&mut self) -> bool {
         (**self).take_ring_reset()
+    }
+
+    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+        (**self).report(extra);
     }
 }
 
@@ -193,6 +203,8 @@ pub struct MemberCore {
     dark: bool,
     /// First cycle run with a dark input.
     dark_since: Option<u64>,
+    /// Latest cycle in which the link into this member delivered bad data.
+    link_error_cycle: Option<u64>,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -239,6 +251,7 @@ impl MemberCore {
             timing_slack: cfg.timing_slack.max(1),
             dark: false,
             dark_since: None,
+            link_error_cycle: None,
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -490,6 +503,7 @@ impl MemberCore {
             }
             forwards.extend(r.forward);
         }
+        let mut own_missing_error = 0;
         // A master's command packets of the previous cycle come back in this cycle's frame; a
         // frame without them is missing its packets (data underrun): the ring is broken
         // somewhere downstream of this master.
@@ -505,12 +519,17 @@ impl MemberCore {
             self.own_missing = self.own_missing.saturating_add(1);
             if self.own_missing > self.timing_slack {
                 ev.errors.push(ErrorClass::Underrun);
+                own_missing_error = 1;
             }
         }
         if frame.packets.len() < intact {
             ev.errors.push(ErrorClass::Underrun);
         } else if frame.packets.len() > intact {
             ev.errors.push(ErrorClass::Overrun);
+        }
+        // Everything but this master's own packets missing is wrong with the link into it.
+        if ev.errors.len() > own_missing_error {
+            self.link_error_cycle = Some(frame.cycle.max(self.cycle));
         }
         for e in &ev.errors {
             self.status.record(*e);
@@ -541,6 +560,7 @@ impl MemberCore {
     fn on_dark(&mut self, frame: &Frame, now_ns: u64, mut ev: CoreEvents) -> CoreEvents {
         ev.errors.push(ErrorClass::ByteViolation);
         self.status.record(ErrorClass::ByteViolation);
+        self.link_error_cycle = Some(frame.cycle.max(self.cycle));
         if !self.dark {
             self.dark = true;
             self.dark_since = Some(frame.cycle);
@@ -678,6 +698,7 @@ impl MemberCore {
                 self.silent_ticks = self.silent_ticks.saturating_add(1);
                 if self.silent_ticks > self.timing_slack {
                     self.status.record(ErrorClass::Underrun);
+                    self.link_error_cycle = Some(self.cycle);
                 }
             }
             self.rx_since_tick = false;
@@ -725,7 +746,7 @@ impl MemberCore {
     }
 
     /// Injected faults still active.
-    pub fn faults(&self) -> Vec<FaultSpec> {
+    pub fn faults(&self) -> Vec<crate::fault::ActiveFault> {
         self.faults.active()
     }
 
@@ -750,6 +771,7 @@ impl MemberCore {
             late_cycles: self.late_cycles,
             dark: self.dark,
             dark_since_cycle: self.dark_since,
+            link_error_cycle: self.link_error_cycle,
             fault_reason: self
                 .ring_fault
                 .then(|| self.last_fault.map(|f| f.to_string()))

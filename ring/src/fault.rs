@@ -177,6 +177,19 @@ impl FaultSpec {
     }
 }
 
+/// A fault as a member reports it (`faults` in its status): the spec, and the first ring cycle
+/// it applied to (`null` until the member's next send after injection). In JSON the spec's
+/// fields plus `since_cycle`.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct ActiveFault {
+    /// The injected fault.
+    #[serde(flatten)]
+    pub spec: FaultSpec,
+    /// First ring cycle whose frame it acted on.
+    #[serde(default)]
+    pub since_cycle: Option<u64>,
+}
+
 /// A frame the fault layer lets through, before the member stamps its link sequence number
 /// (frames a `delay` releases late get a fresh one, so the receiver reads them as late data
 /// rather than as stale duplicates).
@@ -258,9 +271,15 @@ impl FaultLayer {
         self.faults.clear();
     }
 
-    /// The faults still active.
-    pub fn active(&self) -> Vec<FaultSpec> {
-        self.faults.iter().map(|a| a.spec.clone()).collect()
+    /// The faults still active, with the cycle each started acting.
+    pub fn active(&self) -> Vec<ActiveFault> {
+        self.faults
+            .iter()
+            .map(|a| ActiveFault {
+                spec: a.spec.clone(),
+                since_cycle: a.first_cycle,
+            })
+            .collect()
     }
 
     fn expire(&mut self, cycle: u64) {

@@ -27,6 +27,7 @@ pub struct StationApp {
     last_time_ns: Option<u64>,
     ticks: u64,
     ring_fault: bool,
+    shutdown_cycle: Option<u64>,
 }
 
 impl StationApp {
@@ -58,6 +59,7 @@ impl StationApp {
             last_time_ns: None,
             ticks: 0,
             ring_fault: false,
+            shutdown_cycle: None,
         })
     }
 
@@ -69,6 +71,12 @@ impl StationApp {
     /// Whether the last tick ran under a ring fault.
     pub fn ring_fault(&self) -> bool {
         self.ring_fault
+    }
+
+    /// The ring cycle whose tick shut the amplifiers down for the present ring fault (none
+    /// while the ring is healthy).
+    pub fn shutdown_cycle(&self) -> Option<u64> {
+        self.shutdown_cycle
     }
 
     /// The servo node with this number.
@@ -88,9 +96,14 @@ impl StationApp {
 }
 
 impl RingApp for StationApp {
-    fn tick(&mut self, _cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+    fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.ticks += 1;
         self.ring_fault = ring_fault;
+        self.shutdown_cycle = match (ring_fault, self.shutdown_cycle) {
+            (true, None) => Some(cycle),
+            (true, c) => c,
+            (false, _) => None,
+        };
         let dt = match self.last_time_ns {
             Some(t0) if time_ns > t0 => ((time_ns - t0) as f64 * 1e-9).min(MAX_TICK_SECONDS),
             _ => 0.0,
@@ -115,6 +128,22 @@ impl RingApp for StationApp {
                 }
             };
         }
+    }
+
+    /// `ring_shutdown_cycle`: the cycle the ring fault shut the amplifiers down (null while
+    /// healthy); `amps_enabled`: the servo nodes whose amplifier is on.
+    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+        extra.insert(
+            "ring_shutdown_cycle".into(),
+            serde_json::json!(self.shutdown_cycle),
+        );
+        let on: Vec<u8> = self
+            .servo
+            .iter()
+            .filter(|s| s.snapshot().flags.amp_enabled)
+            .map(ServoNode::node)
+            .collect();
+        extra.insert("amps_enabled".into(), serde_json::json!(on));
     }
 }
 

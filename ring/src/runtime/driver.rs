@@ -313,6 +313,7 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    self.app.report(&mut s.extra);
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
                     s.sched = self.sched.clone();
                     if let Some(c) = &s.clock {

@@ -46,6 +46,10 @@ impl<A: RingApp> RingApp for DriveStationApp<A> {
     fn take_ring_reset(&mut self) -> bool {
         self.inner.take_ring_reset()
     }
+
+    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+        self.inner.report(extra);
+    }
 }
 
 /// Nodes of station `station` that drives are bound to (the station app must not serve them).
