@@ -378,6 +378,29 @@ pub struct BenchFaultsArgs {
     /// Seconds to wait for detection per drill.
     #[arg(long, value_name = "S", default_value_t = 15)]
     pub timeout: u64,
+    /// Instead of the drills: a campaign of N random faults of every kind at random members
+    /// and times while programs run on every card, each held to the ring-check rules.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub campaign: Option<u64>,
+    /// Campaign: seed of the plan (same seed, same faults).
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub seed: u64,
+    /// Campaign: clock of the cluster, paced (default) or lockstep.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
+    /// Campaign: only these kinds (comma-separated: drop-sync, drop-packets, corrupt,
+    /// byte-violation, overrun, underrun, delay, delay-us, cut, freeze, kill, restart).
+    #[arg(long, value_name = "LIST")]
+    pub kinds: Option<String>,
+    /// Campaign: cards (each followed by its stations in the ring).
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=8))]
+    pub cards: u8,
+    /// Campaign: stations.
+    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=16))]
+    pub stations: u8,
+    /// Campaign: print the report as JSON on stdout (progress goes to stderr).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mcc bench bringup`.

@@ -107,6 +107,8 @@ pub struct MemberRow {
     pub dark: bool,
     /// First cycle it ran with a dark input.
     pub dark_since_cycle: Option<u64>,
+    /// The last dark spell that ended, `[first, last]` cycle without light.
+    pub last_dark_spell: Option<(u64, u64)>,
     /// Latest cycle in which the link into it delivered bad data (packet errors, dark or
     /// extra frames, silence).
     pub link_error_cycle: Option<u64>,
@@ -301,6 +303,7 @@ pub fn build(
                 dark: v.dark,
                 dark_since_cycle: v.dark_since_cycle,
                 link_error_cycle: v.link_error_cycle,
+                last_dark_spell: v.last_dark_spell,
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),

@@ -113,6 +113,10 @@ pub struct MemberStatus {
     /// First ring cycle this member ran with a dark input (while `dark`).
     #[serde(default)]
     pub dark_since_cycle: Option<u64>,
+    /// The last dark spell that ended, `[first, last]` cycle without light (a member upstream
+    /// that died and came back, a cut that was mended).
+    #[serde(default)]
+    pub last_dark_spell: Option<(u64, u64)>,
     /// Latest ring cycle in which the link into this member delivered bad data: a packet
     /// error, a dark frame, a frame too many, or no frame at all (not a master's own packets
     /// missing, which means a break further round the ring).

@@ -203,6 +203,8 @@ pub struct MemberCore {
     dark: bool,
     /// First cycle run with a dark input.
     dark_since: Option<u64>,
+    /// The last dark spell that ended: first and last cycle without light.
+    last_dark: Option<(u64, u64)>,
     /// Latest cycle in which the link into this member delivered bad data.
     link_error_cycle: Option<u64>,
     ring_fault: bool,
@@ -251,6 +253,7 @@ impl MemberCore {
             timing_slack: cfg.timing_slack.max(1),
             dark: false,
             dark_since: None,
+            last_dark: None,
             link_error_cycle: None,
             ring_fault: false,
             ring_fault_count: 0,
@@ -454,7 +457,9 @@ impl MemberCore {
         self.last_rx_cycle = Some(frame.cycle);
         // Light again: a newly started sync master's numbering may be adopted (see on_sync).
         let was_dark = std::mem::take(&mut self.dark);
-        self.dark_since = None;
+        if let Some(from) = self.dark_since.take() {
+            self.last_dark = Some((from, frame.cycle.saturating_sub(1).max(from)));
+        }
 
         let intact = usize::from(frame.declared) * PACKET_LEN;
         let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
@@ -771,6 +776,7 @@ impl MemberCore {
             late_cycles: self.late_cycles,
             dark: self.dark,
             dark_since_cycle: self.dark_since,
+            last_dark_spell: self.last_dark,
             link_error_cycle: self.link_error_cycle,
             fault_reason: self
                 .ring_fault

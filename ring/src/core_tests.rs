@@ -345,6 +345,8 @@ fn a_dark_frame_is_a_byte_violation_passed_on_dark() {
         !st.dark && st.dark_since_cycle.is_none() && st.locked,
         "{st:?}"
     );
+    // The spell is remembered once it is over.
+    assert_eq!(st.last_dark_spell, Some((4, 4)));
 }
 
 #[test]

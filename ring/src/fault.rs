@@ -282,10 +282,8 @@ impl FaultLayer {
             .collect()
     }
 
+    /// Drop faults whose cycles are over (counted from the first frame each acted on).
     fn expire(&mut self, cycle: u64) {
-        for a in &mut self.faults {
-            a.first_cycle.get_or_insert(cycle);
-        }
         self.faults.retain(|a| !a.expired(cycle));
     }
 
@@ -316,6 +314,10 @@ impl FaultLayer {
     /// Pass one frame of ring cycle `cycle` through the active faults: 0, 1 or more frames
     /// to put on the link now (held frames released first, in order).
     pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Sent> {
+        // A fault's cycles count from the first frame it acts on.
+        for a in &mut self.faults {
+            a.first_cycle.get_or_insert(cycle);
+        }
         let mut out = self.poll(cycle);
         let (mut drop, mut cut) = (false, false);
         let (mut delay_cycles, mut delay_us) = (0u32, 0u32);

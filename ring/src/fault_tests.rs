@@ -218,6 +218,9 @@ fn active_faults_report_the_cycle_they_started_acting_on() {
     })
     .unwrap();
     assert_eq!(l.active()[0].since_cycle, None, "nothing sent yet");
+    // The runtime polls between cycles (held frames): that does not start the fault.
+    l.poll(40);
+    assert_eq!(l.active()[0].since_cycle, None, "polled, nothing sent yet");
     l.on_send(41, frame(41));
     l.on_send(42, frame(42));
     let a = &l.active()[0];

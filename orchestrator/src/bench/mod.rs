@@ -1,6 +1,7 @@
 //! Benchmarks (`mcc bench ...`).
 
 pub mod bringup;
+pub mod campaign;
 pub mod chain;
 pub mod emcl;
 pub mod faults;
