@@ -327,6 +327,23 @@ pub enum BenchCommand {
     /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
     /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
     Soak(BenchSoakArgs),
+    /// Card SAVE under SIGKILL at random moments: old or new state, never corrupt or mixed,
+    /// no leaked file.
+    SaveCrash(BenchSaveCrashArgs),
+}
+
+/// `mcc bench save-crash`.
+#[derive(Debug, Args)]
+pub struct BenchSaveCrashArgs {
+    /// Trials (one SIGKILL each).
+    #[arg(long, value_name = "N", default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub trials: u32,
+    /// Seed of the kill moments.
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub seed: u64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mcc bench soak`.

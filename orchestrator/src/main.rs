@@ -58,6 +58,7 @@ fn main() {
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
+        Command::Bench(BenchCommand::SaveCrash(a)) => bench::crash::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),

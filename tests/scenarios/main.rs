@@ -8,6 +8,7 @@ mod emcl_bound;
 mod gather;
 mod motion;
 mod programs;
+mod reliability;
 mod ring_inprocess;
 mod testing_api;
 mod transcripts;

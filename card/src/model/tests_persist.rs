@@ -58,3 +58,21 @@ fn image_keeps_memory_regions() {
     t.reset(Some(&img)).unwrap();
     assert_eq!(t.read(Space::Y, 0x0730), 0x123456);
 }
+
+#[test]
+fn saved_values_come_back_bit_exact() {
+    // Found by fuzzing: JSON numbers must parse back to the same f64 (serde_json's
+    // float_roundtrip), or SAVE + $$$ moves a value by one unit in the last place.
+    let mut s = CardState::new(Profile::Pmac2);
+    let values = [-14700.061580553913, 0.1, 1.0 / 3.0, 2.0e-300, -9.87654321e17];
+    let stored: Vec<f64> = (0..)
+        .zip(values)
+        .map(|(k, v)| s.vars.set_p(k, v).unwrap())
+        .collect();
+    let img = decode(&encode(&s.to_image(Vec::new()))).unwrap();
+    let mut t = CardState::new(Profile::Pmac2);
+    t.reset(Some(&img)).unwrap();
+    for (k, v) in (0..).zip(&stored) {
+        assert_eq!(t.vars.p(k).unwrap().to_bits(), v.to_bits(), "P{k}");
+    }
+}

@@ -3,6 +3,7 @@
 pub mod bringup;
 pub mod campaign;
 pub mod chain;
+pub mod crash;
 pub mod emcl;
 pub mod faults;
 pub mod host;

@@ -20,7 +20,7 @@ pub mod report;
 
 use std::time::{Duration, Instant};
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use mcc_ring::config::{ClockMode, ClusterConfig, MemberRef};
 use mcc_ring::control::{ctl_key, FaultRequest};
 use mcc_ring::expect::RingModel;
@@ -517,9 +517,17 @@ fn recover(
                 .all(|m| m.as_ref().is_some_and(|m| m.locked))
         },
     )?;
+    // A check period that still holds cycles from before the clear may trip once more: let
+    // every such period end before the reset, as an operator waits before `$$$`.
+    let model = RingModel::from_config(cfg).ok_or_else(|| anyhow!("no ring model"))?;
+    observe::wait_cycles(&s, cfg, margin(&model), Duration::from_secs(60))?;
     reset_ring_faults(&s, cfg, Duration::from_secs(60))?;
-    motion::setup(&s, cfg)?;
-    let ends = motion::run_to_end(&s, cfg, Duration::from_secs(60))?;
+    let state = |s: &zenoh::Session| {
+        let snap = observe::statuses(s, cfg);
+        format!("ring: {}", unhealthy(cfg, &snap))
+    };
+    motion::setup(&s, cfg).with_context(|| state(&s))?;
+    let ends = motion::run_to_end(&s, cfg, Duration::from_secs(60)).with_context(|| state(&s))?;
     for ((c, end), want) in cfg.cards.iter().zip(&ends).zip(reference) {
         if (end - want).abs() > motion::END_TOLERANCE {
             violations.push(format!(
