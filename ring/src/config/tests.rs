@@ -416,7 +416,8 @@ mod fuzz {
         if let Ok(c) = ClusterConfig::from_toml_str(text) {
             derive_all(&c);
             let again = c.to_toml_string().expect("a valid config serializes");
-            prop_assert_eq!(ClusterConfig::from_toml_str(&again).as_ref(), Ok(&c));
+            let back = ClusterConfig::from_toml_str(&again);
+            prop_assert_eq!(back.as_ref(), Ok(&c));
         }
         Ok(())
     }

@@ -146,6 +146,8 @@ mod tests {
         use super::super::*;
         use proptest::prelude::*;
 
+        const OPS: &[u8] = &[OP_DATA, OP_CLOSE, OP_QUERY_START, OP_TAKE_START];
+
         proptest! {
             #![proptest_config(ProptestConfig::with_cases(500))]
 
@@ -169,7 +171,7 @@ mod tests {
 
             #[test]
             fn requests_and_replies_round_trip(
-                op in proptest::sample::select(&[OP_DATA, OP_CLOSE, OP_QUERY_START, OP_TAKE_START][..]),
+                op in proptest::sample::select(OPS),
                 conn: u64,
                 data in proptest::collection::vec(any::<u8>(), 0..MAX_CHUNK.min(300)),
                 segs in proptest::collection::vec((any::<u32>(), proptest::collection::vec(any::<u8>(), 0..40)), 0..8),
