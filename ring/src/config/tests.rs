@@ -217,6 +217,11 @@ fn more_validation_rules() {
         invalid(&with("member_timeout_ms = 0")).0,
         "member_timeout_ms"
     );
+    // A phase delay of a period or more would tick cycle k after cycle k+1 began.
+    let (k, p) = invalid(&with("rate_hz = 1000.0\nphase_delay_us = 1000"));
+    assert_eq!(k, "phase_delay_us");
+    assert!(p.contains("1000.0 µs"), "{p}");
+    assert!(ClusterConfig::from_toml_str(&with("rate_hz = 1000.0\nphase_delay_us = 999")).is_ok());
     let ring = |body: &str| with(&format!("[ring]\n{body}"));
     let (k, p) = invalid(&ring("order = [\"card0\", \"station0\", \"card1\"]"));
     assert_eq!(k, "ring.order");
