@@ -54,9 +54,12 @@ mod tests {
         check_members(&bad).unwrap();
         bad.cards[1]
             .ivars
-            .insert("I900".into(), mcc_ring::config::IVarValue::Int(1 << 30));
+            .insert("I8".into(), mcc_ring::config::IVarValue::Int(1000));
         let e = check_members(&bad).unwrap_err().to_string();
-        assert!(e.starts_with("config: cards.card1.ivars: I900 = 1073741824: the card refuses it: "), "{e}");
+        assert!(
+            e.starts_with("config: cards.card1.ivars: I8 = 1000: the card refuses it: "),
+            "{e}"
+        );
         assert!(e.contains("ERR"), "{e}");
     }
 }

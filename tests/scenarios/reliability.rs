@@ -17,7 +17,15 @@ fn json(out: std::process::Output, what: &str) -> Value {
 fn card_save_survives_sigkill_at_random_moments() {
     let r = json(
         mcc(
-            &["bench", "save-crash", "--trials", "20", "--seed", "7", "--json"],
+            &[
+                "bench",
+                "save-crash",
+                "--trials",
+                "20",
+                "--seed",
+                "7",
+                "--json",
+            ],
             Duration::from_secs(600),
         ),
         "mcc bench save-crash",

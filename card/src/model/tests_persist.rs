@@ -63,7 +63,13 @@ fn image_keeps_memory_regions() {
 fn saved_values_come_back_bit_exact() {
     // Found by fuzzing: JSON numbers must parse back to the same f64 (serde_json's
     // float_roundtrip), or SAVE + $$$ moves a value by one unit in the last place.
-    let values = vec![-14700.061580553913, 0.1, 1.0 / 3.0, 2.0e-300, -9.87654321e17];
+    let values = vec![
+        -14700.061580553913,
+        0.1,
+        1.0 / 3.0,
+        2.0e-300,
+        -9.87654321e17,
+    ];
     let mut img = sample();
     img.qvars = vec![values.clone()];
     img.pvars = values.clone();

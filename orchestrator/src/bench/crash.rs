@@ -26,7 +26,7 @@ use crate::launch::sibling_binary;
 /// P-variables written with each generation.
 const VARS: u32 = 60;
 /// Lines of the large program saved with every SAVE.
-const PROGRAM_LINES: u32 = 1500;
+const PROGRAM_LINES: u32 = 400;
 
 /// The result of the trials.
 #[derive(Debug, Default, Serialize)]
@@ -46,6 +46,11 @@ pub struct Report {
     pub temporaries_seen: usize,
     /// Size of the state file, bytes.
     pub file_bytes: u64,
+    /// Wall time of the first SAVE, ms.
+    pub save_ms: f64,
+    /// Wall time of the first generation (its lines and its SAVE), ms: kills are spread over
+    /// three of them.
+    pub generation_ms: f64,
     /// What went wrong (empty: every trial found old or new state and no leaked file).
     pub failures: Vec<String>,
     /// Wall time, s.
@@ -56,12 +61,13 @@ impl Report {
     /// Readable report.
     pub fn text(&self) -> String {
         let mut s = format!(
-            "save-crash: {} trials (SIGKILL at a random moment), {} SAVEs acknowledged, state file {} bytes, {:.0} s\n  \
+            "save-crash: {} trials (SIGKILL at a random moment), {} SAVEs acknowledged, state file {} bytes, a SAVE {:.1} ms, {:.0} s\n  \
              killed mid-SAVE: {}, found the last acknowledged state: {}, found the newer state: {}, \
              temporaries left by a kill and removed at the next start: {}\n",
             self.trials,
             self.saves_acked,
             self.file_bytes,
+            self.save_ms,
             self.seconds,
             self.killed_mid_save,
             self.found_old,
@@ -102,6 +108,8 @@ pub fn run(args: &BenchSaveCrashArgs) -> Result<()> {
 struct CardProc {
     child: Child,
     conn: TcpStream,
+    /// Its stdout, kept open for its lifetime.
+    _stdout: BufReader<std::process::ChildStdout>,
 }
 
 impl CardProc {
@@ -117,7 +125,8 @@ impl CardProc {
             .context("starting mcc-card")?;
         let out = child.stdout.take().ok_or_else(|| anyhow!("no stdout"))?;
         let mut line = String::new();
-        BufReader::new(out).read_line(&mut line)?;
+        let mut out = BufReader::new(out);
+        out.read_line(&mut line)?;
         let ports: serde_json::Value = serde_json::from_str(line.trim())
             .with_context(|| format!("mcc-card printed {line:?}"))?;
         let port = ports["ascii"]
@@ -125,11 +134,23 @@ impl CardProc {
             .ok_or_else(|| anyhow!("no ascii port in {line:?}"))?;
         let conn = TcpStream::connect(("127.0.0.1", port as u16))?;
         conn.set_read_timeout(Some(Duration::from_secs(30)))?;
-        Ok(CardProc { child, conn })
+        let mut card = CardProc {
+            child,
+            conn,
+            _stdout: out,
+        };
+        // Replies end in ACK from here on (the reply to this line already does).
+        card.line("I3=2")?;
+        Ok(card)
     }
 
     /// Send one line; the reply up to its ACK (an `ERRnnn` reply is an error).
     fn line(&mut self, line: &str) -> Result<String> {
+        self.exchange(line)
+            .with_context(|| format!("card: {line:?}"))
+    }
+
+    fn exchange(&mut self, line: &str) -> Result<String> {
         self.conn.write_all(line.as_bytes())?;
         self.conn.write_all(b"\r")?;
         let mut reply = Vec::new();
@@ -143,10 +164,8 @@ impl CardProc {
             if reply.last() == Some(&0x06) {
                 return Ok(String::from_utf8_lossy(&reply[..reply.len() - 1]).into_owned());
             }
-            if reply.first() == Some(&0x07) || reply.contains(&0x07) {
-                if reply.ends_with(b"\r") {
-                    bail!("{line:?} answered {:?}", String::from_utf8_lossy(&reply));
-                }
+            if reply.contains(&0x07) && reply.ends_with(b"\r") {
+                bail!("{line:?} answered {:?}", String::from_utf8_lossy(&reply));
             }
         }
     }
@@ -237,9 +256,15 @@ pub fn trials(dir: &Path, n: usize, seed: u64) -> Result<Report> {
             card.line(&format!("LINEAR X{i}.25 Y(P1+{i}) F10 DWELL 0"))?;
         }
         card.line("CLOSE")?;
+        let t = Instant::now();
         save_generation(&mut card, 1)?;
+        let lines = t.elapsed();
         card.line("SAVE")?;
+        report.save_ms = (t.elapsed() - lines).as_secs_f64() * 1e3;
+        report.generation_ms = t.elapsed().as_secs_f64() * 1e3;
     }
+    // Kills land anywhere in the first three generations (their lines and SAVEs).
+    let window_us = (report.generation_ms * 3.0 * 1e3) as u64 + 1;
     let mut acked = 1u64;
     let mut next = 2u64;
     for trial in 0..n {
@@ -268,17 +293,17 @@ pub fn trials(dir: &Path, n: usize, seed: u64) -> Result<Report> {
         }
         // Save generations until a random moment, then SIGKILL.
         let pid = card.child.id();
-        let delay = Duration::from_micros(rng.random_range(0..150_000));
+        let delay = Duration::from_micros(rng.random_range(0..window_us));
         let killer = std::thread::spawn(move || {
             std::thread::sleep(delay);
-            // SAFETY-free: a plain kill(2) of our own child.
             let _ = crate::sys::signal(pid, libc::SIGKILL);
         });
         let mut mid = false;
         loop {
             let g = next;
             next += 1;
-            if save_generation(&mut card, g).is_err() {
+            if let Err(e) = save_generation(&mut card, g) {
+                tracing::debug!("trial {trial}: {e:#}");
                 break;
             }
             mid = true;
@@ -288,7 +313,10 @@ pub fn trials(dir: &Path, n: usize, seed: u64) -> Result<Report> {
                     report.saves_acked += 1;
                     mid = false;
                 }
-                Err(_) => break,
+                Err(e) => {
+                    tracing::debug!("trial {trial}: {e:#}");
+                    break;
+                }
             }
         }
         let _ = killer.join();
@@ -302,13 +330,17 @@ pub fn trials(dir: &Path, n: usize, seed: u64) -> Result<Report> {
     }
     // The last kill, checked once more.
     let mut card = CardProc::start(&state)?;
-    match generation(&mut card) {
-        Ok(g) if g >= acked && g < next => {}
-        Ok(g) => report.failures.push(format!(
+    match (generation(&mut card), earom_error(&mut card)) {
+        (Ok(g), Ok(false)) if g == acked => report.found_old += 1,
+        (Ok(g), Ok(false)) if g > acked && g < next => report.found_new += 1,
+        (Ok(g), Ok(false)) => report.failures.push(format!(
             "after the last trial: generation {g}, expected {acked}..{}",
             next - 1
         )),
-        Err(e) => report.failures.push(format!("after the last trial: {e:#}")),
+        (Ok(_), Ok(true)) => report
+            .failures
+            .push("after the last trial: the state file was refused".into()),
+        (Err(e), _) | (_, Err(e)) => report.failures.push(format!("after the last trial: {e:#}")),
     }
     drop(card);
     report.file_bytes = std::fs::metadata(&state).map(|m| m.len()).unwrap_or(0);

@@ -395,11 +395,41 @@ mod fuzz {
 
     /// Values that probe limits and types.
     const VALUES: &[&str] = &[
-        "0", "1", "-1", "2", "255", "256", "65535", "65536", "4294967296", "9223372036854775807",
-        "18446744073709551615", "-9223372036854775808", "1e308", "-1e308", "nan", "inf", "0.5",
-        "\"\"", "\"x\"", "\"card0\"", "\"station0\"", "\"lockstep\"", "\"paced\"", "\"realtime\"",
-        "\"/\"", "\"/nonexistent/dir/\"", "true", "false", "[]", "[\"card0\"]",
-        "[\"card0\", \"card0\"]", "{}", "[[]]", "\"tcp/127.0.0.1:0\"", "1970-01-01",
+        "0",
+        "1",
+        "-1",
+        "2",
+        "255",
+        "256",
+        "65535",
+        "65536",
+        "4294967296",
+        "9223372036854775807",
+        "18446744073709551615",
+        "-9223372036854775808",
+        "1e308",
+        "-1e308",
+        "nan",
+        "inf",
+        "0.5",
+        "\"\"",
+        "\"x\"",
+        "\"card0\"",
+        "\"station0\"",
+        "\"lockstep\"",
+        "\"paced\"",
+        "\"realtime\"",
+        "\"/\"",
+        "\"/nonexistent/dir/\"",
+        "true",
+        "false",
+        "[]",
+        "[\"card0\"]",
+        "[\"card0\", \"card0\"]",
+        "{}",
+        "[[]]",
+        "\"tcp/127.0.0.1:0\"",
+        "1970-01-01",
     ];
 
     fn sample() -> String {
@@ -410,9 +440,19 @@ mod fuzz {
 
     /// Every quantity the members and the orchestrator derive from a valid config.
     fn derive_all(c: &ClusterConfig) {
-        let _ = (c.phase_delay_ns(), c.wall_period_ns(), c.member_timeout(), c.period_ns());
+        let _ = (
+            c.phase_delay_ns(),
+            c.wall_period_ns(),
+            c.member_timeout(),
+            c.period_ns(),
+        );
         for m in &c.ring.order {
-            let _ = (c.ring_settings(m), c.upstream(m), c.position(m), c.member(m));
+            let _ = (
+                c.ring_settings(m),
+                c.upstream(m),
+                c.position(m),
+                c.member(m),
+            );
         }
         let _ = crate::expect::RingModel::from_config(c);
     }

@@ -122,11 +122,13 @@ pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) ->
                 break;
             }
             if Instant::now() > deadline {
-                let why = ["P100", "#1?", "#1P", "#1F", "&1?", "??", "???", "I1001", "I1004"]
-                    .iter()
-                    .map(|q| format!("{q} {}", send(s, cfg, c.number, q).unwrap_or_default()))
-                    .collect::<Vec<_>>()
-                    .join(", ");
+                let why = [
+                    "P100", "#1?", "#1P", "#1F", "&1?", "??", "???", "I1001", "I1004",
+                ]
+                .iter()
+                .map(|q| format!("{q} {}", send(s, cfg, c.number, q).unwrap_or_default()))
+                .collect::<Vec<_>>()
+                .join(", ");
                 bail!("card {}: program 2 did not end ({why})", c.number);
             }
             std::thread::sleep(Duration::from_millis(20));
