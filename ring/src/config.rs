@@ -276,6 +276,9 @@ pub struct ClusterConfig {
     /// EDB drives on the EMCL bus (`[[drives]]`).
     #[serde(default)]
     pub drives: Vec<DriveConfig>,
+    /// Host-port limits (`[host]`: connections, idle and request timeouts).
+    #[serde(default)]
+    pub host: crate::hostport::HostLimits,
 }
 
 /// I995/I996 values a member derives from the config (spec §6.2, §6.3).
@@ -383,6 +386,7 @@ impl ClusterConfig {
             )],
             stations: station_list,
             emcl: EmclConfig::default(),
+            host: crate::hostport::HostLimits::default(),
         };
         cfg.fill_defaults();
         cfg

@@ -15,6 +15,7 @@ pub mod expect;
 pub mod fault;
 pub mod frame;
 pub mod holdover;
+pub mod hostport;
 pub mod member;
 pub mod packet;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
