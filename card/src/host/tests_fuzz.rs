@@ -451,11 +451,10 @@ proptest! {
         let unchanged = bytes == good;
         let mut c = CoreInterp::new(Profile::Pmac2);
         let r = c.core_load(bytes);
-        match which {
+        if which <= 2 {
             // Junk and a cut file never load; a changed file loads only if its bytes are
             // the good ones again (the checksum catches every other change).
-            0 | 1 | 2 => prop_assert_eq!(r.is_ok(), unchanged, "{:?}", r),
-            _ => {}
+            prop_assert_eq!(r.is_ok(), unchanged, "{:?}", r);
         }
         let status = c.line(b"???");
         if r.is_err() {

@@ -435,8 +435,8 @@ fn judge_quiet(
     }
     observe::wait_cycles(s, cfg, margin(&model), Duration::from_secs(30))?;
     let last = observe::snapshot(s, cfg);
-    for i in 0..cfg.ring.order.len() {
-        if last.member(i).is_some_and(|m| m.ring_fault_count > base[i]) {
+    for (i, &before) in base.iter().enumerate() {
+        if last.member(i).is_some_and(|m| m.ring_fault_count > before) {
             let m = last.member(i);
             o.violations.push(format!(
                 "{} latched a ring fault below the thresholds (cycle {:?}: {})",

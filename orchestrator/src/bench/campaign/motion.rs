@@ -95,12 +95,20 @@ pub fn setup(s: &zenoh::Session, cfg: &ClusterConfig) -> Result<()> {
 pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) -> Result<Vec<f64>> {
     for c in &cfg.cards {
         send(s, cfg, c.number, "P100=0")?;
-        // The jog that closed the loop may still be settling: retry R for a while.
+        // The jog that closed the loop may still be under way (ring cycles are slow on a
+        // loaded machine): wait for its move timer, then retry R for a while.
+        let t0 = Instant::now();
+        while motor_word1(s, cfg, c.number)? & MOVE_TIMER != 0 {
+            if t0.elapsed() > timeout {
+                bail!("card {}: motor 1's jog did not end", c.number);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let t0 = Instant::now();
         loop {
             match send(s, cfg, c.number, "&1B2R") {
                 Ok(_) => break,
-                Err(e) if t0.elapsed() > Duration::from_secs(5) => {
+                Err(e) if t0.elapsed() > Duration::from_secs(30) => {
                     let why = ["#1?", "#1P", "??", "???"]
                         .iter()
                         .map(|q| format!("{q} {}", send(s, cfg, c.number, q).unwrap_or_default()))
@@ -138,14 +146,27 @@ pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) ->
     Ok(ends)
 }
 
+/// `#1?` word 1 bit 17: move timer active.
+const MOVE_TIMER: u32 = 1 << 17;
+
+/// Motor 1's status words (`#1?`).
+fn motor_words(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<[u32; 2]> {
+    let r = send(s, cfg, n, "#1?")?;
+    let word = |k: usize| {
+        r.get(6 * k..6 * k + 6)
+            .and_then(|w| u32::from_str_radix(w, 16).ok())
+            .ok_or_else(|| anyhow!("card {n}: #1? answered {r:?}"))
+    };
+    Ok([word(0)?, word(1)?])
+}
+
+fn motor_word1(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<u32> {
+    Ok(motor_words(s, cfg, n)?[0])
+}
+
 /// Motor 1 is in position (`#1?` second word, bit 0).
 pub fn in_position(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<bool> {
-    let r = send(s, cfg, n, "#1?")?;
-    let word = r
-        .get(6..12)
-        .and_then(|w| u32::from_str_radix(w, 16).ok())
-        .ok_or_else(|| anyhow!("card {n}: #1? answered {r:?}"))?;
-    Ok(word & 1 == 1)
+    Ok(motor_words(s, cfg, n)?[1] & 1 == 1)
 }
 
 /// Start program 1 (endless) on every card.
