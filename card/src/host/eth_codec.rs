@@ -188,20 +188,27 @@ impl EthConn {
     /// Pull from the card until at least `want` bytes are held or the reply is complete.
     fn refill<I: Interpreter + ?Sized>(&mut self, want: usize, interp: &mut I) {
         while self.pending_len() < want && self.more_at_card() {
-            let mut out = Vec::new();
-            if self.streaming {
-                let p = interp.line_more();
-                out = p.bytes;
-                self.streaming = p.more;
-            }
-            if !self.streaming {
-                self.run_deferred(interp, &mut out);
-            }
+            let out = self.pull(interp);
             let mut next = Vec::with_capacity(self.pending_len() + out.len());
             next.extend_from_slice(self.pending.get(self.pos..).unwrap_or_default());
             next.extend_from_slice(&out);
             self.set_pending(next);
         }
+    }
+
+    /// The next piece of the reply from the card: the streamed line's next part, then the
+    /// request's remaining events.
+    fn pull<I: Interpreter + ?Sized>(&mut self, interp: &mut I) -> Vec<u8> {
+        let mut out = Vec::new();
+        if self.streaming {
+            let p = interp.line_more();
+            out = p.bytes;
+            self.streaming = p.more;
+        }
+        if !self.streaming {
+            self.run_deferred(interp, &mut out);
+        }
+        out
     }
 
     /// Run deferred events into `out` until one starts a streamed reply.
@@ -365,16 +372,7 @@ impl EthConn {
             if !self.more_at_card() {
                 return None;
             }
-            let mut out = Vec::new();
-            if self.streaming {
-                let p = interp.line_more();
-                out = p.bytes;
-                self.streaming = p.more;
-            }
-            if !self.streaming {
-                self.run_deferred(interp, &mut out);
-            }
-            tail = out;
+            tail = self.pull(interp);
         }
     }
 

@@ -3,11 +3,13 @@
 pub mod bringup;
 pub mod campaign;
 pub mod chain;
+pub mod cluster;
 pub mod crash;
 pub mod emcl;
 pub mod faults;
 pub mod host;
 pub mod inproc;
+pub mod procstat;
 pub mod ring;
 pub mod soak;
 pub mod stats;
