@@ -29,7 +29,7 @@
 //! So an error every cycle is caught within `(rti − 1) + (2·min(L, C) − 2)·rti` cycles (the
 //! period in which it starts may end one error short), sync packets lost for good within
 //! `2·Pc − (I1005 − 1)·rti − 2` (the period in which they stop may still have enough), where
-//! rti = I8 + 1, L = I1004 (station: max_errors + 1), C = checks per period, Pc = C·rti. The
+//! rti = I8 + 1, L = I1004 (station: MI9, the config's max_errors), C = checks per period, Pc = C·rti. The
 //! synchronizing master judges its own frame one cycle later (it comes back during the next).
 
 use crate::check::CheckParams;

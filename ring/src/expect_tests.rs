@@ -230,11 +230,11 @@ fn default_cluster_bounds() {
     let station = m.members[1].check;
     assert_eq!(checks_per_period(&card), 6);
     assert_eq!(error_latency(&card), Some(8));
-    assert_eq!(error_latency(&station), Some(8));
+    assert_eq!(error_latency(&station), Some(6));
     assert_eq!(sync_latency(&card), Some(25));
     assert_eq!(sync_latency(&station), Some(11));
     assert_eq!(safe_error_burst(&card), 1);
-    assert_eq!(safe_error_burst(&station), 4);
+    assert_eq!(safe_error_burst(&station), 3);
     assert_eq!(safe_sync_burst(&card), 8);
     assert_eq!(safe_sync_burst(&station), 4);
     // cut on station0: card1, station1 and card0 (the sync master, one cycle later) see dark
@@ -253,7 +253,7 @@ fn default_cluster_bounds() {
         },
         Detection {
             member: 3,
-            within: 8,
+            within: 6,
         },
         Detection {
             member: 0,
@@ -295,7 +295,7 @@ fn default_cluster_bounds() {
     assert_eq!(m.safe_burst(0, FaultKind::DelayMicros(500)), u64::MAX);
     assert_eq!(
         m.safe_burst(0, FaultKind::Corrupt),
-        4,
+        3,
         "station0 is downstream"
     );
     assert_eq!(

@@ -12,12 +12,16 @@
 //! the card sees where the coasting motors ended once the ring is back; amplifiers stay off
 //! until the card drops AENA ([`crate::servo_node`]).
 
-use mcc_ring::core::RingApp;
+use std::path::PathBuf;
+
+use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 
 use crate::config::PlantConfig;
+use crate::mi::{Globals, Setup};
 use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
+use crate::station_mi::StationMi;
 
 /// A MACRO station with simulated servo nodes.
 #[derive(Clone, Debug)]
@@ -28,6 +32,7 @@ pub struct StationApp {
     ticks: u64,
     ring_fault: bool,
     shutdown_cycle: Option<u64>,
+    mi: StationMi,
 }
 
 impl StationApp {
@@ -50,6 +55,13 @@ impl StationApp {
                 "plant.nodes.{n}: node {n} is not a servo node of this station"
             ));
         }
+        let setup = Setup {
+            globals: Globals::from_check(8, 4, 4),
+            nodes: servo_nodes
+                .iter()
+                .map(|&n| (n, plant.node(n).clone()))
+                .collect(),
+        };
         Ok(StationApp {
             servo: servo_nodes
                 .iter()
@@ -60,7 +72,23 @@ impl StationApp {
             ticks: 0,
             ring_fault: false,
             shutdown_cycle: None,
+            mi: StationMi::new(setup, None),
         })
+    }
+
+    /// Start-up MI values: the config's ring check (MI8 period, MI10 sync packets, MI9
+    /// errors) and where `MS SAVE` keeps the setup (a good state file there replaces the
+    /// config values; a corrupt one is reported).
+    pub fn with_setup(mut self, globals: Globals, state_file: Option<PathBuf>) -> Self {
+        let mut factory = self.mi.setup().clone();
+        factory.globals = globals;
+        self.mi = StationMi::new(factory, state_file);
+        self
+    }
+
+    /// The station's MI-level state.
+    pub fn mi(&self) -> &StationMi {
+        &self.mi
     }
 
     /// Ticks run so far.
@@ -98,6 +126,7 @@ impl StationApp {
 impl RingApp for StationApp {
     fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.ticks += 1;
+        let ring_fault = self.mi.tick(regs, ring_fault, &mut self.servo);
         self.ring_fault = ring_fault;
         self.shutdown_cycle = match (ring_fault, self.shutdown_cycle) {
             (true, None) => Some(cycle),
@@ -130,9 +159,26 @@ impl RingApp for StationApp {
         }
     }
 
-    /// `ring_shutdown_cycle`: the cycle the ring fault shut the amplifiers down (null while
-    /// healthy); `amps_enabled`: the servo nodes whose amplifier is on.
-    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+    fn on_check(&mut self, report: &CheckReport) {
+        let t = self.last_time_ns.unwrap_or(0);
+        self.mi.on_check(report, t);
+    }
+
+    fn take_ring_reset(&mut self) -> bool {
+        self.mi.take_ring_reset()
+    }
+
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        if let Some(p) = self.mi.take_check_params() {
+            ring.check_mut().set_params(p);
+        }
+    }
+
+    /// The MI-variable fields, `ring_shutdown_cycle` (the cycle the ring fault shut the
+    /// amplifiers down; null while healthy) and `amps_enabled` (the servo nodes whose
+    /// amplifier is on).
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        let mut extra = self.mi.status_extra();
         extra.insert(
             "ring_shutdown_cycle".into(),
             serde_json::json!(self.shutdown_cycle),
@@ -144,6 +190,7 @@ impl RingApp for StationApp {
             .map(ServoNode::node)
             .collect();
         extra.insert("amps_enabled".into(), serde_json::json!(on));
+        extra
     }
 }
 

@@ -186,15 +186,14 @@ fn ring_fault_zeroes_outputs_and_drops_enables_in_the_same_tick() {
             ST_AMP_ENABLED | ST_FAULT
         );
     }
-    let mut extra = serde_json::Map::new();
-    app.report(&mut extra);
+    let extra = app.status_extra();
     assert_eq!(extra["ring_shutdown_cycle"], serde_json::Value::Null);
     assert_eq!(extra["amps_enabled"], serde_json::json!([0, 1]));
     app.tick(20, 20 * PERIOD_NS, &mut m, true);
     assert!(app.ring_fault());
     app.tick(21, 21 * PERIOD_NS, &mut m, true);
     // The status names the tick that shut the amplifiers down, while the fault lasts.
-    app.report(&mut extra);
+    let extra = app.status_extra();
     assert_eq!(extra["ring_shutdown_cycle"], 20);
     assert_eq!(extra["amps_enabled"], serde_json::json!([]));
     assert_eq!(m.write_regs(2), NodeRegs::default());
