@@ -205,7 +205,9 @@ pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
 /// member that is dead ends the walk (`"<dead> → <next>"`: nothing leaves it), else the first
 /// whose last received frame lags its current cycle by more than `threshold`, whose input is
 /// dark, that lost the sync packets, or that latched a ring fault while the link into it
-/// delivered bad data within the last `threshold` cycles names `"<upstream> → <member>"` (its
+/// delivered bad data (within the last `threshold` cycles, or within `threshold` cycles of the
+/// latch: a break that healed still names its link until the reset) names `"<upstream> →
+/// <member>"` (its
 /// upstream, visited before, is fine). A card that only misses its own packets is not the
 /// break: they were lost further round the ring.
 pub fn broken_link(
@@ -239,9 +241,14 @@ pub fn broken_link(
         // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.
         // A fault latched on bad data from the link into it (corrupt, byte violation, overrun,
         // underrun, delayed frames).
+        // Also, while the latch holds, once the link is whole again (a restarted member, a
+        // cleared fault): the bad data that made the latch names the link until the reset.
         let bad_input = s.ring_fault
-            && s.link_error_cycle
-                .is_some_and(|c| reference.saturating_sub(c) <= threshold);
+            && s.link_error_cycle.is_some_and(|c| {
+                reference.saturating_sub(c) <= threshold
+                    || s.ring_fault_cycle
+                        .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
+            });
         if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
         {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));

@@ -60,9 +60,24 @@ fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
         broken_link(&cfg, &st, 32).as_deref(),
         Some("station1 → card0")
     );
-    // Errors long past (the fault was cleared) name nothing while the latch waits for reset.
+    // Errors long before the latch did not make it: they name nothing.
     st[0].as_mut().unwrap().link_error_cycle = Some(2900);
     assert_eq!(broken_link(&cfg, &st, 32), None);
+    // The link healed (a restarted member, a cleared fault) long ago: the bad data that made
+    // the latch still names its link until the reset.
+    st[0].as_mut().unwrap().link_error_cycle = Some(2989);
+    for m in st.iter_mut().flatten() {
+        m.cycle = 9000;
+        m.last_rx_cycle = Some(9000);
+    }
+    assert_eq!(
+        broken_link(&cfg, &st, 32).as_deref(),
+        Some("station1 → card0")
+    );
+    for m in st.iter_mut().flatten() {
+        m.cycle = 3000;
+        m.last_rx_cycle = Some(3000);
+    }
     // A tolerated burst (no latch) names nothing either.
     for m in st.iter_mut().flatten() {
         m.ring_fault = false;

@@ -10,8 +10,9 @@
 //!   latched dropped its amplifiers in the latching cycle; after clear (+ restart) and the
 //!   usual reset (`$$$`, latch reset) program 2 ends at the same position as before the
 //!   campaign on every card;
-//! - a fault below the thresholds (a burst no check can trip on, a stall shorter than the
-//!   frozen-member wait, `delay-us`) latches nothing and kills no motor.
+//! - a fault below the thresholds (a burst no check can trip on, `delay-us`) latches nothing
+//!   and kills no motor. (A SIGSTOP of any length is no tolerated stall: a stopped process is
+//!   a fact the member downstream sees as loss of light, see the README's Clocks.)
 
 pub mod motion;
 pub mod observe;
@@ -50,7 +51,6 @@ pub fn run(args: &BenchFaultsArgs, n: u64) -> Result<()> {
     cfg.drives.clear();
     let opts = PlanOptions {
         below_share: 0.4,
-        member_timeout_ms: cfg.member_timeout_ms,
         kinds,
     };
     let report = with_cluster(cfg, |sup, cfg| {
@@ -207,12 +207,6 @@ fn one(
             &target,
             &FaultRequest::Inject { spec: spec.clone() },
         )?,
-        Action::Stall(ms) => {
-            let pid = pid(sup, &target)?;
-            crate::sys::signal(pid, libc::SIGSTOP)?;
-            std::thread::sleep(Duration::from_millis(*ms));
-            crate::sys::signal(pid, libc::SIGCONT)?;
-        }
         Action::Freeze => {
             crate::sys::signal(pid(sup, &target)?, libc::SIGSTOP)?;
         }

@@ -86,9 +86,8 @@ impl Kind {
 pub enum Action {
     /// A send-path fault (`spec.cycles`: a burst; none: until cleared).
     Frames(FaultSpec),
-    /// SIGSTOP for this many ms (shorter than the frozen-member wait), then SIGCONT.
-    Stall(u64),
-    /// SIGSTOP until the ring has detected it; then restart.
+    /// SIGSTOP until the ring has detected it (a stopped process is loss of light, seen
+    /// by the member downstream on this machine); then restart.
     Freeze,
     /// SIGKILL; then restart.
     Kill,
@@ -127,7 +126,6 @@ impl Planned {
                 Some(n) => format!("{} on {who} for {n} cycle(s)", s.kind),
                 None => format!("{} on {who}", s.kind),
             },
-            Action::Stall(ms) => format!("freeze {who} for {ms} ms"),
             Action::Freeze => format!("freeze {who}"),
             Action::Kill => format!("kill {who}"),
             Action::Restart => format!("restart {who}"),
@@ -140,8 +138,6 @@ impl Planned {
 pub struct PlanOptions {
     /// Share of faults that have a tolerated form (bursts, stalls) planned in that form.
     pub below_share: f64,
-    /// The frozen-member wait, ms (stalls stay well under it).
-    pub member_timeout_ms: u64,
     /// Only these kinds (empty: all).
     pub kinds: Vec<Kind>,
 }
@@ -194,10 +190,6 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                     seed,
                 }),
                 Kind::Cut => frames(FaultKind::Cut, &mut rng),
-                Kind::Freeze if below => {
-                    let most = (opts.member_timeout_ms * 3 / 10).max(20);
-                    Action::Stall(rng.random_range(10..=most))
-                }
                 Kind::Freeze => Action::Freeze,
                 Kind::Kill => Action::Kill,
                 Kind::Restart => Action::Restart,
@@ -207,7 +199,6 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                     kind: s.kind,
                     cycles: s.cycles,
                 },
-                Action::Stall(_) => Disturbance::Stall,
                 Action::Freeze | Action::Kill | Action::Restart => Disturbance::Dark,
             };
             Planned {
@@ -230,7 +221,6 @@ mod tests {
     fn opts() -> PlanOptions {
         PlanOptions {
             below_share: 0.4,
-            member_timeout_ms: 1000,
             kinds: Vec::new(),
         }
     }
@@ -255,7 +245,6 @@ mod tests {
         for f in &p {
             match (&f.action, f.kind) {
                 (Action::Kill | Action::Restart | Action::Freeze, _) => assert!(f.sustained()),
-                (Action::Stall(ms), _) => assert!(f.expect.quiet() && *ms <= 300),
                 (Action::Frames(s), Kind::DelayUs) => {
                     assert!(f.expect.quiet() && s.cycles.is_some())
                 }
