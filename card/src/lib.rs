@@ -56,7 +56,7 @@ pub use runtime::bench_servo::{
 };
 pub use runtime::ring_app::{wire_macro_motors, CardRingApp};
 pub use runtime::run_ring_card;
-pub use runtime::standalone::{run_standalone, StandaloneOpts};
+pub use runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 pub use service::handle::{spawn_card_thread, CardHandle};
 pub use service::storage::FileStorage;
 pub use servo::Servo;

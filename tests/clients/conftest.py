@@ -29,9 +29,12 @@ class CardProcess:
         if not ready:
             self.stop()
             raise RuntimeError("mcc-card did not report its ports")
-        ports = json.loads(self.proc.stdout.readline())
-        self.ascii = ports["ascii"]
-        self.pmac_eth = ports["pmac_eth"]
+        self.ports = json.loads(self.proc.stdout.readline())
+        # A Power card has the gpascii and SSH ports instead of the ASCII and Ethernet ones.
+        self.ascii = self.ports.get("ascii")
+        self.pmac_eth = self.ports.get("pmac_eth")
+        self.gpascii = self.ports.get("gpascii")
+        self.ssh = self.ports.get("ssh")
 
     def stop(self):
         try:

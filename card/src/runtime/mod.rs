@@ -14,7 +14,9 @@ use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
 use crate::core::CardCore;
+use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
+use crate::host::ssh::server::Credentials;
 use crate::host::zenoh_cmd::declare_cmd_queryable;
 use crate::lang::interp::{Card, Profile};
 use crate::service::storage::{self, FileStorage};
@@ -68,14 +70,38 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .enable_all()
             .build()
             .context("starting the host-port runtime")?;
-        let ports = rt.block_on(serve(
-            handle.clone(),
-            PortsConfig {
-                ascii_port: cc.ascii_port,
-                eth_port: cc.pmac_eth_port,
-                ..PortsConfig::default()
-            },
-        ))?;
+        let mut extra = serde_json::Map::new();
+        // A Power card is reached as Power PMAC users connect (gpascii, SSH); the others
+        // have the ASCII and PMAC Ethernet-protocol ports.
+        let ports: Box<dyn std::any::Any> = if cc.profile == "power" {
+            let ports = rt.block_on(serve_power(
+                handle.clone(),
+                PowerPortsConfig {
+                    gpascii_port: cc.gpascii_port,
+                    ssh_port: cc.ssh_port,
+                    creds: Credentials {
+                        user: cc.ssh_user.clone(),
+                        password: cc.ssh_password.clone(),
+                    },
+                    ..PowerPortsConfig::default()
+                },
+            ))?;
+            extra.insert("gpascii".into(), serde_json::json!(ports.gpascii.port()));
+            extra.insert("ssh".into(), serde_json::json!(ports.ssh.port()));
+            Box::new(ports)
+        } else {
+            let ports = rt.block_on(serve(
+                handle.clone(),
+                PortsConfig {
+                    ascii_port: cc.ascii_port,
+                    eth_port: cc.pmac_eth_port,
+                    ..PortsConfig::default()
+                },
+            ))?;
+            extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
+            extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
+            Box::new(ports)
+        };
         let queryable = rt
             .block_on(declare_cmd_queryable(
                 &ctx.session,
@@ -96,11 +122,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         )
         .map_err(|e| anyhow!("declare card at queryable: {e}"))?;
 
-        let mut extra = serde_json::Map::new();
         extra.insert("number".into(), serde_json::json!(cc.number));
         extra.insert("profile".into(), serde_json::json!(cc.profile));
-        extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
-        extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
         // A refused state file (issue 9 item 7): `cards[].state_file_error` in the status.
         extra.insert("state_file_error".into(), serde_json::json!(load_error));
         // The daisy chain (pmac-commands §8.3): every chain byte reaches every card.
@@ -122,7 +145,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .with_resource(Box::new(chain_q))
             .with_resource(Box::new(at_queryable))
             .with_resource(Box::new(queryable))
-            .with_resource(Box::new(ports))
+            .with_resource(ports)
             .with_resource(Box::new(rt));
         Ok((app, extra))
     })

@@ -1,0 +1,211 @@
+//! The Power PMAC `gpascii` command thread as a host sees it (pure): its banner, how a byte
+//! stream becomes command lines, and how a command's reply is framed.
+//!
+//! A Power PMAC runs `gpascii` on its Linux side; each instance is one communication thread
+//! with its own addressed motor/C.S., echo mode, L/R stack and open buffer (power-pmac.md
+//! §2.13). It prints [`BANNER`] when it starts, reads one command line per `LF`, prints the
+//! reply lines, each ended by `LF`, and then `ACK LF` ([`frame_reply`]), also after an empty
+//! line: hosts wait for the `ACK` to know a reply is complete (dls_pmaclib's
+//! `PPmacSshInterface` sends `cmd\r\n`, two lines through the terminal, and waits for two).
+//!
+//! [`LineSplitter`] reads the raw TCP ("Telnet") port: `CR`, `LF` and `CR LF` each end one line,
+//! Telnet `IAC` negotiation is dropped, `<CTRL-C>` / `<CTRL-D>` end the session (as they end
+//! `gpascii` on a terminal). The SSH shell feeds `gpascii` through its own terminal emulation
+//! (`host::ssh::shell`).
+
+/// What `gpascii` prints when it starts (hosts wait for "ASCII").
+pub(crate) const BANNER: &[u8] = b"STDIN Open for ASCII Input\n";
+
+/// Longest command line accepted (bytes, without its end): the interpreter's limit.
+pub(crate) const MAX_LINE: usize = crate::lang::interp::MAX_LINE;
+
+const ACK: u8 = 0x06;
+const BEL: u8 = 0x07;
+const CR: u8 = b'\r';
+const LF: u8 = b'\n';
+const CTRL_C: u8 = 0x03;
+const CTRL_D: u8 = 0x04;
+const IAC: u8 = 0xFF;
+
+/// The bytes `gpascii` prints for one command line, given the card's reply to it: the reply's
+/// lines each ended by `LF` (a `CR`, `CR LF` or the classic `BEL`/`ACK` handshake of another
+/// profile's reply is normalised away), then `ACK LF`.
+pub(crate) fn frame_reply(reply: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(reply.len() + 3);
+    let mut prev_cr = false;
+    for &b in reply {
+        match b {
+            ACK | BEL => {}
+            CR => out.push(LF),
+            LF if prev_cr => {}
+            _ => out.push(b),
+        }
+        prev_cr = b == CR;
+    }
+    if out.last().is_some_and(|&b| b != LF) {
+        out.push(LF);
+    }
+    out.extend_from_slice(&[ACK, LF]);
+    out
+}
+
+/// What a host sent on the raw `gpascii` port, in order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum GpEvent {
+    /// A command line (without its end; possibly empty).
+    Line(Vec<u8>),
+    /// A line longer than [`MAX_LINE`] ended (answer with the card's error; nothing ran).
+    Overlong,
+    /// `<CTRL-C>` or `<CTRL-D>`: the host ends the session.
+    Quit,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+enum Telnet {
+    /// Plain data.
+    #[default]
+    Data,
+    /// After `IAC`.
+    Iac,
+    /// After `IAC WILL|WONT|DO|DONT`: the option byte follows.
+    Option,
+    /// Inside `IAC SB … IAC SE`.
+    Sub,
+    /// `IAC` inside a subnegotiation.
+    SubIac,
+}
+
+/// Line assembler of the raw `gpascii` port (see the module docs).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LineSplitter {
+    line: Vec<u8>,
+    overflow: bool,
+    after_cr: bool,
+    telnet: Telnet,
+}
+
+impl LineSplitter {
+    /// An empty splitter.
+    pub(crate) fn new() -> Self {
+        Self::default()
+    }
+
+    /// Feed received bytes; the resulting events in order (nothing after a [`GpEvent::Quit`]).
+    pub(crate) fn feed(&mut self, bytes: &[u8]) -> Vec<GpEvent> {
+        let mut out = Vec::new();
+        for &b in bytes {
+            if let Some(data) = self.telnet(b) {
+                self.push(data, &mut out);
+                if out.last() == Some(&GpEvent::Quit) {
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    /// Strip Telnet commands: the data byte `b` stands for, if any.
+    fn telnet(&mut self, b: u8) -> Option<u8> {
+        match (self.telnet, b) {
+            (Telnet::Data, IAC) => self.telnet = Telnet::Iac,
+            (Telnet::Data, _) => return Some(b),
+            (Telnet::Iac, IAC) => {
+                self.telnet = Telnet::Data;
+                return Some(IAC);
+            }
+            (Telnet::Iac, 251..=254) => self.telnet = Telnet::Option,
+            (Telnet::Iac, 250) => self.telnet = Telnet::Sub,
+            (Telnet::Iac | Telnet::Option, _) => self.telnet = Telnet::Data,
+            (Telnet::Sub, IAC) => self.telnet = Telnet::SubIac,
+            (Telnet::Sub, _) => {}
+            (Telnet::SubIac, 240) => self.telnet = Telnet::Data,
+            (Telnet::SubIac, _) => self.telnet = Telnet::Sub,
+        }
+        None
+    }
+
+    fn push(&mut self, b: u8, out: &mut Vec<GpEvent>) {
+        let after_cr = std::mem::replace(&mut self.after_cr, b == CR);
+        match b {
+            LF if after_cr => {}
+            CR | LF => self.end_line(out),
+            CTRL_C | CTRL_D => out.push(GpEvent::Quit),
+            // Other control characters (and Telnet's CR NUL) are no part of a command.
+            0x00..=0x1F | 0x7F => {}
+            _ if self.overflow => {}
+            _ if self.line.len() >= MAX_LINE => {
+                self.overflow = true;
+                self.line.clear();
+            }
+            _ => self.line.push(b),
+        }
+    }
+
+    fn end_line(&mut self, out: &mut Vec<GpEvent>) {
+        if std::mem::take(&mut self.overflow) {
+            out.push(GpEvent::Overlong);
+        } else {
+            out.push(GpEvent::Line(std::mem::take(&mut self.line)));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GpEvent::*;
+    use super::*;
+
+    fn line(s: &str) -> GpEvent {
+        Line(s.as_bytes().to_vec())
+    }
+
+    #[test]
+    fn reply_lines_end_in_lf_then_ack() {
+        assert_eq!(frame_reply(b""), b"\x06\n");
+        assert_eq!(frame_reply(b"604020"), b"604020\n\x06\n");
+        assert_eq!(frame_reply(b"a\nb\n"), b"a\nb\n\x06\n");
+        // A classic-framed reply (CR line ends, ACK / BEL handshake) is normalised.
+        assert_eq!(frame_reply(b"1\r2\r\x06"), b"1\n2\n\x06\n");
+        assert_eq!(frame_reply(b"\x07ERR003\r"), b"ERR003\n\x06\n");
+        assert_eq!(frame_reply(b"x\r\ny\r\n"), b"x\ny\n\x06\n");
+    }
+
+    #[test]
+    fn cr_lf_and_crlf_each_end_one_line() {
+        let mut s = LineSplitter::new();
+        assert_eq!(
+            s.feed(b"P1\r\nP2\nP3\rP4"),
+            vec![line("P1"), line("P2"), line("P3")]
+        );
+        assert_eq!(s.feed(b"\r\r\n"), vec![line("P4"), line("")]);
+        // A CR LF split across reads is still one end.
+        assert_eq!(s.feed(b"cid\r"), vec![line("cid")]);
+        assert_eq!(s.feed(b"\nvers\n"), vec![line("vers")]);
+    }
+
+    #[test]
+    fn telnet_negotiation_and_control_bytes_are_dropped() {
+        let mut s = LineSplitter::new();
+        // IAC DO ECHO, IAC SB NAWS … IAC SE, IAC IAC (a data 0xFF), CR NUL, a stray TAB.
+        let input = b"\xff\xfd\x01\xff\xfa\x1f\x00\x50\x00\x18\xff\xf0P\t1\xff\xff\r\x00";
+        assert_eq!(s.feed(input), vec![Line(vec![b'P', b'1', 0xFF])]);
+    }
+
+    #[test]
+    fn ctrl_c_or_ctrl_d_quit_and_stop_reading() {
+        let mut s = LineSplitter::new();
+        assert_eq!(s.feed(b"P1\n\x03P2\n"), vec![line("P1"), Quit]);
+        let mut s = LineSplitter::new();
+        assert_eq!(s.feed(b"\x04"), vec![Quit]);
+    }
+
+    #[test]
+    fn overlong_line_is_refused_once_then_reading_resumes() {
+        let mut s = LineSplitter::new();
+        let mut input = vec![b'1'; MAX_LINE];
+        assert_eq!(s.feed(&input), vec![]);
+        assert_eq!(s.feed(b"\n"), vec![Line(vec![b'1'; MAX_LINE])]);
+        input.extend_from_slice(b"23\nP7\n");
+        assert_eq!(s.feed(&input), vec![Overlong, line("P7")]);
+    }
+}
