@@ -86,6 +86,7 @@ fn main() -> ExitCode {
         eth_port: args.eth_port,
         state_file: args.state_file,
         exit_on_stdin_eof: args.exit_on_stdin_eof,
+        power_host: None,
     };
     match run_standalone(opts) {
         Ok(()) => ExitCode::SUCCESS,

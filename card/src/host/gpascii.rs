@@ -32,15 +32,15 @@ const IAC: u8 = 0xFF;
 /// profile's reply is normalised away), then `ACK LF`.
 pub(crate) fn frame_reply(reply: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(reply.len() + 3);
-    let mut prev_cr = false;
+    // A reply with a CR is classically framed: CR ends a line, an LF only leads one (I3).
+    let classic = reply.contains(&CR);
     for &b in reply {
         match b {
             ACK | BEL => {}
             CR => out.push(LF),
-            LF if prev_cr => {}
+            LF if classic => {}
             _ => out.push(b),
         }
-        prev_cr = b == CR;
     }
     if out.last().is_some_and(|&b| b != LF) {
         out.push(LF);
@@ -168,6 +168,9 @@ mod tests {
         assert_eq!(frame_reply(b"1\r2\r\x06"), b"1\n2\n\x06\n");
         assert_eq!(frame_reply(b"\x07ERR003\r"), b"ERR003\n\x06\n");
         assert_eq!(frame_reply(b"x\r\ny\r\n"), b"x\ny\n\x06\n");
+        // The classic I3 forms that lead a line with LF.
+        assert_eq!(frame_reply(b"\n602413\r\x06"), b"602413\n\x06\n");
+        assert_eq!(frame_reply(b"\n1\r\n2\r\x06"), b"1\n2\n\x06\n");
     }
 
     #[test]

@@ -80,7 +80,12 @@ pub(crate) async fn serve_power(
     let (stop, stop_rx) = watch::channel(false);
     let (gp_addr, ssh_addr) = (gp.local_addr()?, ssh.local_addr()?);
     let tasks = vec![
-        tokio::spawn(gpascii_accept(gp, card.clone(), cfg.clone(), stop_rx.clone())),
+        tokio::spawn(gpascii_accept(
+            gp,
+            card.clone(),
+            cfg.clone(),
+            stop_rx.clone(),
+        )),
         spawn_ssh(ssh, card, cfg.creds.clone(), cfg.max_connections, stop_rx),
     ];
     Ok(BoundPowerPorts {

@@ -81,7 +81,12 @@ async fn every_connection_is_its_own_command_thread() {
     let mut b = connect(ports.gpascii).await;
     // The addressed motor is per thread.
     ask(&mut a, b"#3\n", &in_process(&["#3"])).await;
-    ask(&mut a, b"#\n", &in_process(&["#3", "#"])[in_process(&["#3"]).len()..]).await;
+    ask(
+        &mut a,
+        b"#\n",
+        &in_process(&["#3", "#"])[in_process(&["#3"]).len()..],
+    )
+    .await;
     ask(&mut b, b"#\n", &in_process(&["#"])).await;
     ports.shutdown().await;
 }
@@ -94,9 +99,10 @@ async fn overlong_line_is_refused_then_reading_resumes() {
     long.push(b'\n');
     s.write_all(&long).await.unwrap();
     let mut probe = Card::new(Profile::Turbo);
-    let refused = frame_reply(
-        &probe.command_line(&mut Session::default(), &crate::host::port::overlong_probe()),
-    );
+    let refused = frame_reply(&probe.command_line(
+        &mut Session::default(),
+        &crate::host::port::overlong_probe(),
+    ));
     assert!(refused.windows(6).any(|w| w == b"ERR003"), "{refused:?}");
     assert_eq!(read_n(&mut s, refused.len()).await, refused);
     ask(&mut s, b"cid\n", b"602413\n\x06\n").await;

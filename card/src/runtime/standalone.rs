@@ -170,6 +170,9 @@ mod tests {
     #[test]
     fn ports_json_shape() {
         assert_eq!(super::ports_json(1025, 7), r#"{"ascii":1025,"pmac_eth":7}"#);
-        assert_eq!(super::power_ports_json(23, 22), r#"{"gpascii":23,"ssh":22}"#);
+        assert_eq!(
+            super::power_ports_json(23, 22),
+            r#"{"gpascii":23,"ssh":22}"#
+        );
     }
 }

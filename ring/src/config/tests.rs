@@ -256,7 +256,10 @@ fn more_validation_rules() {
     let (k, p) = invalid(&card("ssh_port = 2222"));
     assert_eq!(k, "cards[2].ssh_port");
     assert!(p.contains("power"), "{p}");
-    assert_eq!(invalid(&card("gpascii_port = 2223")).0, "cards[2].gpascii_port");
+    assert_eq!(
+        invalid(&card("gpascii_port = 2223")).0,
+        "cards[2].gpascii_port"
+    );
     assert_eq!(invalid(&card("ssh_user = \"\"")).0, "cards[2].ssh_user");
     assert_eq!(invalid(&card("ssh_user = \"a b\"")).0, "cards[2].ssh_user");
     assert_eq!(

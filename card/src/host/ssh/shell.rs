@@ -119,11 +119,13 @@ impl Shell {
     }
 
     /// The session has ended (no more input is read).
+    #[cfg(test)]
     pub(crate) fn done(&self) -> bool {
         self.mode == Mode::Done
     }
 
     /// `gpascii` is running.
+    #[cfg(test)]
     pub(crate) fn in_gpascii(&self) -> bool {
         self.mode == Mode::Gpascii
     }

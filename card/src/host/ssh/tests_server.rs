@@ -20,12 +20,19 @@ struct Client;
 impl client::Handler for Client {
     type Error = russh::Error;
 
-    async fn check_server_key(&mut self, _key: &PublicKeyOrCertificate) -> Result<bool, Self::Error> {
+    async fn check_server_key(
+        &mut self,
+        _key: &PublicKeyOrCertificate,
+    ) -> Result<bool, Self::Error> {
         Ok(true)
     }
 }
 
-async fn login(ports: &BoundPowerPorts, user: &str, password: &str) -> (client::Handle<Client>, bool) {
+async fn login(
+    ports: &BoundPowerPorts,
+    user: &str,
+    password: &str,
+) -> (client::Handle<Client>, bool) {
     let config = Arc::new(client::Config::default());
     let mut h = tokio::time::timeout(WAIT, client::connect(config, ports.ssh, Client))
         .await
@@ -51,13 +58,20 @@ async fn read_until(ch: &mut russh::Channel<client::Msg>, tail: &[u8]) -> Vec<u8
         }
     })
     .await
-    .unwrap_or_else(|_| panic!("no {tail:?} in time; got {:?}", String::from_utf8_lossy(&got)));
+    .unwrap_or_else(|_| {
+        panic!(
+            "no {tail:?} in time; got {:?}",
+            String::from_utf8_lossy(&got)
+        )
+    });
     got
 }
 
 /// `LF` → `CR LF`, as the terminal sends it.
 fn crlf(b: &[u8]) -> Vec<u8> {
-    String::from_utf8_lossy(b).replace('\n', "\r\n").into_bytes()
+    String::from_utf8_lossy(b)
+        .replace('\n', "\r\n")
+        .into_bytes()
 }
 
 /// Everything until the channel closes: (stdout, stderr, exit status).
@@ -88,7 +102,12 @@ async fn wrong_credentials_are_refused_and_configured_ones_accepted() {
         ..PowerPortsConfig::default()
     };
     let ports = start(cfg).await;
-    for (u, p) in [("root", "deltatau"), ("ops", "s3cre"), ("ops", "s3cret "), ("", "")] {
+    for (u, p) in [
+        ("root", "deltatau"),
+        ("ops", "s3cre"),
+        ("ops", "s3cret "),
+        ("", ""),
+    ] {
         let (h, ok) = login(&ports, u, p).await;
         assert!(!ok, "{u}/{p} must be refused");
         let _ = h.disconnect(Disconnect::ByApplication, "", "").await;
@@ -96,9 +115,14 @@ async fn wrong_credentials_are_refused_and_configured_ones_accepted() {
     let (h, ok) = login(&ports, "ops", "s3cret").await;
     assert!(ok);
     let mut ch = h.channel_open_session().await.unwrap();
-    ch.request_pty(true, "vt100", 80, 24, 0, 0, &[]).await.unwrap();
+    ch.request_pty(true, "vt100", 80, 24, 0, 0, &[])
+        .await
+        .unwrap();
     ch.request_shell(true).await.unwrap();
-    assert_eq!(read_until(&mut ch, b"$ ").await, b"ops@powerpmac:/opt/ppmac$ ");
+    assert_eq!(
+        read_until(&mut ch, b"$ ").await,
+        b"ops@powerpmac:/opt/ppmac$ "
+    );
     ports.shutdown().await;
 }
 
@@ -111,9 +135,14 @@ async fn shell_gpascii_session_as_ppmac_ssh_interface_drives_it() {
     let (h, ok) = login(&ports, "root", "deltatau").await;
     assert!(ok);
     let mut ch = h.channel_open_session().await.unwrap();
-    ch.request_pty(true, "vt100", 80, 24, 0, 0, &[]).await.unwrap();
+    ch.request_pty(true, "vt100", 80, 24, 0, 0, &[])
+        .await
+        .unwrap();
     ch.request_shell(true).await.unwrap();
-    assert_eq!(read_until(&mut ch, b"# ").await, b"root@powerpmac:/opt/ppmac# ");
+    assert_eq!(
+        read_until(&mut ch, b"# ").await,
+        b"root@powerpmac:/opt/ppmac# "
+    );
     ch.data_bytes(&b"gpascii -2\r\n"[..]).await.unwrap();
     let got = read_until(&mut ch, b"\x06\r\n").await;
     assert_eq!(
@@ -130,7 +159,10 @@ async fn shell_gpascii_session_as_ppmac_ssh_interface_drives_it() {
     let set = in_process(&["P7=12.5"]).len();
     let value = crlf(&in_process(&["P7=12.5", "P7"])[set..]);
     assert_eq!(value, b"12.5\r\n\x06\r\n");
-    assert_eq!(got, [b"P7\r\n\r\n".as_slice(), &value, b"\x06\r\n"].concat());
+    assert_eq!(
+        got,
+        [b"P7\r\n\r\n".as_slice(), &value, b"\x06\r\n"].concat()
+    );
     // CTRL-C leaves gpascii for the prompt; other commands are a clear shell error; exit.
     ch.data_bytes(&b"\x03"[..]).await.unwrap();
     let got = read_until(&mut ch, b"# ").await;
@@ -170,7 +202,10 @@ async fn exec_sessions_run_gpascii_or_refuse_the_command() {
     ch.eof().await.unwrap();
     let (out, _, status) = drain(&mut ch).await;
     let want = [BANNER.to_vec(), in_process(&["cid", "#2", "#"])].concat();
-    assert_eq!(String::from_utf8_lossy(&out), String::from_utf8_lossy(&want));
+    assert_eq!(
+        String::from_utf8_lossy(&out),
+        String::from_utf8_lossy(&want)
+    );
     assert_eq!(status, Some(0));
     // Subsystems (sftp) are refused, the connection stays usable.
     let ch = h.channel_open_session().await.unwrap();

@@ -56,7 +56,11 @@ fn ppmac_ssh_interface_exchange_is_byte_exact() {
     let out = sh.feed(b"cid\r\n");
     assert_eq!(
         out,
-        vec![bytes(b"cid\r\n\r\n"), Line(b"cid".to_vec()), bytes(b"\x06\r\n")]
+        vec![
+            bytes(b"cid\r\n\r\n"),
+            Line(b"cid".to_vec()),
+            bytes(b"\x06\r\n")
+        ]
     );
     let seen = transcript(&sh, &out, |_| b"604020\n".to_vec());
     assert_eq!(seen, b"cid\r\n\r\n604020\r\n\x06\r\n\x06\r\n");
@@ -86,10 +90,7 @@ fn ctrl_c_leaves_gpascii_for_the_prompt_and_exit_logs_out() {
     );
     assert!(!sh.in_gpascii());
     let out = sh.feed(b"exit\r");
-    assert_eq!(
-        out,
-        vec![bytes(b"exit\r\n"), bytes(b"logout\r\n"), Exit(0)]
-    );
+    assert_eq!(out, vec![bytes(b"exit\r\n"), bytes(b"logout\r\n"), Exit(0)]);
     assert!(sh.done());
     assert_eq!(sh.feed(b"gpascii\r"), vec![]);
 }
@@ -166,7 +167,13 @@ fn terminal_modes_are_honoured() {
 
 #[test]
 fn overlong_lines_are_refused_without_running() {
-    let (mut sh, _) = Shell::interactive("root", Some(TtyModes { echo: false, ..TtyModes::default() }));
+    let (mut sh, _) = Shell::interactive(
+        "root",
+        Some(TtyModes {
+            echo: false,
+            ..TtyModes::default()
+        }),
+    );
     sh.feed(b"gpascii -2\r");
     let mut long = vec![b'P'; MAX_LINE + 1];
     long.push(b'\r');
