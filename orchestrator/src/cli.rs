@@ -104,7 +104,7 @@ pub struct UpArgs {
     /// TCP port of the EMCL bus on 127.0.0.1 (default: `[emcl] port`, else any free port).
     #[arg(long, value_name = "PORT")]
     pub emcl_port: Option<u16>,
-    /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    /// Terminal: show framing characters (`<ACK>`, `<CR>`, `<LF>`, `<BELL>`) in replies.
     #[arg(long)]
     pub show_framing: bool,
     /// With --detach: print the status document (`mcc status --json`) once the ring is locked,
@@ -310,7 +310,8 @@ pub struct DownArgs {
 pub enum BenchCommand {
     /// Daisy-chain command round trip (p50/p99) on a cluster of its own.
     Chain(BenchChainArgs),
-    /// Ring throughput and latency against raw UDP and the OS timer.
+    /// Ring throughput, hop latency and CPU of multi-process clusters against a raw UDP ring;
+    /// realtime lateness against the OS timer.
     Ring(BenchRingArgs),
     /// Card host interface: in-process command rate, ASCII and Ethernet port round trips.
     Host(BenchHostArgs),
@@ -327,6 +328,9 @@ pub enum BenchCommand {
     /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
     /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
     Soak(BenchSoakArgs),
+    /// One process of `bench ring`'s raw UDP ring (internal).
+    #[command(hide = true)]
+    UdpMember(BenchUdpMemberArgs),
 }
 
 /// `mcc bench soak`.
@@ -414,18 +418,41 @@ pub struct BenchHostArgs {
 /// `mcc bench ring`.
 #[derive(Debug, Args)]
 pub struct BenchRingArgs {
-    /// Ring members (default 12: 4 cards + 8 stations).
+    /// Clusters to measure, as CARDS+STATIONS (lockstep and real-time factor 1).
+    #[arg(long, value_name = "LIST", default_value = "1+1,2+2,4+8")]
+    pub sizes: String,
+    /// Lockstep: seconds measured per cluster (and per UDP ring).
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    pub seconds: f64,
+    /// Real-time factor 1: seconds measured per cluster.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub rtf_seconds: f64,
+    /// Only these sections (comma-separated): lockstep, rtf1, realtime.
+    #[arg(long, value_name = "LIST")]
+    pub only: Option<String>,
+    /// Realtime section: ring members in one process (default 12: 4 cards + 8 stations).
     #[arg(long, value_name = "N", default_value_t = 12, value_parser = clap::value_parser!(u32).range(2..=64))]
     pub members: u32,
-    /// Lockstep cycles to measure.
-    #[arg(long, value_name = "K", default_value_t = 5000)]
-    pub cycles: u64,
-    /// Realtime measurement duration, seconds.
+    /// Realtime section: measurement duration, seconds.
     #[arg(long, value_name = "S", default_value_t = 5.0)]
     pub duration: f64,
-    /// Realtime rate, Hz.
+    /// Realtime section: rate, Hz.
     #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
     pub rate: f64,
+}
+
+/// `mcc bench udp-member` (internal: one process of `bench ring`'s raw UDP ring).
+#[derive(Debug, Args)]
+pub struct BenchUdpMemberArgs {
+    /// Position in the ring (0 starts the cycles).
+    #[arg(long, value_name = "K")]
+    pub index: u32,
+    /// Position 0: ms before the measurement window.
+    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    pub warmup_ms: u64,
+    /// Position 0: ms measured.
+    #[arg(long, value_name = "MS", default_value_t = 5000)]
+    pub window_ms: u64,
 }
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {

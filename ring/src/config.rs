@@ -124,6 +124,11 @@ pub struct RingConfig {
     /// The synchronizing master (a card); empty = the first card in ring order.
     #[serde(default)]
     pub sync_master: String,
+    /// Paced and lockstep: ring cycles the sync master lets be in flight around the ring
+    /// (1-8, default 1): cycle k starts once cycle k-N is back. More than one lets a long ring
+    /// keep up with its rate at the cost of N-1 cycles of extra servo delay on every card.
+    #[serde(default = "default_in_flight")]
+    pub in_flight: u64,
 }
 
 impl Default for RingConfig {
@@ -132,8 +137,13 @@ impl Default for RingConfig {
             name: default_ring_name(),
             order: Vec::new(),
             sync_master: String::new(),
+            in_flight: default_in_flight(),
         }
     }
+}
+
+fn default_in_flight() -> u64 {
+    1
 }
 
 /// A startup I-variable override value.
@@ -289,6 +299,9 @@ pub struct ClusterConfig {
     /// EDB drives on the EMCL bus (`[[drives]]`).
     #[serde(default)]
     pub drives: Vec<DriveConfig>,
+    /// Host-port limits (`[host]`: connections, idle and request timeouts).
+    #[serde(default)]
+    pub host: crate::hostport::HostLimits,
 }
 
 /// I995/I996 values a member derives from the config (spec §6.2, §6.3).
@@ -400,6 +413,7 @@ impl ClusterConfig {
             )],
             stations: station_list,
             emcl: EmclConfig::default(),
+            host: crate::hostport::HostLimits::default(),
         };
         cfg.fill_defaults();
         cfg

@@ -310,3 +310,6 @@ fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
     assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     assert!(doc["rtf"].as_f64().is_some(), "{doc:#}");
 }
+
+#[path = "cluster_load.rs"]
+mod load;

@@ -6,6 +6,7 @@ mod drills;
 mod emcl;
 mod emcl_bound;
 mod gather;
+mod host_limits;
 mod motion;
 mod programs;
 mod ring_inprocess;

@@ -95,7 +95,9 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                 PortsConfig {
                     ascii_port: cc.ascii_port,
                     eth_port: cc.pmac_eth_port,
-                    ..PortsConfig::default()
+                    limits: ctx.config.host,
+                    name: cc.name.clone(),
+                    bind: PortsConfig::default().bind,
                 },
             ))?;
             extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));

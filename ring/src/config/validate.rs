@@ -76,6 +76,9 @@ pub(super) fn validate(cfg: &ClusterConfig) -> R {
         );
     }
     validate_clock(cfg)?;
+    if let Some((key, problem)) = cfg.host.problem() {
+        return bad(key, problem);
+    }
     for (list, eps) in [
         ("listen", &cfg.zenoh.listen),
         ("connect", &cfg.zenoh.connect),
@@ -338,6 +341,16 @@ fn validate_ring(cfg: &ClusterConfig) -> R {
         return bad(
             "ring.order",
             format!("member {missing:?} is missing from the ring order"),
+        );
+    }
+    if !(1..=crate::runtime::stepped::MAX_IN_FLIGHT).contains(&cfg.ring.in_flight) {
+        return bad(
+            "ring.in_flight",
+            format!(
+                "{} cycles in flight: must be 1 to {}",
+                cfg.ring.in_flight,
+                crate::runtime::stepped::MAX_IN_FLIGHT
+            ),
         );
     }
     let sm = &cfg.ring.sync_master;

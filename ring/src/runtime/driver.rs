@@ -42,6 +42,8 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
+    pub in_flight: u64,
     /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
     pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
@@ -117,6 +119,9 @@ pub struct Driver<A: RingApp> {
     sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
     pub(super) clock: Option<super::timing::ClockStats>,
+    /// The tick of a frame handled on the receive thread, left for the member's thread (see
+    /// [`super::inline`]), not run yet.
+    pending_tick: Option<u64>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -152,7 +157,49 @@ impl<A: RingApp> Driver<A> {
             rx_closed: false,
             sched: None,
             clock: None,
+            pending_tick: None,
         }
+    }
+
+    /// The same driver with application `app` instead of its own, which is given back (the
+    /// inline receive shares the driver with zenoh's receive thread but keeps the application
+    /// on the member's thread).
+    pub(super) fn swap_app<B: RingApp>(self, app: B) -> (Driver<B>, A) {
+        let Driver {
+            cfg,
+            core,
+            app: old,
+            tx,
+            rx,
+            cmds,
+            stop,
+            delayed,
+            cycles_run,
+            records,
+            rx_closed,
+            sched,
+            clock,
+            pending_tick,
+        } = self;
+        (
+            Driver {
+                cfg,
+                core,
+                app,
+                tx,
+                rx,
+                cmds,
+                stop,
+                delayed,
+                cycles_run,
+                records,
+                rx_closed,
+                sched,
+                clock,
+                pending_tick,
+            },
+            old,
+        )
     }
 
     /// The application (after the loop ended).
@@ -232,6 +279,23 @@ impl<A: RingApp> Driver<A> {
 
     /// Run until stopped. Blocks the calling thread.
     pub fn run(&mut self) -> DriverExit {
+        self.prepare();
+        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
+        let r = if self.core.is_sync_master() {
+            match self.cfg.clock {
+                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
+                ClockMode::Realtime => self.run_sync_master_realtime(),
+            }
+        } else {
+            self.run_follower()
+        };
+        info!(member = %self.cfg.name, ?r, "ring member stopped");
+        r
+    }
+
+    /// Before the loop: the cycle thread's timer slack and scheduling, the sync master's clock
+    /// figures.
+    pub(super) fn prepare(&mut self) {
         if self.cfg.clock == ClockMode::Paced
             || (self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0)
         {
@@ -246,8 +310,7 @@ impl<A: RingApp> Driver<A> {
         } else if self.cfg.harden {
             self.sched = Some(super::rt::NORMAL.to_string());
         }
-        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
-        let r = if self.core.is_sync_master() {
+        if self.core.is_sync_master() {
             let rtf = match self.cfg.clock {
                 ClockMode::Paced => self.cfg.rtf,
                 _ => 1.0,
@@ -257,15 +320,7 @@ impl<A: RingApp> Driver<A> {
                 self.period_ns(),
                 rtf,
             ));
-            match self.cfg.clock {
-                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
-                ClockMode::Realtime => self.run_sync_master_realtime(),
-            }
-        } else {
-            self.run_follower()
-        };
-        info!(member = %self.cfg.name, ?r, "ring member stopped");
-        r
+        }
     }
 
     pub(super) fn send_all(&mut self, out: Vec<Outgoing>) -> Result<(), TransportError> {
@@ -313,6 +368,8 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    s.extra
+                        .insert("hop".into(), self.rx.hop_summary().to_json());
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
                     s.sched = self.sched.clone();
                     if let Some(c) = &s.clock {
@@ -365,9 +422,19 @@ impl<A: RingApp> Driver<A> {
 
     /// One servo tick of this member for `cycle` (after forwarding).
     pub(super) fn tick(&mut self, cycle: u64) {
+        self.tick_with(None, cycle);
+    }
+
+    /// [`Self::tick`] with `app`, an application held outside the driver (see
+    /// [`Self::swap_app`]), or the driver's own (None).
+    pub(super) fn tick_with(&mut self, app: Option<&mut dyn RingApp>, cycle: u64) {
         let t = self.time_for(cycle);
         let was = self.core.ring_fault();
-        if let Some(fault) = self.core.tick_app(&mut self.app, cycle, t) {
+        let fault = match app {
+            Some(app) => self.core.tick_app(app, cycle, t),
+            None => self.core.tick_app(&mut self.app, cycle, t),
+        };
+        if let Some(fault) = fault {
             if !was {
                 warn!(member = %self.cfg.name, cycle, ?fault, "ring fault");
             }
@@ -468,70 +535,123 @@ impl<A: RingApp> Driver<A> {
     }
 
     fn run_follower(&mut self) -> DriverExit {
-        let stepped = self.cfg.clock.is_stepped();
         loop {
-            if let Some(exit) = self.stop_or_done() {
-                return exit;
-            }
-            if let Err(e) = self.flush_delayed() {
-                return DriverExit::Transport(e);
-            }
-            let dead = self.upstream_dead();
-            if dead {
-                // Nothing will come: run the own clock now, not after the frozen-member wait.
-                self.core.expedite_holdover(self.now_ns());
-            }
-            let wait = if self.delayed.is_empty() {
-                let until_holdover = self
-                    .core
-                    .holdover_due_ns()
-                    .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
-                    .unwrap_or(Duration::from_millis(2));
-                until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
-            } else {
-                Duration::from_micros(50)
+            let wait = match self.follower_housekeeping() {
+                Ok(w) => w,
+                Err(exit) => return exit,
             };
             match self.recv(wait) {
                 Ok(Some(bytes)) => {
-                    let dropped = self.rx.take_dropped();
-                    for _ in 0..dropped {
-                        self.core.note_overrun();
-                    }
-                    let now = self.now_ns();
-                    let ev = self.core.on_frame(&bytes, now);
-                    if let Err(e) = self.send_all(ev.outgoing) {
+                    if let Err(e) = self.follower_frame(&bytes, false) {
                         return DriverExit::Transport(e);
-                    }
-                    if let Some(cycle) = ev.sync.or(ev.unlocked) {
-                        if self.cfg.record > 0 {
-                            self.record(cycle, now);
-                        }
-                        if ev.sync.is_some() {
-                            self.align(ev.origin_ns);
-                        }
-                        self.tick(cycle);
                     }
                 }
                 Ok(None) => {}
                 Err(e) => return DriverExit::Transport(e),
             }
-            // Holdover: no frame for too long → tick on the local clock. In paced and lockstep
-            // mode that only happens once the upstream member stopped answering (the frozen
-            // wait) or is known dead: its link is dark, each such cycle a byte violation.
-            let now = self.now_ns();
-            while let Some(cycle) = self.core.on_holdover(now) {
-                trace!(member = %self.cfg.name, cycle, "holdover tick");
-                if stepped || self.upstream_dead() {
-                    let ev = self.core.dark_input(cycle, now);
-                    if let Err(e) = self.send_all(ev.outgoing) {
-                        return DriverExit::Transport(e);
-                    }
-                }
-                self.tick(cycle);
-                if self.done() {
-                    break;
-                }
+            if let Err(e) = self.follower_holdover_with(None) {
+                return DriverExit::Transport(e);
             }
         }
+    }
+
+    /// Follower, between frames: control requests, the cycle limit, delayed frames, a dead
+    /// upstream; how long to wait for the next frame (until the holdover clock is due), or why
+    /// to stop.
+    pub(super) fn follower_housekeeping(&mut self) -> Result<Duration, DriverExit> {
+        if let Some(exit) = self.stop_or_done() {
+            return Err(exit);
+        }
+        self.flush_delayed().map_err(DriverExit::Transport)?;
+        if self.upstream_dead() {
+            // Nothing will come: run the own clock now, not after the frozen-member wait.
+            self.core.expedite_holdover(self.now_ns());
+        }
+        Ok(if self.delayed.is_empty() {
+            let until_holdover = self
+                .core
+                .holdover_due_ns()
+                .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
+                .unwrap_or(Duration::from_millis(2));
+            until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
+        } else {
+            Duration::from_micros(50)
+        })
+    }
+
+    /// Follower: one frame from upstream — forward it, then run the cycle's tick, or with
+    /// `defer` leave the tick for the member's thread ([`Self::take_pending_tick`]).
+    pub(super) fn follower_frame(
+        &mut self,
+        bytes: &[u8],
+        defer: bool,
+    ) -> Result<(), TransportError> {
+        let dropped = self.rx.take_dropped();
+        for _ in 0..dropped {
+            self.core.note_overrun();
+        }
+        let now = self.now_ns();
+        let ev = self.core.on_frame(bytes, now);
+        self.send_all(ev.outgoing)?;
+        if let Some(cycle) = ev.sync.or(ev.unlocked) {
+            if self.cfg.record > 0 {
+                self.record(cycle, now);
+            }
+            if defer {
+                self.defer_tick(cycle);
+            } else {
+                if ev.sync.is_some() {
+                    self.align(ev.origin_ns);
+                }
+                self.tick(cycle);
+            }
+        }
+        Ok(())
+    }
+
+    /// Follower: holdover — no frame for too long → tick on the local clock, with `app` held
+    /// outside the driver (None: its own). In paced and lockstep mode that only happens once
+    /// the upstream member stopped answering (the frozen wait) or is known dead: its link is
+    /// dark, each such cycle a byte violation.
+    pub(super) fn follower_holdover_with(
+        &mut self,
+        mut app: Option<&mut dyn RingApp>,
+    ) -> Result<(), TransportError> {
+        let stepped = self.cfg.clock.is_stepped();
+        let now = self.now_ns();
+        while let Some(cycle) = self.core.on_holdover(now) {
+            trace!(member = %self.cfg.name, cycle, "holdover tick");
+            if stepped || self.upstream_dead() {
+                let ev = self.core.dark_input(cycle, now);
+                self.send_all(ev.outgoing)?;
+            }
+            let app: Option<&mut dyn RingApp> = match app.as_mut() {
+                Some(a) => Some(&mut **a),
+                None => None,
+            };
+            self.tick_with(app, cycle);
+            if self.done() {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// Leave the tick of `cycle` for the member's thread.
+    pub(super) fn defer_tick(&mut self, cycle: u64) {
+        self.pending_tick = Some(cycle);
+    }
+
+    /// A tick [`Self::follower_frame`] left for the member's thread: run it now with `app`
+    /// (None: the driver's own).
+    pub(super) fn take_pending_tick(&mut self, app: Option<&mut dyn RingApp>) {
+        if let Some(cycle) = self.pending_tick.take() {
+            self.tick_with(app, cycle);
+        }
+    }
+
+    /// A frame handled on the receive thread left a tick for the member's thread.
+    pub(super) fn has_pending_tick(&self) -> bool {
+        self.pending_tick.is_some()
     }
 }

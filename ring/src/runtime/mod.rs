@@ -5,6 +5,7 @@
 
 pub mod control_plane;
 pub mod driver;
+pub mod inline;
 pub mod light;
 pub mod local;
 pub mod logging;
@@ -14,5 +15,7 @@ pub mod rt;
 pub mod stepped;
 pub mod timing;
 
+#[cfg(test)]
+mod pipeline_tests;
 #[cfg(test)]
 mod tests;

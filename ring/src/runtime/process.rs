@@ -95,8 +95,33 @@ pub fn apply_clock(core_cfg: &mut CoreConfig, config: &ClusterConfig) {
 }
 
 /// Run member `args.name` until it is stopped. `make_app` builds the card or station logic and
-/// returns extra status fields (ports, nodes, ...).
+/// returns extra status fields (ports, nodes, ...). The application's ticks run on the member's
+/// own thread (see [`super::inline`]).
 pub fn run_member<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
+where
+    A: RingApp,
+    F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
+{
+    run_member_with(args, kind, make_app, super::inline::run)
+}
+
+/// [`run_member`] for an application whose tick is computation only and never waits (a
+/// station): in the paced and lockstep clocks its ticks run on zenoh's receive thread right
+/// after the frame is forwarded, which saves a thread wake-up per ring cycle.
+pub fn run_member_send<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
+where
+    A: RingApp + Send + 'static,
+    F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
+{
+    run_member_with(args, kind, make_app, super::inline::run_send)
+}
+
+fn run_member_with<A, F>(
+    args: MemberArgs,
+    kind: MemberKind,
+    make_app: F,
+    runner: fn(Driver<A>) -> (DriverExit, Driver<A>),
+) -> anyhow::Result<()>
 where
     A: RingApp,
     F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
@@ -195,6 +220,7 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        in_flight: config.ring.in_flight,
         harden: true,
         max_cycles: None,
         kind,
@@ -208,8 +234,8 @@ where
             MemberKind::Station => 0,
         },
     };
-    let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
-    let exit = driver.run();
+    let driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
+    let (exit, _driver) = runner(driver);
     stop.store(true, Ordering::Relaxed);
     drop(_plane);
     drop(watch);

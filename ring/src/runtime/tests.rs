@@ -14,8 +14,8 @@ use crate::settings::RingSettings;
 
 /// Sync master commanding node 0 with the cycle number; records what comes back.
 #[derive(Debug, Default)]
-struct Master {
-    seen: Vec<(u64, u32)>,
+pub(super) struct Master {
+    pub(super) seen: Vec<(u64, u32)>,
 }
 
 impl RingApp for Master {
@@ -27,7 +27,7 @@ impl RingApp for Master {
 
 /// Slave on node 0: feedback = command + 1.
 #[derive(Debug, Default)]
-struct Plus1 {
+pub(super) struct Plus1 {
     ticks: u64,
 }
 
@@ -39,7 +39,7 @@ impl RingApp for Plus1 {
     }
 }
 
-enum App {
+pub(super) enum App {
     M(Master),
     S(Plus1),
 }
@@ -61,6 +61,7 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         rtf: 1.0,
         member_timeout: Duration::from_millis(1000),
         upstream_dead: None,
+        in_flight: 1,
         harden: false,
         max_cycles: Some(cycles),
         kind,
@@ -71,7 +72,7 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
     }
 }
 
-fn ring(cycles: u64) -> Vec<(CoreConfig, App, DriverConfig)> {
+pub(super) fn ring(cycles: u64) -> Vec<(CoreConfig, App, DriverConfig)> {
     let master = RingSettings::new(0x30, 0x0F_0001);
     let slave = RingSettings::new(0x8080, 0x0F_8001);
     let quiet = RingSettings::new(0x8080, 0x0F_8000);
