@@ -319,7 +319,7 @@ pub enum BenchCommand {
     Servo,
     /// Synchronized-start wall-clock skew p50/p99 on a realtime cluster of its own.
     Sync(BenchSyncArgs),
-    /// Ring-fault detection latency in cycles per fault kind on a lockstep cluster of its own.
+    /// Ring-fault detection latency in cycles (and ms) per fault kind on a cluster of its own.
     Faults(BenchFaultsArgs),
     /// Cluster bring-up time (`mcc up --detach` until locked).
     Bringup(BenchBringupArgs),
@@ -348,12 +348,16 @@ pub struct BenchSoakArgs {
     /// Paced clock: real-time factor.
     #[arg(long, value_name = "X")]
     pub rtf: Option<f64>,
-    /// Cards.
-    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
-    pub cards: u8,
-    /// Stations.
-    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=48))]
-    pub stations: u8,
+    /// Cards (embedded default cluster; default 2).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: Option<u8>,
+    /// Stations (embedded default cluster; default 2).
+    #[arg(long, value_name = "M", value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: Option<u8>,
+    /// Cluster config file instead of the embedded default (e.g. to try ring-check settings;
+    /// `--clock` and `--rtf` still override it).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["cards", "stations"])]
+    pub config: Option<std::path::PathBuf>,
     /// CPU-bound threads to run beside the cluster (load), e.g. 4 on a 2-core machine.
     #[arg(long, value_name = "K", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
     pub load: u32,
@@ -376,6 +380,9 @@ pub struct BenchSyncArgs {
 /// `mcc bench faults`.
 #[derive(Debug, Args)]
 pub struct BenchFaultsArgs {
+    /// Clock mode of the benchmark cluster: paced (default), lockstep or realtime.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
     /// Only these drills (comma-separated labels or fault words, e.g. `cut,freeze`).
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,

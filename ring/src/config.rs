@@ -252,6 +252,10 @@ pub struct StationConfig {
     /// per-node overrides in `[stations.plant.nodes.N]`; parsed and checked by the station.
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub plant: toml::Table,
+    /// Where `MS SAVE` writes and start-up reads the station's MI-variables (default
+    /// `<run dir>/state/<name>.state`; `mcc down` never removes it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_file: Option<PathBuf>,
 }
 
 /// The whole cluster.
@@ -393,6 +397,7 @@ impl ClusterConfig {
                     nodes,
                     check: StationCheck::default(),
                     plant: toml::Table::new(),
+                    state_file: None,
                 }
             })
             .collect();
@@ -531,6 +536,20 @@ impl ClusterConfig {
         std::time::Duration::from_millis(self.member_timeout_ms.max(1))
     }
 
+    /// How long a card's servo tick may wait for the commit of a synchronized start due in
+    /// it. Paced and lockstep: a quarter of the frozen-member wait (the ring waits for the
+    /// card, so the wait only makes cycles late; on a loaded machine the orchestrator's commit
+    /// can take far longer than a few ms, and giving up would split the start). Realtime: at
+    /// most 25 ms, since a longer stall of the tick breaks the free-running ring.
+    pub fn sync_start_stall(&self) -> std::time::Duration {
+        let ms = if self.clock.is_stepped() {
+            (self.member_timeout_ms / 4).max(1)
+        } else {
+            (self.member_timeout_ms / 2).clamp(1, 25)
+        };
+        std::time::Duration::from_millis(ms)
+    }
+
     /// Nominal ring period in nanoseconds.
     pub fn period_ns(&self) -> u64 {
         if self.rate_hz > 0.0 && self.rate_hz.is_finite() {
@@ -567,6 +586,12 @@ impl ClusterConfig {
         let n = self.ring.order.len();
         let k = self.position(name)?;
         self.ring.order.get((k + n - 1) % n).map(String::as_str)
+    }
+
+    /// Master number of the synchronizing master (the only master whose node-15 packet is the
+    /// ring's sync packet; see [`crate::core::CoreConfig::sync_source`]).
+    pub fn sync_source(&self) -> Option<u8> {
+        self.card(&self.ring.sync_master).map(|c| c.master & 0x0F)
     }
 
     /// I995/I996 for a member (spec §6.2–§6.3): sync master $30; other cards $8090 (master,
@@ -613,7 +638,7 @@ fn default_rtf() -> f64 {
     1.0
 }
 /// Default frozen-member wait, ms (see `member_timeout_ms`).
-pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 1000;
+pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 10_000;
 fn default_member_timeout() -> u64 {
     DEFAULT_MEMBER_TIMEOUT_MS
 }

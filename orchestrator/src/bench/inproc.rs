@@ -88,6 +88,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
         let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
+        core_cfg.sync_source = cfg.sync_source();
         mcc_ring::runtime::process::apply_clock(&mut core_cfg, cfg);
         let core = MemberCore::new(core_cfg);
         let sync = cfg.ring.sync_master == *name;
@@ -99,6 +100,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
             in_flight: cfg.ring.in_flight,
+            upstream_probe: None,
             harden: false,
             max_cycles: sync.then_some(cycles),
             kind,

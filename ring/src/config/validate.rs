@@ -206,10 +206,13 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
                 format!("master number {} is already used by {other:?}", c.master),
             );
         }
-        if c.profile != "pmac2" && c.profile != "turbo" {
+        if !matches!(c.profile.as_str(), "pmac2" | "turbo" | "power") {
             return bad(
                 format!("{key}.profile"),
-                format!("unknown profile {:?} (expected pmac2 or turbo)", c.profile),
+                format!(
+                    "unknown profile {:?} (expected pmac2, turbo or power)",
+                    c.profile
+                ),
             );
         }
         check_power_host(&key, c)?;

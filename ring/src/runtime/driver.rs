@@ -44,6 +44,9 @@ pub struct DriverConfig {
     pub upstream_dead: Option<Arc<AtomicBool>>,
     /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
     pub in_flight: u64,
+    /// Whether the upstream process (on this machine) is stopped: consulted once nothing has
+    /// come from upstream for [`STOP_PROBE_AFTER`].
+    pub upstream_probe: Option<super::light::StopProbe>,
     /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
     pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
@@ -64,6 +67,12 @@ pub struct DriverConfig {
     /// packet arrives later than that ticks at once. 0 = tick on arrival.
     pub phase_delay_ns: u64,
 }
+
+/// Silence from upstream after which the member looks at whether the upstream process is
+/// stopped (a fact on this machine, not a timeout: a slow process is never "stopped").
+pub const STOP_PROBE_AFTER: Duration = Duration::from_millis(20);
+/// How often a silent member looks again.
+const STOP_PROBE_EVERY_NS: u64 = 10_000_000;
 
 /// Phase alignment spins (instead of sleeping) for the last this many ns before the moment.
 const ALIGN_SPIN_NS: u64 = 60_000;
@@ -115,6 +124,16 @@ pub struct Driver<A: RingApp> {
     records: Vec<(u64, u64)>,
     /// The receive link closed (an in-process upstream whose loop ended): nothing will come.
     rx_closed: bool,
+    /// When the last frame came from upstream (monotonic ns).
+    last_rx_ns: u64,
+    /// The stop probe's last look: (when, upstream stopped).
+    probed: (u64, bool),
+    /// The dead flag's last check: (when, the upstream process was still there).
+    dead_checked: (u64, bool),
+    /// Attended silence on the input (the frozen-member judgement).
+    pub(super) silence: super::silence::Silence,
+    /// The upstream member has been judged frozen (for logging the change once).
+    frozen: bool,
     /// What the cycle thread got from the scheduler.
     sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
@@ -122,6 +141,9 @@ pub struct Driver<A: RingApp> {
     /// The tick of a frame handled on the receive thread, left for the member's thread (see
     /// [`super::inline`]), not run yet.
     pending_tick: Option<u64>,
+    /// The status fields of an application kept outside the driver (inline receive keeps it on
+    /// the member's thread): refreshed by that thread, reported instead of the driver's own.
+    pub(super) app_extra: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -155,9 +177,15 @@ impl<A: RingApp> Driver<A> {
             cycles_run: 0,
             records: Vec::new(),
             rx_closed: false,
+            last_rx_ns: monotonic_ns(),
+            probed: (0, false),
+            dead_checked: (0, false),
+            silence: super::silence::Silence::default(),
+            frozen: false,
             sched: None,
             clock: None,
             pending_tick: None,
+            app_extra: None,
         }
     }
 
@@ -177,9 +205,15 @@ impl<A: RingApp> Driver<A> {
             cycles_run,
             records,
             rx_closed,
+            last_rx_ns,
+            probed,
+            dead_checked,
+            silence,
+            frozen,
             sched,
             clock,
             pending_tick,
+            app_extra,
         } = self;
         (
             Driver {
@@ -194,9 +228,15 @@ impl<A: RingApp> Driver<A> {
                 cycles_run,
                 records,
                 rx_closed,
+                last_rx_ns,
+                probed,
+                dead_checked,
+                silence,
+                frozen,
                 sched,
                 clock,
                 pending_tick,
+                app_extra,
             },
             old,
         )
@@ -251,14 +291,68 @@ impl<A: RingApp> Driver<A> {
         }
     }
 
-    /// The upstream member is known dead (its link carries no light).
-    pub(super) fn upstream_dead(&self) -> bool {
-        self.rx_closed
-            || self
-                .cfg
-                .upstream_dead
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::Relaxed))
+    /// The upstream member is known dead, or its process is stopped and nothing comes from it:
+    /// its link carries no light.
+    pub(super) fn upstream_dead(&mut self) -> bool {
+        if self.rx_closed {
+            return true;
+        }
+        let now = monotonic_ns();
+        if self
+            .cfg
+            .upstream_dead
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            // Its liveliness went away: dead unless its process (on this machine) is still
+            // there. Looked at every 10 ms.
+            if now.saturating_sub(self.dead_checked.0) >= STOP_PROBE_EVERY_NS {
+                let alive = self.cfg.upstream_probe.as_ref().is_some_and(|p| p.alive());
+                if alive && !self.dead_checked.1 {
+                    warn!(member = %self.cfg.name,
+                        "upstream liveliness went away but its process is still there: not dead");
+                }
+                self.dead_checked = (now, alive);
+            }
+            if !self.dead_checked.1 {
+                return true;
+            }
+        } else {
+            self.dead_checked = (0, false);
+        }
+        let Some(probe) = &self.cfg.upstream_probe else {
+            return false;
+        };
+        if now.saturating_sub(self.last_rx_ns) < STOP_PROBE_AFTER.as_nanos() as u64 {
+            return false;
+        }
+        if now.saturating_sub(self.probed.0) >= STOP_PROBE_EVERY_NS {
+            let stopped = probe.stopped();
+            if stopped && !self.probed.1 {
+                warn!(member = %self.cfg.name, "upstream process is stopped: loss of light");
+            }
+            self.probed = (now, stopped);
+        }
+        self.probed.1
+    }
+
+    /// Follower, paced and lockstep: the upstream member has stopped answering — nothing came
+    /// from it for the frozen-member wait of attended silence (see [`super::silence`]).
+    fn upstream_frozen(&mut self) -> bool {
+        let attended = self.silence.look(monotonic_ns());
+        let frozen = attended >= self.cfg.member_timeout.as_nanos() as u64;
+        if frozen != self.frozen {
+            self.frozen = frozen;
+            if frozen {
+                warn!(
+                    member = %self.cfg.name,
+                    "nothing from upstream for {} ms: the upstream member stopped answering, \
+                     cycles run on the own clock",
+                    attended / 1_000_000
+                );
+            }
+        }
+        frozen
     }
 
     /// The next frame from upstream within `wait`. A closed link is a dead upstream (loss of
@@ -269,6 +363,12 @@ impl<A: RingApp> Driver<A> {
                 Err(TransportError::Closed) => {
                     warn!(member = %self.cfg.name, "receive link closed: loss of light");
                     self.rx_closed = true;
+                }
+                Ok(Some(frame)) => {
+                    self.last_rx_ns = monotonic_ns();
+                    self.silence.reset(self.last_rx_ns);
+                    self.probed.1 = false;
+                    return Ok(Some(frame));
                 }
                 other => return other,
             }
@@ -308,7 +408,7 @@ impl<A: RingApp> Driver<A> {
             info!(member = %self.cfg.name, "realtime cycle thread: {got}");
             self.sched = Some(got);
         } else if self.cfg.harden {
-            self.sched = Some(super::rt::NORMAL.to_string());
+            self.sched = Some(super::rt::current_scheduling());
         }
         if self.core.is_sync_master() {
             let rtf = match self.cfg.clock {
@@ -368,10 +468,15 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    match &self.app_extra {
+                        Some(e) => s.extra.extend(e.clone()),
+                        None => s.extra.extend(self.app.status_extra()),
+                    }
                     s.extra
                         .insert("hop".into(), self.rx.hop_summary().to_json());
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
                     s.sched = self.sched.clone();
+                    s.host_id = super::light::host_id();
                     if let Some(c) = &s.clock {
                         s.late_cycles = s.late_cycles.max(c.late_cycles);
                     }
@@ -563,14 +668,19 @@ impl<A: RingApp> Driver<A> {
             return Err(exit);
         }
         self.flush_delayed().map_err(DriverExit::Transport)?;
-        if self.upstream_dead() {
-            // Nothing will come: run the own clock now, not after the frozen-member wait.
+        // Paced and lockstep: the own clock runs only once the upstream member is known dead
+        // (or stopped), or stopped answering (attended silence, not wall time).
+        let stepped = self.cfg.clock.is_stepped();
+        let own_clock = self.upstream_dead() || (stepped && self.upstream_frozen());
+        if own_clock {
+            // Nothing will come: run the own clock now.
             self.core.expedite_holdover(self.now_ns());
         }
         Ok(if self.delayed.is_empty() {
             let until_holdover = self
                 .core
                 .holdover_due_ns()
+                .filter(|_| own_clock || !stepped)
                 .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
                 .unwrap_or(Duration::from_millis(2));
             until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
@@ -591,6 +701,10 @@ impl<A: RingApp> Driver<A> {
             self.core.note_overrun();
         }
         let now = self.now_ns();
+        // Upstream is answering (also for frames handled on the receive thread).
+        self.last_rx_ns = monotonic_ns();
+        self.silence.reset(self.last_rx_ns);
+        self.probed.1 = false;
         let ev = self.core.on_frame(bytes, now);
         self.send_all(ev.outgoing)?;
         if let Some(cycle) = ev.sync.or(ev.unlocked) {
@@ -618,6 +732,9 @@ impl<A: RingApp> Driver<A> {
         mut app: Option<&mut dyn RingApp>,
     ) -> Result<(), TransportError> {
         let stepped = self.cfg.clock.is_stepped();
+        if stepped && !(self.upstream_dead() || self.upstream_frozen()) {
+            return Ok(());
+        }
         let now = self.now_ns();
         while let Some(cycle) = self.core.on_holdover(now) {
             trace!(member = %self.cfg.name, cycle, "holdover tick");

@@ -213,6 +213,7 @@ fn follow<B: RingApp>(
                 return exit;
             }
             d.take_pending_tick(reborrow(&mut app));
+            refresh_extra(d, &app);
             loop {
                 match d.recv(std::time::Duration::ZERO) {
                     Ok(Some(bytes)) => {
@@ -256,6 +257,7 @@ fn lead<B: RingApp>(
                 return exit;
             }
             d.take_pending_tick(reborrow(&mut app));
+            refresh_extra(d, &app);
             let due = loop {
                 if let Some(exit) = d.stop_or_done() {
                     return exit;
@@ -300,6 +302,14 @@ fn lead<B: RingApp>(
         } else {
             handler.waker.wait(wait);
         }
+    }
+}
+
+/// The status fields of the application kept on the member's thread, for the driver's status
+/// reply (the driver itself holds a stand-in).
+fn refresh_extra<B: RingApp>(d: &mut Driver<B>, app: &Option<&mut dyn RingApp>) {
+    if let Some(a) = app.as_ref() {
+        d.app_extra = Some(a.status_extra());
     }
 }
 

@@ -183,6 +183,7 @@ where
     let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, 0);
     core_cfg.check = check;
     core_cfg.upstream = Some(((position + n - 1) % n) as u16);
+    core_cfg.sync_source = config.sync_source();
     // A restarted member must not look stale to its downstream neighbour.
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.
@@ -205,10 +206,10 @@ where
         .unwrap_or(&args.name)
         .to_string();
     let watch = if upstream != args.name {
-        Some(
-            super::light::watch_upstream(&session, &config.cluster, &upstream)
-                .map_err(|e| anyhow!(e))?,
-        )
+        let w =
+            super::light::watch_upstream(&session, &config.cluster, &upstream, Arc::clone(&stop))
+                .map_err(|e| anyhow!(e))?;
+        Some(w)
     } else {
         None
     };
@@ -221,6 +222,7 @@ where
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
         in_flight: config.ring.in_flight,
+        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,

@@ -11,7 +11,8 @@
 //! - `lockstep`: as fast as the ring allows.
 //!
 //! The one wall-clock judgement: if nothing comes back within the frozen-member wait
-//! (`member_timeout_ms`), a member has stopped answering and the ring is down. The master then
+//! (`member_timeout_ms`, counted as attended silence: time this loop was running to see it,
+//! see [`super::silence`]), a member has stopped answering and the ring is down. The master then
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
 //! counts the silence — until a frame of the current cycle comes back. When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
@@ -116,7 +117,10 @@ impl<A: RingApp> Driver<A> {
                 st.grid_live = own_clock;
                 st.grid.rebase(st.k, now);
             }
-            let frozen_at = st.last_start.saturating_add(st.frozen_ns);
+            // Silence since the cycle in flight started, counted only while this member's
+            // loop was running to see it (a stall of this process is no frozen member).
+            let attended = self.silence.look(now);
+            let frozen_at = now.saturating_add(st.frozen_ns.saturating_sub(attended));
             let back = st
                 .returned
                 .is_some_and(|r| r.saturating_add(st.in_flight) >= st.k);
@@ -133,7 +137,7 @@ impl<A: RingApp> Driver<A> {
                     now
                 };
                 (Some(at), st.in_flight > 1)
-            } else if now >= frozen_at {
+            } else if attended >= st.frozen_ns {
                 warn!(
                     member = %self.cfg.name,
                     cycle = st.k - 1,
@@ -179,7 +183,9 @@ impl<A: RingApp> Driver<A> {
             // The ring is up: the schedule starts now.
             st.grid.rebase(st.k, now);
         }
-        st.returned = st.returned.max(Some(c));
+        // A frame numbered beyond the cycle in flight (a member that ran on its own clock) is
+        // the return of the cycle in flight, no more: the ring's count is this master's.
+        st.returned = st.returned.max(Some(c.min(st.k.saturating_sub(1))));
         // Back to normal once a cycle of the current window comes back (with N in flight the
         // frame of k-N is the newest that can).
         if st.down && c.saturating_add(st.in_flight) >= st.k {
@@ -233,6 +239,7 @@ impl<A: RingApp> Driver<A> {
             st.returned = st.returned.max(Some(k));
         }
         st.last_start = now;
+        self.silence.reset(now);
         st.k += 1;
         Ok(())
     }
