@@ -1,12 +1,11 @@
-//! The Power PMAC `gpascii` command thread as a host sees it (pure): its banner, how a byte
-//! stream becomes command lines, and how a command's reply is framed.
+//! The Power PMAC `gpascii` command thread as a host sees it (pure): its banner and how a
+//! byte stream becomes command lines.
 //!
 //! A Power PMAC runs `gpascii` on its Linux side; each instance is one communication thread
 //! with its own addressed motor/C.S., echo mode, L/R stack and open buffer (power-pmac.md
-//! §2.13). It prints [`BANNER`] when it starts, reads one command line per `LF`, prints the
-//! reply lines, each ended by `LF`, and then `ACK LF` ([`frame_reply`]), also after an empty
-//! line: hosts wait for the `ACK` to know a reply is complete (dls_pmaclib's
-//! `PPmacSshInterface` sends `cmd\r\n`, two lines through the terminal, and waits for two).
+//! §2.13). It prints [`BANNER`] when it starts, then reads one command line at a time; the
+//! reply to each line (its output, then `ACK CR LF`, also for an empty line: hosts wait for
+//! the `ACK`) is the Power dialect's (`lang::ppmac::Power::line`), sent as it is.
 //!
 //! [`LineSplitter`] reads the raw TCP ("Telnet") port: `CR`, `LF` and `CR LF` each end one line,
 //! Telnet `IAC` negotiation is dropped, `<CTRL-C>` / `<CTRL-D>` end the session (as they end
@@ -16,46 +15,22 @@
 /// What `gpascii` prints when it starts (hosts wait for "ASCII").
 pub(crate) const BANNER: &[u8] = b"STDIN Open for ASCII Input\n";
 
-/// Longest command line accepted (bytes, without its end): the interpreter's limit.
-pub(crate) const MAX_LINE: usize = crate::lang::interp::MAX_LINE;
+/// Longest command line the dialect accepts (bytes, without its end). A longer line is kept
+/// to one byte more (the dialect refuses it with its error #20 and runs nothing).
+pub(crate) const MAX_LINE: usize = crate::lang::ppmac::MAX_LINE;
 
-const ACK: u8 = 0x06;
-const BEL: u8 = 0x07;
 const CR: u8 = b'\r';
 const LF: u8 = b'\n';
 const CTRL_C: u8 = 0x03;
 const CTRL_D: u8 = 0x04;
 const IAC: u8 = 0xFF;
 
-/// The bytes `gpascii` prints for one command line, given the card's reply to it: the reply's
-/// lines each ended by `LF` (a `CR`, `CR LF` or the classic `BEL`/`ACK` handshake of another
-/// profile's reply is normalised away), then `ACK LF`.
-pub(crate) fn frame_reply(reply: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(reply.len() + 3);
-    // A reply with a CR is classically framed: CR ends a line, an LF only leads one (I3).
-    let classic = reply.contains(&CR);
-    for &b in reply {
-        match b {
-            ACK | BEL => {}
-            CR => out.push(LF),
-            LF if classic => {}
-            _ => out.push(b),
-        }
-    }
-    if out.last().is_some_and(|&b| b != LF) {
-        out.push(LF);
-    }
-    out.extend_from_slice(&[ACK, LF]);
-    out
-}
-
 /// What a host sent on the raw `gpascii` port, in order.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) enum GpEvent {
-    /// A command line (without its end; possibly empty).
+    /// A command line (without its end; possibly empty; an over-long line cut to
+    /// `MAX_LINE + 1` bytes).
     Line(Vec<u8>),
-    /// A line longer than [`MAX_LINE`] ended (answer with the card's error; nothing ran).
-    Overlong,
     /// `<CTRL-C>` or `<CTRL-D>`: the host ends the session.
     Quit,
 }
@@ -79,7 +54,6 @@ enum Telnet {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct LineSplitter {
     line: Vec<u8>,
-    overflow: bool,
     after_cr: bool,
     telnet: Telnet,
 }
@@ -132,21 +106,13 @@ impl LineSplitter {
             CTRL_C | CTRL_D => out.push(GpEvent::Quit),
             // Other control characters (and Telnet's CR NUL) are no part of a command.
             0x00..=0x1F | 0x7F => {}
-            _ if self.overflow => {}
-            _ if self.line.len() >= MAX_LINE => {
-                self.overflow = true;
-                self.line.clear();
-            }
+            _ if self.line.len() > MAX_LINE => {}
             _ => self.line.push(b),
         }
     }
 
     fn end_line(&mut self, out: &mut Vec<GpEvent>) {
-        if std::mem::take(&mut self.overflow) {
-            out.push(GpEvent::Overlong);
-        } else {
-            out.push(GpEvent::Line(std::mem::take(&mut self.line)));
-        }
+        out.push(GpEvent::Line(std::mem::take(&mut self.line)));
     }
 }
 
@@ -157,20 +123,6 @@ mod tests {
 
     fn line(s: &str) -> GpEvent {
         Line(s.as_bytes().to_vec())
-    }
-
-    #[test]
-    fn reply_lines_end_in_lf_then_ack() {
-        assert_eq!(frame_reply(b""), b"\x06\n");
-        assert_eq!(frame_reply(b"604020"), b"604020\n\x06\n");
-        assert_eq!(frame_reply(b"a\nb\n"), b"a\nb\n\x06\n");
-        // A classic-framed reply (CR line ends, ACK / BEL handshake) is normalised.
-        assert_eq!(frame_reply(b"1\r2\r\x06"), b"1\n2\n\x06\n");
-        assert_eq!(frame_reply(b"\x07ERR003\r"), b"ERR003\n\x06\n");
-        assert_eq!(frame_reply(b"x\r\ny\r\n"), b"x\ny\n\x06\n");
-        // The classic I3 forms that lead a line with LF.
-        assert_eq!(frame_reply(b"\n602413\r\x06"), b"602413\n\x06\n");
-        assert_eq!(frame_reply(b"\n1\r\n2\r\x06"), b"1\n2\n\x06\n");
     }
 
     #[test]
@@ -203,12 +155,14 @@ mod tests {
     }
 
     #[test]
-    fn overlong_line_is_refused_once_then_reading_resumes() {
+    fn an_overlong_line_is_cut_to_one_byte_over_the_limit_then_reading_resumes() {
         let mut s = LineSplitter::new();
         let mut input = vec![b'1'; MAX_LINE];
         assert_eq!(s.feed(&input), vec![]);
         assert_eq!(s.feed(b"\n"), vec![Line(vec![b'1'; MAX_LINE])]);
         input.extend_from_slice(b"23\nP7\n");
-        assert_eq!(s.feed(&input), vec![Overlong, line("P7")]);
+        let mut cut = vec![b'1'; MAX_LINE];
+        cut.push(b'2');
+        assert_eq!(s.feed(&input), vec![Line(cut), line("P7")]);
     }
 }

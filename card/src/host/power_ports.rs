@@ -14,7 +14,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{watch, Semaphore};
 use tokio::task::JoinHandle;
 
-use super::gpascii::{frame_reply, GpEvent, LineSplitter, BANNER};
+use super::gpascii::{GpEvent, LineSplitter, BANNER};
 use super::port::{CardPort, Interpreter};
 use super::ssh::server::{spawn_ssh, Credentials};
 use crate::service::handle::CardHandle;
@@ -168,14 +168,10 @@ async fn gpascii_conn(
         let mut out = Vec::new();
         for ev in lines.feed(buf.get(..n).unwrap_or_default()) {
             match ev {
-                GpEvent::Line(l) if l.is_empty() => out.extend_from_slice(&frame_reply(b"")),
+                // The dialect's reply is what gpascii prints, ACK included.
                 GpEvent::Line(l) => {
                     let reply = tokio::task::block_in_place(|| port.line(&l));
-                    out.extend_from_slice(&frame_reply(&reply));
-                }
-                GpEvent::Overlong => {
-                    let reply = tokio::task::block_in_place(|| port.overlong());
-                    out.extend_from_slice(&frame_reply(&reply));
+                    out.extend_from_slice(&reply);
                 }
                 GpEvent::Quit => {
                     write_all(&mut stream, &out, cfg).await?;

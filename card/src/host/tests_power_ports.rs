@@ -3,27 +3,15 @@
 use super::*;
 use crate::domain::Profile;
 use crate::host::gpascii::MAX_LINE;
-use crate::lang::interp::{Card, Session};
+use crate::lang::interp::Card;
 use crate::service::handle::spawn_card_thread;
 
 const WAIT: Duration = Duration::from_secs(10);
 
 pub(crate) async fn start(cfg: PowerPortsConfig) -> BoundPowerPorts {
-    // Until the Power dialect lands, the Turbo card stands in: the port is dialect-neutral.
-    serve_power(spawn_card_thread(Card::new(Profile::Turbo)), cfg)
+    serve_power(spawn_card_thread(Card::new(Profile::Power)), cfg)
         .await
         .expect("bind")
-}
-
-/// `gpascii`'s bytes for `lines` run in order on one fresh session of an in-process card.
-pub(crate) fn in_process(lines: &[&str]) -> Vec<u8> {
-    let mut card = Card::new(Profile::Turbo);
-    let mut s = Session::default();
-    let mut out = Vec::new();
-    for l in lines {
-        out.extend_from_slice(&frame_reply(&card.command_line(&mut s, l.as_bytes())));
-    }
-    out
 }
 
 async fn connect(addr: SocketAddr) -> TcpStream {
@@ -56,21 +44,27 @@ async fn ask(s: &mut TcpStream, send: &[u8], want: &[u8]) {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn banner_then_each_line_is_answered_and_acknowledged() {
+async fn banner_then_each_line_is_answered_by_the_power_dialect_and_acknowledged() {
     let ports = start(PowerPortsConfig::default()).await;
     assert!(ports.gpascii.ip().is_loopback() && ports.ssh.ip().is_loopback());
     let mut s = connect(ports.gpascii).await;
-    let want = in_process(&["cid"]);
-    assert_eq!(want, b"602413\n\x06\n");
-    ask(&mut s, b"cid\r\n", &want).await;
+    ask(&mut s, b"cid\r\n", b"604020\r\n\x06\r\n").await;
     // CR, LF and CR LF each end one line; an empty line is acknowledged on its own.
-    let want = [
-        in_process(&["P1=5", "P1"]),
-        b"\x06\n".to_vec(),
-        in_process(&["P2"]),
-    ]
-    .concat();
-    ask(&mut s, b"P1=5\rP1\n\nP2\r\n", &want).await;
+    ask(
+        &mut s,
+        b"P1=5\rP1\n\nP2\r\n",
+        b"\x06\r\nP1=5\r\n\x06\r\n\x06\r\nP2=0\r\n\x06\r\n",
+    )
+    .await;
+    // Echo mode 7 (value only), an element write and read; an error names the thread's line
+    // (every line counted, the empty one too: this is line 6).
+    ask(
+        &mut s,
+        b"echo7 Motor[1].JogSpeed=12.25\nMotor[1].JogSpeed\nMotor[1].Nonsense\n",
+        b"\x06\r\n12.25\r\n\x06\r\n\
+          stdin:8:1: error #21: ILLEGAL PARAMETER: Motor[1].Nonsense\r\n\x06\r\n",
+    )
+    .await;
     ports.shutdown().await;
 }
 
@@ -79,15 +73,31 @@ async fn every_connection_is_its_own_command_thread() {
     let ports = start(PowerPortsConfig::default()).await;
     let mut a = connect(ports.gpascii).await;
     let mut b = connect(ports.gpascii).await;
-    // The addressed motor is per thread.
-    ask(&mut a, b"#3\n", &in_process(&["#3"])).await;
-    ask(
-        &mut a,
-        b"#\n",
-        &in_process(&["#3", "#"])[in_process(&["#3"]).len()..],
-    )
-    .await;
-    ask(&mut b, b"#\n", &in_process(&["#"])).await;
+    // The addressed motor and the echo mode are per thread (Ldata).
+    ask(&mut a, b"#3 echo7\n", b"\x06\r\n").await;
+    ask(&mut a, b"Ldata.Motor\n", b"3\r\n\x06\r\n").await;
+    ask(&mut b, b"Ldata.Motor\n", b"Ldata.Motor=0\r\n\x06\r\n").await;
+    // An open buffer belongs to its thread: the other thread's lines are commands.
+    ask(&mut a, b"open plc 1\n", b"\x06\r\n").await;
+    ask(&mut b, b"P7=1\n", b"\x06\r\n").await;
+    ask(&mut a, b"P7=2\n", b"\x06\r\n").await;
+    ask(&mut b, b"P7\n", b"P7=1\r\n\x06\r\n").await;
+    // A thread that goes away closes the buffer it left open.
+    drop(a);
+    tokio::time::timeout(WAIT, async {
+        loop {
+            b.write_all(b"open plc 2\n").await.unwrap();
+            let mut buf = [0u8; 256];
+            let n = b.read(&mut buf).await.unwrap();
+            if buf[..n] == *b"\x06\r\n" {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    })
+    .await
+    .expect("the buffer of the closed thread is closed");
+    ask(&mut b, b"close\n", b"\x06\r\n").await;
     ports.shutdown().await;
 }
 
@@ -98,14 +108,14 @@ async fn overlong_line_is_refused_then_reading_resumes() {
     let mut long = vec![b'P'; MAX_LINE + 10];
     long.push(b'\n');
     s.write_all(&long).await.unwrap();
-    let mut probe = Card::new(Profile::Turbo);
-    let refused = frame_reply(&probe.command_line(
-        &mut Session::default(),
-        &crate::host::port::overlong_probe(),
-    ));
-    assert!(refused.windows(6).any(|w| w == b"ERR003"), "{refused:?}");
+    let refused = [
+        b"stdin:1:1: error #20: ILLEGAL CMD: ".as_slice(),
+        &vec![b'P'; MAX_LINE + 1],
+        b"\r\n\x06\r\n",
+    ]
+    .concat();
     assert_eq!(read_n(&mut s, refused.len()).await, refused);
-    ask(&mut s, b"cid\n", b"602413\n\x06\n").await;
+    ask(&mut s, b"cid\n", b"604020\r\n\x06\r\n").await;
     ports.shutdown().await;
 }
 
@@ -125,7 +135,7 @@ async fn ctrl_c_ends_the_session_and_the_limit_closes_extra_connections() {
         .expect("closed in time");
     assert!(matches!(n, Ok(0) | Err(_)), "{n:?}");
     s.write_all(b"cid\n\x03P1\n").await.unwrap();
-    assert_eq!(read_n(&mut s, 9).await, b"602413\n\x06\n");
+    assert_eq!(read_n(&mut s, 11).await, b"604020\r\n\x06\r\n");
     let n = tokio::time::timeout(WAIT, s.read(&mut buf))
         .await
         .expect("closed in time");
@@ -143,7 +153,7 @@ async fn ctrl_c_ends_the_session_and_the_limit_closes_extra_connections() {
     })
     .await
     .expect("slot freed");
-    ask(&mut again, b"cid\n", b"602413\n\x06\n").await;
+    ask(&mut again, b"cid\n", b"604020\r\n\x06\r\n").await;
     ports.shutdown().await;
 }
 
@@ -161,7 +171,7 @@ async fn garbage_bytes_never_break_the_port() {
     let mut got = Vec::new();
     let mut buf = [0u8; 4096];
     tokio::time::timeout(WAIT, async {
-        while !got.ends_with(b"\x06\n\x06\n602413\n\x06\n") {
+        while !got.ends_with(b"\x06\r\n\x06\r\n604020\r\n\x06\r\n") {
             let n = s.read(&mut buf).await.unwrap();
             assert!(n > 0, "closed");
             got.extend_from_slice(&buf[..n]);

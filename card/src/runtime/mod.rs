@@ -76,6 +76,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                         user: cc.ssh_user.clone(),
                         password: cc.ssh_password.clone(),
                     },
+                    max_connections: ctx.config.host.max_connections,
                     ..PowerPortsConfig::default()
                 },
             ))?;

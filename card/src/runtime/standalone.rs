@@ -109,7 +109,11 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
     };
     let r = rt.block_on(async move {
         if let Some(power) = &opts.power_host {
-            let ports = serve_power(card, power.ports_config()).await?;
+            let cfg = PowerPortsConfig {
+                max_connections: opts.limits.max_connections,
+                ..power.ports_config()
+            };
+            let ports = serve_power(card, cfg).await?;
             print_line(&power_ports_json(ports.gpascii.port(), ports.ssh.port()))?;
             wait_for_stop(opts.exit_on_stdin_eof).await;
             ports.shutdown().await;

@@ -177,15 +177,6 @@ impl Conn {
                         data.extend_from_slice(&sh.reply(&reply));
                     }
                 }
-                ShellOut::Overlong => {
-                    let reply = match chan.port.as_mut() {
-                        Some(p) => tokio::task::block_in_place(|| p.overlong()),
-                        None => Vec::new(),
-                    };
-                    if let Some(sh) = &chan.shell {
-                        data.extend_from_slice(&sh.reply(&reply));
-                    }
-                }
                 ShellOut::End => {
                     if let Some(p) = chan.port.take() {
                         end_port(p);

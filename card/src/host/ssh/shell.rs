@@ -9,7 +9,7 @@
 //!
 //! The SSH server ([`super::server`]) turns [`ShellOut`] into channel data and card requests.
 
-use crate::host::gpascii::{frame_reply, BANNER, MAX_LINE};
+use crate::host::gpascii::{BANNER, MAX_LINE};
 
 /// The terminal modes the shell honours (the `pty-req` modes; Linux defaults when absent).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,11 +41,9 @@ pub(crate) enum ShellOut {
     Stderr(Vec<u8>),
     /// `gpascii` started: open a command thread on the card.
     Begin,
-    /// Run this command line on the command thread; send [`Shell::reply`] of the card's reply.
+    /// Run this command line on the command thread (an over-long line cut to `MAX_LINE + 1`
+    /// bytes: the dialect refuses it); send [`Shell::reply`] of the card's reply.
     Line(Vec<u8>),
-    /// A line longer than the interpreter's limit ended: send [`Shell::reply`] of the card's
-    /// answer to an over-long line.
-    Overlong,
     /// `gpascii` ended: release its command thread.
     End,
     /// The session ends with this exit status.
@@ -66,8 +64,8 @@ pub(crate) struct Shell {
     mode: Mode,
     /// An `exec` session: it ends when its command does; no prompt.
     exec: bool,
+    /// The line being typed (at most `MAX_LINE + 1` bytes: longer is too long).
     line: Vec<u8>,
-    overflow: bool,
     prompt: Vec<u8>,
 }
 
@@ -90,7 +88,6 @@ impl Shell {
             mode: Mode::Shell,
             exec: false,
             line: Vec::new(),
-            overflow: false,
             prompt: prompt.into_bytes(),
         };
         let out = vec![ShellOut::Bytes(sh.prompt.clone())];
@@ -104,7 +101,6 @@ impl Shell {
             mode: Mode::Shell,
             exec: true,
             line: Vec::new(),
-            overflow: false,
             prompt: Vec::new(),
         };
         let mut out = Vec::new();
@@ -130,9 +126,19 @@ impl Shell {
         self.mode == Mode::Gpascii
     }
 
-    /// The bytes to send for the card's reply to a [`ShellOut::Line`] / [`ShellOut::Overlong`].
+    /// The bytes to send for the card's reply to a [`ShellOut::Line`]. The dialect answers
+    /// as a host sees `gpascii` (lines and the ACK ended by `CR LF`); the program itself
+    /// writes `LF`, so the terminal's modes decide: `CR LF` under ONLCR, `LF` without.
     pub(crate) fn reply(&self, card_reply: &[u8]) -> Vec<u8> {
-        self.term(&frame_reply(card_reply))
+        let mut program = Vec::with_capacity(card_reply.len());
+        let mut it = card_reply.iter().peekable();
+        while let Some(&b) = it.next() {
+            if b == b'\r' && it.peek() == Some(&&b'\n') {
+                continue;
+            }
+            program.push(b);
+        }
+        self.term(&program)
     }
 
     /// The client sent end of file: the running program and the session end.
@@ -182,7 +188,7 @@ impl Shell {
                 self.end_line(out);
             }
             0x7F | 0x08 => {
-                if !self.overflow && self.line.pop().is_some() {
+                if self.line.len() <= MAX_LINE && self.line.pop().is_some() {
                     echoed(b"\x08 \x08");
                 }
             }
@@ -197,7 +203,7 @@ impl Shell {
                 self.discard_line();
                 self.interrupt(out);
             }
-            0x04 if self.line.is_empty() && !self.overflow => {
+            0x04 if self.line.is_empty() => {
                 let mut rest = self.eof();
                 out.append(&mut rest);
             }
@@ -210,20 +216,13 @@ impl Shell {
     }
 
     fn push(&mut self, b: u8) {
-        if self.overflow {
-            return;
-        }
-        if self.line.len() >= MAX_LINE {
-            self.overflow = true;
-            self.line.clear();
-        } else {
+        if self.line.len() <= MAX_LINE {
             self.line.push(b);
         }
     }
 
     fn discard_line(&mut self) {
         self.line.clear();
-        self.overflow = false;
     }
 
     /// `<CTRL-C>`: ends `gpascii` (back to the prompt), or abandons the shell's line.
@@ -242,13 +241,11 @@ impl Shell {
     }
 
     fn end_line(&mut self, out: &mut Vec<ShellOut>) {
-        let overflow = std::mem::take(&mut self.overflow);
         let line = std::mem::take(&mut self.line);
         match self.mode {
-            Mode::Gpascii if overflow => out.push(ShellOut::Overlong),
-            Mode::Gpascii if line.is_empty() => out.push(ShellOut::Bytes(self.reply(b""))),
+            // Every line (an empty one too: it counts, and is acknowledged) is the dialect's.
             Mode::Gpascii => out.push(ShellOut::Line(line)),
-            Mode::Shell if overflow => {
+            Mode::Shell if line.len() > MAX_LINE => {
                 self.error(b"-sh: command line too long\n", out);
                 self.prompt_again(out);
             }
