@@ -174,19 +174,40 @@ pub(crate) fn startup_card(
     (card, err)
 }
 
-/// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands.
+/// The config keys that are the ring's check settings of a card (read by the ring runtime,
+/// `card_check`): on a Power card they are no Power I-variables (Power `I1001` is
+/// `Motor[10].PhaseCtrl`; the check is `Macro.TestPeriod`/`TestMaxErrors`/`TestReqdSynchs`,
+/// power-pmac.md §3.10), so they are not sent to its dialect.
+const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
+
+/// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands in
+/// the card's own language (a Power card: its dialect, Power numbering).
 fn apply_ivars(
     card: &mut Card,
     ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
 ) -> anyhow::Result<()> {
+    let power = card.profile() == Profile::Power;
+    let mut dialect = crate::lang::ppmac::Power::new();
     let mut s = crate::lang::interp::Session::default();
     for (k, v) in ivars {
         let line = format!("{k}={}", v.as_f64());
-        let reply = card.command_line(&mut s, line.as_bytes());
-        if reply.contains(&0x07) {
+        let refused = if power {
+            if RING_CHECK_KEYS.iter().any(|r| r.eq_ignore_ascii_case(k)) {
+                continue;
+            }
+            let reply = dialect.line(card, 0, line.as_bytes());
+            let text = String::from_utf8_lossy(&reply).into_owned();
+            text.contains(": error #").then_some(text)
+        } else {
+            let reply = card.command_line(&mut s, line.as_bytes());
+            reply
+                .contains(&0x07)
+                .then(|| String::from_utf8_lossy(&reply).into_owned())
+        };
+        if let Some(text) = refused {
             anyhow::bail!(
                 "cards.ivars: '{line}' was refused by the card: {}",
-                String::from_utf8_lossy(&reply).trim()
+                text.trim_matches(|c: char| c.is_control() || c.is_whitespace())
             );
         }
     }
