@@ -3,6 +3,7 @@
 //! through the CLI, and taken down when dropped (`mcc down`, then SIGKILL of any process it
 //! had, then its directory removed).
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -755,7 +756,9 @@ impl Cluster {
 
     /// Recover from a ring fault as a PMAC user does: once every member is alive and locked,
     /// `$$$` on every card, then the members' ring-fault latches (`mcc fault reset`) until the
-    /// ring is healthy. The healthy status.
+    /// ring is healthy and no card reports its ring-fault bit. A card whose bit stays set (its
+    /// `$$$` was lost to a slow chain, or the bit latched again while the ring came back) gets
+    /// its `$$$` again, at most once a second. The healthy status.
     pub fn reset(&mut self, timeout: Duration) -> Result<Status> {
         let members = self.members();
         self.wait_until(None, timeout, |st| {
@@ -764,18 +767,36 @@ impl Cluster {
                     .is_ok_and(|r| r["alive"] == true && r["locked"] == true)
             })
         })?;
-        for n in self.card_numbers() {
-            let _ = self
-                .runner
-                .output(&["send", "--card", &n.to_string(), "$$$"], VERB_TIMEOUT);
+        let cards = self.card_numbers();
+        let runner = self.runner.clone();
+        let clear_card = move |n: u8| {
+            let _ = runner.output(&["send", "--card", &n.to_string(), "$$$"], VERB_TIMEOUT);
+        };
+        for &n in &cards {
+            clear_card(n);
         }
+        let mut sent: HashMap<u8, Instant> = cards.iter().map(|&n| (n, Instant::now())).collect();
         let runner = self.runner.clone();
         self.wait_until(None, timeout, move |st| {
-            let ok = st.locked() && !st.faulted();
-            if !ok {
+            let ring_ok = st.locked() && !st.faulted();
+            if !ring_ok {
                 let _ = runner.output(&["fault", "reset"], VERB_TIMEOUT);
             }
-            ok
+            let latched = st.ring_faulted_cards();
+            for &n in &latched {
+                let due = sent
+                    .get(&n)
+                    .is_none_or(|t| t.elapsed() >= Duration::from_secs(1));
+                if ring_ok && due {
+                    clear_card(n);
+                    sent.insert(n, Instant::now());
+                }
+            }
+            // A card whose bit is unknown (its `info` query went unanswered) is not healthy yet.
+            let known = cards
+                .iter()
+                .all(|&n| st.card(n).is_ok_and(|c| c["ring_fault"] == false));
+            ring_ok && latched.is_empty() && known
         })
     }
 
@@ -822,16 +843,29 @@ impl Cluster {
                 return Err(e);
             }
             let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Err(Error::new(
-                    ErrorKind::WaitTimeout,
-                    format!(
-                        "the condition did not hold within {timeout:?} (ring cycle {start} to {})",
-                        st.cycle()
-                    ),
-                ));
+            let next = if left.is_zero() {
+                None
+            } else {
+                match self.stream()?.next(left) {
+                    Ok(s) => Some(s),
+                    Err(e) if e.kind == ErrorKind::WaitTimeout => None,
+                    Err(e) => return Err(e),
+                }
+            };
+            match next {
+                Some(s) => st = s,
+                None => {
+                    let mut e = Error::new(
+                        ErrorKind::WaitTimeout,
+                        format!(
+                            "the condition did not hold within {timeout:?} (ring cycle {start} to {})",
+                            st.cycle()
+                        ),
+                    );
+                    e.logs.insert("status".into(), st.0.to_string());
+                    return Err(e);
+                }
             }
-            st = self.stream()?.next(left)?;
         }
     }
 
