@@ -3,6 +3,7 @@
 import json
 import os
 import select
+import signal
 import socket
 import struct
 import subprocess
@@ -43,6 +44,29 @@ class CardProcess:
         except Exception:
             self.proc.kill()
             self.proc.wait()
+
+
+@pytest.fixture(scope="module")
+def power_card():
+    card = CardProcess("power")
+    yield card
+    card.stop()
+
+
+# dls_pmaclib's PPmacSshInterface waits forever for a reply's end: tests using it are bounded.
+POWER_TEST_TIMEOUT = 300
+
+
+@pytest.fixture
+def deadline():
+    def expired(signum, frame):
+        raise TimeoutError("no answer in time")
+
+    old = signal.signal(signal.SIGALRM, expired)
+    signal.alarm(POWER_TEST_TIMEOUT)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
 
 
 @pytest.fixture(scope="module")

@@ -4,15 +4,11 @@ data structures, walked index by index until the card answers ILLEGAL (as the to
 the structures it finds in the controller's symbol tables). The tool's GUI module (PyQt5) is
 replaced by an empty module: the analysis never uses it. Every wait is bounded."""
 
-import signal
 import sys
 import types
 
 import pytest
-from conftest import CardProcess
 from dls_pmaclib.dls_pmacremote import PPmacSshInterface
-
-TEST_TIMEOUT = 300
 
 # The GUI front-end dls_ppmacanalyse imports at load time (PyQt5; not installed).
 sys.modules.setdefault(
@@ -23,22 +19,8 @@ from dls_powerpmacanalyse import dls_ppmacanalyse as analyse  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
-def deadline():
-    def expired(signum, frame):
-        raise TimeoutError("no answer in time")
-
-    old = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(TEST_TIMEOUT)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, old)
-
-
-@pytest.fixture(scope="module")
-def power_card():
-    card = CardProcess("power")
-    yield card
-    card.stop()
+def bounded(deadline):
+    """Every test here is bounded (conftest's `deadline`)."""
 
 
 @pytest.fixture

@@ -4,39 +4,18 @@ the shell's `gpascii -2`, `cid`, element reads and writes, wrong credentials ref
 cluster (`mcc up --config` with `profile = "power"`, its SSH port from `mcc status --json`).
 Every wait is bounded (SIGALRM: the client itself waits forever for a reply end)."""
 
-import json
 import os
-import shutil
-import signal
-import subprocess
 import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import CardProcess
 from dls_pmaclib.dls_pmacremote import PPmacSshInterface
-from emcl_cluster import MCC_BIN, SCRUB, UP_TIMEOUT, VERB_TIMEOUT, wait_for
-
-TEST_TIMEOUT = 300
+from emcl_cluster import SCRUB, UP_TIMEOUT, EmclCluster, wait_for
 
 
 @pytest.fixture(autouse=True)
-def deadline():
-    def expired(signum, frame):
-        raise TimeoutError("no answer in time")
-
-    old = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(TEST_TIMEOUT)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, old)
-
-
-@pytest.fixture(scope="module")
-def power_card():
-    card = CardProcess("power")
-    yield card
-    card.stop()
+def bounded(deadline):
+    """Every test here is bounded (conftest's `deadline`)."""
 
 
 def ssh_client(port, **login):
@@ -106,7 +85,7 @@ def test_wrong_credentials_are_refused(power_card):
         assert not p.isConnectionOpen
 
 
-class PowerCluster:
+class PowerCluster(EmclCluster):
     """`mcc up --detach --config` of a lockstep cluster whose card0 (the sync master) is a Power
     card, with one station, in a private run directory; `mcc down` at the end."""
 
@@ -123,23 +102,6 @@ class PowerCluster:
         self.config.write_text(text)
         self.mcc("up", "--detach", "--config", str(self.config), "--timeout", "150",
                  timeout=UP_TIMEOUT)
-
-    def mcc(self, *args, timeout=VERB_TIMEOUT):
-        out = subprocess.run([MCC_BIN, "--cluster", self.name, *args], env=self.env,
-                             stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                             timeout=timeout)
-        if out.returncode != 0:
-            raise RuntimeError(f"mcc {args}: {out.stderr}")
-        return out.stdout
-
-    def status(self):
-        return json.loads(self.mcc("status", "--json"))
-
-    def stop(self):
-        try:
-            self.mcc("down", "--timeout", "10")
-        finally:
-            shutil.rmtree(self.run_dir, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")

@@ -20,6 +20,7 @@ use tokio::task::JoinHandle;
 
 use super::shell::{Shell, ShellOut, TtyModes};
 use crate::host::port::{CardPort, Interpreter};
+use crate::host::power_ports::accept_limited;
 use crate::service::handle::CardHandle;
 
 /// Who may log in.
@@ -75,24 +76,9 @@ pub(crate) fn spawn_ssh(
     let creds = Arc::new(creds);
     tokio::spawn(async move {
         let slots = Arc::new(Semaphore::new(max_connections));
-        loop {
-            let accepted = tokio::select! {
-                r = listener.accept() => r,
-                _ = stop.changed() => return,
-            };
-            let (stream, peer) = match accepted {
-                Ok(s) => s,
-                Err(e) => {
-                    tracing::warn!("ssh accept failed: {e}");
-                    tokio::time::sleep(Duration::from_millis(50)).await;
-                    continue;
-                }
-            };
-            let Ok(permit) = slots.clone().try_acquire_owned() else {
-                tracing::warn!("ssh: connection limit reached, closing {peer}");
-                continue;
-            };
-            let _ = stream.set_nodelay(true);
+        while let Some((stream, peer, permit)) =
+            accept_limited(&listener, &slots, &mut stop, "ssh").await
+        {
             let conn = Conn::new(card.clone(), Arc::clone(&creds), peer);
             let (config, mut stop) = (Arc::clone(&config), stop.clone());
             tokio::spawn(async move {
