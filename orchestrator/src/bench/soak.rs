@@ -55,15 +55,28 @@ fn timer_probe(period_ns: u64, stop: &AtomicBool) -> Probe {
     p
 }
 
-/// Sum of the members' ring-fault counts and receive errors.
-fn faults_and_errors(st: &[Option<MemberStatus>]) -> (u64, u64) {
-    st.iter().flatten().fold((0, 0), |(f, e), m| {
-        let x = &m.errors;
-        (
-            f + m.ring_fault_count,
-            e + x.byte_violation + x.checksum + x.overrun + x.underrun,
-        )
-    })
+/// Receive errors of one member (byte violations, checksum, overruns, underruns).
+fn receive_errors(m: &MemberStatus) -> u64 {
+    let x = &m.errors;
+    x.byte_violation + x.checksum + x.overrun + x.underrun
+}
+
+/// Ring-fault counts of the members that answered, and their receive errors since `base`
+/// (members counted only where both documents have them: a member slow to answer one poll
+/// never makes the sum go back).
+fn faults_and_errors_since(
+    base: &[Option<MemberStatus>],
+    st: &[Option<MemberStatus>],
+) -> (u64, u64) {
+    let faults = st.iter().flatten().map(|m| m.ring_fault_count).sum();
+    let errors = base
+        .iter()
+        .zip(st)
+        .filter_map(|(b, n)| {
+            Some(receive_errors(n.as_ref()?).saturating_sub(receive_errors(b.as_ref()?)))
+        })
+        .sum();
+    (faults, errors)
 }
 
 /// Run the soak and print the report.
@@ -126,8 +139,14 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
             std::thread::spawn(move || timer_probe(period, &stop))
         };
         let poll = |d: Duration| query_statuses(&s, cfg, d, d * 2);
-        let first = poll(Duration::from_millis(700));
-        let (f0, e0) = faults_and_errors(&first);
+        // The baseline: a poll every member answered (a few tries on a loaded machine).
+        let mut first = poll(Duration::from_millis(700));
+        for _ in 0..10 {
+            if first.iter().all(Option::is_some) {
+                break;
+            }
+            first = poll(Duration::from_millis(700));
+        }
         let sm_index = cfg.position(&cfg.ring.sync_master).unwrap_or(0);
         let sm = |st: &[Option<MemberStatus>]| -> Option<(u64, ClockReport)> {
             let m = st.get(sm_index)?.as_ref()?;
@@ -136,7 +155,7 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
         let c0 = sm(&first).map(|(c, _)| c).unwrap_or(0);
         let t0 = Instant::now();
         let mut min_rtf = f64::INFINITY;
-        let mut last = first;
+        let mut last = first.clone();
         let mut next_print = Duration::from_secs(60);
         while t0.elapsed() < run_for {
             std::thread::sleep(Duration::from_secs(1).min(run_for.saturating_sub(t0.elapsed())));
@@ -148,15 +167,21 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
             }
             if t0.elapsed() >= next_print {
                 next_print += Duration::from_secs(60);
-                let (f, e) = faults_and_errors(&st);
+                let (f, e) = faults_and_errors_since(&first, &st);
+                let answered = st.iter().flatten().count();
                 println!(
-                    "  {:>5.0} s: {} ring faults, {} receive errors, rtf {}",
+                    "  {:>5.0} s: {} ring faults, {} receive errors, rtf {}{}",
                     t0.elapsed().as_secs_f64(),
                     f,
-                    e - e0,
+                    e,
                     sm(&st)
                         .map(|(_, t)| format!("{:.3}", t.rtf))
-                        .unwrap_or("?".into())
+                        .unwrap_or("? (the sync master was slow to answer)".into()),
+                    if answered < st.len() {
+                        format!(" ({answered} of {} members answered this poll)", st.len())
+                    } else {
+                        String::new()
+                    }
                 );
             }
             if st.iter().all(Option::is_some) {
@@ -170,8 +195,7 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
         }
         let probe = probe.join().unwrap_or_default();
         // Ring faults since the members started (bring-up included); errors during the soak.
-        let (f1, e1) = faults_and_errors(&last);
-        let _ = f0;
+        let (f1, e1) = faults_and_errors_since(&first, &last);
         let Some((c1, clock_report)) = sm(&last) else {
             bail!("the sync master did not report its clock at the end");
         };
@@ -193,7 +217,7 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
             } else {
                 format!("latched by {}", faulted.join(", "))
             },
-            e1 - e0
+            e1
         );
         println!(
             "  ring cycles: {cycles} in {:.1} s: achieved rtf {rtf:.3} over the run, lowest rtf over a second {:.3}",
@@ -237,4 +261,32 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn member(faults: u64, underruns: u64) -> Option<MemberStatus> {
+        let mut m = MemberStatus {
+            ring_fault_count: faults,
+            ..MemberStatus::default()
+        };
+        m.errors.underrun = underruns;
+        Some(m)
+    }
+
+    #[test]
+    fn a_member_missing_from_a_poll_never_makes_the_error_count_go_back() {
+        let base = vec![member(0, 24), member(0, 0)];
+        // The first member did not answer this poll: its 24 baseline errors are not
+        // subtracted from the second's (the report once printed 2^64 - 24).
+        let (f, e) = faults_and_errors_since(&base, &[None, member(1, 3)]);
+        assert_eq!((f, e), (1, 3));
+        let (f, e) = faults_and_errors_since(&base, &[member(0, 30), member(0, 3)]);
+        assert_eq!((f, e), (0, 9));
+        // A member missing from the baseline is not counted at all.
+        let (_, e) = faults_and_errors_since(&[None, member(0, 0)], &[member(0, 5), member(0, 1)]);
+        assert_eq!(e, 1);
+    }
 }
