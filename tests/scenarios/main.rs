@@ -16,4 +16,5 @@ mod station_aux;
 mod stations;
 mod testing_api;
 mod transcripts;
+mod triggers;
 mod turbo;
