@@ -103,8 +103,7 @@ impl ServoNode {
                         .advance(h, drive + stop_torque, damping + stop_damping)
                 }
                 AmpOutput::Rate(cps) => {
-                    self.motor
-                        .advance_kinematic(h, self.encoder.omega_for(cps));
+                    self.motor.advance_kinematic(h, self.encoder.omega_for(cps));
                     self.clamp_to_stops();
                 }
             }

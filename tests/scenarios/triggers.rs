@@ -38,7 +38,10 @@ fn settle(rig: &mut Rig, max: usize) {
             return;
         }
     }
-    panic!("motor 1 still moving after {max} cycles: {:?}", rig.status(1));
+    panic!(
+        "motor 1 still moving after {max} cycles: {:?}",
+        rig.status(1)
+    );
 }
 
 /// Where the motor's zero is in plant counts: plant position − motor actual position.
@@ -198,7 +201,10 @@ fn hard_stop_triggers_on_following_error() {
     let mut rig = rig_with(plant);
     let i103 = hex(&mut rig, "I103");
     // Slow jog (4 counts/ms, Ix19 = 1 count/ms²) so the stop after the trigger is short.
-    rig.cmd(&format!("I103=${:X} I112=3200 I122=4 I119=1", i103 | 3 << 16));
+    rig.cmd(&format!(
+        "I103=${:X} I112=3200 I122=4 I119=1",
+        i103 | 3 << 16
+    ));
     rig.cmd("#1J=20000^-500");
     let mut max = f64::MIN;
     for _ in 0..200 {
@@ -209,9 +215,15 @@ fn hard_stop_triggers_on_following_error() {
         }
     }
     settle(&mut rig, 20_000);
-    assert!(max > 8_000.0 && max < 8_080.0, "stopped by the end stop: max {max}");
+    assert!(
+        max > 8_000.0 && max < 8_080.0,
+        "stopped by the end stop: max {max}"
+    );
     let end = rig.node_position(0);
-    assert!((end - (max - 500.0)).abs() < 30.0, "backed off 500 from the stop: {end}");
+    assert!(
+        (end - (max - 500.0)).abs() < 30.0,
+        "backed off 500 from the stop: {end}"
+    );
     assert_eq!(rig.status(1).1 & W2_TRIGGER_MOVE, 0, "trigger found");
     // Without the stop the same jog would have run to 20000.
     assert!(rig.d_reg(1, 0x08) < 8_000.0);

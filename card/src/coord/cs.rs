@@ -185,9 +185,7 @@ impl CoordSystem {
         let xf = self.ready()?;
         let target = self.target(w)?;
         let old = self.program_motor_positions();
-        let new = self
-            .axes
-            .motor_positions(&xf.to_base(&target), &self.cmd);
+        let new = self.axes.motor_positions(&xf.to_base(&target), &self.cmd);
         let mut out = Vec::new();
         for (r, &m) in self.axes.motors.iter().enumerate() {
             let mut dist: Option<f64> = None;

@@ -118,7 +118,10 @@ impl CsExec {
             }
             put_word(&mut w, aw.axis, v, extra);
         }
-        let rapid = self.cs.as_ref().is_some_and(|c| c.modal.mode == Mode::Rapid);
+        let rapid = self
+            .cs
+            .as_ref()
+            .is_some_and(|c| c.modal.mode == Mode::Rapid);
         if rapid && trig.iter().any(Option::is_some) {
             return self.trigger_move(card, motors, &w, &trig);
         }
