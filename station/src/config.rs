@@ -88,6 +88,16 @@ pub struct NodePlantConfig {
     /// Flag capture select (MI913, the station's I9n3): 0 home switch, 1 +limit, 2 −limit,
     /// 3 user flag (default 0). The selected flag, edge applied, is reported in the HOME bit.
     pub capture_flag: u8,
+    /// Mechanical end stops fitted (default false): a hard stop for hard-stop homing.
+    pub hard_stops: bool,
+    /// Positive end stop, counts (default 1,010,000: past the default +limit).
+    pub plus_stop: f64,
+    /// Negative end stop, counts (default −1,010,000).
+    pub minus_stop: f64,
+    /// End-stop stiffness, N·m per count of penetration (default 0.05: 80 counts at the
+    /// default 4 N·m torque limit); critically damped. At most inertia/max_substep² per
+    /// radian (the contact is integrated explicitly per sub-step).
+    pub stop_stiffness: f64,
 }
 
 impl Default for NodePlantConfig {
@@ -116,6 +126,10 @@ impl Default for NodePlantConfig {
             max_substep: 50e-6,
             capture_control: 2,
             capture_flag: 0,
+            hard_stops: false,
+            plus_stop: 1_010_000.0,
+            minus_stop: -1_010_000.0,
+            stop_stiffness: 0.05,
         }
     }
 }
@@ -139,6 +153,9 @@ impl NodePlantConfig {
             ("plus_limit", self.plus_limit),
             ("minus_limit", self.minus_limit),
             ("max_substep", self.max_substep),
+            ("plus_stop", self.plus_stop),
+            ("minus_stop", self.minus_stop),
+            ("stop_stiffness", self.stop_stiffness),
         ];
         for (k, v) in finite {
             if !v.is_finite() {
@@ -161,6 +178,7 @@ impl NodePlantConfig {
             ("viscous", self.viscous),
             ("coulomb", self.coulomb),
             ("home_width", self.home_width),
+            ("stop_stiffness", self.stop_stiffness),
         ];
         for (k, v) in non_negative {
             if v < 0.0 {
@@ -171,6 +189,21 @@ impl NodePlantConfig {
             return Err(format!(
                 "minus_limit: must be below plus_limit ({} ≥ {})",
                 self.minus_limit, self.plus_limit
+            ));
+        }
+        if self.hard_stops && self.minus_stop >= self.plus_stop {
+            return Err(format!(
+                "minus_stop: must be below plus_stop ({} ≥ {})",
+                self.minus_stop, self.plus_stop
+            ));
+        }
+        let k_rad = self.stop_stiffness * self.counts_per_rev / std::f64::consts::TAU;
+        let k_max = self.inertia / (self.max_substep * self.max_substep);
+        if self.hard_stops && k_rad > k_max {
+            return Err(format!(
+                "stop_stiffness: at most {:.6} N·m per count with this inertia and max_substep, got {}",
+                k_max / self.counts_per_rev * std::f64::consts::TAU,
+                self.stop_stiffness
             ));
         }
         if !matches!(self.capture_control, 2 | 3 | 6 | 7 | 10 | 11 | 14 | 15) {

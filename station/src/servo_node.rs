@@ -12,7 +12,9 @@
 //!    command, enable dropped) in this same tick, and it stays off after the ring recovers
 //!    until the card has been seen sending AENA = 0 (no motion restarts by itself).
 //! 3. [`ServoNode::feedback`]: register 0 = position in 1/32 count (24-bit rollover), register
-//!    1 = 0, register 2 = amplifier output torque as a signed 16-bit fraction of
+//!    1 = the encoder count latched at the last capture-flag edge (low 16 bits; register 3 bit
+//!    12 says one was latched: the hardware position capture, exact to the count at the switch
+//!    edge crossed within the sub-step), register 2 = amplifier output torque as a signed 16-bit fraction of
 //!    `torque_full_scale` (a "current" reading), register 3 = status flags
 //!    ([`crate::plant::flags`]).
 
@@ -21,7 +23,7 @@ use mcc_ring::packet::NodeRegs;
 use crate::config::NodePlantConfig;
 use crate::plant::amplifier::{AmpOutput, Amplifier};
 use crate::plant::encoder::Encoder;
-use crate::plant::flags::{CommandFlags, StatusFlags, Switches};
+use crate::plant::flags::{CommandFlags, StatusFlags, Switches, ST_CAPTURED};
 use crate::plant::motor::Motor;
 
 /// Most sub-steps in one tick (a long gap in realtime mode is integrated in coarser steps).
@@ -56,6 +58,8 @@ pub struct ServoNode {
     user_flag: bool,
     ring_lockout: bool,
     ring_fault_flag: bool,
+    /// Encoder count latched at the last capture-flag edge (hardware capture).
+    captured: Option<i64>,
 }
 
 impl ServoNode {
@@ -70,6 +74,7 @@ impl ServoNode {
             user_flag: cfg.user_flag,
             ring_lockout: false,
             ring_fault_flag: false,
+            captured: None,
             cfg: cfg.clone(),
         }
     }
@@ -88,13 +93,92 @@ impl ServoNode {
         let dt = dt.min(MAX_TICK_SECONDS);
         let n = ((dt / self.cfg.max_substep).ceil() as u32).clamp(1, MAX_SUBSTEPS);
         let h = dt / f64::from(n);
+        let mut pos = self.counts();
+        let mut level = self.capture_level(pos);
         for _ in 0..n {
+            let (stop_torque, stop_damping) = self.stop_contact(pos);
             match self.amp.output(self.motor.velocity()) {
-                AmpOutput::Torque { drive, damping } => self.motor.advance(h, drive, damping),
+                AmpOutput::Torque { drive, damping } => {
+                    self.motor
+                        .advance(h, drive + stop_torque, damping + stop_damping)
+                }
                 AmpOutput::Rate(cps) => {
-                    self.motor.advance_kinematic(h, self.encoder.omega_for(cps))
+                    self.motor.advance_kinematic(h, self.encoder.omega_for(cps));
+                    self.clamp_to_stops();
                 }
             }
+            let now = self.counts();
+            let l = self.capture_level(now);
+            if l && !level {
+                self.latch_edge(pos, now);
+            }
+            (pos, level) = (now, l);
+        }
+    }
+
+    fn counts(&self) -> f64 {
+        self.encoder.counts(self.motor.position())
+    }
+
+    /// The capture flag (MI913) with the MI912 edge applied, at position `counts`.
+    fn capture_level(&self, counts: f64) -> bool {
+        let sw = self.switches.at(counts);
+        let flag = match self.cfg.capture_flag {
+            1 => sw.plus_limit,
+            2 => sw.minus_limit,
+            3 => self.user_flag,
+            _ => sw.home,
+        };
+        flag != (self.cfg.capture_control & 8 != 0)
+    }
+
+    /// The capture flag became true between `from` and `to`: latch the encoder count at the
+    /// switch edge crossed (exact, as the hardware capture of the count at the flag change).
+    fn latch_edge(&mut self, from: f64, to: f64) {
+        let (lo, hi) = if from <= to { (from, to) } else { (to, from) };
+        let dir = if to >= from { 1.0 } else { -1.0 };
+        let edge = self
+            .switches
+            .edges()
+            .filter(|&b| b >= lo && b <= hi)
+            .min_by(|a, b| ((a - from).abs()).total_cmp(&(b - from).abs()));
+        let at = match edge {
+            // The first position past the edge (in the direction of travel) where the flag
+            // is true: the edge itself for an inclusive switch, just past it otherwise.
+            Some(b) if self.capture_level(b) => b,
+            Some(b) => b + dir * 1e-6,
+            None => to,
+        };
+        self.captured = Some(at.floor() as i64);
+    }
+
+    /// End-stop contact: (torque N·m, damping N·m·s/rad) at position `counts`.
+    fn stop_contact(&self, counts: f64) -> (f64, f64) {
+        if !self.cfg.hard_stops {
+            return (0.0, 0.0);
+        }
+        let pen = if counts > self.cfg.plus_stop {
+            counts - self.cfg.plus_stop
+        } else if counts < self.cfg.minus_stop {
+            counts - self.cfg.minus_stop
+        } else {
+            return (0.0, 0.0);
+        };
+        let per_rad = self.cfg.counts_per_rev / std::f64::consts::TAU;
+        let k = self.cfg.stop_stiffness * per_rad;
+        let c = 2.0 * (k * self.cfg.inertia).sqrt();
+        (-self.cfg.stop_stiffness * pen, c)
+    }
+
+    /// A step drive cannot push through an end stop: it stalls there.
+    fn clamp_to_stops(&mut self) {
+        if !self.cfg.hard_stops {
+            return;
+        }
+        let c = self.counts();
+        let lim = c.clamp(self.cfg.minus_stop, self.cfg.plus_stop);
+        if lim != c {
+            self.set_position(lim);
         }
     }
 
@@ -127,11 +211,15 @@ impl ServoNode {
         } else {
             0
         };
+        let (r1, captured) = match self.captured {
+            Some(c) => ((c & 0xFFFF) as u16, ST_CAPTURED),
+            None => (0, 0),
+        };
         NodeRegs {
             r0: self.encoder.register0(self.motor.position()),
-            r1: 0,
+            r1,
             r2: current as u16,
-            r3: flags.to_reg3(self.cfg.fault_high_true),
+            r3: flags.to_reg3(self.cfg.fault_high_true) | captured,
         }
     }
 
@@ -140,20 +228,15 @@ impl ServoNode {
     /// station ring fault reports FAULT on every node while it is latched.
     pub fn flags(&self) -> StatusFlags {
         let theta = self.motor.position();
-        let sw = self.switches.at(self.encoder.counts(theta));
+        let counts = self.encoder.counts(theta);
+        let sw = self.switches.at(counts);
         let (cha, chb) = self.encoder.channels(theta);
-        let capture = match self.cfg.capture_flag {
-            1 => sw.plus_limit,
-            2 => sw.minus_limit,
-            3 => self.user_flag,
-            _ => sw.home,
-        };
         StatusFlags {
             cha,
             chb,
             amp_enabled: self.amp.active(),
             amp_fault: self.amp.faulted() || self.ring_fault_flag,
-            home: capture != (self.cfg.capture_control & 8 != 0),
+            home: self.capture_level(counts),
             plus_limit: sw.plus_limit,
             minus_limit: sw.minus_limit,
             user: self.user_flag,
@@ -193,9 +276,14 @@ impl ServoNode {
         self.amp.clear_fault();
     }
 
-    /// Set the user flag input.
+    /// Set the user flag input (a capture edge when MI913 selects it).
     pub fn set_user_flag(&mut self, on: bool) {
+        let c = self.counts();
+        let before = self.capture_level(c);
         self.user_flag = on;
+        if self.capture_level(c) && !before {
+            self.captured = Some(c.floor() as i64);
+        }
     }
 
     /// Put the shaft at `counts` (at rest), e.g. to start a test near a switch.

@@ -295,7 +295,7 @@ fn arbitrary_command_registers_never_break_the_node() {
         x ^= x << 17;
         x
     };
-    let documented = 0x0FF0u16; // bits 4-11 only (flags.rs table)
+    let documented = 0x1FF0u16; // bits 4-12 only (flags.rs table)
     for mode in [AmpMode::Torque, AmpMode::Velocity, AmpMode::Pulse] {
         let mut n = ServoNode::new(
             0,
@@ -319,4 +319,69 @@ fn arbitrary_command_registers_never_break_the_node() {
             assert!(s.position.is_finite() && s.velocity.is_finite() && s.torque.abs() <= 4.0);
         }
     }
+}
+
+#[test]
+fn capture_latches_the_count_at_the_flag_edge_and_end_stops_hold() {
+    use crate::plant::flags::ST_CAPTURED;
+    // Rising edge of the home flag at 5000 (window 5000..=6000), crossed at speed.
+    let mut n = ServoNode::new(0, &NodePlantConfig::default());
+    n.set_position(4990.3);
+    assert_eq!(n.feedback().r3 & ST_CAPTURED, 0, "nothing latched yet");
+    let mut m = n.clone();
+    let omega = 20_000.0 / 131_072.0 * std::f64::consts::TAU; // 20,000 counts/s
+    for _ in 0..3 {
+        m.motor.set_state(m.motor.position(), omega);
+        m.advance(0.000_442_7);
+    }
+    let fb = m.feedback();
+    assert_ne!(fb.r3 & ST_CAPTURED, 0);
+    assert_eq!(
+        fb.r1, 5000,
+        "the count at the edge, not where the tick ended"
+    );
+    // Falling edge (MI912 = 10) going down out of the window: the first count below it.
+    let cfg = NodePlantConfig {
+        capture_control: 10,
+        ..NodePlantConfig::default()
+    };
+    let mut d = ServoNode::new(0, &cfg);
+    d.set_position(5003.0);
+    for _ in 0..3 {
+        d.motor.set_state(d.motor.position(), -omega);
+        d.advance(0.000_442_7);
+    }
+    assert_eq!(d.feedback().r1, 4999);
+    // End stop at 1000: full torque into it holds the shaft within the stiffness's reach.
+    let stop = NodePlantConfig {
+        hard_stops: true,
+        plus_stop: 1_000.0,
+        ..NodePlantConfig::default()
+    };
+    assert!(stop.validate().is_ok());
+    let mut h = ServoNode::new(0, &stop);
+    h.set_position(900.0);
+    let full = NodeRegs {
+        r0: 0x7F_FF00,
+        r1: 0,
+        r2: 0,
+        r3: CMD_AMP_ENABLE,
+    };
+    let mut max = 0.0f64;
+    for _ in 0..5000 {
+        tick(&mut h, full, false);
+        max = max.max(h.snapshot().position);
+    }
+    // Impact at speed overshoots the static 80-count penetration a little (damped).
+    assert!(max > 1_000.0 && max < 1_000.0 + 150.0, "max {max}");
+    let rest = h.snapshot();
+    assert!(
+        (rest.position - (1_000.0 + 4.0 / 0.05)).abs() < 2.0,
+        "at rest {rest:?}"
+    );
+    let bad = NodePlantConfig {
+        stop_stiffness: 100.0,
+        ..stop
+    };
+    assert!(bad.validate().unwrap_err().starts_with("stop_stiffness"));
 }

@@ -17,4 +17,5 @@ mod station_aux;
 mod stations;
 mod testing_api;
 mod transcripts;
+mod triggers;
 mod turbo;

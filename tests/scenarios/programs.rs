@@ -75,6 +75,7 @@ impl Rig {
                     dt_ms: DT,
                     program: sp[k],
                     background: true,
+                    capture: None,
                 },
             );
         }

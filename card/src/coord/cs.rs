@@ -173,6 +173,40 @@ impl CoordSystem {
         }
     }
 
+    /// A RAPID move-until-trigger line (seed 10236-10262): each motor of a named axis gets its
+    /// own triggered (or plain) move; returns (motor, end position in the axis frame, distance
+    /// past the trigger in counts for motors of an axis with `^`). The programmed position
+    /// becomes the untriggered end; the executor re-matches it when the motors have finished.
+    pub fn trigger_targets(
+        &mut self,
+        w: &MoveWords,
+        trig: &[Option<f64>; 9],
+    ) -> Result<Vec<(u16, f64, Option<f64>)>, CoordError> {
+        let xf = self.ready()?;
+        let target = self.target(w)?;
+        let old = self.program_motor_positions();
+        let new = self.axes.motor_positions(&xf.to_base(&target), &self.cmd);
+        let mut out = Vec::new();
+        for (r, &m) in self.axes.motors.iter().enumerate() {
+            let mut dist: Option<f64> = None;
+            for (k, d) in trig.iter().enumerate() {
+                let s = self.axes.scale[(r, k)];
+                if let (Some(d), true) = (d, s != 0.0) {
+                    dist = Some(dist.unwrap_or(0.0) + s * d);
+                }
+            }
+            let to = new[r];
+            if !to.is_finite() || dist.is_some_and(|d| !d.is_finite()) {
+                return Err(CoordError::OutOfRange("trigger move"));
+            }
+            if dist.is_some() || old.get(r).is_none_or(|o| *o != to) {
+                out.push((m, to, dist));
+            }
+        }
+        self.pos = target;
+        Ok(out)
+    }
+
     /// Which axes (X..W) the motors of this C.S. use.
     pub fn axes_used(&self) -> [bool; 9] {
         self.axes.axes_used()

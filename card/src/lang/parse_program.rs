@@ -521,8 +521,15 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
         Sk::Display => StmtKind::Display(display(c)?),
         Sk::Plc(v) => StmtKind::Plc(plc_control(c, v)?),
         Sk::Address => {
-            let motor = if c.eat_ws(b'#') { Some(uint(c)?) } else { None };
-            let coord = if c.eat_ws(b'&') { Some(uint(c)?) } else { None };
+            // Either order (seed 10345: `ADDRESS &2#2`), each part at most once.
+            let (mut motor, mut coord) = (None, None);
+            for _ in 0..2 {
+                if motor.is_none() && c.eat_ws(b'#') {
+                    motor = Some(uint(c)?);
+                } else if coord.is_none() && c.eat_ws(b'&') {
+                    coord = Some(uint(c)?);
+                }
+            }
             if motor.is_none() && coord.is_none() || motor == Some(0) || coord == Some(0) {
                 return Err(c.syntax("#motor and/or &cs expected"));
             }

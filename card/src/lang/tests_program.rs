@@ -197,6 +197,17 @@ fn plc_rules() {
             coord: Some(3)
         }
     ));
+    // Issue 14 item 13, seed 10345: `ADDRESS &2#3` keeps the motor part.
+    let s = plc("ADDRESS &2#3").unwrap();
+    assert_eq!(s.len(), 1);
+    assert!(matches!(
+        s[0].kind,
+        StmtKind::Address {
+            motor: Some(3),
+            coord: Some(2)
+        }
+    ));
+    assert!(plc("ADR#2#3").is_err(), "one motor part only");
     // moves / sync assignment are not allowed in a PLC
     assert_eq!(plc("X10").unwrap_err().code, ERR_SYNTAX);
     assert_eq!(plc("M1==1").unwrap_err().code, ERR_SYNTAX);

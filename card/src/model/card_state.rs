@@ -355,6 +355,16 @@ impl CardState {
         self.memory.node_command(node)
     }
 
+    /// The MACRO node whose register 0 sits at `space:addr` (a motor's Ix02 output address).
+    pub fn node_at(&self, space: Space, addr: Addr) -> Option<usize> {
+        (0..16).find(|&n| self.map.node_addr(n, 0) == (space, addr))
+    }
+
+    /// The feedback registers of `node` as latched from the ring.
+    pub fn node_feedback(&self, node: usize) -> [u32; 4] {
+        self.memory.node_feedback(node)
+    }
+
     /// Latch feedback registers of `node` received from the ring.
     pub fn set_node_feedback(&mut self, node: usize, regs: [u32; 4]) {
         self.memory.set_node_feedback(node, regs)

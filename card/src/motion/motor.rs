@@ -94,6 +94,10 @@ pub struct TickInput {
     pub program: Option<f64>,
     /// This cycle is a background scan (in-position evaluation, I7 counting).
     pub background: bool,
+    /// The node's hardware position capture: low 16 bits of the encoder count latched at the
+    /// last capture-flag edge (node register 1), when the station reports one (register 3
+    /// bit 12).
+    pub capture: Option<u16>,
 }
 
 /// One cycle's outputs.
@@ -318,6 +322,8 @@ impl Motor {
                 }
                 self.trigger = trigger.map(|d| TriggeredMove::jog(d, p.fe_trigger));
                 self.flags.trigger_move = trigger.is_some();
+                // Seed 6811: "home search in progress" is set for a jog-until-trigger too.
+                self.flags.home_search = trigger.is_some();
                 let jp = Self::jog_params(p, p.jog_speed);
                 self.limit_stop = false;
                 self.flags.abort_decel = false;
@@ -526,16 +532,18 @@ impl Motor {
         }
         if let Some(mut t) = self.trigger {
             let warn = p.warn_fe != 0.0 && (self.cmd - self.actual).abs() * 16.0 > p.warn_fe;
-            if let Some(a) = t.on_cycle(inp.flags.home, warn, self.actual) {
+            let at = self.capture_position(p, &t, inp);
+            if let Some(a) = t.on_cycle(inp.flags.home, warn, at) {
                 self.on_trigger(p, &t, a);
             }
             if self.trigger.is_some() {
                 self.trigger = Some(t);
             }
             if self.traj.finished() {
-                // Post-trigger move done, or a jog-until-trigger ended without a trigger.
+                // Post-trigger move done, or a triggered move ended without a trigger: the
+                // trigger-move bit stays set then (seed 6847).
                 self.trigger = None;
-                self.flags.trigger_move = false;
+                self.flags.home_search = false;
             }
         }
         self.fe = self.cmd - self.actual;
@@ -578,6 +586,29 @@ impl Motor {
         dac
     }
 
+    /// The trigger position if the trigger fires this cycle: the station's hardware capture
+    /// (the count at which the flag changed) when the trigger is the capture flag, software
+    /// capture is off (PMAC2 Ix03 bit 16, Turbo Ixx97 bit 0) and the latched count belongs to
+    /// the motion just seen (within 8 cycles of travel + 4 counts of the actual position);
+    /// otherwise the actual position of this cycle (software capture).
+    fn capture_position(&self, p: &MotorParams, t: &TriggeredMove, inp: &TickInput) -> f64 {
+        let (Some(c16), false, super::home::TriggerSource::HomeFlag) =
+            (inp.capture, p.software_capture, t.source)
+        else {
+            return self.actual;
+        };
+        let raw = self.actual + self.bias;
+        let d = (i64::from(c16) - raw.floor() as i64).rem_euclid(0x1_0000);
+        let d = if d >= 0x8000 { d - 0x1_0000 } else { d } as f64;
+        let cap = raw.floor() + d;
+        let window = 8.0 * self.velocity().abs() + 4.0;
+        if (cap - raw).abs() <= window {
+            cap - self.bias
+        } else {
+            self.actual
+        }
+    }
+
     fn on_trigger(&mut self, p: &MotorParams, t: &TriggeredMove, a: TriggerAction) {
         let speed = match t.kind {
             super::home::TriggerKind::Home { .. } => p.home_speed.abs(),
@@ -590,6 +621,7 @@ impl Motor {
             self.flags.home_search = false;
         }
         self.flags.trigger_move = false;
+        self.flags.home_search = false;
         let jp = Self::jog_params(p, speed);
         let target = a.target;
         self.traj

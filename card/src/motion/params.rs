@@ -18,8 +18,9 @@ pub struct MotorParams {
     /// The trigger of homing and jog-until-trigger is the warning following error (PMAC2
     /// Ix03 bit 17, Turbo Ixx97 bit 1) instead of the capture flag.
     pub fe_trigger: bool,
-    /// Software position capture (Turbo Ixx97 bit 0): the trigger position is the position
-    /// of the servo cycle that saw the trigger, not the station's hardware capture.
+    /// Software position capture (PMAC2 Ix03 bit 16, Turbo Ixx97 bit 0; implied by a
+    /// following-error trigger): the trigger position is the position of the servo cycle that
+    /// saw the trigger, not the station's hardware capture.
     pub software_capture: bool,
     /// PID gains (Ix08, Ix09, Ix30-Ix39, Ix63-Ix69).
     pub gains: PidGains,
@@ -103,11 +104,16 @@ impl MotorParams {
                 ix24 & 0xFF_0000,
                 iv(25, 0.0).max(0.0) as u32 & 0x7_FFFF,
                 ix97 & 2 != 0,
-                ix97 & 1 != 0,
+                ix97 & 3 != 0,
             )
         } else {
             let ix25 = iv(25, d.ix25 as f64).max(0.0) as u32;
-            (ix25, ix25 & 0xFFFF, ix03 & (1 << 17) != 0, false)
+            (
+                ix25,
+                ix25 & 0xFFFF,
+                ix03 & (1 << 17) != 0,
+                ix03 & (3 << 16) != 0,
+            )
         };
         MotorParams {
             active: iv(0, 0.0) != 0.0,

@@ -143,6 +143,7 @@ fn run_motor(p: &MotorParams, cmds: &[(usize, JogCmd)], n: usize) -> Vec<f64> {
             dt_ms: DT,
             program: None,
             background: true,
+            capture: None,
         };
         m.tick(p, &inp);
         out.push(m.commanded());

@@ -84,6 +84,7 @@ impl Rig {
             dt_ms: DT,
             program: None,
             background: true,
+            capture: None,
         };
         let out = self.m.tick(&self.p, &inp);
         self.plant.step(out.dac, out.amp_enable);
@@ -347,6 +348,7 @@ fn bench_servo_tick_cost() {
                 dt_ms: DT,
                 program: None,
                 background: true,
+                capture: None,
             };
             let t0 = std::time::Instant::now();
             let out = r.m.tick(&r.p, &inp);

@@ -118,10 +118,11 @@ impl CsExec {
             return true;
         };
         *ticks += 1;
+        // Homing and triggered moves: wait for the search and the post-trigger move.
         let searching = list.iter().any(|&m| {
-            motors
-                .get(m as usize - 1)
-                .is_some_and(|x| x.flags.home_search)
+            motors.get(m as usize - 1).is_some_and(|x| {
+                x.flags.home_search || (x.closed_loop() && !x.trajectory().finished())
+            })
         });
         if *ticks < 3 || searching {
             return false;

@@ -52,7 +52,7 @@ impl CsExec {
                 }
                 Flow::Next
             }
-            S::Move(words) => self.move_line(card, words),
+            S::Move(words) => self.move_line(card, motors, words),
             S::Mode(m) => self.modal(card, |c| {
                 c.modal.mode = match m {
                     MoveMode::Linear => Mode::Linear,

@@ -6,9 +6,11 @@ use super::env;
 use super::motion::Flow;
 use crate::coord::axes::axis_index;
 use crate::coord::cs::{CoordSystem, MoveWords};
+use crate::coord::moves::Mode;
 use crate::coord::CoordError;
-use crate::domain::ast::{Axis, AxisExtra, AxisWord, NumRange};
+use crate::domain::ast::{Axis, AxisExtra, AxisWord, JogKind, NumRange};
 use crate::model::{Action, ActionKind, CardModel};
+use crate::motion::motor::Motor;
 
 impl CsExec {
     /// Apply a modal change to the trajectory (created on demand).
@@ -84,26 +86,95 @@ impl CsExec {
         }
     }
 
-    pub(super) fn move_line(&mut self, card: &mut CardModel, words: &[AxisWord]) -> Flow {
+    pub(super) fn move_line(
+        &mut self,
+        card: &mut CardModel,
+        motors: &[Motor],
+        words: &[AxisWord],
+    ) -> Flow {
         let mut w = MoveWords::default();
+        let mut trig = [None; 9];
         for aw in words {
             let Ok(v) = env::value(card, self.num, &aw.value) else {
                 self.runtime_error(card, rte::VARIABLE, false);
                 return Flow::Error;
             };
-            let extra = match &aw.extra {
-                Some(AxisExtra::Velocity(e)) => match env::value(card, self.num, e) {
-                    Ok(x) => Some(x),
-                    Err(_) => {
+            let mut extra = None;
+            match &aw.extra {
+                Some(AxisExtra::Velocity(e)) | Some(AxisExtra::Trigger(e)) => {
+                    let Ok(x) = env::value(card, self.num, e) else {
                         self.runtime_error(card, rte::VARIABLE, false);
                         return Flow::Error;
+                    };
+                    if matches!(aw.extra, Some(AxisExtra::Trigger(_))) {
+                        if let Some(k) = axis_index(aw.axis) {
+                            trig[k] = Some(x);
+                        }
+                    } else {
+                        extra = Some(x);
                     }
-                },
-                _ => None,
-            };
+                }
+                None => {}
+            }
             put_word(&mut w, aw.axis, v, extra);
         }
+        let rapid = self
+            .cs
+            .as_ref()
+            .is_some_and(|c| c.modal.mode == Mode::Rapid);
+        if rapid && trig.iter().any(Option::is_some) {
+            return self.trigger_move(card, motors, &w, &trig);
+        }
         self.queue(card, |c| c.push_move(&w))
+    }
+
+    /// RAPID move-until-trigger (seed 10236-10262, 6847, 6811): waits for the C.S. to stop
+    /// (no blending), then every motor of a named axis runs its own jog-style move at Ix22 with
+    /// Ix19-Ix21 — a jog-until-trigger for the axes with `^` (trigger per Ix03/Ix25 and the
+    /// capture flag, end point the trigger + the `^` distance), a plain one for the others;
+    /// the next line runs when every motor has finished, after a PMATCH.
+    fn trigger_move(
+        &mut self,
+        card: &mut CardModel,
+        motors: &[Motor],
+        w: &MoveWords,
+        trig: &[Option<f64>; 9],
+    ) -> Flow {
+        let Some(c) = &mut self.cs else {
+            self.runtime_error(card, rte::MOVE, false);
+            return Flow::Error;
+        };
+        if !c.is_idle() {
+            return Flow::Wait;
+        }
+        let plan = match c.trigger_targets(w, trig) {
+            Ok(p) => p,
+            Err(_) => {
+                self.runtime_error(card, rte::MOVE, false);
+                return Flow::Error;
+            }
+        };
+        let mut list = Vec::with_capacity(plan.len());
+        for (m, to, dist) in plan {
+            let bias = motors.get(usize::from(m) - 1).map_or(0.0, |x| x.pos_bias);
+            card.push_action(Action {
+                motor: m,
+                coord: self.num,
+                kind: ActionKind::Jog {
+                    kind: JogKind::To(to - bias),
+                    trigger: dist,
+                },
+            });
+            list.push(m);
+        }
+        if list.is_empty() {
+            return Flow::Next;
+        }
+        self.wait = Wait::Homing {
+            motors: list,
+            ticks: 0,
+        };
+        Flow::Yield
     }
 
     /// Axis words (and F) left on a CALL / G-code line after READ: a move after the RETURN.

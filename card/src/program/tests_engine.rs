@@ -81,6 +81,7 @@ impl Rig {
                     dt_ms: 3_713_707.0 / 8_388_608.0,
                     program: sp[k],
                     background: true,
+                    capture: None,
                 },
             );
         }

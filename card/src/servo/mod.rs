@@ -148,6 +148,7 @@ impl Servo {
                 dt_ms,
                 program: setpoints.get(k).copied().flatten(),
                 background: true,
+                capture: node_capture(st, ix02),
             };
             let out = self.motors[k].tick(&p, &inp);
             write_output(&mut card.state, &p, ix02, &out);
@@ -219,6 +220,19 @@ impl Servo {
         }
         self.engine.on_trip(card, k, scope);
     }
+}
+
+/// Register 3 bit (station → card) saying register 1 holds a hardware capture (the station's
+/// `ST_CAPTURED`, register bit 12: card and station share only the ring register layout). The
+/// card keeps the 16-bit registers 1-3 in the upper 16 bits of its 24-bit words.
+const NODE_CAPTURED: u32 = 1 << (12 + 8);
+
+/// The hardware capture of the MACRO node a motor outputs to (Ix02): node register 1 (low 16
+/// bits of the encoder count at the last capture-flag edge) when register 3 bit 12 is set.
+fn node_capture(st: &CardState, ix02: u32) -> Option<u16> {
+    let (space, addr) = output_addr(ix02, st.map().max_addr);
+    let regs = st.node_feedback(st.node_at(space, addr)?);
+    (regs[3] & NODE_CAPTURED != 0).then_some(((regs[1] >> 8) & 0xFFFF) as u16)
 }
 
 /// Ix02 target of a motor: (space, address). Bit 19 selects an X register; the address is

@@ -56,6 +56,10 @@ pub const ST_PLIM: u16 = 1 << 9;
 pub const ST_MLIM: u16 = 1 << 10;
 /// Register-3 bit (station → card): user flag.
 pub const ST_USER: u16 = 1 << 11;
+/// Register-3 bit (station → card): a capture-flag edge has been latched; register 1 holds
+/// the encoder count at that edge (low 16 bits, whole counts): the node's hardware position
+/// capture.
+pub const ST_CAPTURED: u16 = 1 << 12;
 
 /// Command flags decoded from the register 3 the card wrote.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -158,6 +162,18 @@ pub struct SwitchStates {
 }
 
 impl Switches {
+    /// Every switch edge position (home window ends, limits), counts.
+    pub fn edges(&self) -> impl Iterator<Item = f64> {
+        [
+            Some(self.home_position),
+            Some(self.home_position + self.home_width),
+            self.plus_limit,
+            self.minus_limit,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
     /// The switch states at actual position `counts`.
     pub fn at(&self, counts: f64) -> SwitchStates {
         SwitchStates {
