@@ -164,6 +164,17 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     wait(&mut c, "station1 healthy", |d| {
         d["stations"][1]["ring_fault"] == false
     });
+    // `mcc down` leaves the saved station setup where MS SAVE put it (the run directory's
+    // state/, the default state file).
+    let state = c
+        .run_base()
+        .join(&c.name)
+        .join("state")
+        .join("station0.state");
+    assert!(state.is_file(), "{} missing after MS SAVE", state.display());
+    let out = c.mcc(&["down"]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(state.is_file(), "mcc down removed {}", state.display());
 }
 
 /// `mcc fault MEMBER KIND` (a ring fault or a process drill); the test fails if it does.
