@@ -71,13 +71,13 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
         return crate::watch::watch(cluster, Duration::from_millis(ms));
     }
     let a = attach(cluster)?;
-    let st = ctl::query_statuses(
+    let (st, slow) = ctl::query_round(
         &a.session,
         &a.cfg,
         Duration::from_millis(700),
         Duration::from_millis(1500),
     );
-    let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st);
+    let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st, &slow);
     crate::drills::enrich_status(&a.session, &a.cfg, &mut doc);
     crate::emcl::status::enrich(&a.session, &a.cfg, &mut doc);
     if args.json {

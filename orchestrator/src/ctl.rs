@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
 use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::{ctl_key, CtlReply, MemberStatus};
+use mcc_ring::control::{alive_key, ctl_key, CtlReply, MemberStatus};
 use mcc_ring::transport::session::{open_session, SessionOptions};
 use zenoh::Wait;
 
@@ -125,6 +125,56 @@ pub fn query_statuses(
     out
 }
 
+/// [`query_statuses`], and which members that did not answer still hold their zenoh
+/// liveliness token (`mcc/<cluster>/alive/<member>`): alive but slow to answer (a busy
+/// machine), never counted as gone (see `status::broken_link`). When the liveliness query
+/// itself fails, a member that did not answer counts as gone, as before.
+pub fn query_round(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    per_try: Duration,
+    budget: Duration,
+) -> (Vec<Option<MemberStatus>>, Vec<bool>) {
+    let st = query_statuses(session, cfg, per_try, budget);
+    let mut slow = vec![false; st.len()];
+    if st.iter().any(Option::is_none) {
+        if let Some(live) = live_members(session, cfg, per_try) {
+            for ((s, l), slow) in st.iter().zip(live).zip(slow.iter_mut()) {
+                *slow = s.is_none() && l;
+            }
+        }
+    }
+    (st, slow)
+}
+
+/// Which members (ring order) hold their liveliness token; None when the query failed.
+pub fn live_members(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+) -> Option<Vec<bool>> {
+    let replies = session
+        .liveliness()
+        .get(alive_key(&cfg.cluster, "*"))
+        .timeout(timeout)
+        .wait()
+        .ok()?;
+    let mut live = vec![false; cfg.ring.order.len()];
+    while let Ok(reply) = replies.recv() {
+        let Ok(sample) = reply.result() else { continue };
+        let key = sample.key_expr().as_str();
+        if let Some(i) = cfg
+            .ring
+            .order
+            .iter()
+            .position(|m| alive_key(&cfg.cluster, m) == key)
+        {
+            live[i] = true;
+        }
+    }
+    Some(live)
+}
+
 /// Ask the members at `which` (ring positions) for their status, concurrently; valid answers go
 /// into `out`.
 fn ask(
@@ -153,5 +203,83 @@ fn ask(
         {
             *slot = Some(st);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mcc_ring::transport::session::free_loopback_endpoint;
+
+    #[test]
+    fn a_member_slow_to_answer_is_slow_not_gone() {
+        // A member session holding card1's liveliness token whose status answer takes 1.5 s
+        // (its thread busy); station0's token is there and it answers at once; the other
+        // members are not there at all.
+        let cfg = ClusterConfig::default_cluster(2, 2);
+        let endpoint = free_loopback_endpoint().unwrap();
+        let member = open_session(&SessionOptions {
+            listen: vec![endpoint.clone()],
+            connect: vec![],
+        })
+        .unwrap();
+        let _tokens: Vec<_> = ["card1", "station0"]
+            .iter()
+            .map(|m| {
+                member
+                    .liveliness()
+                    .declare_token(alive_key(&cfg.cluster, m))
+                    .wait()
+                    .unwrap()
+            })
+            .collect();
+        let status = |name: &str| {
+            serde_json::to_string(&MemberStatus {
+                name: name.into(),
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        let slow_reply = status("card1");
+        let _slow = member
+            .declare_queryable(ctl_key(&cfg.cluster, "card1", "status"))
+            .callback(move |q| {
+                let body = slow_reply.clone();
+                std::thread::spawn(move || {
+                    std::thread::sleep(Duration::from_millis(1500));
+                    let _ = q.reply(q.key_expr().clone(), body).wait();
+                });
+            })
+            .wait()
+            .unwrap();
+        let quick_reply = status("station0");
+        let _quick = member
+            .declare_queryable(ctl_key(&cfg.cluster, "station0", "status"))
+            .callback(move |q| {
+                let _ = q.reply(q.key_expr().clone(), quick_reply.clone()).wait();
+            })
+            .wait()
+            .unwrap();
+        let cli = connect(&endpoint, 1, Duration::from_secs(5)).unwrap();
+        let (st, slow) = query_round(
+            &cli,
+            &cfg,
+            Duration::from_millis(300),
+            Duration::from_millis(600),
+        );
+        let answered: Vec<bool> = st.iter().map(Option::is_some).collect();
+        assert_eq!(answered, [false, true, false, false]);
+        assert_eq!(slow, [false, false, true, false]);
+        let doc = crate::status::build(
+            &cfg,
+            &crate::rundir::SupervisorInfo::starting(1, "mcc"),
+            "/run/x",
+            &st,
+            &slow,
+        );
+        // The walk from the sync master passes slow card1 by and stops at station1, gone.
+        assert_eq!(doc.ring.broken_link.as_deref(), Some("station1 → card0"));
+        assert!(doc.members[2].slow && !doc.members[2].alive);
+        assert!(!doc.members[0].slow);
     }
 }

@@ -19,13 +19,13 @@ pub fn status_line(
     run_dir: String,
 ) -> impl Fn() -> String {
     move || {
-        let st = ctl::query_statuses(
+        let (st, slow) = ctl::query_round(
             &session,
             &cfg,
             Duration::from_millis(500),
             Duration::from_millis(1000),
         );
-        one_line(&status::build(&cfg, &info, &run_dir, &st))
+        one_line(&status::build(&cfg, &info, &run_dir, &st, &slow))
     }
 }
 

@@ -79,6 +79,10 @@ pub struct MemberRow {
     pub pid: Option<u32>,
     /// Answered its status query.
     pub alive: bool,
+    /// Did not answer this status query in time but holds its zenoh liveliness token: busy
+    /// (a loaded machine), not gone. Never a broken link by itself: a member that truly
+    /// stopped shows through the ring (its downstream goes dark after the frozen-member wait).
+    pub slow: bool,
     /// Position in the ring.
     pub ring_position: usize,
     /// The synchronizing master.
@@ -206,17 +210,21 @@ pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
 }
 
 /// Name the broken link: walk the ring from the member after the sync master; the first
-/// member that is dead ends the walk (`"<dead> → <next>"`: nothing leaves it), else the first
-/// whose last received frame lags its current cycle by more than `threshold`, whose input is
-/// dark, that lost the sync packets, or that latched a ring fault while the link into it
-/// delivered bad data (within the last `threshold` cycles, or within `threshold` cycles of the
-/// latch: a break that healed still names its link until the reset) names `"<upstream> →
-/// <member>"` (its
-/// upstream, visited before, is fine). A card that only misses its own packets is not the
-/// break: they were lost further round the ring.
+/// member that is gone (no answer, and no liveliness token: `slow[i]` false) ends the walk
+/// (`"<dead> → <next>"`: nothing leaves it), else the first whose last received frame lags its
+/// own current cycle by more than `threshold`, whose input is dark, that lost the sync packets,
+/// or that latched a ring fault while the link into it delivered bad data (within the last
+/// `threshold` cycles, or within `threshold` cycles of the latch: a break that healed still
+/// names its link until the reset) names `"<upstream> → <member>"` (its upstream, visited
+/// before, is fine). A member that is slow to answer (`slow[i]`) is passed over: its link is
+/// judged by the members downstream of it. The lag is measured against the member's own
+/// cycle, never the sync master's: a member running behind the master (scheduled late on a
+/// busy machine) has received what it ran, and is not cut off. A card that only misses its
+/// own packets is not the break: they were lost further round the ring.
 pub fn broken_link(
     cfg: &ClusterConfig,
     st: &[Option<MemberStatus>],
+    slow: &[bool],
     threshold: u64,
 ) -> Option<String> {
     let order = &cfg.ring.order;
@@ -225,21 +233,22 @@ pub fn broken_link(
         return None;
     }
     let sm = cfg.position(&cfg.ring.sync_master)?;
-    let now = st.get(sm)?.as_ref().map(|s| s.cycle).unwrap_or(0);
     for k in 1..=n {
         let idx = (sm + k) % n;
         let up = (idx + n - 1) % n;
         let Some(s) = st.get(idx)? else {
+            if slow.get(idx).copied().unwrap_or(false) {
+                continue;
+            }
             return Some(format!(
                 "{} → {}",
                 order.get(idx)?,
                 order.get((idx + 1) % n)?
             ));
         };
-        let reference = s.cycle.max(now);
         let lag = match s.last_rx_cycle {
-            Some(rx) => reference.saturating_sub(rx),
-            None => reference,
+            Some(rx) => s.cycle.saturating_sub(rx),
+            None => s.cycle,
         };
         // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
         // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.
@@ -274,12 +283,14 @@ fn extra_port(s: Option<&MemberStatus>, keys: &[&str]) -> Option<u16> {
     keys.iter().find_map(|k| port_of(s.extra.get(*k)))
 }
 
-/// Assemble the status document.
+/// Assemble the status document from one status round: `st` the answers in ring order,
+/// `slow` the members that did not answer but hold their liveliness token (empty: none).
 pub fn build(
     cfg: &ClusterConfig,
     info: &SupervisorInfo,
     run_dir: &str,
     st: &[Option<MemberStatus>],
+    slow: &[bool],
 ) -> ClusterStatus {
     let pid_of = |name: &str, s: Option<&MemberStatus>| {
         info.members
@@ -311,6 +322,7 @@ pub fn build(
                 kind: kind.into(),
                 pid: pid_of(name, s),
                 alive: s.is_some(),
+                slow: s.is_none() && slow.get(i).copied().unwrap_or(false),
                 ring_position: i,
                 sync_master: cfg.ring.sync_master == *name,
                 locked: v.locked,
@@ -333,7 +345,7 @@ pub fn build(
             }
         })
         .collect();
-    let link = broken_link(cfg, st, lag_threshold(cfg));
+    let link = broken_link(cfg, st, slow, lag_threshold(cfg));
     let sm_cycle = status_of(&cfg.ring.sync_master).map(|s| s.cycle);
     let timing = status_of(&cfg.ring.sync_master).and_then(|s| s.clock.clone());
     let ring = RingState {
@@ -523,7 +535,13 @@ pub fn render_table(s: &ClusterStatus) -> String {
             format!("{}{}", m.name, if m.sync_master { "*" } else { "" }),
             m.kind,
             opt(m.pid),
-            if m.alive { "yes" } else { "NO" },
+            if m.alive {
+                "yes"
+            } else if m.slow {
+                "slow"
+            } else {
+                "NO"
+            },
             if m.locked { "yes" } else { "no" },
             m.cycle,
             m.sync_count,

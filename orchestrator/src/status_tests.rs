@@ -36,8 +36,8 @@ fn info() -> SupervisorInfo {
 fn healthy_ring_has_no_broken_link() {
     let cfg = ClusterConfig::default_cluster(2, 2);
     let st = healthy(&cfg, 5000);
-    assert_eq!(broken_link(&cfg, &st, 32), None);
-    let doc = build(&cfg, &info(), "/run/x", &st);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
+    let doc = build(&cfg, &info(), "/run/x", &st, &[]);
     assert!(doc.ring.locked);
     assert!(!doc.ring.faulted);
     assert_eq!(doc.ring.cycle, 5000);
@@ -96,17 +96,17 @@ fn cut_is_localised_to_the_link_after_the_cutting_member() {
         st[i].as_mut().unwrap().last_rx_cycle = Some(1000);
     }
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station0 → card1")
     );
-    let doc = build(&cfg, &info(), "/run/x", &st);
+    let doc = build(&cfg, &info(), "/run/x", &st, &[]);
     assert!(doc.ring.faulted);
     assert_eq!(doc.ring.broken_link.as_deref(), Some("station0 → card1"));
     // The link back into the sync master.
     let mut st = healthy(&cfg, 3000);
     st[0].as_mut().unwrap().last_rx_cycle = Some(10);
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station1 → card0")
     );
     // The first link out of the sync master, and a member that never received anything.
@@ -115,7 +115,7 @@ fn cut_is_localised_to_the_link_after_the_cutting_member() {
         s.as_mut().unwrap().last_rx_cycle = None;
     }
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("card0 → station0")
     );
 }
@@ -125,10 +125,10 @@ fn small_lag_within_threshold_is_not_a_break() {
     let cfg = ClusterConfig::default_cluster(2, 2);
     let mut st = healthy(&cfg, 3000);
     st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 32);
-    assert_eq!(broken_link(&cfg, &st, 32), None);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
     st[3].as_mut().unwrap().last_rx_cycle = Some(3000 - 33);
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("card1 → station1")
     );
 }
@@ -139,10 +139,10 @@ fn dead_member_breaks_the_link_leaving_it() {
     let mut st = healthy(&cfg, 3000);
     st[2] = None;
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("card1 → station1")
     );
-    let doc = build(&cfg, &info(), "/run/x", &st);
+    let doc = build(&cfg, &info(), "/run/x", &st, &[]);
     assert!(!doc.ring.locked);
     let card1 = &doc.members[2];
     assert!(!card1.alive);
@@ -177,7 +177,7 @@ fn json_document_has_the_contract_fields() {
         .extra
         .insert("gpascii".into(), serde_json::json!(6001));
     card1.extra.insert("ssh".into(), serde_json::json!(6002));
-    let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st)).unwrap();
+    let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st, &[])).unwrap();
     assert_eq!(doc["cards"][1]["gpascii"], 6001);
     assert_eq!(doc["cards"][1]["ssh"], 6002);
     assert_eq!(doc["cards"][0]["gpascii"], serde_json::Value::Null);
@@ -233,7 +233,7 @@ fn json_document_has_the_contract_fields() {
         doc["stations"][1]["nodes"],
         serde_json::json!([0, 1, 4, 5, 8, 9, 12, 13])
     );
-    let table = render_table(&build(&cfg, &info(), "/run/x", &st));
+    let table = render_table(&build(&cfg, &info(), "/run/x", &st, &[]));
     assert!(table.contains("card0*"), "{table}");
     assert!(table.contains("ascii 127.0.0.1:5001"), "{table}");
 }
@@ -251,7 +251,7 @@ fn a_dark_input_names_the_link_and_the_clock_comes_from_the_sync_master() {
         m.last_rx_cycle = Some(2994);
     }
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station0 → card1")
     );
     st[0].as_mut().unwrap().clock = Some(ClockReport {
@@ -262,7 +262,7 @@ fn a_dark_input_names_the_link_and_the_clock_comes_from_the_sync_master() {
         max_lag_us: 2500,
         ..Default::default()
     });
-    let doc = build(&cfg, &info(), "/run/x", &st);
+    let doc = build(&cfg, &info(), "/run/x", &st, &[]);
     assert_eq!(doc.rtf, Some(0.997));
     assert_eq!((doc.late_cycles, doc.max_lag_us), (12, 2500));
     let j = serde_json::to_value(&doc).unwrap();
@@ -275,4 +275,62 @@ fn a_dark_input_names_the_link_and_the_clock_comes_from_the_sync_master() {
         "{table}"
     );
     assert!(table.contains("dark"), "{table}");
+}
+
+#[test]
+fn a_member_slow_to_answer_is_not_gone_and_breaks_no_link() {
+    // card1's status reply came too late for this round (a busy machine) but it holds its
+    // liveliness token: it is slow, not dead, and the ring is not faulted.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    st[2] = None;
+    let slow = [false, false, true, false];
+    assert_eq!(broken_link(&cfg, &st, &slow, 32), None);
+    let doc = build(&cfg, &info(), "/run/x", &st, &slow);
+    assert!(!doc.ring.faulted, "{:?}", doc.ring);
+    assert_eq!(doc.ring.broken_link, None);
+    let card1 = &doc.members[2];
+    assert!(!card1.alive && card1.slow);
+    assert!(!doc.ring.locked, "card1's lock is not known this round");
+    assert!(
+        render_table(&doc).contains(" slow "),
+        "{}",
+        render_table(&doc)
+    );
+    // A real break downstream of the slow member is still found (station1 dark).
+    let m = st[3].as_mut().unwrap();
+    m.dark = true;
+    assert_eq!(
+        broken_link(&cfg, &st, &slow, 32).as_deref(),
+        Some("card1 → station1")
+    );
+    // Gone (no answer, no token): the link leaving it is broken, as before.
+    st[3].as_mut().unwrap().dark = false;
+    assert_eq!(
+        broken_link(&cfg, &st, &[false; 4], 32).as_deref(),
+        Some("card1 → station1")
+    );
+    let doc = build(&cfg, &info(), "/run/x", &st, &[false; 4]);
+    assert!(doc.ring.faulted && !doc.members[2].slow);
+}
+
+#[test]
+fn a_member_running_behind_the_sync_master_is_not_cut_off() {
+    // station1 answered late: its snapshot is 1000 cycles behind the master's, but it has
+    // received every frame it ran (its own cycle). Only a lag against its own cycle is a break.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    let m = st[3].as_mut().unwrap();
+    m.cycle = 2000;
+    m.last_rx_cycle = Some(1999);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
+    let doc = build(&cfg, &info(), "/run/x", &st, &[]);
+    assert!(!doc.ring.faulted && doc.ring.locked);
+    // The same member on its holdover clock with nothing received for 33 cycles: broken.
+    let m = st[3].as_mut().unwrap();
+    m.last_rx_cycle = Some(2000 - 33);
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("card1 → station1")
+    );
 }

@@ -127,7 +127,7 @@ fn print_ready(
     info: &crate::rundir::SupervisorInfo,
     st: &[Option<MemberStatus>],
 ) {
-    let doc = status::build(cfg, info, &rd.dir.display().to_string(), st);
+    let doc = status::build(cfg, info, &rd.dir.display().to_string(), st, &[]);
     let clock = match cfg.clock {
         mcc_ring::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
         other => other.as_str().to_string(),
@@ -286,7 +286,7 @@ fn up_detached(
         }
     };
     if json {
-        let mut doc = status::build(cfg, &info, &rd.dir.display().to_string(), &st);
+        let mut doc = status::build(cfg, &info, &rd.dir.display().to_string(), &st, &[]);
         crate::drills::enrich_status(&session, cfg, &mut doc);
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());

@@ -21,13 +21,13 @@ pub fn watch(cluster: &str, interval: Duration) -> Result<()> {
         if a.rd.running().is_none() {
             return Ok(());
         }
-        let st = ctl::query_statuses(
+        let (st, slow) = ctl::query_round(
             &a.session,
             &a.cfg,
             Duration::from_millis(300),
             Duration::from_millis(600),
         );
-        let mut doc = status::build(&a.cfg, &a.info, &run_dir, &st);
+        let mut doc = status::build(&a.cfg, &a.info, &run_dir, &st, &slow);
         drills::enrich_status(&a.session, &a.cfg, &mut doc);
         let line = serde_json::to_string(&doc)?;
         if writeln!(out, "{line}").and_then(|()| out.flush()).is_err() {

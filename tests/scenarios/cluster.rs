@@ -138,6 +138,12 @@ fn killed_supervisor_takes_its_members_with_it() {
     let sup = doc["supervisor"]["pid"].as_u64().unwrap();
     let pids = member_pids(&doc);
     send_signal(pids[1], "-STOP");
+    // Frozen means stopped: a multi-threaded process takes a moment to stop on a loaded
+    // machine, and the kernel's SIGHUP + SIGCONT to an orphaned process group go only to a
+    // group that is stopped when its last outside parent dies.
+    wait_until("station0 to stop", Duration::from_secs(20), || {
+        proc_state(pids[1]) == Some('T')
+    });
     send_signal(sup, "-KILL");
     let t0 = Instant::now();
     wait_until(
@@ -153,6 +159,15 @@ fn killed_supervisor_takes_its_members_with_it() {
     let out = c.mcc(&["down"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(!c.run_base().join(&c.name).exists());
+}
+
+/// The state letter of process `pid` (/proc/<pid>/stat field 3), None when it is gone.
+fn proc_state(pid: u64) -> Option<char> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    stat.get(stat.rfind(')')? + 1..)?
+        .trim_start()
+        .chars()
+        .next()
 }
 
 /// A foreground `mcc up` of this test binary's `mcc`; its status once the ring locked.

@@ -61,10 +61,21 @@ impl Rig {
     /// Card 0 with `stations` stations of the default cluster (1: nodes 0,1,4,5,8,9,12,13;
     /// 2: station0 0,1,4,5 and station1 8,9,12,13), state files under `dir`.
     fn new(stations: usize, dir: Option<&std::path::Path>) -> Rig {
-        let cfg = ClusterConfig::default_cluster(1, stations);
+        Rig::with_profile(Profile::Pmac2, stations, dir)
+    }
+
+    /// [`Rig::new`] with a card of `profile`.
+    fn with_profile(profile: Profile, stations: usize, dir: Option<&std::path::Path>) -> Rig {
+        let mut cfg = ClusterConfig::default_cluster(1, stations);
+        if profile != Profile::Pmac2 {
+            // the PMAC2 ring-check numbers of the default are other variables on a Turbo card
+            for c in &mut cfg.cards {
+                c.ivars.clear();
+            }
+        }
         let (mut sim, card) = mcc_tests::inproc::ring_with_handle(
             &cfg,
-            Card::new(Profile::Pmac2),
+            Card::new(profile),
             |sc| {
                 let plant = PlantConfig::from_table(&sc.plant).unwrap();
                 let c = sc.check;
@@ -196,6 +207,27 @@ fn every_ms_and_mx_form_is_answered_by_the_station_over_the_ring() {
     );
     assert_eq!(rig.station(1).mi().setup().globals.check_period, 12);
     assert_eq!(rig.station(2).mi().setup().globals.check_period, 8);
+}
+
+#[test]
+fn a_turbo_card_reaches_its_stations_with_i6840_i70_and_i78() {
+    // The Turbo numbers of the Type 1 preconditions: master in I6840, I70 bit 15 clear, the
+    // timeout I78 (32 at ring start-up, as on a PMAC2's I1003).
+    let mut rig = Rig::with_profile(Profile::Turbo, 2, None);
+    transcript(
+        &mut rig,
+        &[
+            ("I78", "32\r\x06"),
+            ("MS0,MI8", "8\r\x06"),
+            ("ms4,i912=14", "\x06"),
+            ("ms4,i912", "14\r\x06"),
+            ("MS8,MI913", "0\r\x06"),
+            ("I78=0", "\x06"),
+            ("MS0,MI8", "\x07ERR008\r"),
+            ("I78=32", "\x06"),
+            ("MS0,MI8", "8\r\x06"),
+        ],
+    );
 }
 
 #[test]

@@ -137,6 +137,16 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     recover(&mut c);
     let mut p = Port::open(&mut c, 0);
     p.transcript(&[("MS CONFIG0", "37\r\x06"), ("MS0,MI9", "6\r\x06")]);
+    // `mcc status --json` shows each station's MI-level state.
+    let doc = c.status().unwrap_or_else(|e| panic!("mcc status: {e}")).0;
+    let mi = &doc["stations"][0]["mi"];
+    assert_eq!(mi["config_number"], 37, "{doc:#}");
+    assert_eq!(mi["firmware_version"], "1.104", "{doc:#}");
+    assert_eq!(mi["check_period"], 8, "{doc:#}");
+    assert_eq!(mi["error_shutdown_count"], 6, "{doc:#}");
+    assert_eq!(mi["sync_packets_required"], 4, "{doc:#}");
+    assert_eq!(mi["config_error"], serde_json::Value::Null, "{doc:#}");
+    assert_eq!(doc["stations"][0]["ring_fault"], false, "{doc:#}");
     // A frozen station answers nothing: the card's access times out (ERR008, $010000).
     drill(&mut c, "station1", "freeze");
     p.transcript(&[("MS8,MI8", "\x07ERR008\r"), ("RHX:$0798", "010000\r\x06")]);
@@ -145,8 +155,9 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     // After a ring fault the station's latch holds until MS CLRF (on a healthy ring).
     let mut p = Port::open(&mut c, 0);
     drill(&mut c, "station0", "cut");
+    // station1, directly downstream of the cut, latches with the break localised upstream.
     wait(&mut c, "station1 faulted", |d| {
-        d["stations"][1]["ring_fault"] == true
+        d["stations"][1]["ring_fault"] == true && d["stations"][1]["suspected_break"] == true
     });
     c.clear(None)
         .unwrap_or_else(|e| panic!("mcc fault clear: {e}"));
@@ -164,6 +175,17 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     wait(&mut c, "station1 healthy", |d| {
         d["stations"][1]["ring_fault"] == false
     });
+    // `mcc down` leaves the saved station setup where MS SAVE put it (the run directory's
+    // state/, the default state file).
+    let state = c
+        .run_base()
+        .join(&c.name)
+        .join("state")
+        .join("station0.state");
+    assert!(state.is_file(), "{} missing after MS SAVE", state.display());
+    let out = c.mcc(&["down"]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(state.is_file(), "mcc down removed {}", state.display());
 }
 
 /// `mcc fault MEMBER KIND` (a ring fault or a process drill); the test fails if it does.

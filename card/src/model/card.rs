@@ -136,13 +136,15 @@ impl CardModel {
         self.aux.reset();
     }
 
-    /// The ring settings the auxiliary preconditions read (I995, I1000, I1003).
+    /// The ring settings the auxiliary preconditions read (PMAC2 I995, I1000, I1003; Turbo
+    /// I6840, I70, I78).
     pub(crate) fn aux_settings(&self) -> AuxSettings {
         let i = |n: u32| self.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
+        let rv = self.state.ring_ivars();
         AuxSettings {
-            i995: i(995),
-            i1000: i(1000),
-            i1003: i(1003),
+            i995: i(rv.cfg),
+            i1000: i(rv.aux_enable),
+            i1003: i(rv.aux_timeout),
         }
     }
 

@@ -88,10 +88,12 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Result<Vec<u16>, Star
     }
     report_macro_ics(card, nodes);
     let mut line = format!("I{}=${aux:X} I{}=${aux:X}", rv.aux_enable, rv.protocol);
-    // A PMAC2 card on a ring of 16-axis MACRO Stations talks to them over Type 1 auxiliary
-    // communications: I1003 = 32 (the suggested timeout) unless the card has its own value.
-    if card.profile() == Profile::Pmac2 && card.state.peek_ivar(1003).unwrap_or(0.0) == 0.0 {
-        line.push_str(" I1003=32");
+    // A PMAC2 or Turbo card on a ring of 16-axis MACRO Stations talks to them over Type 1
+    // auxiliary communications: I1003 (Turbo I78) = 32, the suggested timeout, unless the card
+    // has its own value (host tools such as dls-pmacanalyse read the stations with `MS`).
+    let classic = matches!(card.profile(), Profile::Pmac2 | Profile::Turbo);
+    if classic && card.state.peek_ivar(rv.aux_timeout).unwrap_or(0.0) == 0.0 {
+        line.push_str(&format!(" I{}=32", rv.aux_timeout));
     }
     for x in &motors {
         line.push_str(&format!(" I{x}00=1"));

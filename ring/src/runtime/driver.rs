@@ -141,9 +141,12 @@ pub struct Driver<A: RingApp> {
     /// The tick of a frame handled on the receive thread, left for the member's thread (see
     /// [`super::inline`]), not run yet.
     pending_tick: Option<u64>,
-    /// The status fields of an application kept outside the driver (inline receive keeps it on
-    /// the member's thread): refreshed by that thread, reported instead of the driver's own.
-    pub(super) app_extra: Option<serde_json::Map<String, serde_json::Value>>,
+    /// The application is kept outside the driver (inline receive keeps it on the member's
+    /// thread): a status request waits in [`Driver::status_waiting`] until that thread
+    /// answers it with the application's fields ([`Driver::answer_status`]).
+    pub(super) app_elsewhere: bool,
+    /// Status requests waiting for the application's fields (only with `app_elsewhere`).
+    status_waiting: Vec<Sender<MemberStatus>>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -185,7 +188,8 @@ impl<A: RingApp> Driver<A> {
             sched: None,
             clock: None,
             pending_tick: None,
-            app_extra: None,
+            app_elsewhere: false,
+            status_waiting: Vec::new(),
         }
     }
 
@@ -213,7 +217,8 @@ impl<A: RingApp> Driver<A> {
             sched,
             clock,
             pending_tick,
-            app_extra,
+            app_elsewhere,
+            status_waiting,
         } = self;
         (
             Driver {
@@ -236,7 +241,8 @@ impl<A: RingApp> Driver<A> {
                 sched,
                 clock,
                 pending_tick,
-                app_extra,
+                app_elsewhere,
+                status_waiting,
             },
             old,
         )
@@ -454,6 +460,39 @@ impl<A: RingApp> Driver<A> {
         Ok(())
     }
 
+    /// The member's status with the application's fields `app`.
+    fn status_report(&self, app: serde_json::Map<String, serde_json::Value>) -> MemberStatus {
+        let mut s = self.core.status();
+        s.name = self.cfg.name.clone();
+        s.kind = Some(self.cfg.kind);
+        s.pid = std::process::id();
+        s.ring_position = self.cfg.position;
+        s.extra = self.cfg.extra.clone();
+        s.extra.extend(app);
+        s.extra
+            .insert("hop".into(), self.rx.hop_summary().to_json());
+        s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
+        s.sched = self.sched.clone();
+        s.host_id = super::light::host_id();
+        if let Some(c) = &s.clock {
+            s.late_cycles = s.late_cycles.max(c.late_cycles);
+        }
+        s
+    }
+
+    /// Status requests are waiting for the application's fields (see `app_elsewhere`).
+    pub(super) fn status_wanted(&self) -> bool {
+        !self.status_waiting.is_empty()
+    }
+
+    /// Answer the waiting status requests with the application's fields `app`, taken just now
+    /// on the thread that holds the application.
+    pub(super) fn answer_status(&mut self, app: serde_json::Map<String, serde_json::Value>) {
+        for reply in std::mem::take(&mut self.status_waiting) {
+            let _ = reply.send(self.status_report(app.clone()));
+        }
+    }
+
     /// Handle control requests; true when the loop must stop.
     pub(super) fn service(&mut self) -> bool {
         if self.stop.load(Ordering::Relaxed) {
@@ -462,25 +501,12 @@ impl<A: RingApp> Driver<A> {
         while let Ok(cmd) = self.cmds.try_recv() {
             match cmd {
                 DriverCmd::Status(reply) => {
-                    let mut s = self.core.status();
-                    s.name = self.cfg.name.clone();
-                    s.kind = Some(self.cfg.kind);
-                    s.pid = std::process::id();
-                    s.ring_position = self.cfg.position;
-                    s.extra = self.cfg.extra.clone();
-                    match &self.app_extra {
-                        Some(e) => s.extra.extend(e.clone()),
-                        None => s.extra.extend(self.app.status_extra()),
+                    if self.app_elsewhere {
+                        self.status_waiting.push(reply);
+                    } else {
+                        let extra = self.app.status_extra();
+                        let _ = reply.send(self.status_report(extra));
                     }
-                    s.extra
-                        .insert("hop".into(), self.rx.hop_summary().to_json());
-                    s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
-                    s.sched = self.sched.clone();
-                    s.host_id = super::light::host_id();
-                    if let Some(c) = &s.clock {
-                        s.late_cycles = s.late_cycles.max(c.late_cycles);
-                    }
-                    let _ = reply.send(s);
                 }
                 DriverCmd::Fault(req, reply) => {
                     let msg = match req {

@@ -139,8 +139,10 @@ pub fn run<A: RingApp>(mut driver: Driver<A>) -> (DriverExit, Driver<A>) {
         let exit = driver.run();
         return (exit, driver);
     }
-    let (parked, mut app) = driver.swap_app(Parked);
-    let (exit, parked) = shared_loop(parked, true, Some(&mut app));
+    let (mut parked, mut app) = driver.swap_app(Parked);
+    parked.app_elsewhere = true;
+    let (exit, mut parked) = shared_loop(parked, true, Some(&mut app));
+    parked.app_elsewhere = false;
     (exit, parked.swap_app(app).0)
 }
 
@@ -170,6 +172,7 @@ fn shared_loop<B: RingApp + Send + 'static>(
         .rx
         .set_inline(Arc::clone(&handler) as Arc<dyn InlineHandler>)
     {
+        driver.app_elsewhere = false;
         let exit = driver.run();
         return (exit, driver);
     }
@@ -213,7 +216,6 @@ fn follow<B: RingApp>(
                 return exit;
             }
             d.take_pending_tick(reborrow(&mut app));
-            refresh_extra(d, &app);
             loop {
                 match d.recv(std::time::Duration::ZERO) {
                     Ok(Some(bytes)) => {
@@ -229,10 +231,12 @@ fn follow<B: RingApp>(
             if let Err(e) = d.follower_holdover_with(reborrow(&mut app)) {
                 return DriverExit::Transport(e);
             }
-            match d.follower_housekeeping() {
+            let wait = match d.follower_housekeeping() {
                 Ok(w) => w,
                 Err(exit) => return exit,
-            }
+            };
+            answer_status(d, &app);
+            wait
         };
         // Waiting needs no lock on the driver: the queue has its own.
         handler.waker.wait(wait);
@@ -257,7 +261,6 @@ fn lead<B: RingApp>(
                 return exit;
             }
             d.take_pending_tick(reborrow(&mut app));
-            refresh_extra(d, &app);
             let due = loop {
                 if let Some(exit) = d.stop_or_done() {
                     return exit;
@@ -287,6 +290,7 @@ fn lead<B: RingApp>(
                     Err(e) => return DriverExit::Transport(e),
                 }
             };
+            answer_status(d, &app);
             let now = d.now_ns();
             let wait = if d.delayed.is_empty() {
                 due.wait(now, std::time::Duration::from_millis(5))
@@ -305,11 +309,14 @@ fn lead<B: RingApp>(
     }
 }
 
-/// The status fields of the application kept on the member's thread, for the driver's status
-/// reply (the driver itself holds a stand-in).
-fn refresh_extra<B: RingApp>(d: &mut Driver<B>, app: &Option<&mut dyn RingApp>) {
-    if let Some(a) = app.as_ref() {
-        d.app_extra = Some(a.status_extra());
+/// Answer the status requests the driver took (it holds a stand-in application) with the
+/// fields of the application kept on the member's thread. The application's status map is
+/// built only when a request waits: never on the hot path of a wake-up without one.
+fn answer_status<B: RingApp>(d: &mut Driver<B>, app: &Option<&mut dyn RingApp>) {
+    if d.status_wanted() {
+        if let Some(a) = app.as_ref() {
+            d.answer_status(a.status_extra());
+        }
     }
 }
 

@@ -182,3 +182,90 @@ fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
     lock(&shared).take();
     assert!(handler.offer(f[3].clone(), 4).is_some());
 }
+
+/// An application that counts its ticks and how often its status map is built.
+struct Counted {
+    app: App,
+    ticks: u64,
+    maps: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl crate::core::RingApp for Counted {
+    fn tick(&mut self, c: u64, t: u64, regs: &mut crate::member::RingMember, f: bool) {
+        self.ticks += 1;
+        self.app.tick(c, t, regs, f);
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        self.maps.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut m = serde_json::Map::new();
+        m.insert("ticks".into(), self.ticks.into());
+        m
+    }
+}
+
+#[test]
+fn the_app_status_map_is_built_only_for_a_status_request_and_is_fresh() {
+    // Followers tick on their own threads (the application stays there): a wake-up without a
+    // status request never builds the application's status map, and a request gets the
+    // application's fields as they are when it is answered.
+    let cluster = format!("inline-status-{}", std::process::id());
+    let maps: Vec<Arc<std::sync::atomic::AtomicU64>> = (0..3).map(|_| Arc::default()).collect();
+    let members = ring(100_000)
+        .into_iter()
+        .zip(&maps)
+        .map(|((core, app, mut d), maps)| {
+            d.max_cycles = None;
+            let app = Counted {
+                app,
+                ticks: 0,
+                maps: Arc::clone(maps),
+            };
+            (core, app, d)
+        })
+        .collect();
+    let r = LocalRing::start(
+        members,
+        LocalTransport::ZenohInline {
+            cluster,
+            receive_thread_ticks: false,
+        },
+    )
+    .unwrap();
+    let ticks = |s: &crate::control::MemberStatus| s.extra["ticks"].as_u64().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let a = loop {
+        let s = r.status(1).expect("follower status");
+        if s.rx_frames >= 100 {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "the ring did not run: {s:?}");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let built = maps[1].load(std::sync::atomic::Ordering::Relaxed);
+    // Let the ring run at least 200 more cycles with no status request.
+    let mut b_frames = a.rx_frames;
+    while b_frames < a.rx_frames + 200 {
+        assert!(Instant::now() < deadline, "the ring stopped");
+        std::thread::sleep(Duration::from_millis(20));
+        b_frames = r.status(2).expect("station1 status").rx_frames;
+    }
+    assert_eq!(
+        maps[1].load(std::sync::atomic::Ordering::Relaxed),
+        built,
+        "station0 built its status map with no request for it"
+    );
+    // A request: the application's tick count moved exactly as the frames it received.
+    let b = r.status(1).expect("follower status");
+    assert_eq!(
+        maps[1].load(std::sync::atomic::Ordering::Relaxed),
+        built + 1
+    );
+    assert!(b.rx_frames >= a.rx_frames + 200, "{a:?} {b:?}");
+    assert_eq!(
+        ticks(&b) - ticks(&a),
+        b.rx_frames - a.rx_frames,
+        "{a:?} {b:?}"
+    );
+    r.stop();
+}
