@@ -65,6 +65,9 @@ pub struct SuperviseArgs {
     /// Stop the cluster when this process exits (`mcc up --owner-pid`).
     #[arg(long, value_name = "PID")]
     pub owner_pid: Option<u32>,
+    /// The host whose share this supervisor runs (`mcc up --host`).
+    #[arg(long, value_name = "NAME")]
+    pub host: Option<String>,
 }
 
 /// `mcc up`.
@@ -89,6 +92,10 @@ pub struct UpArgs {
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Start only host NAME's share of a cluster on several hosts (`host = "NAME"` on its
+    /// members); it joins the other hosts through the configured zenoh routers or peers.
+    #[arg(long, value_name = "NAME")]
+    pub host: Option<String>,
     /// Leave the cluster running in the background and return once the ring is locked.
     #[arg(long)]
     pub detach: bool,

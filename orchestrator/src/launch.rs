@@ -72,6 +72,7 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
 /// Re-execute `mcc supervise --cluster <name> [--owner-pid PID]` as a daemon: new session (no
 /// terminal), stdin null, output to `logs/supervisor.log`. Returns its pid.
 pub fn spawn_supervisor(rd: &RunDir, owner_pid: Option<u32>) -> Result<u32> {
+    let host = rd.host.as_ref().map(|h| format!("--host={h}"));
     let exe = std::env::current_exe().context("cannot find the mcc executable")?;
     let (out, err) = log_stdio(rd, "supervisor")?;
     let mut cmd = Command::new(&exe);
@@ -79,6 +80,7 @@ pub fn spawn_supervisor(rd: &RunDir, owner_pid: Option<u32>) -> Result<u32> {
         .arg(&rd.cluster)
         .arg("supervise")
         .args(owner_pid.map(|p| format!("--owner-pid={p}")))
+        .args(host)
         .stdin(Stdio::null())
         .stdout(out)
         .stderr(err);

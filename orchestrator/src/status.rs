@@ -49,8 +49,33 @@ pub struct ClusterStatus {
     pub emcl_bus_pty: Option<String>,
     /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
     pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
-    /// The supervising process.
+    /// The supervising process (of this machine's share on several hosts).
     pub supervisor: SupervisorRow,
+    /// A cluster on several hosts: each host's share as it answers (empty on one machine).
+    pub hosts: Vec<HostRow>,
+}
+
+/// One host of a cluster on several hosts.
+#[derive(Debug, Clone, Serialize)]
+pub struct HostRow {
+    /// Host name from the config.
+    pub name: String,
+    /// Its share answered (supervisor running and reachable).
+    pub alive: bool,
+    /// The machine's own name, as the share reports it.
+    pub machine: Option<String>,
+    /// Its supervisor's pid (on that machine).
+    pub pid: Option<u32>,
+    /// `starting`, `running`, `stopping`.
+    pub phase: Option<String>,
+    /// It runs the same config as this host.
+    pub same_config: Option<bool>,
+    /// Its members (ring members and stand-alone drives).
+    pub members: Vec<String>,
+    /// Its daisy chain and EMCL bus endpoints (on that machine).
+    pub daisy_chain: Option<String>,
+    /// EMCL bus endpoint (on that machine).
+    pub emcl_bus: Option<String>,
 }
 
 /// Ring summary.
@@ -113,6 +138,8 @@ pub struct MemberRow {
     pub sched: Option<String>,
     /// Faults injected on its send path.
     pub faults: Vec<FaultSpec>,
+    /// The host it runs on (a cluster on several hosts), else null.
+    pub host: Option<String>,
 }
 
 /// One card.
@@ -128,6 +155,10 @@ pub struct CardRow {
     pub ascii: Option<u16>,
     /// PMAC Ethernet protocol TCP port.
     pub pmac_eth: Option<u16>,
+    /// Address both ports bind (`127.0.0.1` unless the config opens them).
+    pub bind: String,
+    /// The host it runs on (a cluster on several hosts), else null.
+    pub host: Option<String>,
     /// OS pid.
     pub pid: Option<u32>,
     /// Ring-fault bit of the card (X:$0003 bit 4), from its `at` queryable.
@@ -251,6 +282,8 @@ pub fn build(
             .map(|m| m.pid)
             .or_else(|| s.map(|s| s.pid))
     };
+    let host_of =
+        |name: &str| c_multi(cfg).then(|| cfg.member_host(name).unwrap_or_default().to_string());
     let status_of = |name: &str| {
         cfg.position(name)
             .and_then(|i| st.get(i))
@@ -291,6 +324,7 @@ pub fn build(
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),
+                host: host_of(name),
             }
         })
         .collect();
@@ -315,6 +349,8 @@ pub fn build(
                 profile: c.profile.clone(),
                 ascii: extra_port(s, &["ascii", "ascii_port"]),
                 pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
+                bind: c.bind.clone().unwrap_or_else(|| "127.0.0.1".into()),
+                host: host_of(&c.name),
                 pid: pid_of(&c.name, s),
                 ring_fault: None,
                 motors_killed: None,
@@ -360,7 +396,12 @@ pub fn build(
             endpoint: info.endpoint.clone(),
             run_dir: run_dir.into(),
         },
+        hosts: Vec::new(),
     }
+}
+
+fn c_multi(cfg: &ClusterConfig) -> bool {
+    cfg.is_multi_host()
 }
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
@@ -439,6 +480,19 @@ pub fn render_table(s: &ClusterStatus) -> String {
             .unwrap_or_default()
     );
     let _ = writeln!(o, "time: {}", timing_text(s));
+    for h in &s.hosts {
+        let state = match (h.alive, h.same_config) {
+            (false, _) => "NOT REACHED".to_string(),
+            (true, Some(false)) => "ANOTHER CONFIG".to_string(),
+            (true, _) => format!(
+                "{} on {} (supervisor pid {})",
+                h.phase.as_deref().unwrap_or("up"),
+                h.machine.as_deref().unwrap_or("?"),
+                opt(h.pid)
+            ),
+        };
+        let _ = writeln!(o, "host {}: {state}: {}", h.name, h.members.join(", "));
+    }
     let _ = writeln!(
         o,
         "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} faults",
@@ -470,12 +524,14 @@ pub fn render_table(s: &ClusterStatus) -> String {
     for c in &s.cards {
         let _ = writeln!(
             o,
-            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}{}",
+            "card {} ({}, #{} {}): ascii {}:{}  pmac_eth {}:{}{}",
             c.name,
             opt(c.pid),
             c.number,
             c.profile,
+            c.bind,
             opt(c.ascii),
+            c.bind,
             opt(c.pmac_eth),
             card_state_text(c)
         );

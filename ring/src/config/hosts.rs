@@ -430,6 +430,26 @@ pub(crate) fn validate_security(cfg: &ClusterConfig) -> R {
             ),
         );
     }
+    let listener = cfg
+        .zenoh
+        .listen
+        .iter()
+        .find(|e| endpoint_is_exposed(e))
+        .map(|e| format!("zenoh.listen {e:?}"))
+        .or_else(|| {
+            cfg.hosts
+                .iter()
+                .find(|(_, h)| h.address.as_deref().is_some_and(|a| !is_loopback(a)))
+                .map(|(n, _)| format!("hosts.{n}.address"))
+        });
+    if let (Some(a), Some(l)) = (&cfg.zenoh.auth, listener) {
+        if a.dictionary_file.is_none() {
+            return bad(
+                "zenoh.auth.dictionary_file",
+                format!("{l} accepts zenoh links from other hosts: name the file of the users (user:password lines) it accepts"),
+            );
+        }
+    }
     if cfg.zenoh.access_control.is_none() {
         return bad(
             "zenoh.access_control",

@@ -196,6 +196,7 @@ fn opening_anything_to_other_hosts_needs_auth_and_access_control() {
         assert!(problem.contains("zenoh.access_control"), "{problem}");
         // Auth alone is not enough: access control too.
         let mut half = c.clone();
+        let listens = key == "zenoh.listen[0]";
         secure(&mut half);
         half.zenoh.access_control = None;
         assert_eq!(
@@ -204,6 +205,11 @@ fn opening_anything_to_other_hosts_needs_auth_and_access_control() {
             "{key}"
         );
         secure(&mut c);
+        if listens {
+            // A listener open to other hosts must know whom it accepts.
+            assert_eq!(verdict(&c).unwrap_err().0, "zenoh.auth.dictionary_file");
+            c.zenoh.auth.as_mut().unwrap().dictionary_file = Some("/etc/mcc/users".into());
+        }
         assert_eq!(verdict(&c), Ok(()), "{key}");
     }
     let mut c = base.clone();

@@ -34,12 +34,13 @@ impl std::fmt::Debug for ControlPlane {
 }
 
 /// Declare the control plane of `member` in `cluster`. Requests are forwarded to the member's
-/// loop through `cmds`; `stop` is raised on a shutdown request or when the orchestrator that
-/// was seen goes away.
+/// loop through `cmds`; `stop` is raised on a shutdown request or when the supervisor that
+/// was seen (its liveliness token `orchestrator_key`, see [`orchestrator_key`]) goes away.
 pub fn start(
     session: &zenoh::Session,
     cluster: &str,
     member: &str,
+    orchestrator_key: &str,
     cmds: Sender<DriverCmd>,
     stop: Arc<AtomicBool>,
 ) -> Result<ControlPlane, String> {
@@ -64,7 +65,7 @@ pub fn start(
         .wait()
         .map_err(|e| format!("declare liveliness token: {e}"))?;
     let seen = Arc::new(AtomicBool::new(false));
-    let orch_key = alive_key(cluster, "orchestrator");
+    let orch_key = orchestrator_key.to_string();
     let weak = session.clone();
     let watch = session
         .liveliness()
@@ -97,6 +98,15 @@ pub fn start(
         _token: token,
         _orchestrator_watch: watch,
     })
+}
+
+/// The liveliness token of the supervisor that started `member`: its host's share
+/// (`mcc/<cluster>/hosts/<host>/alive`).
+pub fn orchestrator_key(config: &crate::config::ClusterConfig, member: &str) -> String {
+    let host = config
+        .member_host(member)
+        .unwrap_or(crate::config::LOCAL_HOST);
+    crate::control::hosts::host_key(&config.cluster, host, "alive")
 }
 
 /// Whether the orchestrator's liveliness token is still (or again) there, asked a few times

@@ -5,6 +5,7 @@
 
 pub mod control_plane;
 pub mod driver;
+pub mod join;
 pub mod light;
 pub mod local;
 pub mod logging;

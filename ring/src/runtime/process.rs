@@ -18,6 +18,7 @@ use crate::config::{ClusterConfig, IVarValue, MemberRef};
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::settings::RingSettings;
+use crate::transport::cluster::{self, Role};
 use crate::transport::session::{open_session, SessionOptions};
 use crate::transport::zenoh_link;
 
@@ -142,7 +143,21 @@ where
     } else {
         args.listen.clone()
     };
-    let session = open_session(&SessionOptions { listen, connect })?;
+    let opts = match cluster::host_options(&config, Role::Member { name: &args.name })? {
+        Some(o) => o,
+        None => {
+            let mut o = SessionOptions {
+                listen,
+                connect,
+                ..Default::default()
+            };
+            cluster::secure(&mut o, &config)?;
+            o
+        }
+    };
+    let session = open_session(&opts)?;
+    // Never join a ring run with another config under this cluster's name.
+    super::join::check(&session, &config)?;
     let (tx, rx, _rx_guard) =
         zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
 
@@ -169,6 +184,7 @@ where
         &session,
         &config.cluster,
         &args.name,
+        &control_plane::orchestrator_key(&config, &args.name),
         cmd_tx,
         Arc::clone(&stop),
     )

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::{alive_key, ctl_key, CtlReply};
+use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
@@ -58,10 +59,20 @@ pub fn run(config_path: &Path, name: &str, connect: &[String], listen: &[String]
     } else {
         listen.to_vec()
     };
-    let session = open_session(&SessionOptions {
-        listen,
-        connect: conn,
-    })?;
+    let opts = match cluster::host_options(&cfg, Role::Member { name })? {
+        Some(o) => o,
+        None => {
+            let mut o = SessionOptions {
+                listen,
+                connect: conn,
+                ..Default::default()
+            };
+            cluster::secure(&mut o, &cfg)?;
+            o
+        }
+    };
+    let session = open_session(&opts)?;
+    mcc_ring::runtime::join::check(&session, &cfg)?;
     let n = files.len();
     let shared = Arc::new(Mutex::new(HostState {
         host,
@@ -95,7 +106,9 @@ pub fn run(config_path: &Path, name: &str, connect: &[String], listen: &[String]
     let (seen, gone) = (Arc::clone(&orch_seen), Arc::clone(&orch_gone));
     let _watch = session
         .liveliness()
-        .declare_subscriber(alive_key(&cfg.cluster, "orchestrator"))
+        .declare_subscriber(mcc_ring::runtime::control_plane::orchestrator_key(
+            &cfg, name,
+        ))
         .history(true)
         .callback(move |s| {
             let mut g = gone.lock().unwrap_or_else(|e| e.into_inner());
