@@ -135,7 +135,7 @@ pub fn wait_locked_on(
             checked = Instant::now();
             let found =
                 mcc_ring::runtime::join::shares(session, &cfg.cluster, Duration::from_millis(700));
-            crate::hosts::admit::check_shares(cfg, host.unwrap_or(""), &found)?;
+            crate::hosts::admit::check_digests(cfg, host.unwrap_or(""), &found)?;
         }
         if start.elapsed() >= timeout {
             bail!(

@@ -15,13 +15,20 @@ use zenoh::Wait;
 /// How long other shares have to answer.
 pub const ASK: Duration = Duration::from_millis(1500);
 
-/// The shares answering now, and whether each runs our config.
-pub fn check_shares(cfg: &ClusterConfig, host: &str, found: &[HostInfo]) -> Result<()> {
+/// Every share found runs our config (checked again while the ring comes up: two hosts may
+/// start at the same moment).
+pub fn check_digests(cfg: &ClusterConfig, host: &str, found: &[HostInfo]) -> Result<()> {
     let mine = cfg.digest();
+    match found.iter().find(|s| s.digest != mine) {
+        Some(s) => bail!("{}", mismatch(cfg, host, s)),
+        None => Ok(()),
+    }
+}
+
+/// Before `host`'s share starts: every share runs our config and none runs this host.
+pub fn check_shares(cfg: &ClusterConfig, host: &str, found: &[HostInfo]) -> Result<()> {
+    check_digests(cfg, host, found)?;
     for s in found {
-        if s.digest != mine {
-            bail!("{}", mismatch(cfg, host, s));
-        }
         if s.host == host {
             bail!(
                 "host {host}'s share of cluster {} is already running (machine {}, supervisor pid {}): stop it there first (`mcc down --cluster {}`)",
