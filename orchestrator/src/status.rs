@@ -91,6 +91,9 @@ pub struct RingState {
     pub faulted: bool,
     /// The broken link, e.g. `"station0 → card1"`.
     pub broken_link: Option<String>,
+    /// Every link where light is lost (see [`dark_links`]): on several hosts, each host's
+    /// view names the links that cross a cut network.
+    pub dark_links: Vec<String>,
 }
 
 /// One member.
@@ -255,6 +258,25 @@ pub fn broken_link(
     None
 }
 
+/// Links `u → m` where light is lost: `m` answers and its input is dark, while `u` does not
+/// answer (dead, or unreachable from here) or answers with light on its own input. A member
+/// that only passes on the darkness of a dark upstream does not name its link.
+pub fn dark_links(cfg: &ClusterConfig, st: &[Option<MemberStatus>]) -> Vec<String> {
+    let order = &cfg.ring.order;
+    let n = order.len();
+    if st.len() != n {
+        return Vec::new();
+    }
+    (0..n)
+        .filter_map(|i| {
+            let up = (i + n - 1) % n;
+            let m = st.get(i)?.as_ref()?;
+            let lit_or_gone = st.get(up)?.as_ref().is_none_or(|u| !u.dark);
+            (m.dark && lit_or_gone).then(|| format!("{} → {}", order[up], order[i]))
+        })
+        .collect()
+}
+
 fn port_of(v: Option<&serde_json::Value>) -> Option<u16> {
     match v? {
         serde_json::Value::Number(n) => n.as_u64().and_then(|p| u16::try_from(p).ok()),
@@ -337,6 +359,7 @@ pub fn build(
         cycle: sm_cycle.unwrap_or_else(|| members.iter().map(|m| m.cycle).max().unwrap_or(0)),
         faulted: link.is_some() || members.iter().any(|m| m.ring_fault),
         broken_link: link,
+        dark_links: dark_links(cfg, st),
     };
     let cards = cfg
         .cards

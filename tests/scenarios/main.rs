@@ -6,6 +6,7 @@ mod drills;
 mod emcl;
 mod emcl_bound;
 mod gather;
+mod hosts;
 mod motion;
 mod programs;
 mod ring_inprocess;

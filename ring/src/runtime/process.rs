@@ -159,7 +159,14 @@ where
     // Never join a ring run with another config under this cluster's name.
     super::join::check(&session, &config)?;
     let (tx, rx, _rx_guard) =
-        zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
+        zenoh_link::join_with(
+            &session,
+            &config.cluster,
+            &config.ring.name,
+            position,
+            n,
+            config.is_multi_host(),
+        )?;
 
     let ctx = MemberContext {
         config: config.clone(),
@@ -184,7 +191,7 @@ where
         &session,
         &config.cluster,
         &args.name,
-        &control_plane::orchestrator_key(&config, &args.name),
+        control_plane::orchestrator_key(&config, &args.name).as_deref(),
         cmd_tx,
         Arc::clone(&stop),
     )

@@ -43,13 +43,28 @@ impl std::fmt::Debug for ZenohRxGuard {
     }
 }
 
-/// Join ring `ring` of `cluster` as member `k` of `n`.
+/// Join ring `ring` of `cluster` as member `k` of `n` (publisher with blocking congestion
+/// control: on one machine a frame is never dropped).
 pub fn join(
     session: &zenoh::Session,
     cluster: &str,
     ring: &str,
     k: usize,
     n: usize,
+) -> Result<(ZenohTx, LinkRx, ZenohRxGuard), TransportError> {
+    join_with(session, cluster, ring, k, n, false)
+}
+
+/// [`join`]; with `drop_when_congested` the publisher drops a frame its link cannot take
+/// (clusters on several hosts: a member never waits for a dead network, as a MACRO
+/// transmitter sends into a cut fibre; the loss is loss of light downstream).
+pub fn join_with(
+    session: &zenoh::Session,
+    cluster: &str,
+    ring: &str,
+    k: usize,
+    n: usize,
+    drop_when_congested: bool,
 ) -> Result<(ZenohTx, LinkRx, ZenohRxGuard), TransportError> {
     if n == 0 || k >= n {
         return Err(TransportError::Io(format!(
@@ -58,7 +73,11 @@ pub fn join(
     }
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))
-        .congestion_control(CongestionControl::Block)
+        .congestion_control(if drop_when_congested {
+            CongestionControl::Drop
+        } else {
+            CongestionControl::Block
+        })
         .priority(Priority::RealTime)
         .express(true)
         .wait()

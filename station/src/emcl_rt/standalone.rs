@@ -104,11 +104,13 @@ pub fn run(config_path: &Path, name: &str, connect: &[String], listen: &[String]
     let orch_seen = Arc::new(AtomicBool::new(false));
     let orch_gone: Arc<Mutex<Option<Instant>>> = Arc::new(Mutex::new(None));
     let (seen, gone) = (Arc::clone(&orch_seen), Arc::clone(&orch_gone));
+    // On several hosts no watch (a cut network must not stop the drive; the parent-death
+    // signal still does when its supervisor dies).
+    let key = mcc_ring::runtime::control_plane::orchestrator_key(&cfg, name)
+        .unwrap_or_else(|| format!("mcc/{}/never/{name}", cfg.cluster));
     let _watch = session
         .liveliness()
-        .declare_subscriber(mcc_ring::runtime::control_plane::orchestrator_key(
-            &cfg, name,
-        ))
+        .declare_subscriber(key)
         .history(true)
         .callback(move |s| {
             let mut g = gone.lock().unwrap_or_else(|e| e.into_inner());
