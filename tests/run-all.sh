@@ -1,11 +1,32 @@
 #!/usr/bin/env bash
-# The whole test suite: Rust unit tests, the scenario binary (in-process ring, transcripts,
-# multi-process clusters), then the Python host-client suite in a venv it creates itself.
+# The whole check: formatting, clippy (warnings are errors), docs, every Rust test, the
+# scenario binary (in-process scenarios in parallel, multi-process clusters one at a time),
+# then the Python host-client suite in a venv it creates itself. Each phase prints its time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export MCC_LOG="${MCC_LOG:-warn}"
-cargo build --workspace --bins
-cargo test --workspace -- --test-threads="${MCC_TEST_THREADS:-1}"
-bash tests/clients/run.sh
+phase() {
+    local name="$1"
+    shift
+    local t0=$SECONDS
+    echo "== $name"
+    "$@"
+    echo "== $name: $((SECONDS - t0)) s"
+}
+# Scenario modules that start real multi-process clusters: timing-sensitive on 2 cores, so
+# they run one at a time; everything else runs in parallel.
+MULTI=(chain:: cluster:: drills:: emcl:: gather:: testing_api::)
+skips=()
+for m in "${MULTI[@]}"; do skips+=(--skip "$m"); done
+phase fmt cargo fmt --all -- --check
+phase clippy cargo clippy --workspace --all-targets -- -D warnings
+phase doc cargo doc --workspace --no-deps -q
+phase build cargo build --workspace --bins
+# Always the whole workspace (one feature set: nothing is compiled twice).
+phase unit-tests cargo test --workspace --lib --bins
+phase doc-tests cargo test --workspace --doc
+phase scenarios-in-process cargo test --workspace --test scenarios -- "${skips[@]}"
+phase scenarios-multi-process cargo test --workspace --test scenarios -- --test-threads=1 "${MULTI[@]}"
+phase host-clients bash tests/clients/run.sh
 # The pytest plugin (python/) and the examples/, against real clusters (same venv).
-MCC_SKIP_BUILD=1 bash python/run-tests.sh
+MCC_SKIP_BUILD=1 phase python-plugin bash python/run-tests.sh

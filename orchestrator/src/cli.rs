@@ -437,6 +437,7 @@ pub struct BenchRingArgs {
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {
     s.parse()
+        .map_err(|e: mcc_ring::config::UnknownClockMode| e.to_string())
 }
 
 #[cfg(test)]

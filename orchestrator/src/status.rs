@@ -174,6 +174,9 @@ pub struct CardRow {
     pub program_start_cycle: Option<u64>,
     /// CLOCK_MONOTONIC ns of that start.
     pub program_start_ns: Option<u64>,
+    /// Why the card's state file was refused at start-up (it started from factory defaults;
+    /// the file was kept aside), `null` when it loaded or there was none.
+    pub state_file_error: Option<String>,
 }
 
 /// One station.
@@ -380,6 +383,10 @@ pub fn build(
                 killed_motors: Vec::new(),
                 program_start_cycle: None,
                 program_start_ns: None,
+                state_file_error: s
+                    .and_then(|s| s.extra.get("state_file_error"))
+                    .and_then(|v| v.as_str())
+                    .map(str::to_string),
             }
         })
         .collect();

@@ -87,16 +87,19 @@ impl ClockMode {
 /// The clock words, for messages.
 pub const CLOCK_WORDS: &str = "paced, lockstep or realtime";
 
+/// A clock mode name that is none of [`CLOCK_WORDS`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown clock mode {0:?} (expected paced, lockstep or realtime)")]
+pub struct UnknownClockMode(pub String);
+
 impl std::str::FromStr for ClockMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownClockMode;
+    fn from_str(s: &str) -> Result<Self, UnknownClockMode> {
         match s {
             "paced" => Ok(ClockMode::Paced),
             "realtime" => Ok(ClockMode::Realtime),
             "lockstep" => Ok(ClockMode::Lockstep),
-            other => Err(format!(
-                "unknown clock mode {other:?} (expected {CLOCK_WORDS})"
-            )),
+            other => Err(UnknownClockMode(other.to_string())),
         }
     }
 }
@@ -452,7 +455,9 @@ impl ClusterConfig {
         cfg.resolve()
     }
 
-    /// Read and parse a file (see [`ClusterConfig::from_toml_str`]).
+    /// Read and parse a file (see [`ClusterConfig::from_toml_str`]); a card `state_file` that
+    /// is an existing directory is refused (SAVE could never write it).
+    #[allow(clippy::disallowed_methods)] // reading the config file is this function's job
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
         let io_err = |e: std::io::Error| ConfigError::Io {
             path: path.display().to_string(),
@@ -467,10 +472,19 @@ impl ClusterConfig {
             )));
         }
         let text = std::fs::read_to_string(path).map_err(io_err)?;
-        Self::from_toml_str(&text).map_err(|e| match e {
+        let cfg = Self::from_toml_str(&text).map_err(|e| match e {
             ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", path.display())),
             other => other,
-        })
+        })?;
+        for (i, c) in cfg.cards.iter().enumerate() {
+            if let Some(p) = c.state_file.as_ref().filter(|p| p.is_dir()) {
+                return Err(ConfigError::invalid(
+                    format!("cards[{i}].state_file"),
+                    format!("{} is a directory; give the path of a file", p.display()),
+                ));
+            }
+        }
+        Ok(cfg)
     }
 
     /// Fill the implicit defaults, then validate.

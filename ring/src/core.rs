@@ -42,6 +42,13 @@ pub trait RingApp {
     fn take_ring_reset(&mut self) -> bool {
         false
     }
+
+    /// Called once before every tick (before the ring check): the application reads and
+    /// changes its member's ring settings through `ring` (a card's I995/I996/I1001/I1004/
+    /// I1005 are these settings). The default leaves them alone.
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        let _ = ring;
+    }
 }
 
 impl<T: RingApp + ?Sized> RingApp for Box<T> {
@@ -51,6 +58,47 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
 
     fn take_ring_reset(&mut self) -> bool {
         (**self).take_ring_reset()
+    }
+
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        (**self).sync_ring(ring);
+    }
+}
+
+/// The part of a member core its application may read and change: the I995/I996 settings,
+/// the ring check's parameters, and the I995 status bits latched since the check last read
+/// them. The one place each of these settings lives; the application mirrors them.
+#[derive(Debug)]
+pub struct RingControl<'a> {
+    core: &'a mut MemberCore,
+}
+
+impl RingControl<'_> {
+    /// I995 (configuration bits) and I996.
+    pub fn settings(&self) -> RingSettings {
+        self.core.member.settings()
+    }
+
+    /// Change I995/I996 (routing, sync node, master number) from the next frame on.
+    pub fn set_settings(&mut self, settings: RingSettings) {
+        self.core.set_settings(settings);
+    }
+
+    /// The ring check (I1001 period, I1004 error limit, I1005 sync minimum, armed or not).
+    pub fn check(&self) -> &RingCheck {
+        &self.core.check
+    }
+
+    /// The ring check, to change its parameters ([`RingCheck::set_period`], …) or replace it
+    /// (a card reset re-arms it from I1001 > 0).
+    pub fn check_mut(&mut self) -> &mut RingCheck {
+        &mut self.core.check
+    }
+
+    /// I995 status bits (0-3 errors, 6 sync received) latched since the check last read them
+    /// (not cleared: the check reads them once per RTI).
+    pub fn status_bits(&self) -> u32 {
+        self.core.status.peek()
     }
 }
 
@@ -295,7 +343,7 @@ impl MemberCore {
     }
 
     /// Inject a fault on this member's send path.
-    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject_fault(&mut self, spec: FaultSpec) -> Result<(), crate::fault::FaultError> {
         self.faults.inject(spec)
     }
 
@@ -700,6 +748,7 @@ impl MemberCore {
         cycle: u64,
         time_ns: u64,
     ) -> Option<CheckFault> {
+        app.sync_ring(&mut RingControl { core: self });
         let fault = self.run_check();
         app.tick(cycle, time_ns, &mut self.member, self.ring_fault);
         if app.take_ring_reset() {

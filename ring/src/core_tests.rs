@@ -518,3 +518,46 @@ fn timing_slack_tolerates_silence_and_backlog_before_counting_errors() {
         assert_eq!(first, Some(slack + 1), "slack {slack}");
     }
 }
+
+/// An application that rewrites its member's ring settings through [`crate::core::RingControl`]
+/// and records what it saw.
+struct Tuner {
+    seen: Vec<(u32, u32, u32)>,
+}
+
+impl crate::core::RingApp for Tuner {
+    fn tick(&mut self, _: u64, _: u64, _: &mut crate::member::RingMember, _: bool) {}
+
+    fn sync_ring(&mut self, ring: &mut crate::core::RingControl<'_>) {
+        let s = ring.settings();
+        self.seen
+            .push((s.i995, ring.check().params().period, ring.status_bits()));
+        ring.set_settings(RingSettings::new(s.i995 | 0x80, s.i996));
+        ring.check_mut().set_period(32);
+    }
+}
+
+#[test]
+fn the_application_reads_and_changes_the_ring_settings_before_each_tick() {
+    let mut cfg = CoreConfig::new(
+        "c",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x10, 0x0F_8001),
+        P,
+    );
+    cfg.check = RingCheck::card(16, 2, 4, 2);
+    let mut core = MemberCore::new(cfg);
+    let mut app = Tuner { seen: Vec::new() };
+    core.ring_status_mut().set_sync_received();
+    core.tick_app(&mut app, 1, 0);
+    core.tick_app(&mut app, 2, 0);
+    assert_eq!(app.seen[0], (0x10, 16, STATUS_SYNC_RECEIVED));
+    assert_eq!(app.seen[1].0, 0x90, "I995 written by the app is the core's");
+    assert_eq!(
+        app.seen[1].1, 32,
+        "I1001 written by the app is the check's period"
+    );
+    assert_eq!(core.member().settings().i995, 0x90);
+    assert_eq!(core.check().params().period, 32);
+}

@@ -67,17 +67,43 @@ impl fmt::Display for FaultKind {
     }
 }
 
+/// Why a fault could not be parsed or injected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FaultError {
+    /// Not one of [`FAULT_WORDS`].
+    #[error("unknown fault kind '{0}' (expected one of: {FAULT_WORDS})")]
+    UnknownKind(String),
+    /// `delay` / `delay-us` without `=N`.
+    #[error("fault kind '{0}' needs an amount ({0}=N)")]
+    NeedsAmount(String),
+    /// An amount on a kind that takes none.
+    #[error("fault kind '{0}' takes no amount")]
+    TakesNoAmount(String),
+    /// The amount is not a number.
+    #[error("fault amount '{0}' is not a number 0-4294967295")]
+    BadAmount(String),
+    /// Probability outside 0..1.
+    #[error("fault probability {0} is not between 0 and 1")]
+    BadProbability(f64),
+    /// The member already carries [`MAX_FAULTS`] faults.
+    #[error("too many faults on this member (at most {MAX_FAULTS})")]
+    TooMany,
+    /// No member at this ring position (in-process simulations).
+    #[error("no member {0}")]
+    NoMember(usize),
+}
+
 /// The fault words, for error messages and help text.
 pub const FAULT_WORDS: &str =
     "drop-sync, drop-packets, corrupt, byte-violation, overrun, underrun, delay=N, delay-us=N, cut";
 
 impl FaultKind {
     /// Parse a fault word plus the amount that `delay` and `delay-us` need.
-    pub fn parse_with(word: &str, amount: Option<u32>) -> Result<FaultKind, String> {
+    pub fn parse_with(word: &str, amount: Option<u32>) -> Result<FaultKind, FaultError> {
         let needs = |k: fn(u32) -> FaultKind| {
             amount
                 .map(k)
-                .ok_or_else(|| format!("fault kind '{word}' needs an amount ({word}=N)"))
+                .ok_or_else(|| FaultError::NeedsAmount(word.to_string()))
         };
         let kind = match word {
             "drop-sync" => FaultKind::DropSync,
@@ -89,24 +115,20 @@ impl FaultKind {
             "cut" => FaultKind::Cut,
             "delay" => return needs(FaultKind::DelayCycles),
             "delay-us" => return needs(FaultKind::DelayMicros),
-            _ => {
-                return Err(format!(
-                    "unknown fault kind '{word}' (expected one of: {FAULT_WORDS})"
-                ))
-            }
+            _ => return Err(FaultError::UnknownKind(word.to_string())),
         };
         match amount {
             None => Ok(kind),
-            Some(_) => Err(format!("fault kind '{word}' takes no amount")),
+            Some(_) => Err(FaultError::TakesNoAmount(word.to_string())),
         }
     }
 }
 
 impl FromStr for FaultKind {
-    type Err = String;
+    type Err = FaultError;
 
     /// `word`, or `word=N` / `word:N` for `delay` and `delay-us`.
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, FaultError> {
         let s = s.trim();
         match s.split_once(['=', ':']) {
             None => FaultKind::parse_with(s, None),
@@ -114,7 +136,7 @@ impl FromStr for FaultKind {
                 let n: u32 = n
                     .trim()
                     .parse()
-                    .map_err(|_| format!("fault amount '{n}' is not a number 0-4294967295"))?;
+                    .map_err(|_| FaultError::BadAmount(n.to_string()))?;
                 FaultKind::parse_with(word.trim(), Some(n))
             }
         }
@@ -166,12 +188,9 @@ impl FaultSpec {
     }
 
     /// Check the spec's values.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FaultError> {
         if !(0.0..=1.0).contains(&self.probability) {
-            return Err(format!(
-                "fault probability {} is not between 0 and 1",
-                self.probability
-            ));
+            return Err(FaultError::BadProbability(self.probability));
         }
         Ok(())
     }
@@ -237,12 +256,10 @@ impl FaultLayer {
     }
 
     /// Add a fault.
-    pub fn inject(&mut self, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject(&mut self, spec: FaultSpec) -> Result<(), FaultError> {
         spec.validate()?;
         if self.faults.len() >= MAX_FAULTS {
-            return Err(format!(
-                "too many faults on this member (at most {MAX_FAULTS})"
-            ));
+            return Err(FaultError::TooMany);
         }
         let rng = StdRng::seed_from_u64(spec.seed);
         self.faults.push(Active {

@@ -31,18 +31,22 @@ fn words_parse_and_serde() {
     assert!("delay"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("needs an amount"));
     assert!("cut=2"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("takes no amount"));
     assert!("melt"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("unknown fault kind 'melt'"));
     assert!("delay=x"
         .parse::<FaultKind>()
         .unwrap_err()
+        .to_string()
         .contains("not a number"));
     for k in ["byte-violation", "delay=7", "delay-us=9", "cut", "overrun"] {
         assert_eq!(k.parse::<FaultKind>().unwrap().to_string(), k);

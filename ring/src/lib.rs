@@ -5,6 +5,8 @@
 //! do I/O: [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's
 //! cycle loop and control plane).
 
+#![warn(missing_docs, unreachable_pub)]
+
 pub mod check;
 pub mod config;
 pub mod control;
@@ -14,8 +16,10 @@ pub mod frame;
 pub mod holdover;
 pub mod member;
 pub mod packet;
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
 pub mod runtime;
 pub mod settings;
 pub mod sim;
 pub mod status;
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
 pub mod transport;

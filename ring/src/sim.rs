@@ -114,10 +114,10 @@ impl<A: RingApp> RingSim<A> {
     }
 
     /// Inject a fault on member `i`'s send path.
-    pub fn inject(&mut self, i: usize, spec: FaultSpec) -> Result<(), String> {
+    pub fn inject(&mut self, i: usize, spec: FaultSpec) -> Result<(), crate::fault::FaultError> {
         self.members
             .get_mut(i)
-            .ok_or_else(|| format!("no member {i}"))?
+            .ok_or(crate::fault::FaultError::NoMember(i))?
             .inject_fault(spec)
     }
 

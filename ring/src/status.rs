@@ -80,7 +80,8 @@ impl RingStatus {
         std::mem::take(&mut self.latched)
     }
 
-    /// The latched bits without clearing them (diagnostics only: the card never peeks).
+    /// The latched bits without clearing them (the card's I995 view; the ring check reads and
+    /// clears them once per RTI).
     pub fn peek(&self) -> u32 {
         self.latched
     }

@@ -4,8 +4,11 @@
 //! motor and quadrature encoder ([`servo_node`], [`plant`]), configured by
 //! [`config::PlantConfig`]. The station meets the card only through ring packets.
 
+#![warn(missing_docs, unreachable_pub)]
+
 pub mod config;
 pub mod emcl;
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives
 pub mod emcl_rt;
 pub mod plant;
 pub mod servo_node;

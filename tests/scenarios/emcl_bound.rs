@@ -7,10 +7,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::CardRingApp;
+use mcc_card::{Card, CardRingApp, Profile, Session};
 use mcc_ring::config::{ClusterConfig, DriveConfig};
-use mcc_ring::core::RingApp;
+use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::PlantConfig;
@@ -33,11 +32,15 @@ impl RingApp for App {
             App::Station(a) => a.tick(cycle, time_ns, regs, ring_fault),
         }
     }
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        if let App::Card(a) = self {
+            a.sync_ring(ring);
+        }
+    }
 }
 
 struct Bench {
     sim: RingSim<App>,
-    card: Arc<Mutex<Card>>,
     drives: Shared,
     session: Session,
 }
@@ -48,7 +51,6 @@ impl Bench {
         let mut cfg = ClusterConfig::default_cluster(1, 1);
         cfg.drives[0].node = Some(1);
         let cfg = cfg.resolve().unwrap();
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let dc: &DriveConfig = &cfg.drives[0];
         let drive = Drive::power_up(spec_from_config(dc).unwrap(), None, dc.node);
         let drives: Shared = Arc::new(Mutex::new(HostState {
@@ -64,7 +66,7 @@ impl Bench {
         assert_eq!(bound, [1]);
         let sim = mcc_tests::inproc::ring(
             &cfg,
-            &card,
+            Card::new(Profile::Pmac2),
             |sc| {
                 let nodes: Vec<u8> = sc
                     .nodes
@@ -83,14 +85,20 @@ impl Bench {
         );
         Bench {
             sim,
-            card,
             drives,
             session: Session::default(),
         }
     }
 
     fn cmd(&mut self, line: &str) -> String {
-        mcc_tests::inproc::command(&self.card, &mut self.session, line)
+        let mut s = self.session.clone();
+        let card = match self.sim.app_mut(0) {
+            App::Card(a) => &mut a.core().card,
+            App::Station(_) => panic!("member 0 is the card"),
+        };
+        let r = mcc_tests::inproc::command(card, &mut s, line);
+        self.session = s;
+        r
     }
 
     fn run(&mut self, cycles: usize) {

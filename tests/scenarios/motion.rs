@@ -3,13 +3,9 @@
 //! (config ring settings, `wire_macro_motors`, the config's card I-variables). Commands go in
 //! through `Card::command_line`; commands and feedback travel over the ring only.
 
-use std::sync::{Arc, Mutex};
-
-use mcc_card::interp::{Card, Profile, Session};
-use mcc_card::runtime::ring_app::CardRingApp;
-use mcc_card::state::float48::decode_fixed;
+use mcc_card::{decode_fixed, Card, CardRingApp, Profile, Session};
 use mcc_ring::config::ClusterConfig;
-use mcc_ring::core::RingApp;
+use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
 use mcc_ring::sim::RingSim;
@@ -39,11 +35,16 @@ impl RingApp for App {
             App::Station(a) => a.take_ring_reset(),
         }
     }
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        match self {
+            App::Card(a) => a.sync_ring(ring),
+            App::Station(a) => a.sync_ring(ring),
+        }
+    }
 }
 
 struct Rig {
     sim: RingSim<App>,
-    card: Arc<Mutex<Card>>,
     session: Session,
 }
 
@@ -51,10 +52,9 @@ impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
     fn new(plant: NodePlantConfig) -> Rig {
         let cfg = ClusterConfig::default_cluster(1, 1);
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let sim = mcc_tests::inproc::ring(
             &cfg,
-            &card,
+            Card::new(Profile::Pmac2),
             |sc| {
                 let pc = PlantConfig {
                     defaults: plant.clone(),
@@ -66,13 +66,23 @@ impl Rig {
         );
         Rig {
             sim,
-            card,
             session: Session::default(),
         }
     }
 
+    /// The card (its ring app owns it; the test drives it between ring cycles).
+    fn card(&mut self) -> &mut Card {
+        match self.sim.app_mut(0) {
+            App::Card(a) => &mut a.core().card,
+            App::Station(_) => panic!("member 0 is the card"),
+        }
+    }
+
     fn cmd(&mut self, line: &str) -> String {
-        mcc_tests::inproc::command(&self.card, &mut self.session, line)
+        let mut s = self.session.clone();
+        let r = mcc_tests::inproc::command(self.card(), &mut s, line);
+        self.session = s;
+        r
     }
 
     fn num(&mut self, line: &str) -> f64 {
@@ -93,8 +103,8 @@ impl Rig {
 
     /// Motor x's D: register at calculation-block offset `off` (D:$0028 commanded, $002B
     /// actual, $004B following error), counts.
-    fn d_reg(&self, x: u16, off: u16) -> f64 {
-        let mut c = self.card.lock().unwrap();
+    fn d_reg(&mut self, x: u16, off: u16) -> f64 {
+        let c = self.card();
         decode_fixed(c.state.read_long(0x0020 + (x - 1) * 0x3C + off)) / D_UNITS
     }
 
@@ -240,7 +250,7 @@ fn default_jog_following_error_bound_and_reports() {
     assert_eq!(rig.status(1), (0x81_2000, 0x00_4001));
     // CTRL-P lists all 8 motors; motors 2-8 hold 0.
     let mut s = Session::default();
-    let r = rig.card.lock().unwrap().control_char(&mut s, 0x10);
+    let r = rig.card().control_char(&mut s, 0x10);
     let text = String::from_utf8_lossy(&r).trim().to_string();
     let vals: Vec<&str> = text.split(' ').collect();
     assert_eq!(vals.len(), 8);

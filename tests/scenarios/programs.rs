@@ -3,12 +3,10 @@
 //! plant), no ring. Trajectories are checked cycle by cycle against analytic models written
 //! here from the spec's rules (pmac-commands §5.3, pmac-variables §5.4), not from the code.
 
-use mcc_card::interp::{ActionKind, Card, Profile, Session};
-use mcc_card::motion::flags::FlagInputs;
-use mcc_card::motion::motor::{Motor, MotorCommand, TickInput, TripScope};
-use mcc_card::motion::params::MotorParams;
-use mcc_card::program::ProgramEngine;
-use mcc_card::state::Space;
+use mcc_card::{
+    ActionKind, Card, FlagInputs, Motor, MotorCommand, MotorParams, Profile, ProgramEngine,
+    Session, Space, TickInput, TripScope,
+};
 
 /// Servo cycle at the default I10, ms.
 const DT: f64 = 3_713_707.0 / 8_388_608.0;
@@ -55,13 +53,16 @@ impl Rig {
 
     fn tick(&mut self) -> Vec<Option<f64>> {
         for a in self.card.take_actions() {
-            let _ = self.eng.handle_action(&mut self.card, &self.motors, &a);
-            if let ActionKind::Cmd(mcc_card::lang::ast::CmdKind::Jog { .. }) = a.kind {
+            let _ = self
+                .eng
+                .handle_action(&mut self.card.model, &self.motors, &a);
+            if let ActionKind::Jog { .. } = a.kind {
                 let p = MotorParams::from_state(&self.card.state, a.motor);
                 self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);
             }
         }
-        let sp = self.eng.servo_tick(&mut self.card, &self.motors, 0, DT);
+        let (model, mut cmds) = self.card.split();
+        let sp = self.eng.servo_tick(model, &mut cmds, &self.motors, 0, DT);
         for (k, m) in self.motors.iter_mut().enumerate() {
             let p = MotorParams::from_state(&self.card.state, k as u16 + 1);
             let target = sp[k].unwrap_or(m.commanded());
@@ -77,7 +78,8 @@ impl Rig {
                 },
             );
         }
-        self.eng.background(&mut self.card, &self.motors);
+        let (model, mut cmds) = self.card.split();
+        self.eng.background(model, &mut cmds, &self.motors);
         self.log.push(sp.clone());
         sp
     }

@@ -13,7 +13,7 @@
 //!
 //! Escapes in `>` and `<` text: `\r`, `\n`, `\\`, `\xHH`.
 
-use mcc_card::interp::{Card, Profile, Session};
+use mcc_card::{Card, FileStorage, Profile, Session};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -100,12 +100,12 @@ impl Runner {
     fn fresh(&mut self, p: Profile) {
         self.generation += 1;
         self.profile = p;
-        self.card = Card::with_state_file(p, self.state_file());
+        self.card = Card::with_storage(p, Box::new(FileStorage::new(self.state_file())));
         self.sessions.clear();
     }
 
     fn restart(&mut self) {
-        self.card = Card::with_state_file(self.profile, self.state_file());
+        self.card = Card::with_storage(self.profile, Box::new(FileStorage::new(self.state_file())));
         self.sessions.clear();
     }
 

@@ -1,12 +1,11 @@
 //! A cluster config's ring built in-process on the deterministic lockstep [`RingSim`], wired
 //! exactly as the member processes are (ring settings from the config, the card's start-up
-//! wiring and I-variables, the stations' sync check); the caller supplies each station's
-//! application and how a card app is wrapped.
+//! layer: ring I-variables, wiring and the config's I-variables, applied again after every
+//! reset; the stations' sync check); the caller supplies each station's application and how a
+//! card app is wrapped. The card is owned by its ring app (as on the servo thread): reach it
+//! through the app between ring cycles.
 
-use std::sync::{Arc, Mutex};
-
-use mcc_card::interp::{Card, Session};
-use mcc_card::runtime::ring_app::{wire_macro_motors, CardRingApp};
+use mcc_card::{wire_macro_motors, Card, CardRingApp, Session};
 use mcc_ring::config::{ClusterConfig, MemberRef, StationConfig};
 use mcc_ring::control::MemberKind;
 use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
@@ -14,15 +13,16 @@ use mcc_ring::runtime::process::card_check;
 use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
 
-/// The ring of `cfg` (one card, whose state is `card`; any number of stations).
+/// The ring of `cfg` (one card, starting as `card`; any number of stations).
 pub fn ring<A: RingApp>(
     cfg: &ClusterConfig,
-    card: &Arc<Mutex<Card>>,
+    card: Card,
     mut station: impl FnMut(&StationConfig) -> A,
     card_app: impl Fn(CardRingApp) -> A,
 ) -> RingSim<A> {
     let period = cfg.period_ns();
     let n = cfg.ring.order.len();
+    let mut card = Some(card);
     let mut members = Vec::new();
     for name in &cfg.ring.order {
         let pos = cfg.position(name).expect("member in the ring order");
@@ -30,17 +30,20 @@ pub fn ring<A: RingApp>(
         let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
         let (kind, check, app) = match cfg.member(name).expect("member") {
             MemberRef::Card(cc) => {
-                {
-                    let mut c = card.lock().unwrap();
+                let mut c = card.take().expect("one card in the config");
+                let (nodes, ivars) = (cc.nodes.clone(), cc.ivars.clone());
+                let (i995, i996) = (rs.i995, rs.i996);
+                let layer = move |c: &mut Card| {
                     let mut s = Session::default();
-                    let line = format!("I995=${:X} I996=${:X}", rs.i995, rs.i996);
+                    let line = format!("I995=${i995:X} I996=${i996:X}");
                     c.command_line(&mut s, line.as_bytes());
-                    wire_macro_motors(&mut c, &cc.nodes);
-                    for (k, v) in &cc.ivars {
+                    wire_macro_motors(c, &nodes);
+                    for (k, v) in &ivars {
                         c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
                     }
-                }
-                let app = CardRingApp::new(Arc::clone(card), &cc.nodes).with_wiring(true);
+                };
+                layer(&mut c);
+                let app = CardRingApp::for_card(c, &cc.nodes).with_startup(Box::new(layer));
                 (MemberKind::Card, card_check(&cc.ivars), card_app(app))
             }
             MemberRef::Station(sc) => {
@@ -61,9 +64,8 @@ pub fn ring<A: RingApp>(
 }
 
 /// Run one command line on the card; the reply without framing characters.
-pub fn command(card: &Mutex<Card>, session: &mut Session, line: &str) -> String {
-    let mut c = card.lock().unwrap();
-    let r = c.command_line(session, line.as_bytes());
+pub fn command(card: &mut Card, session: &mut Session, line: &str) -> String {
+    let r = card.command_line(session, line.as_bytes());
     String::from_utf8_lossy(&r)
         .trim_matches(|ch: char| ch.is_control() || ch.is_whitespace())
         .to_string()

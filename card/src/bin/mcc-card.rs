@@ -4,12 +4,13 @@
 //! [--state-file PATH] [--exit-on-stdin-eof]` runs the card with its host ports and no ring,
 //! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
 
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)] // the process
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use mcc_card::host::standalone::{run_standalone, StandaloneOpts};
-use mcc_card::interp::Profile;
+use mcc_card::{run_standalone, Profile, StandaloneOpts};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ProfileArg {
@@ -58,7 +59,7 @@ fn main() -> ExitCode {
     mcc_ring::runtime::logging::init_logging();
     let args = Args::parse();
     if let (Some(config), Some(name)) = (args.config.clone(), args.name.clone()) {
-        let r = mcc_card::runtime::run_ring_card(mcc_ring::runtime::process::MemberArgs {
+        let r = mcc_card::run_ring_card(mcc_ring::runtime::process::MemberArgs {
             config,
             name,
             connect: args.connect,

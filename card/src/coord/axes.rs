@@ -8,13 +8,13 @@
 use nalgebra::{DMatrix, DVector, SVector};
 
 use super::{check_pos, CoordError};
-use crate::lang::ast::{Axis, AxisDef};
+use crate::domain::ast::{Axis, AxisDef};
 
 /// Nine axis values in the order X Y Z A B C U V W.
-pub type AxisVec = SVector<f64, 9>;
+pub(crate) type AxisVec = SVector<f64, 9>;
 
 /// The nine motion axes in vector order.
-pub const AXES: [Axis; 9] = [
+pub(crate) const AXES: [Axis; 9] = [
     Axis::X,
     Axis::Y,
     Axis::Z,
@@ -27,7 +27,7 @@ pub const AXES: [Axis; 9] = [
 ];
 
 /// Index of a motion axis in an [`AxisVec`]; `None` for I/J/K/R.
-pub fn axis_index(a: Axis) -> Option<usize> {
+pub(crate) fn axis_index(a: Axis) -> Option<usize> {
     AXES.iter().position(|&x| x == a)
 }
 
@@ -79,15 +79,17 @@ impl MotorAxisDef {
 
 /// Card-wide table of axis definitions: which motor belongs to which C.S. and how.
 #[derive(Debug, Clone, PartialEq)]
-pub struct AxisTable {
+#[cfg(test)]
+pub(crate) struct AxisTable {
     /// Index 0 = motor #1: (C.S. number 1-based, definition).
     motors: Vec<Option<(u16, MotorAxisDef)>>,
     coords: u16,
 }
 
+#[cfg(test)]
 impl AxisTable {
     /// Empty table for `motors` motors and `coords` coordinate systems.
-    pub fn new(motors: u16, coords: u16) -> Self {
+    pub(crate) fn new(motors: u16, coords: u16) -> Self {
         AxisTable {
             motors: vec![None; motors as usize],
             coords,
@@ -113,7 +115,12 @@ impl AxisTable {
 
     /// `#m->{def}` in C.S. `cs`: ERR003 if the motor is defined in another C.S. or the
     /// definition is malformed; re-definition inside the same C.S. overwrites.
-    pub fn define(&mut self, cs: u16, motor: u16, def: MotorAxisDef) -> Result<(), CoordError> {
+    pub(crate) fn define(
+        &mut self,
+        cs: u16,
+        motor: u16,
+        def: MotorAxisDef,
+    ) -> Result<(), CoordError> {
         self.check_cs(cs)?;
         let k = self.slot(motor)?;
         if let Some((c, _)) = &self.motors[k] {
@@ -126,7 +133,7 @@ impl AxisTable {
     }
 
     /// `#m->0` in C.S. `cs`: clears the definition only if it is in `cs`.
-    pub fn undefine_motor(&mut self, cs: u16, motor: u16) -> Result<(), CoordError> {
+    pub(crate) fn undefine_motor(&mut self, cs: u16, motor: u16) -> Result<(), CoordError> {
         let k = self.slot(motor)?;
         if self.motors[k].as_ref().is_some_and(|(c, _)| *c == cs) {
             self.motors[k] = None;
@@ -135,7 +142,7 @@ impl AxisTable {
     }
 
     /// `UNDEFINE` in C.S. `cs`.
-    pub fn undefine(&mut self, cs: u16) {
+    pub(crate) fn undefine(&mut self, cs: u16) {
         for m in self.motors.iter_mut() {
             if m.as_ref().is_some_and(|(c, _)| *c == cs) {
                 *m = None;
@@ -144,12 +151,12 @@ impl AxisTable {
     }
 
     /// `UNDEFINE ALL`.
-    pub fn undefine_all(&mut self) {
+    pub(crate) fn undefine_all(&mut self) {
         self.motors.iter_mut().for_each(|m| *m = None);
     }
 
     /// `#m->` in C.S. `cs`: the definition if it is in `cs` (reply `0` otherwise).
-    pub fn query(&self, cs: u16, motor: u16) -> Option<&MotorAxisDef> {
+    pub(crate) fn query(&self, cs: u16, motor: u16) -> Option<&MotorAxisDef> {
         let k = self.slot(motor).ok()?;
         self.motors[k]
             .as_ref()
@@ -158,13 +165,13 @@ impl AxisTable {
     }
 
     /// The C.S. motor `motor` belongs to.
-    pub fn cs_of(&self, motor: u16) -> Option<u16> {
+    pub(crate) fn cs_of(&self, motor: u16) -> Option<u16> {
         let k = self.slot(motor).ok()?;
         self.motors[k].as_ref().map(|(c, _)| *c)
     }
 
     /// The matrix view of C.S. `cs` (motors in ascending number).
-    pub fn cs_axes(&self, cs: u16) -> CsAxes {
+    pub(crate) fn cs_axes(&self, cs: u16) -> CsAxes {
         let defs: Vec<(u16, &MotorAxisDef)> = self
             .motors
             .iter()

@@ -25,11 +25,11 @@ use super::transform::Affine;
 use super::CoordError;
 
 /// Most pieces queued at once.
-pub const MAX_PIECES: usize = 16;
+pub(crate) const MAX_PIECES: usize = 16;
 
 /// How a piece connects to its neighbours.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Kind {
+pub(crate) enum Kind {
     /// LINEAR / CIRCLE / DELAY: blended over `ta` ms (TA'), S fraction `s`.
     Blend {
         /// Effective accel time TA' = max(TA, 2·TS) (ms).
@@ -91,7 +91,7 @@ impl Piece {
 
 /// A new move for [`Timeline::push`] (program units, the transformation in force).
 #[derive(Debug, Clone, PartialEq)]
-pub struct NewPiece {
+pub(crate) struct NewPiece {
     /// Path.
     pub prim: Prim,
     /// Nominal duration (ms, > 0).
@@ -131,7 +131,7 @@ fn blend(
 
 /// The queue of moves of one coordinate system.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Timeline {
+pub(crate) struct Timeline {
     pieces: VecDeque<Piece>,
     rest: AxisVec,
     next_id: u64,
@@ -141,7 +141,7 @@ pub struct Timeline {
 
 impl Timeline {
     /// Empty queue standing at base position `rest`.
-    pub fn new(rest: AxisVec) -> Self {
+    pub(crate) fn new(rest: AxisVec) -> Self {
         Timeline {
             pieces: VecDeque::new(),
             rest,
@@ -152,7 +152,7 @@ impl Timeline {
     }
 
     /// Drop every move and stand at `rest` (abort, PMATCH while idle).
-    pub fn clear(&mut self, rest: AxisVec) {
+    pub(crate) fn clear(&mut self, rest: AxisVec) {
         self.pieces.clear();
         self.rest = rest;
         self.spline = None;
@@ -160,23 +160,13 @@ impl Timeline {
     }
 
     /// No move queued or executing.
-    pub fn is_idle(&self) -> bool {
-        self.pieces.is_empty()
-    }
-
-    /// Number of queued pieces.
-    pub fn len(&self) -> usize {
-        self.pieces.len()
-    }
-
-    /// Queue empty.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_idle(&self) -> bool {
         self.pieces.is_empty()
     }
 
     /// Whether the executor should calculate another move: fewer than two queued moves have
     /// not started yet, and no DWELL is pending (DWELL stops look-ahead).
-    pub fn wants_more(&self, tau: f64) -> bool {
+    pub(crate) fn wants_more(&self, tau: f64) -> bool {
         if self.pieces.len() >= MAX_PIECES - 3 || self.pieces.iter().any(|p| p.kind == Kind::Dwell)
         {
             return false;
@@ -185,14 +175,14 @@ impl Timeline {
     }
 
     /// Whether τ lies in a DWELL (the clock then runs on the fixed time base).
-    pub fn in_dwell(&self, tau: f64) -> bool {
+    pub(crate) fn in_dwell(&self, tau: f64) -> bool {
         self.pieces
             .iter()
             .any(|p| p.kind == Kind::Dwell && tau >= p.start && tau < p.end())
     }
 
     /// Id of the move executing at τ (PE), if any.
-    pub fn executing(&self, tau: f64) -> Option<u64> {
+    pub(crate) fn executing(&self, tau: f64) -> Option<u64> {
         self.pieces
             .iter()
             .rev()
@@ -201,7 +191,7 @@ impl Timeline {
     }
 
     /// Velocity (base units/ms) at the end of the last queued move when it can still blend.
-    pub fn tail_blend_velocity(&self, tau: f64) -> Option<AxisVec> {
+    pub(crate) fn tail_blend_velocity(&self, tau: f64) -> Option<AxisVec> {
         let p = self.pieces.back()?;
         match (p.kind, p.out) {
             (Kind::Blend { .. }, Out::Undecided) if tau < p.end() - p.stop_h() => {
@@ -222,7 +212,7 @@ impl Timeline {
     }
 
     /// Close an open PVT/SPLINE sequence or stop a blended tail so a new sequence can follow.
-    pub fn settle_tail(&mut self) {
+    pub(crate) fn settle_tail(&mut self) {
         let Some(p) = self.pieces.back_mut() else {
             return;
         };
@@ -249,7 +239,7 @@ impl Timeline {
     }
 
     /// End velocity (program units/ms) of an open PVT sequence the next PVT move continues.
-    pub fn pvt_tail_velocity(&self) -> Option<AxisVec> {
+    pub(crate) fn pvt_tail_velocity(&self) -> Option<AxisVec> {
         let p = self.pieces.back()?;
         (p.kind == Kind::Pvt && p.out == Out::Undecided)
             .then(|| p.prim.eval(p.start, p.dur, p.end()).1)
@@ -283,7 +273,7 @@ impl Timeline {
 
     /// Queue a move. Blended moves blend with a blendable undecided tail when its window has
     /// not begun; PVT continues a PVT tail; everything else starts from rest after the tail.
-    pub fn push(&mut self, np: NewPiece, tau: f64) -> Result<u64, CoordError> {
+    pub(crate) fn push(&mut self, np: NewPiece, tau: f64) -> Result<u64, CoordError> {
         if self.pieces.len() >= MAX_PIECES - 3 {
             return Err(CoordError::QueueFull);
         }
@@ -345,7 +335,7 @@ impl Timeline {
     /// Queue one SPLINE1 point `p` (program units) with segment time `ta`, the sequence
     /// starting at `from` when none is open (uniform cubic B-spline, triple end points: the
     /// path starts and ends at rest; n points give n + 2 segments).
-    pub fn push_spline(
+    pub(crate) fn push_spline(
         &mut self,
         from: AxisVec,
         p: AxisVec,
@@ -384,7 +374,7 @@ impl Timeline {
 
     /// `/`: finish the executing move and stop; later moves are discarded. Returns the base
     /// position where the motion will end.
-    pub fn stop_after_current(&mut self, tau: f64) -> AxisVec {
+    pub(crate) fn stop_after_current(&mut self, tau: f64) -> AxisVec {
         self.stop_after_current_inner(tau);
         match self.pieces.back() {
             Some(p) => p.at(p.end()).0,
@@ -415,7 +405,7 @@ impl Timeline {
 
     /// Advance to τ: commit stops where look-ahead ran out, drop finished pieces. Returns the
     /// ids of moves that started and that finished since the last call.
-    pub fn advance(&mut self, tau: f64) -> (Vec<u64>, Vec<u64>) {
+    pub(crate) fn advance(&mut self, tau: f64) -> (Vec<u64>, Vec<u64>) {
         if let Some(p) = self.pieces.back_mut() {
             if p.out == Out::Undecided {
                 let due = match p.kind {
@@ -457,7 +447,7 @@ impl Timeline {
     }
 
     /// Base axis positions at τ.
-    pub fn eval(&self, tau: f64) -> AxisVec {
+    pub(crate) fn eval(&self, tau: f64) -> AxisVec {
         for (k, p) in self.pieces.iter().enumerate() {
             let end = p.end();
             if p.from_rest && tau < p.start + p.h_in {

@@ -9,7 +9,7 @@ use super::CoordError;
 
 /// How the centre is given on the move line.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Centre {
+pub(crate) enum Centre {
     /// `I J K` vector: from the start point (`INC(R)`, default) or from the origin (`ABS(R)`).
     Vector {
         /// Components along X, Y, Z (missing ones 0).
@@ -23,7 +23,7 @@ pub enum Centre {
 
 /// Circle parameters that are not on the move line.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CircleParams {
+pub(crate) struct CircleParams {
     /// `NORMAL` vector (direction only; default (0, 0, −1)).
     pub normal: [f64; 3],
     /// `CIRCLE1` (true: right-hand rotation about the normal = clockwise in XY with the
@@ -41,7 +41,7 @@ fn v3(p: &AxisVec) -> Vector3<f64> {
 
 /// Build the arc from `p0` to `p1`. `Ok(None)` means "no arc in the plane" (R form with zero
 /// chord): the caller moves linearly.
-pub fn make_arc(
+pub(crate) fn make_arc(
     p0: &AxisVec,
     p1: &AxisVec,
     centre: Centre,

@@ -12,15 +12,15 @@
 //! The program executor feeds moves one at a time through [`cs::CoordSystem`] while
 //! [`cs::CoordSystem::wants_moves`] says the look-ahead (two moves ahead) is not full.
 
-pub mod axes;
-pub mod blend;
-pub mod circle;
-pub mod cs;
-pub mod moves;
-pub mod prims;
-pub mod profile;
-pub mod timebase;
-pub mod transform;
+pub(crate) mod axes;
+pub(crate) mod blend;
+pub(crate) mod circle;
+pub(crate) mod cs;
+pub(crate) mod moves;
+pub(crate) mod prims;
+pub(crate) mod profile;
+pub(crate) mod timebase;
+pub(crate) mod transform;
 
 #[cfg(test)]
 mod tests_axes;
@@ -93,7 +93,7 @@ impl CoordError {
 }
 
 /// Largest accepted magnitude of a position in counts or user units (PMAC positions are 48-bit).
-pub const MAX_POS: f64 = 140_737_488_355_328.0; // 2^47
+pub(crate) const MAX_POS: f64 = 140_737_488_355_328.0; // 2^47
 
 /// Check a value is finite and within ±[`MAX_POS`].
 pub(crate) fn check_pos(v: f64, what: &'static str) -> Result<f64, CoordError> {

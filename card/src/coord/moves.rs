@@ -254,7 +254,7 @@ impl Modal {
 
 /// Move time (ms) of a LINEAR/CIRCLE move with displacement `d` (program units) and path
 /// length `arc` of the XYZ part (`None`: straight), before the TA' minimum.
-pub fn feed_time(modal: &Modal, cfg: &CsConfig, d: &AxisVec, arc: Option<f64>) -> f64 {
+pub(crate) fn feed_time(modal: &Modal, cfg: &CsConfig, d: &AxisVec, arc: Option<f64>) -> f64 {
     let t = match modal.feed {
         Feed::Time(tm) => tm,
         Feed::Rate(f) => {
@@ -277,7 +277,7 @@ pub fn feed_time(modal: &Modal, cfg: &CsConfig, d: &AxisVec, arc: Option<f64>) -
 }
 
 /// With I13 = 0: the time needed so no motor exceeds Ix16 for motor displacement `dm`.
-pub fn ix16_time(cfg: &CsConfig, dm: &[f64]) -> f64 {
+pub(crate) fn ix16_time(cfg: &CsConfig, dm: &[f64]) -> f64 {
     let mut t: f64 = 0.0;
     for (r, d) in dm.iter().enumerate() {
         let v = cfg.limits(r).ix16;
@@ -289,7 +289,7 @@ pub fn ix16_time(cfg: &CsConfig, dm: &[f64]) -> f64 {
 }
 
 /// With I13 = 0: TA' long enough that no motor's corner Δv/TA' exceeds Ix17.
-pub fn ix17_accel(cfg: &CsConfig, dv_motor: &[f64], tap: f64) -> f64 {
+pub(crate) fn ix17_accel(cfg: &CsConfig, dv_motor: &[f64], tap: f64) -> f64 {
     let mut t = tap;
     for (r, dv) in dv_motor.iter().enumerate() {
         let a = cfg.limits(r).ix17;
@@ -301,6 +301,6 @@ pub fn ix17_accel(cfg: &CsConfig, dv_motor: &[f64], tap: f64) -> f64 {
 }
 
 /// Motor-space image of a base-space vector.
-pub fn to_motor(scale: &DMatrix<f64>, v: &AxisVec) -> Vec<f64> {
+pub(crate) fn to_motor(scale: &DMatrix<f64>, v: &AxisVec) -> Vec<f64> {
     (scale * v).iter().copied().collect()
 }

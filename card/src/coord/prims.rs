@@ -8,7 +8,7 @@ use super::profile::PtpProfile;
 
 /// Circular / helical / spiral arc in the XYZ part; the other axes move linearly.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Arc {
+pub(crate) struct Arc {
     /// Centre (in the plane of the start point).
     pub c: Vector3<f64>,
     /// Unit vector centre → start.
@@ -33,7 +33,7 @@ pub struct Arc {
 
 impl Arc {
     /// Position and d/ds (s = fraction of the move, may be outside [0, 1]).
-    pub fn at(&self, s: f64) -> (AxisVec, AxisVec) {
+    pub(crate) fn at(&self, s: f64) -> (AxisVec, AxisVec) {
         let mut p = self.p0 + (self.p1 - self.p0) * s;
         let mut dp = self.p1 - self.p0;
         let phi = self.theta * s;
@@ -52,7 +52,7 @@ impl Arc {
     }
 
     /// Arc length of the XYZ part (mean radius × angle, with the helix).
-    pub fn length(&self) -> f64 {
+    pub(crate) fn length(&self) -> f64 {
         let a = self.theta.abs() * (self.r0 + self.r1) / 2.0;
         (a * a + self.h * self.h).sqrt()
     }
@@ -60,7 +60,7 @@ impl Arc {
 
 /// One move's path as a function of τ.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Prim {
+pub(crate) enum Prim {
     /// Stand still.
     Hold(AxisVec),
     /// Constant velocity from `p0` at `t0` to `p1` at `t0 + dur`.
@@ -98,7 +98,7 @@ pub enum Prim {
 
 impl Prim {
     /// Hermite PVT cubic from (p0, v0) to (p1, v1) over `t` ms.
-    pub fn pvt(p0: AxisVec, v0: AxisVec, p1: AxisVec, v1: AxisVec, t: f64) -> Prim {
+    pub(crate) fn pvt(p0: AxisVec, v0: AxisVec, p1: AxisVec, v1: AxisVec, t: f64) -> Prim {
         let dp = p1 - p0;
         let a = (dp * 6.0 - (v0 * 2.0 + v1) * (2.0 * t)) / (t * t);
         let j = ((v0 + v1) * (6.0 * t) - dp * 12.0) / (t * t * t);
@@ -106,7 +106,7 @@ impl Prim {
     }
 
     /// Position and velocity (units/ms) at absolute τ for a move starting at `t0` lasting `dur`.
-    pub fn eval(&self, t0: f64, dur: f64, tau: f64) -> (AxisVec, AxisVec) {
+    pub(crate) fn eval(&self, t0: f64, dur: f64, tau: f64) -> (AxisVec, AxisVec) {
         let dur = dur.max(1e-9);
         match self {
             Prim::Hold(p) => (*p, AxisVec::zeros()),
@@ -161,13 +161,13 @@ impl Prim {
     }
 
     /// End position of a move lasting `dur`.
-    pub fn end(&self, dur: f64) -> AxisVec {
+    pub(crate) fn end(&self, dur: f64) -> AxisVec {
         self.eval(0.0, dur, dur).0
     }
 
     /// Whether the velocity difference to another primitive is best computed analytically
     /// (both straight lines) in blend windows.
-    pub fn is_line(&self) -> bool {
+    pub(crate) fn is_line(&self) -> bool {
         matches!(self, Prim::Line { .. } | Prim::Hold(_))
     }
 }

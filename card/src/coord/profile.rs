@@ -6,14 +6,14 @@
 
 /// Normalised S-curve ramp with S fraction `s` ∈ [0, ½].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ramp {
+pub(crate) struct Ramp {
     s: f64,
     ap: f64,
 }
 
 impl Ramp {
     /// Ramp with S-curve fraction `s` (clamped to [0, ½]).
-    pub fn new(s: f64) -> Self {
+    pub(crate) fn new(s: f64) -> Self {
         let s = if s.is_finite() {
             s.clamp(0.0, 0.5)
         } else {
@@ -25,23 +25,8 @@ impl Ramp {
         }
     }
 
-    /// Velocity fraction g(u).
-    pub fn g(&self, u: f64) -> f64 {
-        if u <= 0.0 {
-            0.0
-        } else if u >= 1.0 {
-            1.0
-        } else if u > 0.5 {
-            1.0 - self.g(1.0 - u)
-        } else if u < self.s {
-            self.ap * u * u / (2.0 * self.s)
-        } else {
-            self.ap * (self.s / 2.0 + (u - self.s))
-        }
-    }
-
     /// Position fraction G(u) = ∫₀ᵘ g (G(1) = ½, extended linearly beyond 1).
-    pub fn big_g(&self, u: f64) -> f64 {
+    pub(crate) fn big_g(&self, u: f64) -> f64 {
         if u <= 0.0 {
             0.0
         } else if u >= 1.0 {
@@ -62,7 +47,7 @@ impl Ramp {
 /// Jog-style point-to-point profile (pmac-variables §5.2 rules), distance `d` ≥ 0 counts:
 /// S-curve ramp up over `ta`, cruise at `v`, ramp down over `ta`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PtpProfile {
+pub(crate) struct PtpProfile {
     /// Distance (≥ 0).
     pub d: f64,
     /// Cruise velocity (counts/ms).
@@ -77,7 +62,7 @@ pub struct PtpProfile {
 impl PtpProfile {
     /// Plan distance `d` at speed `vmax` with Ix19 (`amax`, ≤ 0 none), Ix20 (`ta`), Ix21 (`ts`).
     /// Short moves get a symmetric profile with a reduced peak velocity.
-    pub fn plan(d: f64, vmax: f64, amax: f64, ta: f64, ts: f64) -> Self {
+    pub(crate) fn plan(d: f64, vmax: f64, amax: f64, ta: f64, ts: f64) -> Self {
         let clean = |x: f64| if x.is_finite() && x > 0.0 { x } else { 0.0 };
         let (d, vmax, amax, ts) = (clean(d), clean(vmax).max(1e-9), clean(amax), clean(ts));
         let ta0 = {
@@ -118,12 +103,12 @@ impl PtpProfile {
     }
 
     /// Total duration (ms).
-    pub fn duration(&self) -> f64 {
+    pub(crate) fn duration(&self) -> f64 {
         2.0 * self.ta + self.tc
     }
 
     /// Distance covered at time `t` ms (clamped to [0, d]).
-    pub fn pos(&self, t: f64) -> f64 {
+    pub(crate) fn pos(&self, t: f64) -> f64 {
         if self.d == 0.0 || t <= 0.0 {
             return 0.0;
         }
@@ -143,7 +128,7 @@ impl PtpProfile {
 
 /// Constant-deceleration stop from velocity `v0` at rate `a` (> 0): (position change, done)
 /// after `t` ms. Used for the `A` abort at Ix15.
-pub fn decel_stop(v0: f64, a: f64, t: f64) -> (f64, bool) {
+pub(crate) fn decel_stop(v0: f64, a: f64, t: f64) -> (f64, bool) {
     let a = if a.is_finite() && a > 0.0 { a } else { 0.25 };
     let tv = v0.abs() / a;
     let t = t.max(0.0);

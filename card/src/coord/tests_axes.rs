@@ -3,7 +3,7 @@
 use super::axes::{AxisTable, AxisVec, MotorAxisDef};
 use super::transform::TransformBank;
 use super::CoordError;
-use crate::lang::ast::{Axis, AxisDef, AxisTerm};
+use crate::domain::ast::{Axis, AxisDef, AxisTerm};
 
 fn ast(terms: &[(f64, Axis)], offset: f64) -> AxisDef {
     AxisDef {

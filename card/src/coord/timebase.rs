@@ -6,7 +6,7 @@
 //! ramp back up after it.
 
 /// 2^23.
-pub const TWO23: f64 = 8_388_608.0;
+pub(crate) const TWO23: f64 = 8_388_608.0;
 
 /// Time base of one coordinate system.
 #[derive(Debug, Clone, PartialEq)]

@@ -32,7 +32,7 @@ impl Default for Affine {
 
 impl Affine {
     /// Programmed axis vector → base axis vector (only X, Y, Z change).
-    pub fn to_base(&self, prog: &AxisVec) -> AxisVec {
+    pub fn to_base(self, prog: &AxisVec) -> AxisVec {
         let p = Vector3::new(prog[0], prog[1], prog[2]);
         let b = self.r_inv * (p - self.d);
         let mut out = *prog;
@@ -53,7 +53,7 @@ impl Affine {
     }
 
     /// Base axis vector → programmed axis vector.
-    pub fn to_prog(&self, base: &AxisVec) -> AxisVec {
+    pub fn to_prog(self, base: &AxisVec) -> AxisVec {
         let p = self.r * Vector3::new(base[0], base[1], base[2]) + self.d;
         let mut out = *base;
         out[0] = p[0];

@@ -11,7 +11,7 @@
 //!   ERR003 ([`AsciiEvent::Overlong`]) and reading resumes with the next line.
 
 /// Longest command line accepted (bytes, without the `<CR>`): the interpreter's limit.
-pub const MAX_LINE: usize = crate::interp::MAX_LINE;
+pub(crate) const MAX_LINE: usize = crate::lang::interp::MAX_LINE;
 
 /// Control characters handled by the port itself rather than by the interpreter.
 const CTRL_H: u8 = 0x08;
@@ -24,7 +24,7 @@ const CTRL_Y: u8 = 0x19;
 
 /// What the host sent, in order.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum AsciiEvent {
+pub(crate) enum AsciiEvent {
     /// A complete command line (without its `<CR>`) to execute.
     Line(Vec<u8>),
     /// A control-character command (`<CTRL-A>`..`<CTRL-Z>`) for the interpreter.
@@ -39,7 +39,7 @@ pub enum AsciiEvent {
 
 /// Per-connection line assembler.
 #[derive(Debug, Default, Clone)]
-pub struct AsciiCodec {
+pub(crate) struct AsciiCodec {
     line: Vec<u8>,
     overflow: bool,
     last_line: Vec<u8>,
@@ -48,28 +48,24 @@ pub struct AsciiCodec {
 
 impl AsciiCodec {
     /// A codec with an empty line buffer and no remembered line.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// The partial line received so far (not yet terminated by `<CR>`).
-    pub fn partial(&self) -> &[u8] {
+    #[cfg(test)]
+    pub(crate) fn partial(&self) -> &[u8] {
         &self.line
-    }
-
-    /// The last non-empty line executed (what `<CTRL-I>` repeats).
-    pub fn last_line(&self) -> &[u8] {
-        &self.last_line
     }
 
     /// Full-duplex echo (`<CTRL-T>`): when on, received line characters and `<CR>` are sent back
     /// ([`AsciiEvent::Reply`]) ahead of whatever they cause.
-    pub fn set_echo(&mut self, on: bool) {
+    pub(crate) fn set_echo(&mut self, on: bool) {
         self.echo = on;
     }
 
     /// Feed received bytes; returns the resulting events in order.
-    pub fn feed(&mut self, bytes: &[u8]) -> Vec<AsciiEvent> {
+    pub(crate) fn feed(&mut self, bytes: &[u8]) -> Vec<AsciiEvent> {
         let mut out = Vec::new();
         let mut echo = Vec::new();
         let mut evs = Vec::new();
@@ -93,20 +89,20 @@ impl AsciiCodec {
 
     /// End the partial line as if a `<CR>` had arrived, if anything is in it (used by the
     /// Ethernet port, whose GETRESPONSE payload carries an implicit `<CR>`).
-    pub fn finish_line(&mut self, out: &mut Vec<AsciiEvent>) {
+    pub(crate) fn finish_line(&mut self, out: &mut Vec<AsciiEvent>) {
         if !self.line.is_empty() || self.overflow {
             self.end_line(out);
         }
     }
 
     /// Forget the partial line (FLUSH / `<CTRL-X>`).
-    pub fn discard_partial(&mut self) {
+    pub(crate) fn discard_partial(&mut self) {
         self.line.clear();
         self.overflow = false;
     }
 
     /// Process one byte.
-    pub fn push(&mut self, b: u8, out: &mut Vec<AsciiEvent>) {
+    pub(crate) fn push(&mut self, b: u8, out: &mut Vec<AsciiEvent>) {
         match b {
             CR => self.end_line(out),
             LF => {}

@@ -6,15 +6,16 @@
 use std::fmt;
 use std::io::{self, Read, Write};
 use std::net::TcpStream;
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_GETBUFFER, VR_PMAC_GETRESPONSE, VR_UPLOAD};
 use super::server::{serve, PortsConfig};
-use crate::interp::{Card, Profile, Session};
+use crate::lang::interp::{Card, Profile, Session};
 
 /// The mixed command mix: one command per line, as a host program would send them.
-pub const COMMAND_MIX: &[&[u8]] = &[
+pub(crate) const COMMAND_MIX: &[&[u8]] = &[
     b"P1=P1+1",
     b"P2",
     b"I130",
@@ -115,7 +116,7 @@ fn per_sec(n: usize, d: Duration) -> f64 {
 }
 
 /// Percentile (0..=100) of sorted samples.
-pub fn percentile(sorted: &[Duration], p: usize) -> Duration {
+pub(crate) fn percentile(sorted: &[Duration], p: usize) -> Duration {
     if sorted.is_empty() {
         return Duration::ZERO;
     }
@@ -150,11 +151,21 @@ pub fn run_host_bench(opts: &HostBenchOpts) -> io::Result<HostBenchReport> {
         .worker_threads(1)
         .enable_all()
         .build()?;
-    let shared = Arc::new(Mutex::new(card));
-    let ports = rt.block_on(serve(shared, PortsConfig::default()))?;
-    let ascii = ascii_round_trips(ports.ascii, opts.round_trips)?;
-    let (eth, range_eth) = eth_round_trips(ports.pmac_eth, opts.round_trips, opts.range_runs)?;
+    let (mut runner, handle) =
+        crate::service::handle::channel(crate::core::CardCore::new(card), None);
+    let stop = Arc::new(AtomicBool::new(false));
+    let card_thread = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || runner.run_until(&stop))
+    };
+    let ports = rt.block_on(serve(handle, PortsConfig::default()))?;
+    let ascii = ascii_round_trips(ports.ascii, opts.round_trips);
+    let eth = eth_round_trips(ports.pmac_eth, opts.round_trips, opts.range_runs);
     rt.block_on(ports.shutdown());
+    stop.store(true, Ordering::Relaxed);
+    let _ = card_thread.join();
+    let ascii = ascii?;
+    let (eth, range_eth) = eth?;
 
     Ok(HostBenchReport {
         inproc_commands: opts.inproc_commands,

@@ -12,41 +12,35 @@ use super::ascii::AsciiCodec;
 use super::port::{run_events, Interpreter};
 
 /// Header length in bytes.
-pub const HEADER_LEN: usize = 8;
+pub(crate) const HEADER_LEN: usize = 8;
 /// Largest data part of a request (`bData[1492]`).
-pub const MAX_PAYLOAD: usize = 1492;
+pub(crate) const MAX_PAYLOAD: usize = 1492;
 /// Data bytes per reply packet (real firmware cuts here).
-pub const PACKET_DATA: usize = 1400;
+pub(crate) const PACKET_DATA: usize = 1400;
 
 /// `bRequestType`: host to card data.
-pub const VR_DOWNLOAD: u8 = 0x40;
+pub(crate) const VR_DOWNLOAD: u8 = 0x40;
 /// `bRequestType`: card to host data.
-pub const VR_UPLOAD: u8 = 0xC0;
+pub(crate) const VR_UPLOAD: u8 = 0xC0;
 /// Send a line; the reply is kept for `GETLINE`.
-pub const VR_PMAC_SENDLINE: u8 = 0xB0;
+pub(crate) const VR_PMAC_SENDLINE: u8 = 0xB0;
 /// Next pending reply line.
-pub const VR_PMAC_GETLINE: u8 = 0xB1;
+pub(crate) const VR_PMAC_GETLINE: u8 = 0xB1;
 /// Discard pending output (answer `@`).
-pub const VR_PMAC_FLUSH: u8 = 0xB3;
-/// DPRAM read (not supported: closes the connection).
-pub const VR_PMAC_GETMEM: u8 = 0xB4;
-/// DPRAM write (not supported: closes the connection).
-pub const VR_PMAC_SETMEM: u8 = 0xB5;
-/// Host-port byte I/O (not supported: closes the connection).
-pub const VR_PMAC_PORT: u8 = 0xBE;
+pub(crate) const VR_PMAC_FLUSH: u8 = 0xB3;
 /// Execute a command line and return its reply.
-pub const VR_PMAC_GETRESPONSE: u8 = 0xBF;
+pub(crate) const VR_PMAC_GETRESPONSE: u8 = 0xBF;
 /// Is output pending? (2 bytes).
-pub const VR_PMAC_READREADY: u8 = 0xC2;
+pub(crate) const VR_PMAC_READREADY: u8 = 0xC2;
 /// Execute a control character (in `wValue`) and return its reply.
-pub const VR_CTRL_RESPONSE: u8 = 0xC4;
+pub(crate) const VR_CTRL_RESPONSE: u8 = 0xC4;
 /// Next packet of a long reply.
-pub const VR_PMAC_GETBUFFER: u8 = 0xC5;
+pub(crate) const VR_PMAC_GETBUFFER: u8 = 0xC5;
 /// Several NUL-separated lines; 4-byte status reply.
-pub const VR_PMAC_WRITEBUFFER: u8 = 0xC6;
+pub(crate) const VR_PMAC_WRITEBUFFER: u8 = 0xC6;
 
 /// Reply to FLUSH and SENDLINE (real cards send `@`).
-pub const FLUSH_REPLY: u8 = b'@';
+pub(crate) const FLUSH_REPLY: u8 = b'@';
 const ACK: u8 = 0x06;
 const CR: u8 = 0x0D;
 const NUL: u8 = 0x00;
@@ -54,7 +48,7 @@ const BELL: u8 = 0x07;
 
 /// A parsed request header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Header {
+pub(crate) struct Header {
     /// `VR_DOWNLOAD` or `VR_UPLOAD`.
     pub request_type: u8,
     /// The `VR_…` request code.
@@ -69,7 +63,7 @@ pub struct Header {
 
 impl Header {
     /// Decode 8 header bytes.
-    pub fn parse(b: &[u8; HEADER_LEN]) -> Header {
+    pub(crate) fn parse(b: &[u8; HEADER_LEN]) -> Header {
         Header {
             request_type: b[0],
             request: b[1],
@@ -80,7 +74,7 @@ impl Header {
     }
 
     /// Encode as 8 bytes (clients and tests).
-    pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
+    pub(crate) fn to_bytes(self) -> [u8; HEADER_LEN] {
         let [v0, v1] = self.value.to_be_bytes();
         let [i0, i1] = self.index.to_be_bytes();
         let [l0, l1] = self.length.to_be_bytes();
@@ -88,7 +82,7 @@ impl Header {
     }
 
     /// Bytes of data that follow this header on the wire.
-    pub fn payload_len(&self) -> usize {
+    pub(crate) fn payload_len(&self) -> usize {
         if self.request_type == VR_DOWNLOAD {
             self.length as usize
         } else {
@@ -98,7 +92,13 @@ impl Header {
 }
 
 /// A complete request packet as a client sends it (header + data).
-pub fn request(request_type: u8, request: u8, value: u16, length: u16, data: &[u8]) -> Vec<u8> {
+pub(crate) fn request(
+    request_type: u8,
+    request: u8,
+    value: u16,
+    length: u16,
+    data: &[u8],
+) -> Vec<u8> {
     let h = Header {
         request_type,
         request,
@@ -113,7 +113,7 @@ pub fn request(request_type: u8, request: u8, value: u16, length: u16, data: &[u
 
 /// Why the card closed a connection.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CloseReason {
+pub(crate) enum CloseReason {
     /// `bRequestType` is neither 0x40 nor 0xC0 (not this protocol).
     BadRequestType(u8),
     /// A request code this card does not implement.
@@ -134,7 +134,7 @@ impl std::fmt::Display for CloseReason {
 
 /// What the server must do, in order.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum EthAction {
+pub(crate) enum EthAction {
     /// Write these bytes with a single write (one reply packet).
     Send(Vec<u8>),
     /// Close the connection (nothing further is processed).
@@ -143,7 +143,7 @@ pub enum EthAction {
 
 /// One Ethernet connection: input reassembly, pending reply, line assembler.
 #[derive(Debug, Default)]
-pub struct EthConn {
+pub(crate) struct EthConn {
     inbuf: Vec<u8>,
     pending: Vec<u8>,
     pos: usize,
@@ -153,22 +153,22 @@ pub struct EthConn {
 
 impl EthConn {
     /// A fresh connection.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// True while part of a request has arrived but not all of it.
-    pub fn has_partial_request(&self) -> bool {
+    pub(crate) fn has_partial_request(&self) -> bool {
         !self.inbuf.is_empty()
     }
 
     /// Bytes of the current reply not yet sent.
-    pub fn pending_len(&self) -> usize {
+    pub(crate) fn pending_len(&self) -> usize {
         self.pending.len() - self.pos
     }
 
     /// Feed received bytes; every complete request is executed against `interp`.
-    pub fn feed<I: Interpreter + ?Sized>(
+    pub(crate) fn feed<I: Interpreter + ?Sized>(
         &mut self,
         bytes: &[u8],
         interp: &mut I,
@@ -336,7 +336,7 @@ impl EthConn {
 }
 
 /// The `nnn` of the first `ERRnnn` in a reply, if it fits a byte.
-pub fn error_code(reply: &[u8]) -> Option<u8> {
+pub(crate) fn error_code(reply: &[u8]) -> Option<u8> {
     let i = reply.windows(3).position(|w| w == b"ERR")?;
     let digits = reply.get(i + 3..i + 6)?;
     if !digits.iter().all(u8::is_ascii_digit) {
@@ -346,5 +346,5 @@ pub fn error_code(reply: &[u8]) -> Option<u8> {
 }
 
 #[cfg(test)]
-#[path = "eth_codec_tests.rs"]
+#[path = "tests_eth_codec.rs"]
 mod tests;

@@ -1,14 +1,14 @@
 //! The interpreter as the host ports see it: a line in, reply bytes out; a control character in,
-//! reply bytes out. [`CardPort`] binds one connection's [`Session`] to the card shared by all
-//! connections; tests drive the codecs with their own [`Interpreter`].
-
-use std::sync::{Mutex, MutexGuard};
+//! reply bytes out. [`CardPort`] is one connection's way to the card on its servo thread
+//! (requests over the card's channel, [`CardHandle`]); tests drive the codecs with their own
+//! [`Interpreter`].
 
 use super::ascii::AsciiEvent;
-use crate::interp::{Card, Session};
+use crate::core::HostRequest;
+use crate::service::handle::CardHandle;
 
 /// What a host port needs from the card.
-pub trait Interpreter {
+pub(crate) trait Interpreter {
     /// Execute one command line (no `<CR>`); the whole framed reply.
     fn line(&mut self, line: &[u8]) -> Vec<u8>;
     /// Execute one control-character command; its reply (possibly empty).
@@ -17,52 +17,66 @@ pub trait Interpreter {
     fn overlong(&mut self) -> Vec<u8>;
 }
 
-/// A line one byte longer than the interpreter accepts: the card rejects it with its own
-/// ERR003 framing (I3/I4/I6) before parsing anything. The port discards over-long lines itself
-/// (bounded memory) and hands the card this instead.
-pub fn overlong_probe() -> Vec<u8> {
-    vec![b'U'; crate::interp::MAX_LINE + 1]
-}
+pub(crate) use crate::lang::interp::overlong_probe;
 
-/// One connection's view of a shared card. The card is locked per call only, so a connection
-/// that stalls never holds it.
+/// One connection's view of the card: its connection id on the card and the last echo state.
+/// Each call blocks until the card's servo thread has served it (between ticks, in slices).
 #[derive(Debug)]
-pub struct CardPort<'a> {
-    card: &'a Mutex<Card>,
-    session: &'a mut Session,
+pub(crate) struct CardPort {
+    card: CardHandle,
+    conn: u64,
+    echo: bool,
 }
 
-impl<'a> CardPort<'a> {
-    /// Bind `session` to `card`.
-    pub fn new(card: &'a Mutex<Card>, session: &'a mut Session) -> Self {
-        CardPort { card, session }
+impl CardPort {
+    /// A new connection to `card`.
+    pub(crate) fn new(card: CardHandle) -> Self {
+        let conn = card.new_conn();
+        CardPort {
+            card,
+            conn,
+            echo: false,
+        }
     }
 
-    fn lock(&self) -> MutexGuard<'a, Card> {
-        // A panic elsewhere while holding the lock must not take every port down with it.
-        self.card.lock().unwrap_or_else(|e| e.into_inner())
+    /// Full-duplex echo (CTRL-T) as of the last reply.
+    pub(crate) fn echo(&self) -> bool {
+        self.echo
+    }
+
+    /// The card.
+    pub(crate) fn card(&self) -> &CardHandle {
+        &self.card
+    }
+
+    fn ask(&mut self, req: HostRequest) -> Vec<u8> {
+        let r = self.card.host(self.conn, req);
+        self.echo = r.echo;
+        r.bytes
+    }
+
+    /// The connection closed: the card releases a buffer it left open.
+    pub(crate) fn end(&mut self) {
+        let _ = self.ask(HostRequest::End);
     }
 }
 
-impl Interpreter for CardPort<'_> {
+impl Interpreter for CardPort {
     fn line(&mut self, line: &[u8]) -> Vec<u8> {
-        let mut card = self.lock();
-        card.command_line(self.session, line)
+        self.ask(HostRequest::Line(line.to_vec()))
     }
 
     fn control(&mut self, c: u8) -> Vec<u8> {
-        let mut card = self.lock();
-        card.control_char(self.session, c)
+        self.ask(HostRequest::Control(c))
     }
 
     fn overlong(&mut self) -> Vec<u8> {
-        let mut card = self.lock();
-        card.command_line(self.session, &overlong_probe())
+        self.ask(HostRequest::Line(overlong_probe()))
     }
 }
 
 /// Apply terminal events to the interpreter, appending replies to `out` in order.
-pub fn run_events<I: Interpreter + ?Sized>(
+pub(crate) fn run_events<I: Interpreter + ?Sized>(
     events: Vec<AsciiEvent>,
     interp: &mut I,
     out: &mut Vec<u8>,
@@ -74,7 +88,11 @@ pub fn run_events<I: Interpreter + ?Sized>(
 
 /// Apply one terminal event. [`AsciiEvent::Cancel`] drops whatever in `out` has not been sent
 /// yet (callers send `out` only after this returns), then passes `<CTRL-X>` to the interpreter.
-pub fn run_event<I: Interpreter + ?Sized>(ev: AsciiEvent, interp: &mut I, out: &mut Vec<u8>) {
+pub(crate) fn run_event<I: Interpreter + ?Sized>(
+    ev: AsciiEvent,
+    interp: &mut I,
+    out: &mut Vec<u8>,
+) {
     match ev {
         AsciiEvent::Line(l) => out.extend_from_slice(&interp.line(&l)),
         AsciiEvent::Control(c) => out.extend_from_slice(&interp.control(c)),
@@ -92,7 +110,7 @@ pub fn run_event<I: Interpreter + ?Sized>(ev: AsciiEvent, interp: &mut I, out: &
 /// (empty for `<CTRL-K>`), and records everything it executed.
 #[cfg(test)]
 #[derive(Debug, Default)]
-pub struct EchoInterp {
+pub(crate) struct EchoInterp {
     /// Everything executed, in order: lines as text, control characters as `^XX` (hex).
     pub log: Vec<String>,
 }
@@ -132,7 +150,7 @@ impl Interpreter for EchoInterp {
 
 #[cfg(test)]
 /// `n` bytes (n ≥ 2) shaped like a PMAC data reply: lines `0123456789\r` ending in `\x06`.
-pub fn big_reply(n: usize) -> Vec<u8> {
+pub(crate) fn big_reply(n: usize) -> Vec<u8> {
     let mut r: Vec<u8> = (0..n.saturating_sub(1))
         .map(|i| {
             if i % 11 == 10 {
@@ -178,11 +196,18 @@ mod tests {
 
     #[test]
     fn card_port_uses_the_card() {
-        let card = Mutex::new(Card::new(crate::interp::Profile::Pmac2));
-        let mut s = Session::default();
-        let mut p = CardPort::new(&card, &mut s);
+        let core = crate::core::CardCore::new(crate::lang::interp::Card::new(
+            crate::domain::Profile::Pmac2,
+        ));
+        let (mut runner, handle) = crate::service::handle::channel(core, None);
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let st = std::sync::Arc::clone(&stop);
+        let t = std::thread::spawn(move || runner.run_until(&st));
+        let mut p = CardPort::new(handle);
         // An over-long line is the card's ERR003 (default I6=3 prints the code).
         let bad = p.overlong();
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        t.join().unwrap();
         assert!(bad.windows(6).any(|w| w == b"ERR003"), "{bad:?}");
         assert_eq!(bad.first(), Some(&0x07));
     }

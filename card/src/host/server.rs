@@ -1,11 +1,12 @@
 //! TCP servers for a card's host ports (tokio): the ASCII terminal port and the PMAC Ethernet
-//! protocol port. Every connection has its own [`Session`] (addressed motor / C.S.) and shares
-//! the card; TCP_NODELAY is set; a connection that stalls or sends garbage is closed on its own
+//! protocol port. Every connection has its own session on the card (addressed motor / C.S.)
+//! and reaches it through the card's channel ([`CardHandle`]): a request waits for the servo
+//! thread, which serves it between ticks; TCP_NODELAY is set; a connection that stalls or sends garbage is closed on its own
 //! without affecting the others (bounded buffers, I/O timeouts, a connection limit per port).
 
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -16,11 +17,11 @@ use tokio::task::JoinHandle;
 use super::ascii::AsciiCodec;
 use super::eth_codec::{EthAction, EthConn};
 use super::port::{run_event, CardPort};
-use crate::interp::{Card, Session};
+use crate::service::handle::CardHandle;
 
 /// Where and how the host ports listen.
 #[derive(Debug, Clone)]
-pub struct PortsConfig {
+pub(crate) struct PortsConfig {
     /// Address both ports bind (default 127.0.0.1).
     pub bind: IpAddr,
     /// ASCII terminal port (0 = ephemeral).
@@ -47,7 +48,7 @@ impl Default for PortsConfig {
 
 /// The listening ports; [`BoundPorts::shutdown`] stops them (dropping this does not).
 #[derive(Debug)]
-pub struct BoundPorts {
+pub(crate) struct BoundPorts {
     /// ASCII terminal port address.
     pub ascii: SocketAddr,
     /// PMAC Ethernet protocol port address.
@@ -58,7 +59,7 @@ pub struct BoundPorts {
 
 impl BoundPorts {
     /// Stop accepting, close every connection of these ports and wait for the listeners to end.
-    pub async fn shutdown(self) {
+    pub(crate) async fn shutdown(self) {
         let _ = self.stop.send(true);
         for t in self.tasks {
             let _ = t.await;
@@ -76,7 +77,7 @@ enum Kind {
 }
 
 /// Bind both ports and serve them on the current tokio runtime.
-pub async fn serve(card: Arc<Mutex<Card>>, cfg: PortsConfig) -> io::Result<BoundPorts> {
+pub(crate) async fn serve(card: CardHandle, cfg: PortsConfig) -> io::Result<BoundPorts> {
     let ascii = TcpListener::bind((cfg.bind, cfg.ascii_port)).await?;
     let eth = TcpListener::bind((cfg.bind, cfg.eth_port)).await?;
     let (stop, stop_rx) = watch::channel(false);
@@ -103,7 +104,7 @@ pub async fn serve(card: Arc<Mutex<Card>>, cfg: PortsConfig) -> io::Result<Bound
 async fn accept_loop(
     listener: TcpListener,
     kind: Kind,
-    card: Arc<Mutex<Card>>,
+    card: CardHandle,
     cfg: PortsConfig,
     mut stop: watch::Receiver<bool>,
 ) {
@@ -130,13 +131,13 @@ async fn accept_loop(
         let _ = stream.set_nodelay(true);
         let (card, cfg, stop) = (card.clone(), cfg.clone(), stop.clone());
         tokio::spawn(async move {
-            let mut session = Session::default();
+            let mut port = CardPort::new(card);
             let r = match kind {
-                Kind::Ascii => ascii_conn(stream, &card, &mut session, &cfg, stop).await,
-                Kind::Eth => eth_conn(stream, &card, &mut session, &cfg, stop).await,
+                Kind::Ascii => ascii_conn(stream, &mut port, &cfg, stop).await,
+                Kind::Eth => eth_conn(stream, &mut port, &cfg, stop).await,
             };
             // A buffer this connection left open is closed (other hosts can open one).
-            lock(&card).end_session(&session);
+            tokio::task::block_in_place(|| port.end());
             if let Err(e) = r {
                 tracing::debug!("{kind:?} connection {peer} closed: {e}");
             }
@@ -155,24 +156,19 @@ async fn write_reply(stream: &mut TcpStream, bytes: &[u8], cfg: &PortsConfig) ->
     }
 }
 
-fn lock(card: &Mutex<Card>) -> std::sync::MutexGuard<'_, Card> {
-    card.lock().unwrap_or_else(|e| e.into_inner())
-}
-
 /// How often a terminal connection looks for unsolicited output.
 const UNSOLICITED_POLL: Duration = Duration::from_millis(10);
 
 async fn ascii_conn(
     mut stream: TcpStream,
-    card: &Mutex<Card>,
-    session: &mut Session,
+    port: &mut CardPort,
     cfg: &PortsConfig,
     mut stop: watch::Receiver<bool>,
 ) -> io::Result<()> {
     let mut codec = AsciiCodec::new();
     let mut buf = vec![0u8; 4096];
     // Unsolicited output (program SEND / CMD replies) is written as it appears.
-    let mut seen = lock(card).unsolicited.position();
+    let mut seen = port.card().unsolicited_position();
     let mut poll = tokio::time::interval(UNSOLICITED_POLL);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
@@ -180,7 +176,7 @@ async fn ascii_conn(
             r = stream.read(&mut buf) => r?,
             _ = stop.changed() => return Ok(()),
             _ = poll.tick() => {
-                let (out, pos) = lock(card).unsolicited.since(seen);
+                let (out, pos) = port.card().unsolicited_since(seen);
                 seen = pos;
                 if !out.is_empty() {
                     write_reply(&mut stream, &out, cfg).await?;
@@ -191,11 +187,12 @@ async fn ascii_conn(
         if n == 0 {
             return Ok(());
         }
-        codec.set_echo(lock(card).echo());
+        codec.set_echo(port.echo());
         let events = codec.feed(buf.get(..n).unwrap_or_default());
         let mut out = Vec::new();
         for ev in events {
-            run_event(ev, &mut CardPort::new(card, session), &mut out);
+            // The card answers from its servo thread: wait without holding up other tasks.
+            tokio::task::block_in_place(|| run_event(ev, port, &mut out));
             // Bounded memory when a host pipelines many long replies without reading them.
             if out.len() >= ASCII_FLUSH_AT {
                 write_reply(&mut stream, &out, cfg).await?;
@@ -210,8 +207,7 @@ async fn ascii_conn(
 
 async fn eth_conn(
     mut stream: TcpStream,
-    card: &Mutex<Card>,
-    session: &mut Session,
+    port: &mut CardPort,
     cfg: &PortsConfig,
     mut stop: watch::Receiver<bool>,
 ) -> io::Result<()> {
@@ -235,10 +231,8 @@ async fn eth_conn(
         if n == 0 {
             return Ok(());
         }
-        let actions = conn.feed(
-            buf.get(..n).unwrap_or_default(),
-            &mut CardPort::new(card, session),
-        );
+        let actions =
+            tokio::task::block_in_place(|| conn.feed(buf.get(..n).unwrap_or_default(), port));
         for a in actions {
             match a {
                 EthAction::Send(packet) => write_reply(&mut stream, &packet, cfg).await?,
@@ -254,5 +248,5 @@ async fn eth_conn(
 }
 
 #[cfg(test)]
-#[path = "server_tests.rs"]
+#[path = "tests_server.rs"]
 mod tests;

@@ -1,69 +1,72 @@
 //! The card's zenoh command queryable `mcc/<cluster>/card/<n>/cmd` (used by the orchestrator's
 //! `mcc send`): the query payload is terminal input (one command line; an implicit `<CR>` ends
 //! it, control characters act at once), the reply payload is the card's framed reply bytes.
-//! All queries share one [`Session`], like one terminal: `#2` in one query addresses motor 2 for
-//! the next.
-
-use std::sync::{Arc, Mutex};
+//! All queries share one session on the card, like one terminal: `#2` in one query addresses
+//! motor 2 for the next.
 
 use zenoh::Wait;
 
 use super::ascii::AsciiCodec;
 use super::port::{run_events, CardPort};
-use crate::interp::{Card, Session};
+use crate::service::handle::CardHandle;
 
 /// `mcc/<cluster>/card/<n>/cmd` (architecture §4).
-pub fn cmd_key(cluster: &str, n: u32) -> String {
+pub(crate) fn cmd_key(cluster: &str, n: u32) -> String {
     mcc_ring::control::card_cmd_key(cluster, n)
 }
 
-/// Run one query payload against the card (pure apart from the card lock; shared with tests).
-pub fn execute_payload(
-    card: &Mutex<Card>,
-    session: &mut Session,
+/// Run one query payload against the card (blocks until the card answers).
+pub(crate) fn execute_payload(
+    port: &mut CardPort,
     codec: &mut AsciiCodec,
     payload: &[u8],
 ) -> Vec<u8> {
     let mut events = codec.feed(payload);
     codec.finish_line(&mut events);
     let mut out = Vec::new();
-    run_events(events, &mut CardPort::new(card, session), &mut out);
+    run_events(events, port, &mut out);
     out
 }
 
 /// Declare the queryable for card `n` of `cluster`. Keep the returned value alive: dropping it
 /// undeclares the queryable.
-pub async fn declare_cmd_queryable(
+pub(crate) async fn declare_cmd_queryable(
     zsession: &zenoh::Session,
     cluster: &str,
     n: u32,
-    card: Arc<Mutex<Card>>,
+    card: CardHandle,
 ) -> zenoh::Result<zenoh::query::Queryable<()>> {
     let key = cmd_key(cluster, n);
-    let state = Mutex::new((Session::default(), AsciiCodec::new()));
-    zsession
-        .declare_queryable(key)
-        .callback(move |query| {
-            let payload = query
-                .payload()
-                .map(|p| p.to_bytes().into_owned())
-                .unwrap_or_default();
-            let reply = {
-                let mut st = state.lock().unwrap_or_else(|e| e.into_inner());
-                let (session, codec) = &mut *st;
-                execute_payload(&card, session, codec, &payload)
-            };
-            if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
-                tracing::warn!("card cmd reply failed: {e}");
-            }
-        })
-        .await
+    let mut state = (CardPort::new(card), AsciiCodec::new());
+    let worker = crate::service::handle::query_worker("cmd", move |query| {
+        let payload = query
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        let (port, codec) = &mut state;
+        let reply = execute_payload(port, codec, &payload);
+        if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
+            tracing::warn!("card cmd reply failed: {e}");
+        }
+    });
+    zsession.declare_queryable(key).callback(worker).await
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interp::Profile;
+    use crate::core::CardCore;
+    use crate::lang::interp::{Card, Profile, Session};
+    use crate::service::handle::channel;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    fn card_thread() -> (CardHandle, Arc<AtomicBool>, std::thread::JoinHandle<()>) {
+        let (mut runner, h) = channel(CardCore::new(Card::new(Profile::Pmac2)), None);
+        let stop = Arc::new(AtomicBool::new(false));
+        let st = Arc::clone(&stop);
+        (h, stop, std::thread::spawn(move || runner.run_until(&st)))
+    }
 
     #[test]
     fn key_format() {
@@ -72,14 +75,16 @@ mod tests {
 
     #[test]
     fn payload_runs_as_one_line_with_implicit_cr() {
-        let card = Mutex::new(Card::new(Profile::Pmac2));
-        let mut s = Session::default();
+        let (h, stop, t) = card_thread();
+        let mut p = CardPort::new(h);
         let mut c = AsciiCodec::new();
         let want = Card::new(Profile::Pmac2).command_line(&mut Session::default(), b"UUU");
-        assert_eq!(execute_payload(&card, &mut s, &mut c, b"UUU"), want);
+        assert_eq!(execute_payload(&mut p, &mut c, b"UUU"), want);
         // An explicit CR (or CR LF) does not add a second, empty command.
-        assert_eq!(execute_payload(&card, &mut s, &mut c, b"UUU\r\n"), want);
+        assert_eq!(execute_payload(&mut p, &mut c, b"UUU\r\n"), want);
         assert!(c.partial().is_empty());
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap();
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -94,10 +99,8 @@ mod tests {
             cfg.insert_json5(k, v).unwrap();
         }
         let z = zenoh::open(cfg).await.unwrap();
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-        let _q = declare_cmd_queryable(&z, "hosttest", 7, card)
-            .await
-            .unwrap();
+        let (h, stop, t) = card_thread();
+        let _q = declare_cmd_queryable(&z, "hosttest", 7, h).await.unwrap();
         let want = Card::new(Profile::Pmac2).command_line(&mut Session::default(), b"UUU");
         let replies = z.get(cmd_key("hosttest", 7)).payload("UUU").await.unwrap();
         let r = tokio::time::timeout(std::time::Duration::from_secs(10), replies.recv_async())
@@ -112,5 +115,7 @@ mod tests {
             .into_owned();
         assert_eq!(got, want);
         z.close().await.unwrap();
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap();
     }
 }

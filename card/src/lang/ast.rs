@@ -1,460 +1,17 @@
-//! Abstract syntax of the PMAC command language (pmac-commands.md §1, §3, §5, §6).
-//!
-//! Two families of nodes: [`Command`] (on-line commands, executed immediately) and [`Stmt`]
-//! (motion-program / PLC statements, stored in buffers). Every node carries the byte position
-//! ([`Pos`]) where it started in its source line. `Pos` compares equal to every other `Pos`, so
-//! `==` on AST values is *structural* (a re-parsed listing equals the original statement); read
-//! `.pos.0` when the position itself matters.
-//!
-//! This file is a contract with STATE and INTERP: changes are additive only.
+//! On-line command syntax of the PMAC dialect (pmac-commands.md §3): [`Command`] and [`Item`].
+//! The statement and expression forms stored in programs are the card's domain types
+//! ([`crate::domain::ast`]), re-exported here so the parsers name one module.
 
 use serde::{Deserialize, Serialize};
 
-/// Byte offset of a node in its source line. Always compares equal (see module docs).
-#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
-pub struct Pos(pub u32);
-
-impl PartialEq for Pos {
-    fn eq(&self, _other: &Pos) -> bool {
-        true
-    }
-}
-
-/// A literal number as written: decimal or `$`hex (hex is kept so listings reproduce it).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Number {
-    /// The value (a leading `-` is folded in).
-    pub value: f64,
-    /// Written as `$hex`.
-    pub hex: bool,
-}
-
-impl Number {
-    /// A decimal literal.
-    pub fn dec(value: f64) -> Number {
-        Number { value, hex: false }
-    }
-}
+pub(crate) use crate::domain::ast::*;
 
 // ---------------------------------------------------------------------------------------------
-// Variables
-
-/// Variable family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum VarKind {
-    /// I-variable (setup).
-    I,
-    /// P-variable (global user float).
-    P,
-    /// Q-variable (per coordinate system).
-    Q,
-    /// M-variable (pointer).
-    M,
-}
-
-/// Index of a single variable: a constant number or a computed `P(expr)` index.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum VarIndex {
-    /// `P12`.
-    Const(u32),
-    /// `P(P1+2)`: evaluated, then rounded to the nearest integer.
-    Expr(Box<Expr>),
-}
-
-/// One variable as used in an expression or as an assignment target.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VarRef {
-    /// Family.
-    pub kind: VarKind,
-    /// Number.
-    pub index: VarIndex,
-    /// Position of the family letter.
-    pub pos: Pos,
-}
-
-/// Which variables an on-line command addresses.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum VarSel {
-    /// `P5`, or a computed `P(expr)`.
-    One(VarIndex),
-    /// `P1..10` (last ≥ first, checked by the parser).
-    Range {
-        /// First number.
-        first: u32,
-        /// Last number (inclusive).
-        last: u32,
-    },
-    /// `I130,8,100`: `count` variables starting at `first`, `step` apart (step default 1).
-    Strided {
-        /// First number.
-        first: u32,
-        /// How many (≥ 1).
-        count: u32,
-        /// Distance between numbers (≥ 1).
-        step: u32,
-    },
-}
-
-/// A selection of variables of one family (on-line query / assignment / `=*` / `->`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VarList {
-    /// Family.
-    pub kind: VarKind,
-    /// Selection.
-    pub sel: VarSel,
-    /// Position of the family letter.
-    pub pos: Pos,
-}
-
-impl VarList {
-    /// The constant variable numbers selected, in order (`None` for a computed index).
-    pub fn constant_indices(&self) -> Option<Vec<u32>> {
-        match &self.sel {
-            VarSel::One(VarIndex::Const(n)) => Some(vec![*n]),
-            VarSel::One(VarIndex::Expr(_)) => None,
-            VarSel::Range { first, last } => Some((*first..=*last).collect()),
-            VarSel::Strided { first, count, step } => Some(
-                (0..*count)
-                    .map(|k| first.saturating_add(k.saturating_mul(*step)))
-                    .collect(),
-            ),
-        }
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// M-variable definitions
-
-/// Memory space of an X/Y bit-field definition.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum XySpace {
-    /// X memory.
-    X,
-    /// Y memory.
-    Y,
-}
-
-/// Format letter of a multi-bit field or thumbwheel definition.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MFormat {
-    /// Unsigned (default).
-    U,
-    /// Signed two's complement.
-    S,
-    /// BCD.
-    D,
-    /// Complemented BCD.
-    C,
-}
-
-/// An M-variable pointer definition (`M{n}->...`), pmac-commands.md §3.2.3.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MDef {
-    /// `->*`: self-referenced; the value lives in the definition word.
-    SelfRef,
-    /// `X:`/`Y:{addr},{offset}[,{width}[,{format}]]`. Offset 24 in the source is normalised to
-    /// offset 0, width 24. Width 1 always has format U.
-    Bits {
-        /// X or Y.
-        space: XySpace,
-        /// Address 0..=$FFFF.
-        addr: u16,
-        /// Lowest bit, 0..=23.
-        offset: u8,
-        /// 1, 4, 8, 12, 16, 20 or 24.
-        width: u8,
-        /// U/S/D/C.
-        format: MFormat,
-    },
-    /// `D:{addr}`: 48-bit signed fixed point, X high.
-    D(u16),
-    /// `L:{addr}`: 48-bit PMAC floating point.
-    L(u16),
-    /// `F:{addr}`: 32-bit IEEE float in DPRAM layout.
-    F(u16),
-    /// `DP:{addr}`: 32-bit signed integer in DPRAM layout.
-    Dp(u16),
-    /// `TWB:{mux},{offset},{size}[,{U|S}]`.
-    Twb {
-        /// Multiplexer address 0..=255.
-        mux: u8,
-        /// Bit offset 0..=7.
-        offset: u8,
-        /// Bits 1..=32.
-        size: u8,
-        /// U or S.
-        format: MFormat,
-    },
-    /// `TWD:{mux},{offset},{digits}[.{dp}][,{U|S}]`.
-    Twd {
-        /// Multiplexer address 0..=255.
-        mux: u8,
-        /// 0 or 4.
-        offset: u8,
-        /// BCD digits 1..=12.
-        digits: u8,
-        /// Decimal places 0..=8.
-        decimals: u8,
-        /// U or S.
-        format: MFormat,
-    },
-    /// `TWR:{mux},{offset}`.
-    Twr {
-        /// Multiplexer address (even).
-        mux: u8,
-        /// 0..=7.
-        offset: u8,
-    },
-    /// `TWS:{mux}`.
-    Tws {
-        /// Multiplexer address 0..=127.
-        mux: u8,
-    },
-}
-
-impl MDef {
-    /// Thumbwheel forms (no synchronous assignment allowed).
-    pub fn is_thumbwheel(&self) -> bool {
-        matches!(
-            self,
-            MDef::Twb { .. } | MDef::Twd { .. } | MDef::Twr { .. } | MDef::Tws { .. }
-        )
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Expressions and conditions
-
-/// Binary operators (pmac-commands.md §5.6). High level: `*` `/` `%` `&`; low: `+` `-` `|` `^`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BinOp {
-    /// `*`
-    Mul,
-    /// `/`
-    Div,
-    /// `%`
-    Mod,
-    /// `&` (bitwise)
-    And,
-    /// `+`
-    Add,
-    /// `-`
-    Sub,
-    /// `|` (bitwise)
-    Or,
-    /// `^` (bitwise)
-    Xor,
-}
-
-impl BinOp {
-    /// 2 for the high level, 1 for the low level.
-    pub fn precedence(self) -> u8 {
-        match self {
-            BinOp::Mul | BinOp::Div | BinOp::Mod | BinOp::And => 2,
-            BinOp::Add | BinOp::Sub | BinOp::Or | BinOp::Xor => 1,
-        }
-    }
-}
-
-/// Built-in functions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Func {
-    /// `SIN`
-    Sin,
-    /// `COS`
-    Cos,
-    /// `TAN`
-    Tan,
-    /// `ASIN`
-    Asin,
-    /// `ACOS`
-    Acos,
-    /// `ATAN`
-    Atan,
-    /// `ATAN2` (cosine part from Q0 of the C.S.)
-    Atan2,
-    /// `LN`
-    Ln,
-    /// `EXP`
-    Exp,
-    /// `SQRT`
-    Sqrt,
-    /// `ABS`
-    Abs,
-    /// `INT`
-    Int,
-}
-
-/// Expression node kinds.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum ExprKind {
-    /// Literal (a unary minus on a literal is folded into it).
-    Num(Number),
-    /// Variable value.
-    Var(VarRef),
-    /// Unary minus of a non-literal.
-    Neg(Box<Expr>),
-    /// Binary operation.
-    Bin(BinOp, Box<Expr>, Box<Expr>),
-    /// Function call.
-    Call(Func, Box<Expr>),
-}
-
-/// An expression with its position.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Expr {
-    /// What it is.
-    pub kind: ExprKind,
-    /// Where it starts.
-    pub pos: Pos,
-}
-
-impl Expr {
-    /// A decimal literal expression (position 0).
-    pub fn num(v: f64) -> Expr {
-        Expr {
-            kind: ExprKind::Num(Number::dec(v)),
-            pos: Pos(0),
-        }
-    }
-}
-
-/// Comparators.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum CmpOp {
-    /// `=`
-    Eq,
-    /// `!=`
-    Ne,
-    /// `>`
-    Gt,
-    /// `!>`
-    NotGt,
-    /// `<`
-    Lt,
-    /// `!<`
-    NotLt,
-    /// `~` (approximately equal, |a−b| ≤ 1, project decision)
-    Approx,
-    /// `!~`
-    NotApprox,
-}
-
-/// A condition (inside the parentheses of IF/WHILE/AND/OR). AND binds tighter than OR.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Cond {
-    /// `lhs op rhs`.
-    Cmp {
-        /// Left side.
-        lhs: Expr,
-        /// Comparator.
-        op: CmpOp,
-        /// Right side.
-        rhs: Expr,
-    },
-    /// Both.
-    And(Box<Cond>, Box<Cond>),
-    /// Either.
-    Or(Box<Cond>, Box<Cond>),
-}
-
-// ---------------------------------------------------------------------------------------------
-// Shared small types
-
-/// Axis letters and the circle-centre / radius letters of a move line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Axis {
-    /// X
-    X,
-    /// Y
-    Y,
-    /// Z
-    Z,
-    /// A
-    A,
-    /// B
-    B,
-    /// C
-    C,
-    /// U
-    U,
-    /// V
-    V,
-    /// W
-    W,
-    /// Circle centre X component.
-    I,
-    /// Circle centre Y component.
-    J,
-    /// Circle centre Z component.
-    K,
-    /// Circle radius (and in `ABS(R)`/`INC(R)`: the centre-vector mode).
-    R,
-}
-
-impl Axis {
-    /// One of the nine motion axes X Y Z A B C U V W.
-    pub fn is_motion_axis(self) -> bool {
-        !matches!(self, Axis::I | Axis::J | Axis::K | Axis::R)
-    }
-    /// The upper-case letter.
-    pub fn letter(self) -> char {
-        match self {
-            Axis::X => 'X',
-            Axis::Y => 'Y',
-            Axis::Z => 'Z',
-            Axis::A => 'A',
-            Axis::B => 'B',
-            Axis::C => 'C',
-            Axis::U => 'U',
-            Axis::V => 'V',
-            Axis::W => 'W',
-            Axis::I => 'I',
-            Axis::J => 'J',
-            Axis::K => 'K',
-            Axis::R => 'R',
-        }
-    }
-    /// From an upper- or lower-case letter.
-    pub fn from_letter(c: u8) -> Option<Axis> {
-        Some(match c.to_ascii_uppercase() {
-            b'X' => Axis::X,
-            b'Y' => Axis::Y,
-            b'Z' => Axis::Z,
-            b'A' => Axis::A,
-            b'B' => Axis::B,
-            b'C' => Axis::C,
-            b'U' => Axis::U,
-            b'V' => Axis::V,
-            b'W' => Axis::W,
-            b'I' => Axis::I,
-            b'J' => Axis::J,
-            b'K' => Axis::K,
-            b'R' => Axis::R,
-            _ => return None,
-        })
-    }
-}
-
-/// A number list item: `5` or `1..3` (PLC lists, HOME lists, SETPHASE lists).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct NumRange {
-    /// First.
-    pub first: u32,
-    /// Last (inclusive, = first for a single number).
-    pub last: u32,
-}
-
-impl NumRange {
-    /// All numbers of a list, in order.
-    pub fn expand(list: &[NumRange]) -> Vec<u32> {
-        list.iter().flat_map(|r| r.first..=r.last).collect()
-    }
-}
+// Buffers, listings and definitions
 
 /// Which program kind a buffer holds (what statements are legal in it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BufferKind {
+pub(crate) enum BufferKind {
     /// A fixed motion program `PROG n`.
     Prog,
     /// The rotary buffers.
@@ -465,7 +22,7 @@ pub enum BufferKind {
 
 /// `OPEN` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum OpenTarget {
+pub(crate) enum OpenTarget {
     /// `OPEN PROG n`.
     Prog(u32),
     /// `OPEN PLC n`.
@@ -478,7 +35,7 @@ pub enum OpenTarget {
 
 /// `[,[start][,[len]]]` of LIST commands. `offsets` = a comma was given (prefix `{offset}:`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub struct ListSpan {
+pub(crate) struct ListSpan {
     /// A first comma was present.
     pub offsets: bool,
     /// Start offset (words), if given.
@@ -489,7 +46,7 @@ pub struct ListSpan {
 
 /// `LIST` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ListTarget {
+pub(crate) enum ListTarget {
     /// `LIST`: the open buffer.
     Open,
     /// `LIST PROG n[,...]`.
@@ -516,7 +73,7 @@ pub enum ListTarget {
 
 /// A motor of a `DEFINE COMP` source/target list: `#n` with optional `D` (desired position).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct CompMotor {
+pub(crate) struct CompMotor {
     /// Motor number.
     pub motor: u32,
     /// `D` suffix.
@@ -525,7 +82,7 @@ pub struct CompMotor {
 
 /// `DEFINE` targets.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum DefineTarget {
+pub(crate) enum DefineTarget {
     /// `DEFINE ROT n`.
     Rotary(u32),
     /// `DEFINE GATHER [n]`.
@@ -555,7 +112,7 @@ pub enum DefineTarget {
 
 /// `DELETE` targets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum DeleteTarget {
+pub(crate) enum DeleteTarget {
     /// `DELETE ROT`.
     Rotary,
     /// `DELETE GATHER`.
@@ -575,57 +132,9 @@ pub enum DeleteTarget {
     /// `DELETE TRACE` (obsolete no-op).
     Trace,
 }
-
-/// One term of a motor axis definition: `[scale]axis`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct AxisTerm {
-    /// Counts per user unit.
-    pub scale: f64,
-    /// Axis letter (motion axes only).
-    pub axis: Axis,
-}
-
-/// `#n->{def}` right-hand side.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AxisDef {
-    /// 1..=3 terms (one triple XYZ or UVW when more than one).
-    pub terms: Vec<AxisTerm>,
-    /// Offset in counts.
-    pub offset: f64,
-}
-
-/// Jog commands `J...` (pmac-commands.md §3.4.2).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum JogKind {
-    /// `J+`
-    Plus,
-    /// `J-`
-    Minus,
-    /// `J/`
-    Stop,
-    /// `J!`
-    Round,
-    /// `J=`: back to the pre-jog position.
-    PreJog,
-    /// `J={v}`
-    To(f64),
-    /// `J=={v}`
-    ToAndSetPreJog(f64),
-    /// `J:{v}` relative to commanded.
-    RelCommanded(f64),
-    /// `J^{v}` relative to actual.
-    RelActual(f64),
-    /// `J=*`
-    VarTo,
-    /// `J:*`
-    VarRelCommanded,
-    /// `J^*`
-    VarRelActual,
-}
-
 /// Memory space of the register access commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MemSpace {
+pub(crate) enum MemSpace {
     /// X
     X,
     /// Y
@@ -634,18 +143,9 @@ pub enum MemSpace {
     L,
 }
 
-/// A MACRO station variable: `MI{n}` (also plain `I{n}` as DLS clients send) or `C{n}`/`MC{n}`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum SlaveVar {
-    /// `MI{n}`
-    Mi(u32),
-    /// `MC{n}` / `C{n}`
-    Mc(u32),
-}
-
 /// `MS{cmd}{node}` station commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum SlaveCmd {
+pub(crate) enum SlaveCmd {
     /// `MS$$$n`
     Reset,
     /// `MS$$$***n`
@@ -662,41 +162,12 @@ pub enum SlaveCmd {
     Version,
 }
 
-/// PLC control verbs (on-line and in programs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum PlcVerb {
-    /// `ENABLE PLC`
-    Enable,
-    /// `DISABLE PLC`
-    Disable,
-    /// `PAUSE PLC`
-    Pause,
-    /// `RESUME PLC`
-    Resume,
-    /// `ENABLE PLCC`
-    EnableCompiled,
-    /// `DISABLE PLCC`
-    DisableCompiled,
-}
-
-/// A PLC control statement / command: verb + list.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct PlcControl {
-    /// What to do.
-    pub verb: PlcVerb,
-    /// Which PLCs (0..=31).
-    pub list: Vec<NumRange>,
-}
-
-/// Register-address operand of the MACRO copy commands (`MXR`, `MSW` ...): a PMAC variable.
-pub type MacroVar = VarRef;
-
 // ---------------------------------------------------------------------------------------------
 // On-line commands
 
 /// An on-line command with its position.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Command {
+pub(crate) struct Command {
     /// What it is.
     pub kind: CmdKind,
     /// Where it starts in the line.
@@ -705,7 +176,7 @@ pub struct Command {
 
 /// On-line command kinds (pmac-commands.md §3). Control characters are not lexed from lines.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum CmdKind {
+pub(crate) enum CmdKind {
     // --- addressing (§3.0, §8)
     /// `#n`
     AddrMotor(u32),
@@ -966,313 +437,9 @@ pub enum CmdKind {
     },
 }
 
-// ---------------------------------------------------------------------------------------------
-// Program / PLC statements
-
-/// A program or PLC statement with its position.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Stmt {
-    /// What it is.
-    pub kind: StmtKind,
-    /// Where it starts in its source line.
-    pub pos: Pos,
-}
-
-/// Assignment operators.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum AssignOp {
-    /// `=` (at processing time)
-    Set,
-    /// `==` (M only, at next move start)
-    SyncSet,
-    /// `&=` (M only)
-    SyncAnd,
-    /// `|=` (M only)
-    SyncOr,
-    /// `^=` (M only)
-    SyncXor,
-}
-
-/// Extra part of an axis word: `:vel` (PVT) or `^dist` (move until trigger).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum AxisExtra {
-    /// `X10:20` PVT end velocity.
-    Velocity(Expr),
-    /// `X10^5` distance past the trigger.
-    Trigger(Expr),
-}
-
-/// One word of a move line: `X10`, `Y(P1)`, `I5`, `R2`, `X10:3`, `X10^-5`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AxisWord {
-    /// Letter.
-    pub axis: Axis,
-    /// `{data}`: a literal or a parenthesised expression.
-    pub value: Expr,
-    /// PVT velocity / trigger distance.
-    pub extra: Option<AxisExtra>,
-}
-
-/// Move modes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MoveMode {
-    /// `LINEAR`
-    Linear,
-    /// `RAPID`
-    Rapid,
-    /// `CIRCLE1`
-    Circle1,
-    /// `CIRCLE2`
-    Circle2,
-    /// `SPLINE1`
-    Spline1,
-    /// `SPLINE2`
-    Spline2,
-}
-
-/// Letter codes that call subroutine programs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum CodeLetter {
-    /// G-code → PROG 10n0
-    G,
-    /// M-code → PROG 10n1
-    M,
-    /// T-code → PROG 10n2
-    T,
-    /// D-code → PROG 10n3
-    D,
-}
-
-/// A `{letter}{data}` argument after CALL / G / M / T / D (for READ).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LetterArg {
-    /// Upper-case letter A..Z (not N, O).
-    pub letter: u8,
-    /// Value.
-    pub value: Expr,
-}
-
-/// What `PRELUDE1` calls.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum PreludeCall {
-    /// `CALL{const}`
-    Call(Number),
-    /// `G/M/T/D{const}`
-    Code(CodeLetter, Number),
-}
-
-/// `SEND` channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum SendPort {
-    /// `SEND`
-    Any,
-    /// `SENDS` (serial)
-    Serial,
-    /// `SENDP` (bus)
-    Bus,
-}
-
-/// Text or control character of CMD/SEND.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Message {
-    /// `"text"` (bytes as typed, case kept).
-    Text(Vec<u8>),
-    /// `^X`: the control character (letter − 64), stored as the letter byte (`b'A'` = CTRL-A).
-    Ctrl(u8),
-}
-
-/// `DISPLAY` forms.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Display {
-    /// `DISPLAY [{pos}] "{text}"`
-    Text {
-        /// LCD position.
-        pos: Option<u32>,
-        /// Text.
-        text: Vec<u8>,
-    },
-    /// `DISPLAY {pos},{width}.{decimals},{variable}`
-    Var {
-        /// LCD position.
-        pos: u32,
-        /// Field width.
-        width: u32,
-        /// Decimals.
-        decimals: u32,
-        /// Variable.
-        var: VarRef,
-    },
-}
-
-/// Statement kinds (pmac-commands.md §5, §6).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum StmtKind {
-    /// `N{n}` / `O{n}` label (O is stored as N).
-    Label(u32),
-    /// `P1=...`, `M1==...`, `M1&=...`
-    Assign {
-        /// Target variable.
-        target: VarRef,
-        /// Operator.
-        op: AssignOp,
-        /// Value.
-        value: Expr,
-    },
-    /// Consecutive axis / centre words of one move: `X10 Y20 I5`.
-    Move(Vec<AxisWord>),
-    /// `LINEAR`, `RAPID`, `CIRCLE1` ...
-    Mode(MoveMode),
-    /// `PVT{data}`
-    Pvt(Expr),
-    /// `ABS[(...)]`
-    Abs(Option<Vec<Axis>>),
-    /// `INC[(...)]`
-    Inc(Option<Vec<Axis>>),
-    /// `FRAX[(...)]`
-    Frax(Option<Vec<Axis>>),
-    /// `TA{data}`
-    Ta(Expr),
-    /// `TS{data}`
-    Ts(Expr),
-    /// `TM{data}`
-    Tm(Expr),
-    /// `F{data}`
-    F(Expr),
-    /// `DWELL{data}`
-    Dwell(Expr),
-    /// `DELAY{data}`
-    Delay(Expr),
-    /// `HOME{list}`
-    Home(Vec<NumRange>),
-    /// `HOMEZ{list}`
-    HomeZ(Vec<NumRange>),
-    /// `PSET X.. Y..`
-    Pset(Vec<AxisWord>),
-    /// `CC0` / `CC1` / `CC2`
-    CutterComp(u8),
-    /// `CCR{data}`
-    CutterRadius(Expr),
-    /// `NORMAL I.. J.. K..`
-    Normal(Vec<AxisWord>),
-    /// `TSEL{n}`
-    Tsel(u32),
-    /// `TINIT`
-    Tinit,
-    /// `ADIS{q}`
-    Adis(u32),
-    /// `IDIS{q}`
-    Idis(u32),
-    /// `AROT{q}`
-    Arot(u32),
-    /// `IROT{q}`
-    Irot(u32),
-    /// `IF ({cond})` opening a block.
-    If(Cond),
-    /// `IF ({cond}) stmt...` on one line.
-    IfLine(Cond, Vec<Stmt>),
-    /// `ELSE` (empty: block ELSE) or `ELSE stmt...` on one line.
-    Else(Vec<Stmt>),
-    /// `ENDIF`
-    EndIf,
-    /// `WHILE ({cond})` opening a block.
-    While(Cond),
-    /// `WHILE ({cond}) stmt...` on one line.
-    WhileLine(Cond, Vec<Stmt>),
-    /// `ENDWHILE`
-    EndWhile,
-    /// `AND ({cond})` PLC continuation line.
-    AndCond(Cond),
-    /// `OR ({cond})` PLC continuation line.
-    OrCond(Cond),
-    /// `WAIT`
-    Wait,
-    /// `STOP`
-    Stop,
-    /// `RETURN`
-    Return,
-    /// `GOTO{data}`
-    Goto(Expr),
-    /// `GOSUB{data}`
-    Gosub(Expr),
-    /// `CALL{data} [args]`
-    Call(Expr, Vec<LetterArg>),
-    /// `G/M/T/D{data} [args]`
-    Code(CodeLetter, Expr, Vec<LetterArg>),
-    /// `READ(A,B,...)`: upper-case letters.
-    Read(Vec<u8>),
-    /// `PRELUDE1 {call}` (Some) / `PRELUDE0` (None)
-    Prelude(Option<PreludeCall>),
-    /// `S{data}`: spindle value to Q127.
-    Spindle(Expr),
-    /// `BLOCKSTART`
-    BlockStart,
-    /// `BLOCKSTOP`
-    BlockStop,
-    /// `COMMAND"..."` / `COMMAND^x`
-    Command(Message),
-    /// `SEND"..."`, `SENDS`, `SENDP`, `SEND^x`
-    Send(SendPort, Message),
-    /// `DISPLAY ...`
-    Display(Display),
-    /// `ENABLE/DISABLE/PAUSE/RESUME PLC(C) list`
-    Plc(PlcControl),
-    /// `ADDRESS [#m][&c]`
-    Address {
-        /// `#m`
-        motor: Option<u32>,
-        /// `&c`
-        coord: Option<u32>,
-    },
-    /// `SETPHASE{list}`
-    SetPhase(Vec<NumRange>),
-    /// `GATHER [TRIGGER]`
-    Gather {
-        /// `TRIGGER` given.
-        trigger: bool,
-    },
-    /// `ENDGATHER`
-    EndGather,
-    /// `MXR{node},{param},{var}`
-    MacroAuxRead {
-        /// Node.
-        node: u32,
-        /// Parameter.
-        param: u32,
-        /// Destination.
-        var: VarRef,
-    },
-    /// `MXW{node},{param},{var}`
-    MacroAuxWrite {
-        /// Node.
-        node: u32,
-        /// Parameter.
-        param: u32,
-        /// Source.
-        var: VarRef,
-    },
-    /// `MSR{node},{slavevar},{var}`
-    MacroSlaveRead {
-        /// Node.
-        node: u32,
-        /// Station variable.
-        var: SlaveVar,
-        /// Destination.
-        dest: VarRef,
-    },
-    /// `MSW{node},{slavevar},{var}`
-    MacroSlaveWrite {
-        /// Node.
-        node: u32,
-        /// Station variable.
-        var: SlaveVar,
-        /// Source.
-        src: VarRef,
-    },
-}
-
 /// One item of a line typed while a buffer is open: stored statement or immediate command.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Item {
+pub(crate) enum Item {
     /// Store into the open buffer.
     Stmt(Stmt),
     /// Execute now.

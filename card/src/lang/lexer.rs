@@ -7,7 +7,7 @@ use super::ast::{Number, Pos};
 use super::{ParseError, ERR_SYNTAX};
 
 /// Maximum nesting depth of parentheses / functions / conditions in one line.
-pub const MAX_DEPTH: u32 = 32;
+pub(super) const MAX_DEPTH: u32 = 32;
 
 /// A scanning position over one line.
 #[derive(Debug, Clone)]
@@ -19,67 +19,67 @@ pub(crate) struct Cursor<'a> {
 
 impl<'a> Cursor<'a> {
     /// Scanner at the start of `s` (already validated by the caller).
-    pub fn new(s: &'a [u8]) -> Self {
+    pub(super) fn new(s: &'a [u8]) -> Self {
         Cursor { s, i: 0, depth: 0 }
     }
 
     /// Current byte offset.
-    pub fn offset(&self) -> usize {
+    pub(super) fn offset(&self) -> usize {
         self.i
     }
 
     /// Reset to an earlier offset (backtracking over a bounded amount).
-    pub fn set_offset(&mut self, i: usize) {
+    pub(super) fn set_offset(&mut self, i: usize) {
         self.i = i.min(self.s.len());
     }
 
     /// Position node for the current offset.
-    pub fn pos(&self) -> Pos {
+    pub(super) fn pos(&self) -> Pos {
         Pos(self.i as u32)
     }
 
     /// The raw remaining bytes.
-    pub fn rest(&self) -> &'a [u8] {
+    pub(super) fn rest(&self) -> &'a [u8] {
         self.s.get(self.i..).unwrap_or(&[])
     }
 
     /// Upper-cased byte at the current offset.
-    pub fn peek(&self) -> Option<u8> {
+    pub(super) fn peek(&self) -> Option<u8> {
         self.peek_at(0)
     }
 
     /// Upper-cased byte `k` ahead.
-    pub fn peek_at(&self, k: usize) -> Option<u8> {
+    pub(super) fn peek_at(&self, k: usize) -> Option<u8> {
         self.s.get(self.i + k).map(|c| c.to_ascii_uppercase())
     }
 
     /// Advance one byte.
-    pub fn bump(&mut self) {
+    pub(super) fn bump(&mut self) {
         if self.i < self.s.len() {
             self.i += 1;
         }
     }
 
     /// Advance `n` bytes.
-    pub fn advance(&mut self, n: usize) {
+    pub(super) fn advance(&mut self, n: usize) {
         self.i = (self.i + n).min(self.s.len());
     }
 
     /// Skip spaces (and stray CR/LF, which hosts may leave in a line).
-    pub fn skip_ws(&mut self) {
+    pub(super) fn skip_ws(&mut self) {
         while matches!(self.s.get(self.i), Some(b' ' | b'\r' | b'\n')) {
             self.i += 1;
         }
     }
 
     /// At the end of the line or at a `;` comment (after spaces).
-    pub fn at_end(&mut self) -> bool {
+    pub(super) fn at_end(&mut self) -> bool {
         self.skip_ws();
         matches!(self.peek(), None | Some(b';'))
     }
 
     /// Consume byte `c` (case-insensitive) if it is next (no spaces skipped).
-    pub fn eat(&mut self, c: u8) -> bool {
+    pub(super) fn eat(&mut self, c: u8) -> bool {
         if self.peek() == Some(c.to_ascii_uppercase()) {
             self.i += 1;
             true
@@ -89,13 +89,13 @@ impl<'a> Cursor<'a> {
     }
 
     /// Skip spaces, then consume `c` if next.
-    pub fn eat_ws(&mut self, c: u8) -> bool {
+    pub(super) fn eat_ws(&mut self, c: u8) -> bool {
         self.skip_ws();
         self.eat(c)
     }
 
     /// Does keyword `kw` (upper case) start at the current offset?
-    pub fn looking_at(&self, kw: &str) -> bool {
+    pub(super) fn looking_at(&self, kw: &str) -> bool {
         let r = self.rest();
         r.len() >= kw.len()
             && r.iter()
@@ -105,7 +105,7 @@ impl<'a> Cursor<'a> {
 
     /// `DIS PLC` / `DISPLC` is DISABLE PLC, not DISPLAY: consume the `DIS` when `PLC` (after
     /// optional spaces) follows it (not when the word is `DISABLE`).
-    pub fn eat_dis_before_plc(&mut self) -> bool {
+    pub(super) fn eat_dis_before_plc(&mut self) -> bool {
         if !self.looking_at("DIS") || self.looking_at("DISABLE") {
             return false;
         }
@@ -121,7 +121,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Consume keyword `kw` (upper case, no spaces inside) if it starts here.
-    pub fn eat_kw(&mut self, kw: &str) -> bool {
+    pub(super) fn eat_kw(&mut self, kw: &str) -> bool {
         if self.looking_at(kw) {
             self.i += kw.len();
             true
@@ -131,7 +131,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Longest keyword of `table` starting here; consumes it and returns its tag.
-    pub fn eat_longest<T: Copy>(&mut self, table: &[(&str, T)]) -> Option<T> {
+    pub(super) fn eat_longest<T: Copy>(&mut self, table: &[(&str, T)]) -> Option<T> {
         let mut best: Option<(usize, T)> = None;
         for (kw, tag) in table {
             let longer = match best {
@@ -148,7 +148,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Error at the current offset.
-    pub fn err(&self, code: u8, msg: &'static str) -> ParseError {
+    pub(super) fn err(&self, code: u8, msg: &'static str) -> ParseError {
         ParseError {
             pos: self.i,
             code,
@@ -157,12 +157,12 @@ impl<'a> Cursor<'a> {
     }
 
     /// Syntax error (ERR003) at the current offset.
-    pub fn syntax(&self, msg: &'static str) -> ParseError {
+    pub(super) fn syntax(&self, msg: &'static str) -> ParseError {
         self.err(ERR_SYNTAX, msg)
     }
 
     /// Enter one nesting level (parenthesis, function, condition group).
-    pub fn enter(&mut self) -> Result<(), ParseError> {
+    pub(super) fn enter(&mut self) -> Result<(), ParseError> {
         if self.depth >= MAX_DEPTH {
             return Err(self.syntax("expression nested too deeply"));
         }
@@ -171,17 +171,17 @@ impl<'a> Cursor<'a> {
     }
 
     /// Leave one nesting level.
-    pub fn leave(&mut self) {
+    pub(super) fn leave(&mut self) {
         self.depth = self.depth.saturating_sub(1);
     }
 
     /// Is a decimal digit next?
-    pub fn at_digit(&self) -> bool {
+    pub(super) fn at_digit(&self) -> bool {
         self.peek().is_some_and(|c| c.is_ascii_digit())
     }
 
     /// Does an unsigned literal (`5`, `.5`, `$1F`) start here?
-    pub fn at_unsigned_number(&self) -> bool {
+    pub(super) fn at_unsigned_number(&self) -> bool {
         match self.peek() {
             Some(c) if c.is_ascii_digit() => true,
             Some(b'.') => self.peek_at(1).is_some_and(|c| c.is_ascii_digit()),
@@ -191,7 +191,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Does a (possibly negative) literal start here (spaces allowed after `-`)?
-    pub fn at_number(&self) -> bool {
+    pub(super) fn at_number(&self) -> bool {
         if self.peek() == Some(b'-') {
             let mut k = self.clone();
             k.bump();
@@ -203,7 +203,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Unsigned decimal integer (at most 9 digits are significant; more → ERR003).
-    pub fn uint(&mut self) -> Result<Option<u32>, ParseError> {
+    pub(super) fn uint(&mut self) -> Result<Option<u32>, ParseError> {
         let start = self.i;
         let mut v: u64 = 0;
         while let Some(c) = self.s.get(self.i).filter(|c| c.is_ascii_digit()) {
@@ -225,7 +225,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Unsigned integer that must be present (decimal or `$`hex).
-    pub fn req_uint(&mut self, what: &'static str) -> Result<u32, ParseError> {
+    pub(super) fn req_uint(&mut self, what: &'static str) -> Result<u32, ParseError> {
         self.skip_ws();
         if self.peek() == Some(b'$') {
             let n = self.unsigned_number()?.ok_or_else(|| self.syntax(what))?;
@@ -235,7 +235,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Unsigned literal: `12`, `1.5`, `.5`, `12.` or `$hex`. `None` when none starts here.
-    pub fn unsigned_number(&mut self) -> Result<Option<Number>, ParseError> {
+    pub(super) fn unsigned_number(&mut self) -> Result<Option<Number>, ParseError> {
         let start = self.i;
         if self.peek() == Some(b'$') {
             if !self.peek_at(1).is_some_and(|c| c.is_ascii_hexdigit()) {
@@ -290,7 +290,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Literal with optional leading `-` (unary plus is rejected by the grammar, §1.5).
-    pub fn number(&mut self) -> Result<Option<Number>, ParseError> {
+    pub(super) fn number(&mut self) -> Result<Option<Number>, ParseError> {
         let save = self.i;
         let neg = self.eat(b'-');
         if neg {
@@ -313,7 +313,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// A literal that must be present.
-    pub fn req_number(&mut self, what: &'static str) -> Result<Number, ParseError> {
+    pub(super) fn req_number(&mut self, what: &'static str) -> Result<Number, ParseError> {
         self.skip_ws();
         self.number()?.ok_or_else(|| self.syntax(what))
     }

@@ -3,18 +3,21 @@
 //! true (I9 = 1 or 3), pmac-commands.md §1.8 / §2.4. Guarantee: re-parsing the listing of a
 //! statement gives an equal statement (`parse(list(s)) == s`).
 //!
-//! Also the word-count model used for buffer offsets and buffer space ([`word_count`]).
+//! The word-count model of stored statements is the domain's (`crate::domain::words`).
 
 use std::fmt::{self, Write};
 
+#[cfg(test)]
+use super::ast::AxisDef;
+
 use super::ast::{
-    AssignOp, Axis, AxisDef, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr,
-    ExprKind, Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb,
-    PreludeCall, SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
+    AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr, ExprKind,
+    Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb, PreludeCall,
+    SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
 };
 
 /// A literal as written: `$hex` kept, decimals in shortest round-trip form, never exponent.
-pub fn number(n: &Number) -> String {
+pub(crate) fn number(n: &Number) -> String {
     if n.hex && n.value.fract() == 0.0 && n.value.abs() < 2f64.powi(48) {
         let sign = if n.value < 0.0 { "-" } else { "" };
         format!("{sign}${:X}", n.value.abs() as u64)
@@ -24,7 +27,7 @@ pub fn number(n: &Number) -> String {
 }
 
 /// `P12`, `P(P1+2)`.
-pub fn var(v: &VarRef) -> String {
+pub(crate) fn var(v: &VarRef) -> String {
     let l = match v.kind {
         VarKind::I => 'I',
         VarKind::P => 'P',
@@ -68,7 +71,7 @@ fn op_char(op: BinOp) -> char {
 }
 
 /// An expression with the minimum parentheses that re-parse to the same tree.
-pub fn expr(e: &Expr) -> String {
+pub(crate) fn expr(e: &Expr) -> String {
     let mut s = String::new();
     write_expr(&mut s, e);
     s
@@ -110,7 +113,7 @@ fn wrap(s: &mut String, e: &Expr, paren: bool) {
 }
 
 /// `{data}`: a literal as is, anything else in parentheses.
-pub fn data(e: &Expr) -> String {
+pub(crate) fn data(e: &Expr) -> String {
     match &e.kind {
         ExprKind::Num(n) => number(n),
         _ => format!("({})", expr(e)),
@@ -131,7 +134,7 @@ fn cmp_str(op: CmpOp) -> &'static str {
 }
 
 /// A condition without its outer parentheses.
-pub fn cond(c: &Cond) -> String {
+pub(crate) fn cond(c: &Cond) -> String {
     match c {
         Cond::Cmp { lhs, op, rhs } => format!("{}{}{}", expr(lhs), cmp_str(*op), expr(rhs)),
         Cond::And(a, b) => {
@@ -225,7 +228,7 @@ fn slave_var(v: &SlaveVar) -> String {
 }
 
 /// Statements of one line, separated by single spaces.
-pub fn line(stmts: &[Stmt], long: bool) -> String {
+pub(crate) fn line(stmts: &[Stmt], long: bool) -> String {
     stmts
         .iter()
         .map(|s| stmt(s, long))
@@ -234,7 +237,7 @@ pub fn line(stmts: &[Stmt], long: bool) -> String {
 }
 
 /// Canonical text of one statement.
-pub fn stmt(s: &Stmt, long: bool) -> String {
+pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
     let kw = |l: &'static str, sh: &'static str| if long { l } else { sh };
     use StmtKind as S;
     match &s.kind {
@@ -470,7 +473,8 @@ impl fmt::Display for MDef {
 }
 
 /// `#n->` reply body: `10000X`, `8660X-5000Y`, `5000X+8660Y+5000`, `X` for scale 1.
-pub fn axis_def(d: &AxisDef) -> String {
+#[cfg(test)]
+pub(crate) fn axis_def(d: &AxisDef) -> String {
     let mut s = String::new();
     for (i, t) in d.terms.iter().enumerate() {
         let mag = t.scale.abs();
@@ -493,67 +497,4 @@ pub fn axis_def(d: &AxisDef) -> String {
         );
     }
     s
-}
-
-fn expr_words(e: &Expr) -> u32 {
-    match &e.kind {
-        ExprKind::Num(_)
-        | ExprKind::Var(VarRef {
-            index: VarIndex::Const(_),
-            ..
-        }) => 0,
-        ExprKind::Var(VarRef {
-            index: VarIndex::Expr(i),
-            ..
-        }) => 1 + expr_words(i),
-        ExprKind::Neg(i) | ExprKind::Call(_, i) => 1 + expr_words(i),
-        ExprKind::Bin(_, l, r) => 2 + expr_words(l) + expr_words(r),
-    }
-}
-
-fn cond_words(c: &Cond) -> u32 {
-    match c {
-        Cond::Cmp { lhs, rhs, .. } => 1 + expr_words(lhs) + expr_words(rhs),
-        Cond::And(a, b) | Cond::Or(a, b) => 1 + cond_words(a) + cond_words(b),
-    }
-}
-
-fn text_words(n: usize) -> u32 {
-    1 + (n as u32).div_ceil(3)
-}
-
-/// Buffer words a statement occupies (project model reproducing seed 004's examples: `LINEAR`
-/// 1, `F10` 1, `X10Y10` 2, `RETURN` 1, `P1=0` 1, `WHILE(P1<1000)` 2, `P1=P1+1` 3, `ENDWHILE` 1).
-pub fn word_count(s: &Stmt) -> u32 {
-    use StmtKind as S;
-    let body = |b: &[Stmt]| b.iter().map(word_count).sum::<u32>();
-    let w = |ws: &[AxisWord]| {
-        ws.iter()
-            .map(|x| {
-                1 + expr_words(&x.value)
-                    + match &x.extra {
-                        Some(AxisExtra::Velocity(e) | AxisExtra::Trigger(e)) => 1 + expr_words(e),
-                        None => 0,
-                    }
-            })
-            .sum::<u32>()
-    };
-    match &s.kind {
-        S::Assign { value, .. } => 1 + expr_words(value),
-        S::Move(ws) => w(ws),
-        S::Pset(ws) | S::Normal(ws) => 1 + w(ws),
-        S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => {
-            1 + expr_words(d)
-        }
-        S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) => 1 + expr_words(d),
-        S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) => 1 + cond_words(c),
-        S::IfLine(c, b) | S::WhileLine(c, b) => 1 + cond_words(c) + body(b),
-        S::Else(b) => 1 + body(b),
-        S::Call(d, a) | S::Code(_, d, a) => {
-            1 + expr_words(d) + a.iter().map(|x| 1 + expr_words(&x.value)).sum::<u32>()
-        }
-        S::Command(Message::Text(t)) | S::Send(_, Message::Text(t)) => text_words(t.len()),
-        S::Display(Display::Text { text, .. }) => text_words(text.len()),
-        _ => 1,
-    }
 }

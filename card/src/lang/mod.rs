@@ -1,4 +1,5 @@
-//! Lexer, parser, AST and canonical listing of the PMAC command language.
+//! The PMAC command language: lexer, parser, on-line command syntax, canonical listing, and
+//! the interpreter that executes lines against the card model and frames the replies.
 //!
 //! Entry points:
 //! - [`parse_line`] / [`parse_line_prefix`]: an immediate (on-line) command line;
@@ -7,12 +8,12 @@
 //!   typed while a buffer is open mixes stored statements and immediate commands, and `OPEN` /
 //!   `CLOSE` in the middle of a line switch mode) — this is what INTERP uses;
 //! - [`listing`]: canonical text of statements (`LIST PROG`), M-definitions, axis definitions;
-//! - [`eval`]: expression evaluation with PMAC numeric semantics.
+//! - [`interp`]: the interpreter: executes lines against the card model, frames replies.
 
-pub mod ast;
-pub mod eval;
+pub(crate) mod ast;
+pub(crate) mod interp;
 mod lexer;
-pub mod listing;
+pub(crate) mod listing;
 mod parse_defs;
 mod parse_expr;
 mod parse_mdef;
@@ -20,31 +21,30 @@ mod parse_online;
 mod parse_program;
 
 #[cfg(test)]
+mod tests_eval;
+#[cfg(test)]
 mod tests_online;
 #[cfg(test)]
 mod tests_program;
 
-pub use lexer::MAX_DEPTH;
-pub use parse_program::allowed;
+pub(crate) use parse_program::allowed;
 
 use ast::{BufferKind, Command, Item, Stmt};
 use lexer::Cursor;
 
-/// ERR002: password error.
-pub const ERR_PASSWORD: u8 = 2;
 /// ERR003: data error or unrecognised command (any syntax error).
-pub const ERR_SYNTAX: u8 = 3;
+pub(crate) const ERR_SYNTAX: u8 = 3;
 /// ERR004: illegal character (byte > 127, or a control byte inside a line).
-pub const ERR_ILLEGAL_CHAR: u8 = 4;
+pub(crate) const ERR_ILLEGAL_CHAR: u8 = 4;
 /// ERR005: the statement needs an open buffer.
-pub const ERR_NEEDS_BUFFER: u8 = 5;
+pub(crate) const ERR_NEEDS_BUFFER: u8 = 5;
 
 /// Longest accepted command line (bytes, without the CR). Longer lines → ERR003.
-pub const MAX_LINE_LEN: usize = 1024;
+pub(crate) const MAX_LINE_LEN: usize = 1024;
 
 /// A rejected line: byte position, PMAC error code (ERR`code`) and a short explanation.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ParseError {
+pub(crate) struct ParseError {
     /// Byte offset in the line where the problem was found.
     pub pos: usize,
     /// PMAC error number (2, 3, 4, 5 ...), printed as `ERR%03d`.
@@ -63,16 +63,25 @@ impl std::error::Error for ParseError {}
 
 /// How the next item of a line is to be read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Mode {
+pub(crate) enum Mode {
     /// No buffer open: everything is an immediate command; program-only statements → ERR005.
     Online,
     /// A buffer of this kind is open: statements legal for it are stored, the rest execute.
     Buffer(BufferKind),
 }
 
+/// Where a [`LineParser`] stands between two items: enough to resume it later over the same
+/// line ([`LineParser::resume`]), so a long line can be executed in slices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct ParserState {
+    offset: usize,
+    stored_any: bool,
+    done: bool,
+}
+
 /// Item-by-item parser of one line. Stops after the first error.
 #[derive(Debug)]
-pub struct LineParser<'a> {
+pub(crate) struct LineParser<'a> {
     cur: Cursor<'a>,
     stored_any: bool,
     done: bool,
@@ -80,7 +89,7 @@ pub struct LineParser<'a> {
 
 impl<'a> LineParser<'a> {
     /// Validate the line (length, character set) and start parsing it.
-    pub fn new(line: &'a [u8]) -> Result<LineParser<'a>, ParseError> {
+    pub(crate) fn new(line: &'a [u8]) -> Result<LineParser<'a>, ParseError> {
         if line.len() > MAX_LINE_LEN {
             return Err(ParseError {
                 pos: MAX_LINE_LEN,
@@ -105,13 +114,28 @@ impl<'a> LineParser<'a> {
         })
     }
 
-    /// Byte offset reached so far.
-    pub fn offset(&self) -> usize {
-        self.cur.offset()
+    /// Where the parser stands (between items).
+    pub(crate) fn state(&self) -> ParserState {
+        ParserState {
+            offset: self.cur.offset(),
+            stored_any: self.stored_any,
+            done: self.done,
+        }
+    }
+
+    /// A parser over `line` (validated by [`LineParser::new`] before) continuing at `state`.
+    pub(crate) fn resume(line: &'a [u8], state: ParserState) -> LineParser<'a> {
+        let mut cur = Cursor::new(line);
+        cur.set_offset(state.offset);
+        LineParser {
+            cur,
+            stored_any: state.stored_any,
+            done: state.done,
+        }
     }
 
     /// The next command or statement, `None` at the end of the line (or after an error).
-    pub fn next_item(&mut self, mode: Mode) -> Option<Result<Item, ParseError>> {
+    pub(crate) fn next_item(&mut self, mode: Mode) -> Option<Result<Item, ParseError>> {
         if self.done || self.cur.at_end() {
             self.done = true;
             return None;
@@ -196,7 +220,7 @@ impl<'a> LineParser<'a> {
 }
 
 /// Parse a whole immediate command line. Any error rejects the whole line.
-pub fn parse_line(line: &[u8]) -> Result<Vec<Command>, ParseError> {
+pub(crate) fn parse_line(line: &[u8]) -> Result<Vec<Command>, ParseError> {
     match parse_line_prefix(line) {
         (cmds, None) => Ok(cmds),
         (_, Some(e)) => Err(e),
@@ -205,7 +229,7 @@ pub fn parse_line(line: &[u8]) -> Result<Vec<Command>, ParseError> {
 
 /// Parse an immediate command line up to the first error: the commands before it (to be
 /// executed left to right, pmac-commands.md §2.8) and the error, if any.
-pub fn parse_line_prefix(line: &[u8]) -> (Vec<Command>, Option<ParseError>) {
+pub(crate) fn parse_line_prefix(line: &[u8]) -> (Vec<Command>, Option<ParseError>) {
     let mut p = match LineParser::new(line) {
         Ok(p) => p,
         Err(e) => return (Vec::new(), Some(e)),
@@ -223,7 +247,7 @@ pub fn parse_line_prefix(line: &[u8]) -> (Vec<Command>, Option<ParseError>) {
 
 /// Parse a line entered into an open buffer of `kind`, requiring that every item is a storable
 /// statement (an immediate command → ERR003). Used for stored/reloaded program text.
-pub fn parse_program_line(line: &[u8], kind: BufferKind) -> Result<Vec<Stmt>, ParseError> {
+pub(crate) fn parse_program_line(line: &[u8], kind: BufferKind) -> Result<Vec<Stmt>, ParseError> {
     let mut p = LineParser::new(line)?;
     let mut out = Vec::new();
     while let Some(item) = p.next_item(Mode::Buffer(kind)) {

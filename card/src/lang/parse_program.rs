@@ -594,7 +594,7 @@ fn display(c: &mut Cursor) -> Result<Display, ParseError> {
 }
 
 /// May `s` be stored in a buffer of kind `kind` (pmac-commands.md §5.12, §6.6)?
-pub fn allowed(s: &StmtKind, kind: BufferKind) -> bool {
+pub(crate) fn allowed(s: &StmtKind, kind: BufferKind) -> bool {
     use StmtKind as S;
     let prog = kind == BufferKind::Prog;
     let motion = matches!(kind, BufferKind::Prog | BufferKind::Rotary);

@@ -798,6 +798,7 @@ mod fuzz {
 
 #[test]
 #[ignore = "timing probe: cargo test --release -- --ignored parse_throughput --nocapture"]
+#[allow(clippy::disallowed_methods)] // a timing probe, not a test
 fn parse_throughput() {
     let lines: [&[u8]; 6] = [b"P1", b"#1J+", b"P1=P2+5", b"I130", b"%#1?PVF", b"M1..8->"];
     let n = 200_000;

@@ -438,7 +438,12 @@ fn listing_text_is_canonical() {
 
 #[test]
 fn word_counts_match_the_manual_examples() {
-    let w = |s: &str| prog(s).iter().map(listing::word_count).sum::<u32>();
+    let w = |s: &str| {
+        prog(s)
+            .iter()
+            .map(crate::domain::words::word_count)
+            .sum::<u32>()
+    };
     assert_eq!(w("LINEAR"), 1);
     assert_eq!(w("F10"), 1);
     assert_eq!(w("X10Y10"), 2);

@@ -13,13 +13,13 @@
 //!   its 48-bit position each cycle, so a wrapping 24-bit source becomes a continuous position
 //!   (valid while the source moves less than 2^23 units, i.e. 2^18 counts, per cycle).
 
-use crate::state::memory::Space;
+use crate::model::Space;
 
 /// Mask of a 24-bit word.
 const W24: u32 = 0xFF_FFFF;
 
 /// Sign-extend the low `bits` bits of `v`.
-pub fn sign_extend(v: u32, bits: u32) -> i64 {
+pub(crate) fn sign_extend(v: u32, bits: u32) -> i64 {
     let bits = bits.clamp(1, 32);
     let shift = 64 - bits;
     ((v as u64) << shift) as i64 >> shift
@@ -27,7 +27,7 @@ pub fn sign_extend(v: u32, bits: u32) -> i64 {
 
 /// A decoded parallel-read ECT entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct EctEntry {
+pub(crate) struct EctEntry {
     /// Memory space of the source word.
     pub space: Space,
     /// Source address (e.g. `$C0A0` = node 0 register 0).
@@ -41,7 +41,7 @@ pub struct EctEntry {
 impl EctEntry {
     /// Decode a two-line parallel entry; `None` for the end marker (`$000000`) or a method this
     /// emulator does not convert (those entries produce no result).
-    pub fn decode(line1: u32, line2: u32) -> Option<EctEntry> {
+    pub(crate) fn decode(line1: u32, line2: u32) -> Option<EctEntry> {
         let line1 = line1 & W24;
         let space = match line1 >> 20 {
             0x2 => Space::Y,
@@ -66,7 +66,8 @@ impl EctEntry {
     }
 
     /// The entry for MACRO servo node register 0 at `$C0An` (`$28C0An`, `$FFFFFF`).
-    pub fn macro_servo(source: u16) -> EctEntry {
+    #[cfg(test)]
+    pub(crate) fn macro_servo(source: u16) -> EctEntry {
         EctEntry {
             space: Space::Y,
             source,
@@ -76,14 +77,14 @@ impl EctEntry {
     }
 
     /// Width in bits of the masked field (position of the highest mask bit + 1).
-    pub fn width(&self) -> u32 {
+    pub(crate) fn width(&self) -> u32 {
         32 - self.mask.leading_zeros()
     }
 }
 
 /// Running state of one ECT entry: its 24-bit result word.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct EctState {
+pub(crate) struct EctState {
     last_src: Option<u32>,
     result: u32,
 }
@@ -92,7 +93,7 @@ impl EctState {
     /// Process one cycle's raw source word; returns the 24-bit result (1/32 counts).
     /// The first call takes the source as it is; later calls add its change, sign-extended to
     /// the mask width, so a source narrower than 24 bits rolls over correctly.
-    pub fn process(&mut self, entry: &EctEntry, raw: u32) -> u32 {
+    pub(crate) fn process(&mut self, entry: &EctEntry, raw: u32) -> u32 {
         let src = raw & entry.mask;
         let scale = if entry.no_shift { 1 } else { 32 };
         match self.last_src {
@@ -107,16 +108,11 @@ impl EctState {
         self.last_src = Some(src);
         self.result
     }
-
-    /// The last result word.
-    pub fn result(&self) -> u32 {
-        self.result
-    }
 }
 
 /// 48-bit position accumulator fed by a 24-bit ECT result (units: 1/32 count).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct PositionExtender {
+pub(crate) struct PositionExtender {
     last: Option<u32>,
     pos: i64,
 }
@@ -124,7 +120,7 @@ pub struct PositionExtender {
 impl PositionExtender {
     /// Add the sign-extended change of `word24` since the last call; the first call starts at
     /// the sign-extended word itself. The position wraps at 48 bits like PMAC's register.
-    pub fn update(&mut self, word24: u32) -> i64 {
+    pub(crate) fn update(&mut self, word24: u32) -> i64 {
         let w = word24 & W24;
         self.pos = match self.last {
             None => sign_extend(w, 24),
@@ -133,16 +129,6 @@ impl PositionExtender {
         self.pos = wrap48(self.pos);
         self.last = Some(w);
         self.pos
-    }
-
-    /// The present position in 1/32 counts.
-    pub fn position(&self) -> i64 {
-        self.pos
-    }
-
-    /// Forget history: the next update restarts from its word (e.g. after `$*`).
-    pub fn reset(&mut self) {
-        self.last = None;
     }
 }
 

@@ -14,7 +14,7 @@
 //! | 19 | USER | user flag |
 
 /// 24-bit image bit written by the card: amplifier enable (register 3 bit 6).
-pub const AMP_ENABLE_BIT: u32 = 1 << 14;
+pub(crate) const AMP_ENABLE_BIT: u32 = 1 << 14;
 const FAULT_BIT: u32 = 1 << 15;
 const HOME_BIT: u32 = 1 << 16;
 const PLIM_BIT: u32 = 1 << 17;

@@ -9,7 +9,7 @@
 
 /// What fires the trigger.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TriggerSource {
+pub(crate) enum TriggerSource {
     /// The home flag of the Ix25 flag image (Ix03 bit 17 = 0).
     HomeFlag,
     /// The warning following-error bit (Ix03 bit 17 = 1, "torque-mode triggering").
@@ -18,7 +18,7 @@ pub enum TriggerSource {
 
 impl TriggerSource {
     /// The source selected by Ix03.
-    pub fn from_ix03(ix03: u32) -> Self {
+    pub(crate) fn from_ix03(ix03: u32) -> Self {
         if ix03 & (1 << 17) != 0 {
             TriggerSource::WarningFe
         } else {
@@ -29,7 +29,7 @@ impl TriggerSource {
 
 /// The kind of triggered move.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TriggerKind {
+pub(crate) enum TriggerKind {
     /// `HM`: the trigger position + Ix26/16 becomes motor zero.
     Home {
         /// Ix26/16, counts.
@@ -44,7 +44,7 @@ pub enum TriggerKind {
 
 /// Phase of a triggered move.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Phase {
+pub(crate) enum Phase {
     /// Moving, watching the trigger (software limits off for a home search).
     Search,
     /// Trigger found, moving to the post-trigger end point.
@@ -53,7 +53,7 @@ pub enum Phase {
 
 /// A triggered move in progress.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TriggeredMove {
+pub(crate) struct TriggeredMove {
     /// Home or jog-until-trigger.
     pub kind: TriggerKind,
     /// Trigger input.
@@ -64,7 +64,7 @@ pub struct TriggeredMove {
 
 /// What the motor must do when the trigger fires.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TriggerAction {
+pub(crate) struct TriggerAction {
     /// Captured (actual) position, counts, in the motor's frame before re-referencing.
     pub capture: f64,
     /// For homing: the old-frame position that becomes the new zero.
@@ -75,7 +75,7 @@ pub struct TriggerAction {
 
 impl TriggeredMove {
     /// A home search armed with the Ix26 offset (1/16 count) and the Ix03 trigger source.
-    pub fn home(ix26: f64, ix03: u32) -> Self {
+    pub(crate) fn home(ix26: f64, ix03: u32) -> Self {
         TriggeredMove {
             kind: TriggerKind::Home {
                 offset: ix26 / 16.0,
@@ -86,7 +86,7 @@ impl TriggeredMove {
     }
 
     /// A jog-until-trigger armed with distance `d` counts.
-    pub fn jog(distance: f64, ix03: u32) -> Self {
+    pub(crate) fn jog(distance: f64, ix03: u32) -> Self {
         TriggeredMove {
             kind: TriggerKind::Jog { distance },
             source: TriggerSource::from_ix03(ix03),
@@ -95,13 +95,13 @@ impl TriggeredMove {
     }
 
     /// True while searching for a home trigger (software limits are off then).
-    pub fn is_home_search(&self) -> bool {
+    pub(crate) fn is_home_search(&self) -> bool {
         matches!(self.kind, TriggerKind::Home { .. }) && self.phase == Phase::Search
     }
 
     /// One servo cycle: if searching and the selected input is true, switch to the
     /// post-trigger phase and return the action to take.
-    pub fn on_cycle(
+    pub(crate) fn on_cycle(
         &mut self,
         home_flag: bool,
         warning_fe: bool,

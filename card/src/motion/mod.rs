@@ -9,14 +9,14 @@
 //! - [`params`]: a motor's I-variables gathered for the servo cycle;
 //! - [`motor`]: the per-motor servo pipeline, safety checks and `?` status bits.
 
-pub mod ect;
-pub mod flags;
-pub mod home;
-pub mod jog;
-pub mod motor;
-pub mod params;
-pub mod pid;
-pub mod profile;
+pub(crate) mod ect;
+pub(crate) mod flags;
+pub(crate) mod home;
+pub(crate) mod jog;
+pub(crate) mod motor;
+pub(crate) mod params;
+pub(crate) mod pid;
+pub(crate) mod profile;
 
 #[cfg(test)]
 mod tests_jog;

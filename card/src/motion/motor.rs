@@ -12,8 +12,8 @@ use super::jog::{JogCmd, JogParams, Trajectory};
 use super::params::MotorParams;
 use super::pid::{PidInput, PidState};
 use super::profile::{Kin, Plan, RampParams};
-use crate::lang::ast::JogKind;
-use crate::state::status::MotorFlags;
+use crate::domain::ast::JogKind;
+use crate::model::MotorFlags;
 
 /// A command to one motor, values resolved to counts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -148,7 +148,7 @@ impl Default for Motor {
 }
 
 /// Round a DAC value (bits) into the 24-bit register: `round(dac·256)`, two's complement.
-pub fn dac_to_reg0(dac: f64) -> u32 {
+pub(crate) fn dac_to_reg0(dac: f64) -> u32 {
     let v = (dac * 256.0).round().clamp(-8_388_608.0, 8_388_607.0) as i32;
     (v as u32) & 0xFF_FFFF
 }
@@ -205,7 +205,7 @@ impl Motor {
         &self.traj
     }
 
-    /// Resolve a parsed jog into a [`JogCmd`] against this motor: `J=` goes to the pre-jog
+    /// Resolve a parsed jog into a `JogCmd` against this motor: `J=` goes to the pre-jog
     /// position, `J==` also sets it, `J:` is relative to the commanded and `J^` to the actual
     /// position; the `*` forms take `jog_register` (Mx72). `J!` gives `None` (use
     /// [`MotorCommand::Round`]).

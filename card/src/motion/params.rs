@@ -2,7 +2,7 @@
 
 use super::pid::PidGains;
 use super::profile::RampParams;
-use crate::state::CardState;
+use crate::model::CardState;
 
 /// Everything one motor's servo cycle reads from the I-variables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -127,7 +127,7 @@ impl MotorParams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::state::profile::Profile;
+    use crate::domain::Profile;
 
     #[test]
     fn from_fresh_card_matches_seed_defaults() {

@@ -76,7 +76,7 @@ impl Default for PidGains {
 
 /// One servo cycle's inputs (counts and servo cycles).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct PidInput {
+pub(crate) struct PidInput {
     /// Following error: commanded − actual position, counts.
     pub fe: f64,
     /// Commanded velocity, counts/cycle.
@@ -89,7 +89,7 @@ pub struct PidInput {
 
 /// Filter memory: integrator, saturation flag, notch delay lines.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct PidState {
+pub(crate) struct PidState {
     /// Integrator, counts.
     pub ie: f64,
     /// The last output was clipped at ±Ix69 (freezes the integrator input).
@@ -100,7 +100,7 @@ pub struct PidState {
 
 /// Result of one filter step.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PidOutput {
+pub(crate) struct PidOutput {
     /// Output in 16-bit DAC bits, within ±Ix69.
     pub dac: f64,
     /// Ix63 < 0 and the integrator sits at its limit: integrated following-error fault.
@@ -114,12 +114,12 @@ fn clip(v: f64, lim: f64) -> f64 {
 
 impl PidState {
     /// Clear the integrator and the filter memory (on kill/enable).
-    pub fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         *self = PidState::default();
     }
 
     /// One servo cycle of the filter.
-    pub fn step(&mut self, g: &PidGains, i: &PidInput) -> PidOutput {
+    pub(crate) fn step(&mut self, g: &PidGains, i: &PidInput) -> PidOutput {
         let fe1 = clip(i.fe, g.fe_limit / 16.0);
         let fe2 = fe1 + (g.db_gain / 16.0) * clip(fe1, g.db_size / 16.0);
         let ilim = g.int_limit.abs() / 16.0;

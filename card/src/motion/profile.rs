@@ -60,7 +60,7 @@ impl RampParams {
 
 /// One piece of a plan.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Seg {
+pub(crate) enum Seg {
     /// S-curve ramp from `v0` to `v1` over `t` ms with S time `ts`.
     Ramp {
         /// Start velocity, counts/ms.

@@ -331,6 +331,7 @@ fn home_search_finds_flag_and_sets_zero_at_offset() {
 /// Servo tick cost: `cargo test -p mcc-card --release --lib motion::tests_loop::bench -- --ignored --nocapture`.
 #[test]
 #[ignore]
+#[allow(clippy::disallowed_methods)] // a timing probe, not a test
 fn bench_servo_tick_cost() {
     let mut rigs: Vec<Rig> = (0..8).map(|_| Rig::new(MotorParams::default())).collect();
     for r in &mut rigs {
@@ -361,7 +362,7 @@ fn bench_servo_tick_cost() {
 
 #[test]
 fn jog_until_trigger_stops_past_the_flag_and_resolve_forms() {
-    use crate::lang::ast::JogKind;
+    use crate::domain::ast::JogKind;
     let p = MotorParams {
         ramp: super::profile::RampParams::new(1.0, 20.0, 0.0),
         ..MotorParams::default()

@@ -6,9 +6,9 @@
 //! Programs cannot change while a motion program runs (`OPEN PROG` is refused with ERR001), and
 //! an `OPEN PLC` disables the PLC, so a compiled form stays valid while it is executed.
 
-use crate::interp::buffers::StoredLine;
-use crate::interp::progline::ProgLine;
-use crate::lang::ast::{Cond, Stmt, StmtKind};
+use crate::domain::ast::{Cond, Stmt, StmtKind};
+use crate::model::ProgLine;
+use crate::model::StoredLine;
 
 /// Deepest nesting of one-line bodies (`IF (..) IF (..) X1`) accepted.
 const MAX_BODY_DEPTH: u32 = 8;
@@ -60,7 +60,7 @@ pub struct Compiled {
 
 /// A structural defect found while flattening (the run-time error "unlinked conditional").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Unlinked;
+pub(crate) struct Unlinked;
 
 enum Open {
     If(usize),
@@ -196,7 +196,7 @@ fn fold_conditions(first: &Cond, lines: &[ProgLine], i: usize) -> (Cond, usize) 
 }
 
 /// Flatten `lines`. `plc` enables AND/OR continuation lines.
-pub fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinked> {
+pub(crate) fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinked> {
     let mut b = Builder {
         ops: Vec::new(),
         stack: Vec::new(),

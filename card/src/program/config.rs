@@ -4,11 +4,11 @@
 use super::env::{cs_ivar, ivar};
 use crate::coord::axes::{CsAxes, MotorAxisDef};
 use crate::coord::moves::{CsConfig, MotorLimits};
-use crate::interp::Card;
-use crate::lang::ast::AxisDef;
+use crate::domain::ast::AxisDef;
+use crate::model::CardModel;
 
 /// The axis definitions of C.S. `cs` as the interpreter holds them: (motor, definition).
-pub fn axis_defs(card: &Card, cs: u16) -> Vec<(u16, AxisDef)> {
+pub(crate) fn axis_defs(card: &CardModel, cs: u16) -> Vec<(u16, AxisDef)> {
     card.run
         .axes
         .iter()
@@ -21,7 +21,7 @@ pub fn axis_defs(card: &Card, cs: u16) -> Vec<(u16, AxisDef)> {
 }
 
 /// COORD's axis map for the definitions `defs` (malformed ones are left out).
-pub fn cs_axes(defs: &[(u16, AxisDef)]) -> CsAxes {
+pub(crate) fn cs_axes(defs: &[(u16, AxisDef)]) -> CsAxes {
     let parsed: Vec<(u16, MotorAxisDef)> = defs
         .iter()
         .filter_map(|(m, d)| MotorAxisDef::from_ast(d).ok().map(|x| (*m, x)))
@@ -31,7 +31,7 @@ pub fn cs_axes(defs: &[(u16, AxisDef)]) -> CsAxes {
 }
 
 /// The C.S. I-variables and the limits of `motors` (in the C.S. motor order).
-pub fn cs_config(card: &Card, cs: u16, motors: &[u16]) -> CsConfig {
+pub(crate) fn cs_config(card: &CardModel, cs: u16, motors: &[u16]) -> CsConfig {
     let d = CsConfig::default();
     let p = card.profile();
     let c = |nn: u32, dflt: f64| ivar(card, cs_ivar(p, cs, nn), dflt);

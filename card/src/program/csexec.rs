@@ -8,35 +8,33 @@ use std::sync::Arc;
 use super::compile::{compile, Compiled};
 use super::config::{axis_defs, cs_axes, cs_config};
 use crate::coord::cs::CoordSystem;
-use crate::interp::Card;
-use crate::lang::ast::{AssignOp, AxisDef, PreludeCall};
+use crate::domain::ast::{AssignOp, AxisDef, PreludeCall};
+use crate::model::CardModel;
+use crate::model::Space;
 use crate::motion::motor::Motor;
-use crate::state::memory::Space;
 
 /// Deepest CALL/GOSUB nesting (the top level counts as one): a 16th nested call is run-time
 /// error 5 (spec §5.2 decision).
-pub const MAX_FRAMES: usize = 16;
+pub(crate) const MAX_FRAMES: usize = 16;
 
 /// X:$0799: the run-time error code register.
-pub const RUNTIME_ERROR_ADDR: u16 = 0x0799;
+pub(crate) const RUNTIME_ERROR_ADDR: u16 = 0x0799;
 
 /// Run-time error codes (X:$0799, spec §5.2), plus this card's own 7-9.
-pub mod rte {
-    /// Insufficient calculation time.
-    pub const CALC_TIME: u32 = 1;
+pub(crate) mod rte {
     /// Program counter past program end (program missing or damaged while running).
-    pub const PAST_END: u32 = 3;
+    pub(crate) const PAST_END: u32 = 3;
     /// Unlinked conditional (structure the flattener could not link).
-    pub const UNLINKED: u32 = 4;
+    pub(crate) const UNLINKED: u32 = 4;
     /// Subroutine stack overflow.
-    pub const STACK: u32 = 5;
+    pub(crate) const STACK: u32 = 5;
     /// GOTO label not found (also a `B` label missing at R/S).
-    pub const LABEL: u32 = 6;
+    pub(crate) const LABEL: u32 = 6;
     /// [DECISION] a variable could not be read/written (bad number, read-only, out of range).
-    pub const VARIABLE: u32 = 7;
+    pub(crate) const VARIABLE: u32 = 7;
     /// [DECISION] a move COORD refused (no motors, bad time/feedrate, impossible circle, TA=TS=0,
     /// position out of range, missing transformation matrix, singular matrix).
-    pub const MOVE: u32 = 8;
+    pub(crate) const MOVE: u32 = 8;
 }
 
 /// Which buffer a frame executes.
@@ -174,7 +172,7 @@ impl CsExec {
     }
 
     /// Follow axis-definition changes while idle (PMATCHed to the motors' commanded positions).
-    pub fn sync_axes(&mut self, card: &Card, motors: &[Motor]) {
+    pub fn sync_axes(&mut self, card: &CardModel, motors: &[Motor]) {
         if self.cs.is_some() && self.same_defs(card) {
             return;
         }
@@ -199,7 +197,7 @@ impl CsExec {
 
     /// The interpreter's axis definitions of this C.S. equal the ones in use (no allocation:
     /// this runs every servo tick).
-    fn same_defs(&self, card: &Card) -> bool {
+    fn same_defs(&self, card: &CardModel) -> bool {
         let mut mine = self.defs.iter();
         let all = card
             .run
@@ -219,7 +217,7 @@ impl CsExec {
     }
 
     /// Compiled `PROG n` (cached for this run); `None` when it does not exist.
-    pub fn program(&mut self, card: &Card, n: u16) -> Result<Option<Arc<Compiled>>, u32> {
+    pub fn program(&mut self, card: &CardModel, n: u16) -> Result<Option<Arc<Compiled>>, u32> {
         if let Some((_, c)) = self.cache.iter().find(|(k, _)| *k == n) {
             return Ok(Some(c.clone()));
         }
@@ -235,7 +233,7 @@ impl CsExec {
     }
 
     /// Stop the program with run-time error `code` (X:$0799, ?? bit 22; motion aborted).
-    pub fn runtime_error(&mut self, card: &mut Card, code: u32, circle: bool) {
+    pub fn runtime_error(&mut self, card: &mut CardModel, code: u32, circle: bool) {
         self.active = false;
         self.wait = Wait::None;
         if let Some(c) = &mut self.cs {
@@ -260,7 +258,7 @@ impl CsExec {
 
     /// One servo cycle of the trajectory: motor setpoints (C.S. motor order) or `None` when
     /// the C.S. is not producing output; applies synchronous assignments of started moves.
-    pub fn tick(&mut self, card: &mut Card) -> Option<(Vec<u16>, Vec<f64>)> {
+    pub fn tick(&mut self, card: &mut CardModel) -> Option<(Vec<u16>, Vec<f64>)> {
         if !self.busy() {
             return None;
         }
@@ -290,7 +288,7 @@ impl CsExec {
 }
 
 /// Commanded positions of `list` (1-based motor numbers).
-pub fn commanded(motors: &[Motor], list: &[u16]) -> Vec<f64> {
+pub(crate) fn commanded(motors: &[Motor], list: &[u16]) -> Vec<f64> {
     list.iter()
         .map(|&m| {
             motors

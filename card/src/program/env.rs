@@ -2,13 +2,14 @@
 //! coordinate system (Q-variables and the ATAN2 cosine come from it), assignments, and the
 //! I-variable numbering of the two profiles.
 
-use crate::interp::{Card, Profile};
-use crate::lang::ast::{AssignOp, BinOp, Cond, Expr, VarKind, VarRef};
-use crate::lang::eval::{self, Env, EvalError};
-use crate::state::card_state::CardState;
+use crate::domain::ast::{AssignOp, BinOp, Cond, Expr, VarKind, VarRef};
+use crate::domain::eval::{self, Env, EvalError};
+use crate::domain::Profile;
+use crate::model::CardModel;
+use crate::model::CardState;
 
 /// Expression environment of a program running in (or a PLC addressing) C.S. `cs`.
-pub struct ProgEnv<'a> {
+pub(crate) struct ProgEnv<'a> {
     /// The state.
     pub state: &'a mut CardState,
     /// C.S. of the Q-variables.
@@ -35,7 +36,7 @@ impl Env for ProgEnv<'_> {
 }
 
 /// Evaluate `e` for C.S. `cs`.
-pub fn value(card: &mut Card, cs: u16, e: &Expr) -> Result<f64, EvalError> {
+pub(crate) fn value(card: &mut CardModel, cs: u16, e: &Expr) -> Result<f64, EvalError> {
     eval::eval(
         e,
         &mut ProgEnv {
@@ -46,7 +47,7 @@ pub fn value(card: &mut Card, cs: u16, e: &Expr) -> Result<f64, EvalError> {
 }
 
 /// Evaluate a condition for C.S. `cs`.
-pub fn test(card: &mut Card, cs: u16, c: &Cond) -> Result<bool, EvalError> {
+pub(crate) fn test(card: &mut CardModel, cs: u16, c: &Cond) -> Result<bool, EvalError> {
     eval::eval_cond(
         c,
         &mut ProgEnv {
@@ -57,7 +58,7 @@ pub fn test(card: &mut Card, cs: u16, c: &Cond) -> Result<bool, EvalError> {
 }
 
 /// The variable number of `v` (computed indices evaluated).
-pub fn var_number(card: &mut Card, cs: u16, v: &VarRef) -> Result<u32, EvalError> {
+pub(crate) fn var_number(card: &mut CardModel, cs: u16, v: &VarRef) -> Result<u32, EvalError> {
     eval::index(
         &v.index,
         &mut ProgEnv {
@@ -68,7 +69,7 @@ pub fn var_number(card: &mut Card, cs: u16, v: &VarRef) -> Result<u32, EvalError
 }
 
 /// Write variable `kind` `n` (C.S. `cs` for Q). `false` when the card refused it.
-pub fn write(card: &mut Card, cs: u16, kind: VarKind, n: u32, v: f64) -> bool {
+pub(crate) fn write(card: &mut CardModel, cs: u16, kind: VarKind, n: u32, v: f64) -> bool {
     let st = &mut card.state;
     match kind {
         VarKind::I => st.set_ivar(n, v).is_ok(),
@@ -80,7 +81,7 @@ pub fn write(card: &mut Card, cs: u16, kind: VarKind, n: u32, v: f64) -> bool {
 
 /// Apply a synchronous M-variable operation now: `==` stores, `&=`/`|=`/`^=` combine with
 /// the present value.
-pub fn apply_sync(card: &mut Card, m: u32, op: AssignOp, v: f64) {
+pub(crate) fn apply_sync(card: &mut CardModel, m: u32, op: AssignOp, v: f64) {
     let v = match op {
         AssignOp::SyncAnd | AssignOp::SyncOr | AssignOp::SyncXor => {
             let old = card.state.read_m(m).unwrap_or(0.0);
@@ -97,7 +98,7 @@ pub fn apply_sync(card: &mut Card, m: u32, op: AssignOp, v: f64) {
 }
 
 /// Number of C.S. I-variable `nn` (87..99) of C.S. `cs`: Ixnn on PMAC2, Isxnn on Turbo.
-pub fn cs_ivar(profile: Profile, cs: u16, nn: u32) -> u32 {
+pub(crate) fn cs_ivar(profile: Profile, cs: u16, nn: u32) -> u32 {
     match profile {
         Profile::Pmac2 => 100 * u32::from(cs) + nn,
         Profile::Turbo => 5000 + 100 * u32::from(cs) + nn,
@@ -105,7 +106,7 @@ pub fn cs_ivar(profile: Profile, cs: u16, nn: u32) -> u32 {
 }
 
 /// I-variable value with a default when missing or non-finite.
-pub fn ivar(card: &Card, n: u32, dflt: f64) -> f64 {
+pub(crate) fn ivar(card: &CardModel, n: u32, dflt: f64) -> f64 {
     card.state
         .peek_ivar(n)
         .ok()

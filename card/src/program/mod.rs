@@ -26,16 +26,16 @@
 //! negative times, TA = TS = 0, impossible circle, missing/singular matrix), see
 //! [`csexec::rte`].
 
-pub mod compile;
-pub mod config;
-pub mod csexec;
-pub mod env;
-pub mod motion;
+pub(crate) mod compile;
+pub(crate) mod config;
+pub(crate) mod csexec;
+pub(crate) mod env;
+pub(crate) mod motion;
 mod motion_exec;
 mod motion_move;
-pub mod plc;
+pub(crate) mod plc;
 mod runctl;
-pub mod stmt;
+pub(crate) mod stmt;
 
 #[cfg(test)]
 mod tests_compile;
@@ -44,13 +44,13 @@ mod tests_engine;
 #[cfg(test)]
 mod tests_flow;
 
-use crate::interp::{Action, ActionKind, Card};
-use crate::lang::ast::CmdKind;
+use crate::model::{Action, ActionKind, CardModel};
 use crate::motion::motor::{Motor, TripScope};
 use csexec::CsExec;
 use motion::PassIo;
 use plc::PlcRunner;
 use stmt::{run_cmds, QueuedCmd};
+pub use stmt::{Commands, NoCommands};
 
 /// The program engine of one card.
 #[derive(Debug, Default)]
@@ -70,7 +70,7 @@ impl ProgramEngine {
         ProgramEngine::default()
     }
 
-    fn ensure(&mut self, card: &Card) {
+    fn ensure(&mut self, card: &CardModel) {
         if card.resets() != self.resets_seen {
             *self = ProgramEngine {
                 resets_seen: card.resets(),
@@ -85,7 +85,7 @@ impl ProgramEngine {
         }
     }
 
-    fn cs_mut(&mut self, card: &Card, cs: u16) -> Option<&mut CsExec> {
+    fn cs_mut(&mut self, card: &CardModel, cs: u16) -> Option<&mut CsExec> {
         self.ensure(card);
         self.cs.get_mut((cs as usize).wrapping_sub(1))
     }
@@ -104,37 +104,39 @@ impl ProgramEngine {
     /// Take a coordinate-system or program action (R, S, Q, A, H, B, /, \, PC, PE, CTRL-R/S/Q/
     /// O/A, ...). Returns `false` when the action is not the engine's (motor actions) — and
     /// for `A`, CTRL-A and CTRL-K, whose motor side the servo loop also applies.
-    pub fn handle_action(&mut self, card: &mut Card, motors: &[Motor], action: &Action) -> bool {
+    pub fn handle_action(
+        &mut self,
+        card: &mut CardModel,
+        motors: &[Motor],
+        action: &Action,
+    ) -> bool {
         self.ensure(card);
         match &action.kind {
-            ActionKind::Ctrl(c) => match *c {
-                0x01 | 0x0B => {
-                    for x in &mut self.cs {
-                        x.abort(card);
-                    }
-                    false
+            ActionKind::AbortAll | ActionKind::KillAll => {
+                for x in &mut self.cs {
+                    x.abort(card);
                 }
-                0x0F => {
-                    for x in &mut self.cs {
-                        if let Some(c) = &mut x.cs {
-                            c.hold();
-                        }
+                false
+            }
+            ActionKind::HoldAll => {
+                for x in &mut self.cs {
+                    if let Some(c) = &mut x.cs {
+                        c.hold();
                     }
-                    true
                 }
-                0x11 => {
-                    for x in &mut self.cs {
-                        x.quit();
-                    }
-                    true
+                true
+            }
+            ActionKind::QuitAll => {
+                for x in &mut self.cs {
+                    x.quit();
                 }
-                _ => false,
-            },
-            ActionKind::Cmd(cmd) => {
+                true
+            }
+            kind => {
                 let Some(x) = self.cs_mut(card, action.coord) else {
                     return false;
                 };
-                self::run_control(x, card, motors, cmd)
+                self::run_control(x, card, motors, kind)
             }
         }
     }
@@ -145,13 +147,14 @@ impl ProgramEngine {
     /// (Each C.S. advances its own trajectory clock from I10 and its `%` time base.)
     pub fn servo_tick(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
+        cmd: &mut dyn Commands,
         motors: &[Motor],
         _cycle: u64,
         _dt_ms: f64,
     ) -> Vec<Option<f64>> {
         self.ensure(card);
-        self.plcs.foreground(card, &mut self.out);
+        self.plcs.foreground(card, cmd, &mut self.out);
         let mut res = vec![None; motors.len()];
         for x in &mut self.cs {
             x.sync_axes(card, motors);
@@ -174,7 +177,7 @@ impl ProgramEngine {
     /// A motor tripped (following error, amp fault, limit): abort the programs per `scope`.
     /// `motor` is the index into the servo loop's motor slice (0 = motor #1). Whatever the
     /// scope, the program of the motor's C.S. is aborted; `TripScope::Card` aborts all.
-    pub fn on_trip(&mut self, card: &mut Card, motor: usize, scope: TripScope) {
+    pub fn on_trip(&mut self, card: &mut CardModel, motor: usize, scope: TripScope) {
         self.ensure(card);
         let m = u16::try_from(motor + 1).unwrap_or(0);
         let mine = card.run.cs_of(m);
@@ -186,7 +189,7 @@ impl ProgramEngine {
     }
 
     /// The ring failed: abort every program (the servo loop kills the motors).
-    pub fn on_ring_fault(&mut self, card: &mut Card) {
+    pub fn on_ring_fault(&mut self, card: &mut CardModel) {
         self.ensure(card);
         for x in &mut self.cs {
             x.abort(card);
@@ -194,9 +197,9 @@ impl ProgramEngine {
     }
 
     /// One background cycle: PLC 1-31 scans (I5 gating), program look-ahead.
-    pub fn background(&mut self, card: &mut Card, motors: &[Motor]) {
+    pub fn background(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, motors: &[Motor]) {
         self.ensure(card);
-        self.plcs.background(card, &mut self.out);
+        self.plcs.background(card, cmd, &mut self.out);
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         for x in &mut self.cs {
             if x.active {
@@ -206,6 +209,7 @@ impl ProgramEngine {
                     &mut PassIo {
                         cmds: &mut cmds,
                         out: &mut self.out,
+                        cmd: &mut *cmd,
                     },
                 );
             } else if x.busy() {
@@ -214,14 +218,14 @@ impl ProgramEngine {
             x.record_stop_point(card, motors);
             cs_status(x, card, motors);
         }
-        run_cmds(card, &mut cmds, &mut self.out);
+        run_cmds(card, cmd, &mut cmds, &mut self.out);
     }
 }
 
 /// On-line program control for one C.S.
-fn run_control(x: &mut CsExec, card: &mut Card, motors: &[Motor], cmd: &CmdKind) -> bool {
+fn run_control(x: &mut CsExec, card: &mut CardModel, motors: &[Motor], cmd: &ActionKind) -> bool {
     match cmd {
-        CmdKind::Begin(_) => {
+        ActionKind::Begin => {
             x.frames.clear();
             x.flush_sync();
             x.stop_pending = false;
@@ -230,21 +234,21 @@ fn run_control(x: &mut CsExec, card: &mut Card, motors: &[Motor], cmd: &CmdKind)
             }
             true
         }
-        CmdKind::Run | CmdKind::Resume | CmdKind::Step => {
+        ActionKind::Run | ActionKind::Resume | ActionKind::Step => {
             let running = card.cs_running(x.num);
             if !running {
                 // The interpreter refused it (ERR010-ERR016): nothing to do.
                 return true;
             }
-            x.start(card, motors, matches!(cmd, CmdKind::Step));
+            x.start(card, motors, matches!(cmd, ActionKind::Step));
             x.modal_from_flags(card);
             true
         }
-        CmdKind::Quit => {
+        ActionKind::Quit => {
             x.quit();
             true
         }
-        CmdKind::StopAtEnd => {
+        ActionKind::StopAtEnd => {
             // [DECISION] with I13 = 0 (no segmentation) `/` is `Q`, as the spec says; the
             // segmented form (stop inside the executing move) is COORD's `stop_at_end`.
             if env::ivar(card, 13, 0.0) > 0.0 {
@@ -254,28 +258,28 @@ fn run_control(x: &mut CsExec, card: &mut Card, motors: &[Motor], cmd: &CmdKind)
             }
             true
         }
-        CmdKind::Abort => {
+        ActionKind::Abort => {
             x.abort(card);
             false
         }
-        CmdKind::Hold | CmdKind::HoldJog | CmdKind::BackUp => {
+        ActionKind::Hold | ActionKind::HoldJog | ActionKind::BackUp => {
             if let Some(c) = &mut x.cs {
                 c.hold();
             }
             true
         }
-        CmdKind::OverrideSet(v) => {
+        ActionKind::Override(v) => {
             x.sync_axes(card, motors);
             if let Some(c) = &mut x.cs {
                 c.tb.set_percent(*v);
             }
             true
         }
-        CmdKind::MFlush => {
+        ActionKind::MFlush => {
             x.flush_sync();
             true
         }
-        CmdKind::PMatch => {
+        ActionKind::PMatch => {
             if let Some(c) = &mut x.cs {
                 if c.is_idle() {
                     let pos = csexec::commanded(motors, c.motors());
@@ -290,7 +294,7 @@ fn run_control(x: &mut CsExec, card: &mut Card, motors: &[Motor], cmd: &CmdKind)
 
 /// `??` bits the engine owns: running (calculation), in position (all motors, no move), and
 /// the OR of the motors' amp-fault / fatal / warning following-error bits.
-fn cs_status(x: &CsExec, card: &mut Card, motors: &[Motor]) {
+fn cs_status(x: &CsExec, card: &mut CardModel, motors: &[Motor]) {
     let k = x.num as usize - 1;
     let idle = !x.busy();
     let (mut inpos, mut amp, mut fatal, mut warn) = (true, false, false, false);

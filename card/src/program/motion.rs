@@ -12,14 +12,14 @@ use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait, MAX_FRAMES};
 use super::env;
 use super::stmt::QueuedCmd;
 use crate::coord::moves::{Feed, Mode};
-use crate::interp::progline::ProgLine;
-use crate::interp::Card;
-use crate::lang::ast::{CodeLetter, LetterArg, PreludeCall, StmtKind};
+use crate::domain::ast::{CodeLetter, LetterArg, PreludeCall, StmtKind};
+use crate::model::CardModel;
+use crate::model::MoveMode as StatusMode;
+use crate::model::ProgLine;
 use crate::motion::motor::Motor;
-use crate::state::status::MoveMode as StatusMode;
 
 /// Most instructions one calculation pass executes.
-pub const MAX_OPS_PER_PASS: u32 = 1000;
+pub(crate) const MAX_OPS_PER_PASS: u32 = 1000;
 
 /// Outcome of one statement.
 pub(super) enum Flow {
@@ -45,6 +45,8 @@ pub struct PassIo<'a> {
     pub cmds: &'a mut Vec<QueuedCmd>,
     /// Unsolicited output.
     pub out: &'a mut Vec<u8>,
+    /// The command language.
+    pub cmd: &'a mut dyn super::stmt::Commands,
 }
 
 fn status_mode(m: Mode) -> StatusMode {
@@ -72,7 +74,7 @@ impl CsExec {
     }
 
     /// Copy on-line ABS/INC/FRAX (`??` word 1) into the modal state (at R/S).
-    pub fn modal_from_flags(&mut self, card: &Card) {
+    pub fn modal_from_flags(&mut self, card: &CardModel) {
         let (Some(c), Some(f)) = (&mut self.cs, card.state.coords.get(self.num as usize - 1))
         else {
             return;
@@ -85,7 +87,7 @@ impl CsExec {
         c.modal.centre_abs = !f.radius_inc;
     }
 
-    fn flags_from_modal(&self, card: &mut Card) {
+    fn flags_from_modal(&self, card: &mut CardModel) {
         let (Some(c), Some(f)) = (&self.cs, card.state.coords.get_mut(self.num as usize - 1))
         else {
             return;
@@ -141,7 +143,7 @@ impl CsExec {
     }
 
     /// One calculation pass.
-    pub fn calc(&mut self, card: &mut Card, motors: &[Motor], io: &mut PassIo<'_>) {
+    pub fn calc(&mut self, card: &mut CardModel, motors: &[Motor], io: &mut PassIo<'_>) {
         if !self.active || !self.check_wait(motors) {
             return;
         }
@@ -265,7 +267,7 @@ impl CsExec {
     }
 
     /// Calculation stopped (STOP, step done, Q): the ?? running bit drops.
-    pub(super) fn halted(&mut self, card: &mut Card) {
+    pub(super) fn halted(&mut self, card: &mut CardModel) {
         if let Some(f) = card.state.coords.get_mut(self.num as usize - 1) {
             f.running = false;
             f.continuous_request = false;
@@ -276,7 +278,7 @@ impl CsExec {
     }
 
     /// End of the top-level program: stop; the next R starts at the top of `prog`.
-    pub(super) fn finish(&mut self, card: &mut Card, prog: Option<u16>) {
+    pub(super) fn finish(&mut self, card: &mut CardModel, prog: Option<u16>) {
         self.active = false;
         self.frames.clear();
         let k = self.num as usize - 1;
@@ -286,7 +288,7 @@ impl CsExec {
         self.halted(card);
     }
 
-    fn next_rotary_line(&mut self, card: &mut Card) -> bool {
+    fn next_rotary_line(&mut self, card: &mut CardModel) -> bool {
         let line = card
             .bufs
             .rotary
@@ -309,7 +311,7 @@ impl CsExec {
         }
     }
 
-    pub(super) fn do_return(&mut self, card: &mut Card) {
+    pub(super) fn do_return(&mut self, card: &mut CardModel) {
         let Some(f) = self.frames.pop() else { return };
         if self.frames.is_empty() {
             let prog = match f.key {
@@ -324,7 +326,7 @@ impl CsExec {
         }
     }
 
-    pub(super) fn push_frame(&mut self, card: &mut Card, f: Frame) -> Flow {
+    pub(super) fn push_frame(&mut self, card: &mut CardModel, f: Frame) -> Flow {
         if self.frames.len() >= MAX_FRAMES {
             self.runtime_error(card, rte::STACK, false);
             return Flow::Error;
@@ -335,7 +337,7 @@ impl CsExec {
 
     pub(super) fn args(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
         args: &[LetterArg],
     ) -> Result<Vec<(u8, f64)>, ()> {
         let mut v = Vec::with_capacity(args.len());
@@ -351,7 +353,7 @@ impl CsExec {
     /// CALL of `PROG prog` at label `label` (missing program or label: ignored).
     pub(super) fn call(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
         prog: u32,
         label: u32,
         args: Vec<(u8, f64)>,
@@ -383,7 +385,7 @@ impl CsExec {
         )
     }
 
-    pub(super) fn fire_prelude(&mut self, card: &mut Card, p: &PreludeCall) {
+    pub(super) fn fire_prelude(&mut self, card: &mut CardModel, p: &PreludeCall) {
         let (prog, label) = match p {
             PreludeCall::Call(n) => call_target(n.value),
             PreludeCall::Code(l, n) => code_target(*l, n.value),
@@ -404,7 +406,7 @@ pub(super) fn label_number(v: f64) -> u32 {
 }
 
 /// `CALL{v}`: program int(v) at label N(frac × 100000).
-pub fn call_target(v: f64) -> (u32, u32) {
+pub(crate) fn call_target(v: f64) -> (u32, u32) {
     if !(0.0..4_294_967_296.0).contains(&v) {
         return (0, 0);
     }
@@ -413,7 +415,7 @@ pub fn call_target(v: f64) -> (u32, u32) {
 }
 
 /// G/M/T/D{c}: PROG 1000 + 10·hundreds + k at label N(rest × 1000).
-pub fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
+pub(crate) fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
     if !(c.is_finite() && (0.0..1000.0).contains(&c)) {
         return (0, 0);
     }

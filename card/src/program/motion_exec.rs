@@ -8,14 +8,14 @@ use super::motion_move::qs;
 use super::stmt::{exec_common, Common, Ctx};
 use crate::coord::axes::axis_index;
 use crate::coord::moves::Mode;
-use crate::interp::Card;
-use crate::lang::ast::{AssignOp, Axis, MoveMode, Stmt, StmtKind};
+use crate::domain::ast::{AssignOp, Axis, MoveMode, Stmt, StmtKind};
+use crate::model::CardModel;
 use crate::motion::motor::Motor;
 
 impl CsExec {
     pub(super) fn exec(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
         motors: &[Motor],
         s: &Stmt,
         io: &mut PassIo<'_>,
@@ -267,6 +267,7 @@ impl CsExec {
                     coord: num,
                     cmds: io.cmds,
                     out: io.out,
+                    cmd: io.cmd,
                 };
                 match exec_common(card, &mut ctx, &s.kind) {
                     Common::BadVariable => {

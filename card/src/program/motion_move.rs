@@ -7,14 +7,14 @@ use super::motion::Flow;
 use crate::coord::axes::axis_index;
 use crate::coord::cs::{CoordSystem, MoveWords};
 use crate::coord::CoordError;
-use crate::interp::{Action, ActionKind, Card};
-use crate::lang::ast::{Axis, AxisExtra, AxisWord, CmdKind, NumRange};
+use crate::domain::ast::{Axis, AxisExtra, AxisWord, NumRange};
+use crate::model::{Action, ActionKind, CardModel};
 
 impl CsExec {
     /// Apply a modal change to the trajectory (created on demand).
     pub(super) fn modal(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
         f: impl FnOnce(&mut CoordSystem) -> Result<(), CoordError>,
     ) -> Flow {
         let Some(c) = &mut self.cs else {
@@ -34,7 +34,7 @@ impl CsExec {
     /// Queue a move-like item when the look-ahead wants one.
     pub(super) fn queue(
         &mut self,
-        card: &mut Card,
+        card: &mut CardModel,
         f: impl FnOnce(&mut CoordSystem) -> Result<Option<u64>, CoordError>,
     ) -> Flow {
         let Some(c) = &mut self.cs else {
@@ -82,7 +82,7 @@ impl CsExec {
         }
     }
 
-    pub(super) fn move_line(&mut self, card: &mut Card, words: &[AxisWord]) -> Flow {
+    pub(super) fn move_line(&mut self, card: &mut CardModel, words: &[AxisWord]) -> Flow {
         let mut w = MoveWords::default();
         for aw in words {
             let Ok(v) = env::value(card, self.num, &aw.value) else {
@@ -105,7 +105,7 @@ impl CsExec {
     }
 
     /// Axis words (and F) left on a CALL / G-code line after READ: a move after the RETURN.
-    pub(super) fn leftover_move(&mut self, card: &mut Card, args: &[(u8, f64)]) -> Flow {
+    pub(super) fn leftover_move(&mut self, card: &mut CardModel, args: &[(u8, f64)]) -> Flow {
         let mut w = MoveWords::default();
         let mut any = false;
         for &(l, v) in args {
@@ -127,7 +127,7 @@ impl CsExec {
         self.queue(card, |c| c.push_move(&w))
     }
 
-    pub(super) fn home(&mut self, card: &mut Card, list: &[NumRange], search: bool) -> Flow {
+    pub(super) fn home(&mut self, card: &mut CardModel, list: &[NumRange], search: bool) -> Flow {
         let Some(c) = &self.cs else {
             return Flow::Next;
         };
@@ -146,11 +146,11 @@ impl CsExec {
             card.push_action(Action {
                 motor: m,
                 coord: self.num,
-                kind: ActionKind::Cmd(if search {
-                    CmdKind::Home
+                kind: if search {
+                    ActionKind::Home
                 } else {
-                    CmdKind::HomeZ
-                }),
+                    ActionKind::HomeZero
+                },
             });
         }
         self.wait = Wait::Homing {
@@ -161,7 +161,7 @@ impl CsExec {
     }
 
     /// `READ(...)`: consume the calling line's arguments into Q101..Q126 / Q100.
-    pub(super) fn read(&mut self, card: &mut Card, letters: &[u8]) {
+    pub(super) fn read(&mut self, card: &mut CardModel, letters: &[u8]) {
         let num = self.num;
         let Some(f) = self.frames.last_mut() else {
             return;
@@ -198,7 +198,7 @@ fn put_word(w: &mut MoveWords, a: Axis, v: f64, vel: Option<f64>) {
 }
 
 /// Q(q)..Q(q+N-1) of C.S. `cs` (missing ones 0).
-pub(super) fn qs<const N: usize>(card: &Card, cs: u16, q: u32) -> [f64; N] {
+pub(super) fn qs<const N: usize>(card: &CardModel, cs: u16, q: u32) -> [f64; N] {
     let mut v = [0.0; N];
     for (i, x) in v.iter_mut().enumerate() {
         *x = card.state.vars.q(cs, q + i as u32).unwrap_or(0.0);

@@ -7,13 +7,13 @@ use std::sync::Arc;
 
 use super::compile::{compile, Compiled, Op};
 use super::env;
-use super::stmt::{exec_common, run_cmds, Common, Ctx, QueuedCmd};
-use crate::interp::Card;
-use crate::lang::ast::PlcVerb;
+use super::stmt::{exec_common, run_cmds, Commands, Common, Ctx, QueuedCmd};
+use crate::domain::ast::PlcVerb;
+use crate::model::CardModel;
 
 /// Most instructions one PLC scan executes; a scan that reaches it ends there and the next
 /// scan continues from that point ([DECISION] the runaway guard).
-pub const PLC_SCAN_BUDGET: u32 = 2000;
+pub(crate) const PLC_SCAN_BUDGET: u32 = 2000;
 
 /// Run-state of one PLC.
 #[derive(Debug, Clone, Default)]
@@ -57,28 +57,28 @@ impl Default for PlcRunner {
 
 impl PlcRunner {
     /// One scan of PLC 0 if I5 bit 0 allows it.
-    pub fn foreground(&mut self, card: &mut Card, out: &mut Vec<u8>) {
+    pub fn foreground(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, out: &mut Vec<u8>) {
         let i5 = env::ivar(card, 5, 0.0) as i64;
         self.track(card, 0);
         if i5 & 1 != 0 && card.plc_active(0) {
-            self.scan(card, 0, out);
+            self.scan(card, cmd, 0, out);
         }
     }
 
     /// One scan of each PLC 1-31 that is enabled, not paused and allowed by I5 bit 1.
-    pub fn background(&mut self, card: &mut Card, out: &mut Vec<u8>) {
+    pub fn background(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, out: &mut Vec<u8>) {
         let i5 = env::ivar(card, 5, 0.0) as i64;
         for n in 1..32u8 {
             self.track(card, n);
             if i5 & 2 != 0 && card.plc_active(n) {
-                self.scan(card, n, out);
+                self.scan(card, cmd, n, out);
             }
         }
     }
 
     /// Follow enable transitions and source changes: a PLC (re-)enabled or edited starts at
     /// the top.
-    fn track(&mut self, card: &Card, n: u8) {
+    fn track(&mut self, card: &CardModel, n: u8) {
         let enabled = card.run.plc.get(n as usize).is_some_and(|p| p.enabled);
         let st = &mut self.plcs[n as usize];
         let lines = card.bufs.plcs.get(&n).map(|p| &p.lines);
@@ -107,7 +107,7 @@ impl PlcRunner {
         self.plcs.get(n as usize).map_or(0, |p| p.pc)
     }
 
-    fn scan(&mut self, card: &mut Card, n: u8, out: &mut Vec<u8>) {
+    fn scan(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, n: u8, out: &mut Vec<u8>) {
         let k = n as usize;
         let Some(code) = self.plcs[k].code.clone() else {
             return;
@@ -144,7 +144,7 @@ impl PlcRunner {
                     pc = if t { pc + 1 } else { *else_to };
                 }
                 Op::Exec(s) => {
-                    if matches!(s.kind, crate::lang::ast::StmtKind::Return) {
+                    if matches!(s.kind, crate::domain::ast::StmtKind::Return) {
                         pc = 0;
                         break;
                     }
@@ -153,6 +153,7 @@ impl PlcRunner {
                         coord,
                         cmds: &mut cmds,
                         out,
+                        cmd,
                     };
                     let r = exec_common(card, &mut ctx, &s.kind);
                     pc += 1;
@@ -191,6 +192,6 @@ impl PlcRunner {
         let st = &mut self.plcs[k];
         st.pc = pc;
         st.was_active = enabled;
-        run_cmds(card, &mut cmds, out);
+        run_cmds(card, cmd, &mut cmds, out);
     }
 }

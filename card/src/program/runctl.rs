@@ -8,12 +8,12 @@ use super::compile::Compiled;
 use super::config::cs_config;
 use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait};
 use crate::coord::cs::CoordSystem;
-use crate::interp::Card;
+use crate::model::CardModel;
 use crate::motion::motor::Motor;
 
 impl CsExec {
     /// `R` / `S` (the interpreter has already made its ERR010-ERR016 checks).
-    pub fn start(&mut self, card: &mut Card, motors: &[Motor], step: bool) {
+    pub fn start(&mut self, card: &mut CardModel, motors: &[Motor], step: bool) {
         let k = self.k();
         if let Some(f) = card.state.coords.get_mut(k) {
             f.runtime_error = false;
@@ -88,7 +88,7 @@ impl CsExec {
 
     /// `A`, CTRL-A, CTRL-K, trips, ring fault: decelerate at Ix15, stop the program (resumable
     /// from the program counter), drop synchronous assignments.
-    pub fn abort(&mut self, card: &mut Card) {
+    pub fn abort(&mut self, card: &mut CardModel) {
         self.active = false;
         self.wait = Wait::None;
         self.leftover = None;
@@ -104,7 +104,7 @@ impl CsExec {
 
     /// `/` (segmented moves): finish the executing move, drop the moves calculated after it
     /// and put the program counter just after it.
-    pub fn stop_at_end(&mut self, card: &mut Card) {
+    pub fn stop_at_end(&mut self, card: &mut CardModel) {
         if let Some(f) = card.state.coords.get_mut(self.k()) {
             f.running = false;
             f.continuous_request = false;
@@ -123,7 +123,7 @@ impl CsExec {
     }
 
     /// After a `/` stop: once the motion has ended, keep the motors' stop point for ERR017.
-    pub fn record_stop_point(&mut self, card: &mut Card, motors: &[Motor]) {
+    pub fn record_stop_point(&mut self, card: &mut CardModel, motors: &[Motor]) {
         let Some(c) = &self.cs else { return };
         if !self.stop_pending || !c.is_idle() {
             return;
@@ -137,7 +137,7 @@ impl CsExec {
     }
 
     /// `PC` / `PE` texts into the interpreter's run state.
-    pub fn report_pc(&self, card: &mut Card) {
+    pub fn report_pc(&self, card: &mut CardModel) {
         let k = self.k();
         let pc = if self.frames.is_empty() {
             None

@@ -3,14 +3,14 @@
 //! MACRO auxiliary statements (refused: see [`Common::MacroRefused`]).
 
 use super::env;
-use crate::interp::{Action, ActionKind, Card, Session};
-use crate::lang::ast::{AssignOp, CmdKind, Message, NumRange, PlcVerb, SendPort, StmtKind};
+use crate::domain::ast::{AssignOp, Message, NumRange, PlcVerb, SendPort, StmtKind};
+use crate::model::CardModel;
 
 /// Most bytes of unsolicited output kept for the host before the oldest are dropped.
-pub const MAX_OUTPUT: usize = 65_536;
+pub(crate) const MAX_OUTPUT: usize = 65_536;
 
 /// Most queued program commands (`CMD`) per calculation pass or PLC scan.
-pub const MAX_CMDS: usize = 64;
+pub(crate) const MAX_CMDS: usize = 64;
 
 /// A queued `CMD"…"` / `CMD^x` with the issuing program's addressing.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,8 +23,31 @@ pub struct QueuedCmd {
     pub msg: Message,
 }
 
+/// How programs reach the command language: `CMD"…"` lines and `CMD^x` control characters
+/// run through it with the issuing program's addressing (the language layer implements it; the
+/// engine never depends on a dialect's interpreter).
+pub trait Commands {
+    /// Execute a command line issued by a program (`CMD"..."`); its unsolicited output.
+    fn line(&mut self, card: &mut CardModel, motor: u16, coord: u16, line: &[u8]) -> Vec<u8>;
+    /// Execute a control character issued by a program (`CMD^x`); its reply.
+    fn control(&mut self, card: &mut CardModel, motor: u16, coord: u16, c: u8) -> Vec<u8>;
+}
+
+/// A command path that runs nothing (engine tests without a language).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoCommands;
+
+impl Commands for NoCommands {
+    fn line(&mut self, _: &mut CardModel, _: u16, _: u16, _: &[u8]) -> Vec<u8> {
+        Vec::new()
+    }
+    fn control(&mut self, _: &mut CardModel, _: u16, _: u16, _: u8) -> Vec<u8> {
+        Vec::new()
+    }
+}
+
 /// Execution context of one statement.
-pub struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     /// Motor for `CMD` lines without `#`.
     pub motor: u16,
     /// C.S. of the Q-variables and of `CMD` lines without `&`.
@@ -33,11 +56,13 @@ pub struct Ctx<'a> {
     pub cmds: &'a mut Vec<QueuedCmd>,
     /// Unsolicited output (`SEND`).
     pub out: &'a mut Vec<u8>,
+    /// The command language (`GATHER`, `ENDGATHER` run through it at once).
+    pub cmd: &'a mut dyn Commands,
 }
 
 /// What a shared statement did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Common {
+pub(crate) enum Common {
     /// Done.
     Done,
     /// A variable could not be read or written (bad number / value): run-time error.
@@ -54,7 +79,7 @@ pub enum Common {
 }
 
 /// Append `bytes` to the bounded output queue.
-pub fn emit(out: &mut Vec<u8>, bytes: &[u8]) {
+pub(crate) fn emit(out: &mut Vec<u8>, bytes: &[u8]) {
     out.extend_from_slice(bytes);
     if out.len() > MAX_OUTPUT {
         let cut = out.len() - MAX_OUTPUT;
@@ -62,7 +87,7 @@ pub fn emit(out: &mut Vec<u8>, bytes: &[u8]) {
     }
 }
 
-fn send(card: &Card, out: &mut Vec<u8>, msg: &Message) {
+fn send(card: &CardModel, out: &mut Vec<u8>, msg: &Message) {
     let tag = env::ivar(card, 64, 0.0) != 0.0;
     let no_cr = env::ivar(card, 62, 0.0) != 0.0;
     let mut b = Vec::new();
@@ -82,7 +107,7 @@ fn send(card: &Card, out: &mut Vec<u8>, msg: &Message) {
 }
 
 /// Execute a shared statement.
-pub fn exec_common(card: &mut Card, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
+pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
     match s {
         StmtKind::Assign {
             target,
@@ -136,25 +161,19 @@ pub fn exec_common(card: &mut Card, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
             Common::Plc(pc.verb, mask)
         }
         StmtKind::Address { motor, coord } => Common::Address(*motor, *coord),
-        StmtKind::SetPhase(list) => {
-            card.push_action(Action {
-                motor: ctx.motor,
-                coord: ctx.coord,
-                kind: ActionKind::Cmd(CmdKind::SetPhase(list.clone())),
-            });
-            Common::Done
-        }
+        // Phasing is not modelled (no commutation): accepted, nothing to do.
+        StmtKind::SetPhase(_) => Common::Done,
         StmtKind::Gather { trigger } => {
             let line: &[u8] = if *trigger {
                 b"GATHER TRIGGER"
             } else {
                 b"GATHER"
             };
-            let _ = card.program_command(ctx.motor, ctx.coord, line);
+            let _ = ctx.cmd.line(card, ctx.motor, ctx.coord, line);
             Common::Done
         }
         StmtKind::EndGather => {
-            let _ = card.program_command(ctx.motor, ctx.coord, b"ENDGATHER");
+            let _ = ctx.cmd.line(card, ctx.motor, ctx.coord, b"ENDGATHER");
             Common::Done
         }
         StmtKind::MacroAuxRead { .. }
@@ -169,20 +188,22 @@ pub fn exec_common(card: &mut Card, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
 }
 
 /// Run queued program commands (after a PLC scan / calculation pass); their replies go to `out`.
-pub fn run_cmds(card: &mut Card, cmds: &mut Vec<QueuedCmd>, out: &mut Vec<u8>) {
+pub(crate) fn run_cmds(
+    card: &mut CardModel,
+    cmd: &mut dyn Commands,
+    cmds: &mut Vec<QueuedCmd>,
+    out: &mut Vec<u8>,
+) {
     for c in std::mem::take(cmds) {
         match c.msg {
             Message::Text(t) => {
-                let r = card.program_command(c.motor, c.coord, &t);
+                let r = cmd.line(card, c.motor, c.coord, &t);
                 emit(out, &r);
             }
             Message::Ctrl(x) => {
-                let mut s = Session::with_id(0);
-                s.motor = c.motor.max(1);
-                s.coord = c.coord.max(1);
                 let code = x.wrapping_sub(64);
                 if (1..=0x1A).contains(&code) && code != 0x0D && code != 0x0A {
-                    let r = card.control_char(&mut s, code);
+                    let r = cmd.control(card, c.motor.max(1), c.coord.max(1), code);
                     emit(out, &r);
                 }
             }

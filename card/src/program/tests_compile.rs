@@ -1,9 +1,10 @@
 //! Tests of the flattener: jump targets of block and one-line structures, labels, offsets.
 
 use super::compile::{compile, Op, Unlinked};
-use crate::interp::progline::ProgLine;
-use crate::lang::ast::{BufferKind, StmtKind};
+use crate::domain::ast::StmtKind;
+use crate::lang::ast::BufferKind;
 use crate::lang::parse_program_line;
+use crate::model::ProgLine;
 
 fn lines(text: &str, kind: BufferKind) -> Vec<ProgLine> {
     text.lines()
@@ -91,7 +92,7 @@ fn plc_and_or_lines_fold_into_one_condition() {
         panic!()
     };
     // (P11=1 AND P12=0) OR (P11=0 AND P12=1)
-    use crate::lang::ast::Cond;
+    use crate::domain::ast::Cond;
     assert!(matches!(cond, Cond::Or(a, b)
         if matches!(**a, Cond::And(..)) && matches!(**b, Cond::And(..))));
 }

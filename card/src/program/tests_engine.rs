@@ -2,7 +2,7 @@
 //! semantics, refusals. A "perfect motor" rig: each motor's feedback equals its setpoint.
 
 use super::ProgramEngine;
-use crate::interp::{Card, Profile, Session};
+use crate::lang::interp::{Card, Profile, Session};
 use crate::motion::flags::FlagInputs;
 use crate::motion::motor::{Motor, MotorCommand, TickInput};
 use crate::motion::params::MotorParams;
@@ -16,7 +16,7 @@ pub(super) struct Rig {
 }
 
 impl Rig {
-    pub fn new() -> Rig {
+    pub(super) fn new() -> Rig {
         let mut r = Rig {
             card: Card::new(Profile::Pmac2),
             eng: ProgramEngine::new(),
@@ -31,7 +31,7 @@ impl Rig {
     }
 
     /// Reply of a command line, without framing characters.
-    pub fn cmd(&mut self, line: &str) -> String {
+    pub(super) fn cmd(&mut self, line: &str) -> String {
         let r = self.card.command_line(&mut self.s, line.as_bytes());
         String::from_utf8_lossy(&r)
             .chars()
@@ -42,7 +42,7 @@ impl Rig {
     }
 
     /// Enter program text lines.
-    pub fn prog(&mut self, text: &str) {
+    pub(super) fn prog(&mut self, text: &str) {
         for l in text.lines() {
             let l = l.trim();
             if !l.is_empty() {
@@ -53,20 +53,22 @@ impl Rig {
     }
 
     /// One servo tick; returns the setpoints.
-    pub fn tick(&mut self) -> Vec<Option<f64>> {
+    pub(super) fn tick(&mut self) -> Vec<Option<f64>> {
         for a in self.card.take_actions() {
-            if !self.eng.handle_action(&mut self.card, &self.motors, &a) {
-                if let crate::interp::ActionKind::Cmd(crate::lang::ast::CmdKind::Jog { .. }) =
-                    a.kind
-                {
+            if !self
+                .eng
+                .handle_action(&mut self.card.model, &self.motors, &a)
+            {
+                if let crate::model::ActionKind::Jog { .. } = a.kind {
                     let p = MotorParams::from_state(&self.card.state, a.motor);
                     self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);
                 }
             }
         }
+        let (model, mut cmds) = self.card.split();
         let sp = self
             .eng
-            .servo_tick(&mut self.card, &self.motors, self.cycle, 0.0);
+            .servo_tick(model, &mut cmds, &self.motors, self.cycle, 0.0);
         for (k, m) in self.motors.iter_mut().enumerate() {
             let p = MotorParams::from_state(&self.card.state, k as u16 + 1);
             let target = sp[k].unwrap_or(m.commanded());
@@ -82,19 +84,20 @@ impl Rig {
                 },
             );
         }
-        self.eng.background(&mut self.card, &self.motors);
+        let (model, mut cmds) = self.card.split();
+        self.eng.background(model, &mut cmds, &self.motors);
         self.cycle += 1;
         sp
     }
 
-    pub fn ticks(&mut self, n: usize) {
+    pub(super) fn ticks(&mut self, n: usize) {
         for _ in 0..n {
             self.tick();
         }
     }
 
     /// Tick until C.S. 1 is neither running nor moving (at most `max` cycles).
-    pub fn run_out(&mut self, max: usize) -> usize {
+    pub(super) fn run_out(&mut self, max: usize) -> usize {
         for k in 0..max {
             self.tick();
             let busy = self.eng.coord(1).is_some_and(|c| c.busy());
@@ -105,7 +108,7 @@ impl Rig {
         max
     }
 
-    pub fn pos(&self, m: usize) -> f64 {
+    pub(super) fn pos(&self, m: usize) -> f64 {
         self.motors[m - 1].commanded()
     }
 }
@@ -193,7 +196,7 @@ fn call_gosub_read_and_gcodes_reach_their_targets() {
     assert_eq!(super::motion::call_target(35.1), (35, 10_000));
     assert_eq!(super::motion::call_target(500.12345), (500, 12_345));
     assert_eq!(
-        super::motion::code_target(crate::lang::ast::CodeLetter::T, 115.0),
+        super::motion::code_target(crate::domain::ast::CodeLetter::T, 115.0),
         (1012, 15_000)
     );
 }
@@ -334,8 +337,9 @@ fn home_in_a_program_waits_for_the_motors() {
     r.cmd("&1B9R");
     r.tick();
     let homes: Vec<_> = r.card.take_actions();
-    assert!(homes.iter().any(|a| a.motor == 1
-        && a.kind == crate::interp::ActionKind::Cmd(crate::lang::ast::CmdKind::Home)));
+    assert!(homes
+        .iter()
+        .any(|a| a.motor == 1 && a.kind == crate::model::ActionKind::Home));
     assert_eq!(r.cmd("P9"), "0");
     // The (perfect) motors have no home search to run: the program continues after it.
     r.ticks(5);

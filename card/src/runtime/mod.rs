@@ -2,20 +2,23 @@
 //! ([`run_ring_card`]) that joins the ring, serves the host ports and the zenoh command
 //! queryable, and runs the cycle loop.
 
-pub mod chain;
-pub mod ring_app;
-pub mod sync_start;
+#![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
-use std::sync::{Arc, Mutex};
+pub(crate) mod bench_servo;
+pub(crate) mod ring_app;
+pub(crate) mod standalone;
 
 use anyhow::{anyhow, Context};
 use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
+use crate::core::CardCore;
 use crate::host::server::{serve, PortsConfig};
 use crate::host::zenoh_cmd::declare_cmd_queryable;
-use crate::interp::{Card, Profile};
+use crate::lang::interp::{Card, Profile};
+use crate::service::storage::{self, FileStorage};
+use crate::service::{chain, handle, sync_start};
 
 /// Run card `args.name` of the cluster until stopped.
 pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
@@ -28,10 +31,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             "turbo" => Profile::Turbo,
             _ => Profile::Pmac2,
         };
-        let mut card = match &cc.state_file {
-            Some(p) => Card::with_state_file(profile, p.clone()),
-            None => Card::new(profile),
-        };
+        let storage = cc.state_file.as_ref().map(FileStorage::new);
+        let (mut card, load_error) = startup_card(profile, storage.as_ref());
         // The start-up layer: the ring settings the config derives (I995/I996), the motors on
         // their MACRO nodes (Ix00, I1000, I1002: unless a saved image says how), the chain
         // address (I0, I1), then the config's own I-variables, which win. Re-applied after
@@ -45,7 +46,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             let (nodes, number, ivars) = (cc.nodes.clone(), cc.number, cc.ivars.clone());
             move |card: &mut Card| -> anyhow::Result<()> {
                 if let Some((i995, i996)) = ring {
-                    let mut s = crate::interp::Session::default();
+                    let mut s = crate::lang::interp::Session::default();
                     let line = format!("I995=${i995:X} I996=${i996:X}");
                     let _ = card.command_line(&mut s, line.as_bytes());
                 }
@@ -57,7 +58,9 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             }
         };
         layer(&mut card)?;
-        let card = Arc::new(Mutex::new(card));
+        let mut core = CardCore::new(card);
+        core.load_error = load_error.clone();
+        let (runner, handle) = handle::channel(core, storage);
         // Host ports and the command queryable live on a small tokio runtime of their own.
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
@@ -66,7 +69,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .build()
             .context("starting the host-port runtime")?;
         let ports = rt.block_on(serve(
-            Arc::clone(&card),
+            handle.clone(),
             PortsConfig {
                 ascii_port: cc.ascii_port,
                 eth_port: cc.pmac_eth_port,
@@ -84,20 +87,18 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                 &ctx.session,
                 &ctx.config.cluster,
                 u32::from(cc.number),
-                Arc::clone(&card),
+                handle.clone(),
             ))
             .map_err(|e| anyhow!("declare card command queryable: {e}"))?;
         // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
         // well under the lockstep timeout so a stall never looks like a dead ring.
         let stall =
             std::time::Duration::from_millis((ctx.config.member_timeout_ms / 2).clamp(1, 25));
-        let sync = sync_start::SyncStart::new(stall);
         let at_queryable = sync_start::declare_at_queryable(
             &ctx.session,
             &ctx.config.cluster,
             u32::from(cc.number),
-            Arc::clone(&card),
-            sync.clone(),
+            std::sync::Arc::clone(&runner.sync),
         )
         .map_err(|e| anyhow!("declare card at queryable: {e}"))?;
 
@@ -106,17 +107,19 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         extra.insert("profile".into(), serde_json::json!(cc.profile));
         extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
         extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
+        // A refused state file (issue 9 item 7): `cards[].state_file_error` in the status.
+        extra.insert("state_file_error".into(), serde_json::json!(load_error));
         // The daisy chain (pmac-commands §8.3): every chain byte reaches every card.
         let chain_q = rt
             .block_on(chain::declare_chain_queryable(
                 &ctx.session,
                 &ctx.config.cluster,
                 u32::from(cc.number),
-                Arc::clone(&card),
+                handle.clone(),
             ))
             .map_err(|e| anyhow!("declare card chain queryable: {e}"))?;
-        let app = ring_app::CardRingApp::new(card, &cc.nodes)
-            .with_sync_start(sync)
+        let app = ring_app::CardRingApp::new(runner, &cc.nodes)
+            .with_sync_stall(stall)
             .with_startup(Box::new(move |card: &mut Card| {
                 if let Err(e) = layer(card) {
                     tracing::warn!("re-applying the start-up settings after a reset: {e:#}");
@@ -131,12 +134,40 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
     })
 }
 
+/// The card at process start: the saved image from `storage` (read here, before the servo
+/// loop runs), or factory defaults; a bad image is reported in the log, kept aside as
+/// `<file>.bad-<n>` and never silently overwritten (the next SAVE writes a fresh file).
+/// Stale temporaries of a SAVE cut short are removed. Returns the reason a bad image was
+/// refused.
+pub(crate) fn startup_card(
+    profile: Profile,
+    storage: Option<&FileStorage>,
+) -> (Card, Option<String>) {
+    let mut card = Card::new(profile);
+    let Some(st) = storage else {
+        return (card, None);
+    };
+    storage::remove_stale_temporaries(st.path());
+    let bytes = storage::read(st.path());
+    let result = card.apply_loaded(crate::lang::interp::EffectResult::Loaded(bytes));
+    let err = result.err();
+    if let Some(e) = &err {
+        let aside = storage::keep_aside(st.path());
+        tracing::error!(
+            file = %st.path().display(),
+            kept_as = %aside.as_ref().map(|p| p.display().to_string()).unwrap_or_default(),
+            "saved state refused, factory defaults in use: {e}"
+        );
+    }
+    (card, err)
+}
+
 /// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands.
 fn apply_ivars(
     card: &mut Card,
     ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
 ) -> anyhow::Result<()> {
-    let mut s = crate::interp::Session::default();
+    let mut s = crate::lang::interp::Session::default();
     for (k, v) in ivars {
         let line = format!("{k}={}", v.as_f64());
         let reply = card.command_line(&mut s, line.as_bytes());

@@ -12,14 +12,16 @@
 //! 3). With the factory Ix02/Ix03/Ix25 and ECT defaults that is the Ultralite's "motor on node"
 //! minimum set (spec §6.6), so the default cluster's motors work out of the box.
 
-use std::sync::{Arc, Mutex};
-
-use mcc_ring::core::RingApp;
+use mcc_ring::check::RingCheck;
+use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
+use mcc_ring::settings::RingSettings;
 
-use crate::interp::{Card, Session};
-use crate::servo::Servo;
+use super::handle::{Runner, StartupLayer};
+use crate::core::{CardCore, SLICE_UNITS};
+use crate::lang::interp::{Budget, Card, Session};
+use crate::model::I995_STATUS_BITS;
 
 /// Activate motors 1-8 whose Ix02 register belongs to one of `nodes` (servo nodes only) and
 /// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002). Returns the motors
@@ -31,8 +33,7 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
     let max = card.state.limits().motors.min(8);
     for x in 1..=max {
         let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
-        let Some((node, 0)) =
-            crate::state::memory::node_of(crate::state::memory::Space::Y, (ix02 & 0xFFFF) as u16)
+        let Some((node, 0)) = crate::model::node_of(crate::model::Space::Y, (ix02 & 0xFFFF) as u16)
         else {
             continue;
         };
@@ -52,7 +53,7 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
 
 /// Convert latched node registers to the card's 24-bit register words (16-bit registers sit in
 /// bits 8-23, spec §6.5).
-pub fn regs_to_words(r: NodeRegs) -> [u32; 4] {
+pub(crate) fn regs_to_words(r: NodeRegs) -> [u32; 4] {
     [
         r.r0 & 0xFF_FFFF,
         u32::from(r.r1) << 8,
@@ -62,7 +63,7 @@ pub fn regs_to_words(r: NodeRegs) -> [u32; 4] {
 }
 
 /// Convert the card's command words to node registers.
-pub fn words_to_regs(w: [u32; 4]) -> NodeRegs {
+pub(crate) fn words_to_regs(w: [u32; 4]) -> NodeRegs {
     NodeRegs {
         r0: w[0] & 0xFF_FFFF,
         r1: ((w[1] >> 8) & 0xFFFF) as u16,
@@ -71,24 +72,75 @@ pub fn words_to_regs(w: [u32; 4]) -> NodeRegs {
     }
 }
 
-/// The card's ring application.
+/// The card's ring application: owns the card (through its `Runner`) on the ring driver's
+/// thread. Each tick runs synchronized starts due now, the servo cycle, then a bounded slice
+/// of host work.
 pub struct CardRingApp {
-    card: Arc<Mutex<Card>>,
+    runner: Runner,
     nodes: Vec<u8>,
     /// The ring fault has been reported into the card's status word.
     reported: bool,
     /// The card's `$$$` cleared the reported bit: ask the ring core to reset its latch.
     reset_wanted: bool,
-    /// Synchronized start: scheduled lines and the program-start record (DRILLS).
-    sync: Option<super::sync_start::SyncStart>,
-    /// The servo loop (motors, program engine) (SERVOLOOP).
-    servo: Servo,
+    /// How long a tick waits for a synchronized start's decision.
+    stall: std::time::Duration,
     /// The start-up layer (config settings, motor wiring), applied again after every `$$$` /
     /// `$$$***` (the process start-up applied it the first time).
     startup: Option<StartupLayer>,
     resets_seen: u64,
+    /// The ring settings the card and its ring core last agreed on (`None`: not yet).
+    ring_vars: Option<RingVars>,
     /// Host ports, queryables and their runtime: they live as long as the app.
     _resources: Vec<Box<dyn std::any::Any>>,
+}
+
+/// The card's ring I-variables: I995 (configuration bits), I996, I1001, I1004, I1005. They
+/// live in the ring core (`RingSettings`, `RingCheck`); the card's I-variables mirror them,
+/// synchronised before every tick in both directions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct RingVars {
+    i995: u32,
+    i996: u32,
+    i1001: u32,
+    i1004: u32,
+    i1005: u32,
+}
+
+impl RingVars {
+    fn of_card(card: &Card) -> Self {
+        let i = |n: u32| card.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
+        RingVars {
+            i995: i(995) & !I995_STATUS_BITS,
+            i996: i(996),
+            i1001: i(1001),
+            i1004: i(1004),
+            i1005: i(1005),
+        }
+    }
+
+    fn of_ring(ring: &RingControl<'_>) -> Self {
+        let s = ring.settings();
+        let p = ring.check().params();
+        RingVars {
+            i995: s.i995 & !I995_STATUS_BITS,
+            i996: s.i996,
+            i1001: p.period,
+            i1004: p.error_limit,
+            i1005: p.sync_min,
+        }
+    }
+
+    /// Field by field: a value the card changed since `last` wins, otherwise the ring core's.
+    fn merge(card: RingVars, ring: RingVars, last: RingVars) -> RingVars {
+        let pick = |c: u32, r: u32, l: u32| if c != l { c } else { r };
+        RingVars {
+            i995: pick(card.i995, ring.i995, last.i995),
+            i996: pick(card.i996, ring.i996, last.i996),
+            i1001: pick(card.i1001, ring.i1001, last.i1001),
+            i1004: pick(card.i1004, ring.i1004, last.i1004),
+            i1005: pick(card.i1005, ring.i1005, last.i1005),
+        }
+    }
 }
 
 impl std::fmt::Debug for CardRingApp {
@@ -101,28 +153,32 @@ impl std::fmt::Debug for CardRingApp {
     }
 }
 
-/// What the card's start-up applies on top of its saved (or factory) image, and re-applies
-/// after every reset: the cluster config is the card's hardware setup.
-pub type StartupLayer = Box<dyn Fn(&mut Card)>;
-
 impl CardRingApp {
-    /// A ring app for `card` serving `nodes` (its activated MACRO nodes).
-    pub fn new(card: Arc<Mutex<Card>>, nodes: &[u8]) -> Self {
-        let (servo, resets_seen) = {
-            let c = card.lock().unwrap_or_else(|e| e.into_inner());
-            (Servo::new(&c), c.resets())
-        };
+    /// A ring app for the card `runner` owns, serving `nodes` (its activated MACRO nodes).
+    pub fn new(runner: Runner, nodes: &[u8]) -> Self {
+        let resets_seen = runner.core.card.model.resets();
         CardRingApp {
-            servo,
+            runner,
             startup: None,
             resets_seen,
             _resources: Vec::new(),
-            card,
             nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
             reported: false,
             reset_wanted: false,
-            sync: None,
+            stall: std::time::Duration::from_millis(25),
+            ring_vars: None,
         }
+    }
+
+    /// A ring app owning `card` directly, without host ports (in-process simulations, tests).
+    pub fn for_card(card: Card, nodes: &[u8]) -> Self {
+        let (runner, _handle) = super::handle::channel(CardCore::new(card), None);
+        CardRingApp::new(runner, nodes)
+    }
+
+    /// The card core (tests, tools).
+    pub fn core(&mut self) -> &mut CardCore {
+        &mut self.runner.core
     }
 
     /// Re-apply [`wire_macro_motors`] after every `$$$` / `$$$***` (factory I-variables would
@@ -149,19 +205,83 @@ impl CardRingApp {
         self
     }
 
-    /// Run `sync`'s scheduled lines at the start of each tick (synchronized start).
-    pub fn with_sync_start(mut self, sync: super::sync_start::SyncStart) -> Self {
-        self.sync = Some(sync);
+    /// A tick waits at most `stall` for a synchronized start's commit.
+    pub fn with_sync_stall(mut self, stall: std::time::Duration) -> Self {
+        self.stall = stall;
         self
     }
 }
 
 impl RingApp for CardRingApp {
-    fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
-        let mut card = self.card.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(s) = &self.sync {
-            s.tick_start(&mut card, cycle);
+    /// The ring I-variables, both ways: after a reset (and at start-up) the start-up layer is
+    /// applied first, I995/I996 stay as the ring core has them, and the check is re-armed from
+    /// I1001 > 0 as the card's reset does; otherwise a
+    /// value the card changed since the last tick (a host `I1001=32`) goes to the ring core,
+    /// otherwise the core's value is mirrored. I995's status bits latched by the ring are ORed
+    /// into the card's I995 (cleared when a host reads it; the ring check reads its own).
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        let card = &mut self.runner.core.card;
+        let reset = self.ring_vars.is_none() || card.resets() != self.resets_seen;
+        if card.resets() != self.resets_seen {
+            self.resets_seen = card.resets();
+            if let Some(layer) = &self.startup {
+                layer(card);
+            }
         }
+        let (c, r) = (RingVars::of_card(card), RingVars::of_ring(ring));
+        let new = match self.ring_vars {
+            Some(last) if !reset => RingVars::merge(c, r, last),
+            // A reset (and the start): the ring settings stay as the ring core holds them (the
+            // cluster config is the card's jumpers: a reset does not take the card off the
+            // ring); the check parameters are the card's start-up values.
+            _ => RingVars {
+                i995: r.i995,
+                i996: r.i996,
+                ..c
+            },
+        };
+        if (new.i995, new.i996) != (r.i995, r.i996) {
+            let status = ring.settings().i995 & I995_STATUS_BITS;
+            ring.set_settings(RingSettings::new(new.i995 | status, new.i996));
+        }
+        let armed = ring.check().armed();
+        if reset && armed != (new.i1001 > 0) {
+            // I1001 going from 0 to > 0 (or back) takes effect at a reset only.
+            let i8 = card.state.peek_ivar(8).unwrap_or(2.0).max(0.0) as u32;
+            *ring.check_mut() = RingCheck::card(new.i1001, new.i1004, new.i1005, i8);
+        } else {
+            let check = ring.check_mut();
+            if new.i1001 != r.i1001 {
+                check.set_period(new.i1001);
+            }
+            if new.i1004 != r.i1004 {
+                check.set_error_limit(new.i1004);
+            }
+            if new.i1005 != r.i1005 {
+                check.set_sync_min(new.i1005);
+            }
+        }
+        // The card mirrors what the ring core holds now.
+        let held = RingVars::of_ring(ring);
+        let status = card.state.peek_ivar(995).unwrap_or(0.0) as u32 & I995_STATUS_BITS;
+        for (n, v, now) in [
+            (995, held.i995 | status, c.i995 | status),
+            (996, held.i996, c.i996),
+            (1001, held.i1001, c.i1001),
+            (1004, held.i1004, c.i1004),
+            (1005, held.i1005, c.i1005),
+        ] {
+            if v != now {
+                let _ = card.state.set_ivar(n, f64::from(v));
+            }
+        }
+        card.state.latch_ring_status(ring.status_bits());
+        self.ring_vars = Some(held);
+    }
+
+    fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+        self.runner.sync_tick_start(cycle, self.stall);
+        let card = &mut self.runner.core.card;
         if self.reported && !card.state.global.ring_fault {
             // `$$$` cleared the bit: the ring core's latch follows if the ring is healthy,
             // otherwise the next tick reports the fault again.
@@ -172,16 +292,18 @@ impl RingApp for CardRingApp {
             self.reported = true;
         }
         if card.resets() != self.resets_seen {
+            // (Without a ring core calling `sync_ring`, e.g. a bare tick in a test.)
             self.resets_seen = card.resets();
             if let Some(layer) = &self.startup {
-                layer(&mut card);
+                layer(card);
             }
         }
         for &n in &self.nodes {
             card.state
                 .set_node_feedback(usize::from(n), regs_to_words(regs.read_regs(n)));
         }
-        self.servo.tick(&mut card, cycle);
+        self.runner.core.tick(cycle);
+        let card = &mut self.runner.core.card;
         let latched = card.state.global.ring_fault;
         for &n in &self.nodes {
             *regs.write_regs_mut(n) = if latched {
@@ -190,9 +312,9 @@ impl RingApp for CardRingApp {
                 words_to_regs(card.state.node_command(usize::from(n)))
             };
         }
-        if let Some(s) = &self.sync {
-            s.tick_end(&card);
-        }
+        self.runner.sync_tick_end();
+        // Host work after the tick, in a bounded slice: it never delays the next one.
+        self.runner.pump(&mut Budget::new(SLICE_UNITS));
     }
 
     fn take_ring_reset(&mut self) -> bool {
@@ -203,35 +325,43 @@ impl RingApp for CardRingApp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interp::Profile;
+    use crate::domain::Profile;
+    use crate::service::handle::channel;
     use mcc_ring::settings::RingSettings;
+
+    fn app(card: Card, nodes: &[u8]) -> (CardRingApp, crate::service::handle::CardHandle) {
+        let (runner, handle) = channel(CardCore::new(card), None);
+        (CardRingApp::new(runner, nodes), handle)
+    }
+
+    fn ask(app: &mut CardRingApp, line: &[u8]) -> Vec<u8> {
+        let mut s = crate::lang::interp::Session::with_id(999);
+        app.core().card.command_line(&mut s, line)
+    }
 
     #[test]
     fn the_startup_layer_is_applied_again_after_every_reset() {
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
         let layer = |card: &mut Card| {
-            let mut s = crate::interp::Session::default();
+            let mut s = crate::lang::interp::Session::default();
             let _ = card.command_line(&mut s, b"I0=3 I1001=16");
         };
-        layer(&mut card.lock().unwrap());
-        let mut app = CardRingApp::new(Arc::clone(&card), &[0]).with_startup(Box::new(layer));
+        let mut card = Card::new(Profile::Pmac2);
+        layer(&mut card);
+        let (app, _h) = app(card, &[0]);
+        let mut app = app.with_startup(Box::new(layer));
         let mut member = RingMember::new(RingSettings::new(0x30, 0x1));
-        let ask = |line: &[u8]| {
-            let mut s = crate::interp::Session::default();
-            card.lock().unwrap().command_line(&mut s, line)
-        };
-        let before = ask(b"I0 I1001");
+        let before = ask(&mut app, b"I0 I1001");
         let text = String::from_utf8_lossy(&before).to_string();
         assert!(text.contains('3') && text.contains("16"), "{text:?}");
-        ask(b"$$$");
+        ask(&mut app, b"$$$");
         assert_ne!(
-            ask(b"I0 I1001"),
+            ask(&mut app, b"I0 I1001"),
             before,
             "$$$ reloads the (unsaved) factory image"
         );
         app.tick(1, 0, &mut member, false);
         assert_eq!(
-            ask(b"I0 I1001"),
+            ask(&mut app, b"I0 I1001"),
             before,
             "the tick after the reset re-applies the layer"
         );
@@ -270,30 +400,93 @@ mod tests {
 
     #[test]
     fn tick_latches_feedback_and_sends_commands_until_a_ring_fault() {
-        let card = Arc::new(Mutex::new(Card::new(Profile::Pmac2)));
-        let mut app = CardRingApp::new(Arc::clone(&card), &[0, 1]);
+        let (mut app, _h) = app(Card::new(Profile::Pmac2), &[0, 1]);
         let mut member = RingMember::new(RingSettings::new(0x30, 0x3));
         {
             // Motor 1 deactivated: the servo loop no longer owns its output register.
-            let mut c = card.lock().unwrap();
-            c.command_line(&mut crate::interp::Session::default(), b"I100=0");
-            c.state
-                .write(crate::state::memory::Space::Y, 0xC0A0, 0x00_1234);
+            ask(&mut app, b"I100=0");
+            app.core()
+                .card
+                .state
+                .write(crate::model::Space::Y, 0xC0A0, 0x00_1234);
         }
         app.tick(1, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0x1234);
         app.tick(2, 0, &mut member, true);
         assert_eq!(*member.write_regs_mut(0), NodeRegs::default());
-        assert!(card.lock().unwrap().state.global.ring_fault);
+        assert!(app.core().card.state.global.ring_fault);
         // Latched: a healthy tick does not command again until `$$$` clears the bit.
         app.tick(3, 0, &mut member, false);
         assert_eq!(member.write_regs_mut(0).r0, 0);
         assert!(!app.take_ring_reset());
         // `$$$` clears the bit: the app asks the ring core to reset its latch and commands again.
-        card.lock().unwrap().state.global.ring_fault = false;
+        app.core().card.state.global.ring_fault = false;
         app.tick(4, 0, &mut member, false);
         assert!(app.take_ring_reset());
         assert!(!app.take_ring_reset());
         assert_eq!(member.write_regs_mut(0).r0, 0x1234);
+    }
+
+    #[test]
+    fn host_lines_reach_the_card_through_the_handle_between_ticks() {
+        let (mut app, h) = app(Card::new(Profile::Pmac2), &[0]);
+        let conn = h.new_conn();
+        let t = std::thread::spawn(move || {
+            h.host(
+                conn,
+                crate::core::HostRequest::Line(b"I3=2 P1=7 P1".to_vec()),
+            )
+        });
+        let mut member = RingMember::new(RingSettings::new(0x30, 0x1));
+        let mut cycle = 1;
+        while !t.is_finished() {
+            app.tick(cycle, 0, &mut member, false);
+            cycle += 1;
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            assert!(cycle < 100_000, "no reply");
+        }
+        assert_eq!(t.join().unwrap().bytes, b"7\r\x06");
+    }
+
+    #[test]
+    fn ring_ivars_are_the_ring_cores_settings_both_ways() {
+        use mcc_ring::control::MemberKind;
+        use mcc_ring::core::{CoreConfig, MemberCore};
+        let mut card = Card::new(Profile::Pmac2);
+        ask_card(&mut card, b"I995=$30 I996=$F0001 I1001=16 I1004=2 I1005=4");
+        let (mut app, _h) = app(card, &[0]);
+        let mut cfg = CoreConfig::new(
+            "card0",
+            MemberKind::Card,
+            0,
+            RingSettings::new(0x30, 0x0F_0001),
+            1_000_000,
+        );
+        cfg.check = RingCheck::card(16, 2, 4, 2);
+        let mut core = MemberCore::new(cfg);
+        core.tick_app(&mut app, 1, 0);
+        // A host writes I1001 and I996 on the card: the ring core's check and routing follow.
+        assert_eq!(ask(&mut app, b"I3=2 I1001=32 I996=$F0003"), b"\x06");
+        core.tick_app(&mut app, 2, 0);
+        assert_eq!(core.check().params().period, 32);
+        assert_eq!(core.member().settings().i996, 0x0F_0003);
+        // The ring core's settings changed from the other side: the card's I-variables show it.
+        core.check_mut().set_error_limit(7);
+        core.set_settings(RingSettings::new(0x30, 0x0F_0013));
+        core.tick_app(&mut app, 3, 0);
+        assert_eq!(ask(&mut app, b"I1004 I996"), b"7\r$F0013\r\x06");
+        // I1001 from 0 to > 0 arms the check only at a reset (spec §6.8).
+        assert_eq!(ask(&mut app, b"I1001=0"), b"\x06");
+        core.tick_app(&mut app, 4, 0);
+        assert!(
+            core.check().armed(),
+            "armed at reset: stays armed, period 0"
+        );
+        assert_eq!(core.check().params().period, 0);
+    }
+
+    fn ask_card(card: &mut Card, line: &[u8]) {
+        let r = card.command_line(&mut crate::lang::interp::Session::default(), line);
+        assert!(!r.contains(&7), "{:?}", String::from_utf8_lossy(&r));
     }
 }

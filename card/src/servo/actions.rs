@@ -17,8 +17,8 @@
 //! Motors with Ix00 = 0 ignore everything but kills (documented refusal: a deactivated motor
 //! has no servo loop to command).
 
-use crate::interp::{Action, ActionKind, Card};
-use crate::lang::ast::{CmdKind, JogKind};
+use crate::domain::ast::JogKind;
+use crate::model::{Action, ActionKind, CardModel};
 use crate::motion::motor::{Motor, MotorCommand};
 use crate::motion::params::MotorParams;
 use crate::program::ProgramEngine;
@@ -26,8 +26,8 @@ use crate::program::ProgramEngine;
 use super::registers::jog_register;
 
 /// Apply one drained action.
-pub fn apply_action(
-    card: &mut Card,
+pub(super) fn apply_action(
+    card: &mut CardModel,
     motors: &mut [Motor],
     params: &[MotorParams],
     engine: &mut ProgramEngine,
@@ -36,17 +36,16 @@ pub fn apply_action(
     let _ = engine.handle_action(card, motors, a);
     let all: Vec<u16> = (1..=motors.len() as u16).collect();
     let (targets, cmd): (Vec<u16>, Option<MotorCommand>) = match &a.kind {
-        ActionKind::Ctrl(0x01) => (all, Some(MotorCommand::Abort)),
-        ActionKind::Ctrl(0x0B) => (all, Some(MotorCommand::Kill)),
-        ActionKind::Ctrl(_) => return,
-        ActionKind::Cmd(c) => match c {
-            CmdKind::Abort => (card.run.motors_in(a.coord), Some(MotorCommand::Abort)),
-            CmdKind::Kill | CmdKind::MotorAbsRead => (vec![a.motor], Some(MotorCommand::Kill)),
-            CmdKind::MotorInit => (vec![a.motor], Some(MotorCommand::Enable)),
-            CmdKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),
-            CmdKind::Home => (vec![a.motor], Some(MotorCommand::Home)),
-            CmdKind::HomeZ => (vec![a.motor], Some(MotorCommand::HomeZero)),
-            CmdKind::Jog { kind, trigger } => {
+        ActionKind::AbortAll => (all, Some(MotorCommand::Abort)),
+        ActionKind::KillAll => (all, Some(MotorCommand::Kill)),
+        c => match c {
+            ActionKind::Abort => (card.run.motors_in(a.coord), Some(MotorCommand::Abort)),
+            ActionKind::Kill => (vec![a.motor], Some(MotorCommand::Kill)),
+            ActionKind::Enable => (vec![a.motor], Some(MotorCommand::Enable)),
+            ActionKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),
+            ActionKind::Home => (vec![a.motor], Some(MotorCommand::Home)),
+            ActionKind::HomeZero => (vec![a.motor], Some(MotorCommand::HomeZero)),
+            ActionKind::Jog { kind, trigger } => {
                 let k = usize::from(a.motor.max(1) - 1);
                 let Some(m) = motors.get_mut(k) else {
                     return;

@@ -8,12 +8,12 @@
 //! they were latched from the ring and an enable written by a motor goes out in the same
 //! cycle's packet: flags are at least one cycle late, as on the real card.
 
-use crate::state::memory::{node_addr, Space};
-use crate::state::regmap::AUX_IMAGE_BASE;
-use crate::state::CardState;
+use crate::model::CardState;
+use crate::model::AUX_IMAGE_BASE;
+use crate::model::{node_addr, Space};
 
 /// Copy the auxiliary registers of every enabled node. Returns the number of nodes copied.
-pub fn aux_copy(st: &mut CardState) -> usize {
+pub(super) fn aux_copy(st: &mut CardState) -> usize {
     let enabled = st.peek_ivar(1000).unwrap_or(0.0).max(0.0) as u32 & 0xFFFF;
     if enabled == 0 {
         return 0;
@@ -39,7 +39,7 @@ pub fn aux_copy(st: &mut CardState) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::state::profile::Profile;
+    use crate::domain::Profile;
 
     #[test]
     fn type1_and_type0_copies() {

@@ -7,19 +7,19 @@
 //! the first entry of a method this emulator does not convert (documented refusal: entries
 //! after it produce no result).
 
+use crate::model::CardState;
+use crate::model::Space;
 use crate::motion::ect::{EctEntry, EctState};
-use crate::state::memory::Space;
-use crate::state::CardState;
 
 /// First setup word of the table.
-pub const ECT_START: u16 = 0x0720;
+pub(super) const ECT_START: u16 = 0x0720;
 /// Last word of the table area.
-pub const ECT_END: u16 = 0x073F;
+pub(super) const ECT_END: u16 = 0x073F;
 const SLOTS: usize = (ECT_END - ECT_START + 1) as usize;
 
 /// Running state of every entry, keyed by the entry's first setup address.
 #[derive(Debug, Clone)]
-pub struct EctPass {
+pub(super) struct EctPass {
     slots: Vec<Option<(EctEntry, EctState)>>,
 }
 
@@ -34,7 +34,7 @@ impl Default for EctPass {
 impl EctPass {
     /// Run the table once: read each source, write each result. Returns the number of entries
     /// converted.
-    pub fn run(&mut self, st: &mut CardState) -> usize {
+    pub(super) fn run(&mut self, st: &mut CardState) -> usize {
         let mut addr = ECT_START;
         let mut n = 0;
         while addr < ECT_END {
@@ -64,7 +64,7 @@ impl EctPass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::state::profile::Profile;
+    use crate::domain::Profile;
 
     #[test]
     fn default_table_converts_node_feedback_with_rollover() {

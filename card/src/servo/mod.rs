@@ -19,33 +19,28 @@
 //!    ERR011 bookkeeping (a jog/home still moving); data gathering ([`gather`]);
 //! 8. background: auxiliary flag copy ([`aux_copy`], I1000/I1002) and `engine.background`.
 
-pub mod actions;
-pub mod aux_copy;
-pub mod bench;
-pub mod ect_pass;
-pub mod gather;
-pub mod registers;
+mod actions;
+mod aux_copy;
+mod ect_pass;
+mod registers;
 
-#[cfg(test)]
-mod tests;
-
-use crate::interp::Card;
+use crate::model::CardModel;
+use crate::model::Space;
+use crate::model::{gather_tick, CardState};
 use crate::motion::flags::{FlagInputs, AMP_ENABLE_BIT};
 use crate::motion::motor::{Motor, TickInput, TickOutput, TripScope};
 use crate::motion::params::MotorParams;
-use crate::program::ProgramEngine;
-use crate::state::memory::Space;
-use crate::state::CardState;
+use crate::program::{Commands, ProgramEngine};
 
 use ect_pass::EctPass;
 
 /// Servo cycles after an amplifier enable during which the amp-fault input is ignored: the
 /// enable and the fault flag each take a few ring cycles to travel (spec §6.7, firmware 1.16D
 /// "flags are transferred every 2 cycles"; the ring adds 2-3).
-pub const AMP_FAULT_DELAY: u32 = 8;
+pub(crate) const AMP_FAULT_DELAY: u32 = 8;
 
 /// Default I10: servo interrupt time in 1/2^23 ms (2258.7 Hz).
-pub const DEFAULT_I10: f64 = 3_713_707.0;
+pub(crate) const DEFAULT_I10: f64 = 3_713_707.0;
 
 /// The servo side of one card: motors, ECT state, program engine.
 #[derive(Debug)]
@@ -66,7 +61,7 @@ pub struct Servo {
 
 impl Servo {
     /// A servo loop for `card` (one motor per profile motor, all killed).
-    pub fn new(card: &Card) -> Self {
+    pub fn new(card: &CardModel) -> Self {
         let n = card.state.limits().motors as usize;
         Servo {
             motors: vec![Motor::new(); n],
@@ -82,7 +77,7 @@ impl Servo {
     }
 
     /// Trajectory time of one servo cycle at 100 %, ms (I10 / 2^23).
-    pub fn cycle_ms(card: &Card) -> f64 {
+    pub fn cycle_ms(card: &CardModel) -> f64 {
         let i10 = card.state.peek_ivar(10).unwrap_or(DEFAULT_I10);
         let i10 = if i10.is_finite() && i10 > 0.0 {
             i10
@@ -92,8 +87,9 @@ impl Servo {
         i10 / 8_388_608.0
     }
 
-    /// One servo cycle at ring cycle `cycle` (see the module doc for the order).
-    pub fn tick(&mut self, card: &mut Card, cycle: u64) {
+    /// One servo cycle at ring cycle `cycle` (see the module doc for the order). Program
+    /// `CMD`s run through `cmd` (the card's command language).
+    pub fn tick(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, cycle: u64) {
         if card.resets() != self.resets_seen {
             self.resets_seen = card.resets();
             self.motors.iter_mut().for_each(|m| *m = Motor::new());
@@ -122,7 +118,9 @@ impl Servo {
         }
         self.ring_fault_seen = ring_fault;
         let dt_ms = Self::cycle_ms(card);
-        let setpoints = self.engine.servo_tick(card, &self.motors, cycle, dt_ms);
+        let setpoints = self
+            .engine
+            .servo_tick(card, cmd, &self.motors, cycle, dt_ms);
         let mut trips = Vec::new();
         self.outs.clear();
         self.outs.resize(self.motors.len(), TickOutput::default());
@@ -178,17 +176,17 @@ impl Servo {
                 );
             }
         }
-        gather::gather_tick(card);
+        gather_tick(card);
         registers::count_cycle(&mut card.state);
         aux_copy::aux_copy(&mut card.state);
-        self.engine.background(card, &self.motors);
+        self.engine.background(card, cmd, &self.motors);
         let out = self.engine.take_output();
-        card.unsolicited.push(out);
+        card.push_output(&out);
     }
 
     /// Motor `k` (0-based) tripped: kill the motors its scope names, zero their outputs and
     /// tell the engine (which aborts the C.S. program).
-    fn trip(&mut self, card: &mut Card, k: usize, scope: TripScope) {
+    fn trip(&mut self, card: &mut CardModel, k: usize, scope: TripScope) {
         let victims: Vec<usize> = match scope {
             TripScope::Card => (0..self.motors.len()).collect(),
             TripScope::CoordSystem => match card.run.cs_of(k as u16 + 1) {

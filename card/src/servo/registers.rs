@@ -15,21 +15,21 @@
 //! Only motors with a register block (PMAC2: 1-8) get the memory registers; every motor gets
 //! its `?` flags and its `P`/`V`/`F` report.
 
-use crate::interp::Card;
+use crate::model::encode_fixed;
+use crate::model::CardModel;
+use crate::model::CardState;
+use crate::model::MotorFlags;
+use crate::model::Space;
+use crate::model::{BLOCK_BASE, BLOCK_STRIDE, MOTOR_CALC_BASE, MOTOR_CALC_STRIDE};
 use crate::motion::motor::{Motor, TickOutput};
 use crate::motion::params::MotorParams;
-use crate::state::float48::encode_fixed;
-use crate::state::memory::Space;
-use crate::state::regmap::{BLOCK_BASE, BLOCK_STRIDE, MOTOR_CALC_BASE, MOTOR_CALC_STRIDE};
-use crate::state::status::MotorFlags;
-use crate::state::CardState;
 
 /// Motors with a calculation block in the PMAC2 memory map.
-pub const MAPPED_MOTORS: u16 = 8;
+pub(super) const MAPPED_MOTORS: u16 = 8;
 
 /// Copy the motor-owned `?` bits of `src` into the card's flags (the C.S. assignment, dwell,
 /// block request and data-block error belong to the interpreter and the program engine).
-pub fn sync_flags(dst: &mut MotorFlags, src: &MotorFlags) {
+pub(super) fn sync_flags(dst: &mut MotorFlags, src: &MotorFlags) {
     dst.neg_limit = src.neg_limit;
     dst.pos_limit = src.pos_limit;
     dst.open_loop = src.open_loop;
@@ -57,7 +57,7 @@ fn write_d(st: &mut CardState, addr: u16, v: f64) {
 }
 
 /// Write motor `x`'s (1-based) registers.
-pub fn write_motor_registers(
+pub(super) fn write_motor_registers(
     st: &mut CardState,
     x: u16,
     m: &Motor,
@@ -85,16 +85,16 @@ pub fn write_motor_registers(
 }
 
 /// Motor `x`'s jog register Mx72 (L:$082B + stride), counts.
-pub fn jog_register(st: &mut CardState, x: u16) -> f64 {
+pub(super) fn jog_register(st: &mut CardState, x: u16) -> f64 {
     if x == 0 || x > MAPPED_MOTORS {
         return 0.0;
     }
     let a = BLOCK_BASE + (x - 1) * BLOCK_STRIDE + 0x2B;
-    crate::state::float48::decode_float(crate::state::mvar::long(st, a))
+    crate::model::decode_float(crate::model::long(st, a))
 }
 
 /// Report every motor's position/velocity/following error and copy its `?` flags.
-pub fn report(card: &mut Card, motors: &[Motor]) {
+pub(super) fn report(card: &mut CardModel, motors: &[Motor]) {
     for (k, m) in motors.iter().enumerate() {
         let x = k as u16 + 1;
         card.set_motor_report(x, m.actual(), m.velocity(), m.following_error());
@@ -105,7 +105,7 @@ pub fn report(card: &mut Card, motors: &[Motor]) {
 }
 
 /// Advance the servo cycle counter X:$0000.
-pub fn count_cycle(st: &mut CardState) {
+pub(super) fn count_cycle(st: &mut CardState) {
     let c = st.memory.read(Space::X, 0x0000);
     st.memory.write(Space::X, 0x0000, (c + 1) & 0xFF_FFFF);
 }

@@ -3,7 +3,7 @@
 //! `mcc_card::host::bench`.
 
 use anyhow::Result;
-use mcc_card::host::bench::{run_host_bench, HostBenchOpts};
+use mcc_card::{run_host_bench, HostBenchOpts};
 
 use crate::cli::BenchHostArgs;
 
@@ -20,13 +20,15 @@ pub fn run(args: &BenchHostArgs) -> Result<()> {
     Ok(())
 }
 
-/// Run the card's servo-tick benchmark (`mcc_card::servo::bench`) and print its report.
+/// Run the card's servo-tick benchmarks (the tick alone; the tick while hosts hammer SAVE and
+/// the heaviest legal lines) and print their reports.
 pub fn run_servo() -> Result<()> {
     println!(
         "mcc bench servo: 1 card, 8 motors on a loopback plant, {} CPUs",
         num_cpus()
     );
-    println!("{}", mcc_card::servo::bench::run_servo_bench());
+    println!("{}", mcc_card::run_servo_bench());
+    println!("{}", mcc_card::run_servo_load_bench()?);
     Ok(())
 }
 

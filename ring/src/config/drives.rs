@@ -251,7 +251,7 @@ fn bad(key: impl Into<String>, problem: impl Into<String>) -> Result<(), ConfigE
 }
 
 /// Check `[[drives]]`.
-pub fn validate_drives(cfg: &ClusterConfig) -> Result<(), ConfigError> {
+pub(super) fn validate_drives(cfg: &ClusterConfig) -> Result<(), ConfigError> {
     if cfg.drives.len() > MAX_DRIVES {
         return bad(
             "drives",

@@ -285,6 +285,39 @@ fn missing_file_is_an_io_error() {
 }
 
 #[test]
+#[allow(clippy::disallowed_methods)] // writes a config file
+fn a_directory_as_state_file_is_refused_naming_the_key() {
+    let (key, problem) = invalid(
+        r#"
+[[cards]]
+name = "card0"
+number = 0
+master = 0
+state_file = "/tmp/"
+"#,
+    );
+    assert_eq!(key, "cards[0].state_file");
+    assert!(problem.contains("directory"), "{problem}");
+    // An existing directory given without a trailing slash is caught when the file is read.
+    let dir = std::env::temp_dir().join(format!("mcc-cfg-dir-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("cluster.toml");
+    let text = format!(
+        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nstate_file = {:?}\n",
+        dir.display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    match ClusterConfig::from_file(&file) {
+        Err(ConfigError::Invalid { key, problem }) => {
+            assert_eq!(key, "cards[0].state_file");
+            assert!(problem.contains("is a directory"), "{problem}");
+        }
+        other => panic!("expected Invalid, got {other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn clock_keys_are_checked_before_anything_starts() {
     let with = |extra: &str| format!("{extra}\n{TWO_BY_TWO}");
     // The clock words.
@@ -298,7 +331,7 @@ fn clock_keys_are_checked_before_anything_starts() {
         assert_eq!(word.parse::<ClockMode>(), Ok(mode));
         assert_eq!(mode.as_str(), word);
     }
-    let e = "sometimes".parse::<ClockMode>().unwrap_err();
+    let e = "sometimes".parse::<ClockMode>().unwrap_err().to_string();
     assert!(e.contains("sometimes") && e.contains("paced"), "{e}");
     match err_of(&with("clock = \"sometimes\"")) {
         ConfigError::Parse(m) => assert!(m.contains("sometimes") && m.contains("paced"), "{m}"),

@@ -7,11 +7,11 @@ use super::{ClockMode, ClusterConfig, ConfigError, SYNC_NODE};
 /// Most members one ring may hold.
 pub const MAX_MEMBERS: usize = 64;
 /// Highest accepted ring rate, Hz.
-pub const MAX_RATE_HZ: f64 = 1_000_000.0;
+pub(super) const MAX_RATE_HZ: f64 = 1_000_000.0;
 /// Largest real-time factor of the paced clock.
 pub const MAX_RTF: f64 = 1000.0;
 /// Highest I-variable number accepted in `ivars` (Turbo numbering).
-pub const MAX_IVAR: u32 = 8191;
+pub(super) const MAX_IVAR: u32 = 8191;
 const MAX_NAME: usize = 64;
 
 type R = Result<(), ConfigError>;
@@ -66,7 +66,7 @@ fn check_nodes(key: &str, nodes: &[u8]) -> R {
 }
 
 /// Check every rule of the config format.
-pub fn validate(cfg: &ClusterConfig) -> R {
+pub(super) fn validate(cfg: &ClusterConfig) -> R {
     check_name("cluster", &cfg.cluster)?;
     check_name("ring.name", &cfg.ring.name)?;
     if !cfg.rate_hz.is_finite() || cfg.rate_hz <= 0.0 || cfg.rate_hz > MAX_RATE_HZ {
@@ -227,6 +227,15 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
             }
         }
         check_nodes(&format!("{key}.nodes"), &c.nodes)?;
+        if let Some(p) = &c.state_file {
+            let text = p.to_string_lossy();
+            if text.is_empty() || text.ends_with('/') || p.ends_with(".") || p.ends_with("..") {
+                return bad(
+                    format!("{key}.state_file"),
+                    format!("{text:?} names a directory; give the path of a file"),
+                );
+            }
+        }
         for (name, value) in &c.ivars {
             let num = name
                 .strip_prefix(['I', 'i'])

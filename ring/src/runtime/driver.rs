@@ -329,7 +329,7 @@ impl<A: RingApp> Driver<A> {
                                 Err(e) => {
                                     let _ = reply.send(CtlReply {
                                         ok: false,
-                                        message: e,
+                                        message: e.to_string(),
                                     });
                                     continue;
                                 }

@@ -1,0 +1,267 @@
+//! The card core: the one owner of a card's state. It holds the card (model and interpreter)
+//! and its servo loop; host work arrives as requests ([`HostRequest`]) with a token and leaves
+//! as replies with the same token; effects that need the operating system (SAVE's write,
+//! `$$$`'s image load) leave as [`Effect`]s with a token and come back as results. Pure: the
+//! runtime's servo thread calls [`CardCore::serve`] with a work budget between ticks, so host
+//! lines of any size are served in bounded slices and never delay a tick.
+
+pub mod rig;
+
+#[cfg(test)]
+#[path = "tests_core.rs"]
+mod tests;
+#[cfg(test)]
+mod tests_servo;
+
+use std::collections::{HashMap, VecDeque};
+
+use crate::lang::interp::{Budget, Card, Effect, EffectResult, LineRun, Session, Step};
+use crate::servo::Servo;
+
+/// Work units one slice of host service may use between two servo ticks (about 50-100 µs of
+/// interpreter work on the reference machine: a few hundred variables printed).
+pub const SLICE_UNITS: u64 = 400;
+
+/// Connections the core keeps sessions for; the least recently used is forgotten beyond it.
+pub(crate) const MAX_SESSIONS: usize = 512;
+
+/// A host port's request.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum HostRequest {
+    /// Execute a command line (without its `<CR>`).
+    Line(Vec<u8>),
+    /// Execute a control character.
+    Control(u8),
+    /// The connection closed: release a buffer it left open, forget its addressing.
+    End,
+}
+
+/// The answer to a [`HostRequest`].
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct HostReply {
+    /// The framed reply bytes.
+    pub bytes: Vec<u8>,
+    /// Full-duplex echo (CTRL-T) after the request.
+    pub echo: bool,
+}
+
+#[derive(Debug)]
+struct Job {
+    token: u64,
+    conn: u64,
+    req: HostRequest,
+    run: Option<LineRun>,
+    /// Effect token this job waits for.
+    waiting: Option<u64>,
+}
+
+/// The card core (see the module docs).
+#[derive(Debug)]
+pub struct CardCore {
+    /// The card: data model and PMAC interpreter.
+    pub card: Card,
+    /// The servo loop (motors, program engine).
+    pub servo: Servo,
+    sessions: HashMap<u64, (Session, u64)>,
+    jobs: VecDeque<Job>,
+    replies: Vec<(u64, HostReply)>,
+    effects: Vec<(u64, Effect)>,
+    next_effect: u64,
+    clock: u64,
+    /// Why the last image load failed (`None`: it loaded or there was none).
+    pub load_error: Option<String>,
+}
+
+/// Why a loaded image is refused (`None`: it is good, or there is none).
+fn load_error_of(r: &EffectResult) -> Option<String> {
+    match r {
+        EffectResult::Loaded(Err(e)) => Some(e.clone()),
+        EffectResult::Loaded(Ok(Some(bytes))) => crate::model::persist::decode(bytes)
+            .err()
+            .map(|e| e.to_string()),
+        _ => None,
+    }
+}
+
+/// Effect tokens of detached effects (no job waits) have this bit set.
+const DETACHED: u64 = 1 << 63;
+
+impl CardCore {
+    /// A core for `card`.
+    pub fn new(card: Card) -> Self {
+        let servo = Servo::new(&card.model);
+        CardCore {
+            card,
+            servo,
+            sessions: HashMap::new(),
+            jobs: VecDeque::new(),
+            replies: Vec::new(),
+            effects: Vec::new(),
+            next_effect: 1,
+            clock: 0,
+            load_error: None,
+        }
+    }
+
+    /// Queue request `token` of connection `conn`.
+    pub fn submit(&mut self, token: u64, conn: u64, req: HostRequest) {
+        self.jobs.push_back(Job {
+            token,
+            conn,
+            req,
+            run: None,
+            waiting: None,
+        });
+    }
+
+    /// Requests queued or under way.
+    pub fn pending(&self) -> usize {
+        self.jobs.len()
+    }
+
+    fn session(&mut self, conn: u64) -> Session {
+        self.clock += 1;
+        if !self.sessions.contains_key(&conn) && self.sessions.len() >= MAX_SESSIONS {
+            let oldest = self
+                .sessions
+                .iter()
+                .min_by_key(|(_, (_, t))| *t)
+                .map(|(k, _)| *k);
+            if let Some(k) = oldest {
+                self.sessions.remove(&k);
+            }
+        }
+        let clock = self.clock;
+        let e = self
+            .sessions
+            .entry(conn)
+            .or_insert_with(|| (Session::with_id(conn), clock));
+        e.1 = clock;
+        e.0.clone()
+    }
+
+    fn put_session(&mut self, conn: u64, s: Session) {
+        if let Some(e) = self.sessions.get_mut(&conn) {
+            e.0 = s;
+        }
+    }
+
+    /// Serve queued requests, oldest first, within `budget`. A request whose line waits for
+    /// an effect holds the requests behind it (a connection's lines run in order; effects are
+    /// short).
+    pub fn serve(&mut self, budget: &mut Budget) {
+        while let Some(job) = self.jobs.front_mut() {
+            if job.waiting.is_some() {
+                return;
+            }
+            if budget.exhausted() {
+                return;
+            }
+            let conn = job.conn;
+            let mut s = self.session(conn);
+            let Some(mut job) = self.jobs.pop_front() else {
+                return;
+            };
+            let done = match job.req.clone() {
+                HostRequest::End => {
+                    self.card.end_session(&s);
+                    self.sessions.remove(&conn);
+                    Some(Vec::new())
+                }
+                HostRequest::Control(c) => {
+                    budget.spend(1);
+                    Some(self.card.control_char(&mut s, c))
+                }
+                HostRequest::Line(line) => {
+                    let mut run = match job.run.take() {
+                        Some(r) => r,
+                        None => self.card.start_line(&mut s, &line, true),
+                    };
+                    match self.card.step_line(&mut run, &mut s, budget) {
+                        Step::Done(r) => Some(r),
+                        Step::Yield => {
+                            job.run = Some(run);
+                            None
+                        }
+                        Step::Effect(e) => {
+                            let t = self.next_effect;
+                            self.next_effect += 1;
+                            self.effects.push((t, e));
+                            job.run = Some(run);
+                            job.waiting = Some(t);
+                            None
+                        }
+                    }
+                }
+            };
+            self.put_session(conn, s);
+            self.collect_detached();
+            match done {
+                Some(bytes) => {
+                    let echo = self.card.echo();
+                    self.replies.push((job.token, HostReply { bytes, echo }));
+                }
+                None => {
+                    self.jobs.push_front(job);
+                }
+            }
+        }
+    }
+
+    fn collect_detached(&mut self) {
+        for e in self.card.take_detached_effects() {
+            let t = self.next_effect | DETACHED;
+            self.next_effect += 1;
+            self.effects.push((t, e));
+        }
+    }
+
+    /// Effects to perform (off the servo thread), with their tokens.
+    pub fn take_effects(&mut self) -> Vec<(u64, Effect)> {
+        self.collect_detached();
+        std::mem::take(&mut self.effects)
+    }
+
+    /// Effect `token` is done.
+    pub fn effect_done(&mut self, token: u64, result: EffectResult) {
+        if token & DETACHED != 0 {
+            if let EffectResult::Loaded(_) = result {
+                self.load_error = self.card.apply_loaded(result).err();
+            }
+            return;
+        }
+        let Some(job) = self.jobs.iter_mut().find(|j| j.waiting == Some(token)) else {
+            return;
+        };
+        job.waiting = None;
+        let conn = job.conn;
+        let is_load = matches!(result, EffectResult::Loaded(_));
+        let mut s = self.session(conn);
+        let Some(job) = self
+            .jobs
+            .iter_mut()
+            .find(|j| j.conn == conn && j.run.is_some())
+        else {
+            return;
+        };
+        if let Some(run) = job.run.as_mut() {
+            if is_load {
+                self.load_error = load_error_of(&result);
+            }
+            self.card.finish_effect(run, &mut s, result);
+        }
+        self.put_session(conn, s);
+    }
+
+    /// Replies ready, with their request tokens.
+    pub fn take_replies(&mut self) -> Vec<(u64, HostReply)> {
+        std::mem::take(&mut self.replies)
+    }
+
+    /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the interpreter).
+    pub fn tick(&mut self, cycle: u64) {
+        let (model, mut cmds) = self.card.split();
+        self.servo.tick(model, &mut cmds, cycle);
+        self.collect_detached();
+    }
+}

@@ -1,0 +1,81 @@
+//! Card-core tests: requests, slices, effects.
+
+use super::*;
+use crate::domain::Profile;
+
+fn core() -> CardCore {
+    CardCore::new(Card::new(Profile::Turbo))
+}
+
+fn serve_all(c: &mut CardCore) -> (usize, Vec<(u64, HostReply)>) {
+    let mut slices = 0;
+    let mut out = Vec::new();
+    while c.pending() > 0 {
+        let mut b = Budget::new(SLICE_UNITS);
+        c.serve(&mut b);
+        slices += 1;
+        out.extend(c.take_replies());
+        for (t, e) in c.take_effects() {
+            let r = match e {
+                Effect::Save(_) => EffectResult::Saved(true),
+                Effect::Load => EffectResult::Loaded(Ok(None)),
+            };
+            c.effect_done(t, r);
+        }
+        assert!(slices < 100_000, "never finished");
+    }
+    (slices, out)
+}
+
+#[test]
+fn a_heavy_line_is_served_in_bounded_slices_with_the_same_reply() {
+    // A 1 KB line of `P0..8191` queries on a Turbo card: 819,200 values.
+    let mut line = Vec::new();
+    while line.len() + 9 <= 1024 {
+        line.extend_from_slice(b"P0..8191 ");
+    }
+    let want = Card::new(Profile::Turbo).command_line(&mut Session::with_id(7), &line);
+    let mut c = core();
+    c.submit(1, 7, HostRequest::Line(line.clone()));
+    let (slices, replies) = serve_all(&mut c);
+    assert_eq!(replies.len(), 1);
+    assert_eq!(replies[0].0, 1);
+    assert_eq!(replies[0].1.bytes, want, "same reply as in one go");
+    let values = (line.len() / 9) * 8192;
+    assert!(
+        slices as u64 >= values as u64 / SLICE_UNITS,
+        "{slices} slices for {values} values: each slice stays within its budget"
+    );
+}
+
+#[test]
+fn requests_of_other_connections_keep_their_order_and_sessions() {
+    let mut c = core();
+    c.submit(1, 1, HostRequest::Line(b"#3".to_vec()));
+    c.submit(2, 2, HostRequest::Line(b"#5".to_vec()));
+    c.submit(3, 1, HostRequest::Line(b"#".to_vec()));
+    c.submit(4, 2, HostRequest::Line(b"#".to_vec()));
+    let (_, r) = serve_all(&mut c);
+    let texts: Vec<_> = r.iter().map(|(t, r)| (*t, r.bytes.clone())).collect();
+    assert_eq!(texts[2], (3, b"\n3\r\n".to_vec()));
+    assert_eq!(texts[3], (4, b"\n5\r\n".to_vec()));
+}
+
+#[test]
+fn save_waits_for_its_effect_and_reports_a_failed_write() {
+    let mut c = core();
+    c.submit(1, 1, HostRequest::Line(b"I3=2 SAVE".to_vec()));
+    let mut b = Budget::new(SLICE_UNITS);
+    c.serve(&mut b);
+    assert!(
+        c.take_replies().is_empty(),
+        "no reply before the write is done"
+    );
+    let effects = c.take_effects();
+    assert_eq!(effects.len(), 1);
+    assert!(matches!(effects[0].1, Effect::Save(_)));
+    c.effect_done(effects[0].0, EffectResult::Saved(false));
+    c.serve(&mut Budget::new(SLICE_UNITS));
+    let r = c.take_replies();
+    assert_eq!(r[0].1.bytes, b"\x07\rERR003\r");
+}

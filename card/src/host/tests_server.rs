@@ -1,0 +1,256 @@
+//! Server tests: real sockets on 127.0.0.1 port 0, every wait bounded by a timeout.
+
+use super::*;
+use crate::domain::Profile;
+use crate::host::ascii::MAX_LINE;
+use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
+use crate::host::port::overlong_probe;
+use crate::lang::interp::{Card, Session};
+use crate::service::handle::{spawn_card_thread, CardHandle};
+
+const WAIT: Duration = Duration::from_secs(5);
+
+/// What a fresh card answers to `line` in-process (the port must be byte-transparent).
+fn in_process(line: &[u8]) -> Vec<u8> {
+    Card::new(Profile::Pmac2).command_line(&mut Session::default(), line)
+}
+
+async fn start(cfg: PortsConfig) -> BoundPorts {
+    serve(spawn_card_thread(Card::new(Profile::Pmac2)), cfg)
+        .await
+        .expect("bind")
+}
+
+async fn connect(addr: SocketAddr) -> TcpStream {
+    let s = tokio::time::timeout(WAIT, TcpStream::connect(addr))
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(s.nodelay().is_ok());
+    s
+}
+
+/// Read exactly `n` bytes.
+async fn read_n(s: &mut TcpStream, n: usize) -> Vec<u8> {
+    let mut v = vec![0u8; n];
+    tokio::time::timeout(WAIT, s.read_exact(&mut v))
+        .await
+        .expect("reply in time")
+        .unwrap();
+    v
+}
+
+/// True if the peer closed the connection (EOF or reset) within the wait.
+async fn closed(s: &mut TcpStream) -> bool {
+    let mut b = [0u8; 64];
+    loop {
+        match tokio::time::timeout(WAIT, s.read(&mut b)).await {
+            Ok(Ok(0)) | Ok(Err(_)) => return true,
+            Ok(Ok(_)) => continue,
+            Err(_) => return false,
+        }
+    }
+}
+
+fn getresponse(cmd: &[u8]) -> Vec<u8> {
+    request(VR_DOWNLOAD, VR_PMAC_GETRESPONSE, 0, cmd.len() as u16, cmd)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ascii_port_is_byte_transparent_and_accepts_crlf() {
+    let p = start(PortsConfig::default()).await;
+    assert_eq!(p.ascii.ip(), IpAddr::V4(Ipv4Addr::LOCALHOST));
+    assert_ne!(p.ascii.port(), 0);
+    let mut s = connect(p.ascii).await;
+    let want = in_process(b"UUU");
+    s.write_all(b"UUU\r\n").await.unwrap();
+    assert_eq!(read_n(&mut s, want.len()).await, want);
+    // A line split over several writes.
+    s.write_all(b"UU").await.unwrap();
+    s.write_all(b"U\r").await.unwrap();
+    assert_eq!(read_n(&mut s, want.len()).await, want);
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ascii_overlong_line_gets_err003_then_resyncs() {
+    let p = start(PortsConfig::default()).await;
+    let mut s = connect(p.ascii).await;
+    let mut line = vec![b'1'; MAX_LINE + 10];
+    line.extend_from_slice(b"\rUUU\r");
+    s.write_all(&line).await.unwrap();
+    let want1 = in_process(&overlong_probe());
+    let want2 = in_process(b"UUU");
+    let got = read_n(&mut s, want1.len() + want2.len()).await;
+    assert_eq!(got, [want1, want2].concat());
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn eth_port_getresponse_empty_and_flush() {
+    let p = start(PortsConfig::default()).await;
+    let mut s = connect(p.pmac_eth).await;
+    s.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut s, 1).await, b"\x06");
+    let want = in_process(b"UUU");
+    s.write_all(&getresponse(b"UUU")).await.unwrap();
+    assert_eq!(read_n(&mut s, want.len()).await, want);
+    s.write_all(&request(VR_DOWNLOAD, VR_PMAC_FLUSH, 0, 0, &[]))
+        .await
+        .unwrap();
+    assert_eq!(read_n(&mut s, 1).await, b"@");
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_connection_is_closed_others_unaffected() {
+    let p = start(PortsConfig::default()).await;
+    let mut good = connect(p.pmac_eth).await;
+    let mut bad = connect(p.pmac_eth).await;
+    bad.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
+        .await
+        .unwrap();
+    assert!(closed(&mut bad).await, "garbage must close the connection");
+    good.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut good, 1).await, b"\x06");
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stalled_request_times_out_without_blocking_others() {
+    let cfg = PortsConfig {
+        io_timeout: Duration::from_millis(200),
+        ..PortsConfig::default()
+    };
+    let p = start(cfg).await;
+    let mut stalled = connect(p.pmac_eth).await;
+    stalled.write_all(&[0x40, 0xBF, 0]).await.unwrap();
+    let mut idle_ascii = connect(p.ascii).await;
+    idle_ascii.write_all(b"UU").await.unwrap(); // a partial terminal line never times out
+    let mut good = connect(p.pmac_eth).await;
+    good.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut good, 1).await, b"\x06");
+    assert!(
+        closed(&mut stalled).await,
+        "a stalled half request is dropped"
+    );
+    idle_ascii.write_all(b"U\r").await.unwrap();
+    let want = in_process(b"UUU");
+    assert_eq!(read_n(&mut idle_ascii, want.len()).await, want);
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn connection_limit_closes_extra_connections() {
+    let cfg = PortsConfig {
+        max_connections: 2,
+        ..PortsConfig::default()
+    };
+    let p = start(cfg).await;
+    let mut a = connect(p.ascii).await;
+    let mut b = connect(p.ascii).await;
+    // Make sure both are accepted before the third arrives.
+    for s in [&mut a, &mut b] {
+        s.write_all(b"UUU\r").await.unwrap();
+        let _ = read_n(s, in_process(b"UUU").len()).await;
+    }
+    let mut c = connect(p.ascii).await;
+    assert!(closed(&mut c).await);
+    drop(a);
+    // A slot frees up once a connection ends.
+    let mut ok = false;
+    for _ in 0..50 {
+        let mut d = connect(p.ascii).await;
+        d.write_all(b"UUU\r").await.unwrap();
+        let mut buf = [0u8; 1];
+        if let Ok(Ok(1)) = tokio::time::timeout(Duration::from_millis(1000), d.read(&mut buf)).await
+        {
+            ok = true;
+            break;
+        }
+    }
+    assert!(ok, "a freed slot must be reusable");
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_closes_connections() {
+    let p = start(PortsConfig::default()).await;
+    let mut s = connect(p.ascii).await;
+    let addr = p.ascii;
+    p.shutdown().await;
+    assert!(closed(&mut s).await);
+    assert!(TcpStream::connect(addr).await.is_err());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn simultaneous_connections_get_their_own_whole_replies() {
+    let p = start(PortsConfig::default()).await;
+    let want = in_process(b"UUU");
+    let mut tasks = Vec::new();
+    for i in 0..4 {
+        let addr = if i % 2 == 0 { p.ascii } else { p.pmac_eth };
+        let want = want.clone();
+        tasks.push(tokio::spawn(async move {
+            let mut s = connect(addr).await;
+            for _ in 0..100 {
+                if i % 2 == 0 {
+                    s.write_all(b"UUU\r").await.unwrap();
+                } else {
+                    s.write_all(&getresponse(b"UUU")).await.unwrap();
+                }
+                assert_eq!(read_n(&mut s, want.len()).await, want);
+            }
+        }));
+    }
+    for t in tasks {
+        t.await.unwrap();
+    }
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn addressing_is_per_connection_and_i3_is_card_global() {
+    let p = start(PortsConfig::default()).await;
+    let mut a = connect(p.ascii).await;
+    let mut b = connect(p.pmac_eth).await;
+    a.write_all(b"I3=2 I6=1\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 1).await, b"\x06");
+    b.write_all(&getresponse(b"#3")).await.unwrap();
+    assert_eq!(read_n(&mut b, 1).await, b"\x06");
+    b.write_all(&getresponse(b"#")).await.unwrap();
+    assert_eq!(read_n(&mut b, 3).await, b"3\r\x06");
+    a.write_all(b"#\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 3).await, b"1\r\x06");
+    // I3=3 set on the ASCII port frames the Ethernet port's replies too.
+    a.write_all(b"I3=3 P7=12\r").await.unwrap();
+    assert_eq!(read_n(&mut a, 1).await, b"\x06");
+    b.write_all(&getresponse(b"P7")).await.unwrap();
+    assert_eq!(read_n(&mut b, 5).await, b"\n12\r\x06");
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unsolicited_output_reaches_terminal_connections_but_not_the_ethernet_port() {
+    let card: CardHandle = spawn_card_thread(Card::new(Profile::Pmac2));
+    let p = serve(card.clone(), PortsConfig::default())
+        .await
+        .expect("bind");
+    let mut a = connect(p.ascii).await;
+    let mut b = connect(p.ascii).await;
+    let mut e = connect(p.pmac_eth).await;
+    // Let the connections take their start positions before the program speaks.
+    a.write_all(b"\r").await.unwrap();
+    let ack = in_process(b"");
+    assert_eq!(read_n(&mut a, ack.len()).await, ack);
+    b.write_all(b"\r").await.unwrap();
+    assert_eq!(read_n(&mut b, ack.len()).await, ack);
+    card.publish(b"HOMED\r".to_vec());
+    assert_eq!(read_n(&mut a, 6).await, b"HOMED\r");
+    assert_eq!(read_n(&mut b, 6).await, b"HOMED\r");
+    // The Ethernet port answers only what it is asked.
+    e.write_all(&getresponse(b"P1")).await.unwrap();
+    let want = in_process(b"P1");
+    assert_eq!(read_n(&mut e, want.len()).await, want);
+    p.shutdown().await;
+}

@@ -1,0 +1,363 @@
+//! The card's end of the serial daisy chain (pmac-commands §8.3). The orchestrator broadcasts
+//! every byte a chain host sends to every card of the cluster through the queryable
+//! `mcc/<cluster>/card/<n>/chain`; each card runs its own receiver per chain connection, as a
+//! card on a real multi-drop cable does:
+//!
+//! - `@n` (n = hex digit) and `@@` are recognised as they arrive, whatever the addressing,
+//!   and never enter the receive buffer; a lone `@` (followed by anything else) is the
+//!   "report card number" command and goes into the buffer of the card(s) receiving.
+//! - Line characters are collected only while this card is addressed (or under `@@`).
+//! - `<CR>` makes the card execute whatever it collected (every card, at the same byte); only
+//!   the addressed card (card 0 under `@@`) sends the reply.
+//! - Control characters: CTRL-A/D/K/O/Q/R/S/X act on every card; CTRL-B/C/F/G/P/V/L/U/Z/N/H/I/Y
+//!   only on the card(s) receiving (under `@@` the data-reporting ones are not accepted: they
+//!   have no error channel, so nothing answers); CTRL-T is not allowed on a chain (ignored).
+//! - Without software addressing (I1 bit 1 clear) the card assumes it is alone and takes and
+//!   answers everything (`@…` then reaches the interpreter, which answers ERR003).
+//!
+//! Synchronized starts from the chain: before it sends a `<CR>` that may start programs, the
+//! orchestrator asks every card (`?`) whether the line it collected for this connection starts
+//! a program (`R`/`S`); when more than one card says so it takes those lines (`T`: the card
+//! hands its buffer over and stays silent at the `<CR>`) and runs them through the cards'
+//! arm/commit synchronized start (sync_start.rs), so they execute in the servo tick of one
+//! ring cycle; a line that starts a program on one card only runs at the `<CR>` as usual.
+//!
+//! Wire format: `mcc_ring::control::chain` (op byte, connection id, data; replies as
+//! position-tagged segments the orchestrator merges in input order). `T` is answered with the
+//! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
+//! when the collected line does not start a program.
+
+use std::collections::HashMap;
+
+use mcc_ring::control::chain::{
+    chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE, OP_QUERY_START,
+    OP_TAKE_START,
+};
+use zenoh::Wait;
+
+use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
+use crate::lang::ast::CmdKind;
+use crate::lang::interp::overlong_probe;
+use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
+
+/// Chain connections remembered per card; the least recently used is forgotten beyond this.
+pub(crate) const MAX_CONNECTIONS: usize = 64;
+
+/// One chain connection as seen by this card.
+#[derive(Debug)]
+struct Conn {
+    session: Session,
+    buf: Vec<u8>,
+    overflow: bool,
+    at_pending: bool,
+    last_used: u64,
+    /// The collected line was taken for a synchronized start: silent at the next `<CR>`.
+    synced: bool,
+}
+
+impl Conn {
+    fn new(card: &mut Card, id: u64) -> Self {
+        // Power-up/reset state of a chain: card 0 is addressed (§8.2).
+        let session = Session {
+            chain_addressed: card.card_number() == 0,
+            ..Session::with_id(id)
+        };
+        Conn {
+            session,
+            buf: Vec::new(),
+            overflow: false,
+            at_pending: false,
+            last_used: 0,
+            synced: false,
+        }
+    }
+}
+
+/// This card's receivers, one per chain connection (pure: bytes in, reply segments out).
+#[derive(Debug, Default)]
+pub(crate) struct ChainPort {
+    conns: HashMap<u64, Conn>,
+    clock: u64,
+}
+
+fn hex_digit(b: u8) -> Option<u8> {
+    (b as char).to_digit(16).map(|d| d as u8)
+}
+
+impl ChainPort {
+    /// No connections yet.
+    pub(crate) fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of connections remembered.
+    #[cfg(test)]
+    pub(crate) fn connections(&self) -> usize {
+        self.conns.len()
+    }
+
+    /// Connection `id` is gone: close the buffer it left open, forget its state.
+    pub(crate) fn close(&mut self, card: &mut Card, id: u64) {
+        if let Some(c) = self.conns.remove(&id) {
+            card.end_session(&c.session);
+        }
+    }
+
+    /// Run one request against the card; the encoded reply.
+    pub(crate) fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Vec<u8> {
+        match req.op {
+            OP_CLOSE => {
+                self.close(card, req.conn);
+                Vec::new()
+            }
+            OP_QUERY_START => vec![self.start_flags(card, req.conn)],
+            OP_TAKE_START => self.take_start(card, req.conn),
+            _ => encode_reply(&self.feed(card, req.conn, req.data)),
+        }
+    }
+
+    /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
+    pub(crate) fn start_flags(&self, card: &mut Card, id: u64) -> u8 {
+        match self.conns.get(&id) {
+            Some(c) if starts_program(card, c) => {
+                FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
+            }
+            _ => 0,
+        }
+    }
+
+    /// Take the collected line of connection `id` for a synchronized start: the flags byte,
+    /// then the line prefixed with the connection's addressing (`#m&c`); empty (and nothing
+    /// taken) when the line does not start a program. The card then stays silent at the
+    /// `<CR>` that would have executed it, and the connection's motor/C.S. follow the line's
+    /// `#n`/`&n` as if it had run here.
+    pub(crate) fn take_start(&mut self, card: &mut Card, id: u64) -> Vec<u8> {
+        let flags = self.start_flags(card, id);
+        let Some(c) = self.conns.get_mut(&id) else {
+            return Vec::new();
+        };
+        if flags & FLAG_STARTS == 0 {
+            return Vec::new();
+        }
+        let line = std::mem::take(&mut c.buf);
+        c.synced = true;
+        let mut out = vec![flags];
+        out.extend_from_slice(format!("#{}&{}", c.session.motor, c.session.coord).as_bytes());
+        out.extend_from_slice(&line);
+        for cmd in crate::lang::parse_line(&line).unwrap_or_default() {
+            match cmd.kind {
+                CmdKind::AddrMotor(n) => c.session.motor = u16::try_from(n).unwrap_or(1),
+                CmdKind::AddrCoord(n) => c.session.coord = u16::try_from(n).unwrap_or(1),
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// Feed chain input of connection `id`; returns (position, reply bytes) segments.
+    pub(crate) fn feed(&mut self, card: &mut Card, id: u64, data: &[u8]) -> Vec<(u32, Vec<u8>)> {
+        self.clock += 1;
+        if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
+            let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
+            if let Some(&old) = oldest.map(|(k, _)| k) {
+                self.close(card, old);
+            }
+        }
+        let conn = self.conns.entry(id).or_insert_with(|| Conn::new(card, id));
+        conn.last_used = self.clock;
+        let mut out = Vec::new();
+        for (i, &b) in data.iter().enumerate() {
+            let r = byte(card, conn, b);
+            if !r.is_empty() {
+                out.push((i as u32, r));
+            }
+        }
+        out
+    }
+}
+
+/// Prefix `#m&c` may add to a taken line (the synchronized start refuses longer lines).
+const PREFIX_ROOM: usize = 16;
+
+/// The collected line would start a program (`R`/`S`) if executed now.
+fn starts_program(card: &Card, c: &Conn) -> bool {
+    if c.overflow || c.buf.is_empty() || c.buf.len() + PREFIX_ROOM > MAX_LINE {
+        return false;
+    }
+    if card.open_session() == Some(c.session.id) {
+        return false;
+    }
+    crate::lang::parse_line(&c.buf).is_ok_and(|cmds| {
+        cmds.iter()
+            .any(|k| matches!(k.kind, CmdKind::Run | CmdKind::Step))
+    })
+}
+
+/// Process one received byte; the reply this card sends because of it.
+fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
+    let sa = card.software_addressing();
+    if std::mem::take(&mut c.at_pending) && sa {
+        if let Some(n) = hex_digit(b) {
+            let _ = card.chain_select(&mut c.session, Some(n));
+            return Vec::new();
+        }
+        if b == b'@' {
+            let _ = card.chain_select(&mut c.session, None);
+            return Vec::new();
+        }
+        // A lone `@`: the report-card command, collected like any line character.
+        collect(card, c, b'@');
+    }
+    if b == b'@' && sa {
+        c.at_pending = true;
+        return Vec::new();
+    }
+    let listening = card.chain_listening(&c.session);
+    let talking = card.chain_talking(&c.session);
+    let all = sa && c.session.chain_all;
+    let said = |r: Vec<u8>| if talking { r } else { Vec::new() };
+    match b {
+        b'\r' => execute(card, c),
+        // CTRL-A/D/K/O/Q/R/S: every card, whatever the addressing.
+        0x01 | 0x04 | 0x0B | 0x0F | 0x11 | 0x12 | 0x13 => {
+            let r = card.control_char(&mut c.session, b);
+            said(r)
+        }
+        0x18 => {
+            c.buf.clear();
+            c.overflow = false;
+            let r = card.control_char(&mut c.session, b);
+            said(r)
+        }
+        // Reports: the addressed card only; not accepted under `@@`.
+        0x02 | 0x03 | 0x06 | 0x07 | 0x10 | 0x16 if listening && !all => {
+            let r = card.control_char(&mut c.session, b);
+            said(r)
+        }
+        0x0C | 0x15 | 0x1A if listening => {
+            let r = card.control_char(&mut c.session, b);
+            said(r)
+        }
+        0x08 if listening => {
+            if !c.overflow {
+                c.buf.pop();
+            }
+            Vec::new()
+        }
+        0x09 if listening => {
+            let mut s = Session {
+                chain_addressed: true,
+                ..c.session.clone()
+            };
+            let r = card.control_char(&mut s, b);
+            restore(c, &s);
+            said(r)
+        }
+        0x0E => said(ctrl_n(&c.buf)),
+        0x19 if listening => {
+            c.overflow = false;
+            c.buf = card.last_line().to_vec();
+            said(c.buf.clone())
+        }
+        0x00..=0x1F => Vec::new(),
+        _ => {
+            collect(card, c, b);
+            Vec::new()
+        }
+    }
+}
+
+/// A line character: into the buffer while this card is receiving; over-long lines are
+/// dropped and answered ERR003 at their `<CR>`.
+fn collect(card: &mut Card, c: &mut Conn, b: u8) {
+    if !card.chain_listening(&c.session) || c.overflow {
+        return;
+    }
+    if c.buf.len() >= MAX_LINE {
+        c.overflow = true;
+        c.buf.clear();
+    } else {
+        c.buf.push(b);
+    }
+}
+
+/// Keep what the line changed in the session (motor/C.S.), not the chain addressing, which
+/// belongs to the connection.
+fn restore(c: &mut Conn, s: &Session) {
+    c.session.motor = s.motor;
+    c.session.coord = s.coord;
+}
+
+/// `<CR>`: execute the collected line (every card that has one), reply if talking.
+fn execute(card: &mut Card, c: &mut Conn) -> Vec<u8> {
+    let talking = card.chain_talking(&c.session);
+    if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
+        // The line was taken for a synchronized start: it runs (and answers) there.
+        return Vec::new();
+    }
+    let line = std::mem::take(&mut c.buf);
+    if std::mem::take(&mut c.overflow) {
+        if !talking {
+            return Vec::new();
+        }
+        return card.run_detached(&mut c.session.clone(), &overlong_probe());
+    }
+    if line.is_empty() && !talking {
+        return Vec::new();
+    }
+    // The line was collected while addressed: it runs even if another card is addressed now.
+    let mut s = Session {
+        chain_addressed: true,
+        ..c.session.clone()
+    };
+    let r = card.run_detached(&mut s, &line);
+    restore(c, &s);
+    if talking {
+        r
+    } else {
+        Vec::new()
+    }
+}
+
+/// Start-up: the card's chain number (I0) from the config and software addressing on (I1 bit
+/// 1), so the cluster's chain works out of the box. Config `ivars` applied later still win.
+pub(crate) fn apply_chain_defaults(card: &mut Card, number: u8) {
+    let mut s = Session::default();
+    let i1 = card.state.peek_ivar(1).unwrap_or(0.0) as u32 | 2;
+    let line = format!("I0={} I1={i1}", number & 0xF);
+    let _ = card.command_line(&mut s, line.as_bytes());
+}
+
+/// Declare the chain queryable of card `n` of `cluster`. Keep the returned value alive.
+pub(crate) async fn declare_chain_queryable(
+    zsession: &zenoh::Session,
+    cluster: &str,
+    n: u32,
+    card: CardHandle,
+) -> zenoh::Result<zenoh::query::Queryable<()>> {
+    let worker = handle::query_worker("chain", move |query| {
+        let payload = query
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        let res = match card.call(handle::Request::Chain(payload), REPLY_TIMEOUT) {
+            Some(Response::Chain(r)) => r,
+            _ => Err("the card did not answer".to_string()),
+        };
+        let sent = match res {
+            Ok(r) => query.reply(query.key_expr().clone(), r).wait(),
+            Err(e) => query.reply_err(e).wait(),
+        };
+        if let Err(e) = sent {
+            tracing::warn!("card chain reply failed: {e}");
+        }
+    });
+    zsession
+        .declare_queryable(chain_key(cluster, n))
+        .callback(worker)
+        .await
+}
+
+#[cfg(test)]
+#[path = "tests_chain.rs"]
+mod tests;

@@ -1,0 +1,235 @@
+//! Chain semantics (§8.3) on in-process cards: every card sees every byte, replies merged in
+//! input order as the orchestrator does. Cards run with I3=2 I6=1 (compact framing).
+
+use super::*;
+use crate::domain::Profile;
+use mcc_ring::control::chain::{decode_request, encode_request};
+
+/// A simulated cable: cards with their chain receivers.
+struct Cable {
+    cards: Vec<(Card, ChainPort)>,
+}
+
+impl Cable {
+    fn new(n: u8) -> Self {
+        let cards = (0..n)
+            .map(|k| {
+                let mut c = Card::new(Profile::Pmac2);
+                apply_chain_defaults(&mut c, k);
+                // Compact framing: data lines end in <CR>, one <ACK> per line, ERRnnn shown.
+                c.command_line(&mut Session::default(), b"I3=2 I6=1");
+                (c, ChainPort::new())
+            })
+            .collect();
+        Cable { cards }
+    }
+
+    /// Broadcast `data` on connection `conn`; merged replies (position, then card order).
+    fn send(&mut self, conn: u64, data: &[u8]) -> Vec<u8> {
+        let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
+        for (k, (card, port)) in self.cards.iter_mut().enumerate() {
+            for (p, b) in port.feed(card, conn, data) {
+                segs.push((p, k, b));
+            }
+        }
+        segs.sort_by_key(|s| (s.0, s.1));
+        segs.into_iter().flat_map(|s| s.2).collect()
+    }
+
+    /// Ask card `k` directly (not through the chain).
+    fn ask(&mut self, k: usize, line: &str) -> Vec<u8> {
+        self.cards[k]
+            .0
+            .command_line(&mut Session::default(), line.as_bytes())
+    }
+}
+
+#[test]
+fn addressed_card_takes_and_answers_the_line() {
+    let mut c = Cable::new(2);
+    assert_eq!(c.send(1, b"@1P1=5\r"), b"\x06");
+    assert_eq!(c.send(1, b"@0P1\r"), b"0\r\x06");
+    assert_eq!(c.send(1, b"@1P1\r"), b"5\r\x06");
+    assert_eq!(c.ask(0, "P1"), b"0\r\x06");
+    // Power-up: card 0 is addressed.
+    assert_eq!(c.send(2, b"P1\r"), b"0\r\x06");
+}
+
+#[test]
+fn one_line_for_two_cards_runs_on_both_at_the_cr() {
+    let mut c = Cable::new(2);
+    // Only the card addressed at the <CR> (card 1) answers.
+    assert_eq!(c.send(1, b"@0P2=11@1P2=22\r"), b"\x06");
+    assert_eq!(c.ask(0, "P2"), b"11\r\x06");
+    assert_eq!(c.ask(1, "P2"), b"22\r\x06");
+    // Split across chunks, `@` tokens too.
+    assert_eq!(c.send(1, b"@"), b"");
+    assert_eq!(c.send(1, b"0P3=3@"), b"");
+    assert_eq!(c.send(1, b"1P3=4\r"), b"\x06");
+    assert_eq!(c.ask(0, "P3"), b"3\r\x06");
+    assert_eq!(c.ask(1, "P3"), b"4\r\x06");
+}
+
+#[test]
+fn at_at_runs_everywhere_card_0_answers_and_refuses_queries() {
+    let mut c = Cable::new(3);
+    assert_eq!(c.send(1, b"@@P1=7\r"), b"\x06");
+    for k in 0..3 {
+        assert_eq!(c.ask(k, "P1"), b"7\r\x06");
+    }
+    assert_eq!(c.send(1, b"P1\r"), b"\x07ERR003\r");
+    assert_eq!(c.send(1, b"@\r"), b"@\r\x06");
+    // Data-reporting control characters are not accepted under `@@`.
+    assert_eq!(c.send(1, b"\x02"), b"");
+    assert_eq!(c.send(1, b"@2@\r"), b"2\r\x06");
+    assert_eq!(c.send(1, b"@A@\r"), b"");
+    assert_eq!(c.send(1, b"@0@\r"), b"0\r\x06");
+    // `???` word 1 bits 0/1 follow the addressing of card 0.
+    assert_eq!(c.send(1, b"???\r"), b"000001000800\r\x06");
+}
+
+#[test]
+fn control_characters_to_all_cards_or_only_the_addressed_one() {
+    let mut c = Cable::new(2);
+    assert_eq!(c.send(1, b"@1\r"), b"\x06");
+    // CTRL-K kills on every card, whatever the addressing.
+    assert_eq!(c.send(1, b"\x0b"), b"");
+    for (card, _) in &c.cards {
+        assert!(card
+            .state
+            .motors
+            .iter()
+            .all(|m| m.open_loop && !m.amp_enabled));
+    }
+    // CTRL-P: only the addressed card reports.
+    assert_eq!(c.send(1, b"\x10"), b"0 0 0 0 0 0 0 0\r");
+    // CTRL-X flushes the partial line on every card.
+    assert_eq!(c.send(1, b"@0P4=1\x18@1\r"), b"\x06");
+    assert_eq!(c.ask(0, "P4"), b"0\r\x06");
+    // CTRL-H edits only the receiving card's buffer.
+    assert_eq!(c.send(1, b"P5=12\x08\r"), b"\x06");
+    assert_eq!(c.ask(1, "P5"), b"1\r\x06");
+    // CTRL-N: checksum of the addressed card's partial line.
+    assert_eq!(c.send(1, b"P\x0e"), vec![b'P']);
+    assert_eq!(c.send(1, b"\x18"), b"");
+    // CTRL-T is not allowed on a chain: ignored.
+    assert_eq!(c.send(1, b"\x14P5\r"), b"1\r\x06");
+    assert!(!c.cards[1].0.echo());
+}
+
+#[test]
+fn connections_have_their_own_addressing() {
+    let mut c = Cable::new(2);
+    assert_eq!(c.send(1, b"@1\r"), b"\x06");
+    assert_eq!(c.send(2, b"@\r"), b"0\r\x06");
+    assert_eq!(c.send(1, b"@\r"), b"1\r\x06");
+    // A partial line of one connection does not mix with another's.
+    assert_eq!(c.send(1, b"P6="), b"");
+    assert_eq!(c.send(2, b"P6\r"), b"0\r\x06");
+    assert_eq!(c.send(1, b"9\r"), b"\x06");
+    assert_eq!(c.ask(1, "P6"), b"9\r\x06");
+    assert_eq!(c.ask(0, "P6"), b"0\r\x06");
+}
+
+#[test]
+fn bad_input_gets_pmac_answers_never_a_panic() {
+    let mut c = Cable::new(2);
+    // Unknown card: nobody answers; addressing a real card again recovers.
+    assert_eq!(c.send(1, b"@7P1=3\r"), b"");
+    assert_eq!(c.send(1, b"P1\r"), b"");
+    assert_eq!(c.send(1, b"@0P1\r"), b"0\r\x06");
+    // `@` followed by something else: the addressed card reports its number, then runs or
+    // rejects the rest (`Z` is a motor command).
+    assert_eq!(c.send(1, b"@Z\r"), b"0\r\x06");
+    assert_eq!(c.send(1, b"@]\r"), b"0\r\x07ERR003\r");
+    // An over-long line: ERR003 from the addressed card only, then carry on.
+    let mut long = vec![b'P'; MAX_LINE + 50];
+    long.push(b'\r');
+    assert_eq!(c.send(1, &long), b"\x07ERR003\r");
+    assert_eq!(c.send(1, b"P1\r"), b"0\r\x06");
+    // Odd control bytes and 8-bit bytes.
+    assert_eq!(c.send(1, b"\x05\x17\x1b\x00\r"), b"\x06");
+    let r = c.send(1, b"P1\xff\r");
+    assert!(r.starts_with(b"\x07ERR"), "{r:?}");
+}
+
+#[test]
+fn without_software_addressing_the_card_answers_everything() {
+    let mut c = Cable::new(1);
+    assert_eq!(c.send(1, b"I1=0\r"), b"\x06");
+    assert_eq!(c.send(1, b"@1\r"), b"\x07ERR003\r");
+    assert_eq!(c.send(1, b"P1\r"), b"0\r\x06");
+}
+
+#[test]
+fn connections_are_bounded_and_closing_frees_the_buffer() {
+    let mut c = Cable::new(1);
+    let (card, port) = &mut c.cards[0];
+    for id in 0..(MAX_CONNECTIONS as u64 + 10) {
+        port.feed(card, id, b"P1\r");
+    }
+    assert_eq!(port.connections(), MAX_CONNECTIONS);
+    assert_eq!(
+        port.feed(card, 500, b"OPEN PROG 1 CLEAR\r"),
+        vec![(17, vec![6])]
+    );
+    port.close(card, 500);
+    // The buffer is closed again: another connection may open one.
+    assert_eq!(port.feed(card, 501, b"OPEN PROG 2\r"), vec![(11, vec![6])]);
+}
+
+impl Cable {
+    /// `op` ([`OP_QUERY_START`]/[`OP_TAKE_START`]) on card `k` for connection `conn`.
+    fn op(&mut self, k: usize, op: u8, conn: u64) -> Vec<u8> {
+        let (card, port) = &mut self.cards[k];
+        port.handle(
+            card,
+            &Request {
+                op,
+                conn,
+                data: &[],
+            },
+        )
+    }
+}
+
+#[test]
+fn lines_that_start_programs_are_handed_over_and_the_cards_stay_silent_at_the_cr() {
+    let mut c = Cable::new(3);
+    assert_eq!(c.send(1, b"@0&1B1R@2P1=7@1&2B7S"), b"");
+    assert_eq!(c.op(0, OP_QUERY_START, 1), [FLAG_STARTS]);
+    assert_eq!(c.op(1, OP_QUERY_START, 1), [FLAG_STARTS | FLAG_TALKS]);
+    assert_eq!(c.op(2, OP_QUERY_START, 1), [0]);
+    // The query changes nothing; an unknown connection has nothing.
+    assert_eq!(c.op(0, OP_QUERY_START, 1), [FLAG_STARTS]);
+    assert_eq!(c.op(0, OP_QUERY_START, 9), [0]);
+    let mut t0 = vec![FLAG_STARTS];
+    t0.extend_from_slice(b"#1&1&1B1R");
+    assert_eq!(c.op(0, OP_TAKE_START, 1), t0);
+    let mut t1 = vec![FLAG_STARTS | FLAG_TALKS];
+    t1.extend_from_slice(b"#1&1&2B7S");
+    assert_eq!(c.op(1, OP_TAKE_START, 1), t1);
+    assert_eq!(c.op(2, OP_TAKE_START, 1), b"");
+    // At the <CR> card 2 runs its line (silently: card 1 is addressed); 0 and 1 say nothing.
+    assert_eq!(c.send(1, b"\r"), b"");
+    assert_eq!(c.ask(2, "P1"), b"7\r\x06");
+    // Card 1's connection kept the &2 of the line it handed over.
+    assert_eq!(c.send(1, b"@1&\r"), b"2\r\x06");
+    // Taken only once; the next <CR> executes normally again.
+    assert_eq!(c.op(0, OP_TAKE_START, 1), b"");
+    assert_eq!(c.send(1, b"@0\r"), b"\x06");
+}
+
+#[test]
+fn lines_without_a_start_are_not_taken() {
+    let mut c = Cable::new(2);
+    for line in [&b"@0P1=5"[..], b"@0#1J+", b"@0OPEN PROG 1", b"@0UUU R"] {
+        c.send(1, b"\x18");
+        c.send(1, line);
+        assert_eq!(c.op(0, OP_QUERY_START, 1), [0], "{line:?}");
+        assert_eq!(c.op(0, OP_TAKE_START, 1), b"", "{line:?}");
+    }
+    // Requests with the new ops decode; unknown ops are still refused.
+    assert!(decode_request(&encode_request(OP_TAKE_START, 3, &[])).is_ok());
+    assert!(decode_request(&encode_request(b'Z', 3, &[])).is_err());
+}
