@@ -110,7 +110,7 @@ fn free_port() -> u16 {
 
 /// Two cards and two stations: card0 and station0 on host a, card1 and station1 on host b.
 fn two_hosts(cluster: &str, clock: &str, zenoh: &str) -> String {
-    let mut t = format!("cluster = \"{cluster}\"\nclock = \"{clock}\"\nrate_hz = 500.0\n{zenoh}\n");
+    let mut t = format!("cluster = \"{cluster}\"\nclock = \"{clock}\"\nrate_hz = 2258.7\n{zenoh}\n");
     for (i, h) in ["a", "b"].iter().enumerate() {
         t.push_str(&format!(
             "[[cards]]\nname = \"card{i}\"\nnumber = {i}\nmaster = {i}\nhost = \"{h}\"\nivars = {{ I1001 = 16, I1004 = 2, I1005 = 4 }}\n"
@@ -303,7 +303,7 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
     failed_with(&out, "start each host's share on that host with `mcc up --host NAME`");
     // The two hosts run different configs: the second is refused before it starts anything
     // (naming the key), the first gives up waiting for it.
-    let other = write(&dir, "other.toml", &good.replace("rate_hz = 500.0", "rate_hz = 1000.0"));
+    let other = write(&dir, "other.toml", &good.replace("rate_hz = 2258.7", "rate_hz = 1000.0"));
     let other_s = other.display().to_string();
     let first = {
         let a = a.clone();
@@ -381,14 +381,18 @@ fn hosts_across_three_network_namespaces() {
     let cluster = unique("ns");
     let dir = run_base().join(&cluster);
     write(&dir, "pass", "ns-secret\n");
-    write(&dir, "users", "mcc:ns-secret\n");
+    // The router's files live apart from the cluster's (its command line must not name the
+    // cluster: the router is no member and outlives `down`).
+    let rdir = run_base().join(unique("zenohd"));
+    write(&rdir, "users", "mcc:ns-secret\n");
     let d = dir.display();
+    let rd = rdir.display();
     let acl = "access_control: { enabled: true, default_permission: \"deny\", rules: [{ id: \"mcc\", messages: [\"put\", \"delete\", \"declare_subscriber\", \"query\", \"declare_queryable\", \"reply\", \"liveliness_token\", \"declare_liveliness_subscriber\", \"liveliness_query\"], flows: [\"egress\", \"ingress\"], permission: \"allow\", key_exprs: [\"mcc/**\"] }], subjects: [{ id: \"users\", usernames: [\"mcc\"] }], policies: [{ rules: [\"mcc\"], subjects: [\"users\"] }] }";
     let zcfg = write(
-        &dir,
+        &rdir,
         "zenohd.json5",
         &format!(
-            "{{ mode: \"router\", transport: {{ auth: {{ usrpwd: {{ user: \"mcc\", password: \"ns-secret\", dictionary_file: \"{d}/users\" }} }} }}, {acl} }}"
+            "{{ mode: \"router\", transport: {{ auth: {{ usrpwd: {{ user: \"mcc\", password: \"ns-secret\", dictionary_file: \"{rd}/users\" }} }} }}, {acl} }}"
         ),
     );
     let _router = start_router(
@@ -437,10 +441,22 @@ subjects = ["links"]
         wait_status(h, &cluster, "the whole ring locked", VERB, |s| locked(s) && both_hosts_up(s));
     }
     // A program on card1 (host b), sent from host a, runs to position.
-    a.ok(&[
-        "send", "--cluster", &cluster, "@1&1#1->1000X", "@1OPEN PROG 1 CLEAR", "@1LINEAR INC TA50 TS0 F2000",
-        "@1X2", "@1CLOSE", "@1#1J/", "@1&1B1R",
+    let setup = a.ok(&[
+        "send", "--cluster", &cluster, "@1&1#1->1000X", "@1OPEN PROG 1 CLEAR", "@1LINEAR ABS TA200 TS0 F5",
+        "@1X2", "@1CLOSE", "@1#1J/",
     ]);
+    assert!(!setup.contains("<BELL>") && !setup.contains('\x07'), "{setup}");
+    // The `#1J/` settles first (a jog in progress refuses R with ERR011).
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let r = a.ok(&["send", "--cluster", &cluster, "@1&1B1R"]);
+        if !r.contains("ERR011") {
+            assert!(!r.contains("ERR"), "{r}");
+            break;
+        }
+        assert!(Instant::now() < deadline, "card1 still refuses R: {r}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
         let p: f64 = a.ok(&["send", "--cluster", &cluster, "@1#1P"]).trim().parse().unwrap_or(f64::NAN);
