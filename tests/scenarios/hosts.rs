@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use mcc_testing::netns::{self, Lab, RB};
+use mcc_testing::netns::{self, Lab, RA, RB};
 use mcc_tests::process::{bin_dir, pid_alive, run_base, run_bounded, text, unique};
 use serde_json::Value;
 
@@ -175,6 +175,19 @@ fn wait_status(h: &Host, cluster: &str, what: &str, timeout: Duration, f: impl F
         assert!(Instant::now() < deadline, "host {}: timed out waiting for {what}: {st:#}", h.name);
         std::thread::sleep(Duration::from_millis(300));
     }
+}
+
+/// One line per status: each member's lock, latch, darkness and error counts.
+fn brief(st: &Value) -> String {
+    let mut out = format!("cycle {} ", st["ring"]["cycle"]);
+    for m in st["members"].as_array().into_iter().flatten() {
+        let e = &m["errors"];
+        out.push_str(&format!(
+            "| {} alive {} locked {} rfault {} dark {} und {} ovr {} bytev {} ",
+            m["name"], m["alive"], m["locked"], m["ring_fault"], m["dark"], e["underrun"], e["overrun"], e["byte_violation"]
+        ));
+    }
+    out
 }
 
 fn locked(st: &Value) -> bool {
@@ -495,16 +508,40 @@ subjects = ["links"]
     assert_eq!(back["members"][2]["ring_fault"], true, "{back:#}");
     let deadline = Instant::now() + Duration::from_secs(120);
     loop {
-        let _ = a.mcc(&["send", "--cluster", &cluster, "@@$$$"], VERB);
-        let _ = a.mcc(&["fault", "--cluster", &cluster, "reset"], VERB);
-        std::thread::sleep(Duration::from_secs(1));
+        // `$$$` on every card whose ring-fault bit is set, then the members' latches; again
+        // while the ring settles (a latch clears only after a healthy check period).
         let st = a.status(&cluster);
-        if locked(&st) && st["ring"]["dark_links"].as_array().is_some_and(Vec::is_empty) {
+        let cards = st["cards"].as_array().cloned().unwrap_or_default();
+        if locked(&st)
+            && st["ring"]["dark_links"].as_array().is_some_and(Vec::is_empty)
+            && cards.iter().all(|c| c["ring_fault"] == false)
+        {
             break;
         }
         assert!(Instant::now() < deadline, "the ring did not recover: {st:#}");
+        eprintln!("recovering: {}", brief(&st));
+        for c in cards.iter().filter(|c| c["ring_fault"] != false) {
+            let n = c["number"].as_u64().unwrap();
+            let _ = a.mcc(&["send", "--cluster", &cluster, &format!("@{n}$$$")], VERB);
+        }
+        let _ = a.mcc(&["fault", "--cluster", &cluster, "reset"], VERB);
+        std::thread::sleep(Duration::from_secs(1));
     }
+    // `down` on host b while host a is cut off from the router: host b stops its own share
+    // and names the host it cannot reach (exit status 1); host a's share is still running.
+    lab.link_down(RA).unwrap();
     let out = b.mcc(&["down", "--cluster", &cluster], VERB);
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = failed_with(&out, "cannot reach host a (card0, station0)");
+    assert!(text(&out.stdout).contains("host b stopped (2 members)"), "{}\n{err}", text(&out.stdout));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !lab.pids("b").is_empty() {
+        assert!(Instant::now() < deadline, "host b left {:?} running", lab.pids("b"));
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert!(!lab.pids("a").is_empty(), "host a's share stopped although cut off");
+    // Back on the network, host a's own `down` stops it.
+    lab.link_up(RA).unwrap();
+    let out = a.mcc(&["down", "--cluster", &cluster], VERB);
+    assert!(text(&out.stdout).contains("host a stopped (2 members)"), "{}\n{}", text(&out.stdout), text(&out.stderr));
     assert_nothing_left(&cluster);
 }

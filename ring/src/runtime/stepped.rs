@@ -12,7 +12,9 @@
 //! The one wall-clock judgement: if nothing comes back within the frozen-member wait
 //! (`member_timeout_ms`), a member has stopped answering and the ring is down. The master then
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
-//! counts the silence — until a frame of the current cycle comes back. When its upstream
+//! counts the silence — until a frame of the current cycle, or any cycle it started on its
+//! own clock with light, comes back (a round trip longer than a period, e.g. across hosts,
+//! has several own-clock cycles in flight: the current one is never first). When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
@@ -48,6 +50,8 @@ impl<A: RingApp> Driver<A> {
         let mut last_start = self.now_ns();
         // Nothing came back within the frozen wait: cycles run on the own clock.
         let mut down = false;
+        // The first cycle started on the own clock.
+        let mut down_from = 0;
         // Lockstep: the grid is only followed on the own clock; re-based when that begins.
         let mut grid_live = paced;
         loop {
@@ -84,6 +88,7 @@ impl<A: RingApp> Driver<A> {
                         frozen_ns / 1_000_000
                     );
                     down = true;
+                    down_from = k;
                     if let Some(c) = self.clock.as_mut() {
                         c.set_ring_down(true);
                     }
@@ -120,7 +125,11 @@ impl<A: RingApp> Driver<A> {
                             grid.rebase(k, now);
                         }
                         returned = returned.max(Some(c));
-                        if down && c.saturating_add(1) >= k {
+                        // Back: the current cycle came round, or (a round trip longer than
+                        // a period: several own-clock cycles in flight) any of them lit.
+                        // The ones still in flight drain before the next start.
+                        let lit = c >= down_from && !self.core.is_dark();
+                        if down && (c.saturating_add(1) >= k || lit) {
                             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
                             down = false;
                             if let Some(s) = self.clock.as_mut() {
