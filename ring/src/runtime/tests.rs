@@ -480,16 +480,16 @@ fn a_frozen_member_takes_the_ring_down_after_the_member_timeout_and_back_when_th
 
 #[test]
 fn a_ring_slower_than_its_period_comes_back_after_a_frozen_member() {
-    // Across hosts the round trip can exceed a period: station1 takes 1 ms per cycle at
-    // 2258.7 Hz (0.44 ms). When station1 freezes, the sync master runs on its own clock,
+    // Across hosts the round trip can exceed a period: station1 takes 3 ms per cycle at
+    // 2258.7 Hz (0.44 ms; its queue of 256 frames drains within the member timeout). When station1 freezes, the sync master runs on its own clock,
     // several of its cycles are then in flight at once, and the first of them that comes
     // back lit must end the ring down (not only a frame of the current cycle, which can
     // never come back first).
-    let timeout = Duration::from_millis(300);
+    let timeout = Duration::from_millis(1000);
     let mut m = checked_ring(ClockMode::Paced, 3000, timeout);
     // station1 (card0's upstream) freezes: nothing comes back to card0 at all.
-    m[3].1.stall_at = Some((200, Duration::from_millis(1200)));
-    m[3].1.slow = Some(Duration::from_millis(1));
+    m[3].1.stall_at = Some((200, Duration::from_millis(2000)));
+    m[3].1.slow = Some(Duration::from_millis(3));
     let out = run_to_end(m, Duration::from_secs(120));
     let sm = out[0].clock.clone().unwrap();
     assert!(!sm.ring_down && sm.ring_down_count >= 1, "{sm:?}");
