@@ -114,11 +114,29 @@ impl Lab {
             let (ln, ld, la) = l.left;
             let (rn, rd, ra) = l.right;
             ip(&[
-                "link", "add", ld, "netns", &self.ns(ln), "type", "veth", "peer", "name", rd,
-                "netns", &self.ns(rn),
+                "link",
+                "add",
+                ld,
+                "netns",
+                &self.ns(ln),
+                "type",
+                "veth",
+                "peer",
+                "name",
+                rd,
+                "netns",
+                &self.ns(rn),
             ])?;
             for (ns, dev, addr) in [(ln, ld, la), (rn, rd, ra)] {
-                ip(&["-n", &self.ns(ns), "addr", "add", &format!("{addr}/24"), "dev", dev])?;
+                ip(&[
+                    "-n",
+                    &self.ns(ns),
+                    "addr",
+                    "add",
+                    &format!("{addr}/24"),
+                    "dev",
+                    dev,
+                ])?;
                 ip(&["-n", &self.ns(ns), "link", "set", dev, "up"])?;
             }
         }

@@ -110,7 +110,8 @@ fn free_port() -> u16 {
 
 /// Two cards and two stations: card0 and station0 on host a, card1 and station1 on host b.
 fn two_hosts(cluster: &str, clock: &str, zenoh: &str) -> String {
-    let mut t = format!("cluster = \"{cluster}\"\nclock = \"{clock}\"\nrate_hz = 2258.7\n{zenoh}\n");
+    let mut t =
+        format!("cluster = \"{cluster}\"\nclock = \"{clock}\"\nrate_hz = 2258.7\n{zenoh}\n");
     for (i, h) in ["a", "b"].iter().enumerate() {
         t.push_str(&format!(
             "[[cards]]\nname = \"card{i}\"\nnumber = {i}\nmaster = {i}\nhost = \"{h}\"\nivars = {{ I1001 = 16, I1004 = 2, I1005 = 4 }}\n"
@@ -160,19 +161,33 @@ fn assert_nothing_left(cluster: &str) {
 
 fn failed_with(out: &Output, want: &str) -> String {
     let err = text(&out.stderr);
-    assert!(!out.status.success(), "expected a failure with {want:?}\n{}", text(&out.stdout));
+    assert!(
+        !out.status.success(),
+        "expected a failure with {want:?}\n{}",
+        text(&out.stdout)
+    );
     assert!(err.contains(want), "expected {want:?} in:\n{err}");
     err
 }
 
-fn wait_status(h: &Host, cluster: &str, what: &str, timeout: Duration, f: impl Fn(&Value) -> bool) -> Value {
+fn wait_status(
+    h: &Host,
+    cluster: &str,
+    what: &str,
+    timeout: Duration,
+    f: impl Fn(&Value) -> bool,
+) -> Value {
     let deadline = Instant::now() + timeout;
     loop {
         let st = h.status(cluster);
         if f(&st) {
             return st;
         }
-        assert!(Instant::now() < deadline, "host {}: timed out waiting for {what}: {st:#}", h.name);
+        assert!(
+            Instant::now() < deadline,
+            "host {}: timed out waiting for {what}: {st:#}",
+            h.name
+        );
         std::thread::sleep(Duration::from_millis(300));
     }
 }
@@ -184,7 +199,14 @@ fn brief(st: &Value) -> String {
         let e = &m["errors"];
         out.push_str(&format!(
             "| {} alive {} locked {} rfault {} dark {} und {} ovr {} bytev {} ",
-            m["name"], m["alive"], m["locked"], m["ring_fault"], m["dark"], e["underrun"], e["overrun"], e["byte_violation"]
+            m["name"],
+            m["alive"],
+            m["locked"],
+            m["ring_fault"],
+            m["dark"],
+            e["underrun"],
+            e["overrun"],
+            e["byte_violation"]
         ));
     }
     out
@@ -196,7 +218,10 @@ fn locked(st: &Value) -> bool {
 
 fn both_hosts_up(st: &Value) -> bool {
     let hosts = st["hosts"].as_array().cloned().unwrap_or_default();
-    hosts.len() == 2 && hosts.iter().all(|h| h["alive"] == true && h["same_config"] == true)
+    hosts.len() == 2
+        && hosts
+            .iter()
+            .all(|h| h["alive"] == true && h["same_config"] == true)
 }
 
 /// Peer to peer on loopback: each host's processes listen on its address; the ring locks
@@ -211,14 +236,29 @@ fn hosts_peer_to_peer_lock_and_answer_from_either_host() {
     );
     let dir = run_base().join(&cluster);
     let cfg = write(&dir, "lab.toml", &two_hosts(&cluster, "lockstep", &zenoh));
-    let (a, b) = (Host::new(&cluster, "a", None), Host::new(&cluster, "b", None));
+    let (a, b) = (
+        Host::new(&cluster, "a", None),
+        Host::new(&cluster, "b", None),
+    );
     let outs = up_all(&cfg, &[&a, &b], &[]);
     for (h, o) in [(&a, &outs[0]), (&b, &outs[1])] {
-        assert!(o.status.success(), "host {}: {}\n{}", h.name, text(&o.stdout), text(&o.stderr));
-        assert!(text(&o.stdout).contains("4 members locked"), "{}", text(&o.stdout));
+        assert!(
+            o.status.success(),
+            "host {}: {}\n{}",
+            h.name,
+            text(&o.stdout),
+            text(&o.stderr)
+        );
+        assert!(
+            text(&o.stdout).contains("4 members locked"),
+            "{}",
+            text(&o.stdout)
+        );
     }
     for h in [&a, &b] {
-        let st = wait_status(h, &cluster, "the whole ring locked", VERB, |s| locked(s) && both_hosts_up(s));
+        let st = wait_status(h, &cluster, "the whole ring locked", VERB, |s| {
+            locked(s) && both_hosts_up(s)
+        });
         assert_eq!(st["members"][2]["host"], "b");
         assert_eq!(st["cards"][0]["host"], "a");
     }
@@ -227,7 +267,13 @@ fn hosts_peer_to_peer_lock_and_answer_from_either_host() {
     assert_eq!(a.ok(&["send", "--cluster", &cluster, "@1I0"]).trim(), "1");
     // A synchronized start on cards of both hosts lands in one ring cycle.
     let s: Value = serde_json::from_str(&a.ok(&[
-        "start-sync", "--cluster", &cluster, "--json", "--cards", "0,1", "P7=7",
+        "start-sync",
+        "--cluster",
+        &cluster,
+        "--json",
+        "--cards",
+        "0,1",
+        "P7=7",
     ]))
     .unwrap();
     let t = s["cycle"].as_u64().unwrap();
@@ -237,14 +283,21 @@ fn hosts_peer_to_peer_lock_and_answer_from_either_host() {
     // A drill on host b's station, asked on host a, is run by host b's supervisor.
     let out = a.ok(&["fault", "--cluster", &cluster, "station1", "freeze"]);
     assert!(out.contains("on host b"), "{out}");
-    wait_status(&a, &cluster, "station1 frozen", VERB, |s| s["members"][3]["alive"] == false);
+    wait_status(&a, &cluster, "station1 frozen", VERB, |s| {
+        s["members"][3]["alive"] == false
+    });
     a.ok(&["fault", "--cluster", &cluster, "station1", "thaw"]);
-    wait_status(&a, &cluster, "station1 back", VERB, |s| s["members"][3]["alive"] == true);
+    wait_status(&a, &cluster, "station1 back", VERB, |s| {
+        s["members"][3]["alive"] == true
+    });
     // `down` on host b stops both hosts.
     let out = b.mcc(&["down", "--cluster", &cluster], VERB);
     let said = text(&out.stdout);
     assert!(out.status.success(), "{said}\n{}", text(&out.stderr));
-    assert!(said.contains("host b stopped (2 members)") && said.contains("host a stopped (2 members)"), "{said}");
+    assert!(
+        said.contains("host b stopped (2 members)") && said.contains("host a stopped (2 members)"),
+        "{said}"
+    );
     assert_nothing_left(&cluster);
     let out = a.mcc(&["status", "--cluster", &cluster], VERB);
     failed_with(&out, "is not running");
@@ -267,7 +320,12 @@ fn zenohd_or_skip(test: &str) -> Option<PathBuf> {
     z
 }
 
-fn start_router(zenohd: &Path, cmd: Option<Command>, listen: &[&str], config: Option<&Path>) -> Router {
+fn start_router(
+    zenohd: &Path,
+    cmd: Option<Command>,
+    listen: &[&str],
+    config: Option<&Path>,
+) -> Router {
     let mut c = cmd.unwrap_or_else(|| Command::new(zenohd));
     c.arg("--no-multicast-scouting");
     for l in listen {
@@ -276,7 +334,10 @@ fn start_router(zenohd: &Path, cmd: Option<Command>, listen: &[&str], config: Op
     if let Some(cfg) = config {
         c.args(["-c", &cfg.display().to_string()]);
     }
-    c.env("RUST_LOG", "warn").stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::null());
+    c.env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
     let r = Router(c.spawn().expect("start zenohd"));
     std::thread::sleep(Duration::from_millis(500));
     r
@@ -286,16 +347,35 @@ fn start_router(zenohd: &Path, cmd: Option<Command>, listen: &[&str], config: Op
 /// and nothing half-started is left running.
 #[test]
 fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
-    let Some(zenohd) = zenohd_or_skip("hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind") else {
+    let Some(zenohd) =
+        zenohd_or_skip("hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind")
+    else {
         return;
     };
     let cluster = unique("rtr");
     let dir = run_base().join(&cluster);
-    let (a, b) = (Host::new(&cluster, "a", None), Host::new(&cluster, "b", None));
+    let (a, b) = (
+        Host::new(&cluster, "a", None),
+        Host::new(&cluster, "b", None),
+    );
     // The router is down.
     let nowhere = format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{}\"]\n", free_port());
-    let cfg = write(&dir, "down.toml", &two_hosts(&cluster, "lockstep", &nowhere));
-    let out = a.mcc(&["up", "--detach", "--config", &cfg.display().to_string(), "--host", "a"], UP);
+    let cfg = write(
+        &dir,
+        "down.toml",
+        &two_hosts(&cluster, "lockstep", &nowhere),
+    );
+    let out = a.mcc(
+        &[
+            "up",
+            "--detach",
+            "--config",
+            &cfg.display().to_string(),
+            "--host",
+            "a",
+        ],
+        UP,
+    );
     failed_with(&out, "cannot reach the zenoh router");
     assert_nothing_left(&cluster);
 
@@ -306,23 +386,57 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
     let cfg = write(&dir, "lab.toml", &good);
     let cfg_s = cfg.display().to_string();
     // A host named but never started: host a gives up, naming it, and stops its members.
-    let out = a.mcc(&["up", "--detach", "--config", &cfg_s, "--host", "a", "--timeout", "8"], UP);
-    failed_with(&out, "host b never started or cannot be reached (card1, station1 do not answer");
+    let out = a.mcc(
+        &[
+            "up",
+            "--detach",
+            "--config",
+            &cfg_s,
+            "--host",
+            "a",
+            "--timeout",
+            "8",
+        ],
+        UP,
+    );
+    failed_with(
+        &out,
+        "host b never started or cannot be reached (card1, station1 do not answer",
+    );
     assert_nothing_left(&cluster);
     // `--host` that no member is on, and a cluster on hosts started without `--host`.
     let out = a.mcc(&["up", "--detach", "--config", &cfg_s, "--host", "c"], VERB);
     failed_with(&out, "--host c: no member of cluster");
     let out = a.mcc(&["up", "--detach", "--config", &cfg_s], VERB);
-    failed_with(&out, "start each host's share on that host with `mcc up --host NAME`");
+    failed_with(
+        &out,
+        "start each host's share on that host with `mcc up --host NAME`",
+    );
     // The two hosts run different configs: the second is refused before it starts anything
     // (naming the key), the first gives up waiting for it.
-    let other = write(&dir, "other.toml", &good.replace("rate_hz = 2258.7", "rate_hz = 1000.0"));
+    let other = write(
+        &dir,
+        "other.toml",
+        &good.replace("rate_hz = 2258.7", "rate_hz = 1000.0"),
+    );
     let other_s = other.display().to_string();
     let first = {
         let a = a.clone();
         let cfg_s = cfg_s.clone();
         std::thread::spawn(move || {
-            a.mcc(&["up", "--detach", "--config", &cfg_s, "--host", "a", "--timeout", "15"], UP)
+            a.mcc(
+                &[
+                    "up",
+                    "--detach",
+                    "--config",
+                    &cfg_s,
+                    "--host",
+                    "a",
+                    "--timeout",
+                    "15",
+                ],
+                UP,
+            )
         })
     };
     std::thread::sleep(Duration::from_secs(4));
@@ -335,27 +449,63 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
     let claim = write(
         &dir,
         "claim.toml",
-        &good.replacen("name = \"station0\"\nmaster = 0\nhost = \"a\"", "name = \"station0\"\nmaster = 0\nhost = \"b\"", 1),
+        &good.replacen(
+            "name = \"station0\"\nmaster = 0\nhost = \"a\"",
+            "name = \"station0\"\nmaster = 0\nhost = \"b\"",
+            1,
+        ),
     );
     let first = {
         let a = a.clone();
         let cfg_s = cfg_s.clone();
         std::thread::spawn(move || {
-            a.mcc(&["up", "--detach", "--config", &cfg_s, "--host", "a", "--timeout", "15"], UP)
+            a.mcc(
+                &[
+                    "up",
+                    "--detach",
+                    "--config",
+                    &cfg_s,
+                    "--host",
+                    "a",
+                    "--timeout",
+                    "15",
+                ],
+                UP,
+            )
         })
     };
     std::thread::sleep(Duration::from_secs(4));
-    let out = b.mcc(&["up", "--detach", "--config", &claim.display().to_string(), "--host", "b"], UP);
-    failed_with(&out, "two hosts claim member station0: host b (this config) and host a");
+    let out = b.mcc(
+        &[
+            "up",
+            "--detach",
+            "--config",
+            &claim.display().to_string(),
+            "--host",
+            "b",
+        ],
+        UP,
+    );
+    failed_with(
+        &out,
+        "two hosts claim member station0: host b (this config) and host a",
+    );
     assert!(!first.join().unwrap().status.success());
     assert_nothing_left(&cluster);
     // The same configs through the router: the ring locks; a member run with another config
     // under the same cluster name refuses to join it; the same host started twice is refused.
     let outs = up_all(&cfg, &[&a, &b], &[]);
     for o in &outs {
-        assert!(o.status.success(), "{}\n{}", text(&o.stdout), text(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{}\n{}",
+            text(&o.stdout),
+            text(&o.stderr)
+        );
     }
-    wait_status(&a, &cluster, "the whole ring locked", VERB, |s| locked(s) && both_hosts_up(s));
+    wait_status(&a, &cluster, "the whole ring locked", VERB, |s| {
+        locked(s) && both_hosts_up(s)
+    });
     let out = run_bounded(
         a.command(
             &bin_dir().join("mcc-card"),
@@ -439,26 +589,61 @@ subjects = ["links"]
     );
     let text_cfg = two_hosts(&cluster, "paced", &zenoh);
     // Without authentication and access control the config is refused, naming the key.
-    let bare = write(&dir, "bare.toml", &two_hosts(&cluster, "paced", "[zenoh]\nrouters = [\"tcp/10.213.1.1:7447\"]\n"));
+    let bare = write(
+        &dir,
+        "bare.toml",
+        &two_hosts(
+            &cluster,
+            "paced",
+            "[zenoh]\nrouters = [\"tcp/10.213.1.1:7447\"]\n",
+        ),
+    );
     let a = Host::new(&cluster, "a", Some(lab.ns("a")));
     let b = Host::new(&cluster, "b", Some(lab.ns("b")));
-    let out = a.mcc(&["up", "--detach", "--config", &bare.display().to_string(), "--host", "a"], VERB);
+    let out = a.mcc(
+        &[
+            "up",
+            "--detach",
+            "--config",
+            &bare.display().to_string(),
+            "--host",
+            "a",
+        ],
+        VERB,
+    );
     failed_with(&out, "zenoh.auth");
     let cfg = write(&dir, "lab.toml", &text_cfg);
     let outs = up_all(&cfg, &[&a, &b], &[]);
     for o in &outs {
-        assert!(o.status.success(), "{}\n{}", text(&o.stdout), text(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{}\n{}",
+            text(&o.stdout),
+            text(&o.stderr)
+        );
     }
     // The cluster locks, seen from either namespace.
     for h in [&a, &b] {
-        wait_status(h, &cluster, "the whole ring locked", VERB, |s| locked(s) && both_hosts_up(s));
+        wait_status(h, &cluster, "the whole ring locked", VERB, |s| {
+            locked(s) && both_hosts_up(s)
+        });
     }
     // A program on card1 (host b), sent from host a, runs to position.
     let setup = a.ok(&[
-        "send", "--cluster", &cluster, "@1&1#1->1000X", "@1OPEN PROG 1 CLEAR", "@1LINEAR ABS TA200 TS0 F5",
-        "@1X2", "@1CLOSE", "@1#1J/",
+        "send",
+        "--cluster",
+        &cluster,
+        "@1&1#1->1000X",
+        "@1OPEN PROG 1 CLEAR",
+        "@1LINEAR ABS TA200 TS0 F5",
+        "@1X2",
+        "@1CLOSE",
+        "@1#1J/",
     ]);
-    assert!(!setup.contains("<BELL>") && !setup.contains('\x07'), "{setup}");
+    assert!(
+        !setup.contains("<BELL>") && !setup.contains('\x07'),
+        "{setup}"
+    );
     // The `#1J/` settles first (a jog in progress refuses R with ERR011).
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
@@ -472,16 +657,29 @@ subjects = ["links"]
     }
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
-        let p: f64 = a.ok(&["send", "--cluster", &cluster, "@1#1P"]).trim().parse().unwrap_or(f64::NAN);
+        let p: f64 = a
+            .ok(&["send", "--cluster", &cluster, "@1#1P"])
+            .trim()
+            .parse()
+            .unwrap_or(f64::NAN);
         if (p - 2000.0).abs() <= 10.0 {
             break;
         }
-        assert!(Instant::now() < deadline, "card1 motor 1 at {p}, not 2000 ± 10 counts");
+        assert!(
+            Instant::now() < deadline,
+            "card1 motor 1 at {p}, not 2000 ± 10 counts"
+        );
         std::thread::sleep(Duration::from_millis(300));
     }
     // A synchronized start on cards in both namespaces lands in one ring cycle.
     let s: Value = serde_json::from_str(&b.ok(&[
-        "start-sync", "--cluster", &cluster, "--json", "--cards", "0,1", "P9=9",
+        "start-sync",
+        "--cluster",
+        &cluster,
+        "--json",
+        "--cards",
+        "0,1",
+        "P9=9",
     ]))
     .unwrap();
     let t = s["cycle"].as_u64().unwrap();
@@ -501,9 +699,18 @@ subjects = ["links"]
     std::thread::sleep(Duration::from_secs(2));
     // Up again and reset as a PMAC user does: the ring recovers.
     lab.link_up(RB).unwrap();
-    let back = wait_status(&a, &cluster, "both hosts back", Duration::from_secs(120), |s| {
-        both_hosts_up(s) && s["members"].as_array().is_some_and(|m| m.iter().all(|m| m["alive"] == true))
-    });
+    let back = wait_status(
+        &a,
+        &cluster,
+        "both hosts back",
+        Duration::from_secs(120),
+        |s| {
+            both_hosts_up(s)
+                && s["members"]
+                    .as_array()
+                    .is_some_and(|m| m.iter().all(|m| m["alive"] == true))
+        },
+    );
     // Host b's side saw the cut on the link into card1: its ring fault is latched.
     assert_eq!(back["members"][2]["ring_fault"], true, "{back:#}");
     let deadline = Instant::now() + Duration::from_secs(120);
@@ -513,12 +720,17 @@ subjects = ["links"]
         let st = a.status(&cluster);
         let cards = st["cards"].as_array().cloned().unwrap_or_default();
         if locked(&st)
-            && st["ring"]["dark_links"].as_array().is_some_and(Vec::is_empty)
+            && st["ring"]["dark_links"]
+                .as_array()
+                .is_some_and(Vec::is_empty)
             && cards.iter().all(|c| c["ring_fault"] == false)
         {
             break;
         }
-        assert!(Instant::now() < deadline, "the ring did not recover: {st:#}");
+        assert!(
+            Instant::now() < deadline,
+            "the ring did not recover: {st:#}"
+        );
         eprintln!("recovering: {}", brief(&st));
         for c in cards.iter().filter(|c| c["ring_fault"] != false) {
             let n = c["number"].as_u64().unwrap();
@@ -532,16 +744,32 @@ subjects = ["links"]
     lab.link_down(RA).unwrap();
     let out = b.mcc(&["down", "--cluster", &cluster], VERB);
     let err = failed_with(&out, "cannot reach host a (card0, station0)");
-    assert!(text(&out.stdout).contains("host b stopped (2 members)"), "{}\n{err}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("host b stopped (2 members)"),
+        "{}\n{err}",
+        text(&out.stdout)
+    );
     let deadline = Instant::now() + Duration::from_secs(20);
     while !lab.pids("b").is_empty() {
-        assert!(Instant::now() < deadline, "host b left {:?} running", lab.pids("b"));
+        assert!(
+            Instant::now() < deadline,
+            "host b left {:?} running",
+            lab.pids("b")
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
-    assert!(!lab.pids("a").is_empty(), "host a's share stopped although cut off");
+    assert!(
+        !lab.pids("a").is_empty(),
+        "host a's share stopped although cut off"
+    );
     // Back on the network, host a's own `down` stops it.
     lab.link_up(RA).unwrap();
     let out = a.mcc(&["down", "--cluster", &cluster], VERB);
-    assert!(text(&out.stdout).contains("host a stopped (2 members)"), "{}\n{}", text(&out.stdout), text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("host a stopped (2 members)"),
+        "{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
     assert_nothing_left(&cluster);
 }

@@ -117,7 +117,11 @@ pub fn orchestrator_key(config: &crate::config::ClusterConfig, member: &str) -> 
     let host = config
         .member_host(member)
         .unwrap_or(crate::config::LOCAL_HOST);
-    Some(crate::control::hosts::host_key(&config.cluster, host, "alive"))
+    Some(crate::control::hosts::host_key(
+        &config.cluster,
+        host,
+        "alive",
+    ))
 }
 
 /// Whether the orchestrator's liveliness token is still (or again) there, asked a few times

@@ -158,15 +158,14 @@ where
     let session = open_session(&opts)?;
     // Never join a ring run with another config under this cluster's name.
     super::join::check(&session, &config)?;
-    let (tx, rx, _rx_guard) =
-        zenoh_link::join_with(
-            &session,
-            &config.cluster,
-            &config.ring.name,
-            position,
-            n,
-            config.is_multi_host(),
-        )?;
+    let (tx, rx, _rx_guard) = zenoh_link::join_with(
+        &session,
+        &config.cluster,
+        &config.ring.name,
+        position,
+        n,
+        config.is_multi_host(),
+    )?;
 
     let ctx = MemberContext {
         config: config.clone(),
