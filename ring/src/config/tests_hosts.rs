@@ -166,12 +166,15 @@ fn secure(c: &mut ClusterConfig) {
     c.zenoh.access_control = extra.zenoh.access_control;
 }
 
+/// A config edit that opens something to other hosts, and the key it names.
+type Opening = (&'static str, fn(&mut ClusterConfig));
+
 #[test]
 fn opening_anything_to_other_hosts_needs_auth_and_access_control() {
     let base = ClusterConfig::default_cluster(2, 2);
     // Everything on loopback: nothing to secure.
     assert!(verdict(&base).is_ok());
-    let open: [(&str, fn(&mut ClusterConfig)); 6] = [
+    let open: [Opening; 6] = [
         ("zenoh.listen[0]", |c| {
             c.zenoh.listen.push("tcp/0.0.0.0:7447".into())
         }),
