@@ -111,7 +111,7 @@ pub struct UpArgs {
     /// TCP port of the EMCL bus on 127.0.0.1 (default: `[emcl] port`, else any free port).
     #[arg(long, value_name = "PORT")]
     pub emcl_port: Option<u16>,
-    /// Terminal: show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    /// Terminal: show framing characters (`<ACK>`, `<CR>`, `<LF>`, `<BELL>`) in replies.
     #[arg(long)]
     pub show_framing: bool,
     /// With --detach: print the status document (`mcc status --json`) once the ring is locked,

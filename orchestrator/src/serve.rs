@@ -1,39 +1,144 @@
 //! What the supervisor's host servers (daisy chain, EMCL bus) share: the TCP accept loop (a
-//! non-blocking listener polled until `stop`, one thread per host connection, at most `max`
-//! at once: a connection over the limit is closed at once), the raw pseudo-terminal, and the
+//! non-blocking listener polled until `stop`, one thread per host connection, admission by
+//! [`ConnTable`]: at most `max_connections`, a new host over the limit evicts the connection
+//! idle longest or is refused with a message), idle timeouts, the raw pseudo-terminal, and the
 //! endpoints record.
 
-use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::collections::HashMap;
+use std::io::Write;
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use mcc_ring::hostport::{refusal_message, Admission, ConnTable, HostLimits};
+
+type Table = Arc<Mutex<(ConnTable, HashMap<u64, TcpStream>)>>;
+
+/// One connection's place in its port's table: activity and idle time.
+#[derive(Debug)]
+pub struct Activity {
+    table: Table,
+    id: u64,
+    origin: Instant,
+    limits: HostLimits,
+    last: std::cell::Cell<Instant>,
+}
+
+/// Why a connection's read loop ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The host closed it, it failed, the server stopped, or `data` ended it.
+    Closed,
+    /// Closed to make room for a new host after this long idle.
+    Evicted(Duration),
+    /// Idle for the idle timeout.
+    Idle(Duration),
+}
+
+impl Activity {
+    fn lock(&self) -> std::sync::MutexGuard<'_, (ConnTable, HashMap<u64, TcpStream>)> {
+        self.table.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The connection did something (`busy`: a request of it is under way).
+    pub fn touch(&self, busy: bool) {
+        let now = Instant::now();
+        self.last.set(now);
+        let t = now.duration_since(self.origin);
+        self.lock().0.touch(self.id, t, busy);
+    }
+
+    fn evicted(&self) -> bool {
+        !self.lock().0.contains(self.id)
+    }
+
+    fn idle_expired(&self) -> Option<Duration> {
+        let limit = self.limits.idle_timeout()?;
+        (self.last.get().elapsed() >= limit).then_some(limit)
+    }
+
+    /// The text a terminal-like host reads when its connection ends for `why` (`what` names
+    /// the server).
+    pub fn farewell(what: &str, why: Ended) -> Option<String> {
+        match why {
+            Ended::Closed => None,
+            Ended::Evicted(idle) => Some(mcc_ring::hostport::eviction_message(what, idle)),
+            Ended::Idle(t) => Some(format!(
+                "\r\nmcc: {what}: connection closed after {} s idle (host.idle_timeout_s)\r\n",
+                t.as_secs()
+            )),
+        }
+    }
+}
+
+impl Drop for Activity {
+    fn drop(&mut self) {
+        let mut t = self.lock();
+        t.0.close(self.id);
+        t.1.remove(&self.id);
+    }
+}
 
 /// Serve `listener` until `stop`: each connection runs `serve` on a thread named `thread`;
-/// `what` names the server in log lines.
+/// `what` names the server in log lines and messages.
 pub fn accept_loop(
     listener: TcpListener,
     what: &'static str,
     thread: &'static str,
-    max: usize,
+    limits: HostLimits,
     stop: Arc<AtomicBool>,
-    serve: Arc<dyn Fn(TcpStream) + Send + Sync>,
+    serve: Arc<dyn Fn(TcpStream, Activity) + Send + Sync>,
 ) {
-    let live = Arc::new(AtomicUsize::new(0));
+    let table: Table = Arc::new(Mutex::new((ConnTable::new(limits), HashMap::new())));
+    let origin = Instant::now();
     while !stop.load(Ordering::Relaxed) {
         match listener.accept() {
-            Ok((stream, _)) => {
-                if live.load(Ordering::Relaxed) >= max {
-                    tracing::warn!("{what}: too many connections; refusing one");
-                    continue;
+            Ok((mut stream, peer)) => {
+                let admission = {
+                    let mut t = table.lock().unwrap_or_else(|e| e.into_inner());
+                    let a = t.0.admit(origin.elapsed());
+                    if let Admission::Evict { evict, .. } = a {
+                        // Its thread sees end of input and says why before closing.
+                        if let Some(s) = t.1.remove(&evict) {
+                            let _ = s.shutdown(Shutdown::Read);
+                        }
+                    }
+                    a
+                };
+                let id = match admission {
+                    Admission::Accept(id) => id,
+                    Admission::Evict { id, evict, idle } => {
+                        tracing::info!(
+                            "{what}: evicting connection {evict} (idle {idle:?}) for {peer}"
+                        );
+                        id
+                    }
+                    Admission::Refuse { open } => {
+                        tracing::warn!("{what}: {open} connections, none idle: refusing {peer}");
+                        let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
+                        let _ = stream.write_all(refusal_message(what, open).as_bytes());
+                        continue;
+                    }
+                };
+                if let Ok(c) = stream.try_clone() {
+                    table
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .1
+                        .insert(id, c);
                 }
-                live.fetch_add(1, Ordering::Relaxed);
-                let (serve, live) = (Arc::clone(&serve), Arc::clone(&live));
+                let activity = Activity {
+                    table: Arc::clone(&table),
+                    id,
+                    origin,
+                    limits,
+                    last: std::cell::Cell::new(Instant::now()),
+                };
+                let serve = Arc::clone(&serve);
                 let spawned = std::thread::Builder::new()
                     .name(thread.into())
-                    .spawn(move || {
-                        serve(stream);
-                        live.fetch_sub(1, Ordering::Relaxed);
-                    });
+                    .spawn(move || serve(stream, activity));
                 if spawned.is_err() {
                     tracing::warn!("{what}: cannot start a connection thread");
                 }
@@ -97,24 +202,33 @@ pub fn open_raw_pty(what: &str) -> anyhow::Result<(std::os::fd::OwnedFd, std::fs
     Ok((p.slave, std::fs::File::from(p.master), path))
 }
 
-/// Read a host connection until it closes, fails or `stop` is raised: `data` gets each chunk
-/// (returning false ends the connection), `idle` runs whenever a read times out.
+/// Read a host connection until it closes, fails, is evicted, stays idle too long or `stop`
+/// is raised: `data` gets each chunk (returning false ends the connection), `idle` runs
+/// whenever a read times out (reads must have a timeout). Says why it ended.
 pub fn read_loop(
     stream: &mut TcpStream,
     stop: &AtomicBool,
     buf_len: usize,
+    activity: &Activity,
     mut data: impl FnMut(&[u8]) -> bool,
     mut idle: impl FnMut(),
-) {
+) -> Ended {
     use std::io::Read;
     let mut buf = vec![0u8; buf_len.max(1)];
     while !stop.load(Ordering::Relaxed) {
         match stream.read(&mut buf) {
-            Ok(0) => return,
-            Ok(n) => {
-                if !data(buf.get(..n).unwrap_or_default()) {
-                    return;
+            Ok(0) => {
+                if activity.evicted() {
+                    return Ended::Evicted(activity.last.get().elapsed());
                 }
+                return Ended::Closed;
+            }
+            Ok(n) => {
+                activity.touch(true);
+                if !data(buf.get(..n).unwrap_or_default()) {
+                    return Ended::Closed;
+                }
+                activity.touch(false);
             }
             Err(e)
                 if matches!(
@@ -124,9 +238,13 @@ pub fn read_loop(
                         | std::io::ErrorKind::Interrupted
                 ) =>
             {
+                if let Some(t) = activity.idle_expired() {
+                    return Ended::Idle(t);
+                }
                 idle()
             }
-            Err(_) => return,
+            Err(_) => return Ended::Closed,
         }
     }
+    Ended::Closed
 }

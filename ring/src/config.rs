@@ -319,6 +319,9 @@ pub struct ClusterConfig {
     /// EDB drives on the EMCL bus (`[[drives]]`).
     #[serde(default)]
     pub drives: Vec<DriveConfig>,
+    /// Host-port limits (`[host]`: connections, idle and request timeouts).
+    #[serde(default)]
+    pub host: crate::hostport::HostLimits,
 }
 
 impl ChainConfig {
@@ -437,6 +440,7 @@ impl ClusterConfig {
             )],
             stations: station_list,
             emcl: EmclConfig::default(),
+            host: crate::hostport::HostLimits::default(),
         };
         cfg.fill_defaults();
         cfg

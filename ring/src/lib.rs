@@ -14,6 +14,7 @@ pub mod core;
 pub mod fault;
 pub mod frame;
 pub mod holdover;
+pub mod hostport;
 pub mod member;
 pub mod packet;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge

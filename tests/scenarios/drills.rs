@@ -4,9 +4,12 @@
 
 use std::time::Duration;
 
-use mcc_tests::cluster::Cluster;
-use mcc_tests::process::ok;
+use mcc_testing::{Builder, Cluster, FaultOptions};
+use mcc_tests::process::{bin_dir, ok};
 use serde_json::Value;
+
+/// Every wait here is a generous bound on a loaded machine, never what is asserted.
+const WAIT: Duration = Duration::from_secs(60);
 
 /// Ring check period of the default cluster's cards (I1001).
 const I1001: u64 = 16;
@@ -19,9 +22,33 @@ const SETUP: &[&str] = &[
     "CLOSE",
 ];
 
-/// Send lines to card `n`'s ASCII port; the replies.
-fn send(c: &Cluster, n: u64, lines: &[&str]) -> String {
-    c.ascii(n, lines)
+/// A cluster of this test binary's `mcc`, named after `tag`.
+fn builder(tag: &str) -> Builder {
+    Cluster::builder().mcc(bin_dir().join("mcc")).tag(tag)
+}
+
+/// Send `lines` to card `n` (daisy chain); the test fails if the card refuses one.
+fn setup(c: &Cluster, n: u8, lines: &[&str]) {
+    if let Err(e) = c.send(lines, Some(n)) {
+        panic!("card {n} setup: {e}");
+    }
+}
+
+/// The status document now.
+fn status(c: &mut Cluster) -> Value {
+    c.status().unwrap_or_else(|e| panic!("mcc status: {e}")).0
+}
+
+/// Wait (bounded by `timeout`) until `f` holds on the status document; that document.
+fn wait(
+    c: &mut Cluster,
+    what: &str,
+    timeout: Duration,
+    mut f: impl FnMut(&Value) -> bool,
+) -> Value {
+    c.wait_until(None, timeout, |st| f(&st.0))
+        .unwrap_or_else(|e| panic!("waiting for {what}: {e}"))
+        .0
 }
 
 fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
@@ -49,13 +76,17 @@ fn start_sync(c: &Cluster, cards: &str, repeat: u32) -> Vec<Value> {
 
 /// 4 cards + 4 stations, `repeat` synchronized starts with random delays (up to 15 ms) in
 /// every card's control path: every start executes on every card in the same ring cycle.
-fn synchronized_starts_never_split(tag: &str, clock: &[&str], repeat: u32) {
-    let mut args = vec!["--cards", "4", "--stations", "4"];
-    args.extend_from_slice(clock);
-    let c = Cluster::up_with_env(tag, &args, &[("MCC_TEST_AT_DELAY_MS", "15")]);
+fn synchronized_starts_never_split(tag: &str, clock: Option<&str>, repeat: u32) {
+    let mut b = builder(tag)
+        .cards(4)
+        .stations(4)
+        .env("MCC_TEST_AT_DELAY_MS", "15");
+    if let Some(clock) = clock {
+        b = b.clock(clock);
+    }
+    let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
     for n in 0..4 {
-        let r = send(&c, n, SETUP);
-        assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
+        setup(&c, n, SETUP);
     }
     let outs = start_sync(&c, "0,1,2,3", repeat);
     assert_eq!(outs.len(), repeat as usize);
@@ -73,7 +104,7 @@ fn synchronized_starts_never_split(tag: &str, clock: &[&str], repeat: u32) {
     }
     eprintln!("{repeat} synchronized starts ({clock:?}), {retried} needed a retry");
     let last = outs.last().unwrap()["cycle"].as_u64().unwrap();
-    let doc = c.status();
+    let doc = status(&mut c);
     for card in doc["cards"].as_array().unwrap() {
         assert_eq!(card["program_start_cycle"].as_u64(), Some(last), "{doc:#}");
     }
@@ -86,13 +117,13 @@ fn synchronized_starts_never_split(tag: &str, clock: &[&str], repeat: u32) {
 
 #[test]
 fn synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
-    synchronized_starts_never_split("sync4", &["--clock", "lockstep"], 100);
+    synchronized_starts_never_split("sync4", Some("lockstep"), 100);
 }
 
 #[test]
 fn paced_synchronized_start_on_four_cards_never_splits_under_control_path_delays() {
     // The default clock.
-    synchronized_starts_never_split("psync4", &[], 30);
+    synchronized_starts_never_split("psync4", None, 30);
 }
 
 /// Fault `member` with `args`, check every card in `cards` latches a ring fault and status
@@ -100,23 +131,19 @@ fn paced_synchronized_start_on_four_cards_never_splits_under_control_path_delays
 /// I1001 period, so a break just after a period's I1005th sync is seen at the end of the next
 /// period: at most 2 x I1001 + 1 cycles (the "I1001 + 1" holds only for breaks at a
 /// period start).
-fn drill(c: &Cluster, args: &[&str], link: &str, downstream: &str, cards: &[&str]) {
-    let mut a = vec!["fault"];
-    a.extend_from_slice(args);
-    ok(c.mcc(&a), "mcc fault");
-    let doc = c.wait(
-        &format!("{args:?} detected"),
-        Duration::from_secs(30),
-        |d| {
-            d["ring"]["broken_link"] == link
-                && d["members"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .filter(|m| cards.contains(&m["name"].as_str().unwrap()))
-                    .all(|m| m["ring_fault"] == true)
-        },
-    );
+fn drill(c: &mut Cluster, args: &[&str], link: &str, downstream: &str, cards: &[&str]) {
+    if let Err(e) = c.fault(args[0], args[1], FaultOptions::default()) {
+        panic!("mcc fault {args:?}: {e}");
+    }
+    let doc = wait(c, &format!("{args:?} detected"), WAIT, |d| {
+        d["ring"]["broken_link"] == link
+            && d["members"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|m| cards.contains(&m["name"].as_str().unwrap()))
+                .all(|m| m["ring_fault"] == true)
+    });
     let members = doc["members"].as_array().unwrap();
     let get = |n: &str| members.iter().find(|m| m["name"] == n).unwrap();
     let down = get(downstream);
@@ -149,9 +176,11 @@ fn drill(c: &Cluster, args: &[&str], link: &str, downstream: &str, cards: &[&str
 /// `mcc fault MEMBER restart`, then wait until the new process answers its status query
 /// (the verb returns once the process is spawned; on a busy machine it may take seconds to
 /// join, and `fault clear` asks every member).
-fn restart(c: &Cluster, member: &str) {
-    ok(c.mcc(&["fault", member, "restart"]), "mcc fault restart");
-    c.wait(&format!("{member} back"), Duration::from_secs(60), |d| {
+fn restart(c: &mut Cluster, member: &str) {
+    if let Err(e) = c.fault(member, "restart", FaultOptions::default()) {
+        panic!("mcc fault {member} restart: {e}");
+    }
+    wait(c, &format!("{member} back"), WAIT, |d| {
         d["members"]
             .as_array()
             .unwrap()
@@ -160,37 +189,24 @@ fn restart(c: &Cluster, member: &str) {
     });
 }
 
-fn recover(c: &Cluster) {
-    ok(c.mcc(&["fault", "clear"]), "fault clear");
-    c.wait("ring re-locked", Duration::from_secs(30), |d| {
-        d["members"]
+/// Recovery as a PMAC user does it (`mcc_testing::Cluster::reset`: clear, then `$$$` on
+/// every card and the members' latches until the ring is healthy), then motion again.
+fn recover(c: &mut Cluster) {
+    if let Err(e) = c.clear(None) {
+        panic!("fault clear: {e}");
+    }
+    let st = c.reset(WAIT).unwrap_or_else(|e| panic!("ring reset: {e}"));
+    assert!(st.locked() && !st.faulted(), "{:#}", st.0);
+    wait(c, "card ring-fault bits cleared", WAIT, |d| {
+        d["cards"]
             .as_array()
             .unwrap()
             .iter()
-            .all(|m| m["alive"] == true && m["locked"] == true)
-    });
-    // The usual reset: `$$$` on every card whose ring-fault bit is set, then the members'
-    // latches; again while the ring is still settling (a latch only clears after a healthy
-    // check period).
-    c.wait("ring fault cleared", Duration::from_secs(30), |d| {
-        for card in d["cards"].as_array().unwrap() {
-            if card["ring_fault"] != false {
-                send(c, card["number"].as_u64().unwrap(), &["$$$"]);
-            }
-        }
-        let _ = c.mcc(&["fault", "reset"]);
-        d["ring"]["faulted"] == false
-            && d["ring"]["locked"] == true
-            && d["cards"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .all(|c| c["ring_fault"] == false)
+            .all(|c| c["ring_fault"] == false)
     });
     // Motion can be commanded again.
     for n in 0..2 {
-        let r = send(c, n, SETUP);
-        assert!(!r.contains('\x07'), "card {n} after recovery: {r:?}");
+        setup(c, n, SETUP);
     }
     let o = start_sync(c, "0,1", 1);
     let t = o[0]["cycle"].as_u64().unwrap();
@@ -204,87 +220,93 @@ fn recover(c: &Cluster) {
 /// The fault drills on the default 2 + 2 ring (card0 (sync master), station0, card1,
 /// station1): each fault detected by the cards within the bound, the broken link named, the
 /// ring recovered after clear + `$$$` + reset, and motion commanded again.
-fn fault_drills(tag: &str, clock: &[&str]) {
-    let c = Cluster::up(tag, clock);
+fn fault_drills(tag: &str, clock: Option<&str>) {
+    let mut b = builder(tag);
+    if let Some(clock) = clock {
+        b = b.clock(clock);
+    }
+    let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
     for n in 0..2 {
-        let r = send(&c, n, SETUP);
-        assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
+        setup(&mut c, n, SETUP);
     }
     drill(
-        &c,
+        &mut c,
         &["station0", "cut"],
         "station0 → card1",
         "card1",
         &["card0", "card1"],
     );
-    recover(&c);
+    recover(&mut c);
     drill(
-        &c,
+        &mut c,
         &["station0", "drop-sync"],
         "station0 → card1",
         "card1",
         &["card0", "card1"],
     );
-    recover(&c);
+    recover(&mut c);
     drill(
-        &c,
+        &mut c,
         &["station0", "kill"],
         "station0 → card1",
         "card1",
         &["card0", "card1"],
     );
-    restart(&c, "station0");
-    recover(&c);
+    restart(&mut c, "station0");
+    recover(&mut c);
     drill(
-        &c,
+        &mut c,
         &["card1", "freeze"],
         "card1 → station1",
         "station1",
         &["card0"],
     );
     // A thawed member whose zenoh session expired leaves; restart brings it back.
-    restart(&c, "card1");
-    recover(&c);
+    restart(&mut c, "card1");
+    recover(&mut c);
     // The synchronizing master itself: killed, then frozen. The member downstream of it
     // (station0) sees loss of light and runs on its own clock, so card1 counts the cycles;
     // a restarted sync master takes up the ring's cycle count (or the ring its new one).
     drill(
-        &c,
+        &mut c,
         &["card0", "kill"],
         "card0 → station0",
         "station0",
         &["card1"],
     );
-    restart(&c, "card0");
-    recover(&c);
+    restart(&mut c, "card0");
+    recover(&mut c);
     drill(
-        &c,
+        &mut c,
         &["card0", "freeze"],
         "card0 → station0",
         "station0",
         &["card1"],
     );
-    restart(&c, "card0");
-    recover(&c);
+    restart(&mut c, "card0");
+    recover(&mut c);
 }
 
 #[test]
 fn ring_faults_are_detected_localised_and_recovered() {
-    fault_drills("faults", &["--clock", "lockstep"]);
+    fault_drills("faults", Some("lockstep"));
 }
 
 #[test]
 fn paced_ring_faults_are_detected_within_the_same_cycle_bounds() {
-    fault_drills("pfaults", &[]);
+    fault_drills("pfaults", None);
 }
 
 #[test]
 fn realtime_synchronized_start_skew_is_recorded() {
     // A modest rate: the machine is shared; late cycles would only fault the ring.
-    let c = Cluster::up("rt2", &["--clock", "realtime", "--rate", "500"]);
+    let c = builder("rt2")
+        .clock("realtime")
+        .rate_hz(500.0)
+        .start()
+        .unwrap_or_else(|e| panic!("cluster up: {e}"));
     for n in 0..2 {
-        let r = send(&c, n, SETUP);
-        assert!(!r.contains('\x07'), "card {n} setup: {r:?}");
+        setup(&c, n, SETUP);
     }
     let outs = start_sync(&c, "0,1", 5);
     for o in &outs {

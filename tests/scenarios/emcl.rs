@@ -6,13 +6,28 @@
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use mcc_station::emcl::codec::{Instr, Reply, Request, FRAME_LEN};
-use mcc_tests::cluster::{all_pids, Cluster, UP_TIMEOUT};
-use mcc_tests::process::{mcc, ok, run_base, text, unique};
+use mcc_testing::{Builder, Cluster};
+use mcc_tests::process::{bin_dir, run_base, text, unique};
 use serde_json::Value;
+
+/// A cluster of this test binary's `mcc`, named after `tag`.
+fn builder(tag: &str) -> Builder {
+    Cluster::builder().mcc(bin_dir().join("mcc")).tag(tag)
+}
+
+/// Start `b`; the test fails if the cluster does not come up.
+fn start(b: Builder) -> Cluster {
+    b.start().unwrap_or_else(|e| panic!("cluster up: {e}"))
+}
+
+/// The status document now.
+fn status(c: &mut Cluster) -> Value {
+    c.status().unwrap_or_else(|e| panic!("mcc status: {e}")).0
+}
 
 type Frame = [u8; FRAME_LEN];
 
@@ -90,19 +105,14 @@ fn wait_ap(s: &mut TcpStream, addr: u8, ap: u8, want: i32) {
 
 #[test]
 fn emcl_bus_frames_over_tcp_and_pty_byte_for_byte() {
-    let c = Cluster::up(
-        "emcl",
-        &[
-            "--clock",
-            "lockstep",
-            "--cards",
-            "1",
-            "--stations",
-            "1",
-            "--pty",
-        ],
+    let mut c = start(
+        builder("emcl")
+            .clock("lockstep")
+            .cards(1)
+            .stations(1)
+            .up_arg("--pty"),
     );
-    let doc = c.status();
+    let doc = status(&mut c);
     let addr = bus_addr(&doc);
     assert!(doc["emcl_bus_pty"].as_str().is_some(), "{doc:#}");
     let d0 = &doc["drives"][0];
@@ -218,11 +228,8 @@ fn emcl_bus_frames_over_tcp_and_pty_byte_for_byte() {
 
 #[test]
 fn hosts_share_the_line_a_flood_a_half_frame_and_a_deaf_host_stop_nobody() {
-    let c = Cluster::up(
-        "emclshare",
-        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
-    );
-    let addr = bus_addr(&c.status());
+    let mut c = start(builder("emclshare").clock("lockstep").cards(1).stations(1));
+    let addr = bus_addr(&status(&mut c));
     // A: floods 3000 frames and never reads its replies.
     let mut a = connect(&addr);
     let flood: Vec<u8> = (0..3000).flat_map(|_| f(1, 6, 1, 0, 0)).collect();
@@ -246,29 +253,11 @@ fn hosts_share_the_line_a_flood_a_half_frame_and_a_deaf_host_stop_nobody() {
     // Still serving after the deaf host left.
     let mut d = connect(&addr);
     assert_eq!(value(&mut d, f(1, 10, 66, 0, 0)), (100, 1));
-    let doc = c.status();
+    let doc = status(&mut c);
     assert!(
         doc["drives"][0]["frames"].as_u64().unwrap() >= 81,
         "{doc:#}"
     );
-}
-
-/// `mcc up --detach` of a cluster with this exact name (so a second `up` finds the same run
-/// directory and the drives' images in it).
-fn up_named(name: &str, extra: &[&str]) -> Cluster {
-    let mut c = Cluster::guard(name);
-    let mut args = vec!["up", "--detach", "--cluster", name, "--timeout", "90"];
-    args.extend_from_slice(extra);
-    ok(mcc(&args, UP_TIMEOUT), "mcc up");
-    c.pids = all_pids(&c.status());
-    c
-}
-
-fn write_config(dir: &Path, name: &str, body: &str) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let p = dir.join(format!("{name}.toml"));
-    std::fs::write(&p, body).unwrap();
-    p
 }
 
 const CONFIG: &str = r#"
@@ -294,12 +283,28 @@ analog = 1234
 
 #[test]
 fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
-    let name = unique("emclpersist");
-    let cfg = write_config(&run_base().join("cfg"), &name, CONFIG);
-    let cfg = cfg.to_str().unwrap();
-    let up = || up_named(&name, &["--config", cfg]);
-    let c = up();
-    let doc = c.status();
+    // Each `up` is a new cluster in a new run directory; the drives' images are where the
+    // config says, so they outlive the clusters like a real drive's EEPROM.
+    let dir = run_base().join("cfg").join(unique("emclpersist"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = CONFIG
+        .replace(
+            "name = \"drive0\"\n",
+            &format!(
+                "name = \"drive0\"\nstate_file = {:?}\n",
+                dir.join("drive0.eeprom")
+            ),
+        )
+        .replace(
+            "name = \"solo\"\n",
+            &format!(
+                "name = \"solo\"\nstate_file = {:?}\n",
+                dir.join("solo.eeprom")
+            ),
+        );
+    let up = || start(builder("emclpersist").config_toml(config.clone()));
+    let mut c = up();
+    let doc = status(&mut c);
     let addr = bus_addr(&doc);
     assert_eq!(doc["drives"][1]["name"], "solo");
     assert_eq!(doc["drives"][1]["host"], "solo");
@@ -363,8 +368,8 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     drop(s);
     drop(c);
 
-    let c = up();
-    let doc = c.status();
+    let mut c = up();
+    let doc = status(&mut c);
     assert_eq!(doc["drives"][0]["eeprom"], "loaded", "{doc:#}");
     assert_eq!(doc["drives"][0]["program_size"], 3);
     let mut s = connect(&bus_addr(&doc));
@@ -393,8 +398,8 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
 
     // Corrupt drive0's image: reported, factory defaults, the bad file kept.
     std::fs::write(&file, b"EMCLEEP\0 not really").unwrap();
-    let c = up();
-    let doc = c.status();
+    let mut c = up();
+    let doc = status(&mut c);
     let e = doc["drives"][0]["eeprom"].as_str().unwrap();
     assert!(e.starts_with("CORRUPT"), "{e}");
     let mut s = connect(&bus_addr(&doc));
@@ -402,7 +407,12 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
     let mut kept = file.as_os_str().to_owned();
     kept.push(".corrupt");
     assert!(PathBuf::from(kept).exists());
-    let log = std::fs::read_to_string(run_base().join(&name).join("logs/station0.log")).unwrap();
+    let logs = c.logs(100_000);
+    let log = &logs
+        .iter()
+        .find(|(who, _)| who == "station0")
+        .expect("station0 log")
+        .1;
     assert!(log.contains("is corrupt"), "{log}");
     let table = text(&c.mcc(&["status"]).stdout);
     assert!(table.contains("CORRUPT"), "{table}");
@@ -410,7 +420,6 @@ fn eeprom_images_survive_down_and_up_and_a_corrupt_one_is_reported() {
 
 #[test]
 fn bad_drive_configs_are_refused_before_anything_starts() {
-    let dir = run_base().join("cfg");
     for (body, want) in [
         (
             format!("{CONFIG}[[drives]]\nname = \"x\"\naddress = 2\n"),
@@ -425,21 +434,13 @@ fn bad_drive_configs_are_refused_before_anything_starts() {
             "axis parameter 6: 300 is out of range",
         ),
     ] {
-        let name = unique("emclbad");
-        let p = write_config(&dir, &name, &body);
-        let out = mcc(
-            &[
-                "up",
-                "--detach",
-                "--cluster",
-                &name,
-                "--config",
-                p.to_str().unwrap(),
-            ],
-            Duration::from_secs(60),
-        );
-        assert!(!out.status.success());
-        assert!(text(&out.stderr).contains(want), "{}", text(&out.stderr));
+        match builder("emclbad").config_toml(body).start() {
+            Ok(_) => panic!("a config with {want:?} was accepted"),
+            Err(e) => {
+                assert_eq!(e.kind, mcc_testing::ErrorKind::Config, "{e}");
+                assert!(e.to_string().contains(want), "{e}");
+            }
+        }
     }
 }
 
@@ -461,10 +462,8 @@ address = 1
 station = "station0"
 node = 1
 "#;
-    let name = unique("emclbound");
-    let cfg = write_config(&run_base().join("cfg"), &name, body);
-    let c = up_named(&name, &["--config", cfg.to_str().unwrap()]);
-    let doc = c.status();
+    let mut c = start(builder("emclbound").config_toml(body));
+    let doc = status(&mut c);
     assert_eq!(doc["drives"][0]["mode"], "bound", "{doc:#}");
     assert_eq!(doc["drives"][0]["node"], 1);
     let mut s = connect(&bus_addr(&doc));
@@ -489,6 +488,6 @@ node = 1
     let p = text(&c.mcc(&["send", "@0#2P"]).stdout);
     let p: f64 = p.trim().parse().unwrap_or_else(|_| panic!("#2P: {p:?}"));
     assert!((p - 20000.0).abs() <= 2.0, "card position {p}");
-    let doc = c.status();
+    let doc = status(&mut c);
     assert_eq!(doc["drives"][0]["motion"], "bound");
 }

@@ -6,6 +6,7 @@ mod drills;
 mod emcl;
 mod emcl_bound;
 mod gather;
+mod host_limits;
 mod hosts;
 mod motion;
 mod programs;

@@ -1,7 +1,8 @@
 //! `mcc-card`: one PMAC-style controller card process.
 //!
 //! `mcc-card --standalone [--profile pmac2|turbo] [--ascii-port P] [--eth-port P]
-//! [--state-file PATH] [--exit-on-stdin-eof]` runs the card with its host ports and no ring,
+//! [--state-file PATH] [--exit-on-stdin-eof] [--max-connections N] [--idle-timeout-s S]
+//! [--request-timeout-ms MS]` runs the card with its host ports and no ring,
 //! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // the process
@@ -11,6 +12,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
 use mcc_card::{run_standalone, Profile, StandaloneOpts};
+use mcc_ring::hostport::HostLimits;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ProfileArg {
@@ -41,6 +43,15 @@ struct Args {
     /// Exit when stdin is closed.
     #[arg(long)]
     exit_on_stdin_eof: bool,
+    /// Connections served at once per port (a new host beyond it evicts the longest idle one).
+    #[arg(long, default_value_t = HostLimits::default().max_connections)]
+    max_connections: usize,
+    /// Close a connection idle this long (0 = never).
+    #[arg(long, default_value_t = HostLimits::default().idle_timeout_s)]
+    idle_timeout_s: u64,
+    /// A request must be complete this long after its first byte (ASCII lines: 6 times it).
+    #[arg(long, default_value_t = HostLimits::default().request_timeout_ms)]
+    request_timeout_ms: u64,
     /// Ring mode: the resolved cluster config (TOML) handed over by the orchestrator.
     #[arg(long, conflicts_with = "standalone", requires = "name")]
     config: Option<PathBuf>,
@@ -77,6 +88,19 @@ fn main() -> ExitCode {
         eprintln!("mcc-card: give --standalone, or --config FILE --name MEMBER for ring mode");
         return ExitCode::from(2);
     }
+    let limits = HostLimits {
+        max_connections: args.max_connections,
+        idle_timeout_s: args.idle_timeout_s,
+        request_timeout_ms: args.request_timeout_ms,
+        ..HostLimits::default()
+    };
+    if let Some((key, problem)) = limits.problem() {
+        eprintln!(
+            "mcc-card: --{}: {problem}",
+            key.trim_start_matches("host.").replace('_', "-")
+        );
+        return ExitCode::from(2);
+    }
     let opts = StandaloneOpts {
         profile: match args.profile {
             ProfileArg::Pmac2 => Profile::Pmac2,
@@ -86,6 +110,7 @@ fn main() -> ExitCode {
         eth_port: args.eth_port,
         state_file: args.state_file,
         exit_on_stdin_eof: args.exit_on_stdin_eof,
+        limits,
     };
     match run_standalone(opts) {
         Ok(()) => ExitCode::SUCCESS,

@@ -22,6 +22,9 @@ use crate::servo::Servo;
 /// interpreter work on the reference machine: a few hundred variables printed).
 pub const SLICE_UNITS: u64 = 400;
 
+/// A streamed line hands out its reply in parts of about this many bytes.
+pub(crate) const STREAM_CHUNK: usize = 16 * 1024;
+
 /// Connections the core keeps sessions for; the least recently used is forgotten beyond it.
 pub(crate) const MAX_SESSIONS: usize = 512;
 
@@ -34,6 +37,11 @@ pub enum HostRequest {
     Control(u8),
     /// The connection closed: release a buffer it left open, forget its addressing.
     End,
+    /// Execute a command line whose reply may come in parts of about [`STREAM_CHUNK`] bytes
+    /// ([`HostReply::more`]), so a host port never holds more than a part of a long reply.
+    LineStreamed(Vec<u8>),
+    /// The next part of the connection's streamed line.
+    More,
 }
 
 /// The answer to a [`HostRequest`].
@@ -43,6 +51,8 @@ pub struct HostReply {
     pub bytes: Vec<u8>,
     /// Full-duplex echo (CTRL-T) after the request.
     pub echo: bool,
+    /// A part of a streamed line: ask [`HostRequest::More`] for the rest.
+    pub more: bool,
 }
 
 #[derive(Debug)]
@@ -53,6 +63,10 @@ struct Job {
     run: Option<LineRun>,
     /// Effect token this job waits for.
     waiting: Option<u64>,
+    /// A streamed line whose last part is out: it waits for the host's [`HostRequest::More`].
+    parked: bool,
+    /// A streamed line's reply framed so far and not yet handed out.
+    out: Vec<u8>,
 }
 
 /// The card core (see the module docs).
@@ -103,20 +117,36 @@ impl CardCore {
         }
     }
 
-    /// Queue request `token` of connection `conn`.
+    /// Queue request `token` of connection `conn`. [`HostRequest::More`] resumes the
+    /// connection's streamed line (its next part answers `token`); any other request of a
+    /// connection whose streamed line is parked abandons the rest of that line (the host moved
+    /// on without reading it).
     pub fn submit(&mut self, token: u64, conn: u64, req: HostRequest) {
+        let parked = self.jobs.iter().position(|j| j.conn == conn && j.parked);
+        if let Some(i) = parked {
+            if req == HostRequest::More {
+                if let Some(j) = self.jobs.get_mut(i) {
+                    j.token = token;
+                    j.parked = false;
+                }
+                return;
+            }
+            self.jobs.remove(i);
+        }
         self.jobs.push_back(Job {
             token,
             conn,
             req,
             run: None,
             waiting: None,
+            parked: false,
+            out: Vec::new(),
         });
     }
 
-    /// Requests queued or under way.
+    /// Requests queued or under way (not counting streamed lines waiting for their host).
     pub fn pending(&self) -> usize {
-        self.jobs.len()
+        self.jobs.iter().filter(|j| !j.parked).count()
     }
 
     fn session(&mut self, conn: u64) -> Session {
@@ -146,22 +176,26 @@ impl CardCore {
         }
     }
 
-    /// Serve queued requests, oldest first, within `budget`. A request whose line waits for
-    /// an effect holds the requests behind it (a connection's lines run in order; effects are
-    /// short).
+    /// Serve queued requests within `budget`, round robin between connections: a line that
+    /// needs more than its slice goes behind the requests of other connections, so a host
+    /// waiting on a long reply delays another host's one-line query by at most one slice per
+    /// connection with work queued ([DECISION] the fairness bound: a short request is answered
+    /// within `(k + 1)` slices when `k` other connections have work queued). A connection's own
+    /// requests run in order. A request whose line waits for an effect holds every request
+    /// (effects are short, and `$$$` must not interleave with other lines).
     pub fn serve(&mut self, budget: &mut Budget) {
-        while let Some(job) = self.jobs.front_mut() {
-            if job.waiting.is_some() {
+        while !budget.exhausted() {
+            if self.jobs.iter().any(|j| j.waiting.is_some()) {
                 return;
             }
-            if budget.exhausted() {
-                return;
-            }
-            let conn = job.conn;
-            let mut s = self.session(conn);
-            let Some(mut job) = self.jobs.pop_front() else {
+            let Some(i) = self.next_runnable() else {
                 return;
             };
+            let Some(mut job) = self.jobs.remove(i) else {
+                return;
+            };
+            let conn = job.conn;
+            let mut s = self.session(conn);
             let done = match job.req.clone() {
                 HostRequest::End => {
                     self.card.end_session(&s);
@@ -172,14 +206,41 @@ impl CardCore {
                     budget.spend(1);
                     Some(self.card.control_char(&mut s, c))
                 }
-                HostRequest::Line(line) => {
+                HostRequest::More => Some(Vec::new()),
+                HostRequest::Line(line) | HostRequest::LineStreamed(line) => {
                     let mut run = match job.run.take() {
                         Some(r) => r,
                         None => self.card.start_line(&mut s, &line, true),
                     };
                     match self.card.step_line(&mut run, &mut s, budget) {
-                        Step::Done(r) => Some(r),
+                        Step::Done(r) if job.out.is_empty() => Some(r),
+                        Step::Done(r) => {
+                            let mut all = std::mem::take(&mut job.out);
+                            all.extend_from_slice(&r);
+                            Some(all)
+                        }
                         Step::Yield => {
+                            let streamed = matches!(job.req, HostRequest::LineStreamed(_));
+                            // Framed at once: a data line waiting as text costs ~20 times
+                            // its bytes.
+                            if streamed {
+                                let framed = self.card.take_output(&mut run, &s);
+                                job.out.extend_from_slice(&framed);
+                            }
+                            if streamed && job.out.len() >= STREAM_CHUNK {
+                                let mut part = std::mem::take(&mut job.out);
+                                part.shrink_to_fit();
+                                let echo = self.card.echo();
+                                self.replies.push((
+                                    job.token,
+                                    HostReply {
+                                        bytes: part,
+                                        echo,
+                                        more: true,
+                                    },
+                                ));
+                                job.parked = true;
+                            }
                             job.run = Some(run);
                             None
                         }
@@ -199,13 +260,41 @@ impl CardCore {
             match done {
                 Some(bytes) => {
                     let echo = self.card.echo();
-                    self.replies.push((job.token, HostReply { bytes, echo }));
+                    self.replies.push((
+                        job.token,
+                        HostReply {
+                            bytes,
+                            echo,
+                            more: false,
+                        },
+                    ));
                 }
+                // A line waiting for its effect keeps its place; one that used its slice
+                // goes behind the others (round robin).
+                None if job.waiting.is_some() => self.jobs.insert(i, job),
                 None => {
-                    self.jobs.push_front(job);
+                    // The connection's later requests go behind with it, still in order.
+                    let (mut same, others): (VecDeque<Job>, VecDeque<Job>) =
+                        std::mem::take(&mut self.jobs)
+                            .into_iter()
+                            .partition(|j| j.conn == conn);
+                    self.jobs = others;
+                    self.jobs.push_back(job);
+                    self.jobs.append(&mut same);
                 }
             }
         }
+    }
+
+    /// The oldest job that may run now: not parked, and no earlier job of its connection.
+    fn next_runnable(&self) -> Option<usize> {
+        let mut seen = std::collections::HashSet::new();
+        for (i, j) in self.jobs.iter().enumerate() {
+            if seen.insert(j.conn) && !j.parked {
+                return Some(i);
+            }
+        }
+        None
     }
 
     fn collect_detached(&mut self) {

@@ -79,3 +79,106 @@ fn save_waits_for_its_effect_and_reports_a_failed_write() {
     let r = c.take_replies();
     assert_eq!(r[0].1.bytes, b"\x07\rERR003\r");
 }
+
+fn heavy_line() -> Vec<u8> {
+    let mut line = Vec::new();
+    while line.len() + 9 <= 1024 {
+        line.extend_from_slice(b"P0..8191 ");
+    }
+    line
+}
+
+#[test]
+fn a_streamed_line_comes_in_bounded_parts_that_add_up_to_the_whole_reply() {
+    let line = heavy_line();
+    let want = Card::new(Profile::Turbo).command_line(&mut Session::with_id(7), &line);
+    let mut c = core();
+    c.submit(1, 7, HostRequest::LineStreamed(line));
+    let mut got = Vec::new();
+    let mut parts = 0;
+    let mut token = 1;
+    for _ in 0..200_000 {
+        c.serve(&mut Budget::new(SLICE_UNITS));
+        let replies = c.take_replies();
+        assert!(replies.len() <= 1);
+        let Some((t, r)) = replies.into_iter().next() else {
+            continue;
+        };
+        assert_eq!(t, token, "each part answers the request that asked for it");
+        // A part is at most a chunk plus one slice's output (a slice prints < 400 values).
+        assert!(
+            r.bytes.len() <= STREAM_CHUNK + 400 * 16,
+            "{}",
+            r.bytes.len()
+        );
+        got.extend_from_slice(&r.bytes);
+        parts += 1;
+        if !r.more {
+            break;
+        }
+        // While the host has not asked for more, the line makes no progress.
+        c.serve(&mut Budget::new(SLICE_UNITS));
+        assert!(c.take_replies().is_empty() && c.pending() == 0);
+        token += 1;
+        c.submit(token, 7, HostRequest::More);
+    }
+    assert_eq!(got, want, "the parts add up to the whole reply");
+    assert!(parts > want.len() / STREAM_CHUNK / 2, "{parts} parts");
+}
+
+#[test]
+fn a_new_request_abandons_a_parked_streamed_line() {
+    let mut c = core();
+    c.submit(1, 7, HostRequest::LineStreamed(heavy_line()));
+    while c.take_replies().is_empty() {
+        c.serve(&mut Budget::new(SLICE_UNITS));
+    }
+    // The host moves on without reading the rest.
+    c.submit(2, 7, HostRequest::Line(b"I3=2 P1=5 P1".to_vec()));
+    let (_, r) = serve_all(&mut c);
+    assert_eq!(r.len(), 1);
+    assert_eq!(
+        r[0],
+        (
+            2,
+            HostReply {
+                bytes: b"5\r\x06".to_vec(),
+                echo: false,
+                more: false
+            }
+        )
+    );
+    // More with nothing parked: an empty final part.
+    c.submit(3, 7, HostRequest::More);
+    let (_, r) = serve_all(&mut c);
+    assert_eq!(r[0].1, HostReply::default());
+}
+
+#[test]
+fn a_short_query_is_not_held_behind_another_hosts_heavy_line() {
+    let mut c = core();
+    c.submit(1, 1, HostRequest::Line(heavy_line()));
+    c.submit(2, 1, HostRequest::Line(b"P2".to_vec()));
+    c.submit(3, 2, HostRequest::Line(b"P1".to_vec()));
+    // Fairness bound: with one other connection busy, the query is answered within two slices.
+    for slice in 1..=2 {
+        c.serve(&mut Budget::new(SLICE_UNITS));
+        let r = c.take_replies();
+        if let Some((t, _)) = r.first() {
+            assert_eq!(
+                *t, 3,
+                "only the other connection's query can be done this early"
+            );
+            assert_eq!(r.len(), 1);
+            let (_, rest) = serve_all(&mut c);
+            let order: Vec<u64> = rest.iter().map(|(t, _)| *t).collect();
+            assert_eq!(
+                order,
+                vec![1, 2],
+                "a connection's own requests stay in order"
+            );
+            return;
+        }
+        assert!(slice < 2, "the short query waited more than two slices");
+    }
+}

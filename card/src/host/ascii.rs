@@ -52,6 +52,11 @@ impl AsciiCodec {
         Self::default()
     }
 
+    /// Part of a line has arrived (its `<CR>` has not).
+    pub(crate) fn has_partial(&self) -> bool {
+        !self.line.is_empty() || self.overflow
+    }
+
     /// The partial line received so far (not yet terminated by `<CR>`).
     #[cfg(test)]
     pub(crate) fn partial(&self) -> &[u8] {

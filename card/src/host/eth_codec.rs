@@ -4,12 +4,16 @@
 //! A request is an 8-byte header `bRequestType bRequest wValue wIndex wLength` (16-bit fields
 //! big-endian) followed, for `VR_DOWNLOAD` (0x40) requests, by exactly `wLength` data bytes.
 //! Every reply is produced as one [`EthAction::Send`] so the server writes it with one write.
+//! A long reply is pulled from the card part by part as the host fetches it (streamed lines:
+//! a connection holds at most about one part plus one packet, whatever the reply's length).
 //! Long replies go out in packets of at least [`PACKET_DATA`] bytes (fewer only if `GETBUFFER`'s
 //! `wLength` asks for fewer) that never end in `<CR>`, `<ACK>` or `<NUL>` unless they are the last
 //! one; the rest waits for `VR_PMAC_GETBUFFER`.
 
-use super::ascii::AsciiCodec;
-use super::port::{run_events, Interpreter};
+use std::collections::VecDeque;
+
+use super::ascii::{AsciiCodec, AsciiEvent};
+use super::port::{run_event, run_events, Interpreter};
 
 /// Header length in bytes.
 pub(crate) const HEADER_LEN: usize = 8;
@@ -149,6 +153,10 @@ pub(crate) struct EthConn {
     pos: usize,
     lines: AsciiCodec,
     closed: bool,
+    /// The card has more of the current line's reply ([`Interpreter::line_more`]).
+    streaming: bool,
+    /// Events of the current request still to run once the streamed line is done.
+    deferred: VecDeque<AsciiEvent>,
 }
 
 impl EthConn {
@@ -162,9 +170,69 @@ impl EthConn {
         !self.inbuf.is_empty()
     }
 
-    /// Bytes of the current reply not yet sent.
+    /// Bytes of the current reply held here and not yet sent (the card may have more).
     pub(crate) fn pending_len(&self) -> usize {
         self.pending.len() - self.pos
+    }
+
+    /// Bytes this connection holds for its host (bounded: about a streamed part + a packet).
+    #[cfg(test)]
+    pub(crate) fn held_bytes(&self) -> usize {
+        self.pending.len() + self.inbuf.len()
+    }
+
+    fn more_at_card(&self) -> bool {
+        self.streaming || !self.deferred.is_empty()
+    }
+
+    /// Pull from the card until at least `want` bytes are held or the reply is complete.
+    fn refill<I: Interpreter + ?Sized>(&mut self, want: usize, interp: &mut I) {
+        while self.pending_len() < want && self.more_at_card() {
+            let out = self.pull(interp);
+            let mut next = Vec::with_capacity(self.pending_len() + out.len());
+            next.extend_from_slice(self.pending.get(self.pos..).unwrap_or_default());
+            next.extend_from_slice(&out);
+            self.set_pending(next);
+        }
+    }
+
+    /// The next piece of the reply from the card: the streamed line's next part, then the
+    /// request's remaining events.
+    fn pull<I: Interpreter + ?Sized>(&mut self, interp: &mut I) -> Vec<u8> {
+        let mut out = Vec::new();
+        if self.streaming {
+            let p = interp.line_more();
+            out = p.bytes;
+            self.streaming = p.more;
+        }
+        if !self.streaming {
+            self.run_deferred(interp, &mut out);
+        }
+        out
+    }
+
+    /// Run deferred events into `out` until one starts a streamed reply.
+    fn run_deferred<I: Interpreter + ?Sized>(&mut self, interp: &mut I, out: &mut Vec<u8>) {
+        while !self.streaming {
+            let Some(ev) = self.deferred.pop_front() else {
+                return;
+            };
+            match ev {
+                AsciiEvent::Line(l) => {
+                    let p = interp.line_start(&l);
+                    out.extend_from_slice(&p.bytes);
+                    self.streaming = p.more;
+                }
+                other => run_event(other, interp, out),
+            }
+        }
+    }
+
+    /// Forget the rest of the current reply (the card drops a streamed line on the next request).
+    fn abandon(&mut self) {
+        self.set_pending(Vec::new());
+        self.streaming = false;
+        self.deferred.clear();
     }
 
     /// Feed received bytes; every complete request is executed against `interp`.
@@ -224,10 +292,12 @@ impl EthConn {
         Ok(match h.request {
             VR_PMAC_GETRESPONSE => {
                 let out = self.execute(payload, interp);
-                self.set_pending(if out.is_empty() { vec![ACK] } else { out });
-                self.next_packet(PACKET_DATA)
+                let empty = out.is_empty() && !self.more_at_card();
+                self.set_pending(if empty { vec![ACK] } else { out });
+                self.next_packet(PACKET_DATA, interp)
             }
             VR_PMAC_GETBUFFER => {
+                self.refill(1, interp);
                 if self.pending_len() == 0 {
                     vec![ACK]
                 } else {
@@ -235,12 +305,15 @@ impl EthConn {
                         0 => PACKET_DATA,
                         n => n.min(PACKET_DATA),
                     };
-                    self.next_packet(limit)
+                    self.next_packet(limit, interp)
                 }
             }
-            VR_PMAC_READREADY => vec![u8::from(self.pending_len() > 0), 0],
+            VR_PMAC_READREADY => {
+                self.refill(1, interp);
+                vec![u8::from(self.pending_len() > 0), 0]
+            }
             VR_PMAC_FLUSH => {
-                self.set_pending(Vec::new());
+                self.abandon();
                 self.lines.discard_partial();
                 // The card's own <CTRL-X> (empties its queue); its echo is not sent here.
                 let _ = interp.control(0x18);
@@ -254,27 +327,53 @@ impl EthConn {
                     let events = self.lines.feed(&[c]);
                     run_events(events, interp, &mut out);
                 }
+                self.abandon();
                 self.set_pending(if out.is_empty() { vec![ACK] } else { out });
-                self.next_packet(PACKET_DATA)
+                self.next_packet(PACKET_DATA, interp)
             }
             VR_PMAC_SENDLINE => {
                 let out = self.execute(payload, interp);
                 self.set_pending(out);
                 vec![FLUSH_REPLY]
             }
-            VR_PMAC_GETLINE => self.next_line(),
+            VR_PMAC_GETLINE => self.next_line(interp),
             VR_PMAC_WRITEBUFFER => self.write_buffer(payload, interp),
             other => return Err(CloseReason::UnsupportedRequest(other)),
         })
     }
 
-    /// Run `payload` as a command line with an implicit `<CR>`; the concatenated replies.
+    /// Run `payload` as a command line with an implicit `<CR>`: the replies up to the first
+    /// part of a streamed one (the rest is pulled by [`EthConn::refill`]).
     fn execute<I: Interpreter + ?Sized>(&mut self, payload: &[u8], interp: &mut I) -> Vec<u8> {
+        self.abandon();
         let mut events = self.lines.feed(payload);
         self.lines.finish_line(&mut events);
+        self.deferred = events.into();
         let mut out = Vec::new();
-        run_events(events, interp, &mut out);
+        self.run_deferred(interp, &mut out);
         out
+    }
+
+    /// Run `payload` to its end keeping only what tells whether it failed: the `ERRnnn` code
+    /// (`Some(0)`: failed without a readable code).
+    fn execute_for_error<I: Interpreter + ?Sized>(
+        &mut self,
+        payload: &[u8],
+        interp: &mut I,
+    ) -> Option<u8> {
+        let mut tail = self.execute(payload, interp);
+        loop {
+            if tail.contains(&BELL) {
+                let from = tail.iter().position(|&b| b == BELL).unwrap_or(0);
+                let code = error_code(tail.get(from..).unwrap_or_default()).unwrap_or(0);
+                self.abandon();
+                return Some(code);
+            }
+            if !self.more_at_card() {
+                return None;
+            }
+            tail = self.pull(interp);
+        }
     }
 
     fn set_pending(&mut self, reply: Vec<u8>) {
@@ -283,12 +382,26 @@ impl EthConn {
     }
 
     /// Next packet: `limit` bytes, extended while it would end in CR/ACK/NUL with more to come.
-    fn next_packet(&mut self, limit: usize) -> Vec<u8> {
-        let rest = self.pending.get(self.pos..).unwrap_or_default();
-        let mut n = rest.len().min(limit.max(1));
-        while n < rest.len() && matches!(rest.get(n - 1), Some(&(CR | ACK | NUL))) {
-            n += 1;
+    fn next_packet<I: Interpreter + ?Sized>(&mut self, limit: usize, interp: &mut I) -> Vec<u8> {
+        self.refill(limit + 1, interp);
+        let mut n = self.pending_len().min(limit.max(1));
+        loop {
+            let rest = self.pending.get(self.pos..).unwrap_or_default();
+            if !matches!(rest.get(n.wrapping_sub(1)), Some(&(CR | ACK | NUL))) {
+                break;
+            }
+            if n < rest.len() {
+                n += 1;
+            } else if self.more_at_card() {
+                self.refill(n + 64, interp);
+                if self.pending_len() <= n {
+                    break;
+                }
+            } else {
+                break;
+            }
         }
+        let rest = self.pending.get(self.pos..).unwrap_or_default();
         let chunk = rest.get(..n).unwrap_or_default().to_vec();
         self.pos += n;
         if self.pos >= self.pending.len() {
@@ -298,7 +411,17 @@ impl EthConn {
     }
 
     /// GETLINE: pending bytes up to and including the next CR or ACK (or `\x06` if none).
-    fn next_line(&mut self) -> Vec<u8> {
+    fn next_line<I: Interpreter + ?Sized>(&mut self, interp: &mut I) -> Vec<u8> {
+        let mut want = 1;
+        loop {
+            self.refill(want, interp);
+            let rest = self.pending.get(self.pos..).unwrap_or_default();
+            let has_end = rest.iter().any(|&b| b == CR || b == ACK);
+            if has_end || rest.len() >= PACKET_DATA || !self.more_at_card() {
+                break;
+            }
+            want = rest.len() + 1;
+        }
         let rest = self.pending.get(self.pos..).unwrap_or_default();
         if rest.is_empty() {
             return vec![ACK];
@@ -324,9 +447,7 @@ impl EthConn {
             if seg.is_empty() {
                 continue;
             }
-            let reply = self.execute(seg, interp);
-            if reply.contains(&BELL) {
-                let code = error_code(&reply).unwrap_or(0);
+            if let Some(code) = self.execute_for_error(seg, interp) {
                 let [hi, lo] = u16::try_from(i + 1).unwrap_or(u16::MAX).to_be_bytes();
                 return vec![lo, hi, code, 0x80];
             }

@@ -7,10 +7,31 @@ use super::ascii::AsciiEvent;
 use crate::core::HostRequest;
 use crate::service::handle::CardHandle;
 
+/// A part of a reply.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub(crate) struct Part {
+    /// The bytes.
+    pub bytes: Vec<u8>,
+    /// More parts follow ([`Interpreter::line_more`]).
+    pub more: bool,
+}
+
 /// What a host port needs from the card.
 pub(crate) trait Interpreter {
     /// Execute one command line (no `<CR>`); the whole framed reply.
     fn line(&mut self, line: &[u8]) -> Vec<u8>;
+    /// Execute one command line whose reply may come in parts (a port then holds at most a
+    /// part of a long reply): the first part.
+    fn line_start(&mut self, line: &[u8]) -> Part {
+        Part {
+            bytes: self.line(line),
+            more: false,
+        }
+    }
+    /// The next part of the reply [`Interpreter::line_start`] began.
+    fn line_more(&mut self) -> Part {
+        Part::default()
+    }
     /// Execute one control-character command; its reply (possibly empty).
     fn control(&mut self, c: u8) -> Vec<u8>;
     /// The reply to a line that exceeded the port's maximum length (the card's ERR003).
@@ -50,9 +71,16 @@ impl CardPort {
     }
 
     fn ask(&mut self, req: HostRequest) -> Vec<u8> {
+        self.ask_part(req).bytes
+    }
+
+    fn ask_part(&mut self, req: HostRequest) -> Part {
         let r = self.card.host(self.conn, req);
         self.echo = r.echo;
-        r.bytes
+        Part {
+            bytes: r.bytes,
+            more: r.more,
+        }
     }
 
     /// The connection closed: the card releases a buffer it left open.
@@ -64,6 +92,14 @@ impl CardPort {
 impl Interpreter for CardPort {
     fn line(&mut self, line: &[u8]) -> Vec<u8> {
         self.ask(HostRequest::Line(line.to_vec()))
+    }
+
+    fn line_start(&mut self, line: &[u8]) -> Part {
+        self.ask_part(HostRequest::LineStreamed(line.to_vec()))
+    }
+
+    fn line_more(&mut self) -> Part {
+        self.ask_part(HostRequest::More)
     }
 
     fn control(&mut self, c: u8) -> Vec<u8> {
@@ -113,6 +149,27 @@ pub(crate) fn run_event<I: Interpreter + ?Sized>(
 pub(crate) struct EchoInterp {
     /// Everything executed, in order: lines as text, control characters as `^XX` (hex).
     pub log: Vec<String>,
+    /// The rest of a streamed `BIG<n>` reply (handed out [`ECHO_PART`] bytes at a time).
+    pub stream: Vec<u8>,
+    /// Largest part handed out at once.
+    pub largest_part: usize,
+}
+
+/// Part size of [`EchoInterp`]'s streamed replies.
+#[cfg(test)]
+pub(crate) const ECHO_PART: usize = 1000;
+
+#[cfg(test)]
+impl EchoInterp {
+    fn next_part(&mut self) -> Part {
+        let n = self.stream.len().min(ECHO_PART);
+        let bytes: Vec<u8> = self.stream.drain(..n).collect();
+        self.largest_part = self.largest_part.max(bytes.len());
+        Part {
+            bytes,
+            more: !self.stream.is_empty(),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -134,7 +191,17 @@ impl Interpreter for EchoInterp {
         r
     }
 
+    fn line_start(&mut self, line: &[u8]) -> Part {
+        self.stream = self.line(line);
+        self.next_part()
+    }
+
+    fn line_more(&mut self) -> Part {
+        self.next_part()
+    }
+
     fn control(&mut self, c: u8) -> Vec<u8> {
+        self.stream.clear();
         self.log.push(format!("^{c:02X}"));
         match c {
             0x0B | 0x18 => Vec::new(),

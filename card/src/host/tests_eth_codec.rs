@@ -183,7 +183,8 @@ fn new_command_replaces_pending_and_flush_discards() {
     let mut c = EthConn::new();
     let mut i = EchoInterp::default();
     let _ = c.feed(&getresponse(b"BIG3000"), &mut i);
-    assert_eq!(c.pending_len(), 1600);
+    // Two 1000-byte parts were pulled for the first 1400-byte packet; the third waits.
+    assert_eq!(c.pending_len(), 600);
     assert_eq!(
         sends(c.feed(&getresponse(b"P1"), &mut i)),
         vec![b"P1\r\x06".to_vec()]
@@ -313,4 +314,52 @@ fn never_panics_on_random_bytes() {
             assert!(c.inbuf.len() <= HEADER_LEN + MAX_PAYLOAD);
         }
     }
+}
+
+#[test]
+fn a_long_reply_is_pulled_part_by_part_and_the_connection_holds_little() {
+    let mut c = EthConn::new();
+    let mut i = EchoInterp::default();
+    let want = big_reply(200_000);
+    let mut packets = sends(c.feed(&getresponse(b"BIG200000"), &mut i));
+    let mut most = c.held_bytes();
+    let mut got = packets.concat();
+    while got.len() < want.len() {
+        let p = sends(c.feed(&getbuffer(), &mut i)).remove(0);
+        most = most.max(c.held_bytes());
+        got.extend_from_slice(&p);
+        packets.push(p);
+        assert!(packets.len() < 1_000, "never ended");
+    }
+    assert_eq!(got, want, "every byte, in order");
+    for p in &packets[..packets.len() - 1] {
+        assert!(!matches!(p.last(), Some(&(0x0D | 0x06 | 0x00))), "{p:?}");
+    }
+    assert_eq!(sends(c.feed(&getbuffer(), &mut i)), vec![vec![0x06]]);
+    // One streamed part plus a packet, never the whole 200 kB.
+    assert!(
+        most <= crate::host::port::ECHO_PART + PACKET_DATA + 64,
+        "held {most} bytes"
+    );
+    assert!(i.largest_part <= crate::host::port::ECHO_PART);
+}
+
+#[test]
+fn readready_and_getline_pull_a_streamed_reply_too() {
+    let mut c = EthConn::new();
+    let mut i = EchoInterp::default();
+    let sendline = request(VR_DOWNLOAD, VR_PMAC_SENDLINE, 0, 7, b"BIG5000");
+    assert_eq!(sends(c.feed(&sendline, &mut i)), vec![b"@".to_vec()]);
+    let ready = request(VR_UPLOAD, VR_PMAC_READREADY, 0, 2, &[]);
+    let getline = request(VR_UPLOAD, VR_PMAC_GETLINE, 0, 0, &[]);
+    let mut got = Vec::new();
+    loop {
+        let r = sends(c.feed(&ready, &mut i)).remove(0);
+        if r == [0, 0] {
+            break;
+        }
+        got.extend_from_slice(&sends(c.feed(&getline, &mut i)).remove(0));
+        assert!(got.len() <= 5000);
+    }
+    assert_eq!(got, big_reply(5000));
 }

@@ -7,12 +7,25 @@ use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRES
 use crate::host::port::overlong_probe;
 use crate::lang::interp::{Card, Session};
 use crate::service::handle::{spawn_card_thread, CardHandle};
+use mcc_ring::hostport::HostLimits;
 
 const WAIT: Duration = Duration::from_secs(5);
 
 /// What a fresh card answers to `line` in-process (the port must be byte-transparent).
 fn in_process(line: &[u8]) -> Vec<u8> {
     Card::new(Profile::Pmac2).command_line(&mut Session::default(), line)
+}
+
+/// Ports with `max` connections and a request timeout of `request_ms`.
+fn limits(max: usize, request_ms: u64) -> PortsConfig {
+    PortsConfig {
+        limits: HostLimits {
+            max_connections: max,
+            request_timeout_ms: request_ms,
+            ..HostLimits::default()
+        },
+        ..PortsConfig::default()
+    }
 }
 
 async fn start(cfg: PortsConfig) -> BoundPorts {
@@ -118,15 +131,9 @@ async fn garbage_connection_is_closed_others_unaffected() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn stalled_request_times_out_without_blocking_others() {
-    let cfg = PortsConfig {
-        io_timeout: Duration::from_millis(200),
-        ..PortsConfig::default()
-    };
-    let p = start(cfg).await;
+    let p = start(limits(64, 200)).await;
     let mut stalled = connect(p.pmac_eth).await;
     stalled.write_all(&[0x40, 0xBF, 0]).await.unwrap();
-    let mut idle_ascii = connect(p.ascii).await;
-    idle_ascii.write_all(b"UU").await.unwrap(); // a partial terminal line never times out
     let mut good = connect(p.pmac_eth).await;
     good.write_all(&getresponse(b"")).await.unwrap();
     assert_eq!(read_n(&mut good, 1).await, b"\x06");
@@ -134,19 +141,14 @@ async fn stalled_request_times_out_without_blocking_others() {
         closed(&mut stalled).await,
         "a stalled half request is dropped"
     );
-    idle_ascii.write_all(b"U\r").await.unwrap();
-    let want = in_process(b"UUU");
-    assert_eq!(read_n(&mut idle_ascii, want.len()).await, want);
+    good.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut good, 1).await, b"\x06");
     p.shutdown().await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn connection_limit_closes_extra_connections() {
-    let cfg = PortsConfig {
-        max_connections: 2,
-        ..PortsConfig::default()
-    };
-    let p = start(cfg).await;
+    let p = start(limits(2, 10_000)).await;
     let mut a = connect(p.ascii).await;
     let mut b = connect(p.ascii).await;
     // Make sure both are accepted before the third arrives.
@@ -252,5 +254,132 @@ async fn unsolicited_output_reaches_terminal_connections_but_not_the_ethernet_po
     e.write_all(&getresponse(b"P1")).await.unwrap();
     let want = in_process(b"P1");
     assert_eq!(read_n(&mut e, want.len()).await, want);
+    p.shutdown().await;
+}
+
+/// Everything the peer sends until it closes (bounded by the wait).
+async fn read_to_close(s: &mut TcpStream) -> Vec<u8> {
+    let mut v = Vec::new();
+    let _ = tokio::time::timeout(WAIT * 2, s.read_to_end(&mut v)).await;
+    v
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn silent_connections_make_room_for_a_new_host() {
+    let mut cfg = limits(2, 10_000);
+    cfg.limits.evict_idle_after_ms = 100;
+    let p = start(cfg).await;
+    let mut silent_a = connect(p.ascii).await;
+    let mut silent_b = connect(p.ascii).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // A third host gets in: the connection idle longest (a) is closed with a reason.
+    let mut good = connect(p.ascii).await;
+    good.write_all(b"UUU\r").await.unwrap();
+    let want = in_process(b"UUU");
+    assert_eq!(read_n(&mut good, want.len()).await, want);
+    let bye = String::from_utf8_lossy(&read_to_close(&mut silent_a).await).into_owned();
+    assert!(bye.contains("idle to let a new host in"), "{bye:?}");
+    // b is still served.
+    silent_b.write_all(b"UUU\r").await.unwrap();
+    assert_eq!(read_n(&mut silent_b, want.len()).await, want);
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_full_port_of_active_hosts_refuses_with_a_message() {
+    let p = start(limits(1, 10_000)).await;
+    let mut busy = connect(p.pmac_eth).await;
+    busy.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut busy, 1).await, b"\x06");
+    // The only connection was active moments ago (eviction needs 5 s of silence).
+    let mut refused = connect(p.pmac_eth).await;
+    let text = String::from_utf8_lossy(&read_to_close(&mut refused).await).into_owned();
+    assert!(
+        text.contains("is full: 1 connections open") && text.contains("host.max_connections"),
+        "{text:?}"
+    );
+    busy.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut busy, 1).await, b"\x06");
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idle_connections_are_closed_after_the_idle_timeout() {
+    let mut cfg = limits(8, 10_000);
+    cfg.limits.idle_timeout_s = 1;
+    let p = start(cfg).await;
+    let mut a = connect(p.ascii).await;
+    let mut e = connect(p.pmac_eth).await;
+    let text = String::from_utf8_lossy(&read_to_close(&mut a).await).into_owned();
+    assert!(
+        text.contains("after 1 s idle (host.idle_timeout_s)"),
+        "{text:?}"
+    );
+    assert!(closed(&mut e).await);
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trickled_request_times_out_from_its_first_byte() {
+    // Request timeout 400 ms; one byte every 150 ms: each read is recent, the request is not.
+    let p = start(limits(8, 400)).await;
+    let mut e = connect(p.pmac_eth).await;
+    let pkt = getresponse(b"P1");
+    let mut closed_after = None;
+    for (k, b) in pkt.iter().enumerate() {
+        if e.write_all(&[*b]).await.is_err() {
+            closed_after = Some(k);
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(150)).await;
+    }
+    assert!(
+        closed_after.is_some() || closed(&mut e).await,
+        "trickle must be cut"
+    );
+    // An ASCII line gets six request timeouts (2.4 s) from its first byte.
+    let mut a = connect(p.ascii).await;
+    let started = std::time::Instant::now();
+    let mut text = Vec::new();
+    for _ in 0..40 {
+        if a.write_all(b"P").await.is_err() {
+            break;
+        }
+        let mut b = [0u8; 256];
+        if let Ok(Ok(n)) = tokio::time::timeout(Duration::from_millis(150), a.read(&mut b)).await {
+            text.extend_from_slice(&b[..n]);
+            if n == 0 {
+                break;
+            }
+        }
+    }
+    let text = String::from_utf8_lossy(&text).into_owned();
+    assert!(
+        text.contains("request not completed within 2400 ms"),
+        "{text:?}"
+    );
+    assert!(started.elapsed() >= Duration::from_millis(2_400));
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_long_terminal_reply_arrives_whole_through_the_stream() {
+    let card = spawn_card_thread(Card::new(Profile::Turbo));
+    let p = serve(card, PortsConfig::default()).await.expect("bind");
+    let mut line = Vec::new();
+    while line.len() + 9 <= 200 {
+        line.extend_from_slice(b"P0..8191 ");
+    }
+    let want = Card::new(Profile::Turbo).command_line(&mut Session::default(), &line);
+    assert!(want.len() > 4 * crate::core::STREAM_CHUNK);
+    let mut a = connect(p.ascii).await;
+    line.push(b'\r');
+    a.write_all(&line).await.unwrap();
+    let mut got = vec![0u8; want.len()];
+    tokio::time::timeout(WAIT * 6, a.read_exact(&mut got))
+        .await
+        .expect("whole reply in time")
+        .unwrap();
+    assert_eq!(got, want);
     p.shutdown().await;
 }

@@ -73,13 +73,14 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             PortsConfig {
                 ascii_port: cc.ascii_port,
                 eth_port: cc.pmac_eth_port,
+                limits: ctx.config.host,
+                name: cc.name.clone(),
                 // 127.0.0.1 unless the config opens them (`bind`, checked by the config).
                 bind: cc
                     .bind
                     .as_deref()
                     .and_then(|b| b.parse().ok())
                     .unwrap_or(PortsConfig::default().bind),
-                ..PortsConfig::default()
             },
         ))?;
         let queryable = rt

@@ -27,6 +27,8 @@ pub struct StandaloneOpts {
     pub state_file: Option<PathBuf>,
     /// Exit when stdin reaches end of file (for supervisors and tests).
     pub exit_on_stdin_eof: bool,
+    /// Host-port limits.
+    pub limits: mcc_ring::hostport::HostLimits,
 }
 
 /// The line printed once the ports listen.
@@ -58,6 +60,7 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
         let cfg = PortsConfig {
             ascii_port: opts.ascii_port,
             eth_port: opts.eth_port,
+            limits: opts.limits,
             ..PortsConfig::default()
         };
         let ports = serve(card, cfg).await?;

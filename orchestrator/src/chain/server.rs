@@ -16,12 +16,14 @@ use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::chain::MAX_CHUNK;
 
 use super::link::{ChainLink, DEFAULT_TIMEOUT};
+use crate::serve::Activity;
 
 /// Environment variable: TCP port of the chain (0 or unset: any free port).
 pub const PORT_ENV: &str = "MCC_CHAIN_PORT";
 /// Environment variable: `1` = also serve a pseudo-terminal.
 pub const PTY_ENV: &str = "MCC_CHAIN_PTY";
-/// Host connections served at once; more are closed at once.
+/// Host connections served at once (at most; `host.max_connections` may lower it): a new one
+/// over the limit evicts the longest idle connection or is refused with a message.
 pub const MAX_CONNECTIONS: usize = 16;
 
 /// Chain options.
@@ -66,13 +68,15 @@ pub fn start(
     listener.set_nonblocking(true)?;
     let stop = Arc::new(AtomicBool::new(false));
     {
+        let limits = cfg.host.with_max(MAX_CONNECTIONS);
         let (session, cfg, stop) = (session.clone(), cfg.clone(), Arc::clone(&stop));
         let stop2 = Arc::clone(&stop);
-        let serve = Arc::new(move |stream: TcpStream| {
+        let serve = Arc::new(move |stream: TcpStream, activity: Activity| {
             let link = ChainLink::new(session.clone(), &cfg, DEFAULT_TIMEOUT);
-            serve_tcp(stream, &link, &stop2);
+            serve_tcp(stream, &link, &stop2, &activity);
             link.close();
         });
+
         std::thread::Builder::new()
             .name("mcc-chain-accept".into())
             .spawn(move || {
@@ -80,7 +84,7 @@ pub fn start(
                     listener,
                     "daisy chain",
                     "mcc-chain-conn",
-                    MAX_CONNECTIONS,
+                    limits,
                     stop,
                     serve,
                 )
@@ -94,7 +98,7 @@ pub fn start(
     Ok(crate::serve::Endpoints::new(addr, pty, stop))
 }
 
-fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool) {
+fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool, activity: &Activity) {
     let _ = stream.set_nonblocking(false);
     let _ = stream.set_nodelay(true);
     let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
@@ -105,7 +109,11 @@ fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool) {
         let reply = link.send(chunk);
         reply.bytes.is_empty() || out.write_all(&reply.bytes).is_ok()
     };
-    crate::serve::read_loop(&mut stream, stop, MAX_CHUNK, data, || {});
+    let why = crate::serve::read_loop(&mut stream, stop, MAX_CHUNK, activity, data, || {});
+    if let Some(text) = Activity::farewell("daisy chain", why) {
+        let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
+        let _ = stream.write_all(text.as_bytes());
+    }
 }
 
 mod pty {

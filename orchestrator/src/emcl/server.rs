@@ -85,7 +85,10 @@ pub fn start(
     {
         let (bus, stop) = (bus.clone(), Arc::clone(&stop));
         let stop2 = Arc::clone(&stop);
-        let serve = Arc::new(move |stream: TcpStream| serve_tcp(stream, &bus, &stop2));
+        let serve = Arc::new(move |stream: TcpStream, activity: crate::serve::Activity| {
+            serve_tcp(stream, &bus, &stop2, &activity)
+        });
+        let limits = cfg.host.with_max(MAX_CONNECTIONS);
         std::thread::Builder::new()
             .name("mcc-emcl-accept".into())
             .spawn(move || {
@@ -93,7 +96,7 @@ pub fn start(
                     listener,
                     "EMCL bus",
                     "mcc-emcl-conn",
-                    MAX_CONNECTIONS,
+                    limits,
                     stop,
                     serve,
                 )
@@ -129,7 +132,12 @@ fn serve_bytes(
     true
 }
 
-fn serve_tcp(mut stream: TcpStream, bus: &Bus, stop: &AtomicBool) {
+fn serve_tcp(
+    mut stream: TcpStream,
+    bus: &Bus,
+    stop: &AtomicBool,
+    activity: &crate::serve::Activity,
+) {
     let _ = stream.set_nonblocking(false);
     let _ = stream.set_nodelay(true);
     let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
@@ -143,7 +151,11 @@ fn serve_tcp(mut stream: TcpStream, bus: &Bus, stop: &AtomicBool) {
     let idle = || {
         asm.borrow_mut().expire(now_ms(t0));
     };
-    crate::serve::read_loop(&mut stream, stop, 4096, data, idle);
+    // A binary bus has no place for a farewell text: the host sees the connection close.
+    let why = crate::serve::read_loop(&mut stream, stop, 4096, activity, data, idle);
+    if why != crate::serve::Ended::Closed {
+        tracing::info!("EMCL bus connection closed: {why:?}");
+    }
 }
 
 mod pty {

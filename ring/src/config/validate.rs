@@ -76,6 +76,9 @@ pub(super) fn validate(cfg: &ClusterConfig) -> R {
         );
     }
     validate_clock(cfg)?;
+    if let Some((key, problem)) = cfg.host.problem() {
+        return bad(key, problem);
+    }
     for (list, eps) in [
         ("listen", &cfg.zenoh.listen),
         ("connect", &cfg.zenoh.connect),

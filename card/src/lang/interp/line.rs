@@ -88,7 +88,7 @@ pub struct LineRun {
 }
 
 impl LineRun {
-    /// The reply bytes produced so far by control characters inside the line.
+    /// The line waits for an effect.
     pub fn is_waiting(&self) -> bool {
         self.waiting.is_some()
     }
@@ -291,6 +291,21 @@ impl Pmac<'_> {
             // A result of the wrong kind: the command failed.
             _ => run.outcome = Some(Outcome::Err(3)),
         }
+    }
+
+    /// The data framed so far, to leave before the line ends (a streamed reply: a real card
+    /// sends data as it produces it); nothing while the card is not talking on the chain, and
+    /// nothing for a program's line (its caller frames the whole reply).
+    pub(crate) fn take_output(&mut self, run: &mut LineRun, s: &Session) -> Vec<u8> {
+        if run.program || !self.chain_talking(s) {
+            return Vec::new();
+        }
+        let mut reply = std::mem::take(&mut run.reply);
+        // Taken, not drained: the list's capacity (a slice's worth of lines) goes too.
+        for (fr, l) in std::mem::take(&mut run.lines) {
+            reply.data_line(fr, l.as_bytes());
+        }
+        reply.into_bytes()
     }
 
     fn finish_run(&mut self, run: &mut LineRun, s: &Session, outcome: Outcome) -> Vec<u8> {

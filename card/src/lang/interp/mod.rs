@@ -244,6 +244,11 @@ impl Card {
         self.view().step_line(run, s, budget)
     }
 
+    /// The data `run` has framed so far, to send before the line ends (streamed replies).
+    pub fn take_output(&mut self, run: &mut LineRun, s: &Session) -> Vec<u8> {
+        self.view().take_output(run, s)
+    }
+
     /// The effect `run` waited for is done: the command finishes with `result`.
     pub fn finish_effect(&mut self, run: &mut LineRun, s: &mut Session, result: EffectResult) {
         self.view().finish_effect(run, s, result)
