@@ -227,7 +227,7 @@ fn fault_drills(tag: &str, clock: Option<&str>) {
     }
     let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
     for n in 0..2 {
-        setup(&mut c, n, SETUP);
+        setup(&c, n, SETUP);
     }
     drill(
         &mut c,
