@@ -202,6 +202,9 @@ fn opening_anything_to_other_hosts_needs_auth_and_access_control() {
         let listens = key == "zenoh.listen[0]";
         secure(&mut half);
         half.zenoh.access_control = None;
+        if listens {
+            half.zenoh.auth.as_mut().unwrap().dictionary_file = Some("/etc/mcc/users".into());
+        }
         assert_eq!(
             verdict(&half).unwrap_err().0,
             "zenoh.access_control",
