@@ -54,9 +54,10 @@ pub use program::{Commands, NoCommands, ProgramEngine};
 pub use runtime::bench_servo::{
     run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
 };
-pub use runtime::ring_app::{wire_macro_motors, CardRingApp};
+pub use runtime::ring_app::CardRingApp;
 pub use runtime::run_ring_card;
 pub use runtime::standalone::{run_standalone, StandaloneOpts};
+pub use runtime::startup::{ring_startup, wire_macro_motors, StartupError};
 pub use service::handle::{spawn_card_thread, CardHandle};
 pub use service::storage::FileStorage;
 pub use servo::Servo;

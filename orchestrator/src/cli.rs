@@ -317,7 +317,8 @@ pub struct DownArgs {
 pub enum BenchCommand {
     /// Daisy-chain command round trip (p50/p99) on a cluster of its own.
     Chain(BenchChainArgs),
-    /// Ring throughput and latency against raw UDP and the OS timer.
+    /// Ring throughput, hop latency and CPU of multi-process clusters against a raw UDP ring;
+    /// realtime lateness against the OS timer.
     Ring(BenchRingArgs),
     /// Card host interface: in-process command rate, ASCII and Ethernet port round trips.
     Host(BenchHostArgs),
@@ -325,7 +326,7 @@ pub enum BenchCommand {
     Servo,
     /// Synchronized-start wall-clock skew p50/p99 on a realtime cluster of its own.
     Sync(BenchSyncArgs),
-    /// Ring-fault detection latency in cycles per fault kind on a lockstep cluster of its own.
+    /// Ring-fault detection latency in cycles (and ms) per fault kind on a cluster of its own.
     Faults(BenchFaultsArgs),
     /// Cluster bring-up time (`mcc up --detach` until locked).
     Bringup(BenchBringupArgs),
@@ -334,6 +335,9 @@ pub enum BenchCommand {
     /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
     /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
     Soak(BenchSoakArgs),
+    /// One process of `bench ring`'s raw UDP ring (internal).
+    #[command(hide = true)]
+    UdpMember(BenchUdpMemberArgs),
 }
 
 /// `mcc bench soak`.
@@ -351,12 +355,16 @@ pub struct BenchSoakArgs {
     /// Paced clock: real-time factor.
     #[arg(long, value_name = "X")]
     pub rtf: Option<f64>,
-    /// Cards.
-    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
-    pub cards: u8,
-    /// Stations.
-    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=48))]
-    pub stations: u8,
+    /// Cards (embedded default cluster; default 2).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub cards: Option<u8>,
+    /// Stations (embedded default cluster; default 2).
+    #[arg(long, value_name = "M", value_parser = clap::value_parser!(u8).range(0..=48))]
+    pub stations: Option<u8>,
+    /// Cluster config file instead of the embedded default (e.g. to try ring-check settings;
+    /// `--clock` and `--rtf` still override it).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["cards", "stations"])]
+    pub config: Option<std::path::PathBuf>,
     /// CPU-bound threads to run beside the cluster (load), e.g. 4 on a 2-core machine.
     #[arg(long, value_name = "K", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
     pub load: u32,
@@ -379,6 +387,9 @@ pub struct BenchSyncArgs {
 /// `mcc bench faults`.
 #[derive(Debug, Args)]
 pub struct BenchFaultsArgs {
+    /// Clock mode of the benchmark cluster: paced (default), lockstep or realtime.
+    #[arg(long, value_name = "MODE", value_parser = parse_clock)]
+    pub clock: Option<ClockMode>,
     /// Only these drills (comma-separated labels or fault words, e.g. `cut,freeze`).
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,
@@ -421,18 +432,41 @@ pub struct BenchHostArgs {
 /// `mcc bench ring`.
 #[derive(Debug, Args)]
 pub struct BenchRingArgs {
-    /// Ring members (default 12: 4 cards + 8 stations).
+    /// Clusters to measure, as CARDS+STATIONS (lockstep and real-time factor 1).
+    #[arg(long, value_name = "LIST", default_value = "1+1,2+2,4+8")]
+    pub sizes: String,
+    /// Lockstep: seconds measured per cluster (and per UDP ring).
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    pub seconds: f64,
+    /// Real-time factor 1: seconds measured per cluster.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub rtf_seconds: f64,
+    /// Only these sections (comma-separated): lockstep, rtf1, realtime.
+    #[arg(long, value_name = "LIST")]
+    pub only: Option<String>,
+    /// Realtime section: ring members in one process (default 12: 4 cards + 8 stations).
     #[arg(long, value_name = "N", default_value_t = 12, value_parser = clap::value_parser!(u32).range(2..=64))]
     pub members: u32,
-    /// Lockstep cycles to measure.
-    #[arg(long, value_name = "K", default_value_t = 5000)]
-    pub cycles: u64,
-    /// Realtime measurement duration, seconds.
+    /// Realtime section: measurement duration, seconds.
     #[arg(long, value_name = "S", default_value_t = 5.0)]
     pub duration: f64,
-    /// Realtime rate, Hz.
+    /// Realtime section: rate, Hz.
     #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
     pub rate: f64,
+}
+
+/// `mcc bench udp-member` (internal: one process of `bench ring`'s raw UDP ring).
+#[derive(Debug, Args)]
+pub struct BenchUdpMemberArgs {
+    /// Position in the ring (0 starts the cycles).
+    #[arg(long, value_name = "K")]
+    pub index: u32,
+    /// Position 0: ms before the measurement window.
+    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    pub warmup_ms: u64,
+    /// Position 0: ms measured.
+    #[arg(long, value_name = "MS", default_value_t = 5000)]
+    pub window_ms: u64,
 }
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {

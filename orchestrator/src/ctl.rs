@@ -103,8 +103,13 @@ pub fn query_ctl(
     serde_json::from_str(&text).map_err(|e| anyhow!("query {key}: bad reply {text:?}: {e}"))
 }
 
-/// Status of every member in ring order (`None`: no valid answer). Queries run concurrently;
-/// members that did not answer are asked again until `budget` is spent.
+/// Status of every member in ring order (`None`: no valid answer). The synchronizing master is
+/// asked first and the others once it answered (concurrently), so every other member's snapshot
+/// is younger than the master's: a healthy member has then received at least the master's
+/// cycle less the cycles in flight, and a lag against the master's cycle (`status::broken_link`)
+/// is never an artefact of replies taken at different moments of a fast ring. Members that did
+/// not answer are asked again until `budget` is spent (all others again when the master only
+/// answers in a later round).
 pub fn query_statuses(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
@@ -112,39 +117,22 @@ pub fn query_statuses(
     budget: Duration,
 ) -> Vec<Option<MemberStatus>> {
     let start = Instant::now();
-    let mut out: Vec<Option<MemberStatus>> = vec![None; cfg.ring.order.len()];
+    let n = cfg.ring.order.len();
+    let sm = cfg.position(&cfg.ring.sync_master);
+    let mut out: Vec<Option<MemberStatus>> = vec![None; n];
     loop {
-        let pending: Vec<(usize, String)> = cfg
-            .ring
-            .order
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| out.get(*i).is_some_and(Option::is_none))
-            .map(|(i, m)| (i, ctl_key(&cfg.cluster, m, "status")))
-            .collect();
-        if pending.is_empty() {
-            break;
+        let sm_pending = sm.filter(|&i| out.get(i).is_some_and(Option::is_none));
+        let mut again = false;
+        if let Some(i) = sm_pending {
+            ask(session, cfg, per_try, &[i], &mut out);
+            // Answered only now: the others' earlier snapshots are older than its one (they are
+            // asked again and kept if they do not answer).
+            again = out.get(i).is_some_and(Option::is_some);
         }
-        let gets: Vec<_> = pending
-            .iter()
-            .map(|(i, key)| (*i, session.get(key.as_str()).timeout(per_try).wait()))
+        let pending: Vec<usize> = (0..n)
+            .filter(|&i| Some(i) != sm && (again || out.get(i).is_some_and(Option::is_none)))
             .collect();
-        for (i, get) in gets {
-            let Ok(replies) = get else { continue };
-            let Ok(reply) = replies.recv() else { continue };
-            let Ok(sample) = reply.result() else { continue };
-            if sample.payload().len() > MAX_REPLY {
-                continue;
-            }
-            let Ok(text) = sample.payload().try_to_string() else {
-                continue;
-            };
-            if let (Ok(st), Some(slot)) =
-                (serde_json::from_str::<MemberStatus>(&text), out.get_mut(i))
-            {
-                *slot = Some(st);
-            }
-        }
+        ask(session, cfg, per_try, &pending, &mut out);
         if out.iter().all(Option::is_some) || start.elapsed() + per_try / 2 >= budget {
             break;
         }
@@ -152,4 +140,35 @@ pub fn query_statuses(
         std::thread::sleep(Duration::from_millis(50));
     }
     out
+}
+
+/// Ask the members at `which` (ring positions) for their status, concurrently; valid answers go
+/// into `out`.
+fn ask(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    per_try: Duration,
+    which: &[usize],
+    out: &mut [Option<MemberStatus>],
+) {
+    let gets: Vec<_> = which
+        .iter()
+        .filter_map(|&i| Some((i, ctl_key(&cfg.cluster, cfg.ring.order.get(i)?, "status"))))
+        .map(|(i, key)| (i, session.get(key.as_str()).timeout(per_try).wait()))
+        .collect();
+    for (i, get) in gets {
+        let Ok(replies) = get else { continue };
+        let Ok(reply) = replies.recv() else { continue };
+        let Ok(sample) = reply.result() else { continue };
+        if sample.payload().len() > MAX_REPLY {
+            continue;
+        }
+        let Ok(text) = sample.payload().try_to_string() else {
+            continue;
+        };
+        if let (Ok(st), Some(slot)) = (serde_json::from_str::<MemberStatus>(&text), out.get_mut(i))
+        {
+            *slot = Some(st);
+        }
+    }
 }

@@ -395,7 +395,7 @@ mod tests {
         let ev = w.step(&cfg, &with(0, true, 1.0));
         assert_eq!(ev.len(), 2, "{ev:?}");
         assert!(ev[0].contains("clock back at rtf 1.00"));
-        assert!(ev[1].contains("ring down: nothing came back within 1000 ms"));
+        assert!(ev[1].contains("ring down: nothing came back within 10000 ms"));
         assert_eq!(
             w.step(&cfg, &with(0, false, 1.0)),
             vec![format!("{PREFIX} ring cycling again")]

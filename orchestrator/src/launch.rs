@@ -7,6 +7,7 @@ use std::process::{Child, Command, Stdio};
 
 use anyhow::{Context, Result};
 use mcc_ring::config::{ClusterConfig, MemberRef};
+use mcc_ring::transport::session;
 
 use crate::rundir::RunDir;
 use crate::sys;
@@ -59,10 +60,23 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
         .arg("--name")
         .arg(name)
         .arg("--connect")
-        .arg(endpoint)
-        .stdin(Stdio::null())
-        .stdout(out)
-        .stderr(err);
+        .arg(endpoint);
+    // Members on this host reach each other over unix sockets (gossip hands the locators
+    // around); the CLI and the supervisor keep their TCP endpoints. On several hosts every
+    // link is a zenoh TCP link from the config (a unix-socket locator handed to another host
+    // by gossip would be meaningless there; see `mcc_ring::transport::cluster`).
+    if let Some(sock) = rd
+        .member_socket(name)
+        .filter(|_| !cfg.is_multi_host())
+    {
+        rd.create_link_dir()?;
+        cmd.arg("--listen").arg(sock);
+    }
+    // zenoh's thread pools sized for a ring member (unless the user chose their own).
+    if std::env::var_os(session::RUNTIME_ENV).is_none() {
+        cmd.env(session::RUNTIME_ENV, session::MEMBER_RUNTIME);
+    }
+    cmd.stdin(Stdio::null()).stdout(out).stderr(err);
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     sys::pre_exec(&mut cmd, sys::parent_death_signal_in_child);
     cmd.spawn()

@@ -58,6 +58,7 @@ fn main() {
         Command::Bench(BenchCommand::Sync(a)) => bench::syncstart::run(a),
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
+        Command::Bench(BenchCommand::UdpMember(a)) => bench::udp::member(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),

@@ -1,7 +1,8 @@
 //! The run directory of a cluster: `$MCC_RUN_DIR/<cluster>`, else
 //! `$XDG_RUNTIME_DIR/mcc/<cluster>`, else `/tmp/mcc-<uid>/<cluster>`. It holds the resolved
 //! `cluster.toml`, `supervisor.json` (supervisor pid, zenoh endpoint, member pids, phase) and
-//! `logs/<member>.log`. `mcc down` removes exactly these files, nothing else.
+//! `logs/<member>.log` and `links/<member>.sock` (each member's zenoh unix-socket endpoint, with
+//! zenoh's `.sock.lock` beside it). `mcc down` removes exactly these files, nothing else.
 
 use std::fs;
 use std::io::Write;
@@ -18,6 +19,11 @@ pub const CONFIG_FILE: &str = "cluster.toml";
 pub const INFO_FILE: &str = "supervisor.json";
 /// Log folder name.
 pub const LOG_DIR: &str = "logs";
+/// Folder of the members' unix-socket endpoints.
+pub const LINK_DIR: &str = "links";
+/// Longest unix-socket path the kernel takes (`sun_path` is 108 bytes with its NUL; zenoh's lock
+/// file appends 5 more bytes but is an ordinary file).
+const MAX_SOCKET_PATH: usize = 107;
 
 /// One member process started by the supervisor.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -177,6 +183,23 @@ impl RunDir {
         self.dir.join(LOG_DIR).join(format!("{who}.log"))
     }
 
+    /// The zenoh endpoint member `name` listens on, `unixsock-stream/<run dir>/links/<name>.sock`,
+    /// when the path fits a unix socket address (else None: the member listens on TCP). Ring
+    /// frames between members on one host travel over these sockets: cheaper than loopback TCP
+    /// (no TCP stack, acknowledgements or Nagle to switch off).
+    pub fn member_socket(&self, name: &str) -> Option<String> {
+        let path = self.dir.join(LINK_DIR).join(format!("{name}.sock"));
+        let text = path.to_str()?;
+        (text.len() <= MAX_SOCKET_PATH && path.is_absolute())
+            .then(|| format!("unixsock-stream/{text}"))
+    }
+
+    /// Create the folder of the members' sockets.
+    pub fn create_link_dir(&self) -> Result<()> {
+        let d = self.dir.join(LINK_DIR);
+        fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))
+    }
+
     /// The supervisor record, if present and readable.
     pub fn read_info(&self) -> Option<SupervisorInfo> {
         let text = fs::read_to_string(self.info_path()).ok()?;
@@ -256,6 +279,17 @@ impl RunDir {
             }
         }
         let _ = fs::remove_dir(&logs);
+        let links = self.dir.join(LINK_DIR);
+        if let Ok(entries) = fs::read_dir(&links) {
+            for e in entries.flatten() {
+                let p = e.path();
+                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                if name.ends_with(".sock") || name.ends_with(".sock.lock") {
+                    remove_if_exists(&p)?;
+                }
+            }
+        }
+        let _ = fs::remove_dir(&links);
         let _ = fs::remove_dir(&self.dir);
         Ok(())
     }
@@ -326,13 +360,38 @@ mod tests {
         fs::write(rd.log_path("card0"), "hello\nworld\n").unwrap();
         assert_eq!(rd.log_tail("card0", 1), "world");
         fs::write(rd.dir.join("card0.state"), "saved").unwrap();
+        rd.create_link_dir().unwrap();
+        let sock = rd.member_socket("card0").unwrap();
+        let path = sock.strip_prefix("unixsock-stream/").unwrap();
+        fs::write(path, "").unwrap();
+        fs::write(format!("{path}.lock"), "").unwrap();
+        fs::write(rd.dir.join(LINK_DIR).join("notes.txt"), "mine").unwrap();
         // A temporary left by a supervisor killed while writing its record is ours.
         fs::write(rd.info_path().with_extension("tmp"), "{").unwrap();
         rd.cleanup().unwrap();
         assert!(!rd.info_path().with_extension("tmp").exists());
+        assert!(!std::path::Path::new(path).exists());
+        assert!(rd.dir.join(LINK_DIR).join("notes.txt").exists());
         assert!(rd.dir.join("card0.state").exists());
         assert!(!rd.config_path().exists() && !rd.info_path().exists());
         fs::remove_dir_all(&rd.dir).unwrap();
+    }
+
+    #[test]
+    fn member_sockets_live_in_the_run_dir_and_fit_a_socket_address() {
+        let rd = RunDir {
+            dir: PathBuf::from("/run/user/1000/mcc/lab"),
+            cluster: "lab".into(),
+        };
+        assert_eq!(
+            rd.member_socket("card0").as_deref(),
+            Some("unixsock-stream//run/user/1000/mcc/lab/links/card0.sock")
+        );
+        let long = RunDir {
+            dir: PathBuf::from(format!("/tmp/{}", "x".repeat(100))),
+            cluster: "x".into(),
+        };
+        assert_eq!(long.member_socket("card0"), None);
     }
 
     #[test]

@@ -190,6 +190,15 @@ pub struct StationRow {
     pub master: u8,
     /// Servo nodes.
     pub nodes: Vec<u8>,
+    /// The station's fault latch (ring check MI8-MI10 or MI6), null when it did not answer.
+    pub ring_fault: Option<bool>,
+    /// The latest fault was localised to the link directly upstream of the station (at least
+    /// half of the period's errors were byte violations).
+    pub suspected_break: Option<bool>,
+    /// MI-level state: status word (MI4), ring errors since reset (MI5) and in the last
+    /// second (MI12), check settings (MI8/MI9/MI10, MI6), configuration number (MI2), firmware
+    /// version, state-file problems.
+    pub mi: Option<serde_json::Value>,
 }
 
 /// The supervisor.
@@ -393,11 +402,18 @@ pub fn build(
     let stations = cfg
         .stations
         .iter()
-        .map(|s| StationRow {
-            name: s.name.clone(),
-            pid: pid_of(&s.name, status_of(&s.name)),
-            master: s.master,
-            nodes: s.nodes.clone(),
+        .map(|s| {
+            let st = status_of(&s.name);
+            let extra = |k: &str| st.and_then(|m| m.extra.get(k)).cloned();
+            StationRow {
+                name: s.name.clone(),
+                pid: pid_of(&s.name, st),
+                master: s.master,
+                nodes: s.nodes.clone(),
+                ring_fault: extra("ring_fault").and_then(|v| v.as_bool()),
+                suspected_break: extra("suspected_break").and_then(|v| v.as_bool()),
+                mi: extra("mi"),
+            }
         })
         .collect();
     ClusterStatus {

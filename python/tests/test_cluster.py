@@ -15,7 +15,7 @@ SETUP = ["&1#1->1000X", "#1J/", "OPEN PROG 1 CLEAR", "LINEAR INC F1000 TA20 TS0"
 def test_a_default_cluster_answers_on_every_card_and_port(mcc_cluster):
     st = mcc_cluster.status()
     assert st.locked and not st.faulted, st
-    assert st["clock"] == "lockstep"
+    assert st["clock"] == "paced"
     assert st.member_names == ["card0", "station0", "card1", "station1"]
     assert mcc_cluster.send("I0", card=1) == "1"
     assert mcc_cluster.send(["I0", "P1=5 P1"], card=0) == ["0", "5"]

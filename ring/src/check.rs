@@ -6,7 +6,7 @@
 //! reading"); the period's counters then restart. The sync-count and "error on every check"
 //! tests can only be made at the end of a period.
 
-use crate::status::{RingStatus, STATUS_ERRORS, STATUS_SYNC_RECEIVED};
+use crate::status::{RingStatus, STATUS_BYTE_VIOLATION, STATUS_ERRORS, STATUS_SYNC_RECEIVED};
 
 /// Why a ring check declared a ring fault.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
@@ -55,11 +55,12 @@ pub struct CheckParams {
     pub sync_min: u32,
 }
 
-/// Station defaults: a check every 8 cycles needing 4 syncs, at most 4 errors.
+/// Station defaults, as a 16-axis MACRO Station's MI8/MI9/MI10: a check every 8 cycles
+/// needing 4 sync packets, a fault on 4 errors.
 pub const STATION_DEFAULTS: CheckParams = CheckParams {
     period: 8,
     rti: 1,
-    error_limit: 5,
+    error_limit: 4,
     sync_min: 4,
 };
 
@@ -75,6 +76,10 @@ pub struct RingCheck {
     elapsed: u32,
     last_period_ok: Option<bool>,
     total_errors: u64,
+    byte_violations: u32,
+    fault_byte_violations: u32,
+    last_status: u32,
+    just_checked: bool,
 }
 
 impl RingCheck {
@@ -98,15 +103,21 @@ impl RingCheck {
         })
     }
 
-    /// A station's check: every `period` cycles, at least `sync_min` syncs, at most
-    /// `max_errors` checks with errors. `period` 0 disables it.
-    pub fn station(period: u32, sync_min: u32, max_errors: u32) -> Self {
-        Self::with_params(CheckParams {
-            period,
+    /// A MACRO station's check from MI8 (period, ring cycles), MI10 (sync packets required;
+    /// 0 = never a fault for lack of them) and MI9 (errors that make a fault), with a check
+    /// every cycle. MI8 = 0 and MI9 = 0 become 8 and 4, as at a station's reset.
+    pub fn station(mi8: u32, mi10: u32, mi9: u32) -> Self {
+        Self::with_params(Self::station_params(mi8, mi10, mi9))
+    }
+
+    /// The parameters [`RingCheck::station`] uses.
+    pub fn station_params(mi8: u32, mi10: u32, mi9: u32) -> CheckParams {
+        CheckParams {
+            period: if mi8 == 0 { 8 } else { mi8.min(255) },
             rti: 1,
-            error_limit: max_errors.saturating_add(1),
-            sync_min,
-        })
+            error_limit: if mi9 == 0 { 4 } else { mi9.min(255) },
+            sync_min: mi10.min(65_535),
+        }
     }
 
     /// A check with explicit parameters (armed when `period > 0`).
@@ -125,7 +136,37 @@ impl RingCheck {
             elapsed: 0,
             last_period_ok: None,
             total_errors: 0,
+            byte_violations: 0,
+            fault_byte_violations: 0,
+            last_status: 0,
+            just_checked: false,
         }
+    }
+
+    /// The latest [`RingCheck::on_servo_cycle`] read the status bits (an RTI check ran).
+    pub fn just_checked(&self) -> bool {
+        self.just_checked
+    }
+
+    /// Replace every parameter at run time (a station's MI8/MI9/MI10); re-arms when the
+    /// period is > 0 and restarts the period's counts.
+    pub fn set_params(&mut self, params: CheckParams) {
+        let total = self.total_errors;
+        let ok = self.last_period_ok;
+        *self = Self::with_params(params);
+        self.total_errors = total;
+        self.last_period_ok = ok;
+    }
+
+    /// Status bits read by the latest check (0 before any).
+    pub fn last_status(&self) -> u32 {
+        self.last_status
+    }
+
+    /// Checks with a byte violation in the period that declared the latest fault (the
+    /// station's break localisation compares them with the period's error count).
+    pub fn fault_byte_violations(&self) -> u32 {
+        self.fault_byte_violations
     }
 
     /// Checking is active (I1001 was > 0 at reset).
@@ -180,6 +221,7 @@ impl RingCheck {
     /// Call once per servo cycle. Every `rti` servo cycles it reads and clears the status
     /// bits (one read per RTI) and counts at most one error and one sync.
     pub fn on_servo_cycle(&mut self, status: &mut RingStatus) -> Option<CheckFault> {
+        self.just_checked = false;
         if !self.armed || self.params.period == 0 {
             return None;
         }
@@ -189,9 +231,14 @@ impl RingCheck {
         }
         self.servo_count = 0;
         let s = status.read_and_clear();
+        self.last_status = s;
+        self.just_checked = true;
         if s & STATUS_ERRORS != 0 {
             self.errors += 1;
             self.total_errors += 1;
+            if s & STATUS_BYTE_VIOLATION != 0 {
+                self.byte_violations += 1;
+            }
         }
         if s & STATUS_SYNC_RECEIVED != 0 {
             self.syncs += 1;
@@ -218,10 +265,14 @@ impl RingCheck {
         } else {
             None
         };
+        if fault.is_some() {
+            self.fault_byte_violations = self.byte_violations;
+        }
         self.errors = 0;
         self.syncs = 0;
         self.checks = 0;
         self.elapsed = 0;
+        self.byte_violations = 0;
         self.last_period_ok = Some(fault.is_none());
         fault
     }
@@ -374,11 +425,11 @@ mod tests {
     #[test]
     fn station_defaults() {
         let mut c = RingCheck::with_params(STATION_DEFAULTS);
-        // 4 syncs and 4 errors in 8 cycles: healthy.
+        // 4 syncs and 3 errors in 8 cycles: healthy.
         assert!(run(&mut c, 8, |n, s| {
             if n % 2 == 0 {
                 s.set_sync_received();
-            } else {
+            } else if n < 7 {
                 s.record(ErrorClass::Underrun);
             }
         })
@@ -400,23 +451,37 @@ mod tests {
                 }
             )]
         );
-        // 5 errors: fault at once on the 5th.
+        // MI9 = 4 errors: fault at once on the 4th; 3 of them byte violations.
         let mut c = RingCheck::station(8, 4, 4);
-        let f = run(&mut c, 8, |_, s| {
+        let f = run(&mut c, 4, |n, s| {
             s.set_sync_received();
-            s.record(ErrorClass::Checksum);
+            s.record(if n == 2 {
+                ErrorClass::Checksum
+            } else {
+                ErrorClass::ByteViolation
+            });
         });
         assert_eq!(
             f,
             vec![(
-                5,
+                4,
                 CheckFault::Errors {
-                    errors: 5,
-                    limit: 5
+                    errors: 4,
+                    limit: 4
                 }
             )]
         );
+        assert_eq!(c.fault_byte_violations(), 3);
+        // MI10 = 0: never a fault for lack of sync packets; MI8 = MI9 = 0 take the defaults.
+        let mut c = RingCheck::station(0, 0, 0);
+        assert_eq!(c.params(), STATION_DEFAULTS_NO_SYNC);
+        assert!(run(&mut c, 40, |_, _| {}).is_empty());
     }
+
+    const STATION_DEFAULTS_NO_SYNC: CheckParams = CheckParams {
+        sync_min: 0,
+        ..STATION_DEFAULTS
+    };
 
     #[test]
     fn unarmed_never_reads_status() {

@@ -152,6 +152,11 @@ pub struct RingConfig {
     /// The synchronizing master (a card); empty = the first card in ring order.
     #[serde(default)]
     pub sync_master: String,
+    /// Paced and lockstep: ring cycles the sync master lets be in flight around the ring
+    /// (1-8, default 1): cycle k starts once cycle k-N is back. More than one lets a long ring
+    /// keep up with its rate at the cost of N-1 cycles of extra servo delay on every card.
+    #[serde(default = "default_in_flight")]
+    pub in_flight: u64,
 }
 
 impl Default for RingConfig {
@@ -160,8 +165,13 @@ impl Default for RingConfig {
             name: default_ring_name(),
             order: Vec::new(),
             sync_master: String::new(),
+            in_flight: default_in_flight(),
         }
     }
+}
+
+fn default_in_flight() -> u64 {
+    1
 }
 
 /// A startup I-variable override value.
@@ -266,6 +276,10 @@ pub struct StationConfig {
     /// The host it runs on (clusters on several hosts).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub host: Option<String>,
+    /// Where `MS SAVE` writes and start-up reads the station's MI-variables (default
+    /// `<run dir>/state/<name>.state`; `mcc down` never removes it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_file: Option<PathBuf>,
 }
 
 /// The whole cluster.
@@ -418,6 +432,7 @@ impl ClusterConfig {
                     check: StationCheck::default(),
                     plant: toml::Table::new(),
                     host: None,
+                    state_file: None,
                 }
             })
             .collect();
@@ -558,6 +573,20 @@ impl ClusterConfig {
         std::time::Duration::from_millis(self.member_timeout_ms.max(1))
     }
 
+    /// How long a card's servo tick may wait for the commit of a synchronized start due in
+    /// it. Paced and lockstep: a quarter of the frozen-member wait (the ring waits for the
+    /// card, so the wait only makes cycles late; on a loaded machine the orchestrator's commit
+    /// can take far longer than a few ms, and giving up would split the start). Realtime: at
+    /// most 25 ms, since a longer stall of the tick breaks the free-running ring.
+    pub fn sync_start_stall(&self) -> std::time::Duration {
+        let ms = if self.clock.is_stepped() {
+            (self.member_timeout_ms / 4).max(1)
+        } else {
+            (self.member_timeout_ms / 2).clamp(1, 25)
+        };
+        std::time::Duration::from_millis(ms)
+    }
+
     /// Nominal ring period in nanoseconds.
     pub fn period_ns(&self) -> u64 {
         if self.rate_hz > 0.0 && self.rate_hz.is_finite() {
@@ -594,6 +623,12 @@ impl ClusterConfig {
         let n = self.ring.order.len();
         let k = self.position(name)?;
         self.ring.order.get((k + n - 1) % n).map(String::as_str)
+    }
+
+    /// Master number of the synchronizing master (the only master whose node-15 packet is the
+    /// ring's sync packet; see [`crate::core::CoreConfig::sync_source`]).
+    pub fn sync_source(&self) -> Option<u8> {
+        self.card(&self.ring.sync_master).map(|c| c.master & 0x0F)
     }
 
     /// I995/I996 for a member (spec §6.2–§6.3): sync master $30; other cards $8090 (master,
@@ -640,7 +675,7 @@ fn default_rtf() -> f64 {
     1.0
 }
 /// Default frozen-member wait, ms (see `member_timeout_ms`).
-pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 1000;
+pub const DEFAULT_MEMBER_TIMEOUT_MS: u64 = 10_000;
 fn default_member_timeout() -> u64 {
     DEFAULT_MEMBER_TIMEOUT_MS
 }

@@ -127,6 +127,10 @@ pub struct MemberStatus {
     /// when permitted).
     #[serde(default)]
     pub sched: Option<String>,
+    /// The machine it runs on (kernel boot id): a member downstream on the same machine can
+    /// tell from `/proc` whether its process is stopped.
+    #[serde(default)]
+    pub host_id: Option<String>,
     /// Free-form extras by kind (card ports, station nodes, ...).
     #[serde(default)]
     pub extra: serde_json::Map<String, serde_json::Value>,

@@ -49,6 +49,32 @@ pub trait RingApp {
     fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
         let _ = ring;
     }
+
+    /// Told before every tick what the member's ring check saw (stations keep their
+    /// MI-variable error counters and localise breaks from it).
+    fn on_check(&mut self, _report: &CheckReport) {}
+
+    /// Extra fields for the member's status report, merged over the static ones.
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        serde_json::Map::new()
+    }
+}
+
+/// What the ring check saw in one servo cycle ([`RingApp::on_check`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CheckReport {
+    /// The check ran this cycle (armed, and not still waiting for the first lock).
+    pub checked: bool,
+    /// The I995-style status bits it read and cleared (errors in bits 0-3, sync in bit 6).
+    pub status: u32,
+    /// A fault declared this cycle.
+    pub fault: Option<CheckFault>,
+    /// Checks with a byte violation in the period of the latest fault.
+    pub fault_byte_violations: u32,
+    /// The ring-fault latch after this cycle's check.
+    pub ring_fault: bool,
+    /// The last completed check period passed (or nothing checks).
+    pub healthy: bool,
 }
 
 impl<T: RingApp + ?Sized> RingApp for Box<T> {
@@ -58,6 +84,14 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
 
     fn take_ring_reset(&mut self) -> bool {
         (**self).take_ring_reset()
+    }
+
+    fn on_check(&mut self, report: &CheckReport) {
+        (**self).on_check(report);
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        (**self).status_extra()
     }
 
     fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
@@ -138,6 +172,10 @@ pub struct CoreConfig {
     /// a gap is a real break); realtime on a general-purpose OS: more, so scheduling hiccups
     /// show as holdover and late cycles instead of killing the motors.
     pub timing_slack: u32,
+    /// Master number of the synchronizing master: only its sync-node packet clocks this
+    /// member (other masters' node-15 packets carry their auxiliary channel). None = any
+    /// sync-node packet whose address matches (I995/I996 alone).
+    pub sync_source: Option<u8>,
 }
 
 impl CoreConfig {
@@ -166,6 +204,7 @@ impl CoreConfig {
             seq_base: 0,
             check_after_lock: false,
             timing_slack: 1,
+            sync_source: None,
         }
     }
 }
@@ -247,14 +286,18 @@ pub struct MemberCore {
     last_fault: Option<CheckFault>,
     holdover_cycles: u64,
     late_cycles: u64,
+    /// The ring check read the status bits in the latest servo cycle.
+    checked_now: bool,
 }
 
 impl MemberCore {
     /// A member core from its config.
     pub fn new(cfg: CoreConfig) -> Self {
+        let mut member = RingMember::new(cfg.settings);
+        member.set_sync_source(cfg.sync_source);
         MemberCore {
             faults: FaultLayer::new(cfg.settings.sync_node()),
-            member: RingMember::new(cfg.settings),
+            member,
             name: cfg.name,
             kind: cfg.kind,
             position: cfg.position,
@@ -293,6 +336,7 @@ impl MemberCore {
             last_fault: None,
             holdover_cycles: 0,
             late_cycles: 0,
+            checked_now: false,
         }
     }
 
@@ -422,7 +466,7 @@ impl MemberCore {
         self.last_tick = Some(cycle);
         let mut packets = vec![self.member.sync_packet(cycle)];
         packets.extend(self.member.take_held());
-        packets.extend(self.member.command_packets());
+        packets.extend(self.member.command_packets(cycle));
         let frame = Frame::with_packets(self.position, 0, now_ns, cycle, &packets);
         let sent = self.faults.on_send(cycle, frame);
         self.emit(sent)
@@ -514,7 +558,7 @@ impl MemberCore {
             };
             let own = self.member.is_master()
                 && p.master & 0x0F == self.member.settings().master_number()
-                && p.node & 0x0F != self.member.settings().sync_node();
+                && !(self.is_sync_master() && p.node & 0x0F == self.member.settings().sync_node());
             let r = self.member.route(p);
             if own && r.forward.is_none() {
                 own_returned += 1;
@@ -574,7 +618,7 @@ impl MemberCore {
             self.member.hold(forwards);
             return ev;
         }
-        let commands = self.member.command_packets();
+        let commands = self.member.command_packets(frame.cycle);
         self.sent_cycle = (!commands.is_empty()).then_some(frame.cycle);
         forwards.extend(commands);
         let mut out = Frame::with_packets(self.position, 0, now_ns, frame.cycle, &forwards);
@@ -697,6 +741,7 @@ impl MemberCore {
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
         self.unconsumed = false;
+        self.checked_now = false;
         self.locked_streak = if self.locked {
             self.locked_streak.saturating_add(1)
         } else {
@@ -725,11 +770,18 @@ impl MemberCore {
             } else if self.last_rx_cycle.is_some() {
                 self.silent_ticks = self.silent_ticks.saturating_add(1);
                 if self.silent_ticks > self.timing_slack {
-                    self.status.record(ErrorClass::Underrun);
+                    // No light at all: a MACRO station's receiver sees byte violations (what
+                    // its break localisation counts); a card records a data underrun.
+                    self.status.record(match self.kind {
+                        MemberKind::Station => ErrorClass::ByteViolation,
+                        MemberKind::Card => ErrorClass::Underrun,
+                    });
                 }
             }
             self.rx_since_tick = false;
-            self.check.on_servo_cycle(&mut self.status)?
+            let f = self.check.on_servo_cycle(&mut self.status);
+            self.checked_now = self.check.just_checked();
+            f?
         };
         if !self.ring_fault {
             // The cycle at which the fault latched (later failing checks keep the latch).
@@ -750,6 +802,18 @@ impl MemberCore {
     ) -> Option<CheckFault> {
         app.sync_ring(&mut RingControl { core: self });
         let fault = self.run_check();
+        app.on_check(&CheckReport {
+            checked: self.checked_now,
+            status: if self.checked_now {
+                self.check.last_status()
+            } else {
+                0
+            },
+            fault,
+            fault_byte_violations: self.check.fault_byte_violations(),
+            ring_fault: self.ring_fault,
+            healthy: self.healthy(),
+        });
         app.tick(cycle, time_ns, &mut self.member, self.ring_fault);
         if app.take_ring_reset() {
             self.reset();
@@ -806,6 +870,7 @@ impl MemberCore {
             faults: self.faults.active(),
             clock: None,
             sched: None,
+            host_id: None,
             extra: serde_json::Map::new(),
         }
     }

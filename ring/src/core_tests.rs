@@ -22,7 +22,7 @@ fn slave(i995: u32) -> MemberCore {
         P,
     );
     cfg.upstream = Some(0);
-    cfg.check = RingCheck::station(0, 4, 4);
+    cfg.check = RingCheck::card(0, 0, 0, 0); // not checking
     MemberCore::new(cfg)
 }
 
@@ -487,31 +487,36 @@ fn check_after_lock_waits_for_the_first_lock() {
 
 #[test]
 fn timing_slack_tolerates_silence_and_backlog_before_counting_errors() {
-    let make = |slack| {
-        let mut cfg = CoreConfig::new(
-            "s",
-            MemberKind::Station,
-            1,
-            RingSettings::new(0x80, 0x0F_8001),
-            P,
-        );
+    let make = |slack, kind| {
+        let mut cfg = CoreConfig::new("s", kind, 1, RingSettings::new(0x80, 0x0F_8001), P);
         cfg.check = RingCheck::card(0, 0, 0, 0);
         cfg.timing_slack = slack;
         MemberCore::new(cfg)
     };
-    for slack in [1u32, 8] {
-        let mut m = make(slack);
+    for (slack, kind) in [
+        (1u32, MemberKind::Station),
+        (8, MemberKind::Station),
+        (1, MemberKind::Card),
+        (8, MemberKind::Card),
+    ] {
+        let mut m = make(slack, kind);
         // Two frames before a tick: a backlog, an overrun only without slack.
         m.on_frame(&frame(1, 1, &[cmd(1)]).encode(), 0);
         let ev = m.on_frame(&frame(2, 2, &[cmd(1)]).encode(), 0);
         let backlog = ev.errors.contains(&crate::status::ErrorClass::Overrun);
         assert_eq!(backlog, slack == 1, "slack {slack}");
         m.run_check();
-        // Silent ticks: an underrun once more than `slack` in a row went by.
+        // Silent ticks: an error once more than `slack` in a row went by: a card records a
+        // data underrun, a station (no light) a byte violation.
         let mut first = None;
         for t in 1..=12u32 {
             m.run_check();
-            if first.is_none() && m.status().errors.underrun > 0 {
+            let e = m.status().errors;
+            let n = match kind {
+                MemberKind::Card => e.underrun,
+                MemberKind::Station => e.byte_violation,
+            };
+            if first.is_none() && n > 0 {
                 first = Some(t);
             }
         }

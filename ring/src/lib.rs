@@ -7,6 +7,7 @@
 
 #![warn(missing_docs, unreachable_pub)]
 
+pub mod aux_channel;
 pub mod check;
 pub mod config;
 pub mod control;

@@ -15,9 +15,16 @@
 //!   a broadcast copy is kept per address ([`RingMember::latched_copy`]), and if m = M the
 //!   read registers of n are updated too.
 //!
-//! Masters send one packet per activated node with their write registers, except on the sync
-//! node, which carries only the sync packet.
+//! Masters send one packet per activated node with their write registers. On node 15 (the
+//! sync node and the Type 1 auxiliary channel, [`crate::aux_channel`]) registers 0-1 always
+//! carry the ring cycle number and registers 2-3 the master's auxiliary word: the sync
+//! master's node-15 packet is the sync packet; another master sends its own node-15 packet
+//! each cycle while its channel is busy (node 15 activated, a non-idle word). With a sync source set ([`RingMember::set_sync_source`])
+//! only the sync-node packet of that master number is a sync packet. A slave forwards node-15
+//! packets of its master unchanged except for registers 2-3 while it has an auxiliary reply
+//! armed ([`RingMember::set_aux_reply`]).
 
+use crate::aux_channel::AUX_NODE;
 use crate::packet::{NodeRegs, Packet};
 use crate::settings::RingSettings;
 
@@ -43,6 +50,8 @@ pub struct RingMember {
     write: [NodeRegs; 16],
     copies: Box<[[Option<NodeRegs>; 16]; 16]>,
     held: Vec<Packet>,
+    sync_source: Option<u8>,
+    aux_reply: Option<(u16, u16)>,
 }
 
 impl RingMember {
@@ -54,7 +63,22 @@ impl RingMember {
             write: [NodeRegs::default(); 16],
             copies: Box::new([[None; 16]; 16]),
             held: Vec::new(),
+            sync_source: None,
+            aux_reply: None,
         }
+    }
+
+    /// Only sync-node packets of master `m` are sync packets (None: any packet whose address
+    /// matches, as I995/I996 alone say). Set from the cluster config: other masters' node-15
+    /// packets carry their auxiliary channel and must not clock the ring.
+    pub fn set_sync_source(&mut self, m: Option<u8>) {
+        self.sync_source = m.map(|m| m & 0x0F);
+    }
+
+    /// Slave: registers 2 and 3 to put into node-15 packets of this member's master as they
+    /// pass (an auxiliary reply word), or None to forward them unchanged.
+    pub fn set_aux_reply(&mut self, regs: Option<(u16, u16)>) {
+        self.aux_reply = regs;
     }
 
     /// Current settings.
@@ -112,31 +136,54 @@ impl RingMember {
         let s = &self.settings;
         p.node == s.sync_node()
             && (p.master == s.master_number() || s.master_check_disabled(p.node))
+            && self.sync_source.is_none_or(|m| p.master & 0x0F == m)
     }
 
     /// The sync packet this member emits as synchronizing master for `cycle`.
+    /// Registers 2 and 3 carry this master's auxiliary word (write registers of node 15).
     pub fn sync_packet(&self, cycle: u64) -> Packet {
-        Packet::sync(
+        let mut p = Packet::sync(
             self.settings.master_number(),
             self.settings.sync_node(),
             cycle,
-        )
+        );
+        let aux = self.write_regs(AUX_NODE);
+        (p.regs.r2, p.regs.r3) = (aux.r2, aux.r3);
+        p
     }
 
-    /// One command packet per activated node (masters only; never on the sync node).
-    pub fn command_packets(&self) -> Vec<Packet> {
+    /// One command packet per activated node (masters only). A sync master sends nothing else
+    /// on its sync node (its sync packet carries the auxiliary word); another master's node-15
+    /// packet carries `cycle` in registers 0-1 and its auxiliary word in registers 2-3.
+    pub fn command_packets(&self, cycle: u64) -> Vec<Packet> {
         if !self.is_master() {
             return Vec::new();
         }
         let s = self.settings;
         s.active_nodes()
-            .filter(|n| *n != s.sync_node())
-            .map(|n| Packet::new(s.master_number(), n, self.write_regs(n)))
+            .filter(|n| !(s.is_sync_master() && *n == s.sync_node()))
+            // another master's node-15 packet exists while its auxiliary channel is busy
+            .filter(|n| {
+                *n != AUX_NODE || {
+                    let w = self.write_regs(AUX_NODE);
+                    (w.r2, w.r3) != (0, 0)
+                }
+            })
+            .map(|n| {
+                if n == AUX_NODE {
+                    let mut p = Packet::sync(s.master_number(), n, cycle);
+                    let aux = self.write_regs(n);
+                    (p.regs.r2, p.regs.r3) = (aux.r2, aux.r3);
+                    p
+                } else {
+                    Packet::new(s.master_number(), n, self.write_regs(n))
+                }
+            })
             .collect()
     }
 
     /// Route one valid packet.
-    pub fn route(&mut self, p: Packet) -> Routed {
+    pub fn route(&mut self, mut p: Packet) -> Routed {
         let s = self.settings;
         let (m, n) = (p.master & 0x0F, p.node & 0x0F);
         let me = s.master_number();
@@ -158,6 +205,10 @@ impl RingMember {
         if addr_match {
             self.read[usize::from(n)] = p.regs;
         }
+        let aux_slave = n == AUX_NODE && m == me && !self.is_master();
+        if let Some((r2, r3)) = self.aux_reply.filter(|_| aux_slave) {
+            (p.regs.r2, p.regs.r3) = (r2, r3);
+        }
         if self.is_sync(&p) {
             return Routed {
                 forward: Some(p),
@@ -165,7 +216,9 @@ impl RingMember {
                 own_sync_return: None,
             };
         }
-        let forward = if s.node_active(n) && m == me {
+        let forward = if aux_slave {
+            Some(p)
+        } else if s.node_active(n) && m == me {
             if self.is_master() {
                 None
             } else {
@@ -222,7 +275,7 @@ mod tests {
         // sync master, master number 0, sync node 15, nodes 0, 1, 15 active
         let mut m = RingMember::new(RingSettings::new(0x30, 0x0F_8003));
         *m.write_regs_mut(1) = regs(11);
-        let p = m.command_packets();
+        let p = m.command_packets(5);
         assert_eq!(
             p,
             vec![
@@ -233,7 +286,7 @@ mod tests {
         assert_eq!(m.sync_packet(5), Packet::sync(0, 15, 5));
         // a slave sends nothing of its own
         assert!(RingMember::new(RingSettings::new(0x80, 0x0F_0003))
-            .command_packets()
+            .command_packets(5)
             .is_empty());
     }
 

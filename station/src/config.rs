@@ -80,6 +80,14 @@ pub struct NodePlantConfig {
     pub user_flag: bool,
     /// Longest integration sub-step, seconds (default 50e-6: 9 sub-steps at 2258.7 Hz).
     pub max_substep: f64,
+    /// Flag capture control (MI912, the station's I9n2): which edge of the capture flag
+    /// triggers the card's homing and move-until-trigger: 2/3/6/7 rising edge (the flag as
+    /// it is), 10/11/14/15 falling edge (the flag inverted) (default 2). The station has no
+    /// index channel: the index-only and software settings are refused.
+    pub capture_control: u8,
+    /// Flag capture select (MI913, the station's I9n3): 0 home switch, 1 +limit, 2 −limit,
+    /// 3 user flag (default 0). The selected flag, edge applied, is reported in the HOME bit.
+    pub capture_flag: u8,
 }
 
 impl Default for NodePlantConfig {
@@ -106,6 +114,8 @@ impl Default for NodePlantConfig {
             limits: true,
             user_flag: false,
             max_substep: 50e-6,
+            capture_control: 2,
+            capture_flag: 0,
         }
     }
 }
@@ -161,6 +171,18 @@ impl NodePlantConfig {
             return Err(format!(
                 "minus_limit: must be below plus_limit ({} ≥ {})",
                 self.minus_limit, self.plus_limit
+            ));
+        }
+        if !matches!(self.capture_control, 2 | 3 | 6 | 7 | 10 | 11 | 14 | 15) {
+            return Err(format!(
+                "capture_control: one of 2, 3, 6, 7, 10, 11, 14, 15 (a flag edge), got {}",
+                self.capture_control
+            ));
+        }
+        if self.capture_flag > 3 {
+            return Err(format!(
+                "capture_flag: 0 (home), 1 (+limit), 2 (-limit) or 3 (user), got {}",
+                self.capture_flag
             ));
         }
         if self.max_substep > 0.01 {

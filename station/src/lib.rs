@@ -10,6 +10,9 @@ pub mod config;
 pub mod emcl;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives
 pub mod emcl_rt;
+pub mod macro_aux;
+pub mod mi;
 pub mod plant;
 pub mod servo_node;
 pub mod station_app;
+pub mod station_mi;

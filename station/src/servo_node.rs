@@ -55,6 +55,7 @@ pub struct ServoNode {
     switches: Switches,
     user_flag: bool,
     ring_lockout: bool,
+    ring_fault_flag: bool,
 }
 
 impl ServoNode {
@@ -68,6 +69,7 @@ impl ServoNode {
             switches: cfg.switches(),
             user_flag: cfg.user_flag,
             ring_lockout: false,
+            ring_fault_flag: false,
             cfg: cfg.clone(),
         }
     }
@@ -133,21 +135,52 @@ impl ServoNode {
         }
     }
 
-    /// Status flags at the present state.
+    /// Status flags at the present state. The HOME bit carries the capture flag chosen by
+    /// `capture_flag` (MI913), inverted for a falling-edge `capture_control` (MI912); a
+    /// station ring fault reports FAULT on every node while it is latched.
     pub fn flags(&self) -> StatusFlags {
         let theta = self.motor.position();
         let sw = self.switches.at(self.encoder.counts(theta));
         let (cha, chb) = self.encoder.channels(theta);
+        let capture = match self.cfg.capture_flag {
+            1 => sw.plus_limit,
+            2 => sw.minus_limit,
+            3 => self.user_flag,
+            _ => sw.home,
+        };
         StatusFlags {
             cha,
             chb,
             amp_enabled: self.amp.active(),
-            amp_fault: self.amp.faulted(),
-            home: sw.home,
+            amp_fault: self.amp.faulted() || self.ring_fault_flag,
+            home: capture != (self.cfg.capture_control & 8 != 0),
             plus_limit: sw.plus_limit,
             minus_limit: sw.minus_limit,
             user: self.user_flag,
         }
+    }
+
+    /// The node's parameters.
+    pub fn config(&self) -> &NodePlantConfig {
+        &self.cfg
+    }
+
+    /// Apply new (validated) parameters at run time, keeping the shaft's position and speed
+    /// and the amplifier's enable and fault state.
+    pub fn reconfigure(&mut self, cfg: &NodePlantConfig) {
+        self.amp.set_params(cfg.amp());
+        self.motor.set_params(cfg.motor());
+        self.encoder = Encoder::new(cfg.encoder());
+        self.switches = cfg.switches();
+        if cfg.user_flag != self.cfg.user_flag {
+            self.user_flag = cfg.user_flag;
+        }
+        self.cfg = cfg.clone();
+    }
+
+    /// Report the station's latched ring fault in the FAULT flag.
+    pub fn set_ring_fault_flag(&mut self, on: bool) {
+        self.ring_fault_flag = on;
     }
 
     /// Inject an amplifier fault (latched; ignored while the amplifier is disabled).

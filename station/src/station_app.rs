@@ -12,12 +12,16 @@
 //! the card sees where the coasting motors ended once the ring is back; amplifiers stay off
 //! until the card drops AENA ([`crate::servo_node`]).
 
-use mcc_ring::core::RingApp;
+use std::path::PathBuf;
+
+use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 
 use crate::config::PlantConfig;
+use crate::mi::{Globals, Setup};
 use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
+use crate::station_mi::StationMi;
 
 /// A MACRO station with simulated servo nodes.
 #[derive(Clone, Debug)]
@@ -27,6 +31,7 @@ pub struct StationApp {
     last_time_ns: Option<u64>,
     ticks: u64,
     ring_fault: bool,
+    mi: StationMi,
 }
 
 impl StationApp {
@@ -49,6 +54,13 @@ impl StationApp {
                 "plant.nodes.{n}: node {n} is not a servo node of this station"
             ));
         }
+        let setup = Setup {
+            globals: Globals::from_check(8, 4, 4),
+            nodes: servo_nodes
+                .iter()
+                .map(|&n| (n, plant.node(n).clone()))
+                .collect(),
+        };
         Ok(StationApp {
             servo: servo_nodes
                 .iter()
@@ -58,7 +70,23 @@ impl StationApp {
             last_time_ns: None,
             ticks: 0,
             ring_fault: false,
+            mi: StationMi::new(setup, None),
         })
+    }
+
+    /// Start-up MI values: the config's ring check (MI8 period, MI10 sync packets, MI9
+    /// errors) and where `MS SAVE` keeps the setup (a good state file there replaces the
+    /// config values; a corrupt one is reported).
+    pub fn with_setup(mut self, globals: Globals, state_file: Option<PathBuf>) -> Self {
+        let mut factory = self.mi.setup().clone();
+        factory.globals = globals;
+        self.mi = StationMi::new(factory, state_file);
+        self
+    }
+
+    /// The station's MI-level state.
+    pub fn mi(&self) -> &StationMi {
+        &self.mi
     }
 
     /// Ticks run so far.
@@ -90,6 +118,7 @@ impl StationApp {
 impl RingApp for StationApp {
     fn tick(&mut self, _cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.ticks += 1;
+        let ring_fault = self.mi.tick(regs, ring_fault, &mut self.servo);
         self.ring_fault = ring_fault;
         let dt = match self.last_time_ns {
             Some(t0) if time_ns > t0 => ((time_ns - t0) as f64 * 1e-9).min(MAX_TICK_SECONDS),
@@ -115,6 +144,25 @@ impl RingApp for StationApp {
                 }
             };
         }
+    }
+
+    fn on_check(&mut self, report: &CheckReport) {
+        let t = self.last_time_ns.unwrap_or(0);
+        self.mi.on_check(report, t);
+    }
+
+    fn take_ring_reset(&mut self) -> bool {
+        self.mi.take_ring_reset()
+    }
+
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        if let Some(p) = self.mi.take_check_params() {
+            ring.check_mut().set_params(p);
+        }
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        self.mi.status_extra()
     }
 }
 

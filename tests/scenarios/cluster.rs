@@ -99,18 +99,25 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
 
 #[test]
 fn killed_supervisor_takes_its_members_with_it() {
-    let c = Cluster::up(
-        "orphan",
-        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
-    );
+    // The default (paced) cluster, one member frozen: every member still exits within 3 s of
+    // the orchestrator's SIGKILL (parent-death signal; the orphaned process group of a stopped
+    // member gets SIGHUP + SIGCONT from the kernel).
+    let c = Cluster::up("orphan", &[]);
     let doc = c.status();
     let sup = doc["supervisor"]["pid"].as_u64().unwrap();
     let pids = member_pids(&doc);
+    send_signal(pids[1], "-STOP");
     send_signal(sup, "-KILL");
+    let t0 = std::time::Instant::now();
     wait_until(
         "members to exit after the supervisor died",
         Duration::from_secs(20),
         || pids.iter().all(|p| !pid_alive(*p)),
+    );
+    let took = t0.elapsed();
+    assert!(
+        took < Duration::from_secs(3),
+        "members took {took:?} to exit"
     );
     let out = c.down();
     assert!(out.status.success(), "{}", text(&out.stderr));
@@ -200,6 +207,31 @@ fn bad_config_and_arguments_get_a_message_naming_the_problem() {
     refused(&["up", "--cluster", "../evil", "--detach"], &["--cluster"]);
     refused(&["up", "--clock", "sometimes"], &["sometimes"]);
     refused(&["up", "--rate=-3", "--cluster", &name], &["--rate"]);
+    // The clock keys: refused before anything starts, the key and the problem named.
+    for (args, problem) in [
+        (&["--rtf", "0"][..], "real-time factor"),
+        (&["--rtf=-1"][..], "real-time factor"),
+        (&["--rtf", "NaN"][..], "real-time factor"),
+        (&["--rtf", "1e9"][..], "rtf"),
+        (
+            &["--clock", "lockstep", "--rtf", "2"][..],
+            "only the paced clock",
+        ),
+    ] {
+        let mut a = vec!["up", "--detach", "--cluster", &name];
+        a.extend_from_slice(args);
+        refused(&a, &["rtf", problem]);
+        assert!(!run_base().join(&name).exists(), "{args:?} left a run dir");
+    }
+    std::fs::write(
+        &file,
+        "rate_hz = 100\nmember_timeout_ms = 5\n[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\n",
+    )
+    .unwrap();
+    refused(
+        &up_with_config,
+        &["member_timeout_ms", "shorter than one ring period"],
+    );
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir(run_base());
 }
@@ -309,4 +341,96 @@ fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
     let doc = c.status();
     assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     assert!(doc["rtf"].as_f64().is_some(), "{doc:#}");
+}
+
+#[path = "cluster_load.rs"]
+mod load;
+#[test]
+fn the_foreground_terminal_prints_cluster_events_as_they_happen() {
+    let name = unique("events");
+    let mut guard = Cluster::guard(&name);
+    let mut fg = Foreground::start(&name, &[]);
+    fg.wait_ready(Duration::from_secs(120));
+    let doc = guard.status();
+    guard.pids = all_pids(&doc);
+    let verb = |args: &[&str]| {
+        let mut a = args.to_vec();
+        a.extend_from_slice(&["--cluster", &name]);
+        let out = mcc(&a, Duration::from_secs(60));
+        assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
+    };
+    // A cut: the cards latch (member, class, cycle), each on its own line.
+    verb(&["fault", "station0", "cut"]);
+    let l = fg.wait_line(
+        "ring fault latched: card1 at cycle",
+        Duration::from_secs(60),
+    );
+    assert!(l.starts_with("mcc event: "), "{l}");
+    assert!(l.contains("byte violations (loss of light)"), "{l}");
+    // Mended and reset: healthy again.
+    verb(&["fault", "clear"]);
+    wait_until("the ring to re-lock", Duration::from_secs(60), || {
+        let d = guard.status();
+        d["members"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|m| m["locked"] == true && m["dark"] == false)
+    });
+    wait_until("the ring fault to clear", Duration::from_secs(60), || {
+        for n in 0..2 {
+            guard.ascii(n, &["$$$"]);
+        }
+        let _ = mcc(
+            &["fault", "reset", "--cluster", &name],
+            Duration::from_secs(30),
+        );
+        guard.status()["ring"]["faulted"] == false
+    });
+    fg.wait_line("ring healthy again at cycle", Duration::from_secs(60));
+    // A member killed and restarted.
+    verb(&["fault", "station1", "kill"]);
+    fg.wait_line("station1 is gone", Duration::from_secs(60));
+    verb(&["fault", "station1", "restart"]);
+    fg.wait_line("station1 is back", Duration::from_secs(60));
+    send_signal(u64::from(fg.child.id()), "-INT");
+    let status = fg.wait_exit("on SIGINT", Duration::from_secs(30));
+    assert!(status.success(), "exit status {status}");
+}
+
+#[test]
+fn a_short_soak_on_the_default_clock_has_no_ring_fault_even_under_load() {
+    // Two CPU-bound threads beside the cluster (on top of whatever the machine is doing): the
+    // paced ring may run late, never faulted. `mcc bench soak` fails if a paced ring faults.
+    let out = mcc(
+        &["bench", "soak", "--seconds", "8", "--load", "2"],
+        Duration::from_secs(240),
+    );
+    let t = text(&out.stdout);
+    assert!(out.status.success(), "{t}\n{}", text(&out.stderr));
+    for want in [
+        "bench soak: paced clock at rtf 1",
+        "ring faults: 0 (no member latched one), receive errors during the soak: 0",
+        "achieved rtf",
+        "late cycles:",
+        "start lag p50",
+        "OS timer probe at the same period",
+        "frozen-member wait 10000 ms",
+    ] {
+        assert!(t.contains(want), "missing {want:?} in:\n{t}");
+    }
+    // Bad input is refused before anything starts.
+    let out = mcc(
+        &["bench", "soak", "--seconds", "0"],
+        Duration::from_secs(30),
+    );
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("--minutes/--seconds"),
+        "{}",
+        text(&out.stderr)
+    );
+    let out = mcc(&["bench", "soak", "--rtf", "0"], Duration::from_secs(30));
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("rtf"), "{}", text(&out.stderr));
 }

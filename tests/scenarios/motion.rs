@@ -17,7 +17,7 @@ const DT: f64 = 3_713_707.0 / 8_388_608.0;
 /// 1/(Ix08·32) counts per count at the default Ix08 = 96.
 const D_UNITS: f64 = 3072.0;
 
-enum App {
+pub(crate) enum App {
     Card(Box<CardRingApp>),
     Station(Box<StationApp>),
 }
@@ -43,18 +43,23 @@ impl RingApp for App {
     }
 }
 
-struct Rig {
-    sim: RingSim<App>,
+pub(crate) struct Rig {
+    pub(crate) sim: RingSim<App>,
     session: Session,
 }
 
 impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
     fn new(plant: NodePlantConfig) -> Rig {
-        let cfg = ClusterConfig::default_cluster(1, 1);
+        Rig::with_card(plant, ClusterConfig::default_cluster(1, 1), Profile::Pmac2)
+    }
+
+    /// As [`Rig::new`] with the card of `profile` and the cluster `cfg` (one card, one
+    /// station).
+    pub(crate) fn with_card(plant: NodePlantConfig, cfg: ClusterConfig, profile: Profile) -> Rig {
         let sim = mcc_tests::inproc::ring(
             &cfg,
-            Card::new(Profile::Pmac2),
+            Card::new(profile),
             |sc| {
                 let pc = PlantConfig {
                     defaults: plant.clone(),
@@ -71,21 +76,21 @@ impl Rig {
     }
 
     /// The card (its ring app owns it; the test drives it between ring cycles).
-    fn card(&mut self) -> &mut Card {
+    pub(crate) fn card(&mut self) -> &mut Card {
         match self.sim.app_mut(0) {
             App::Card(a) => &mut a.core().card,
             App::Station(_) => panic!("member 0 is the card"),
         }
     }
 
-    fn cmd(&mut self, line: &str) -> String {
+    pub(crate) fn cmd(&mut self, line: &str) -> String {
         let mut s = self.session.clone();
         let r = mcc_tests::inproc::command(self.card(), &mut s, line);
         self.session = s;
         r
     }
 
-    fn num(&mut self, line: &str) -> f64 {
+    pub(crate) fn num(&mut self, line: &str) -> f64 {
         let r = self.cmd(line);
         r.parse()
             .unwrap_or_else(|_| panic!("{line}: not a number: {r:?}"))
@@ -95,7 +100,7 @@ impl Rig {
         assert!(self.sim.step().completed || self.sim.cycle() > 0);
     }
 
-    fn run(&mut self, n: usize) {
+    pub(crate) fn run(&mut self, n: usize) {
         for _ in 0..n {
             self.sim.step();
         }
@@ -105,22 +110,22 @@ impl Rig {
     /// actual, $004B following error), counts.
     fn d_reg(&mut self, x: u16, off: u16) -> f64 {
         let c = self.card();
-        decode_fixed(c.state.read_long(0x0020 + (x - 1) * 0x3C + off)) / D_UNITS
+        decode_fixed(c.state.read_long(u32::from(0x0020 + (x - 1) * 0x3C + off))) / D_UNITS
     }
 
-    fn station(&mut self) -> &mut StationApp {
+    pub(crate) fn station(&mut self) -> &mut StationApp {
         match self.sim.app_mut(1) {
             App::Station(s) => s,
             App::Card(_) => panic!("member 1 is the station"),
         }
     }
 
-    fn node_position(&mut self, node: u8) -> f64 {
+    pub(crate) fn node_position(&mut self, node: u8) -> f64 {
         self.station().node(node).unwrap().snapshot().position
     }
 
     /// `?` of motor x as (word 1, word 2).
-    fn status(&mut self, x: u16) -> (u32, u32) {
+    pub(crate) fn status(&mut self, x: u16) -> (u32, u32) {
         let r = self.cmd(&format!("#{x}?"));
         let w1 = u32::from_str_radix(&r[..6], 16).unwrap();
         let w2 = u32::from_str_radix(&r[6..12], 16).unwrap();

@@ -468,8 +468,9 @@ fn cut_link_seen_downstream_localised_and_recovered() {
     let reps = sim.run(10);
     // The ring keeps cycling on dark frames, but no sync packet comes back.
     assert!(reps.iter().all(|r| !r.completed));
-    // Loss of light downstream of link 2: a byte violation every cycle. Stations 3 and 4 (5
-    // checks with errors) fault in cycle 15, the sync master (I1004 = 2; a cycle's dark frame
+    // Loss of light downstream of link 2: a byte violation every cycle. Stations 3 and 4 fault
+    // on their MI9 = 4th check with an error (a 16-axis MACRO Station faults on >= MI9 errors)
+    // in cycle 14, the sync master (I1004 = 2; a cycle's dark frame
     // comes back after its tick, so it is read one check later) in cycle 13; stations 1 and 2
     // upstream of the cut stay healthy.
     let faulted: Vec<(u64, usize)> = reps
@@ -482,7 +483,7 @@ fn cut_link_seen_downstream_localised_and_recovered() {
             }
             v
         });
-    assert_eq!(faulted, vec![(13, 0), (15, 3), (15, 4)]);
+    assert_eq!(faulted, vec![(13, 0), (14, 3), (14, 4)]);
     assert!(reps
         .iter()
         .all(|r| r.faults.iter().all(|f| f.0 != 1 && f.0 != 2)));
@@ -580,12 +581,13 @@ fn a_cut_link_is_loss_of_light_downstream_and_faults_within_i1004_checks() {
     let cut_at = sim.cycle();
     let reps = sim.run(40);
     // Downstream of the cut every cycle brings a dark frame: a byte violation. Station 2
-    // faults on its third cycle with an error (max_errors = 2), the sync master on its second
-    // check with one (I1004 = 2; the dark frame of a cycle is read at the next tick): both at
-    // cut + 3, well inside I1001 + 1. No timeout is involved: the ring keeps cycling.
-    for i in [2, 0] {
+    // faults on its second cycle with an error (MI9 = 2: a station faults on >= MI9 errors) at
+    // cut + 2, the sync master on its second check with one (I1004 = 2; the dark frame of a
+    // cycle is read at the next tick) at cut + 3, well inside I1001 + 1. No timeout is
+    // involved: the ring keeps cycling.
+    for (i, after) in [(2, 2), (0, 3)] {
         let at = first_fault_cycle(&reps, i).expect("faulted");
-        assert_eq!(at, cut_at + 3, "member {i}");
+        assert_eq!(at, cut_at + after, "member {i}");
         let st = sim.member(i).status();
         assert!(
             st.errors.byte_violation >= 2 && st.dark,

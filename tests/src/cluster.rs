@@ -216,6 +216,21 @@ impl Foreground {
         }
     }
 
+    /// Read stdout lines until one contains `text`; that line. The test fails naming `text`
+    /// (and the lines seen) after `timeout` or at the end of the output.
+    pub fn wait_line(&self, text: &str, timeout: Duration) -> String {
+        let deadline = Instant::now() + timeout;
+        let mut seen = Vec::new();
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.contains(text) => return l,
+                Ok(l) => seen.push(l),
+                Err(_) => panic!("no line with {text:?} within {timeout:?}: {seen:#?}"),
+            }
+        }
+    }
+
     /// The stdout lines not yet taken, up to the end of the output (or `timeout`).
     pub fn remaining_lines(&self, timeout: Duration) -> Vec<String> {
         let deadline = Instant::now() + timeout;

@@ -5,7 +5,7 @@
 //! card app is wrapped. The card is owned by its ring app (as on the servo thread): reach it
 //! through the app between ring cycles.
 
-use mcc_card::{wire_macro_motors, Card, CardRingApp, Session};
+use mcc_card::{ring_startup, Card, CardHandle, CardRingApp, Session};
 use mcc_ring::config::{ClusterConfig, MemberRef, StationConfig};
 use mcc_ring::control::MemberKind;
 use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
@@ -17,9 +17,21 @@ use mcc_ring::sim::RingSim;
 pub fn ring<A: RingApp>(
     cfg: &ClusterConfig,
     card: Card,
-    mut station: impl FnMut(&StationConfig) -> A,
+    station: impl FnMut(&StationConfig) -> A,
     card_app: impl Fn(CardRingApp) -> A,
 ) -> RingSim<A> {
+    ring_with_handle(cfg, card, station, card_app).0
+}
+
+/// [`ring`], and a handle to the card for host requests (served by the card's ring app at its
+/// ticks, as a host port's are: send them from another thread while the ring runs).
+pub fn ring_with_handle<A: RingApp>(
+    cfg: &ClusterConfig,
+    card: Card,
+    mut station: impl FnMut(&StationConfig) -> A,
+    card_app: impl Fn(CardRingApp) -> A,
+) -> (RingSim<A>, CardHandle) {
+    let mut handle = None;
     let period = cfg.period_ns();
     let n = cfg.ring.order.len();
     let mut card = Some(card);
@@ -35,15 +47,18 @@ pub fn ring<A: RingApp>(
                 let (i995, i996) = (rs.i995, rs.i996);
                 let layer = move |c: &mut Card| {
                     let mut s = Session::default();
-                    let line = format!("I995=${i995:X} I996=${i996:X}");
-                    c.command_line(&mut s, line.as_bytes());
-                    wire_macro_motors(c, &nodes);
+                    let ring = Some((u32::from(i995), i996));
+                    if let Err(e) = ring_startup(c, ring, &nodes, true) {
+                        panic!("test cluster start-up: {e}");
+                    }
                     for (k, v) in &ivars {
                         c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
                     }
                 };
                 layer(&mut c);
-                let app = CardRingApp::for_card(c, &cc.nodes).with_startup(Box::new(layer));
+                let (app, h) = CardRingApp::with_handle(c, &cc.nodes);
+                handle = Some(h);
+                let app = app.with_startup(Box::new(layer));
                 (MemberKind::Card, card_check(&cc.ivars), card_app(app))
             }
             MemberRef::Station(sc) => {
@@ -60,7 +75,8 @@ pub fn ring<A: RingApp>(
         cc.upstream = Some(((pos + n - 1) % n) as u16);
         members.push((MemberCore::new(cc), app));
     }
-    RingSim::new(members, period)
+    let handle = handle.expect("one card in the config");
+    (RingSim::new(members, period), handle)
 }
 
 /// Run one command line on the card; the reply without framing characters.

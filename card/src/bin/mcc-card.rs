@@ -1,6 +1,6 @@
 //! `mcc-card`: one PMAC-style controller card process.
 //!
-//! `mcc-card --standalone [--profile pmac2|turbo] [--ascii-port P] [--eth-port P]
+//! `mcc-card --standalone [--profile pmac2|turbo|power] [--ascii-port P] [--eth-port P]
 //! [--state-file PATH] [--exit-on-stdin-eof] [--max-connections N] [--idle-timeout-s S]
 //! [--request-timeout-ms MS]` runs the card with its host ports and no ring,
 //! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
@@ -20,6 +20,8 @@ enum ProfileArg {
     Pmac2,
     /// Turbo host compatibility: 32 motors, 16 C.S., variables 0-8191, CID.
     Turbo,
+    /// Power PMAC script language (seed 000): motors 0-31, C.S. 0-15, P0-65535.
+    Power,
 }
 
 #[derive(Debug, Parser)]
@@ -105,6 +107,7 @@ fn main() -> ExitCode {
         profile: match args.profile {
             ProfileArg::Pmac2 => Profile::Pmac2,
             ProfileArg::Turbo => Profile::Turbo,
+            ProfileArg::Power => Profile::Power,
         },
         ascii_port: args.ascii_port,
         eth_port: args.eth_port,

@@ -15,7 +15,9 @@ mod tests_servo;
 
 use std::collections::{HashMap, VecDeque};
 
+use crate::domain::Profile;
 use crate::lang::interp::{Budget, Card, Effect, EffectResult, LineRun, Session, Step};
+use crate::lang::ppmac::Power;
 use crate::servo::Servo;
 
 /// Work units one slice of host service may use between two servo ticks (about 50-100 µs of
@@ -65,6 +67,9 @@ struct Job {
     waiting: Option<u64>,
     /// A streamed line whose last part is out: it waits for the host's [`HostRequest::More`].
     parked: bool,
+    /// The line waits for a MACRO auxiliary access on the ring ([`Step::Wait`]): it is tried
+    /// again at the next `serve`, and holds back only its own connection's later requests.
+    aux_wait: bool,
     /// A streamed line's reply framed so far and not yet handed out.
     out: Vec<u8>,
 }
@@ -84,6 +89,8 @@ pub struct CardCore {
     clock: u64,
     /// Why the last image load failed (`None`: it loaded or there was none).
     pub load_error: Option<String>,
+    /// The Power PMAC dialect (a `power` card): it answers every host line.
+    pub power: Option<Power>,
 }
 
 /// Why a loaded image is refused (`None`: it is good, or there is none).
@@ -104,7 +111,9 @@ impl CardCore {
     /// A core for `card`.
     pub fn new(card: Card) -> Self {
         let servo = Servo::new(&card.model);
+        let power = (card.profile() == Profile::Power).then(Power::new);
         CardCore {
+            power,
             card,
             servo,
             sessions: HashMap::new(),
@@ -140,6 +149,7 @@ impl CardCore {
             run: None,
             waiting: None,
             parked: false,
+            aux_wait: false,
             out: Vec::new(),
         });
     }
@@ -182,8 +192,13 @@ impl CardCore {
     /// connection with work queued ([DECISION] the fairness bound: a short request is answered
     /// within `(k + 1)` slices when `k` other connections have work queued). A connection's own
     /// requests run in order. A request whose line waits for an effect holds every request
-    /// (effects are short, and `$$$` must not interleave with other lines).
+    /// (effects are short, and `$$$` must not interleave with other lines). A line waiting
+    /// for a MACRO auxiliary access ([`Step::Wait`], many ring cycles) holds back only its own
+    /// connection's later requests; it is looked at again once per `serve`.
     pub fn serve(&mut self, budget: &mut Budget) {
+        for j in self.jobs.iter_mut() {
+            j.aux_wait = false;
+        }
         while !budget.exhausted() {
             if self.jobs.iter().any(|j| j.waiting.is_some()) {
                 return;
@@ -198,13 +213,28 @@ impl CardCore {
             let mut s = self.session(conn);
             let done = match job.req.clone() {
                 HostRequest::End => {
+                    if let Some(p) = self.power.as_mut() {
+                        p.end(&mut self.card, conn);
+                    }
                     self.card.end_session(&s);
                     self.sessions.remove(&conn);
                     Some(Vec::new())
                 }
                 HostRequest::Control(c) => {
                     budget.spend(1);
-                    Some(self.card.control_char(&mut s, c))
+                    match self.power.as_mut() {
+                        // A gpascii thread has no control-character commands.
+                        Some(_) => Some(Vec::new()),
+                        None => Some(self.card.control_char(&mut s, c)),
+                    }
+                }
+                HostRequest::Line(line) | HostRequest::LineStreamed(line)
+                    if self.power.is_some() =>
+                {
+                    budget.spend(1);
+                    self.power
+                        .as_mut()
+                        .map(|p| p.line(&mut self.card, conn, &line))
                 }
                 HostRequest::More => Some(Vec::new()),
                 HostRequest::Line(line) | HostRequest::LineStreamed(line) => {
@@ -244,6 +274,11 @@ impl CardCore {
                             job.run = Some(run);
                             None
                         }
+                        Step::Wait => {
+                            job.run = Some(run);
+                            job.aux_wait = true;
+                            None
+                        }
                         Step::Effect(e) => {
                             let t = self.next_effect;
                             self.next_effect += 1;
@@ -271,7 +306,7 @@ impl CardCore {
                 }
                 // A line waiting for its effect keeps its place; one that used its slice
                 // goes behind the others (round robin).
-                None if job.waiting.is_some() => self.jobs.insert(i, job),
+                None if job.waiting.is_some() || job.aux_wait => self.jobs.insert(i, job),
                 None => {
                     // The connection's later requests go behind with it, still in order.
                     let (mut same, others): (VecDeque<Job>, VecDeque<Job>) =
@@ -286,11 +321,12 @@ impl CardCore {
         }
     }
 
-    /// The oldest job that may run now: not parked, and no earlier job of its connection.
+    /// The oldest job that may run now: not parked, not waiting for the ring, and no earlier
+    /// job of its connection.
     fn next_runnable(&self) -> Option<usize> {
         let mut seen = std::collections::HashSet::new();
         for (i, j) in self.jobs.iter().enumerate() {
-            if seen.insert(j.conn) && !j.parked {
+            if seen.insert(j.conn) && !j.parked && !j.aux_wait {
                 return Some(i);
             }
         }
@@ -345,6 +381,13 @@ impl CardCore {
     /// Replies ready, with their request tokens.
     pub fn take_replies(&mut self) -> Vec<(u64, HostReply)> {
         std::mem::take(&mut self.replies)
+    }
+
+    /// One servo cycle of the MACRO auxiliary channel: `returned` = registers 2 and 3 of this
+    /// card's node-15 packet as it came back around the ring (the latched copy); returns the
+    /// registers 2 and 3 to send in this cycle's node-15 packet.
+    pub fn aux_tick(&mut self, returned: (u16, u16)) -> (u16, u16) {
+        self.card.model.aux.servo_tick(returned)
     }
 
     /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the interpreter).

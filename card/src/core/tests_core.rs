@@ -182,3 +182,30 @@ fn a_short_query_is_not_held_behind_another_hosts_heavy_line() {
         assert!(slice < 2, "the short query waited more than two slices");
     }
 }
+
+#[test]
+fn a_power_card_answers_every_connection_in_its_own_thread() {
+    let mut c = CardCore::new(Card::new(Profile::Power));
+    c.submit(1, 10, HostRequest::Line(b"#5 echo 1 cid".to_vec()));
+    c.submit(2, 11, HostRequest::Line(b"#".to_vec()));
+    c.submit(3, 10, HostRequest::Line(b"Ldata.Motor".to_vec()));
+    c.submit(4, 10, HostRequest::End);
+    c.submit(5, 10, HostRequest::LineStreamed(b"#".to_vec()));
+    let (_, replies) = serve_all(&mut c);
+    let mut text: Vec<(u64, String)> = replies
+        .into_iter()
+        .map(|(t, r)| (t, String::from_utf8(r.bytes).unwrap()))
+        .collect();
+    text.sort();
+    assert_eq!(
+        text,
+        vec![
+            (1, "604020\r\n\x06\r\n".to_string()),
+            (2, "#0\r\n\x06\r\n".to_string()),
+            (3, "5\r\n\x06\r\n".to_string()),
+            (4, String::new()),
+            // a new connection with the same id starts a fresh thread
+            (5, "#0\r\n\x06\r\n".to_string()),
+        ]
+    );
+}

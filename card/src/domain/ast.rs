@@ -50,6 +50,10 @@ pub enum VarKind {
     Q,
     /// M-variable (pointer).
     M,
+    /// A variable family the command language defines beyond I/P/Q/M (thread-local
+    /// variables, named data-structure elements, ...), numbered by the language. The model's
+    /// extension (`model::ExtVars`) reads and writes it.
+    Ext(u16),
 }
 
 /// Index of a single variable: a constant number or a computed `P(expr)` index.
@@ -157,8 +161,8 @@ pub enum MDef {
     Bits {
         /// X or Y.
         space: XySpace,
-        /// Address 0..=$FFFF.
-        addr: u16,
+        /// Address 0..=$FFFF (PMAC2), 0..=$7FFFF (Turbo).
+        addr: u32,
         /// Lowest bit, 0..=23.
         offset: u8,
         /// 1, 4, 8, 12, 16, 20 or 24.
@@ -167,13 +171,13 @@ pub enum MDef {
         format: MFormat,
     },
     /// `D:{addr}`: 48-bit signed fixed point, X high.
-    D(u16),
+    D(u32),
     /// `L:{addr}`: 48-bit PMAC floating point.
-    L(u16),
+    L(u32),
     /// `F:{addr}`: 32-bit IEEE float in DPRAM layout.
-    F(u16),
+    F(u32),
     /// `DP:{addr}`: 32-bit signed integer in DPRAM layout.
-    Dp(u16),
+    Dp(u32),
     /// `TWB:{mux},{offset},{size}[,{U|S}]`.
     Twb {
         /// Multiplexer address 0..=255.
@@ -213,6 +217,17 @@ pub enum MDef {
 }
 
 impl MDef {
+    /// The memory address the definition points at (`None` for `*` and thumbwheel forms).
+    pub fn address(&self) -> Option<u32> {
+        match *self {
+            MDef::Bits { addr, .. } => Some(addr),
+            MDef::D(a) | MDef::L(a) | MDef::F(a) | MDef::Dp(a) => Some(a),
+            _ => None,
+        }
+    }
+}
+
+impl MDef {
     /// Thumbwheel forms (no synchronous assignment allowed).
     pub fn is_thumbwheel(&self) -> bool {
         matches!(
@@ -244,13 +259,25 @@ pub enum BinOp {
     Or,
     /// `^` (bitwise)
     Xor,
+    /// `<<`: shift left (multiply by 2^n, n rounded)
+    Shl,
+    /// `>>`: shift right (divide by 2^n, n rounded)
+    Shr,
+    /// `%` with C `fmod` semantics: the result takes the dividend's sign, `x % 0` is NaN.
+    FMod,
 }
 
 impl BinOp {
     /// 2 for the high level, 1 for the low level.
     pub fn precedence(self) -> u8 {
         match self {
-            BinOp::Mul | BinOp::Div | BinOp::Mod | BinOp::And => 2,
+            BinOp::Mul
+            | BinOp::Div
+            | BinOp::Mod
+            | BinOp::And
+            | BinOp::Shl
+            | BinOp::Shr
+            | BinOp::FMod => 2,
             BinOp::Add | BinOp::Sub | BinOp::Or | BinOp::Xor => 1,
         }
     }
@@ -285,6 +312,100 @@ pub enum Func {
     Int,
 }
 
+/// Functions with IEEE double semantics whatever the card's I15 (the name says radians or
+/// degrees), taking one or more arguments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum MathFn {
+    /// |x|
+    Abs,
+    /// arc cosine, radians
+    Acos,
+    /// arc cosine, degrees
+    AcosD,
+    /// inverse hyperbolic cosine
+    Acosh,
+    /// arc sine, radians
+    Asin,
+    /// arc sine, degrees
+    AsinD,
+    /// inverse hyperbolic sine
+    Asinh,
+    /// arc tangent, radians
+    Atan,
+    /// arc tangent, degrees
+    AtanD,
+    /// inverse hyperbolic tangent
+    Atanh,
+    /// atan2(y, x), radians
+    Atan2,
+    /// atan2(y, x), degrees
+    Atan2D,
+    /// cube root
+    Cbrt,
+    /// round toward +∞
+    Ceil,
+    /// cosine, radians
+    Cos,
+    /// cosine, degrees
+    CosD,
+    /// hyperbolic cosine
+    Cosh,
+    /// e^x
+    Exp,
+    /// 2^x
+    Exp2,
+    /// round toward −∞
+    Floor,
+    /// integer part toward −∞ (`int(-2.5)` is −3)
+    Int,
+    /// 1 if NaN, else 0
+    IsNan,
+    /// natural logarithm
+    Ln,
+    /// base-2 logarithm
+    Log2,
+    /// base-10 logarithm
+    Log10,
+    /// a·b + c
+    Madd,
+    /// x^y
+    Pow,
+    /// fifth root
+    Qnrt,
+    /// fourth root
+    Qrrt,
+    /// remainder with the classic (floored) rule
+    Rem,
+    /// round to nearest, ties to even
+    Rint,
+    /// random number in [0, 1) (`rnd(n)`: n selects the seed pair)
+    Rnd,
+    /// random number between 0 and the argument
+    RandX,
+    /// set (argument > 0) or read a random seed
+    Seed,
+    /// sine of radians; the cosine goes to the variable of the second argument
+    SinCos,
+    /// sine of degrees; the cosine goes to the variable of the second argument
+    SinCosD,
+    /// −1, 0 or 1
+    Sgn,
+    /// sine, radians
+    Sin,
+    /// sine, degrees
+    SinD,
+    /// hyperbolic sine
+    Sinh,
+    /// square root (NaN for negatives)
+    Sqrt,
+    /// tangent, radians
+    Tan,
+    /// tangent, degrees
+    TanD,
+    /// hyperbolic tangent
+    Tanh,
+}
+
 /// Expression node kinds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum ExprKind {
@@ -298,6 +419,15 @@ pub enum ExprKind {
     Bin(BinOp, Box<Expr>, Box<Expr>),
     /// Function call.
     Call(Func, Box<Expr>),
+    /// Function call with IEEE semantics and any number of arguments.
+    Math(MathFn, Vec<Expr>),
+    /// Bitwise NOT (`~x`, two's complement on the fixed-point value).
+    BitNot(Box<Expr>),
+    /// A condition used as a value: 1 when true, 0 when false.
+    Test(Box<Cond>),
+    /// A flattened multi-dimensional index: Σ round(e)·stride over the parts (the index of a
+    /// variable family with several subscripts).
+    Strided(Vec<(Expr, u32)>),
 }
 
 /// An expression with its position.
@@ -338,6 +468,10 @@ pub enum CmpOp {
     Approx,
     /// `!~`
     NotApprox,
+    /// `~` with |a−b| < 0.5 (Power PMAC)
+    Near,
+    /// `!~` with |a−b| ≥ 0.5 (Power PMAC)
+    NotNear,
 }
 
 /// A condition (inside the parentheses of IF/WHILE/AND/OR). AND binds tighter than OR.
@@ -356,6 +490,10 @@ pub enum Cond {
     And(Box<Cond>, Box<Cond>),
     /// Either.
     Or(Box<Cond>, Box<Cond>),
+    /// True when the value is non-zero (and not NaN).
+    Value(Expr),
+    /// Negation.
+    Not(Box<Cond>),
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -562,6 +700,11 @@ pub enum AssignOp {
     SyncOr,
     /// `^=` (M only)
     SyncXor,
+    /// Compound assignment applied at once: `+=`, `-=`, `*=`, `/=`, `%=`, `&=`, `|=`, `^=`,
+    /// `<<=`, `>>=` (and `++`/`--` as `+= 1`/`-= 1`).
+    Op(BinOp),
+    /// Synchronous compound assignment (applied when the next move starts): `+==`, `-==`, ...
+    SyncOp(BinOp),
 }
 
 /// Extra part of an axis word: `:vel` (PVT) or `^dist` (move until trigger).
@@ -830,6 +973,26 @@ pub enum StmtKind {
         /// Destination.
         dest: VarRef,
     },
+    /// `do` opening a loop whose condition is tested at its end ([`StmtKind::DoWhile`]).
+    Do,
+    /// End of a `do` loop: jump back to its top while the condition is true.
+    DoWhile(Cond),
+    /// Leave the innermost loop or `switch`.
+    Break,
+    /// Jump to the next test of the innermost loop.
+    Continue,
+    /// `switch (expr)` opening a block of [`StmtKind::Case`] labels.
+    Switch(Expr),
+    /// `case c:` label of the innermost switch (execution falls through to the next case).
+    Case(f64),
+    /// `default:` label of the innermost switch.
+    Default,
+    /// End of a switch block.
+    EndSwitch,
+    /// `callsub{data}`: a subroutine call in the same program that passes the local stack.
+    CallSub(Expr),
+    /// `N{n}` without a colon: a synchronous line label (reported, not a jump target).
+    SyncLabel(u32),
     /// `MSW{node},{slavevar},{var}`
     MacroSlaveWrite {
         /// Node.

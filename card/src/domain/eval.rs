@@ -4,7 +4,7 @@
 //! symmetric for negative divisors), bitwise operators on two's-complement fixed point including
 //! fractional bits, trigonometry in degrees or radians per I15, no domain errors.
 
-use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, VarIndex, VarKind, VarRef};
+use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, MathFn, VarIndex, VarKind, VarRef};
 
 /// A variable could not be read (or a computed index is invalid).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -24,6 +24,27 @@ pub(crate) trait Env {
     /// The "cosine" argument of ATAN2: Q0 of the evaluating coordinate system.
     fn atan2_cos(&mut self) -> Result<f64, EvalError> {
         self.var(VarKind::Q, 0)
+    }
+    /// IEEE double semantics (Power PMAC): division by zero gives ±∞, NaN and ∞ are kept.
+    fn ieee(&self) -> bool {
+        false
+    }
+    /// The next pseudo-random number in [0, 1) (`rnd`, `randx`).
+    fn random(&mut self) -> f64 {
+        0.0
+    }
+    /// `seed(v, n)`: set seed `n` to `v` when `v` > 0; the seed's value.
+    fn seed(&mut self, v: f64, n: f64) -> f64 {
+        let _ = n;
+        v
+    }
+    /// Store a value into a variable (`sincos` stores its cosine).
+    fn store(&mut self, kind: VarKind, index: u32, v: f64) -> Result<(), EvalError> {
+        let _ = (kind, index, v);
+        Err(EvalError {
+            code: 3,
+            msg: "variable cannot be written here",
+        })
     }
 }
 
@@ -69,6 +90,7 @@ fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, Eva
             msg: "expression too deep",
         });
     }
+    let ieee = env.ieee();
     let v = match &e.kind {
         ExprKind::Num(n) => n.value,
         ExprKind::Var(v) => read_var(v, env)?,
@@ -76,7 +98,64 @@ fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, Eva
         ExprKind::Bin(op, l, r) => {
             let a = eval_d(l, env, depth + 1)?;
             let b = eval_d(r, env, depth + 1)?;
-            binary(*op, a, b)
+            if ieee {
+                binary_ieee(*op, a, b)
+            } else {
+                binary(*op, a, b)
+            }
+        }
+        ExprKind::Math(f @ (MathFn::SinCos | MathFn::SinCosD), args) => {
+            let a = match args.first() {
+                Some(a) => eval_d(a, env, depth + 1)?,
+                None => 0.0,
+            };
+            let rad = if *f == MathFn::SinCosD {
+                a.to_radians()
+            } else {
+                a
+            };
+            if let Some(ExprKind::Var(v)) = args.get(1).map(|e| &e.kind) {
+                let n = index(&v.index, env)?;
+                env.store(v.kind, n, rad.cos())?;
+            }
+            rad.sin()
+        }
+        ExprKind::Math(MathFn::Rnd, _) => env.random(),
+        ExprKind::Math(MathFn::RandX, args) => {
+            let x = match args.first() {
+                Some(a) => eval_d(a, env, depth + 1)?,
+                None => 1.0,
+            };
+            env.random() * x
+        }
+        ExprKind::Math(MathFn::Seed, args) => {
+            let mut v = [0.0f64; 2];
+            for (slot, a) in v.iter_mut().zip(args) {
+                *slot = eval_d(a, env, depth + 1)?;
+            }
+            env.seed(v[0], v[1])
+        }
+        ExprKind::Math(f, args) => {
+            let mut v = [0.0f64; 3];
+            for (slot, a) in v.iter_mut().zip(args) {
+                *slot = eval_d(a, env, depth + 1)?;
+            }
+            math(*f, v[0], v[1], v[2])
+        }
+        ExprKind::BitNot(i) => -eval_d(i, env, depth + 1)? - 1.0,
+        ExprKind::Test(c) => {
+            if eval_cond_d(c, env, depth + 1)? {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        ExprKind::Strided(parts) => {
+            let mut sum = 0.0;
+            for (e, stride) in parts {
+                sum += eval_d(e, env, depth + 1)?.round() * f64::from(*stride);
+            }
+            sum
         }
         ExprKind::Call(f, a) => {
             let x = eval_d(a, env, depth + 1)?;
@@ -88,7 +167,7 @@ fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, Eva
             function(*f, x, cos, env.radians())
         }
     };
-    Ok(finite(v))
+    Ok(if ieee { v } else { finite(v) })
 }
 
 /// NaN → 0, ±∞ → ±f64::MAX (PMAC has no non-finite values).
@@ -123,7 +202,91 @@ pub(crate) fn binary(op: BinOp, a: f64, b: f64) -> f64 {
         BinOp::And => from_fixed(to_fixed(a) & to_fixed(b)),
         BinOp::Or => from_fixed(to_fixed(a) | to_fixed(b)),
         BinOp::Xor => from_fixed(to_fixed(a) ^ to_fixed(b)),
+        BinOp::Shl => a * 2f64.powf(b),
+        BinOp::Shr => a / 2f64.powf(b),
+        BinOp::FMod => a % b,
     })
+}
+
+/// A binary operator with IEEE double semantics (Power PMAC): `x / 0` is ±∞, `x % 0` NaN,
+/// `%` takes the dividend's sign (C `fmod`), bitwise operators act on fixed point including
+/// fractional bits.
+pub(crate) fn binary_ieee(op: BinOp, a: f64, b: f64) -> f64 {
+    match op {
+        BinOp::Div => a / b,
+        BinOp::Mod | BinOp::FMod => a % b,
+        BinOp::And | BinOp::Or | BinOp::Xor if !(a.is_finite() && b.is_finite()) => f64::NAN,
+        _ => binary(op, a, b),
+    }
+}
+
+/// The IEEE functions (the second and third arguments are 0 when not given).
+pub(crate) fn math(f: MathFn, x: f64, y: f64, z: f64) -> f64 {
+    use MathFn as M;
+    match f {
+        M::Abs => x.abs(),
+        M::Acos => x.acos(),
+        M::AcosD => x.acos().to_degrees(),
+        M::Acosh => x.acosh(),
+        M::Asin => x.asin(),
+        M::AsinD => x.asin().to_degrees(),
+        M::Asinh => x.asinh(),
+        M::Atan => x.atan(),
+        M::AtanD => x.atan().to_degrees(),
+        M::Atanh => x.atanh(),
+        M::Atan2 => x.atan2(y),
+        M::Atan2D => x.atan2(y).to_degrees(),
+        M::Cbrt => x.cbrt(),
+        M::Ceil => x.ceil(),
+        M::Cos => x.cos(),
+        M::CosD => x.to_radians().cos(),
+        M::Cosh => x.cosh(),
+        M::Exp => x.exp(),
+        M::Exp2 => x.exp2(),
+        M::Floor | M::Int => x.floor(),
+        M::IsNan => {
+            if x.is_nan() {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        M::Ln => x.ln(),
+        M::Log2 => x.log2(),
+        M::Log10 => x.log10(),
+        M::Madd => x.mul_add(y, z),
+        M::Pow => x.powf(y),
+        M::Qnrt => x.signum() * x.abs().powf(0.2),
+        M::Qrrt => x.powf(0.25),
+        M::Rem => {
+            if y == 0.0 {
+                f64::NAN
+            } else {
+                modulo(x, y)
+            }
+        }
+        M::Rint => (x + 0.5).floor(),
+        // Evaluated with the environment (random state, variables) in `eval_d`.
+        M::Rnd | M::RandX | M::Seed => 0.0,
+        M::SinCos => x.sin(),
+        M::SinCosD => x.to_radians().sin(),
+        M::Sgn => {
+            if x > 0.0 {
+                1.0
+            } else if x < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        }
+        M::Sin => x.sin(),
+        M::SinD => x.to_radians().sin(),
+        M::Sinh => x.sinh(),
+        M::Sqrt => x.sqrt(),
+        M::Tan => x.tan(),
+        M::TanD => x.to_radians().tan(),
+        M::Tanh => x.tanh(),
+    }
 }
 
 /// `a % n`: n > 0 → [0, n); n < 0 → [n, −n); n = 0 → 0.
@@ -191,6 +354,8 @@ pub(crate) fn compare(op: CmpOp, a: f64, b: f64) -> bool {
         CmpOp::NotLt => a >= b,
         CmpOp::Approx => (a - b).abs() <= 1.0,
         CmpOp::NotApprox => (a - b).abs() > 1.0,
+        CmpOp::Near => (a - b).abs() < 0.5,
+        CmpOp::NotNear => (a - b).abs() >= 0.5,
     }
 }
 
@@ -222,6 +387,11 @@ fn eval_cond_d<E: Env + ?Sized>(c: &Cond, env: &mut E, depth: u32) -> Result<boo
             let y = eval_cond_d(b, env, depth + 1)?;
             x || y
         }
+        Cond::Value(e) => {
+            let v = eval_d(e, env, depth + 1)?;
+            v != 0.0 && !v.is_nan()
+        }
+        Cond::Not(c) => !eval_cond_d(c, env, depth + 1)?,
     })
 }
 

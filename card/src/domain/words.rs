@@ -18,8 +18,11 @@ fn expr_words(e: &Expr) -> u32 {
             index: VarIndex::Expr(i),
             ..
         }) => 1 + expr_words(i),
-        ExprKind::Neg(i) | ExprKind::Call(_, i) => 1 + expr_words(i),
+        ExprKind::Neg(i) | ExprKind::Call(_, i) | ExprKind::BitNot(i) => 1 + expr_words(i),
         ExprKind::Bin(_, l, r) => 2 + expr_words(l) + expr_words(r),
+        ExprKind::Math(_, args) => 1 + args.iter().map(expr_words).sum::<u32>(),
+        ExprKind::Strided(parts) => parts.iter().map(|(e, _)| 1 + expr_words(e)).sum::<u32>(),
+        ExprKind::Test(c) => cond_words(c),
     }
 }
 
@@ -27,6 +30,8 @@ fn cond_words(c: &Cond) -> u32 {
     match c {
         Cond::Cmp { lhs, rhs, .. } => 1 + expr_words(lhs) + expr_words(rhs),
         Cond::And(a, b) | Cond::Or(a, b) => 1 + cond_words(a) + cond_words(b),
+        Cond::Value(e) => 1 + expr_words(e),
+        Cond::Not(c) => 1 + cond_words(c),
     }
 }
 
@@ -57,8 +62,11 @@ pub(crate) fn word_count(s: &Stmt) -> u32 {
         S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => {
             1 + expr_words(d)
         }
-        S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) => 1 + expr_words(d),
-        S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) => 1 + cond_words(c),
+        S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) | S::CallSub(d) => {
+            1 + expr_words(d)
+        }
+        S::Switch(d) => 1 + expr_words(d),
+        S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) | S::DoWhile(c) => 1 + cond_words(c),
         S::IfLine(c, b) | S::WhileLine(c, b) => 1 + cond_words(c) + body(b),
         S::Else(b) => 1 + body(b),
         S::Call(d, a) | S::Code(_, d, a) => {

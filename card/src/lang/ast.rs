@@ -417,6 +417,15 @@ pub(crate) enum CmdKind {
         /// Write value.
         value: Option<Number>,
     },
+    /// `MS{node},MI{first}..{last}`: report a range of station variables.
+    MacroSlaveRange {
+        /// Node.
+        node: u32,
+        /// First MI-variable.
+        first: u32,
+        /// Last MI-variable.
+        last: u32,
+    },
     /// `MSR{node},{slavevar},{var}`
     MacroSlaveRead {
         /// Node.

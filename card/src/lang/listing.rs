@@ -33,6 +33,8 @@ pub(crate) fn var(v: &VarRef) -> String {
         VarKind::P => 'P',
         VarKind::Q => 'Q',
         VarKind::M => 'M',
+        // Families of another dialect never reach a PMAC listing.
+        VarKind::Ext(_) => 'X',
     };
     match &v.index {
         VarIndex::Const(n) => format!("{l}{n}"),
@@ -67,6 +69,8 @@ fn op_char(op: BinOp) -> char {
         BinOp::Sub => '-',
         BinOp::Or => '|',
         BinOp::Xor => '^',
+        // Not PMAC operators (another dialect's programs are listed by that dialect).
+        BinOp::Shl | BinOp::Shr | BinOp::FMod => '?',
     }
 }
 
@@ -99,6 +103,10 @@ fn write_expr(s: &mut String, e: &Expr) {
             s.push(op_char(*op));
             wrap(s, r, rp);
         }
+        // Not PMAC expressions (another dialect's programs are listed by that dialect).
+        ExprKind::Math(..) | ExprKind::BitNot(_) | ExprKind::Test(_) | ExprKind::Strided(_) => {
+            s.push('?')
+        }
     }
 }
 
@@ -130,6 +138,8 @@ fn cmp_str(op: CmpOp) -> &'static str {
         CmpOp::NotLt => "!<",
         CmpOp::Approx => "~",
         CmpOp::NotApprox => "!~",
+        CmpOp::Near => "~",
+        CmpOp::NotNear => "!~",
     }
 }
 
@@ -143,6 +153,8 @@ pub(crate) fn cond(c: &Cond) -> String {
             format!("{} AND {}", group(a, pa), group(b, pb))
         }
         Cond::Or(a, b) => format!("{} OR {}", cond(a), group(b, matches!(**b, Cond::Or(..)))),
+        Cond::Value(e) => expr(e),
+        Cond::Not(c) => format!("!({})", cond(c)),
     }
 }
 
@@ -242,6 +254,17 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
     use StmtKind as S;
     match &s.kind {
         S::Label(n) => format!("N{n}"),
+        // Statements of another dialect (listed by that dialect).
+        S::Do
+        | S::DoWhile(_)
+        | S::Break
+        | S::Continue
+        | S::Switch(_)
+        | S::Case(_)
+        | S::Default
+        | S::EndSwitch
+        | S::CallSub(_)
+        | S::SyncLabel(_) => "?".into(),
         S::Assign { target, op, value } => {
             let o = match op {
                 AssignOp::Set => "=",
@@ -249,6 +272,8 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
                 AssignOp::SyncAnd => "&=",
                 AssignOp::SyncOr => "|=",
                 AssignOp::SyncXor => "^=",
+                // Not PMAC assignments (another dialect's programs are listed by it).
+                AssignOp::Op(_) | AssignOp::SyncOp(_) => "?=",
             };
             format!("{}{o}{}", var(target), expr(value))
         }
@@ -422,7 +447,10 @@ fn fmt_letter(f: MFormat) -> char {
 
 /// `X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002C`, `*` (the `Mn->` reply body).
 impl fmt::Display for MDef {
+    /// `X:$C001,24,S`; the alternate form (`{:#}`) prints six address digits as a Turbo card
+    /// does (`D:$00008B`).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = if f.alternate() { 6 } else { 4 };
         match *self {
             MDef::SelfRef => write!(f, "*"),
             MDef::Bits {
@@ -434,19 +462,19 @@ impl fmt::Display for MDef {
             } => {
                 let sp = if space == XySpace::X { 'X' } else { 'Y' };
                 match width {
-                    1 => write!(f, "{sp}:${addr:04X},{offset}"),
-                    24 => write!(f, "{sp}:${addr:04X},24,{}", fmt_letter(format)),
+                    1 => write!(f, "{sp}:${addr:0w$X},{offset}"),
+                    24 => write!(f, "{sp}:${addr:0w$X},24,{}", fmt_letter(format)),
                     _ => write!(
                         f,
-                        "{sp}:${addr:04X},{offset},{width},{}",
+                        "{sp}:${addr:0w$X},{offset},{width},{}",
                         fmt_letter(format)
                     ),
                 }
             }
-            MDef::D(a) => write!(f, "D:${a:04X}"),
-            MDef::L(a) => write!(f, "L:${a:04X}"),
-            MDef::F(a) => write!(f, "F:${a:04X}"),
-            MDef::Dp(a) => write!(f, "DP:${a:04X}"),
+            MDef::D(a) => write!(f, "D:${a:0w$X}"),
+            MDef::L(a) => write!(f, "L:${a:0w$X}"),
+            MDef::F(a) => write!(f, "F:${a:0w$X}"),
+            MDef::Dp(a) => write!(f, "DP:${a:0w$X}"),
             MDef::Twb {
                 mux,
                 offset,

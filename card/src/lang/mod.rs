@@ -19,6 +19,7 @@ mod parse_expr;
 mod parse_mdef;
 mod parse_online;
 mod parse_program;
+pub(crate) mod ppmac;
 
 #[cfg(test)]
 mod tests_eval;

@@ -475,6 +475,15 @@ pub(crate) fn macro_cmd(c: &mut Cursor, kw: MacroKw) -> Result<CmdKind, ParseErr
             let node = node(c)?;
             comma(c)?;
             let var = slave_var(c)?;
+            if let SlaveVar::Mi(first) = var {
+                if c.eat_ws(b'.') {
+                    if !c.eat(b'.') {
+                        return Err(c.syntax("'..' expected"));
+                    }
+                    let last = c.req_uint("last station variable number expected")?;
+                    return Ok(CmdKind::MacroSlaveRange { node, first, last });
+                }
+            }
             Ok(CmdKind::MacroSlaveVar {
                 node,
                 var,

@@ -76,9 +76,13 @@ pub(crate) fn axis_def(c: &mut Cursor, motor: u32) -> Result<CmdKind, ParseError
     Ok(CmdKind::AxisDefine(motor, AxisDef { terms, offset }))
 }
 
-fn addr16(c: &mut Cursor) -> Result<u16, ParseError> {
+/// A memory address: 24 bits at most here; the profile's own limit (PMAC2 $FFFF, Turbo
+/// $7FFFF) is checked when the definition is stored.
+fn addr16(c: &mut Cursor) -> Result<u32, ParseError> {
     let n = c.req_uint("address expected")?;
-    u16::try_from(n).map_err(|_| c.syntax("address above $FFFF"))
+    Some(n)
+        .filter(|&a| a <= 0xFF_FFFF)
+        .ok_or_else(|| c.syntax("address above $FFFFFF"))
 }
 
 fn small(c: &mut Cursor, max: u32, what: &'static str) -> Result<u8, ParseError> {

@@ -237,7 +237,7 @@ pub(crate) fn statement(
             return Ok(None);
         }
         match vk {
-            VarKind::P | VarKind::Q => return Ok(None),
+            VarKind::P | VarKind::Q | VarKind::Ext(_) => return Ok(None),
             VarKind::I => {} // circle centre vector, below
             VarKind::M => {
                 c.bump();

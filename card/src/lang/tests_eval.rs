@@ -7,7 +7,7 @@ use crate::lang::{LineParser, Mode};
 use std::collections::HashMap;
 
 struct TestEnv {
-    vars: HashMap<(u8, u32), f64>,
+    vars: HashMap<(VarKind, u32), f64>,
     radians: bool,
 }
 
@@ -19,7 +19,7 @@ impl Env for TestEnv {
                 msg: "no such variable",
             });
         }
-        Ok(*self.vars.get(&(kind as u8, index)).unwrap_or(&0.0))
+        Ok(*self.vars.get(&(kind, index)).unwrap_or(&0.0))
     }
     fn radians(&self) -> bool {
         self.radians
@@ -28,10 +28,10 @@ impl Env for TestEnv {
 
 fn env() -> TestEnv {
     let mut vars = HashMap::new();
-    vars.insert((VarKind::P as u8, 1), 25.0);
-    vars.insert((VarKind::P as u8, 2), 2.0);
-    vars.insert((VarKind::P as u8, 5), 7.0);
-    vars.insert((VarKind::Q as u8, 0), -1.0);
+    vars.insert((VarKind::P, 1), 25.0);
+    vars.insert((VarKind::P, 2), 2.0);
+    vars.insert((VarKind::P, 5), 7.0);
+    vars.insert((VarKind::Q, 0), -1.0);
     TestEnv {
         vars,
         radians: false,

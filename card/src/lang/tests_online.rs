@@ -414,7 +414,7 @@ fn m_variable_definitions() {
         "M1->X:$C000,2,8",
         "M1->X:$C000,20,8",
         "M1->X:$C000,0,7",
-        "M1->X:$10000,0",
+        "M1->X:$1000000,0",
         "M1->TWR:3,0",
     ] {
         assert_eq!(err(bad.as_bytes()).code, ERR_SYNTAX, "{bad}");

@@ -8,7 +8,10 @@ use super::actions::{Action, MAX_ACTIONS};
 use super::buffers::Buffers;
 use super::card_state::CardState;
 use super::gather::{GatherBuffer, GATHER_ON};
+use super::macro_aux::{AuxFailure, AuxSettings, MacroAux};
+use super::memory::Space;
 use super::progline::ProgLine;
+use super::regmap::AUX_ERROR_VALUE;
 use super::runstate::RunState;
 use super::unsolicited::UNSOLICITED_LIMIT;
 use crate::domain::Profile;
@@ -18,7 +21,7 @@ use crate::domain::Profile;
 pub(crate) fn user_memory_words(profile: Profile) -> u32 {
     match profile {
         Profile::Pmac2 => 34_816,
-        Profile::Turbo => 4 * 34_816,
+        Profile::Turbo | Profile::Power => 4 * 34_816,
     }
 }
 
@@ -43,6 +46,15 @@ pub struct CardModel {
     /// Number of resets (`$$$`, `$$$***`) so far: the servo loop re-initialises its motors
     /// when it changes.
     resets: u64,
+    /// The MACRO auxiliary channel (node 15; `MS`/`MX` commands, PLC `MSR`/`MSW`/`MXR`/`MXW`).
+    pub(crate) aux: MacroAux,
+    /// The command language's own variable families (see [`super::ExtVars`]).
+    pub(super) ext: Option<Box<dyn super::ExtVars>>,
+    /// The thread the program engine (or the interpreter) is evaluating for: whose locals
+    /// extension variables are.
+    pub exec: super::ExtAt,
+    /// State of the pseudo-random generator (`rnd`, `randx`).
+    pub rng: [u64; 2],
 }
 
 impl CardModel {
@@ -59,6 +71,10 @@ impl CardModel {
             output: Vec::new(),
             gather: GatherBuffer::default(),
             resets: 0,
+            aux: MacroAux::default(),
+            ext: None,
+            exec: super::ExtAt::default(),
+            rng: [0x853C_49E6_748F_EA9B, 0xDA3E_39CB_94B9_5BDB],
         };
         c.state.power_on();
         c.sync_motor_coords();
@@ -117,6 +133,23 @@ impl CardModel {
     /// Count a reset (the servo loop and the program engine start afresh at their next tick).
     pub fn note_reset(&mut self) {
         self.resets += 1;
+        self.aux.reset();
+    }
+
+    /// The ring settings the auxiliary preconditions read (I995, I1000, I1003).
+    pub(crate) fn aux_settings(&self) -> AuxSettings {
+        let i = |n: u32| self.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
+        AuxSettings {
+            i995: i(995),
+            i1000: i(1000),
+            i1003: i(1003),
+        }
+    }
+
+    /// An auxiliary access failed: `???` word 1 bit 5 and X:$0798 (pmac-commands §3.5).
+    pub(crate) fn aux_failed(&mut self, f: AuxFailure) {
+        self.state.global.macro_aux_error = true;
+        self.state.write(Space::X, AUX_ERROR_VALUE, f.x0798);
     }
 
     /// Whether the interpreted PLC `n` exists, is enabled and not paused (for the PLC runner).
@@ -150,6 +183,15 @@ impl CardModel {
             let cut = self.output.len() - UNSOLICITED_LIMIT;
             self.output.drain(..cut);
         }
+    }
+
+    /// The next pseudo-random number in [0, 1) (xorshift128+; deterministic from the seeds).
+    pub fn random(&mut self) -> f64 {
+        let [mut s1, s0] = self.rng;
+        let r = s1.wrapping_add(s0);
+        s1 ^= s1 << 23;
+        self.rng = [s0, s1 ^ s0 ^ (s1 >> 17) ^ (s0 >> 26)];
+        (r >> 11) as f64 / (1u64 << 53) as f64
     }
 
     /// Program output produced since the last call (`SEND`, program `CMD` replies).

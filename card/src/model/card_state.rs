@@ -7,11 +7,11 @@ use super::ivars::{IVarSpec, IVarTable};
 use super::memory::{Memory, Space};
 use super::mvar::{self, WordAccess};
 use super::number::{format_hex, format_value};
-use super::regmap::{self, Special};
+use super::regmap::{Addr, MemMap, Special};
 use super::status::{CsFlags, GlobalFlags, MotorFlags};
 use super::vars::VarStore;
 use crate::domain::ast::MDef;
-use crate::domain::profile::{limits, Limits, Profile};
+use crate::domain::profile::{limits, ring_ivars, Limits, Profile, RingIvars};
 
 /// I995 bits that are status (cleared when read): 0-3 and 6.
 pub(crate) const I995_STATUS_BITS: u32 = 0x4F;
@@ -21,6 +21,8 @@ pub(crate) const I995_STATUS_BITS: u32 = 0x4F;
 pub struct CardState {
     profile: Profile,
     limits: Limits,
+    map: MemMap,
+    ring: RingIvars,
     /// I, P, Q storage (direct access for INTERP; I995/I996 go through [`CardState::read_ivar`]).
     pub vars: VarStore,
     mdefs: Vec<MDef>,
@@ -49,10 +51,12 @@ impl CardState {
         let mut s = CardState {
             profile,
             limits,
-            vars: VarStore::new(IVarTable::new(profile), limits.coords),
+            map: MemMap::of(profile),
+            ring: ring_ivars(profile),
+            vars: VarStore::for_limits(IVarTable::new(profile), &limits),
             mdefs: vec![MDef::SelfRef; n],
             mself: vec![0; n],
-            memory: Memory::default(),
+            memory: Memory::new(profile),
             motors: vec![MotorFlags::default(); limits.motors as usize],
             coords: vec![CsFlags::default(); limits.coords as usize],
             global: GlobalFlags::default(),
@@ -74,30 +78,34 @@ impl CardState {
         self.limits
     }
 
-    /// Default memory contents: the Ultralite encoder conversion table (node 0,1,4,5,8,9,12,13
-    /// → `$28C0An` + `$FFFFFF`), I995/I996 mirrors from the I-variable defaults.
+    /// The profile's memory map.
+    pub(crate) fn map(&self) -> &MemMap {
+        &self.map
+    }
+
+    /// The profile's ring I-variable numbers.
+    pub(crate) fn ring_ivars(&self) -> RingIvars {
+        self.ring
+    }
+
+    /// Default memory contents: on PMAC2 the Ultralite encoder conversion table (node
+    /// 0,1,4,5,8,9,12,13 → `$28C0An` + `$FFFFFF`; on Turbo the table is I8000-I8191, whose
+    /// defaults are in the I-variable table), and the ring I-variable mirrors.
     fn factory_memory(&mut self) {
-        for k in 0..0x20u16 {
-            self.memory.write(Space::Y, regmap::ECT_BASE + k, 0);
+        if self.map.ect_ivar.is_none() {
+            for k in 0..0x20 {
+                self.memory.write(Space::Y, self.map.ect_start + k, 0);
+            }
+            for x in 1..=8u16 {
+                let a = self.map.ect_start + 2 * Addr::from(x - 1);
+                let node_reg = super::ivars::pmac2::motor_node_reg(x);
+                self.memory.write(Space::Y, a, 0x280000 | node_reg);
+                self.memory.write(Space::Y, a + 1, 0xFF_FFFF);
+            }
         }
-        for x in 1..=8u16 {
-            let a = regmap::ECT_BASE + 2 * (x - 1);
-            let node_reg = super::ivars::pmac2::motor_node_reg(x);
-            self.memory.write(Space::Y, a, 0x280000 | node_reg);
-            self.memory.write(Space::Y, a + 1, 0xFF_FFFF);
-        }
-        for n in [995u16, 996] {
-            let d = self
-                .vars
-                .table()
-                .get(n as u32)
-                .map(|s| s.default)
-                .unwrap_or(0.0);
-            let addr = if n == 995 {
-                regmap::I995_ADDR
-            } else {
-                regmap::I996_ADDR
-            };
+        for n in [self.ring.cfg, self.ring.nodes] {
+            let d = self.vars.table().get(n).map(|s| s.default).unwrap_or(0.0);
+            let addr = self.ivar_mirror(n).unwrap_or(self.map.ring_cfg_addr);
             self.memory.write(Space::Y, addr, d as u32);
         }
     }
@@ -112,11 +120,13 @@ impl CardState {
             .ok_or(StateError::NoSuchVariable(n))
     }
 
-    fn ivar_mirror(&self, n: u32) -> Option<u16> {
-        match (self.profile, n) {
-            (_, 995) => Some(regmap::I995_ADDR),
-            (_, 996) => Some(regmap::I996_ADDR),
-            _ => None,
+    fn ivar_mirror(&self, n: u32) -> Option<Addr> {
+        if n == self.ring.cfg {
+            Some(self.map.ring_cfg_addr)
+        } else if n == self.ring.nodes {
+            Some(self.map.ring_nodes_addr)
+        } else {
+            None
         }
     }
 
@@ -128,13 +138,14 @@ impl CardState {
         }
     }
 
-    /// Value of I`n` as a host query sees it: reading I995 clears its status bits.
+    /// Value of I`n` as a host query sees it: reading the ring configuration variable (I995,
+    /// Turbo I6840) clears its status bits.
     pub fn read_ivar(&mut self, n: u32) -> Result<f64, StateError> {
         let v = self.peek_ivar(n)?;
-        if n == 995 {
-            let w = self.memory.read(Space::Y, regmap::I995_ADDR);
-            self.memory
-                .write(Space::Y, regmap::I995_ADDR, w & !I995_STATUS_BITS);
+        if n == self.ring.cfg {
+            let a = self.map.ring_cfg_addr;
+            let w = self.memory.read(Space::Y, a);
+            self.memory.write(Space::Y, a, w & !I995_STATUS_BITS);
         }
         Ok(v)
     }
@@ -191,14 +202,20 @@ impl CardState {
             return Err(StateError::NoSuchVariable(n));
         }
         mvar::validate(&def)?;
+        if def.address().is_some_and(|a| a > self.map.max_addr) {
+            return Err(StateError::BadDefinition(
+                "address beyond the memory map".into(),
+            ));
+        }
         self.mdefs[n as usize] = def;
         self.mself[n as usize] = 0;
         Ok(())
     }
 
-    /// Reply text for `Mn->` per I9: `Y:$C0A0,8,16,S` or `Mn->Y:$C0A0,8,16,S`.
+    /// Reply text for `Mn->` per I9: `Y:$C0A0,8,16,S` or `Mn->Y:$C0A0,8,16,S` (Turbo:
+    /// six address digits, `Y:$0000C0,0`).
     pub fn mdef_text(&self, n: u32) -> Result<String, StateError> {
-        let body = mvar::format_def(&self.mdef(n)?);
+        let body = mvar::format_def(&self.mdef(n)?, self.map.addr_digits);
         Ok(if self.i9() & 1 != 0 {
             format!("M{n}->{body}")
         } else {
@@ -249,8 +266,8 @@ impl CardState {
     /// Read a 24-bit word as `R`, `RH`, M-variables and the motion code see it: status words
     /// are computed from the flags, P/Q areas show the 48-bit float halves, MACRO node
     /// registers give the latched feedback, Y:$C08F (I995) clears its status bits.
-    pub fn read(&mut self, space: Space, addr: u16) -> u32 {
-        match regmap::classify(space, addr) {
+    pub fn read(&mut self, space: Space, addr: Addr) -> u32 {
+        match self.map.classify(space, addr) {
             Some(Special::Global(w)) => self.global_status()[w as usize - 1],
             Some(Special::Motor(x, w)) if x <= self.limits.motors => {
                 self.motor_status(x)[w as usize - 1]
@@ -258,32 +275,33 @@ impl CardState {
             Some(Special::Coord(x, w)) if x <= self.limits.coords => {
                 self.cs_words(x)[w as usize - 1]
             }
-            Some(Special::IVar(995)) => {
+            Some(Special::RingCfg) => {
                 let w = self.memory.read(Space::Y, addr);
                 self.memory.write(Space::Y, addr, w & !I995_STATUS_BITS);
                 w
             }
-            Some(Special::P(n)) => half(encode_float(self.vars.p(n as u32).unwrap_or(0.0)), space),
-            Some(Special::Q(n)) => {
-                half(encode_float(self.vars.q(1, n as u32).unwrap_or(0.0)), space)
-            }
+            Some(Special::EctWord(n)) => self.vars.i(n).unwrap_or(0.0) as i64 as u32 & 0xFF_FFFF,
+            Some(Special::P(n)) => half(encode_float(self.vars.p(n).unwrap_or(0.0)), space),
+            Some(Special::Q(n)) => half(encode_float(self.vars.q(1, n).unwrap_or(0.0)), space),
             _ => self.memory.read(space, addr),
         }
     }
 
     /// Write a 24-bit word (`W`, M-variables): status words set the flags, P/Q halves update
     /// the variable, I995/I996 mirrors update the I-variable, node registers take the command.
-    pub fn write(&mut self, space: Space, addr: u16, value: u32) {
+    pub fn write(&mut self, space: Space, addr: Addr, value: u32) {
         let value = value & 0xFF_FFFF;
-        match regmap::classify(space, addr) {
+        match self.map.classify(space, addr) {
             Some(Special::Global(1)) => self.global.set_word1(value),
             Some(Special::Global(_)) => {}
             Some(Special::Motor(x, w)) if x <= self.limits.motors => {
+                let turbo = self.profile == Profile::Turbo;
                 let f = &mut self.motors[x as usize - 1];
-                if w == 1 {
-                    f.set_word1(value)
-                } else {
-                    f.set_word2(value)
+                match (w, turbo) {
+                    (1, false) => f.set_word1(value),
+                    (_, false) => f.set_word2(value),
+                    (1, true) => f.set_turbo_word1(value),
+                    (_, true) => f.set_turbo_word2(value),
                 }
             }
             Some(Special::Coord(x, w)) if x <= self.limits.coords => {
@@ -294,33 +312,39 @@ impl CardState {
                     f.set_word2(value)
                 }
             }
-            Some(Special::IVar(n)) => {
+            Some(Special::RingCfg) | Some(Special::RingNodes) => {
                 self.memory.write(space, addr, value);
-                self.vars.force_i(n as u32, value as f64);
+                let n = if addr == self.map.ring_cfg_addr {
+                    self.ring.cfg
+                } else {
+                    self.ring.nodes
+                };
+                self.vars.force_i(n, value as f64);
             }
+            Some(Special::EctWord(n)) => self.vars.force_i(n, value as f64),
             Some(Special::P(n)) => {
-                let old = encode_float(self.vars.p(n as u32).unwrap_or(0.0));
+                let old = encode_float(self.vars.p(n).unwrap_or(0.0));
                 let _ = self
                     .vars
-                    .set_p(n as u32, decode_float(set_half(old, space, value)));
+                    .set_p(n, decode_float(set_half(old, space, value)));
             }
             Some(Special::Q(n)) => {
-                let old = encode_float(self.vars.q(1, n as u32).unwrap_or(0.0));
+                let old = encode_float(self.vars.q(1, n).unwrap_or(0.0));
                 let _ = self
                     .vars
-                    .set_q(1, n as u32, decode_float(set_half(old, space, value)));
+                    .set_q(1, n, decode_float(set_half(old, space, value)));
             }
             _ => self.memory.write(space, addr, value),
         }
     }
 
     /// Read the 48-bit long word at `addr` (X high), as `RL` shows it.
-    pub fn read_long(&mut self, addr: u16) -> u64 {
+    pub fn read_long(&mut self, addr: Addr) -> u64 {
         mvar::long(self, addr)
     }
 
     /// Write the 48-bit long word at `addr` (X high), as `WL` does.
-    pub fn write_long(&mut self, addr: u16, w: u64) {
+    pub fn write_long(&mut self, addr: Addr, w: u64) {
         mvar::set_long(self, addr, w)
     }
 
@@ -336,23 +360,26 @@ impl CardState {
         self.memory.set_node_feedback(node, regs)
     }
 
-    /// OR ring status bits (I995 bits 0-3 error, bit 6 sync packet received) into I995.
+    /// OR ring status bits (bits 0-3 error, bit 6 sync packet received) into the ring
+    /// configuration variable (I995 / I6840).
     pub fn latch_ring_status(&mut self, bits: u32) {
-        let w = self.memory.read(Space::Y, regmap::I995_ADDR);
+        let a = self.map.ring_cfg_addr;
+        let w = self.memory.read(Space::Y, a);
         self.memory
-            .write(Space::Y, regmap::I995_ADDR, w | (bits & I995_STATUS_BITS));
+            .write(Space::Y, a, w | (bits & I995_STATUS_BITS));
     }
 
-    /// Auxiliary images of `node`: `(X:$0F7n read/status image, Y:$0F7n write/command image)`.
+    /// Auxiliary images of `node`: `(X read/status image, Y write/command image)` (PMAC2
+    /// $0F7n, Turbo $344n).
     pub fn aux_images(&self, node: usize) -> (u32, u32) {
-        let a = regmap::AUX_IMAGE_BASE + (node % 16) as u16;
+        let a = self.map.aux_image(node);
         (self.memory.read(Space::X, a), self.memory.read(Space::Y, a))
     }
 
-    /// Store the status image X:$0F7n of `node` (copied from the node's auxiliary register).
+    /// Store the status image of `node` (copied from the node's auxiliary register).
     pub fn set_aux_status_image(&mut self, node: usize, value: u32) {
-        self.memory
-            .write(Space::X, regmap::AUX_IMAGE_BASE + (node % 16) as u16, value)
+        let a = self.map.aux_image(node);
+        self.memory.write(Space::X, a, value)
     }
 }
 
@@ -371,10 +398,10 @@ fn set_half(w: u64, space: Space, v: u32) -> u64 {
 }
 
 impl WordAccess for CardState {
-    fn read_word(&mut self, space: Space, addr: u16) -> u32 {
+    fn read_word(&mut self, space: Space, addr: Addr) -> u32 {
         self.read(space, addr)
     }
-    fn write_word(&mut self, space: Space, addr: u16, value: u32) {
+    fn write_word(&mut self, space: Space, addr: Addr, value: u32) {
         self.write(space, addr, value)
     }
 }

@@ -4,6 +4,7 @@
 use super::card_state::CardState;
 use super::number::format_status_words;
 use super::status::MotorSetup;
+use crate::domain::profile::Profile;
 
 impl CardState {
     fn motor_setup(&self, x: u16) -> MotorSetup {
@@ -19,6 +20,9 @@ impl CardState {
     /// `?` words of motor `x` (1-based; out-of-range motors read as zero words).
     pub fn motor_status(&self, x: u16) -> [u32; 2] {
         match x.checked_sub(1).and_then(|k| self.motors.get(k as usize)) {
+            Some(f) if self.profile() == Profile::Turbo => {
+                [f.turbo_word1(self.motor_setup(x)), f.turbo_word2()]
+            }
             Some(f) => [f.word1(self.motor_setup(x)), f.word2()],
             None => [0, 0],
         }

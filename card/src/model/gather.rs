@@ -12,6 +12,8 @@
 //! - When a whole sample no longer fits, gathering stops (bit 19 clears) unless I45 bit 0
 //!   (wrap) is set, in which case the oldest words are overwritten from the buffer start.
 //! - `LIST GATHER [start][,len]`: long words as 12 hex digits, space-separated, 16 per line.
+//! - Turbo numbering: I5049 period, I5050 mask, I5001-I5024 sources, I5000 bit 0 wrap (I20-I23
+//!   are MACRO IC addresses there).
 
 use crate::model::CardModel;
 use crate::model::CardState;
@@ -83,7 +85,7 @@ impl GatherBuffer {
         let Some(cap) = capacity else {
             return false;
         };
-        let period = st.vars.i(19).unwrap_or(0.0).max(0.0) as u32;
+        let period = st.vars.i(gather_ivars(st).0).unwrap_or(0.0).max(0.0) as u32;
         let due = if self.pending {
             true
         } else if period > 0 {
@@ -99,7 +101,7 @@ impl GatherBuffer {
         self.timer = 0;
         let sample = read_sample(st);
         let cap = cap as usize;
-        let wrap = st.vars.i(45).unwrap_or(0.0) as u32 & 1 != 0;
+        let wrap = st.vars.i(gather_ivars(st).3).unwrap_or(0.0) as u32 & 1 != 0;
         if sample.len() > cap || (!wrap && self.data.len() + sample.len() > cap) {
             st.global.word1_other &= !GATHER_ON;
             return false;
@@ -122,16 +124,25 @@ impl GatherBuffer {
     }
 }
 
-/// Read one sample: every source enabled in I20, as long words.
+/// The gather I-variables of the card's profile: (period, mask, first source, wrap mode).
+fn gather_ivars(st: &CardState) -> (u32, u32, u32, u32) {
+    match st.profile() {
+        crate::domain::Profile::Turbo => (5049, 5050, 5001, 5000),
+        _ => (19, 20, 21, 45),
+    }
+}
+
+/// Read one sample: every source enabled in the mask (I20, Turbo I5050), as long words.
 pub(super) fn read_sample(st: &mut CardState) -> Vec<u64> {
-    let mask = st.vars.i(20).unwrap_or(0.0).max(0.0) as u32;
+    let (_, mask_var, first, _) = gather_ivars(st);
+    let mask = st.vars.i(mask_var).unwrap_or(0.0).max(0.0) as u32;
     let mut v = Vec::new();
     for k in 0..24u32 {
         if mask & (1 << k) == 0 {
             continue;
         }
-        let src = st.vars.i(21 + k).unwrap_or(0.0).max(0.0) as u32;
-        let addr = (src & 0xFFFF) as u16;
+        let src = st.vars.i(first + k).unwrap_or(0.0).max(0.0) as u32;
+        let addr = src & st.map().max_addr;
         let w = if src & (1 << 23) != 0 {
             (u64::from(st.read(Space::X, addr)) << 24) | u64::from(st.read(Space::Y, addr))
         } else if src & (1 << 22) != 0 {

@@ -27,13 +27,14 @@ impl CardState {
         let (mdefs, mself) = self.mdefs_all();
         let mut regions: Vec<(Space, u16, Vec<u32>)> = SAVED_REGIONS
             .iter()
-            .map(|&(s, a, c)| (s, a, self.memory.snapshot(s, a, c)))
+            .map(|&(s, a, c)| (s, a, self.memory.snapshot(s, a.into(), c)))
             .collect();
         let ub = self.ubuffer_words.min(USER_MEMORY_WORDS) as usize;
         if ub > 0 {
             let start = UBUFFER_TOP + 1 - ub as u16;
-            regions.push((Space::X, start, self.memory.snapshot(Space::X, start, ub)));
-            regions.push((Space::Y, start, self.memory.snapshot(Space::Y, start, ub)));
+            let a = start.into();
+            regions.push((Space::X, start, self.memory.snapshot(Space::X, a, ub)));
+            regions.push((Space::Y, start, self.memory.snapshot(Space::Y, a, ub)));
         }
         PersistImage {
             profile: profile::name(self.profile()).into(),
@@ -66,13 +67,14 @@ impl CardState {
                 fresh.vars.load(&img.ivars, &img.pvars, &img.qvars);
                 fresh.load_mdefs(&img.mdefs, &img.mself);
                 for (space, start, words) in &img.regions {
-                    fresh.memory.restore(*space, *start, words);
+                    fresh.memory.restore(*space, (*start).into(), words);
                 }
                 fresh.ubuffer_words = img.ubuffer_words.min(USER_MEMORY_WORDS);
                 fresh.password = img.password.clone();
-                for n in [995u32, 996] {
+                let (rv, map) = (fresh.ring_ivars(), *fresh.map());
+                for (n, addr) in [(rv.cfg, map.ring_cfg_addr), (rv.nodes, map.ring_nodes_addr)] {
                     let v = fresh.vars.i(n).unwrap_or(0.0);
-                    fresh.write(Space::Y, if n == 995 { 0xC08F } else { 0xC08E }, v as u32);
+                    fresh.write(Space::Y, addr, v as u32);
                 }
                 img.programs.clone()
             }
@@ -83,18 +85,20 @@ impl CardState {
         Ok(programs)
     }
 
-    /// Reset-time rules: I1004/I1005 = 0 become 2; I1003 > 0 forces I1000 bit 15 to 0;
+    /// Reset-time rules (Turbo numbers in brackets): I1004/I1005 (I81/I82) = 0 become 2;
+    /// I1003 (I78) > 0 forces I1000 (I70) bit 15 to 0;
     /// I58 = 1 forces I3 1→0 and 3→2; node command registers cleared; motors killed; the
     /// password must be matched again (a null password counts as matched).
     pub fn power_on(&mut self) {
-        for n in [1004u32, 1005] {
+        let rv = self.ring_ivars();
+        for n in [rv.error_limit, rv.sync_min] {
             if self.vars.i(n) == Ok(0.0) {
                 self.vars.force_i(n, 2.0);
             }
         }
-        if self.vars.i(1003).unwrap_or(0.0) > 0.0 {
-            let v = self.peek_ivar(1000).unwrap_or(0.0) as u32 & !0x8000;
-            self.vars.force_i(1000, v as f64);
+        if self.vars.i(rv.aux_timeout).unwrap_or(0.0) > 0.0 {
+            let v = self.peek_ivar(rv.aux_enable).unwrap_or(0.0) as u32 & !0x8000;
+            self.vars.force_i(rv.aux_enable, v as f64);
         }
         if self.vars.i(58) == Ok(1.0) {
             match self.vars.i(3) {
@@ -118,10 +122,11 @@ impl CardState {
         let fresh = CardState::new(self.profile());
         self.vars.reset_i();
         for (space, start, count) in SAVED_REGIONS {
-            let words = fresh.memory.snapshot(space, start, count);
-            self.memory.restore(space, start, &words);
+            let words = fresh.memory.snapshot(space, start.into(), count);
+            self.memory.restore(space, start.into(), &words);
         }
-        for a in [0xC08Fu16, 0xC08E] {
+        let map = *self.map();
+        for a in [map.ring_cfg_addr, map.ring_nodes_addr] {
             let w = fresh.memory.read(Space::Y, a);
             self.memory.write(Space::Y, a, w);
         }

@@ -16,32 +16,9 @@ pub enum Space {
 pub(crate) const WORD: u32 = 0xFF_FFFF;
 /// Mask of a 16-bit node register (bits 8-23).
 pub(crate) const REG16: u32 = 0xFF_FF00;
-/// First MACRO node register address.
-pub(crate) const NODE_BASE: u16 = 0xC0A0;
-/// Last MACRO node register address.
-pub(crate) const NODE_LAST: u16 = 0xC0BF;
 
-/// The node and register number (0..=3) that `space:addr` maps to, if it is a MACRO node
-/// register. Servo nodes (0,1,4,5,8,9,12,13) are in Y, I/O nodes (2,3,6,7,10,11,14,15) in X.
-pub(crate) fn node_of(space: Space, addr: u16) -> Option<(usize, usize)> {
-    if !(NODE_BASE..=NODE_LAST).contains(&addr) {
-        return None;
-    }
-    let off = (addr - NODE_BASE) as usize;
-    let (group, within) = (off / 8, off % 8);
-    let (half, reg) = (within / 4, within % 4);
-    let node = 4 * group + half + if space == Space::X { 2 } else { 0 };
-    Some((node, reg))
-}
-
-/// The X or Y address of register `reg` of `node` (inverse of [`node_of`]).
-pub(crate) fn node_addr(node: usize, reg: usize) -> (Space, u16) {
-    let node = node % 16;
-    let group = node / 4;
-    let space = if node % 4 >= 2 { Space::X } else { Space::Y };
-    let half = node % 2;
-    (space, NODE_BASE + (group * 8 + half * 4 + reg % 4) as u16)
-}
+use super::regmap::{Addr, MemMap};
+use crate::domain::profile::Profile;
 
 /// Mask applied to register `reg` of a node: 24 bits for register 0, bits 8-23 otherwise.
 pub(crate) fn node_mask(reg: usize) -> u32 {
@@ -52,47 +29,68 @@ pub(crate) fn node_mask(reg: usize) -> u32 {
     }
 }
 
-/// X/Y memory image with MACRO node command/feedback sides.
+/// X/Y memory image with MACRO node command/feedback sides. Words below $10000 are a flat
+/// array; the rest of a Turbo card's 19-bit space ($10000-$7FFFF: DPRAM, I/O ICs) is kept
+/// sparsely (only words ever written exist).
 #[derive(Debug, Clone)]
 pub struct Memory {
+    map: MemMap,
     x: Vec<u32>,
     y: Vec<u32>,
+    high: std::collections::BTreeMap<(bool, Addr), u32>,
     node_cmd: [[u32; 4]; 16],
     node_fb: [[u32; 4]; 16],
 }
 
 impl Default for Memory {
     fn default() -> Self {
-        Memory {
-            x: vec![0; 65536],
-            y: vec![0; 65536],
-            node_cmd: [[0; 4]; 16],
-            node_fb: [[0; 4]; 16],
-        }
+        Memory::new(Profile::Pmac2)
     }
 }
 
 impl Memory {
+    /// Zeroed memory laid out as `profile`'s map.
+    pub fn new(profile: Profile) -> Self {
+        Memory {
+            map: MemMap::of(profile),
+            x: vec![0; 65536],
+            y: vec![0; 65536],
+            high: std::collections::BTreeMap::new(),
+            node_cmd: [[0; 4]; 16],
+            node_fb: [[0; 4]; 16],
+        }
+    }
+
     /// Read a short word (node registers return the latched feedback side).
-    pub fn read(&self, space: Space, addr: u16) -> u32 {
-        if let Some((node, reg)) = node_of(space, addr) {
+    pub fn read(&self, space: Space, addr: Addr) -> u32 {
+        if let Some((node, reg)) = self.map.node_of(space, addr) {
             return self.node_fb[node][reg];
         }
-        match space {
-            Space::X => self.x[addr as usize],
-            Space::Y => self.y[addr as usize],
+        match (space, usize::try_from(addr).ok().filter(|&a| a < 65536)) {
+            (Space::X, Some(a)) => self.x[a],
+            (Space::Y, Some(a)) => self.y[a],
+            _ => self
+                .high
+                .get(&(space == Space::X, addr & WORD))
+                .copied()
+                .unwrap_or(0),
         }
     }
 
     /// Write a short word (masked to 24 bits; node registers take the command side).
-    pub fn write(&mut self, space: Space, addr: u16, value: u32) {
-        if let Some((node, reg)) = node_of(space, addr) {
+    pub fn write(&mut self, space: Space, addr: Addr, value: u32) {
+        if let Some((node, reg)) = self.map.node_of(space, addr) {
             self.node_cmd[node][reg] = value & node_mask(reg);
             return;
         }
-        match space {
-            Space::X => self.x[addr as usize] = value & WORD,
-            Space::Y => self.y[addr as usize] = value & WORD,
+        match (space, usize::try_from(addr).ok().filter(|&a| a < 65536)) {
+            (Space::X, Some(a)) => self.x[a] = value & WORD,
+            (Space::Y, Some(a)) => self.y[a] = value & WORD,
+            _ => {
+                // Bounded: at most one entry per 24-bit address ever written.
+                self.high
+                    .insert((space == Space::X, addr & WORD), value & WORD);
+            }
         }
     }
 
@@ -119,17 +117,17 @@ impl Memory {
         self.node_cmd = [[0; 4]; 16];
     }
 
-    /// Copy of `count` words of `space` from `start` (wrapping at $FFFF), for persistence.
-    pub fn snapshot(&self, space: Space, start: u16, count: usize) -> Vec<u32> {
+    /// Copy of `count` words of `space` from `start`, for persistence.
+    pub fn snapshot(&self, space: Space, start: Addr, count: usize) -> Vec<u32> {
         (0..count)
-            .map(|i| self.read(space, start.wrapping_add(i as u16)))
+            .map(|i| self.read(space, start.wrapping_add(i as Addr) & WORD))
             .collect()
     }
 
     /// Write back a snapshot taken with [`Memory::snapshot`].
-    pub fn restore(&mut self, space: Space, start: u16, words: &[u32]) {
+    pub fn restore(&mut self, space: Space, start: Addr, words: &[u32]) {
         for (i, w) in words.iter().enumerate() {
-            self.write(space, start.wrapping_add(i as u16), *w);
+            self.write(space, start.wrapping_add(i as Addr) & WORD, *w);
         }
     }
 }
@@ -137,27 +135,6 @@ impl Memory {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn node_layout_matches_spec_table() {
-        assert_eq!(node_of(Space::Y, 0xC0A0), Some((0, 0)));
-        assert_eq!(node_of(Space::Y, 0xC0A7), Some((1, 3)));
-        assert_eq!(node_of(Space::X, 0xC0A0), Some((2, 0)));
-        assert_eq!(node_of(Space::X, 0xC0A4), Some((3, 0)));
-        assert_eq!(node_of(Space::Y, 0xC0A8), Some((4, 0)));
-        assert_eq!(node_of(Space::X, 0xC0A9), Some((6, 1)));
-        assert_eq!(node_of(Space::Y, 0xC0B2), Some((8, 2)));
-        assert_eq!(node_of(Space::Y, 0xC0BC), Some((13, 0)));
-        assert_eq!(node_of(Space::X, 0xC0BF), Some((15, 3)));
-        assert_eq!(node_of(Space::Y, 0xC09F), None);
-        assert_eq!(node_of(Space::Y, 0xC0C0), None);
-        for node in 0..16 {
-            for reg in 0..4 {
-                let (s, a) = node_addr(node, reg);
-                assert_eq!(node_of(s, a), Some((node, reg)));
-            }
-        }
-    }
 
     #[test]
     fn write_is_command_read_is_feedback() {
@@ -183,5 +160,14 @@ mod tests {
         assert_eq!(m.read(Space::Y, 0x0F70), 0);
         m.write(Space::Y, 0xFFFF, 7);
         assert_eq!(m.snapshot(Space::Y, 0xFFFF, 2), vec![7, 0]);
+        // Turbo: the 19-bit space, MACRO IC 0 node registers at $078420.
+        let mut t = Memory::new(Profile::Turbo);
+        t.write(Space::X, 0x06_0000, 0x12_3456);
+        assert_eq!(t.read(Space::X, 0x06_0000), 0x12_3456);
+        assert_eq!(t.read(Space::Y, 0x06_0000), 0);
+        t.write(Space::Y, 0x07_8424, 5);
+        assert_eq!(t.node_command(1), [5, 0, 0, 0]);
+        t.write(Space::Y, 0xC0A0, 9);
+        assert_eq!(t.read(Space::Y, 0xC0A0), 9, "a plain word on Turbo");
     }
 }

@@ -5,22 +5,23 @@
 use super::error::StateError;
 use super::float48::{decode_fixed, decode_float, dp_join, dp_split, encode_fixed, encode_float};
 use super::memory::Space;
+use super::regmap::Addr;
 use crate::domain::ast::{MDef, MFormat, XySpace};
 
 /// Word-level access to card memory (implemented by `CardState`, which applies the special
 /// registers; and by [`super::memory::Memory`] for plain access).
 pub(crate) trait WordAccess {
     /// Read one 24-bit word (may have side effects, e.g. I995 clear-on-read).
-    fn read_word(&mut self, space: Space, addr: u16) -> u32;
+    fn read_word(&mut self, space: Space, addr: Addr) -> u32;
     /// Write one 24-bit word.
-    fn write_word(&mut self, space: Space, addr: u16, value: u32);
+    fn write_word(&mut self, space: Space, addr: Addr, value: u32);
 }
 
 impl WordAccess for super::memory::Memory {
-    fn read_word(&mut self, space: Space, addr: u16) -> u32 {
+    fn read_word(&mut self, space: Space, addr: Addr) -> u32 {
         self.read(space, addr)
     }
-    fn write_word(&mut self, space: Space, addr: u16, value: u32) {
+    fn write_word(&mut self, space: Space, addr: Addr, value: u32) {
         self.write(space, addr, value)
     }
 }
@@ -71,9 +72,14 @@ pub(super) fn validate(def: &MDef) -> Result<(), StateError> {
 /// Canonical short form of a definition as `Mn->` reports it under I9=0/2
 /// (`X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002B`, `*`). Addresses print as `$`
 /// plus 4 hex digits.
-pub(super) fn format_def(def: &MDef) -> String {
-    // One formatter for `Mn->` replies and listings: `Display for MDef` (lang::listing).
-    def.to_string()
+pub(super) fn format_def(def: &MDef, digits: usize) -> String {
+    // One formatter for `Mn->` replies and listings: `Display for MDef` (lang::listing),
+    // `{:#}` for six address digits.
+    if digits > 4 {
+        format!("{def:#}")
+    } else {
+        def.to_string()
+    }
 }
 
 fn field_mask(width: u8) -> u32 {
@@ -167,21 +173,21 @@ pub(super) fn write(def: &MDef, mem: &mut impl WordAccess, v: f64) {
 }
 
 /// Read the 48-bit long word at `addr` (X high).
-pub(crate) fn long(mem: &mut impl WordAccess, addr: u16) -> u64 {
+pub(crate) fn long(mem: &mut impl WordAccess, addr: Addr) -> u64 {
     ((mem.read_word(Space::X, addr) as u64) << 24) | mem.read_word(Space::Y, addr) as u64
 }
 
 /// Write the 48-bit long word at `addr` (X high).
-pub(super) fn set_long(mem: &mut impl WordAccess, addr: u16, w: u64) {
+pub(super) fn set_long(mem: &mut impl WordAccess, addr: Addr, w: u64) {
     mem.write_word(Space::X, addr, ((w >> 24) & 0xFF_FFFF) as u32);
     mem.write_word(Space::Y, addr, (w & 0xFF_FFFF) as u32);
 }
 
-fn dp_word(mem: &mut impl WordAccess, a: u16) -> u32 {
+fn dp_word(mem: &mut impl WordAccess, a: Addr) -> u32 {
     dp_join(mem.read_word(Space::X, a), mem.read_word(Space::Y, a))
 }
 
-fn set_dp_word(mem: &mut impl WordAccess, a: u16, w: u32) {
+fn set_dp_word(mem: &mut impl WordAccess, a: Addr, w: u32) {
     let (hi, lo) = dp_split(w);
     let x = mem.read_word(Space::X, a);
     let y = mem.read_word(Space::Y, a);

@@ -144,6 +144,40 @@ impl MotorFlags {
             | bit(self.in_position, 0)
     }
 
+    /// Turbo status word 1 (X:$00B0 for motor 1, the first six `?` digits on a Turbo card):
+    /// as PMAC2's word 1 for bits 10-18 and 21-23, but bit 19 = amplifier enabled, bit 6 =
+    /// phased motor, bit 4 = following (handwheel) enabled (Turbo SRM `?`).
+    pub fn turbo_word1(&self, s: MotorSetup) -> u32 {
+        (self.word1(s) & !((1 << 20) | (1 << 19)))
+            | bit(self.amp_enabled, 19)
+            | bit(s.phased, 6)
+            | bit(s.handwheel, 4)
+    }
+
+    /// Turbo status word 2 (Y:$00C0 for motor 1): (C.S. − 1) in bits 20-23, bit 15 = assigned
+    /// to a C.S., no amplifier-enabled bit (it is word 1 bit 19); bits 0-13 as PMAC2's.
+    pub fn turbo_word2(&self) -> u32 {
+        let cs = match self.coord {
+            Some(c) if c >= 1 => (1 << 15) | ((((c - 1) & 15) as u32) << 20),
+            _ => 0,
+        };
+        cs | (self.word2() & 0x3FFF & !(1 << 14))
+    }
+
+    /// Take the dynamic bits of a written Turbo word 1.
+    pub fn set_turbo_word1(&mut self, w: u32) {
+        self.set_word1(w);
+        self.amp_enabled = has(w, 19);
+    }
+
+    /// Take every bit of a written Turbo word 2.
+    pub fn set_turbo_word2(&mut self, w: u32) {
+        let amp = self.amp_enabled;
+        self.set_word2(w & 0x3FFF);
+        self.amp_enabled = amp;
+        self.coord = has(w, 15).then(|| (((w >> 20) & 15) + 1) as u8);
+    }
+
     /// Take the dynamic bits from a written word 1 (W/M-variable write); setup bits ignored.
     pub fn set_word1(&mut self, w: u32) {
         self.neg_limit = has(w, 22);
@@ -394,5 +428,38 @@ impl GlobalFlags {
         self.word1_other = w & GLOBAL1_OTHER;
         self.macro_aux_error = has(w, 5);
         self.ring_fault = has(w, 4);
+    }
+}
+
+#[cfg(test)]
+mod turbo_tests {
+    use super::*;
+
+    /// Issue 14 item 4: the Turbo `?` layout (dls-pmaccontrol's labels: word 1 bit 19
+    /// "Amplifier enabled", word 2 bit 15 "Assigned to C.S.", bits 20-23 "(C.S. -1) Number").
+    #[test]
+    fn turbo_motor_words() {
+        let f = MotorFlags {
+            amp_enabled: true,
+            open_loop: false,
+            coord: Some(3),
+            in_position: true,
+            ..MotorFlags::default()
+        };
+        let s = MotorSetup {
+            activated: true,
+            phased: true,
+            ..MotorSetup::default()
+        };
+        assert_eq!(f.turbo_word1(s), (1 << 23) | (1 << 19) | (1 << 6));
+        assert_eq!(f.turbo_word2(), (2 << 20) | (1 << 15) | 1);
+        assert_eq!(f.word2(), (1 << 23) | (2 << 20) | (1 << 14) | 1);
+        let mut g = MotorFlags::default();
+        g.set_turbo_word1(f.turbo_word1(s));
+        g.set_turbo_word2(f.turbo_word2());
+        assert_eq!(
+            (g.amp_enabled, g.coord, g.in_position),
+            (true, Some(3), true)
+        );
     }
 }

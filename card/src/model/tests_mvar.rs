@@ -1,7 +1,7 @@
 use super::*;
 use crate::model::Memory;
 
-fn bits(space: XySpace, addr: u16, offset: u8, width: u8, format: MFormat) -> MDef {
+fn bits(space: XySpace, addr: u32, offset: u8, width: u8, format: MFormat) -> MDef {
     MDef::Bits {
         space,
         addr,
@@ -14,34 +14,34 @@ fn bits(space: XySpace, addr: u16, offset: u8, width: u8, format: MFormat) -> MD
 #[test]
 fn canonical_forms() {
     assert_eq!(
-        format_def(&bits(XySpace::X, 0xC001, 0, 24, MFormat::S)),
+        format_def(&bits(XySpace::X, 0xC001, 0, 24, MFormat::S), 4),
         "X:$C001,24,S"
     );
     assert_eq!(
-        format_def(&bits(XySpace::Y, 0xFFC2, 8, 1, MFormat::U)),
+        format_def(&bits(XySpace::Y, 0xFFC2, 8, 1, MFormat::U), 4),
         "Y:$FFC2,8"
     );
     assert_eq!(
-        format_def(&bits(XySpace::Y, 0xC003, 8, 16, MFormat::S)),
+        format_def(&bits(XySpace::Y, 0xC003, 8, 16, MFormat::S), 4),
         "Y:$C003,8,16,S"
     );
     assert_eq!(
-        format_def(&bits(XySpace::Y, 0xC0A0, 8, 16, MFormat::S)),
+        format_def(&bits(XySpace::Y, 0xC0A0, 8, 16, MFormat::S), 4),
         "Y:$C0A0,8,16,S"
     );
     assert_eq!(
-        format_def(&bits(XySpace::X, 0x003D, 21, 1, MFormat::U)),
+        format_def(&bits(XySpace::X, 0x003D, 21, 1, MFormat::U), 4),
         "X:$003D,21"
     );
     assert_eq!(
-        format_def(&bits(XySpace::X, 0x0818, 0, 4, MFormat::U)),
+        format_def(&bits(XySpace::X, 0x0818, 0, 4, MFormat::U), 4),
         "X:$0818,0,4,U"
     );
-    assert_eq!(format_def(&MDef::D(0x2B)), "D:$002B");
-    assert_eq!(format_def(&MDef::L(0x082B)), "L:$082B");
-    assert_eq!(format_def(&MDef::Dp(0xD000)), "DP:$D000");
-    assert_eq!(format_def(&MDef::F(0xD001)), "F:$D001");
-    assert_eq!(format_def(&MDef::SelfRef), "*");
+    assert_eq!(format_def(&MDef::D(0x2B), 4), "D:$002B");
+    assert_eq!(format_def(&MDef::L(0x082B), 4), "L:$082B");
+    assert_eq!(format_def(&MDef::Dp(0xD000), 4), "DP:$D000");
+    assert_eq!(format_def(&MDef::F(0xD001), 4), "F:$D001");
+    assert_eq!(format_def(&MDef::SelfRef, 4), "*");
     let twd = MDef::Twd {
         mux: 0,
         offset: 4,
@@ -49,8 +49,14 @@ fn canonical_forms() {
         decimals: 2,
         format: MFormat::S,
     };
-    assert_eq!(format_def(&twd), "TWD:0,4,6.2,S");
-    assert_eq!(format_def(&MDef::Tws { mux: 8 }), "TWS:8");
+    assert_eq!(format_def(&twd, 4), "TWD:0,4,6.2,S");
+    assert_eq!(format_def(&MDef::Tws { mux: 8 }, 4), "TWS:8");
+    // Turbo prints six address digits.
+    assert_eq!(format_def(&MDef::D(0x8B), 6), "D:$00008B");
+    assert_eq!(
+        format_def(&bits(XySpace::Y, 0x07_8420, 8, 16, MFormat::S), 6),
+        "Y:$078420,8,16,S"
+    );
 }
 
 #[test]

@@ -12,7 +12,7 @@ fn card() -> CardState {
     CardState::new(Profile::Pmac2)
 }
 
-fn bits(space: XySpace, addr: u16, offset: u8, width: u8, format: MFormat) -> MDef {
+fn bits(space: XySpace, addr: u32, offset: u8, width: u8, format: MFormat) -> MDef {
     MDef::Bits {
         space,
         addr,
@@ -350,7 +350,14 @@ fn turbo_answers() {
     }
     assert_eq!(t.ivar_text(68).unwrap(), "15");
     assert_eq!(t.ivar_text(124).unwrap(), "$40001");
-    assert_eq!(t.ivar_text(8191).unwrap(), "0");
+    assert_eq!(t.ivar_text(8191).unwrap(), "$0", "an ECT word");
+    assert_eq!(t.ivar_text(8000).unwrap(), "$2F8420");
+    // The profile's address range: PMAC2 $FFFF, Turbo $7FFFF.
+    let far = |a| bits(XySpace::X, a, 0, 1, MFormat::U);
+    assert!(t.set_mdef(1, far(0x7_FFFF)).is_ok());
+    assert!(t.set_mdef(1, far(0x8_0000)).is_err());
+    assert!(card().set_mdef(1, far(0x1_0000)).is_err());
+    assert!(card().set_mdef(1, far(0xFFFF)).is_ok());
     assert!(t.set_ivar(21, 5.0).is_err());
     t.vars.set_p(8000, 1.25).unwrap();
     assert_eq!(t.vars.p(8000), Ok(1.25));

@@ -14,6 +14,8 @@ pub struct VarStore {
     i: Vec<f64>,
     p: Vec<f64>,
     q: Vec<Vec<f64>>,
+    /// Keep P/Q values as IEEE doubles (no rounding to the 48-bit PMAC float).
+    ieee: bool,
 }
 
 impl VarStore {
@@ -27,7 +29,17 @@ impl VarStore {
             i,
             p: vec![0.0; n],
             q: vec![vec![0.0; n]; coords as usize],
+            ieee: false,
         }
+    }
+
+    /// Factory state with the profile's own P and Q counts and arithmetic.
+    pub(crate) fn for_limits(table: IVarTable, lim: &crate::domain::Limits) -> Self {
+        let mut s = VarStore::new(table, lim.coords);
+        s.p = vec![0.0; lim.p_vars as usize];
+        s.q = vec![vec![0.0; lim.q_vars as usize]; usize::from(lim.coords)];
+        s.ieee = lim.sem.ieee;
+        s
     }
 
     /// The I-variable table (specs).
@@ -103,7 +115,7 @@ impl VarStore {
             .p
             .get_mut(n as usize)
             .ok_or(StateError::NoSuchVariable(n))?;
-        *slot = round48(v);
+        *slot = if self.ieee { v } else { round48(v) };
         Ok(*slot)
     }
 
@@ -124,7 +136,7 @@ impl VarStore {
         let slot = set
             .get_mut(n as usize)
             .ok_or(StateError::NoSuchVariable(n))?;
-        *slot = round48(v);
+        *slot = if self.ieee { v } else { round48(v) };
         Ok(*slot)
     }
 

@@ -30,8 +30,8 @@ pub(crate) fn sign_extend(v: u32, bits: u32) -> i64 {
 pub(crate) struct EctEntry {
     /// Memory space of the source word.
     pub space: Space,
-    /// Source address (e.g. `$C0A0` = node 0 register 0).
-    pub source: u16,
+    /// Source address (e.g. `$C0A0` = node 0 register 0, Turbo `$078420`).
+    pub source: u32,
     /// True for the "no shift" variant (data already in 1/32 counts).
     pub no_shift: bool,
     /// Source mask (second line).
@@ -59,15 +59,40 @@ impl EctEntry {
         }
         Some(EctEntry {
             space,
-            source: (line1 & 0xFFFF) as u16,
+            source: line1 & 0xFFFF,
             no_shift,
             mask,
         })
     }
 
+    /// Decode a Turbo two-line parallel entry [DECISION, after the Turbo Ultralite defaults
+    /// `I8000=$2F8420 I8001=$018000`]: line 1 = method digit (`$2` Y word, `$6` X word), bit
+    /// 19 = no shift (the MACRO data already carries 5 fractional bits), bits 0-18 = source
+    /// address; line 2 = field width in bits 12-17 (`$018` = 24) and its lowest bit in bits
+    /// 0-4. `None` for the end marker or a method not converted.
+    pub(crate) fn decode_turbo(line1: u32, line2: u32) -> Option<EctEntry> {
+        let line1 = line1 & W24;
+        let space = match line1 >> 20 {
+            0x2 => Space::Y,
+            0x6 => Space::X,
+            _ => return None,
+        };
+        let width = (line2 >> 12) & 0x3F;
+        let offset = line2 & 0x1F;
+        if width == 0 || width + offset > 24 {
+            return None;
+        }
+        Some(EctEntry {
+            space,
+            source: line1 & 0x7_FFFF,
+            no_shift: line1 & (1 << 19) != 0,
+            mask: (((1u64 << width) - 1) << offset) as u32,
+        })
+    }
+
     /// The entry for MACRO servo node register 0 at `$C0An` (`$28C0An`, `$FFFFFF`).
     #[cfg(test)]
-    pub(crate) fn macro_servo(source: u16) -> EctEntry {
+    pub(crate) fn macro_servo(source: u32) -> EctEntry {
         EctEntry {
             space: Space::Y,
             source,
@@ -76,9 +101,9 @@ impl EctEntry {
         }
     }
 
-    /// Width in bits of the masked field (position of the highest mask bit + 1).
+    /// Width in bits of the masked field (position of the highest mask bit + 1 − lowest).
     pub(crate) fn width(&self) -> u32 {
-        32 - self.mask.leading_zeros()
+        32 - self.mask.leading_zeros() - self.mask.trailing_zeros().min(31)
     }
 }
 
@@ -94,14 +119,15 @@ impl EctState {
     /// The first call takes the source as it is; later calls add its change, sign-extended to
     /// the mask width, so a source narrower than 24 bits rolls over correctly.
     pub(crate) fn process(&mut self, entry: &EctEntry, raw: u32) -> u32 {
-        let src = raw & entry.mask;
+        let src = (raw & entry.mask) >> entry.mask.trailing_zeros().min(31);
         let scale = if entry.no_shift { 1 } else { 32 };
         match self.last_src {
             None => {
                 self.result = ((sign_extend(src, entry.width()) * scale) as u32) & W24;
             }
             Some(prev) => {
-                let delta = sign_extend(src.wrapping_sub(prev) & entry.mask, entry.width());
+                let field = (1u64 << entry.width()) - 1;
+                let delta = sign_extend(src.wrapping_sub(prev) & field as u32, entry.width());
                 self.result = ((self.result as i64 + delta * scale) as u32) & W24;
             }
         }

@@ -17,9 +17,10 @@ pub(crate) enum TriggerSource {
 }
 
 impl TriggerSource {
-    /// The source selected by Ix03.
-    pub(crate) fn from_ix03(ix03: u32) -> Self {
-        if ix03 & (1 << 17) != 0 {
+    /// The source: the warning following error when `fe` (PMAC2 Ix03 bit 17, Turbo Ixx97
+    /// bit 1), else the capture flag.
+    pub(crate) fn new(fe: bool) -> Self {
+        if fe {
             TriggerSource::WarningFe
         } else {
             TriggerSource::HomeFlag
@@ -75,21 +76,21 @@ pub(crate) struct TriggerAction {
 
 impl TriggeredMove {
     /// A home search armed with the Ix26 offset (1/16 count) and the Ix03 trigger source.
-    pub(crate) fn home(ix26: f64, ix03: u32) -> Self {
+    pub(crate) fn home(ix26: f64, fe: bool) -> Self {
         TriggeredMove {
             kind: TriggerKind::Home {
                 offset: ix26 / 16.0,
             },
-            source: TriggerSource::from_ix03(ix03),
+            source: TriggerSource::new(fe),
             phase: Phase::Search,
         }
     }
 
     /// A jog-until-trigger armed with distance `d` counts.
-    pub(crate) fn jog(distance: f64, ix03: u32) -> Self {
+    pub(crate) fn jog(distance: f64, fe: bool) -> Self {
         TriggeredMove {
             kind: TriggerKind::Jog { distance },
-            source: TriggerSource::from_ix03(ix03),
+            source: TriggerSource::new(fe),
             phase: Phase::Search,
         }
     }
@@ -139,7 +140,7 @@ mod tests {
 
     #[test]
     fn home_trigger_sets_new_zero_with_offset() {
-        let mut h = TriggeredMove::home(160.0, 0);
+        let mut h = TriggeredMove::home(160.0, false);
         assert!(h.is_home_search());
         assert_eq!(
             h.on_cycle(false, true, 100.0),
@@ -155,7 +156,7 @@ mod tests {
 
     #[test]
     fn jog_until_trigger_on_warning_fe() {
-        let mut j = TriggeredMove::jog(-50.0, 0x20000 | 0x10000 | 0x0721);
+        let mut j = TriggeredMove::jog(-50.0, true);
         assert_eq!(j.source, TriggerSource::WarningFe);
         assert_eq!(j.on_cycle(true, false, 0.0), None);
         let a = j.on_cycle(false, true, 300.0).unwrap();

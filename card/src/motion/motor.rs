@@ -293,7 +293,7 @@ impl Motor {
                 if self.blocked(cmd.direction(self.cmd)) {
                     return;
                 }
-                self.trigger = trigger.map(|d| TriggeredMove::jog(d, p.ix03));
+                self.trigger = trigger.map(|d| TriggeredMove::jog(d, p.fe_trigger));
                 self.flags.trigger_move = trigger.is_some();
                 let jp = Self::jog_params(p, p.jog_speed);
                 self.limit_stop = false;
@@ -310,7 +310,7 @@ impl Motor {
                     return;
                 }
                 self.enable();
-                self.trigger = Some(TriggeredMove::home(p.home_offset, p.ix03));
+                self.trigger = Some(TriggeredMove::home(p.home_offset, p.fe_trigger));
                 self.flags.home_complete = false;
                 self.flags.home_search = true;
                 self.limit_stop = false;

@@ -9,8 +9,18 @@ use crate::model::CardState;
 pub struct MotorParams {
     /// Ix00 activate.
     pub active: bool,
-    /// Ix03 position feedback address (bit 17: trigger on warning FE).
+    /// Ix03 position feedback address (PMAC2 bit 17: trigger on warning FE).
     pub ix03: u32,
+    /// The feedback word's address (Ix03 without its mode bits).
+    pub feedback_addr: u32,
+    /// The flag image address (PMAC2 Ix25 bits 0-15, Turbo Ixx25).
+    pub flag_addr: u32,
+    /// The trigger of homing and jog-until-trigger is the warning following error (PMAC2
+    /// Ix03 bit 17, Turbo Ixx97 bit 1) instead of the capture flag.
+    pub fe_trigger: bool,
+    /// Software position capture (Turbo Ixx97 bit 0): the trigger position is the position
+    /// of the servo cycle that saw the trigger, not the station's hardware capture.
+    pub software_capture: bool,
     /// PID gains (Ix08, Ix09, Ix30-Ix39, Ix63-Ix69).
     pub gains: PidGains,
     /// Ix11 fatal FE limit, 1/16 count (0 = off).
@@ -29,7 +39,8 @@ pub struct MotorParams {
     pub jog_speed: f64,
     /// Ix23 homing speed and direction, counts/ms.
     pub home_speed: f64,
-    /// Ix25 flag address and mode bits.
+    /// Flag mode bits as PMAC2 Ix25 holds them (bit 17 no limits, 18 MACRO flags, 20 no
+    /// amp-fault input, 21-22 kill scope, 23 fault polarity); on Turbo those are Ixx24's bits.
     pub ix25: u32,
     /// Ix26 home offset, 1/16 count.
     pub home_offset: f64,
@@ -49,6 +60,10 @@ impl Default for MotorParams {
         MotorParams {
             active: true,
             ix03: 0x0721,
+            feedback_addr: 0x0721,
+            flag_addr: 0x0F70,
+            fe_trigger: false,
+            software_capture: false,
             gains: PidGains::default(),
             fatal_fe: 32_000.0,
             warn_fe: 16_000.0,
@@ -76,9 +91,28 @@ impl MotorParams {
         let iv = |nn: u32, dflt: f64| st.vars.i(base + nn).unwrap_or(dflt);
         let gv = |n: u32, dflt: f64| st.vars.i(n).unwrap_or(dflt);
         let g = PidGains::default();
+        let ix03 = iv(3, d.ix03 as f64).max(0.0) as u32;
+        let turbo = st.profile() == crate::domain::Profile::Turbo;
+        let (ix25, flag_addr, fe_trigger, software_capture) = if turbo {
+            let ix24 = iv(24, 0.0).max(0.0) as u32;
+            let ix97 = iv(97, 0.0).max(0.0) as u32;
+            (
+                ix24 & 0xFF_0000,
+                iv(25, 0.0).max(0.0) as u32 & 0x7_FFFF,
+                ix97 & 2 != 0,
+                ix97 & 1 != 0,
+            )
+        } else {
+            let ix25 = iv(25, d.ix25 as f64).max(0.0) as u32;
+            (ix25, ix25 & 0xFFFF, ix03 & (1 << 17) != 0, false)
+        };
         MotorParams {
             active: iv(0, 0.0) != 0.0,
-            ix03: iv(3, d.ix03 as f64) as u32,
+            ix03,
+            feedback_addr: ix03 & if turbo { 0x7_FFFF } else { 0xFFFF },
+            flag_addr,
+            fe_trigger,
+            software_capture,
             gains: PidGains {
                 ix08: iv(8, g.ix08),
                 ix09: iv(9, g.ix09),
@@ -104,7 +138,7 @@ impl MotorParams {
             ramp: RampParams::new(iv(19, 0.015625), iv(20, 0.0), iv(21, 50.0)),
             jog_speed: iv(22, d.jog_speed),
             home_speed: iv(23, d.home_speed),
-            ix25: iv(25, d.ix25 as f64) as u32,
+            ix25,
             home_offset: iv(26, 0.0),
             inpos_band: iv(28, d.inpos_band),
             dac_offset: iv(29, 0.0),

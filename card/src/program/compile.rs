@@ -34,6 +34,16 @@ pub enum Op {
     },
     /// Nothing (ENDIF, labels).
     Nop,
+    /// `switch`: evaluate `value` and continue at the first case equal to it, else at
+    /// `default`.
+    Switch {
+        /// The switch expression.
+        value: crate::domain::ast::Expr,
+        /// (case constant, target) in order.
+        cases: Vec<(f64, usize)>,
+        /// Target when no case matches (the `default:` label or the end of the block).
+        default: usize,
+    },
 }
 
 /// An operation with where it came from.
@@ -66,12 +76,25 @@ enum Open {
     If(usize),
     Else(usize),
     While(usize, usize),
+    Do(usize),
+    Switch(usize),
     Done,
+}
+
+/// A loop or switch being compiled: where `break` and `continue` go.
+struct Breakable {
+    /// `continue` target when known (a WHILE's test); `None` for a DO (patched at its end) and
+    /// a switch (not a loop).
+    top: Option<usize>,
+    is_loop: bool,
+    breaks: Vec<usize>,
+    continues: Vec<usize>,
 }
 
 struct Builder {
     ops: Vec<Instr>,
     stack: Vec<Open>,
+    loops: Vec<Breakable>,
     line: usize,
     plc: bool,
 }
@@ -91,9 +114,39 @@ impl Builder {
             match &mut i.op {
                 Op::Branch { else_to, .. } => *else_to = target,
                 Op::Jump { to, .. } => *to = target,
+                Op::Switch { default, .. } => *default = target,
                 _ => {}
             }
         }
+    }
+
+    /// Close the innermost breakable: its breaks go to `end`, pending continues to `cont`.
+    fn close_loop(&mut self, end: usize, cont: usize) -> Result<(), Unlinked> {
+        let l = self.loops.pop().ok_or(Unlinked)?;
+        for b in l.breaks {
+            self.patch(b, end);
+        }
+        for c in l.continues {
+            self.patch(c, cont);
+        }
+        Ok(())
+    }
+
+    /// `break` / `continue`.
+    fn jump_out(&mut self, cont: bool, head: bool) -> Result<(), Unlinked> {
+        let j = self.emit(Op::Jump { to: 0, back: cont }, head);
+        let l = if cont {
+            self.loops.iter_mut().rev().find(|l| l.is_loop)
+        } else {
+            self.loops.last_mut()
+        }
+        .ok_or(Unlinked)?;
+        match (cont, l.top) {
+            (true, Some(top)) => self.patch(j, top),
+            (true, None) => l.continues.push(j),
+            (false, _) => l.breaks.push(j),
+        }
+        Ok(())
     }
 
     fn here(&self) -> usize {
@@ -149,6 +202,12 @@ impl Builder {
                     },
                     head,
                 );
+                self.loops.push(Breakable {
+                    top: Some(top),
+                    is_loop: true,
+                    breaks: Vec::new(),
+                    continues: Vec::new(),
+                });
                 self.body(body, depth + 1)?;
                 self.emit(
                     Op::Jump {
@@ -159,7 +218,10 @@ impl Builder {
                 );
                 let e = self.here();
                 self.patch(top, e);
+                self.close_loop(e, top)?;
             }
+            StmtKind::Break => self.jump_out(false, head)?,
+            StmtKind::Continue => self.jump_out(true, head)?,
             StmtKind::Label(_) => {
                 self.emit(Op::Exec(s.clone()), false);
             }
@@ -200,6 +262,7 @@ pub(crate) fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinke
     let mut b = Builder {
         ops: Vec::new(),
         stack: Vec::new(),
+        loops: Vec::new(),
         line: 0,
         plc,
     };
@@ -248,8 +311,94 @@ pub(crate) fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinke
                     };
                     let at = b.emit(Op::Branch { cond, else_to: 0 }, h);
                     b.stack.push(Open::While(at, at));
+                    b.loops.push(Breakable {
+                        top: Some(at),
+                        is_loop: true,
+                        breaks: Vec::new(),
+                        continues: Vec::new(),
+                    });
                     i += used;
                 }
+                StmtKind::Do => {
+                    let at = b.emit(Op::Nop, h);
+                    b.stack.push(Open::Do(at));
+                    b.loops.push(Breakable {
+                        top: None,
+                        is_loop: true,
+                        breaks: Vec::new(),
+                        continues: Vec::new(),
+                    });
+                }
+                StmtKind::DoWhile(c) => match b.stack.pop() {
+                    Some(Open::Do(top)) => {
+                        let test = b.here();
+                        let br = b.emit(
+                            Op::Branch {
+                                cond: c.clone(),
+                                else_to: 0,
+                            },
+                            h,
+                        );
+                        b.emit(
+                            Op::Jump {
+                                to: top,
+                                back: true,
+                            },
+                            false,
+                        );
+                        let e = b.here();
+                        b.patch(br, e);
+                        b.close_loop(e, test)?;
+                    }
+                    _ => return Err(Unlinked),
+                },
+                StmtKind::Switch(e) => {
+                    let at = b.emit(
+                        Op::Switch {
+                            value: e.clone(),
+                            cases: Vec::new(),
+                            default: usize::MAX,
+                        },
+                        h,
+                    );
+                    b.stack.push(Open::Switch(at));
+                    b.loops.push(Breakable {
+                        top: None,
+                        is_loop: false,
+                        breaks: Vec::new(),
+                        continues: Vec::new(),
+                    });
+                }
+                StmtKind::Case(_) | StmtKind::Default => {
+                    let Some(Open::Switch(at)) = b.stack.last() else {
+                        return Err(Unlinked);
+                    };
+                    let (at, here) = (*at, b.here());
+                    if let Some(Op::Switch { cases, default, .. }) =
+                        b.ops.get_mut(at).map(|i| &mut i.op)
+                    {
+                        match &s.kind {
+                            StmtKind::Case(v) => cases.push((*v, here)),
+                            _ => *default = here,
+                        }
+                    }
+                    b.emit(Op::Nop, false);
+                }
+                StmtKind::EndSwitch => match b.stack.pop() {
+                    Some(Open::Switch(at)) => {
+                        let e = b.here();
+                        if let Some(Op::Switch { default, .. }) =
+                            b.ops.get_mut(at).map(|i| &mut i.op)
+                        {
+                            if *default == usize::MAX {
+                                *default = e;
+                            }
+                        }
+                        b.emit(Op::Nop, false);
+                        b.close_loop(e, e)?;
+                    }
+                    _ => return Err(Unlinked),
+                },
                 StmtKind::Else(body) => {
                     if k == 0
                         || stmts[..k]
@@ -313,6 +462,7 @@ pub(crate) fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinke
                         );
                         let e = b.here();
                         b.patch(br, e);
+                        b.close_loop(e, top)?;
                     }
                     _ => return Err(Unlinked),
                 },
@@ -352,6 +502,14 @@ pub(crate) fn compile(lines: &[ProgLine], plc: bool) -> Result<Compiled, Unlinke
         labels,
         line_offset,
     })
+}
+
+/// Where a `switch` on `v` continues: the first case equal to `v`, else `default`.
+pub(crate) fn switch_target(v: f64, cases: &[(f64, usize)], default: usize) -> usize {
+    cases
+        .iter()
+        .find(|(c, _)| *c == v)
+        .map_or(default, |(_, t)| *t)
 }
 
 impl Compiled {

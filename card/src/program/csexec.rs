@@ -13,12 +13,11 @@ use crate::model::CardModel;
 use crate::model::Space;
 use crate::motion::motor::Motor;
 
-/// Deepest CALL/GOSUB nesting (the top level counts as one): a 16th nested call is run-time
-/// error 5 (spec §5.2 decision).
-pub(crate) const MAX_FRAMES: usize = 16;
+// Deepest CALL/GOSUB nesting (the top level counts as one): `Semantics::max_call_depth`; a
+// 16th nested call is run-time error 5 on the classic profiles (spec §5.2 decision).
 
 /// X:$0799: the run-time error code register.
-pub(crate) const RUNTIME_ERROR_ADDR: u16 = 0x0799;
+pub(crate) const RUNTIME_ERROR_ADDR: u32 = 0x0799;
 
 /// Run-time error codes (X:$0799, spec §5.2), plus this card's own 7-9.
 pub(crate) mod rte {
@@ -61,10 +60,12 @@ pub struct Frame {
     pub prelude: bool,
 }
 
-/// A synchronous M-variable assignment waiting for its move.
+/// A synchronous assignment waiting for its move.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SyncOp {
-    /// M-variable number.
+    /// Variable family (M on the classic profiles).
+    pub kind: crate::domain::ast::VarKind,
+    /// Variable number.
     pub m: u32,
     /// `==`, `&=`, `|=`, `^=`.
     pub op: AssignOp,
@@ -262,6 +263,7 @@ impl CsExec {
         if !self.busy() {
             return None;
         }
+        card.exec = crate::model::ExtAt::cs(self.num, 0);
         let c = self.cs.as_mut()?;
         let out = c.tick();
         for id in &out.started {
@@ -271,7 +273,7 @@ impl CsExec {
                 }
                 if let Some((_, ops)) = self.sync_bound.pop_front() {
                     for o in ops {
-                        super::env::apply_sync(card, o.m, o.op, o.v);
+                        super::env::apply_sync(card, self.num, o.kind, o.m, o.op, o.v);
                     }
                 }
             }
@@ -280,7 +282,7 @@ impl CsExec {
             // The program ended with assignments after its last move: they take effect when
             // the motion is complete.
             for o in std::mem::take(&mut self.sync_pending) {
-                super::env::apply_sync(card, o.m, o.op, o.v);
+                super::env::apply_sync(card, self.num, o.kind, o.m, o.op, o.v);
             }
         }
         Some((c.motors().to_vec(), out.motors))

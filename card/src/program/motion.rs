@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use super::compile::{compile, Op};
-use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait, MAX_FRAMES};
+use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait};
 use super::env;
 use super::stmt::QueuedCmd;
 use crate::coord::moves::{Feed, Mode};
@@ -147,6 +147,7 @@ impl CsExec {
         if !self.active || !self.check_wait(motors) {
             return;
         }
+        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
         let mut back = 0;
         let mut budget = MAX_OPS_PER_PASS;
         let line_step = self.step && env::ivar(card, 53, 0.0) != 0.0;
@@ -203,6 +204,17 @@ impl CsExec {
                 }
                 Op::Branch { cond, else_to } => match env::test(card, self.num, cond) {
                     Ok(t) => self.set_pc(if t { pc + 1 } else { *else_to }),
+                    Err(_) => {
+                        self.runtime_error(card, rte::VARIABLE, false);
+                        break;
+                    }
+                },
+                Op::Switch {
+                    value,
+                    cases,
+                    default,
+                } => match env::value(card, self.num, value) {
+                    Ok(v) => self.set_pc(super::compile::switch_target(v, cases, *default)),
                     Err(_) => {
                         self.runtime_error(card, rte::VARIABLE, false);
                         break;
@@ -313,6 +325,7 @@ impl CsExec {
 
     pub(super) fn do_return(&mut self, card: &mut CardModel) {
         let Some(f) = self.frames.pop() else { return };
+        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
         if self.frames.is_empty() {
             let prog = match f.key {
                 ProgKey::Prog(n) => Some(n),
@@ -327,12 +340,18 @@ impl CsExec {
     }
 
     pub(super) fn push_frame(&mut self, card: &mut CardModel, f: Frame) -> Flow {
-        if self.frames.len() >= MAX_FRAMES {
+        if self.frames.len() >= usize::from(card.state.limits().sem.max_call_depth) {
             self.runtime_error(card, rte::STACK, false);
             return Flow::Error;
         }
         self.frames.push(f);
+        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
         Flow::Jumped
+    }
+
+    /// Call depth of the running program (0: the top level).
+    pub(super) fn depth(&self) -> u16 {
+        u16::try_from(self.frames.len().saturating_sub(1)).unwrap_or(u16::MAX)
     }
 
     pub(super) fn args(
@@ -387,8 +406,8 @@ impl CsExec {
 
     pub(super) fn fire_prelude(&mut self, card: &mut CardModel, p: &PreludeCall) {
         let (prog, label) = match p {
-            PreludeCall::Call(n) => call_target(n.value),
-            PreludeCall::Code(l, n) => code_target(*l, n.value),
+            PreludeCall::Call(n) => call_target_for(card, n.value),
+            PreludeCall::Code(l, n) => code_target_for(card, self.num, *l, n.value),
         };
         let f = self.call(card, prog, label, Vec::new(), true);
         if matches!(f, Flow::Jumped) {
@@ -412,6 +431,45 @@ pub(crate) fn call_target(v: f64) -> (u32, u32) {
     }
     let p = v.trunc();
     (p as u32, ((v - p) * 100_000.0).round() as u32)
+}
+
+/// `CALL{v}` with the card's semantics: buffer and label.
+pub(crate) fn call_target_for(card: &CardModel, v: f64) -> (u32, u32) {
+    let sem = card.state.limits().sem;
+    if sem.subprog_base == 0 && sem.call_label_scale == 100_000.0 {
+        return call_target(v);
+    }
+    if !(0.0..32_768.0).contains(&v) {
+        return (u32::MAX, 0);
+    }
+    let p = v.trunc();
+    (
+        u32::from(sem.subprog_base) + p as u32,
+        ((v - p) * sem.call_label_scale).round() as u32,
+    )
+}
+
+/// G/M/T/D{c} with the card's semantics (C.S. `cs`): buffer and label.
+pub(crate) fn code_target_for(card: &CardModel, cs: u16, l: CodeLetter, c: f64) -> (u32, u32) {
+    let sem = card.state.limits().sem;
+    let Some(base) = sem.code_prog_ivar else {
+        return code_target(l, c);
+    };
+    let k = match l {
+        CodeLetter::G => 0,
+        CodeLetter::M => 1,
+        CodeLetter::T => 2,
+        CodeLetter::D => 3,
+    };
+    let n = super::env::cs_ivar(card.profile(), cs, u32::from(base) + k);
+    let prog = super::env::ivar(card, n, f64::from(1000 + k));
+    if !(c.is_finite() && c >= 0.0 && (0.0..32_768.0).contains(&prog)) {
+        return (u32::MAX, 0);
+    }
+    (
+        u32::from(sem.subprog_base) + prog as u32,
+        (c * 1000.0).round().min(f64::from(u32::MAX)) as u32,
+    )
 }
 
 /// G/M/T/D{c}: PROG 1000 + 10·hundreds + k at label N(rest × 1000).

@@ -3,7 +3,7 @@
 
 use super::csexec::{rte, CsExec, Frame, SyncOp};
 use super::env;
-use super::motion::{call_target, code_target, label_number, Flow, PassIo};
+use super::motion::{call_target_for, code_target_for, label_number, Flow, PassIo};
 use super::motion_move::qs;
 use super::stmt::{exec_common, Common, Ctx};
 use crate::coord::axes::axis_index;
@@ -28,7 +28,11 @@ impl CsExec {
             S::Assign {
                 target,
                 op:
-                    op @ (AssignOp::SyncSet | AssignOp::SyncAnd | AssignOp::SyncOr | AssignOp::SyncXor),
+                    op @ (AssignOp::SyncSet
+                    | AssignOp::SyncAnd
+                    | AssignOp::SyncOr
+                    | AssignOp::SyncXor
+                    | AssignOp::SyncOp(_)),
                 value,
             } => {
                 let (Ok(m), Ok(v)) = (
@@ -39,7 +43,12 @@ impl CsExec {
                     return Flow::Error;
                 };
                 if self.sync_pending.len() < 256 {
-                    self.sync_pending.push(SyncOp { m, op: *op, v });
+                    self.sync_pending.push(SyncOp {
+                        kind: target.kind,
+                        m,
+                        op: *op,
+                        v,
+                    });
                 }
                 Flow::Next
             }
@@ -183,7 +192,8 @@ impl CsExec {
                     }
                 }
             }
-            S::Gosub(e) => {
+            S::SyncLabel(_) => Flow::Next,
+            S::Gosub(e) | S::CallSub(e) => {
                 let Ok(v) = env::value(card, num, e) else {
                     self.runtime_error(card, rte::VARIABLE, false);
                     return Flow::Error;
@@ -217,8 +227,8 @@ impl CsExec {
                     return Flow::Error;
                 };
                 let (prog, label) = match &s.kind {
-                    S::Code(l, ..) => code_target(*l, v),
-                    _ => call_target(v),
+                    S::Code(l, ..) => code_target_for(card, num, *l, v),
+                    _ => call_target_for(card, v),
                 };
                 self.set_pc(pc + 1);
                 let fl = self.call(card, prog, label, a.clone(), false);
@@ -268,6 +278,7 @@ impl CsExec {
                     cmds: io.cmds,
                     out: io.out,
                     cmd: io.cmd,
+                    plc: None,
                 };
                 match exec_common(card, &mut ctx, &s.kind) {
                     Common::BadVariable => {

@@ -116,6 +116,12 @@ impl PlcRunner {
             return;
         }
         self.scans[k] = self.scans[k].saturating_add(1);
+        card.exec = crate::model::ExtAt {
+            thread: crate::model::Thread::Plc(n),
+            coord: self.plcs[k].coord,
+            motor: self.plcs[k].motor,
+            depth: 0,
+        };
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         let mut pc = self.plcs[k].pc;
         let mut ops = 0;
@@ -143,6 +149,14 @@ impl PlcRunner {
                     let t = env::test(card, coord, cond).unwrap_or(false);
                     pc = if t { pc + 1 } else { *else_to };
                 }
+                Op::Switch {
+                    value,
+                    cases,
+                    default,
+                } => {
+                    let v = env::value(card, coord, value).unwrap_or(f64::NAN);
+                    pc = super::compile::switch_target(v, cases, *default);
+                }
                 Op::Exec(s) => {
                     if matches!(s.kind, crate::domain::ast::StmtKind::Return) {
                         pc = 0;
@@ -154,8 +168,14 @@ impl PlcRunner {
                         cmds: &mut cmds,
                         out,
                         cmd,
+                        // MACRO auxiliary statements: background PLCs only (§5.9 table)
+                        plc: (n > 0).then_some(n),
                     };
                     let r = exec_common(card, &mut ctx, &s.kind);
+                    if r == Common::AuxWait {
+                        // the PLC waits at this statement; the next scan tries it again
+                        break;
+                    }
                     pc += 1;
                     match r {
                         Common::Address(m, c) => {

@@ -1,10 +1,14 @@
 //! Statements shared by motion programs and PLCs (pmac-commands.md §5.9, §6.6): `=`
 //! assignments, `CMD`/`SEND`, `DISPLAY`, PLC control, `ADDRESS`, `SETPHASE`, `GATHER`, and the
-//! MACRO auxiliary statements (refused: see [`Common::MacroRefused`]).
+//! MACRO auxiliary statements of background PLCs (`MSR`/`MSW`/`MXR`/`MXW`: the PLC waits at the
+//! statement while its access is on the ring, see [`Common::AuxWait`]).
 
 use super::env;
+use crate::domain::ast::VarRef;
 use crate::domain::ast::{AssignOp, Message, NumRange, PlcVerb, SendPort, StmtKind};
+use crate::model::macro_aux::{slave_request, AuxOwner, Protocol};
 use crate::model::CardModel;
+use mcc_ring::aux_channel::{Reply, Request};
 
 /// Most bytes of unsolicited output kept for the host before the oldest are dropped.
 pub(crate) const MAX_OUTPUT: usize = 65_536;
@@ -58,6 +62,9 @@ pub(crate) struct Ctx<'a> {
     pub out: &'a mut Vec<u8>,
     /// The command language (`GATHER`, `ENDGATHER` run through it at once).
     pub cmd: &'a mut dyn Commands,
+    /// The background PLC running the statement (`None`: a motion program or PLC 0, where
+    /// MACRO auxiliary statements are not allowed).
+    pub plc: Option<u8>,
 }
 
 /// What a shared statement did.
@@ -71,9 +78,13 @@ pub(crate) enum Common {
     Plc(PlcVerb, u32),
     /// `ADDRESS`: new default motor / C.S.
     Address(Option<u32>, Option<u32>),
-    /// `MXR`/`MXW`/`MSR`/`MSW`: no auxiliary ring traffic yet; the statement does nothing and
-    /// sets the MACRO auxiliary error bit (`???`), as a failed transfer (ERR008) would.
+    /// `MXR`/`MXW`/`MSR`/`MSW` outside a background PLC: the statement does nothing and sets
+    /// the MACRO auxiliary error bit (`???`), as a failed transfer (ERR008) would.
     MacroRefused,
+    /// `MXR`/`MXW`/`MSR`/`MSW`: the access is on the ring (or waits for the channel): the PLC
+    /// stays at this statement and its scan ends; the next scan executes it again, which
+    /// collects the result (pmac-commands §3.5: the PLC waits for the reply or the timeout).
+    AuxWait,
     /// Not a shared statement.
     NotMine,
 }
@@ -109,16 +120,35 @@ fn send(card: &CardModel, out: &mut Vec<u8>, msg: &Message) {
 /// Execute a shared statement.
 pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind) -> Common {
     match s {
-        StmtKind::Assign {
-            target,
-            op: AssignOp::Set,
-            value,
-        } => {
+        StmtKind::Assign { target, op, value } => {
             let Ok(n) = env::var_number(card, ctx.coord, target) else {
                 return Common::BadVariable;
             };
             let Ok(v) = env::value(card, ctx.coord, value) else {
                 return Common::BadVariable;
+            };
+            let v = match op {
+                AssignOp::Set | AssignOp::SyncSet => v,
+                AssignOp::Op(b) | AssignOp::SyncOp(b) => {
+                    let Ok(old) = env::value(
+                        card,
+                        ctx.coord,
+                        &crate::domain::ast::Expr {
+                            kind: crate::domain::ast::ExprKind::Var(crate::domain::ast::VarRef {
+                                kind: target.kind,
+                                index: crate::domain::ast::VarIndex::Const(n),
+                                pos: target.pos,
+                            }),
+                            pos: target.pos,
+                        },
+                    ) else {
+                        return Common::BadVariable;
+                    };
+                    env::combine(card, *b, old, v)
+                }
+                AssignOp::SyncAnd | AssignOp::SyncOr | AssignOp::SyncXor => {
+                    return Common::NotMine;
+                }
             };
             if env::write(card, ctx.coord, target.kind, n, v) {
                 Common::Done
@@ -179,10 +209,13 @@ pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind)
         StmtKind::MacroAuxRead { .. }
         | StmtKind::MacroAuxWrite { .. }
         | StmtKind::MacroSlaveRead { .. }
-        | StmtKind::MacroSlaveWrite { .. } => {
-            card.state.global.macro_aux_error = true;
-            Common::MacroRefused
-        }
+        | StmtKind::MacroSlaveWrite { .. } => match ctx.plc {
+            Some(n) => macro_stmt(card, ctx.coord, AuxOwner::Plc(n), s),
+            None => {
+                card.state.global.macro_aux_error = true;
+                Common::MacroRefused
+            }
+        },
         _ => Common::NotMine,
     }
 }
@@ -207,6 +240,75 @@ pub(crate) fn run_cmds(
                     emit(out, &r);
                 }
             }
+        }
+    }
+}
+
+/// A background PLC's MACRO auxiliary statement: start the access when the channel is free,
+/// wait while it is on the ring, then copy the value (`MSR`/`MXR`) or just finish. A failure
+/// (precondition, slave error, timeout) is flagged in `???` word 1 bit 5 and X:$0798; a PLC
+/// has no ERR text to report (pmac-commands §3.5).
+fn macro_stmt(card: &mut CardModel, cs: u16, owner: AuxOwner, s: &StmtKind) -> Common {
+    if let Some(done) = card.aux.take_finished(owner) {
+        match (done, s) {
+            (Ok(Reply::Value(v, _)), StmtKind::MacroAuxRead { var, .. })
+            | (Ok(Reply::Value(v, _)), StmtKind::MacroSlaveRead { dest: var, .. }) => {
+                let Ok(n) = env::var_number(card, cs, var) else {
+                    return Common::BadVariable;
+                };
+                if !env::write(card, cs, var.kind, n, v) {
+                    return Common::BadVariable;
+                }
+            }
+            (Ok(_), _) => {}
+            (Err(f), _) => card.aux_failed(f),
+        }
+        return Common::Done;
+    }
+    if card.aux.holds(owner) {
+        return Common::AuxWait;
+    }
+    // A new access: the error bit is cleared at its start.
+    card.state.global.macro_aux_error = false;
+    let value_of = |card: &mut CardModel, v: &VarRef| env::read(card, cs, v).ok();
+    let (proto, node, req) = match s {
+        StmtKind::MacroAuxRead { node, param, .. } => (
+            Protocol::Type0,
+            *node,
+            Some(Request::ReadParam(*param as u16)),
+        ),
+        StmtKind::MacroAuxWrite { node, param, var } => {
+            let v = value_of(card, var);
+            let req = v
+                .filter(|v| (-32_768.0..=32_767.0).contains(v) && (2..=253).contains(param))
+                .map(|v| Request::WriteParam(*param as u16, v as i16));
+            (Protocol::Type0, *node, req)
+        }
+        StmtKind::MacroSlaveRead { node, var, .. } => {
+            (Protocol::Type1, *node, slave_request(*var, None))
+        }
+        StmtKind::MacroSlaveWrite { node, var, src } => {
+            let v = value_of(card, src);
+            (
+                Protocol::Type1,
+                *node,
+                v.and_then(|v| slave_request(*var, Some(v))),
+            )
+        }
+        _ => return Common::NotMine,
+    };
+    let Some(req) = req else {
+        return Common::BadVariable;
+    };
+    let settings = card.aux_settings();
+    match card
+        .aux
+        .begin(owner, proto, (node & 0xF) as u8, req, settings)
+    {
+        Ok(_) => Common::AuxWait,
+        Err(f) => {
+            card.aux_failed(f);
+            Common::Done
         }
     }
 }

@@ -25,6 +25,7 @@ fn shape(text: &str, kind: BufferKind) -> String {
             Op::Jump { to, back: true } => format!("J<{to}"),
             Op::Nop => ".".into(),
             Op::Exec(_) => "x".into(),
+            Op::Switch { .. } => "S".into(),
         })
         .collect::<Vec<_>>()
         .join(" ")

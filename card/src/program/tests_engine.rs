@@ -322,7 +322,8 @@ fn plc_pause_resume_address_and_cmd() {
     assert_eq!(r.cmd("P40 P41"), "1 1", "resumed after the PAUSE");
     r.tick();
     assert_eq!(r.cmd("P40 P41"), "2 1");
-    // MACRO auxiliary statements are refused: the ??? aux error bit, nothing copied.
+    // A MACRO auxiliary statement whose preconditions fail (I1000 bit 0 clear for Type 0):
+    // the ??? aux error bit, nothing copied, the PLC goes on.
     r.prog("OPEN PLC 4 CLEAR\nMXR0,1,P50\nCLOSE");
     r.cmd("P50=3 ENABLE PLC 4");
     r.tick();

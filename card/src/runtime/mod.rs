@@ -7,6 +7,7 @@
 pub(crate) mod bench_servo;
 pub(crate) mod ring_app;
 pub(crate) mod standalone;
+pub(crate) mod startup;
 
 use anyhow::{anyhow, Context};
 use mcc_ring::config::MemberRef;
@@ -27,32 +28,24 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(MemberRef::Card(c)) => c.clone(),
             _ => anyhow::bail!("'{}' is not a card in the config", ctx.name),
         };
-        let profile = match cc.profile.as_str() {
-            "turbo" => Profile::Turbo,
-            _ => Profile::Pmac2,
-        };
+        let profile = Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2);
         let storage = cc.state_file.as_ref().map(FileStorage::new);
         let (mut card, load_error) = startup_card(profile, storage.as_ref());
-        // The start-up layer: the ring settings the config derives (I995/I996), the motors on
-        // their MACRO nodes (Ix00, I1000, I1002: unless a saved image says how), the chain
+        // The start-up layer (in the profile's numbering, every reply checked: a refused line
+        // stops the card): the ring settings the config derives (I995/I996; Turbo
+        // I6840/I6841), the motors on their MACRO nodes (Ix00, I1000, I1002; Turbo Ixx00,
+        // I70, I71, I20: unless a saved image says how), the chain
         // address (I0, I1), then the config's own I-variables, which win. Re-applied after
         // every reset: the cluster config is the card's hardware setup.
         let wire = !cc.state_file.as_ref().is_some_and(|p| p.exists());
         let ring = ctx
             .config
             .ring_settings(&ctx.name)
-            .map(|rs| (rs.i995, rs.i996));
+            .map(|rs| (u32::from(rs.i995), rs.i996));
         let layer = {
             let (nodes, number, ivars) = (cc.nodes.clone(), cc.number, cc.ivars.clone());
             move |card: &mut Card| -> anyhow::Result<()> {
-                if let Some((i995, i996)) = ring {
-                    let mut s = crate::lang::interp::Session::default();
-                    let line = format!("I995=${i995:X} I996=${i996:X}");
-                    let _ = card.command_line(&mut s, line.as_bytes());
-                }
-                if wire {
-                    ring_app::wire_macro_motors(card, &nodes);
-                }
+                startup::ring_startup(card, ring, &nodes, wire)?;
                 chain::apply_chain_defaults(card, number);
                 apply_ivars(card, &ivars)
             }
@@ -91,10 +84,9 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                 handle.clone(),
             ))
             .map_err(|e| anyhow!("declare card command queryable: {e}"))?;
-        // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit,
-        // well under the lockstep timeout so a stall never looks like a dead ring.
-        let stall =
-            std::time::Duration::from_millis((ctx.config.member_timeout_ms / 2).clamp(1, 25));
+        // Synchronized start (`card/<n>/at`): a tick waits at most this long for a commit
+        // (the clock's choice: well under the frozen-member wait).
+        let stall = ctx.config.sync_start_stall();
         let at_queryable = sync_start::declare_at_queryable(
             &ctx.session,
             &ctx.config.cluster,

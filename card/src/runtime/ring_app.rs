@@ -12,6 +12,7 @@
 //! 3). With the factory Ix02/Ix03/Ix25 and ECT defaults that is the Ultralite's "motor on node"
 //! minimum set (spec §6.6), so the default cluster's motors work out of the box.
 
+use mcc_ring::aux_channel::AUX_NODE;
 use mcc_ring::check::RingCheck;
 use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::member::RingMember;
@@ -19,37 +20,10 @@ use mcc_ring::packet::NodeRegs;
 use mcc_ring::settings::RingSettings;
 
 use super::handle::{Runner, StartupLayer};
+use super::startup::wire_macro_motors;
 use crate::core::{CardCore, SLICE_UNITS};
-use crate::lang::interp::{Budget, Card, Session};
+use crate::lang::interp::{Budget, Card};
 use crate::model::I995_STATUS_BITS;
-
-/// Activate motors 1-8 whose Ix02 register belongs to one of `nodes` (servo nodes only) and
-/// enable the Type 1 auxiliary flag copy of those nodes (I1000, I1002). Returns the motors
-/// activated.
-pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Vec<u16> {
-    let mut s = Session::default();
-    let mut aux = 0u32;
-    let mut motors = Vec::new();
-    let max = card.state.limits().motors.min(8);
-    for x in 1..=max {
-        let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
-        let Some((node, 0)) = crate::model::node_of(crate::model::Space::Y, (ix02 & 0xFFFF) as u16)
-        else {
-            continue;
-        };
-        if ix02 & (1 << 19) != 0 || !nodes.contains(&(node as u8)) {
-            continue;
-        }
-        aux |= 1 << node;
-        motors.push(x);
-    }
-    let mut line = format!("I1000=${aux:X} I1002=${aux:X}");
-    for x in &motors {
-        line.push_str(&format!(" I{x}00=1"));
-    }
-    let _ = card.command_line(&mut s, line.as_bytes());
-    motors
-}
 
 /// Convert latched node registers to the card's 24-bit register words (16-bit registers sit in
 /// bits 8-23, spec §6.5).
@@ -94,9 +68,9 @@ pub struct CardRingApp {
     _resources: Vec<Box<dyn std::any::Any>>,
 }
 
-/// The card's ring I-variables: I995 (configuration bits), I996, I1001, I1004, I1005. They
-/// live in the ring core (`RingSettings`, `RingCheck`); the card's I-variables mirror them,
-/// synchronised before every tick in both directions.
+/// The card's ring I-variables: I995 (configuration bits), I996, I1001, I1004, I1005 (Turbo:
+/// I6840, I6841, I80, I81, I82). They live in the ring core (`RingSettings`, `RingCheck`);
+/// the card's I-variables mirror them, synchronised before every tick in both directions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct RingVars {
     i995: u32,
@@ -109,12 +83,13 @@ struct RingVars {
 impl RingVars {
     fn of_card(card: &Card) -> Self {
         let i = |n: u32| card.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
+        let rv = card.state.ring_ivars();
         RingVars {
-            i995: i(995) & !I995_STATUS_BITS,
-            i996: i(996),
-            i1001: i(1001),
-            i1004: i(1004),
-            i1005: i(1005),
+            i995: i(rv.cfg) & !I995_STATUS_BITS,
+            i996: i(rv.nodes),
+            i1001: i(rv.check_period),
+            i1004: i(rv.error_limit),
+            i1005: i(rv.sync_min),
         }
     }
 
@@ -176,6 +151,13 @@ impl CardRingApp {
         CardRingApp::new(runner, nodes)
     }
 
+    /// A ring app owning `card`, and a handle to send it host requests as a port would
+    /// (in-process simulations: the request is served at the next tick).
+    pub fn with_handle(card: Card, nodes: &[u8]) -> (Self, super::handle::CardHandle) {
+        let (runner, handle) = super::handle::channel(CardCore::new(card), None);
+        (CardRingApp::new(runner, nodes), handle)
+    }
+
     /// The card core (tests, tools).
     pub fn core(&mut self) -> &mut CardCore {
         &mut self.runner.core
@@ -189,7 +171,9 @@ impl CardRingApp {
         }
         let nodes = self.nodes.clone();
         self.with_startup(Box::new(move |card: &mut Card| {
-            wire_macro_motors(card, &nodes);
+            if let Err(e) = wire_macro_motors(card, &nodes) {
+                tracing::error!("re-applying the motor wiring after a reset: {e}");
+            }
         }))
     }
 
@@ -263,13 +247,14 @@ impl RingApp for CardRingApp {
         }
         // The card mirrors what the ring core holds now.
         let held = RingVars::of_ring(ring);
-        let status = card.state.peek_ivar(995).unwrap_or(0.0) as u32 & I995_STATUS_BITS;
+        let rv = card.state.ring_ivars();
+        let status = card.state.peek_ivar(rv.cfg).unwrap_or(0.0) as u32 & I995_STATUS_BITS;
         for (n, v, now) in [
-            (995, held.i995 | status, c.i995 | status),
-            (996, held.i996, c.i996),
-            (1001, held.i1001, c.i1001),
-            (1004, held.i1004, c.i1004),
-            (1005, held.i1005, c.i1005),
+            (rv.cfg, held.i995 | status, c.i995 | status),
+            (rv.nodes, held.i996, c.i996),
+            (rv.check_period, held.i1001, c.i1001),
+            (rv.error_limit, held.i1004, c.i1004),
+            (rv.sync_min, held.i1005, c.i1005),
         ] {
             if v != now {
                 let _ = card.state.set_ivar(n, f64::from(v));
@@ -303,6 +288,15 @@ impl RingApp for CardRingApp {
                 .set_node_feedback(usize::from(n), regs_to_words(regs.read_regs(n)));
         }
         self.runner.core.tick(cycle);
+        // The MACRO auxiliary channel (MS/MX, PLC MSR/MSW): registers 2-3 of this card's
+        // node-15 packet, read from its copy as it came back around the ring.
+        let me = regs.settings().master_number();
+        let back = regs
+            .latched_copy(me, AUX_NODE)
+            .map_or((0, 0), |r| (r.r2, r.r3));
+        let (r2, r3) = self.runner.core.aux_tick(back);
+        let w = regs.write_regs_mut(AUX_NODE);
+        (w.r2, w.r3) = (r2, r3);
         let card = &mut self.runner.core.card;
         let latched = card.state.global.ring_fault;
         for &n in &self.nodes {
@@ -371,14 +365,14 @@ mod tests {
     fn wiring_activates_the_motors_of_the_nodes() {
         let mut card = Card::new(Profile::Pmac2);
         assert_eq!(
-            wire_macro_motors(&mut card, &[0, 1, 4, 5, 8, 9, 12, 13, 15]),
+            wire_macro_motors(&mut card, &[0, 1, 4, 5, 8, 9, 12, 13, 15]).unwrap(),
             [1, 2, 3, 4, 5, 6, 7, 8]
         );
         assert_eq!(card.state.peek_ivar(1000), Ok(f64::from(0x3333)));
         assert_eq!(card.state.peek_ivar(1002), Ok(f64::from(0x3333)));
         assert_eq!(card.state.peek_ivar(800), Ok(1.0));
         let mut card = Card::new(Profile::Pmac2);
-        assert_eq!(wire_macro_motors(&mut card, &[4, 2]), [3]);
+        assert_eq!(wire_macro_motors(&mut card, &[4, 2]).unwrap(), [3]);
         assert_eq!(card.state.peek_ivar(1000), Ok(16.0));
         assert_eq!(card.state.peek_ivar(200), Ok(0.0));
     }

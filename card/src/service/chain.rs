@@ -38,7 +38,7 @@ use zenoh::Wait;
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
 use crate::lang::ast::CmdKind;
 use crate::lang::interp::overlong_probe;
-use crate::lang::interp::{ctrl_n, Card, Session, MAX_LINE};
+use crate::lang::interp::{ctrl_n, Card, LineRun, Session, MAX_LINE};
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
 pub(crate) const MAX_CONNECTIONS: usize = 64;
@@ -73,10 +73,31 @@ impl Conn {
     }
 }
 
+/// A chain line waiting for the ring (a MACRO auxiliary command, `@n MS0,MI910`): the rest
+/// of its request is fed once it is done.
+#[derive(Debug)]
+struct Parked {
+    run: Box<LineRun>,
+    session: Session,
+    talking: bool,
+    /// Position of the line's `<CR>` in the request.
+    at: u32,
+    out: Vec<(u32, Vec<u8>)>,
+    rest: Vec<u8>,
+    base: u32,
+}
+
+/// What executing a `<CR>` gave.
+enum Exec {
+    Reply(Vec<u8>),
+    Wait(Box<LineRun>, Session, bool),
+}
+
 /// This card's receivers, one per chain connection (pure: bytes in, reply segments out).
 #[derive(Debug, Default)]
 pub(crate) struct ChainPort {
     conns: HashMap<u64, Conn>,
+    parked: HashMap<u64, Parked>,
     clock: u64,
 }
 
@@ -96,24 +117,58 @@ impl ChainPort {
         self.conns.len()
     }
 
-    /// Connection `id` is gone: close the buffer it left open, forget its state.
+    /// Connection `id` is gone: close the buffer it left open, forget its state (a line
+    /// waiting for the ring is dropped; its access expires unclaimed).
     pub(crate) fn close(&mut self, card: &mut Card, id: u64) {
+        self.parked.remove(&id);
         if let Some(c) = self.conns.remove(&id) {
             card.end_session(&c.session);
         }
     }
 
-    /// Run one request against the card; the encoded reply.
-    pub(crate) fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Vec<u8> {
-        match req.op {
+    /// A line of connection `id` waits for the ring: its request is answered by
+    /// [`ChainPort::resume`], and later data of the connection must wait for that.
+    pub(crate) fn is_parked(&self, id: u64) -> bool {
+        self.parked.contains_key(&id)
+    }
+
+    /// Connections with a parked line.
+    pub(crate) fn parked(&self) -> Vec<u64> {
+        self.parked.keys().copied().collect()
+    }
+
+    /// Run one request against the card; the encoded reply (`None`: a line waits for the
+    /// ring, the reply comes from [`ChainPort::resume`]).
+    pub(crate) fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Option<Vec<u8>> {
+        Some(match req.op {
             OP_CLOSE => {
                 self.close(card, req.conn);
                 Vec::new()
             }
             OP_QUERY_START => vec![self.start_flags(card, req.conn)],
             OP_TAKE_START => self.take_start(card, req.conn),
-            _ => encode_reply(&self.feed(card, req.conn, req.data)),
+            _ => encode_reply(&self.feed(card, req.conn, req.data)?),
+        })
+    }
+
+    /// Go on with the parked line of connection `id`: the encoded reply of its request once
+    /// the line (and the rest of the request) is done.
+    pub(crate) fn resume(&mut self, card: &mut Card, id: u64) -> Option<Vec<u8>> {
+        let mut p = self.parked.remove(&id)?;
+        let Some(r) = card.step_detached(&mut p.run, &mut p.session) else {
+            self.parked.insert(id, p);
+            return None;
+        };
+        let Some(conn) = self.conns.get_mut(&id) else {
+            return Some(Vec::new());
+        };
+        restore(conn, &p.session);
+        if p.talking && !r.is_empty() {
+            p.out.push((p.at, r));
         }
+        let rest = std::mem::take(&mut p.rest);
+        let out = self.feed_from(card, id, &rest, p.base, p.out)?;
+        Some(encode_reply(&out))
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
@@ -154,8 +209,14 @@ impl ChainPort {
         out
     }
 
-    /// Feed chain input of connection `id`; returns (position, reply bytes) segments.
-    pub(crate) fn feed(&mut self, card: &mut Card, id: u64, data: &[u8]) -> Vec<(u32, Vec<u8>)> {
+    /// Feed chain input of connection `id`; returns (position, reply bytes) segments (`None`:
+    /// a line waits for the ring, see [`ChainPort::resume`]).
+    pub(crate) fn feed(
+        &mut self,
+        card: &mut Card,
+        id: u64,
+        data: &[u8],
+    ) -> Option<Vec<(u32, Vec<u8>)>> {
         self.clock += 1;
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
             let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
@@ -163,16 +224,43 @@ impl ChainPort {
                 self.close(card, old);
             }
         }
+        self.feed_from(card, id, data, 0, Vec::new())
+    }
+
+    fn feed_from(
+        &mut self,
+        card: &mut Card,
+        id: u64,
+        data: &[u8],
+        base: u32,
+        mut out: Vec<(u32, Vec<u8>)>,
+    ) -> Option<Vec<(u32, Vec<u8>)>> {
+        let clock = self.clock;
         let conn = self.conns.entry(id).or_insert_with(|| Conn::new(card, id));
-        conn.last_used = self.clock;
-        let mut out = Vec::new();
+        conn.last_used = clock;
         for (i, &b) in data.iter().enumerate() {
-            let r = byte(card, conn, b);
-            if !r.is_empty() {
-                out.push((i as u32, r));
+            let at = base + i as u32;
+            match byte(card, conn, b) {
+                Exec::Reply(r) if !r.is_empty() => out.push((at, r)),
+                Exec::Reply(_) => {}
+                Exec::Wait(run, session, talking) => {
+                    self.parked.insert(
+                        id,
+                        Parked {
+                            run,
+                            session,
+                            talking,
+                            at,
+                            out,
+                            rest: data[i + 1..].to_vec(),
+                            base: at + 1,
+                        },
+                    );
+                    return None;
+                }
             }
         }
-        out
+        Some(out)
     }
 }
 
@@ -194,7 +282,21 @@ fn starts_program(card: &Card, c: &Conn) -> bool {
 }
 
 /// Process one received byte; the reply this card sends because of it.
-fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
+fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Exec {
+    if b == b'\r' {
+        let sa = card.software_addressing();
+        if !(std::mem::take(&mut c.at_pending) && sa) {
+            return execute(card, c);
+        }
+        // `@` then <CR>: the report-card command.
+        collect(card, c, b'@');
+        return execute(card, c);
+    }
+    Exec::Reply(byte_other(card, c, b))
+}
+
+/// A received byte other than `<CR>`.
+fn byte_other(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
     let sa = card.software_addressing();
     if std::mem::take(&mut c.at_pending) && sa {
         if let Some(n) = hex_digit(b) {
@@ -217,7 +319,6 @@ fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
     let all = sa && c.session.chain_all;
     let said = |r: Vec<u8>| if talking { r } else { Vec::new() };
     match b {
-        b'\r' => execute(card, c),
         // CTRL-A/D/K/O/Q/R/S: every card, whatever the addressing.
         0x01 | 0x04 | 0x0B | 0x0F | 0x11 | 0x12 | 0x13 => {
             let r = card.control_char(&mut c.session, b);
@@ -288,35 +389,35 @@ fn restore(c: &mut Conn, s: &Session) {
     c.session.coord = s.coord;
 }
 
-/// `<CR>`: execute the collected line (every card that has one), reply if talking.
-fn execute(card: &mut Card, c: &mut Conn) -> Vec<u8> {
+/// `<CR>`: execute the collected line (every card that has one), reply if talking. A line
+/// whose MACRO auxiliary command waits for the ring is handed back to be parked.
+fn execute(card: &mut Card, c: &mut Conn) -> Exec {
     let talking = card.chain_talking(&c.session);
     if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
         // The line was taken for a synchronized start: it runs (and answers) there.
-        return Vec::new();
+        return Exec::Reply(Vec::new());
     }
     let line = std::mem::take(&mut c.buf);
     if std::mem::take(&mut c.overflow) {
         if !talking {
-            return Vec::new();
+            return Exec::Reply(Vec::new());
         }
-        return card.run_detached(&mut c.session.clone(), &overlong_probe());
+        return Exec::Reply(card.run_detached(&mut c.session.clone(), &overlong_probe()));
     }
     if line.is_empty() && !talking {
-        return Vec::new();
+        return Exec::Reply(Vec::new());
     }
     // The line was collected while addressed: it runs even if another card is addressed now.
     let mut s = Session {
         chain_addressed: true,
         ..c.session.clone()
     };
-    let r = card.run_detached(&mut s, &line);
+    let mut run = card.start_detached(&mut s, &line);
+    let Some(r) = card.step_detached(&mut run, &mut s) else {
+        return Exec::Wait(Box::new(run), s, talking);
+    };
     restore(c, &s);
-    if talking {
-        r
-    } else {
-        Vec::new()
-    }
+    Exec::Reply(if talking { r } else { Vec::new() })
 }
 
 /// Start-up: the card's chain number (I0) from the config and software addressing on (I1 bit

@@ -6,12 +6,13 @@
 //! I/O thread ([`IoWorker`]), which reports completion back. No lock is held across I/O: the
 //! only shared state is the unsolicited-output log, locked for a copy.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
+use mcc_ring::control::chain::OP_CLOSE;
 use mcc_ring::control::sync_start::{AtReply, AtRequest};
 
 use super::chain::ChainPort;
@@ -180,6 +181,9 @@ impl IoWorker {
 /// after every reset: the cluster config is the card's hardware setup.
 pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::interp::Card)>;
 
+/// Chain requests (payload, reply channel) of one connection, waiting in order.
+type ChainQueue = VecDeque<(Vec<u8>, Sender<Response>)>;
+
 /// The servo thread's side: owns the [`CardCore`].
 pub struct Runner {
     /// The card core.
@@ -190,6 +194,9 @@ pub struct Runner {
     io: IoWorker,
     shared: Arc<Shared>,
     chain: ChainPort,
+    /// Daisy-chain requests waiting behind a line that waits for the ring, per connection
+    /// (the first is the parked line's own request).
+    chain_wait: HashMap<u64, ChainQueue>,
     /// Synchronized start (shared with the `at` queryable).
     pub sync: Arc<SyncShared>,
     sync_session: Session,
@@ -217,6 +224,7 @@ pub(crate) fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, 
         io: IoWorker::start(storage),
         shared: Arc::clone(&shared),
         chain: ChainPort::new(),
+        chain_wait: HashMap::new(),
         sync: Arc::new(SyncShared::default()),
         sync_session: Session::default(),
         orphaned: false,
@@ -234,11 +242,40 @@ impl Runner {
                 self.core.submit(t, conn, req);
             }
             Request::Chain(payload) => {
-                let r = match mcc_ring::control::chain::decode_request(&payload) {
-                    Ok(req) => Ok(self.chain.handle(&mut self.core.card, &req)),
-                    Err(e) => Err(e.to_string()),
+                let req = match mcc_ring::control::chain::decode_request(&payload) {
+                    Ok(req) => req,
+                    Err(e) => {
+                        let _ = env.reply.send(Response::Chain(Err(e.to_string())));
+                        return;
+                    }
                 };
-                let _ = env.reply.send(Response::Chain(r));
+                let conn = req.conn;
+                // A connection whose line waits for the ring: its later data waits too.
+                if self.chain.is_parked(conn) && req.op != OP_CLOSE {
+                    self.chain_wait
+                        .entry(conn)
+                        .or_default()
+                        .push_back((payload, env.reply));
+                    return;
+                }
+                let closing = req.op == OP_CLOSE;
+                match self.chain.handle(&mut self.core.card, &req) {
+                    Some(r) => {
+                        let _ = env.reply.send(Response::Chain(Ok(r)));
+                    }
+                    None => {
+                        self.chain_wait
+                            .entry(conn)
+                            .or_default()
+                            .push_front((payload, env.reply));
+                    }
+                }
+                if closing {
+                    // whatever waited behind a dropped line is answered empty
+                    for (_, tx) in self.chain_wait.remove(&conn).unwrap_or_default() {
+                        let _ = tx.send(Response::Chain(Ok(Vec::new())));
+                    }
+                }
             }
             Request::At(req) => {
                 let _ = env.reply.send(Response::At(self.sync.handle(&req)));
@@ -259,7 +296,39 @@ impl Runner {
             self.core.effect_done(t, r);
         }
         self.core.serve(budget);
+        self.resume_chain();
         self.dispatch();
+    }
+
+    /// Daisy-chain lines waiting for the ring: answer those that are done, then run what their
+    /// connections sent meanwhile (in order, until one waits again).
+    fn resume_chain(&mut self) {
+        for conn in self.chain.parked() {
+            let Some(reply) = self.chain.resume(&mut self.core.card, conn) else {
+                continue;
+            };
+            let Some(queue) = self.chain_wait.get_mut(&conn) else {
+                continue;
+            };
+            if let Some((_, tx)) = queue.pop_front() {
+                let _ = tx.send(Response::Chain(Ok(reply)));
+            }
+            while let Some((payload, _)) = queue.front() {
+                let r = match mcc_ring::control::chain::decode_request(payload) {
+                    Ok(req) => self.chain.handle(&mut self.core.card, &req).map(Ok),
+                    Err(e) => Some(Err(e.to_string())),
+                };
+                let Some(r) = r else {
+                    break;
+                };
+                if let Some((_, tx)) = queue.pop_front() {
+                    let _ = tx.send(Response::Chain(r));
+                }
+            }
+            if queue.is_empty() {
+                self.chain_wait.remove(&conn);
+            }
+        }
     }
 
     fn dispatch(&mut self) {
@@ -363,6 +432,8 @@ impl Runner {
                 return;
             }
             self.wait(Duration::from_millis(20));
+            // No ring: a MACRO auxiliary access never gets an answer and times out.
+            self.core.aux_tick((0, 0));
             self.pump(&mut Budget::new(SLICE_UNITS * 16));
         }
     }

@@ -28,7 +28,7 @@ impl Cable {
     fn send(&mut self, conn: u64, data: &[u8]) -> Vec<u8> {
         let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
         for (k, (card, port)) in self.cards.iter_mut().enumerate() {
-            for (p, b) in port.feed(card, conn, data) {
+            for (p, b) in port.feed(card, conn, data).unwrap_or_default() {
                 segs.push((p, k, b));
             }
         }
@@ -166,16 +166,20 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     let mut c = Cable::new(1);
     let (card, port) = &mut c.cards[0];
     for id in 0..(MAX_CONNECTIONS as u64 + 10) {
-        port.feed(card, id, b"P1\r");
+        let _ = port.feed(card, id, b"P1\r");
     }
     assert_eq!(port.connections(), MAX_CONNECTIONS);
     assert_eq!(
-        port.feed(card, 500, b"OPEN PROG 1 CLEAR\r"),
+        port.feed(card, 500, b"OPEN PROG 1 CLEAR\r")
+            .unwrap_or_default(),
         vec![(17, vec![6])]
     );
     port.close(card, 500);
     // The buffer is closed again: another connection may open one.
-    assert_eq!(port.feed(card, 501, b"OPEN PROG 2\r"), vec![(11, vec![6])]);
+    assert_eq!(
+        port.feed(card, 501, b"OPEN PROG 2\r"),
+        Some(vec![(11, vec![6])])
+    );
 }
 
 impl Cable {
@@ -190,6 +194,7 @@ impl Cable {
                 data: &[],
             },
         )
+        .unwrap_or_default()
     }
 }
 
@@ -232,4 +237,43 @@ fn lines_without_a_start_are_not_taken() {
     // Requests with the new ops decode; unknown ops are still refused.
     assert!(decode_request(&encode_request(OP_TAKE_START, 3, &[])).is_ok());
     assert!(decode_request(&encode_request(b'Z', 3, &[])).is_err());
+}
+
+#[test]
+fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
+    use mcc_ring::aux_channel::{stream_word, AuxWord, Reply, ValueFormat, WordKind};
+    let mut c = Cable::new(2);
+    // card 1 is a ring master with Type 1 auxiliary communications on
+    assert_eq!(c.ask(1, "I995=$30 I1003=32 I1000=0"), b"\x06");
+    assert_eq!(c.send(1, b"@1\r"), b"\x06");
+    let (card, port) = &mut c.cards[1];
+    assert_eq!(port.feed(card, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"), None);
+    assert!(port.is_parked(1));
+    // the servo tick streams the request; the station's reply comes back around the ring
+    let first = card.model.aux.servo_tick((0, 0));
+    let tag = AuxWord::decode(first.0, first.1).tag;
+    let reply = Reply::Value(8.0, ValueFormat::Decimal).words();
+    let mut done = None;
+    for k in 0..reply.len() as u64 {
+        let (r2, r3) = stream_word(WordKind::Reply, tag, 0, &reply, k).encode();
+        card.model.aux.servo_tick((r2, r3));
+        done = port.resume(card, 1);
+        if done.is_some() {
+            break;
+        }
+    }
+    let done = done.expect("the line finished");
+    let segs = mcc_ring::control::chain::decode_reply(&done).expect("segments");
+    // the parked line's reply at its <CR> (position 17), then the next line's at 20
+    assert_eq!(
+        segs,
+        vec![(17, b"8\r\x06".to_vec()), (20, b"2\r\x06".to_vec())]
+    );
+    assert!(!port.is_parked(1));
+    // a line whose card is not a master gets ERR008 at once (never parked)
+    let (card0, port0) = &mut c.cards[0];
+    assert_eq!(
+        port0.feed(card0, 2, b"MS0,MI8\r"),
+        Some(vec![(7, b"\x07ERR008\r".to_vec())])
+    );
 }

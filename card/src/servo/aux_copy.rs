@@ -9,24 +9,25 @@
 //! cycle's packet: flags are at least one cycle late, as on the real card.
 
 use crate::model::CardState;
-use crate::model::AUX_IMAGE_BASE;
-use crate::model::{node_addr, Space};
+use crate::model::Space;
 
 /// Copy the auxiliary registers of every enabled node. Returns the number of nodes copied.
 pub(super) fn aux_copy(st: &mut CardState) -> usize {
-    let enabled = st.peek_ivar(1000).unwrap_or(0.0).max(0.0) as u32 & 0xFFFF;
+    let rv = st.ring_ivars();
+    let enabled = st.peek_ivar(rv.aux_enable).unwrap_or(0.0).max(0.0) as u32 & 0xFFFF;
     if enabled == 0 {
         return 0;
     }
-    let type1 = st.peek_ivar(1002).unwrap_or(0.0).max(0.0) as u32 & 0xFFFF;
+    let type1 = st.peek_ivar(rv.protocol).unwrap_or(0.0).max(0.0) as u32 & 0xFFFF;
+    let map = *st.map();
     let mut n = 0;
     for node in 0..16usize {
         if enabled & (1 << node) == 0 {
             continue;
         }
         let reg = if type1 & (1 << node) != 0 { 3 } else { 0 };
-        let (space, addr) = node_addr(node, reg);
-        let image = AUX_IMAGE_BASE + node as u16;
+        let (space, addr) = map.node_addr(node, reg);
+        let image = map.aux_image(node);
         let status = st.memory.read(space, addr);
         st.memory.write(Space::X, image, status);
         let command = st.memory.read(Space::Y, image);

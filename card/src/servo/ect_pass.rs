@@ -11,11 +11,8 @@ use crate::model::CardState;
 use crate::model::Space;
 use crate::motion::ect::{EctEntry, EctState};
 
-/// First setup word of the table.
-pub(super) const ECT_START: u16 = 0x0720;
-/// Last word of the table area.
-pub(super) const ECT_END: u16 = 0x073F;
-const SLOTS: usize = (ECT_END - ECT_START + 1) as usize;
+/// Most words a table area holds (Turbo: $3501-$35C0).
+const SLOTS: usize = 0xC0;
 
 /// Running state of every entry, keyed by the entry's first setup address.
 #[derive(Debug, Clone)]
@@ -35,15 +32,25 @@ impl EctPass {
     /// Run the table once: read each source, write each result. Returns the number of entries
     /// converted.
     pub(super) fn run(&mut self, st: &mut CardState) -> usize {
-        let mut addr = ECT_START;
+        let map = *st.map();
+        let turbo = map.ect_ivar.is_some();
+        let mut addr = map.ect_start;
         let mut n = 0;
-        while addr < ECT_END {
-            let line1 = st.memory.read(Space::Y, addr);
-            let line2 = st.memory.read(Space::Y, addr + 1);
-            let Some(entry) = EctEntry::decode(line1, line2) else {
+        while addr < map.ect_end {
+            let line1 = st.read(Space::Y, addr);
+            let line2 = st.read(Space::Y, addr + 1);
+            let decoded = if turbo {
+                EctEntry::decode_turbo(line1, line2)
+            } else {
+                EctEntry::decode(line1, line2)
+            };
+            let Some(entry) = decoded else {
                 break;
             };
-            let k = usize::from(addr - ECT_START);
+            let k = (addr - map.ect_start) as usize;
+            if k >= SLOTS {
+                break;
+            }
             let raw = st.read(entry.space, entry.source);
             let slot = &mut self.slots[k];
             // A changed entry starts a fresh conversion (no history from the old source).

@@ -130,8 +130,7 @@ impl Servo {
                 continue;
             }
             let st = &mut card.state;
-            let flag_addr = (p.ix25 & 0xFFFF) as u16;
-            let mut flags = FlagInputs::from_image(st.memory.read(Space::X, flag_addr), p.ix25);
+            let mut flags = FlagInputs::from_image(st.memory.read(Space::X, p.flag_addr), p.ix25);
             let on = &mut self.amp_on[k];
             *on = if self.motors[k].flags.amp_enabled {
                 on.saturating_add(1)
@@ -142,7 +141,7 @@ impl Servo {
                 flags.amp_fault = false;
             }
             let inp = TickInput {
-                feedback: st.read(Space::X, (p.ix03 & 0xFFFF) as u16),
+                feedback: st.read(Space::X, p.feedback_addr),
                 flags,
                 dt_ms,
                 program: setpoints.get(k).copied().flatten(),
@@ -178,6 +177,7 @@ impl Servo {
         }
         gather_tick(card);
         registers::count_cycle(&mut card.state);
+        registers::count_timers(&mut card.state);
         aux_copy::aux_copy(&mut card.state);
         self.engine.background(card, cmd, &self.motors);
         let out = self.engine.take_output();
@@ -218,21 +218,22 @@ impl Servo {
     }
 }
 
-/// Ix02 target of a motor: (space, address). Bit 19 selects an X register.
-fn output_addr(ix02: u32) -> (Space, u16) {
+/// Ix02 target of a motor: (space, address). Bit 19 selects an X register; the address is
+/// bits 0-15 (PMAC2) or 0-18 (Turbo, `max_addr`).
+fn output_addr(ix02: u32, max_addr: u32) -> (Space, u32) {
     let space = if ix02 & (1 << 19) != 0 {
         Space::X
     } else {
         Space::Y
     };
-    (space, (ix02 & 0xFFFF) as u16)
+    (space, ix02 & max_addr)
 }
 
 /// Write a motor's output: register 0 at Ix02, amplifier enable into its Ix25 image.
 fn write_output(st: &mut CardState, p: &MotorParams, ix02: u32, out: &TickOutput) {
-    let (space, addr) = output_addr(ix02);
+    let (space, addr) = output_addr(ix02, st.map().max_addr);
     st.write(space, addr, out.reg0);
-    let flag_addr = (p.ix25 & 0xFFFF) as u16;
+    let flag_addr = p.flag_addr;
     let img = st.memory.read(Space::Y, flag_addr);
     let img = if out.amp_enable {
         img | AMP_ENABLE_BIT

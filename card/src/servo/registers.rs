@@ -12,20 +12,18 @@
 //! | X:$003D / Y:$0814 | status words (computed from the motor flags by `CardState`) |
 //! | X:$0000 (M100) | servo cycle counter (24-bit) |
 //!
-//! Only motors with a register block (PMAC2: 1-8) get the memory registers; every motor gets
-//! its `?` flags and its `P`/`V`/`F` report.
+//! On Turbo the same registers sit in the motor blocks of the Turbo map (see
+//! `model::regmap`). Only motors with a register block (PMAC2: 1-8, Turbo: 1-32) get the
+//! memory registers; every motor gets its `?` flags and its `P`/`V`/`F` report.
 
 use crate::model::encode_fixed;
+use crate::model::Addr;
 use crate::model::CardModel;
 use crate::model::CardState;
 use crate::model::MotorFlags;
 use crate::model::Space;
-use crate::model::{BLOCK_BASE, BLOCK_STRIDE, MOTOR_CALC_BASE, MOTOR_CALC_STRIDE};
 use crate::motion::motor::{Motor, TickOutput};
 use crate::motion::params::MotorParams;
-
-/// Motors with a calculation block in the PMAC2 memory map.
-pub(super) const MAPPED_MOTORS: u16 = 8;
 
 /// Copy the motor-owned `?` bits of `src` into the card's flags (the C.S. assignment, dwell,
 /// block request and data-block error belong to the interpreter and the program engine).
@@ -49,14 +47,14 @@ pub(super) fn sync_flags(dst: &mut MotorFlags, src: &MotorFlags) {
 }
 
 /// Write a D: register (48-bit fixed point, X high) straight into raw memory.
-fn write_d(st: &mut CardState, addr: u16, v: f64) {
+fn write_d(st: &mut CardState, addr: Addr, v: f64) {
     let w = encode_fixed(v);
     st.memory
         .write(Space::X, addr, ((w >> 24) & 0xFF_FFFF) as u32);
     st.memory.write(Space::Y, addr, (w & 0xFF_FFFF) as u32);
 }
 
-/// Write motor `x`'s (1-based) registers.
+/// Write motor `x`'s (1-based) registers (the profile's map: PMAC2 motors 1-8, Turbo 1-32).
 pub(super) fn write_motor_registers(
     st: &mut CardState,
     x: u16,
@@ -64,33 +62,31 @@ pub(super) fn write_motor_registers(
     p: &MotorParams,
     out: &TickOutput,
 ) {
-    if x == 0 || x > MAPPED_MOTORS {
+    let Some(r) = st.map().motor_regs(x) else {
         return;
-    }
-    let calc = MOTOR_CALC_BASE + (x - 1) * MOTOR_CALC_STRIDE;
-    let block = BLOCK_BASE + (x - 1) * BLOCK_STRIDE;
+    };
     let k08 = p.gains.ix08 * 32.0;
     let k09 = p.gains.ix09 * 32.0;
-    write_d(st, calc + 0x08, m.commanded() * k08);
-    write_d(st, calc + 0x0B, m.actual() * k08);
+    write_d(st, r.commanded, m.commanded() * k08);
+    write_d(st, r.actual, m.actual() * k08);
     let vel = (m.velocity() * k09)
         .round()
         .clamp(-8_388_608.0, 8_388_607.0) as i32;
     st.memory
-        .write(Space::X, calc + 0x13, vel as u32 & 0xFF_FFFF);
-    st.memory.write(Space::X, calc + 0x23, out.reg0);
-    write_d(st, calc + 0x2B, m.following_error() * k08);
-    write_d(st, block + 0x40, m.following_error() * k08);
-    write_d(st, block + 0x0B, m.prejog * k08);
+        .write(Space::X, r.velocity, vel as u32 & 0xFF_FFFF);
+    st.memory.write(Space::X, r.filter, out.reg0);
+    for a in st.map().following_regs(x) {
+        write_d(st, a, m.following_error() * k08);
+    }
+    write_d(st, r.target, m.prejog * k08);
 }
 
-/// Motor `x`'s jog register Mx72 (L:$082B + stride), counts.
+/// Motor `x`'s jog register Mx72 (L memory), counts.
 pub(super) fn jog_register(st: &mut CardState, x: u16) -> f64 {
-    if x == 0 || x > MAPPED_MOTORS {
-        return 0.0;
+    match st.map().motor_regs(x) {
+        Some(r) => crate::model::decode_float(crate::model::long(st, r.jog)),
+        None => 0.0,
     }
-    let a = BLOCK_BASE + (x - 1) * BLOCK_STRIDE + 0x2B;
-    crate::model::decode_float(crate::model::long(st, a))
 }
 
 /// Report every motor's position/velocity/following error and copy its `?` flags.
@@ -106,6 +102,48 @@ pub(super) fn report(card: &mut CardModel, motors: &[Motor]) {
 
 /// Advance the servo cycle counter X:$0000.
 pub(super) fn count_cycle(st: &mut CardState) {
-    let c = st.memory.read(Space::X, 0x0000);
-    st.memory.write(Space::X, 0x0000, (c + 1) & 0xFF_FFFF);
+    let a = crate::model::SERVO_COUNTER;
+    let c = st.memory.read(Space::X, a);
+    st.memory.write(Space::X, a, (c + 1) & 0xFF_FFFF);
+}
+
+/// Turbo user countdown timers Isx11/Isx12 of every C.S. (I5111, I5112, I5211 …): decremented
+/// once per servo cycle, as 24-bit signed registers (wrapping past −2^23, as the register
+/// does). PLCs set them and wait for them to pass zero (`WHILE(I5111>0)ENDWHILE`).
+pub(super) fn count_timers(st: &mut CardState) {
+    if st.profile() != crate::domain::Profile::Turbo {
+        return;
+    }
+    for s in 1..=u32::from(st.limits().coords) {
+        for nn in [11, 12] {
+            let n = 5000 + 100 * s + nn;
+            let v = st.vars.i(n).unwrap_or(0.0) as i64 - 1;
+            let v = (v + 0x80_0000).rem_euclid(0x100_0000) - 0x80_0000;
+            st.vars.force_i(n, v as f64);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Profile;
+
+    #[test]
+    fn turbo_timers_count_down_and_wrap() {
+        let mut st = CardState::new(Profile::Turbo);
+        st.vars.set_i(5111, 3.0).unwrap();
+        st.vars.set_i(6612, -8_388_608.0).unwrap();
+        count_timers(&mut st);
+        assert_eq!(st.vars.i(5111), Ok(2.0));
+        assert_eq!(st.vars.i(5112), Ok(-1.0));
+        assert_eq!(st.vars.i(6612), Ok(8_388_607.0), "24-bit wrap");
+        let mut p2 = CardState::new(Profile::Pmac2);
+        count_timers(&mut p2);
+        assert_eq!(
+            p2.vars.i(511),
+            Ok(32_000.0),
+            "PMAC2: I511 is motor 5's Ix11"
+        );
+    }
 }

@@ -15,7 +15,7 @@ use crate::cli::BenchBringupArgs;
 /// Target bring-up time, ms.
 pub const TARGET_MS: u64 = 2000;
 
-fn mcc() -> Result<Command> {
+pub(crate) fn mcc() -> Result<Command> {
     let exe = std::env::current_exe().context("finding the mcc binary")?;
     let mut c = Command::new(exe);
     c.stdin(Stdio::null())
@@ -25,7 +25,7 @@ fn mcc() -> Result<Command> {
 }
 
 /// Run `cmd`, killing it after `timeout`; its exit success and stderr.
-fn run_bounded(mut cmd: Command, timeout: Duration) -> Result<(bool, String)> {
+pub(crate) fn run_bounded(mut cmd: Command, timeout: Duration) -> Result<(bool, String)> {
     let child = cmd.spawn().context("starting mcc")?;
     let pid = child.id();
     let (tx, rx) = std::sync::mpsc::channel();

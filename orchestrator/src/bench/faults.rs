@@ -1,9 +1,12 @@
-//! `mcc bench faults`: ring-fault detection latency, in ring cycles, per fault kind. Starts a
-//! lockstep cluster of its own (2 cards + 2 stations: card0 (sync master) → station0 → card1
-//! → station1), then for each drill injects the fault on station0 (or kills station0, or
-//! freezes card1), waits until every card that can still answer has latched a new ring fault,
+//! `mcc bench faults [--clock paced|lockstep|realtime]`: ring-fault detection latency, in ring
+//! cycles and milliseconds, per fault kind. Starts a cluster of its own (default clock paced;
+//! 2 cards + 2 stations: card0 (sync master) → station0 → card1 → station1), then for each drill
+//! injects the fault on station0 (or kills station0, freezes card1, kills or freezes the sync
+//! master card0), waits until every card that can still answer has latched a new ring fault,
 //! reads each card's `ring_fault_cycle` from its member status, and recovers (clear, restart,
-//! `$$$`, latch reset) before the next drill.
+//! `$$$`, latch reset) before the next drill. For a killed or frozen member it also reports the
+//! wall time until the member downstream saw loss of light (liveliness notice, or the
+//! frozen-member wait).
 //!
 //! The injection cycle: for drills that stop frames (cut, kill, freeze) it is exact — the
 //! first cycle the member downstream of the break never received (its last_rx_cycle + 1). For
@@ -32,6 +35,8 @@ pub const DRILLS: &[(&str, &str, &str)] = &[
     ("overrun", "station0", "overrun"),
     ("killed station", "station0", "kill"),
     ("frozen card", "card1", "freeze"),
+    ("killed sync master", "card0", "kill"),
+    ("frozen sync master", "card0", "freeze"),
 ];
 
 fn statuses(s: &zenoh::Session, cfg: &ClusterConfig) -> Vec<Option<MemberStatus>> {
@@ -55,8 +60,20 @@ fn index(cfg: &ClusterConfig, name: &str) -> Result<usize> {
 pub fn run(args: &BenchFaultsArgs) -> Result<()> {
     let mut cfg = ClusterConfig::default_cluster(2, 2);
     cfg.cluster = format!("bench-faults-{}", std::process::id());
-    cfg.clock = ClockMode::Lockstep;
+    cfg.clock = args.clock.unwrap_or(ClockMode::Paced);
     with_cluster(cfg, |sup, cfg| {
+        // The checks arm after ARM_AFTER_LOCKED locked cycles: let every member get there.
+        let armed = u64::from(mcc_ring::core::ARM_AFTER_LOCKED) * 2;
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while statuses(sup.session(), cfg)
+            .iter()
+            .any(|m| m.as_ref().is_none_or(|m| m.cycle < armed))
+        {
+            if Instant::now() > deadline {
+                bail!("the ring did not run {armed} cycles within 60 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let i1001 = cfg
             .cards
             .first()
@@ -64,13 +81,16 @@ pub fn run(args: &BenchFaultsArgs) -> Result<()> {
             .map(|v| v.as_f64() as u64)
             .unwrap_or(16);
         println!(
-            "bench faults: lockstep ring {} ({}), card check period I1001 = {i1001} cycles (detection bound 2 x I1001 + 1 = {})",
+            "bench faults: {} ring {} ({}) at {} Hz, card check period I1001 = {i1001} cycles (detection bound 2 x I1001 + 1 = {}), frozen-member wait {} ms",
+            cfg.clock.as_str(),
             cfg.ring.name,
             cfg.ring.order.join(" → "),
-            2 * i1001 + 1
+            cfg.rate_hz,
+            2 * i1001 + 1,
+            cfg.member_timeout_ms
         );
         println!(
-            "  {:<15} {:<9} {:<17} latency per card (cycles from injection to ring_fault_cycle)",
+            "  {:<18} {:<9} {:<17} latency per card: cycles from injection to ring_fault_cycle (ms at the nominal rate)",
             "fault", "member", "injected at cycle"
         );
         let mut failures = 0;
@@ -84,10 +104,10 @@ pub fn run(args: &BenchFaultsArgs) -> Result<()> {
                 }
             }
             match drill(sup, cfg, member, word, Duration::from_secs(args.timeout)) {
-                Ok(line) => println!("  {label:<15} {member:<9} {line}"),
+                Ok(line) => println!("  {label:<18} {member:<9} {line}"),
                 Err(e) => {
                     failures += 1;
-                    println!("  {label:<15} {member:<9} {e:#}");
+                    println!("  {label:<18} {member:<9} {e:#}");
                 }
             }
             recover(sup, cfg, member, word)?;
@@ -158,6 +178,24 @@ fn drill(
             }
         }
     }
+    let injected = Instant::now();
+    // A killed or frozen member: how long until the member downstream sees loss of light.
+    let noticed = if matches!(word, "kill" | "freeze") {
+        let key = ctl_key(&cfg.cluster, &cfg.ring.order[downstream], "status");
+        let deadline = Instant::now() + timeout;
+        loop {
+            let dark = crate::ctl::query_text(&s, &key, None, Duration::from_millis(300))
+                .ok()
+                .and_then(|t| serde_json::from_str::<MemberStatus>(&t).ok())
+                .is_some_and(|m| m.dark);
+            if dark || Instant::now() > deadline {
+                break dark.then(|| injected.elapsed());
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    } else {
+        None
+    };
     let c1 = statuses(&s, cfg)
         .get(target)
         .and_then(Option::as_ref)
@@ -167,7 +205,7 @@ fn drill(
         .cards
         .iter()
         .filter_map(|c| index(cfg, &c.name).ok())
-        .filter(|&i| !(word == "freeze" && i == target))
+        .filter(|&i| !(matches!(word, "freeze" | "kill") && i == target))
         .collect();
     let deadline = Instant::now() + timeout;
     let detected = |now: &[Option<MemberStatus>], i: usize| {
@@ -197,6 +235,7 @@ fn drill(
         std::thread::sleep(Duration::from_millis(50));
     };
     let exact = matches!(word, "cut" | "kill" | "freeze");
+    let period_ms = cfg.period_ns() as f64 / 1e6;
     let lost = now
         .get(downstream)
         .and_then(Option::as_ref)
@@ -221,10 +260,11 @@ fn drill(
             .and_then(|m| m.ring_fault_cycle)
             .unwrap_or(0);
         let (a, b) = (at.saturating_sub(hi), at.saturating_sub(lo));
+        let ms = |c: u64| c as f64 * period_ms;
         parts.push(if a == b {
-            format!("{name} {a}")
+            format!("{name} {a} ({:.1} ms)", ms(a))
         } else {
-            format!("{name} {a}..{b}")
+            format!("{name} {a}..{b} ({:.1}..{:.1} ms)", ms(a), ms(b))
         });
     }
     let when = if lo == hi {
@@ -232,7 +272,15 @@ fn drill(
     } else {
         format!("{lo}..{hi}")
     };
-    Ok(format!("{when:<17} {}", parts.join(", ")))
+    let notice = noticed
+        .map(|d| {
+            format!(
+                "; loss of light downstream after {:.0} ms",
+                d.as_secs_f64() * 1000.0
+            )
+        })
+        .unwrap_or_default();
+    Ok(format!("{when:<17} {}{notice}", parts.join(", ")))
 }
 
 /// Undo a drill and wait until the ring is healthy again.

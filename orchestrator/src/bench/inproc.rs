@@ -1,6 +1,6 @@
 //! A ring of `n` members run in this process, one thread and one zenoh session each, over the
 //! real zenoh transport and the runtime's member driver — exactly the code a member process
-//! runs, minus the process. A probe on each member's send path logs (cycle, time).
+//! runs, minus the process. The drivers record their timing samples.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -10,39 +10,18 @@ use anyhow::{anyhow, Result};
 use mcc_ring::config::{ClockMode, ClusterConfig, MemberRef};
 use mcc_ring::control::MemberKind;
 use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
-use mcc_ring::frame::Frame;
 use mcc_ring::member::RingMember;
 use mcc_ring::runtime::driver::{Driver, DriverConfig};
 use mcc_ring::settings::RingSettings;
 use mcc_ring::transport::session::{free_loopback_endpoint, open_session, SessionOptions};
-use mcc_ring::transport::{zenoh_link, LinkTx, TransportError};
+use mcc_ring::transport::zenoh_link;
 use zenoh::Wait;
-
-use super::stats::{new_log, since, SendLog};
 
 /// A member that computes nothing: the bench measures the ring, not the servo.
 struct Idle;
 
 impl RingApp for Idle {
     fn tick(&mut self, _cycle: u64, _time_ns: u64, _regs: &mut RingMember, _ring_fault: bool) {}
-}
-
-/// Logs the cycle of every frame a member sends, then sends it.
-struct Probe<T: LinkTx> {
-    inner: T,
-    log: SendLog,
-    epoch: Instant,
-}
-
-impl<T: LinkTx> LinkTx for Probe<T> {
-    fn send(&self, frame: &[u8]) -> Result<(), TransportError> {
-        if let Ok(f) = Frame::decode(frame) {
-            if let Ok(mut l) = self.log.lock() {
-                l.push((f.cycle, since(self.epoch)));
-            }
-        }
-        self.inner.send(frame)
-    }
 }
 
 /// The default mix for `n` members: a third cards (at least one), the rest stations.
@@ -58,15 +37,13 @@ pub fn bench_config(n: usize, clock: ClockMode, rate_hz: f64) -> ClusterConfig {
 /// What a bench ring run measured, per member in ring order.
 #[derive(Debug, Default)]
 pub struct RingRun {
-    /// (cycle, ns since the epoch) of every frame each member sent.
-    pub sends: Vec<Vec<(u64, u64)>>,
     /// The driver's timing records on the monotonic clock: the sync master's scheduled cycle
     /// starts (realtime), the others' sync-packet arrivals.
     pub records: Vec<Vec<(u64, u64)>>,
 }
 
 /// Run the ring until the sync master has run `cycles` cycles.
-pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> {
+pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
     let n = cfg.ring.order.len();
     let first = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
     let mut sessions = Vec::new();
@@ -96,7 +73,6 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
         std::thread::sleep(Duration::from_millis(20));
     }
     let stop = Arc::new(AtomicBool::new(false));
-    let logs: Vec<SendLog> = (0..n).map(|_| new_log(cycles as usize + 64)).collect();
     let mut guards = Vec::new();
     let mut cmd_senders = Vec::new();
     let mut drivers = Vec::new();
@@ -113,6 +89,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
             .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
         let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
         let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
+        core_cfg.sync_source = cfg.sync_source();
         mcc_ring::runtime::process::apply_clock(&mut core_cfg, cfg);
         let core = MemberCore::new(core_cfg);
         let sync = cfg.ring.sync_master == *name;
@@ -123,6 +100,8 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
             rtf: cfg.rtf,
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
+            in_flight: cfg.ring.in_flight,
+            upstream_probe: None,
             harden: false,
             max_cycles: sync.then_some(cycles),
             kind,
@@ -133,11 +112,6 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
         };
         let (cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
         cmd_senders.push(cmd_tx);
-        let probe = Probe {
-            inner: tx,
-            log: Arc::clone(&logs[k]),
-            epoch,
-        };
         drivers.push((
             k,
             sync,
@@ -145,7 +119,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
                 dcfg,
                 core,
                 Idle,
-                Box::new(probe),
+                Box::new(tx),
                 rx,
                 cmd_rx,
                 Arc::clone(&stop),
@@ -185,11 +159,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64, epoch: Instant) -> Result<RingRun> 
     for s in sessions {
         let _ = s.close().wait();
     }
-    let sends = logs
-        .iter()
-        .map(|l| l.lock().map(|v| v.clone()).unwrap_or_default())
-        .collect();
-    Ok(RingRun { sends, records })
+    Ok(RingRun { records })
 }
 
 /// The bare OS timer at `period_ns`: sleep to each absolute deadline, record wake − deadline

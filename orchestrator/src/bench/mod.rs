@@ -2,10 +2,12 @@
 
 pub mod bringup;
 pub mod chain;
+pub mod cluster;
 pub mod emcl;
 pub mod faults;
 pub mod host;
 pub mod inproc;
+pub mod procstat;
 pub mod ring;
 pub mod soak;
 pub mod stats;

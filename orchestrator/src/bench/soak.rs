@@ -68,11 +68,18 @@ fn faults_and_errors(st: &[Option<MemberStatus>]) -> (u64, u64) {
 
 /// Run the soak and print the report.
 pub fn run(args: &BenchSoakArgs) -> Result<()> {
-    let clock = args.clock.unwrap_or_default();
-    let mut cfg =
-        ClusterConfig::default_cluster(usize::from(args.cards), usize::from(args.stations));
+    let mut cfg = match &args.config {
+        Some(path) => ClusterConfig::from_file(path)?,
+        None => ClusterConfig::default_cluster(
+            usize::from(args.cards.unwrap_or(2)),
+            usize::from(args.stations.unwrap_or(2)),
+        ),
+    };
     cfg.cluster = format!("bench-soak-{}", std::process::id());
-    cfg.clock = clock;
+    if let Some(c) = args.clock {
+        cfg.clock = c;
+    }
+    let clock = cfg.clock;
     if let Some(rtf) = args.rtf {
         cfg.rtf = rtf;
     }
@@ -94,8 +101,8 @@ pub fn run(args: &BenchSoakArgs) -> Result<()> {
             String::new()
         },
         cfg.rate_hz,
-        args.cards,
-        args.stations,
+        cfg.cards.len(),
+        cfg.stations.len(),
         seconds,
         args.load
     );

@@ -1,21 +1,6 @@
-//! Send-time logs and the statistics the ring benchmark reports.
+//! The statistics the ring benchmark reports from timing records.
 
 use std::collections::BTreeMap;
-use std::sync::{Arc, Mutex};
-use std::time::Instant;
-
-/// One member's send log: (ring cycle, ns since the bench epoch) per frame sent.
-pub type SendLog = Arc<Mutex<Vec<(u64, u64)>>>;
-
-/// A fresh log with room for `cap` entries.
-pub fn new_log(cap: usize) -> SendLog {
-    Arc::new(Mutex::new(Vec::with_capacity(cap)))
-}
-
-/// ns since `epoch`.
-pub fn since(epoch: Instant) -> u64 {
-    u64::try_from(epoch.elapsed().as_nanos()).unwrap_or(u64::MAX)
-}
 
 /// Percentile `p` (0–100) of sorted values (nearest rank); 0 when empty.
 pub fn percentile(sorted: &[u64], p: f64) -> u64 {
@@ -46,29 +31,6 @@ pub fn complete_cycles(logs: &[Vec<(u64, u64)>]) -> BTreeMap<u64, Vec<u64>> {
                 .map(|r| (c, r))
         })
         .collect()
-}
-
-/// Per-hop latencies (member k's send → member k+1's send of the same cycle), skipping the
-/// first `skip` complete cycles (warm-up), sorted.
-pub fn hop_latencies(cycles: &BTreeMap<u64, Vec<u64>>, skip: usize) -> Vec<u64> {
-    let mut v: Vec<u64> = cycles
-        .values()
-        .skip(skip)
-        .flat_map(|row| row.windows(2).map(|w| w[1].saturating_sub(w[0])))
-        .collect();
-    v.sort_unstable();
-    v
-}
-
-/// Cycles per second of the sync master (member 0) over its log after `skip` entries.
-pub fn cycles_per_second(log: &[(u64, u64)], skip: usize) -> f64 {
-    let l = log.get(skip..).unwrap_or(&[]);
-    match (l.first(), l.last()) {
-        (Some(&(c0, t0)), Some(&(c1, t1))) if t1 > t0 && c1 > c0 => {
-            (c1 - c0) as f64 * 1e9 / (t1 - t0) as f64
-        }
-        _ => 0.0,
-    }
 }
 
 /// Realtime lateness of member `k` (k > 0): its sync-packet arrival of cycle c minus the
@@ -103,8 +65,8 @@ mod tests {
     }
 
     #[test]
-    fn hops_and_rates_from_logs() {
-        // 3 members, cycles 1..=3, 10 µs per hop, 100 µs per cycle; member 2 missed cycle 2.
+    fn complete_cycles_and_lateness_from_logs() {
+        // 3 members, cycles 1..=3, 10 µs apart, 100 µs per cycle; member 2 missed cycle 2.
         let logs = vec![
             vec![(1, 0), (2, 100_000), (3, 200_000)],
             vec![(1, 10_000), (2, 110_000), (3, 210_000)],
@@ -112,8 +74,6 @@ mod tests {
         ];
         let cycles = complete_cycles(&logs);
         assert_eq!(cycles.keys().copied().collect::<Vec<_>>(), [1, 3]);
-        assert_eq!(hop_latencies(&cycles, 0), [10_000; 4]);
-        assert_eq!(cycles_per_second(&logs[0], 0), 10_000.0);
         // Realtime: member 1 arrives 10 µs after the scheduled start, member 2 20 µs.
         assert_eq!(lateness(&cycles, 1, 0), [10_000, 10_000]);
         assert_eq!(lateness(&cycles, 2, 1), [20_000]);

@@ -374,6 +374,12 @@ fn clock_keys_are_checked_before_anything_starts() {
         invalid(&with("member_timeout_ms = 60001")).0,
         "member_timeout_ms"
     );
+    // The synchronized-start stall: a quarter of the wait on the stepped clocks, ≤ 25 ms in
+    // realtime.
+    let c = ClusterConfig::from_toml_str(&with("member_timeout_ms = 10000")).unwrap();
+    assert_eq!(c.sync_start_stall(), std::time::Duration::from_millis(2500));
+    let c = ClusterConfig::from_toml_str(&with("clock = \"realtime\"")).unwrap();
+    assert_eq!(c.sync_start_stall(), std::time::Duration::from_millis(25));
     // The old name of the key is still read.
     let c = ClusterConfig::from_toml_str(&with("lockstep_timeout_ms = 250")).unwrap();
     assert_eq!(c.member_timeout_ms, 250);

@@ -209,10 +209,13 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
                 format!("master number {} is already used by {other:?}", c.master),
             );
         }
-        if c.profile != "pmac2" && c.profile != "turbo" {
+        if !matches!(c.profile.as_str(), "pmac2" | "turbo" | "power") {
             return bad(
                 format!("{key}.profile"),
-                format!("unknown profile {:?} (expected pmac2 or turbo)", c.profile),
+                format!(
+                    "unknown profile {:?} (expected pmac2, turbo or power)",
+                    c.profile
+                ),
             );
         }
         for (field, port) in [
@@ -341,6 +344,16 @@ fn validate_ring(cfg: &ClusterConfig) -> R {
         return bad(
             "ring.order",
             format!("member {missing:?} is missing from the ring order"),
+        );
+    }
+    if !(1..=crate::runtime::stepped::MAX_IN_FLIGHT).contains(&cfg.ring.in_flight) {
+        return bad(
+            "ring.in_flight",
+            format!(
+                "{} cycles in flight: must be 1 to {}",
+                cfg.ring.in_flight,
+                crate::runtime::stepped::MAX_IN_FLIGHT
+            ),
         );
     }
     let sm = &cfg.ring.sync_master;

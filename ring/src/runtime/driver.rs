@@ -42,6 +42,11 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
+    pub in_flight: u64,
+    /// Whether the upstream process (on this machine) is stopped: consulted once nothing has
+    /// come from upstream for [`STOP_PROBE_AFTER`].
+    pub upstream_probe: Option<super::light::StopProbe>,
     /// Realtime: ask for SCHED_FIFO and locked memory for the cycle thread (process members).
     pub harden: bool,
     /// Stop after this many cycles (benchmarks); `None` = run until stopped.
@@ -62,6 +67,12 @@ pub struct DriverConfig {
     /// packet arrives later than that ticks at once. 0 = tick on arrival.
     pub phase_delay_ns: u64,
 }
+
+/// Silence from upstream after which the member looks at whether the upstream process is
+/// stopped (a fact on this machine, not a timeout: a slow process is never "stopped").
+pub const STOP_PROBE_AFTER: Duration = Duration::from_millis(20);
+/// How often a silent member looks again.
+const STOP_PROBE_EVERY_NS: u64 = 10_000_000;
 
 /// Phase alignment spins (instead of sleeping) for the last this many ns before the moment.
 const ALIGN_SPIN_NS: u64 = 60_000;
@@ -113,10 +124,26 @@ pub struct Driver<A: RingApp> {
     records: Vec<(u64, u64)>,
     /// The receive link closed (an in-process upstream whose loop ended): nothing will come.
     rx_closed: bool,
+    /// When the last frame came from upstream (monotonic ns).
+    last_rx_ns: u64,
+    /// The stop probe's last look: (when, upstream stopped).
+    probed: (u64, bool),
+    /// The dead flag's last check: (when, the upstream process was still there).
+    dead_checked: (u64, bool),
+    /// Attended silence on the input (the frozen-member judgement).
+    pub(super) silence: super::silence::Silence,
+    /// The upstream member has been judged frozen (for logging the change once).
+    frozen: bool,
     /// What the cycle thread got from the scheduler.
     sched: Option<String>,
     /// Synchronizing master: the clock figures for the status report.
     pub(super) clock: Option<super::timing::ClockStats>,
+    /// The tick of a frame handled on the receive thread, left for the member's thread (see
+    /// [`super::inline`]), not run yet.
+    pending_tick: Option<u64>,
+    /// The status fields of an application kept outside the driver (inline receive keeps it on
+    /// the member's thread): refreshed by that thread, reported instead of the driver's own.
+    pub(super) app_extra: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -150,9 +177,69 @@ impl<A: RingApp> Driver<A> {
             cycles_run: 0,
             records: Vec::new(),
             rx_closed: false,
+            last_rx_ns: monotonic_ns(),
+            probed: (0, false),
+            dead_checked: (0, false),
+            silence: super::silence::Silence::default(),
+            frozen: false,
             sched: None,
             clock: None,
+            pending_tick: None,
+            app_extra: None,
         }
+    }
+
+    /// The same driver with application `app` instead of its own, which is given back (the
+    /// inline receive shares the driver with zenoh's receive thread but keeps the application
+    /// on the member's thread).
+    pub(super) fn swap_app<B: RingApp>(self, app: B) -> (Driver<B>, A) {
+        let Driver {
+            cfg,
+            core,
+            app: old,
+            tx,
+            rx,
+            cmds,
+            stop,
+            delayed,
+            cycles_run,
+            records,
+            rx_closed,
+            last_rx_ns,
+            probed,
+            dead_checked,
+            silence,
+            frozen,
+            sched,
+            clock,
+            pending_tick,
+            app_extra,
+        } = self;
+        (
+            Driver {
+                cfg,
+                core,
+                app,
+                tx,
+                rx,
+                cmds,
+                stop,
+                delayed,
+                cycles_run,
+                records,
+                rx_closed,
+                last_rx_ns,
+                probed,
+                dead_checked,
+                silence,
+                frozen,
+                sched,
+                clock,
+                pending_tick,
+                app_extra,
+            },
+            old,
+        )
     }
 
     /// The application (after the loop ended).
@@ -204,14 +291,68 @@ impl<A: RingApp> Driver<A> {
         }
     }
 
-    /// The upstream member is known dead (its link carries no light).
-    pub(super) fn upstream_dead(&self) -> bool {
-        self.rx_closed
-            || self
-                .cfg
-                .upstream_dead
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::Relaxed))
+    /// The upstream member is known dead, or its process is stopped and nothing comes from it:
+    /// its link carries no light.
+    pub(super) fn upstream_dead(&mut self) -> bool {
+        if self.rx_closed {
+            return true;
+        }
+        let now = monotonic_ns();
+        if self
+            .cfg
+            .upstream_dead
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            // Its liveliness went away: dead unless its process (on this machine) is still
+            // there. Looked at every 10 ms.
+            if now.saturating_sub(self.dead_checked.0) >= STOP_PROBE_EVERY_NS {
+                let alive = self.cfg.upstream_probe.as_ref().is_some_and(|p| p.alive());
+                if alive && !self.dead_checked.1 {
+                    warn!(member = %self.cfg.name,
+                        "upstream liveliness went away but its process is still there: not dead");
+                }
+                self.dead_checked = (now, alive);
+            }
+            if !self.dead_checked.1 {
+                return true;
+            }
+        } else {
+            self.dead_checked = (0, false);
+        }
+        let Some(probe) = &self.cfg.upstream_probe else {
+            return false;
+        };
+        if now.saturating_sub(self.last_rx_ns) < STOP_PROBE_AFTER.as_nanos() as u64 {
+            return false;
+        }
+        if now.saturating_sub(self.probed.0) >= STOP_PROBE_EVERY_NS {
+            let stopped = probe.stopped();
+            if stopped && !self.probed.1 {
+                warn!(member = %self.cfg.name, "upstream process is stopped: loss of light");
+            }
+            self.probed = (now, stopped);
+        }
+        self.probed.1
+    }
+
+    /// Follower, paced and lockstep: the upstream member has stopped answering — nothing came
+    /// from it for the frozen-member wait of attended silence (see [`super::silence`]).
+    fn upstream_frozen(&mut self) -> bool {
+        let attended = self.silence.look(monotonic_ns());
+        let frozen = attended >= self.cfg.member_timeout.as_nanos() as u64;
+        if frozen != self.frozen {
+            self.frozen = frozen;
+            if frozen {
+                warn!(
+                    member = %self.cfg.name,
+                    "nothing from upstream for {} ms: the upstream member stopped answering, \
+                     cycles run on the own clock",
+                    attended / 1_000_000
+                );
+            }
+        }
+        frozen
     }
 
     /// The next frame from upstream within `wait`. A closed link is a dead upstream (loss of
@@ -223,6 +364,12 @@ impl<A: RingApp> Driver<A> {
                     warn!(member = %self.cfg.name, "receive link closed: loss of light");
                     self.rx_closed = true;
                 }
+                Ok(Some(frame)) => {
+                    self.last_rx_ns = monotonic_ns();
+                    self.silence.reset(self.last_rx_ns);
+                    self.probed.1 = false;
+                    return Ok(Some(frame));
+                }
                 other => return other,
             }
         }
@@ -232,6 +379,23 @@ impl<A: RingApp> Driver<A> {
 
     /// Run until stopped. Blocks the calling thread.
     pub fn run(&mut self) -> DriverExit {
+        self.prepare();
+        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
+        let r = if self.core.is_sync_master() {
+            match self.cfg.clock {
+                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
+                ClockMode::Realtime => self.run_sync_master_realtime(),
+            }
+        } else {
+            self.run_follower()
+        };
+        info!(member = %self.cfg.name, ?r, "ring member stopped");
+        r
+    }
+
+    /// Before the loop: the cycle thread's timer slack and scheduling, the sync master's clock
+    /// figures.
+    pub(super) fn prepare(&mut self) {
         if self.cfg.clock == ClockMode::Paced
             || (self.cfg.clock == ClockMode::Realtime && self.cfg.phase_delay_ns > 0)
         {
@@ -244,10 +408,9 @@ impl<A: RingApp> Driver<A> {
             info!(member = %self.cfg.name, "realtime cycle thread: {got}");
             self.sched = Some(got);
         } else if self.cfg.harden {
-            self.sched = Some(super::rt::NORMAL.to_string());
+            self.sched = Some(super::rt::current_scheduling());
         }
-        info!(member = %self.cfg.name, clock = self.cfg.clock.as_str(), "ring member running");
-        let r = if self.core.is_sync_master() {
+        if self.core.is_sync_master() {
             let rtf = match self.cfg.clock {
                 ClockMode::Paced => self.cfg.rtf,
                 _ => 1.0,
@@ -257,15 +420,7 @@ impl<A: RingApp> Driver<A> {
                 self.period_ns(),
                 rtf,
             ));
-            match self.cfg.clock {
-                ClockMode::Paced | ClockMode::Lockstep => self.run_sync_master_stepped(),
-                ClockMode::Realtime => self.run_sync_master_realtime(),
-            }
-        } else {
-            self.run_follower()
-        };
-        info!(member = %self.cfg.name, ?r, "ring member stopped");
-        r
+        }
     }
 
     pub(super) fn send_all(&mut self, out: Vec<Outgoing>) -> Result<(), TransportError> {
@@ -313,8 +468,15 @@ impl<A: RingApp> Driver<A> {
                     s.pid = std::process::id();
                     s.ring_position = self.cfg.position;
                     s.extra = self.cfg.extra.clone();
+                    match &self.app_extra {
+                        Some(e) => s.extra.extend(e.clone()),
+                        None => s.extra.extend(self.app.status_extra()),
+                    }
+                    s.extra
+                        .insert("hop".into(), self.rx.hop_summary().to_json());
                     s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
                     s.sched = self.sched.clone();
+                    s.host_id = super::light::host_id();
                     if let Some(c) = &s.clock {
                         s.late_cycles = s.late_cycles.max(c.late_cycles);
                     }
@@ -365,9 +527,19 @@ impl<A: RingApp> Driver<A> {
 
     /// One servo tick of this member for `cycle` (after forwarding).
     pub(super) fn tick(&mut self, cycle: u64) {
+        self.tick_with(None, cycle);
+    }
+
+    /// [`Self::tick`] with `app`, an application held outside the driver (see
+    /// [`Self::swap_app`]), or the driver's own (None).
+    pub(super) fn tick_with(&mut self, app: Option<&mut dyn RingApp>, cycle: u64) {
         let t = self.time_for(cycle);
         let was = self.core.ring_fault();
-        if let Some(fault) = self.core.tick_app(&mut self.app, cycle, t) {
+        let fault = match app {
+            Some(app) => self.core.tick_app(app, cycle, t),
+            None => self.core.tick_app(&mut self.app, cycle, t),
+        };
+        if let Some(fault) = fault {
             if !was {
                 warn!(member = %self.cfg.name, cycle, ?fault, "ring fault");
             }
@@ -468,70 +640,135 @@ impl<A: RingApp> Driver<A> {
     }
 
     fn run_follower(&mut self) -> DriverExit {
-        let stepped = self.cfg.clock.is_stepped();
         loop {
-            if let Some(exit) = self.stop_or_done() {
-                return exit;
-            }
-            if let Err(e) = self.flush_delayed() {
-                return DriverExit::Transport(e);
-            }
-            let dead = self.upstream_dead();
-            if dead {
-                // Nothing will come: run the own clock now, not after the frozen-member wait.
-                self.core.expedite_holdover(self.now_ns());
-            }
-            let wait = if self.delayed.is_empty() {
-                let until_holdover = self
-                    .core
-                    .holdover_due_ns()
-                    .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
-                    .unwrap_or(Duration::from_millis(2));
-                until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
-            } else {
-                Duration::from_micros(50)
+            let wait = match self.follower_housekeeping() {
+                Ok(w) => w,
+                Err(exit) => return exit,
             };
             match self.recv(wait) {
                 Ok(Some(bytes)) => {
-                    let dropped = self.rx.take_dropped();
-                    for _ in 0..dropped {
-                        self.core.note_overrun();
-                    }
-                    let now = self.now_ns();
-                    let ev = self.core.on_frame(&bytes, now);
-                    if let Err(e) = self.send_all(ev.outgoing) {
+                    if let Err(e) = self.follower_frame(&bytes, false) {
                         return DriverExit::Transport(e);
-                    }
-                    if let Some(cycle) = ev.sync.or(ev.unlocked) {
-                        if self.cfg.record > 0 {
-                            self.record(cycle, now);
-                        }
-                        if ev.sync.is_some() {
-                            self.align(ev.origin_ns);
-                        }
-                        self.tick(cycle);
                     }
                 }
                 Ok(None) => {}
                 Err(e) => return DriverExit::Transport(e),
             }
-            // Holdover: no frame for too long → tick on the local clock. In paced and lockstep
-            // mode that only happens once the upstream member stopped answering (the frozen
-            // wait) or is known dead: its link is dark, each such cycle a byte violation.
-            let now = self.now_ns();
-            while let Some(cycle) = self.core.on_holdover(now) {
-                trace!(member = %self.cfg.name, cycle, "holdover tick");
-                if stepped || self.upstream_dead() {
-                    let ev = self.core.dark_input(cycle, now);
-                    if let Err(e) = self.send_all(ev.outgoing) {
-                        return DriverExit::Transport(e);
-                    }
-                }
-                self.tick(cycle);
-                if self.done() {
-                    break;
-                }
+            if let Err(e) = self.follower_holdover_with(None) {
+                return DriverExit::Transport(e);
             }
         }
+    }
+
+    /// Follower, between frames: control requests, the cycle limit, delayed frames, a dead
+    /// upstream; how long to wait for the next frame (until the holdover clock is due), or why
+    /// to stop.
+    pub(super) fn follower_housekeeping(&mut self) -> Result<Duration, DriverExit> {
+        if let Some(exit) = self.stop_or_done() {
+            return Err(exit);
+        }
+        self.flush_delayed().map_err(DriverExit::Transport)?;
+        // Paced and lockstep: the own clock runs only once the upstream member is known dead
+        // (or stopped), or stopped answering (attended silence, not wall time).
+        let stepped = self.cfg.clock.is_stepped();
+        let own_clock = self.upstream_dead() || (stepped && self.upstream_frozen());
+        if own_clock {
+            // Nothing will come: run the own clock now.
+            self.core.expedite_holdover(self.now_ns());
+        }
+        Ok(if self.delayed.is_empty() {
+            let until_holdover = self
+                .core
+                .holdover_due_ns()
+                .filter(|_| own_clock || !stepped)
+                .map(|due| Duration::from_nanos(due.saturating_sub(self.now_ns())))
+                .unwrap_or(Duration::from_millis(2));
+            until_holdover.clamp(Duration::from_micros(20), Duration::from_millis(2))
+        } else {
+            Duration::from_micros(50)
+        })
+    }
+
+    /// Follower: one frame from upstream — forward it, then run the cycle's tick, or with
+    /// `defer` leave the tick for the member's thread ([`Self::take_pending_tick`]).
+    pub(super) fn follower_frame(
+        &mut self,
+        bytes: &[u8],
+        defer: bool,
+    ) -> Result<(), TransportError> {
+        let dropped = self.rx.take_dropped();
+        for _ in 0..dropped {
+            self.core.note_overrun();
+        }
+        let now = self.now_ns();
+        // Upstream is answering (also for frames handled on the receive thread).
+        self.last_rx_ns = monotonic_ns();
+        self.silence.reset(self.last_rx_ns);
+        self.probed.1 = false;
+        let ev = self.core.on_frame(bytes, now);
+        self.send_all(ev.outgoing)?;
+        if let Some(cycle) = ev.sync.or(ev.unlocked) {
+            if self.cfg.record > 0 {
+                self.record(cycle, now);
+            }
+            if defer {
+                self.defer_tick(cycle);
+            } else {
+                if ev.sync.is_some() {
+                    self.align(ev.origin_ns);
+                }
+                self.tick(cycle);
+            }
+        }
+        Ok(())
+    }
+
+    /// Follower: holdover — no frame for too long → tick on the local clock, with `app` held
+    /// outside the driver (None: its own). In paced and lockstep mode that only happens once
+    /// the upstream member stopped answering (the frozen wait) or is known dead: its link is
+    /// dark, each such cycle a byte violation.
+    pub(super) fn follower_holdover_with(
+        &mut self,
+        mut app: Option<&mut dyn RingApp>,
+    ) -> Result<(), TransportError> {
+        let stepped = self.cfg.clock.is_stepped();
+        if stepped && !(self.upstream_dead() || self.upstream_frozen()) {
+            return Ok(());
+        }
+        let now = self.now_ns();
+        while let Some(cycle) = self.core.on_holdover(now) {
+            trace!(member = %self.cfg.name, cycle, "holdover tick");
+            if stepped || self.upstream_dead() {
+                let ev = self.core.dark_input(cycle, now);
+                self.send_all(ev.outgoing)?;
+            }
+            let app: Option<&mut dyn RingApp> = match app.as_mut() {
+                Some(a) => Some(&mut **a),
+                None => None,
+            };
+            self.tick_with(app, cycle);
+            if self.done() {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// Leave the tick of `cycle` for the member's thread.
+    pub(super) fn defer_tick(&mut self, cycle: u64) {
+        self.pending_tick = Some(cycle);
+    }
+
+    /// A tick [`Self::follower_frame`] left for the member's thread: run it now with `app`
+    /// (None: the driver's own).
+    pub(super) fn take_pending_tick(&mut self, app: Option<&mut dyn RingApp>) {
+        if let Some(cycle) = self.pending_tick.take() {
+            self.tick_with(app, cycle);
+        }
+    }
+
+    /// A frame handled on the receive thread left a tick for the member's thread.
+    pub(super) fn has_pending_tick(&self) -> bool {
+        self.pending_tick.is_some()
     }
 }

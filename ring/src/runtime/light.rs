@@ -1,43 +1,155 @@
-//! Loss of light on a member's input: the member downstream of a dead process learns it from
-//! zenoh liveliness (`mcc/<cluster>/alive/<upstream>` goes away when the upstream process dies
-//! and its transport closes), not from a timeout.
+//! Loss of light on a member's input, judged on facts rather than timeouts:
+//! - the upstream process died: its zenoh liveliness token (`mcc/<cluster>/alive/<upstream>`)
+//!   goes away when its transport closes;
+//! - the upstream process is stopped (SIGSTOP, a debugger): on the same machine its state in
+//!   `/proc/<pid>/stat` says so. The pid and the machine (boot id) come from the upstream's own
+//!   status report, asked again whenever its liveliness token (re)appears.
+//!
+//! A member that is merely slow (descheduled on a loaded machine) is neither: the ring waits for
+//! it. And a liveliness token that goes away while the upstream process (on this machine) still
+//! exists is no death (a zenoh lease that expired during a stall, a routing change): only a
+//! process that is gone or a zombie is dead. Only a member on another machine, or one that runs but never answers, is left to the
+//! frozen-member wait.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
 
 use tracing::{info, warn};
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
-use crate::control::alive_key;
+use crate::control::{alive_key, ctl_key, MemberStatus};
+
+/// This machine's identity for "same host" checks: the kernel's boot id.
+pub fn host_id() -> Option<String> {
+    static ID: OnceLock<Option<String>> = OnceLock::new();
+    ID.get_or_init(|| {
+        std::fs::read_to_string("/proc/sys/kernel/random/boot_id")
+            .ok()
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+    })
+    .clone()
+}
+
+/// Whether process `pid` (of this machine) is stopped: state `T` (stopped by a signal) or `t`
+/// (stopped by a tracer) in `/proc/<pid>/stat`. A process that does not exist is not stopped
+/// (its death is the liveliness watch's business).
+pub fn process_stopped(pid: u32) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    // "pid (comm) S ...": comm may contain spaces or parentheses; the state follows the last ')'.
+    stat.rfind(')')
+        .and_then(|i| stat.get(i + 1..))
+        .and_then(|rest| rest.trim_start().chars().next())
+        .is_some_and(|c| c == 'T' || c == 't')
+}
+
+/// Whether process `pid` (of this machine) exists and is not a zombie: a process whose zenoh
+/// liveliness token went away while it still runs has not died (a lease that expired during a
+/// stall, a routing change): its silence is left to the frozen-member wait.
+pub fn process_alive(pid: u32) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    stat.rfind(')')
+        .and_then(|i| stat.get(i + 1..))
+        .and_then(|rest| rest.trim_start().chars().next())
+        .is_some_and(|c| !matches!(c, 'Z' | 'X' | 'x'))
+}
+
+/// The upstream's process, when it runs on this machine: is it stopped?
+#[derive(Debug, Clone, Default)]
+pub struct StopProbe {
+    pid: Arc<AtomicU32>,
+}
+
+impl StopProbe {
+    /// A probe on a known local pid (tests).
+    pub fn with_pid(pid: u32) -> Self {
+        StopProbe {
+            pid: Arc::new(AtomicU32::new(pid)),
+        }
+    }
+
+    /// The upstream process is known, local and stopped.
+    pub fn stopped(&self) -> bool {
+        match self.pid.load(Ordering::Relaxed) {
+            0 => false,
+            pid => process_stopped(pid),
+        }
+    }
+
+    /// The upstream process is known, local and still there (not dead, not a zombie).
+    pub fn alive(&self) -> bool {
+        match self.pid.load(Ordering::Relaxed) {
+            0 => false,
+            pid => process_alive(pid),
+        }
+    }
+}
 
 /// Keeps the watch declared; drop it to undeclare.
 pub struct UpstreamWatch {
     _subscriber: Subscriber<()>,
     /// Raised while the upstream member is known dead.
     pub dead: Arc<AtomicBool>,
+    /// Whether the upstream process is stopped (local upstreams only).
+    pub probe: StopProbe,
 }
 
 impl std::fmt::Debug for UpstreamWatch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("UpstreamWatch")
             .field("dead", &self.dead)
+            .field("probe", &self.probe)
             .finish_non_exhaustive()
     }
 }
 
-/// Watch `upstream`'s liveliness token: the flag rises when a token that was seen goes away
-/// and falls when it comes back (a restarted process).
+/// Ask `upstream` for its status until it answers (or `stop`), and remember its pid if it runs
+/// on this machine.
+fn learn_pid(session: zenoh::Session, key: String, pid: Arc<AtomicU32>, stop: Arc<AtomicBool>) {
+    for _ in 0..40 {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        let answer = session
+            .get(&key)
+            .timeout(Duration::from_millis(500))
+            .wait()
+            .ok()
+            .and_then(|r| r.recv().ok())
+            .and_then(|reply| reply.result().ok().map(|s| s.payload().to_bytes().to_vec()))
+            .and_then(|b| serde_json::from_slice::<MemberStatus>(&b).ok());
+        if let Some(s) = answer {
+            let local = s.host_id.is_some() && s.host_id == host_id();
+            pid.store(if local { s.pid } else { 0 }, Ordering::Relaxed);
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(250));
+    }
+}
+
+/// Watch `upstream`: its liveliness token (the flag rises when a token that was seen goes
+/// away and falls when it comes back) and, once it has said who it is, its process state.
 pub fn watch_upstream(
     session: &zenoh::Session,
     cluster: &str,
     upstream: &str,
+    stop: Arc<AtomicBool>,
 ) -> Result<UpstreamWatch, String> {
     let dead = Arc::new(AtomicBool::new(false));
+    let probe = StopProbe::default();
     let seen = AtomicBool::new(false);
     let flag = Arc::clone(&dead);
+    let pid = Arc::clone(&probe.pid);
     let name = upstream.to_string();
+    let status_key = ctl_key(cluster, upstream, "status");
+    let s2 = session.clone();
     let subscriber = session
         .liveliness()
         .declare_subscriber(alive_key(cluster, upstream))
@@ -48,8 +160,20 @@ pub fn watch_upstream(
                 if flag.swap(false, Ordering::Relaxed) {
                     info!(upstream = %name, "upstream member is back: light on the input");
                 }
+                // (Re)learn who it is, off zenoh's callback thread.
+                pid.store(0, Ordering::Relaxed);
+                let (s, k, p, st) = (
+                    s2.clone(),
+                    status_key.clone(),
+                    Arc::clone(&pid),
+                    Arc::clone(&stop),
+                );
+                let _ = std::thread::Builder::new()
+                    .name("mcc-upstream".into())
+                    .spawn(move || learn_pid(s, k, p, st));
             }
             SampleKind::Delete => {
+                // (The pid stays known: the member checks the process really is gone.)
                 if seen.load(Ordering::Relaxed) && !flag.swap(true, Ordering::Relaxed) {
                     warn!(upstream = %name, "upstream member went away: loss of light on the input");
                 }
@@ -60,5 +184,57 @@ pub fn watch_upstream(
     Ok(UpstreamWatch {
         _subscriber: subscriber,
         dead,
+        probe,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stopped_process_is_seen_stopped_and_a_running_one_is_not() {
+        let mut child = std::process::Command::new("sleep")
+            .arg("30")
+            .spawn()
+            .expect("spawn sleep");
+        let pid = child.id();
+        let probe = StopProbe::with_pid(pid);
+        assert!(!probe.stopped(), "sleeping is not stopped");
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(pid as i32),
+            nix::sys::signal::Signal::SIGSTOP,
+        )
+        .unwrap();
+        let t0 = std::time::Instant::now();
+        while !probe.stopped() && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(probe.stopped());
+        assert!(probe.alive(), "a stopped process is alive");
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(pid as i32),
+            nix::sys::signal::Signal::SIGCONT,
+        )
+        .unwrap();
+        let t0 = std::time::Instant::now();
+        while probe.stopped() && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(!probe.stopped());
+        assert!(probe.alive());
+        let _ = child.kill();
+        // Killed but not yet reaped: a zombie is dead.
+        let t0 = std::time::Instant::now();
+        while probe.alive() && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(!probe.alive(), "a zombie is not alive");
+        let _ = child.wait();
+        assert!(!probe.alive(), "a reaped process is not alive");
+        assert!(!StopProbe::default().alive(), "unknown pid");
+        assert!(!process_stopped(u32::MAX), "no such process");
+        assert!(!StopProbe::default().stopped(), "unknown pid");
+        assert!(host_id().is_some_and(|h| h.len() > 8));
+    }
 }

@@ -26,6 +26,26 @@ pub enum LocalTransport {
         /// Cluster name used in the key expressions.
         cluster: String,
     },
+    /// [`LocalTransport::Zenoh`], members run as member processes do ([`super::inline`]):
+    /// followers forward on zenoh's receive thread.
+    ZenohInline {
+        /// Cluster name used in the key expressions.
+        cluster: String,
+        /// Ticks run on the receive thread too ([`super::inline::run_send`]), else on each
+        /// member's thread ([`super::inline::run`]).
+        receive_thread_ticks: bool,
+    },
+}
+
+impl LocalTransport {
+    fn zenoh_cluster(&self) -> Option<&str> {
+        match self {
+            LocalTransport::Loopback => None,
+            LocalTransport::Zenoh { cluster } | LocalTransport::ZenohInline { cluster, .. } => {
+                Some(cluster)
+            }
+        }
+    }
 }
 
 /// What a member's thread leaves behind.
@@ -89,7 +109,8 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                     links.push((Box::new(tx), rx));
                 }
             }
-            LocalTransport::Zenoh { cluster } => {
+            LocalTransport::Zenoh { .. } | LocalTransport::ZenohInline { .. } => {
+                let cluster = transport.zenoh_cluster().unwrap_or_default();
                 let first = free_loopback_endpoint()?;
                 for k in 0..n {
                     let opts = if k == 0 {
@@ -126,12 +147,23 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
             let (ctx, crx) = unbounded();
             let name = dcfg.name.clone();
             let stop2 = Arc::clone(&stop);
+            let runner = transport.clone();
             let h = std::thread::Builder::new()
                 .name(format!("ring-{name}"))
                 .spawn(move || {
                     let core = MemberCore::new(core_cfg);
-                    let mut d = Driver::new(dcfg, core, app, tx, rx, crx, stop2);
-                    let exit = d.run();
+                    let d = Driver::new(dcfg, core, app, tx, rx, crx, stop2);
+                    let (exit, mut d) = match runner {
+                        LocalTransport::ZenohInline {
+                            receive_thread_ticks: true,
+                            ..
+                        } => super::inline::run_send(d),
+                        LocalTransport::ZenohInline { .. } => super::inline::run(d),
+                        _ => {
+                            let mut d = d;
+                            (d.run(), d)
+                        }
+                    };
                     let records = d.take_records();
                     let clock = d.clock_report();
                     let (core, app) = d.into_parts();

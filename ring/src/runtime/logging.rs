@@ -4,8 +4,9 @@
 /// Environment variable holding the log filter (`tracing_subscriber::EnvFilter` syntax).
 pub const LOG_ENV: &str = "MCC_LOG";
 
-/// Default filter of a member process (card or station).
-pub const MEMBER_DEFAULT_FILTER: &str = "info,zenoh=warn";
+/// Default filter of a member process (card or station). zenoh's unix-socket link warns about
+/// every link it opens (a client socket has no path of its own): that one is silenced.
+pub const MEMBER_DEFAULT_FILTER: &str = "info,zenoh=warn,zenoh_link_unixsock_stream=error";
 
 /// Log to stderr with the filter from `MCC_LOG`, else `default_filter`; ANSI colours only
 /// when stderr is a terminal. Does nothing if a global subscriber is already installed.

@@ -1,10 +1,12 @@
 //! The I/O edge of a ring member: its cycle loop ([`driver`]; the paced and lockstep sync
 //! master in [`stepped`], their wall-clock bookkeeping in [`timing`]), realtime pacing ([`pacer`]),
-//! the control plane over zenoh ([`control_plane`]), the common process `main` ([`process`])
+//! the frozen-member judgement ([`silence`]), the control plane over zenoh ([`control_plane`]),
+//! the common process `main` ([`process`])
 //! and its logging set-up ([`logging`]).
 
 pub mod control_plane;
 pub mod driver;
+pub mod inline;
 pub mod join;
 pub mod light;
 pub mod local;
@@ -12,8 +14,13 @@ pub mod logging;
 pub mod pacer;
 pub mod process;
 pub mod rt;
+pub mod silence;
 pub mod stepped;
 pub mod timing;
 
 #[cfg(test)]
+mod pipeline_tests;
+#[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_stepped;

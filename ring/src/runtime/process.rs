@@ -96,8 +96,33 @@ pub fn apply_clock(core_cfg: &mut CoreConfig, config: &ClusterConfig) {
 }
 
 /// Run member `args.name` until it is stopped. `make_app` builds the card or station logic and
-/// returns extra status fields (ports, nodes, ...).
+/// returns extra status fields (ports, nodes, ...). The application's ticks run on the member's
+/// own thread (see [`super::inline`]).
 pub fn run_member<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
+where
+    A: RingApp,
+    F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
+{
+    run_member_with(args, kind, make_app, super::inline::run)
+}
+
+/// [`run_member`] for an application whose tick is computation only and never waits (a
+/// station): in the paced and lockstep clocks its ticks run on zenoh's receive thread right
+/// after the frame is forwarded, which saves a thread wake-up per ring cycle.
+pub fn run_member_send<A, F>(args: MemberArgs, kind: MemberKind, make_app: F) -> anyhow::Result<()>
+where
+    A: RingApp + Send + 'static,
+    F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
+{
+    run_member_with(args, kind, make_app, super::inline::run_send)
+}
+
+fn run_member_with<A, F>(
+    args: MemberArgs,
+    kind: MemberKind,
+    make_app: F,
+    runner: fn(Driver<A>) -> (DriverExit, Driver<A>),
+) -> anyhow::Result<()>
 where
     A: RingApp,
     F: FnOnce(&MemberContext) -> anyhow::Result<(A, serde_json::Map<String, serde_json::Value>)>,
@@ -158,14 +183,8 @@ where
     let session = open_session(&opts)?;
     // Never join a ring run with another config under this cluster's name.
     super::join::check(&session, &config)?;
-    let (tx, rx, _rx_guard) = zenoh_link::join_with(
-        &session,
-        &config.cluster,
-        &config.ring.name,
-        position,
-        n,
-        config.is_multi_host(),
-    )?;
+    let (tx, rx, _rx_guard) =
+        zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
 
     let ctx = MemberContext {
         config: config.clone(),
@@ -179,6 +198,7 @@ where
     let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, 0);
     core_cfg.check = check;
     core_cfg.upstream = Some(((position + n - 1) % n) as u16);
+    core_cfg.sync_source = config.sync_source();
     // A restarted member must not look stale to its downstream neighbour.
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.
@@ -202,10 +222,10 @@ where
         .unwrap_or(&args.name)
         .to_string();
     let watch = if upstream != args.name {
-        Some(
-            super::light::watch_upstream(&session, &config.cluster, &upstream)
-                .map_err(|e| anyhow!(e))?,
-        )
+        let w =
+            super::light::watch_upstream(&session, &config.cluster, &upstream, Arc::clone(&stop))
+                .map_err(|e| anyhow!(e))?;
+        Some(w)
     } else {
         None
     };
@@ -217,6 +237,8 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        in_flight: config.ring.in_flight,
+        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,
@@ -230,8 +252,8 @@ where
             MemberKind::Station => 0,
         },
     };
-    let mut driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
-    let exit = driver.run();
+    let driver = Driver::new(dcfg, core, app, Box::new(tx), rx, cmd_rx, Arc::clone(&stop));
+    let (exit, _driver) = runner(driver);
     stop.store(true, Ordering::Relaxed);
     drop(_plane);
     drop(watch);

@@ -37,5 +37,21 @@ pub fn harden_cycle_thread() -> String {
     format!("{sched}, {mem}")
 }
 
-/// What an ordinary (paced, lockstep) member runs with.
-pub const NORMAL: &str = "normal scheduling";
+/// The calling thread's scheduling as it is (a member started under `chrt` inherits it).
+pub fn current_scheduling() -> String {
+    // SAFETY: sched_getscheduler(2) on the calling thread takes and returns plain integers.
+    let policy = unsafe { libc::sched_getscheduler(0) };
+    let mut param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: sched_getparam(2) writes one plain struct that lives on this stack.
+    let _ = unsafe { libc::sched_getparam(0, &mut param) };
+    match policy {
+        libc::SCHED_FIFO => format!("SCHED_FIFO {} (inherited)", param.sched_priority),
+        libc::SCHED_RR => format!("SCHED_RR {} (inherited)", param.sched_priority),
+        _ => {
+            // SAFETY: getpriority(2) takes plain integers; -1 can be a valid nice value, so
+            // errno is not consulted (the call cannot fail for the calling thread).
+            let nice = unsafe { libc::getpriority(libc::PRIO_PROCESS, 0) };
+            format!("normal scheduling (nice {nice})")
+        }
+    }
+}

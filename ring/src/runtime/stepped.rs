@@ -1,6 +1,7 @@
 //! The synchronizing master of the `paced` and `lockstep` clocks: cycle k starts only once
-//! cycle k-1's frame has come back around the ring (light or dark, with or without its sync
-//! packet), so no scheduling delay can look like a ring error.
+//! cycle k-N's frame has come back around the ring (light or dark, with or without its sync
+//! packet), N being the cycles allowed in flight (`in_flight`, 1 by default), so no scheduling
+//! delay can look like a ring error.
 //!
 //! - `paced`: and never before its deadline `origin + k × period / rtf` on the wall clock
 //!   ([`PaceGrid`]). After a stall the missed cycles run back to back until the ring is on
@@ -10,19 +11,27 @@
 //! - `lockstep`: as fast as the ring allows.
 //!
 //! The one wall-clock judgement: if nothing comes back within the frozen-member wait
-//! (`member_timeout_ms`), a member has stopped answering and the ring is down. The master then
+//! (`member_timeout_ms`, counted as attended silence: time this loop was running to see it,
+//! see [`super::silence`]), a member has stopped answering and the ring is down. The master then
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
-//! counts the silence — until a frame of the current cycle, or any cycle it started on its
-//! own clock with light, comes back (a round trip longer than a period, e.g. across hosts,
-//! has several own-clock cycles in flight: the current one is never first). When its upstream
+//! counts the silence — until a frame of the current cycle, or any cycle it started on its own
+//! clock with light, comes back (a round trip longer than a period, e.g. across hosts, has
+//! several own-clock cycles in flight: the current one is never first). When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
 //! process) continues from the ring's count: the first frame it gets back tells it.
 //!
-//! Pipelining hook: one cycle is in flight at a time (`returned + 1 >= k`). Letting N cycles be
-//! in flight means starting k once `returned + N >= k`; the ring check, lag accounting and
-//! the frozen wait do not depend on N.
+//! Pipelining: with N cycles in flight, cycle k starts once k-N is back, and always *between*
+//! the returns of k-N and k-N+1 — a return that arrives while k waits for its deadline is held
+//! until k has started. So every member sees the same frames in the same order whatever the
+//! timing, and a program gives the same trajectory cycle for cycle; the servo loop of every
+//! card is N-1 cycles longer (its feedback comes back N-1 cycles later). The ring check, lag
+//! accounting and the frozen wait do not depend on N.
+//!
+//! The steps ([`Stepper`] and the `step_*` methods) are shared by this member's own loop
+//! ([`Driver::run_sync_master_stepped`]) and the inline receive ([`super::inline`]), where a
+//! returning frame starts the next cycle on zenoh's receive thread.
 
 use std::time::Duration;
 
@@ -32,28 +41,221 @@ use super::driver::{Driver, DriverExit};
 use super::timing::{PaceGrid, PACED_BACKLOG_NS};
 use crate::config::ClockMode;
 use crate::core::RingApp;
+use crate::transport::TransportError;
 
 /// Bring-up: until the first frame has come back (links still opening), the sync master
 /// starts a new cycle this often rather than waiting.
 pub const BRINGUP_RETRY_NS: u64 = 20_000_000;
 
+/// Most cycles that may be in flight around a ring (`in_flight`).
+pub const MAX_IN_FLIGHT: u64 = 8;
+
+/// The stepped sync master's state between cycles.
+#[derive(Debug, Clone)]
+pub struct Stepper {
+    paced: bool,
+    frozen_ns: u64,
+    in_flight: u64,
+    grid: PaceGrid,
+    /// The next cycle to start.
+    k: u64,
+    /// Latest cycle whose frame came back; None while the ring is coming up.
+    returned: Option<u64>,
+    /// When the latest cycle started.
+    last_start: u64,
+    /// Nothing came back within the frozen wait: cycles run on the own clock.
+    down: bool,
+    /// The first cycle started on the own clock (the latest ring down).
+    down_from: u64,
+    /// Lockstep: the grid is only followed on the own clock; re-based when that begins.
+    grid_live: bool,
+}
+
+/// When the next cycle may start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Due {
+    /// Not before this moment (monotonic ns); None: not before a frame comes back, waiting at
+    /// most until `frozen_at`.
+    pub at: Option<u64>,
+    /// When the frozen-member wait runs out.
+    pub frozen_at: u64,
+    /// Frames must stay queued until the cycle has started (pipelining order).
+    pub hold_frames: bool,
+}
+
+impl Due {
+    /// The cycle may start at `now`.
+    pub fn now(&self, now: u64) -> bool {
+        self.at.is_some_and(|d| now >= d)
+    }
+
+    /// How long to sleep from `now` before looking again (at most `cap`).
+    pub fn wait(&self, now: u64, cap: Duration) -> Duration {
+        let until = self.at.unwrap_or(self.frozen_at).saturating_sub(now);
+        Duration::from_nanos(until).min(cap)
+    }
+}
+
 impl<A: RingApp> Driver<A> {
-    pub(super) fn run_sync_master_stepped(&mut self) -> DriverExit {
+    /// A fresh stepper for this member's clock and ring.
+    pub(super) fn stepper(&self) -> Stepper {
         let paced = self.cfg.clock == ClockMode::Paced;
-        let wall = self.wall_period_ns();
-        let frozen_ns = self.cfg.member_timeout.as_nanos().min(u128::from(u64::MAX)) as u64;
-        let mut grid = PaceGrid::new(wall, 0, self.now_ns(), PACED_BACKLOG_NS);
-        let mut k: u64 = 0;
-        // Latest cycle whose frame came back; None while the ring is coming up.
-        let mut returned: Option<u64> = None;
-        // When the cycle in flight started.
-        let mut last_start = self.now_ns();
-        // Nothing came back within the frozen wait: cycles run on the own clock.
-        let mut down = false;
-        // The first cycle started on the own clock.
-        let mut down_from = 0;
-        // Lockstep: the grid is only followed on the own clock; re-based when that begins.
-        let mut grid_live = paced;
+        Stepper {
+            paced,
+            frozen_ns: self.cfg.member_timeout.as_nanos().min(u128::from(u64::MAX)) as u64,
+            in_flight: self.cfg.in_flight.clamp(1, MAX_IN_FLIGHT),
+            grid: PaceGrid::new(self.wall_period_ns(), 0, self.now_ns(), PACED_BACKLOG_NS),
+            k: 0,
+            returned: None,
+            last_start: self.now_ns(),
+            down: false,
+            down_from: 0,
+            grid_live: paced,
+        }
+    }
+
+    /// When cycle `st.k` may start (declares the ring down when the frozen wait ran out).
+    pub(super) fn step_due(&mut self, st: &mut Stepper, now: u64) -> Due {
+        loop {
+            let own_clock = st.down || self.upstream_dead();
+            if !st.paced && own_clock != st.grid_live {
+                st.grid_live = own_clock;
+                st.grid.rebase(st.k, now);
+            }
+            // Silence since the cycle in flight started, counted only while this member's
+            // loop was running to see it (a stall of this process is no frozen member).
+            let attended = self.silence.look(now);
+            let frozen_at = now.saturating_add(st.frozen_ns.saturating_sub(attended));
+            let back = st
+                .returned
+                .is_some_and(|r| r.saturating_add(st.in_flight) >= st.k);
+            let (at, hold_frames) = if st.k == 0 {
+                (Some(now), false)
+            } else if own_clock {
+                (Some(st.grid.deadline(st.k)), false)
+            } else if st.returned.is_none() {
+                (Some(st.last_start.saturating_add(BRINGUP_RETRY_NS)), false)
+            } else if back {
+                let at = if st.paced {
+                    st.grid.deadline(st.k)
+                } else {
+                    now
+                };
+                (Some(at), st.in_flight > 1)
+            } else if attended >= st.frozen_ns {
+                warn!(
+                    member = %self.cfg.name,
+                    cycle = st.k - 1,
+                    "nothing came back within {} ms: ring down, cycles run on the own clock",
+                    st.frozen_ns / 1_000_000
+                );
+                st.down = true;
+                st.down_from = st.k;
+                if let Some(c) = self.clock.as_mut() {
+                    c.set_ring_down(true);
+                }
+                continue;
+            } else {
+                (None, false)
+            };
+            return Due {
+                at,
+                frozen_at,
+                hold_frames,
+            };
+        }
+    }
+
+    /// A frame came back around the ring.
+    pub(super) fn step_frame(
+        &mut self,
+        st: &mut Stepper,
+        bytes: &[u8],
+    ) -> Result<(), TransportError> {
+        let now = self.now_ns();
+        let ev = self.core.on_frame(bytes, now);
+        self.send_all(ev.outgoing)?;
+        let Some(c) = ev.returned else {
+            return Ok(());
+        };
+        if st.returned.is_none() {
+            if c >= st.k {
+                // The ring counts further than this (restarted) sync master: go on from the
+                // ring's count.
+                info!(member = %self.cfg.name, from = st.k, to = c + 1,
+                    "continuing the ring's cycle count");
+                st.k = c + 1;
+            }
+            // The ring is up: the schedule starts now.
+            st.grid.rebase(st.k, now);
+        }
+        // A frame numbered beyond the cycle in flight (a member that ran on its own clock) is
+        // the return of the cycle in flight, no more: the ring's count is this master's.
+        st.returned = st.returned.max(Some(c.min(st.k.saturating_sub(1))));
+        // Back to normal once a cycle of the current window comes back (with N in flight the
+        // frame of k-N is the newest that can), or — a round trip longer than a period (across
+        // hosts): several own-clock cycles in flight, the current window never comes back
+        // first — once any cycle started on the own clock comes back lit. Those still in
+        // flight drain before the next start.
+        let lit = c >= st.down_from && !self.core.is_dark();
+        if st.down && (c.saturating_add(st.in_flight) >= st.k || lit) {
+            info!(member = %self.cfg.name, cycle = c, "ring cycling again");
+            st.down = false;
+            if let Some(s) = self.clock.as_mut() {
+                s.set_ring_down(false);
+            }
+        }
+        Ok(())
+    }
+
+    /// Start cycle `st.k` now. Its tick runs now, or with `defer` is left for the member's
+    /// thread ([`Driver::take_pending_tick`]).
+    pub(super) fn step_start(
+        &mut self,
+        st: &mut Stepper,
+        defer: bool,
+    ) -> Result<(), TransportError> {
+        let k = st.k;
+        let now = self.now_ns();
+        let dead = self.upstream_dead();
+        let on_grid = (st.paced && st.returned.is_some()) || st.down || dead;
+        let start = on_grid.then(|| st.grid.on_start(k, now));
+        if let Some(s) = start {
+            if s.late {
+                self.core.note_late();
+            }
+            if s.lost_ns > 0 {
+                trace!(cycle = k, lost_ns = s.lost_ns, "paced clock re-based");
+            }
+        }
+        if let Some(c) = self.clock.as_mut().filter(|_| st.returned.is_some()) {
+            // (From the moment the ring first closed: bring-up retries are not stalls.)
+            c.on_start(k, now, start);
+        }
+        if self.cfg.record > 0 {
+            self.record(k, now);
+        }
+        let t = self.time_for(k);
+        let out = self.core.start_cycle(k, t);
+        self.send_all(out)?;
+        if defer {
+            self.defer_tick(k);
+        } else {
+            self.tick(k);
+        }
+        if dead {
+            // Loss of light on the input: this cycle comes back dark.
+            let _ = self.core.dark_input(k, now);
+            st.returned = st.returned.max(Some(k));
+        }
+        st.last_start = now;
+        self.silence.reset(now);
+        st.k += 1;
+        Ok(())
+    }
+
+    pub(super) fn run_sync_master_stepped(&mut self) -> DriverExit {
+        let mut st = self.stepper();
         loop {
             if let Some(exit) = self.stop_or_done() {
                 return exit;
@@ -64,77 +266,27 @@ impl<A: RingApp> Driver<A> {
                     return DriverExit::Transport(e);
                 }
                 let now = self.now_ns();
-                let own_clock = down || self.upstream_dead();
-                if !paced && own_clock != grid_live {
-                    grid_live = own_clock;
-                    grid.rebase(k, now);
-                }
-                let since = now.saturating_sub(last_start);
-                let back = returned.is_some_and(|r| r.saturating_add(1) >= k);
-                // When may k start (None: not before a frame comes back)?
-                let due = if k == 0 {
-                    Some(now)
-                } else if own_clock {
-                    Some(grid.deadline(k))
-                } else if returned.is_none() {
-                    Some(last_start.saturating_add(BRINGUP_RETRY_NS))
-                } else if back {
-                    Some(if paced { grid.deadline(k) } else { now })
-                } else if since >= frozen_ns {
-                    warn!(
-                        member = %self.cfg.name,
-                        cycle = k - 1,
-                        "nothing came back within {} ms: ring down, cycles run on the own clock",
-                        frozen_ns / 1_000_000
-                    );
-                    down = true;
-                    down_from = k;
-                    if let Some(c) = self.clock.as_mut() {
-                        c.set_ring_down(true);
-                    }
-                    continue;
-                } else {
-                    None
-                };
-                if due.is_some_and(|d| now >= d) {
+                let due = self.step_due(&mut st, now);
+                if due.now(now) {
                     break;
                 }
-                let until = due.unwrap_or(last_start.saturating_add(frozen_ns)) - now;
                 let wait = if self.delayed.is_empty() {
-                    Duration::from_nanos(until).min(Duration::from_millis(5))
+                    due.wait(now, Duration::from_millis(5))
                 } else {
                     Duration::from_micros(50)
                 };
+                if due.hold_frames {
+                    // The next cycle must start before any further return is looked at.
+                    std::thread::sleep(wait);
+                    if self.service() {
+                        return DriverExit::Stopped;
+                    }
+                    continue;
+                }
                 match self.recv(wait) {
                     Ok(Some(bytes)) => {
-                        let now = self.now_ns();
-                        let ev = self.core.on_frame(&bytes, now);
-                        if let Err(e) = self.send_all(ev.outgoing) {
+                        if let Err(e) = self.step_frame(&mut st, &bytes) {
                             return DriverExit::Transport(e);
-                        }
-                        let Some(c) = ev.returned else { continue };
-                        if returned.is_none() {
-                            if c >= k {
-                                // The ring counts further than this (restarted) sync master:
-                                // go on from the ring's count.
-                                info!(member = %self.cfg.name, from = k, to = c + 1,
-                                    "continuing the ring's cycle count");
-                                k = c + 1;
-                            }
-                            // The ring is up: the schedule starts now.
-                            grid.rebase(k, now);
-                        }
-                        returned = returned.max(Some(c));
-                        // Back: the current cycle came round, or (a round trip longer than
-                        // a period: several own-clock cycles in flight) any of them lit.
-                        // The ones still in flight drain before the next start.
-                        let lit = c >= down_from && !self.core.is_dark();
-                        if down && (c.saturating_add(1) >= k || lit) {
-                            info!(member = %self.cfg.name, cycle = c, "ring cycling again");
-                            down = false;
-                            if let Some(s) = self.clock.as_mut() {
-                                s.set_ring_down(false);
-                            }
                         }
                     }
                     Ok(None) => {
@@ -145,38 +297,9 @@ impl<A: RingApp> Driver<A> {
                     Err(e) => return DriverExit::Transport(e),
                 }
             }
-            let now = self.now_ns();
-            let dead = self.upstream_dead();
-            let on_grid = (paced && returned.is_some()) || down || dead;
-            let start = on_grid.then(|| grid.on_start(k, now));
-            if let Some(s) = start {
-                if s.late {
-                    self.core.note_late();
-                }
-                if s.lost_ns > 0 {
-                    trace!(cycle = k, lost_ns = s.lost_ns, "paced clock re-based");
-                }
-            }
-            if let Some(c) = self.clock.as_mut().filter(|_| returned.is_some()) {
-                // (From the moment the ring first closed: bring-up retries are not stalls.)
-                c.on_start(k, now, start);
-            }
-            if self.cfg.record > 0 {
-                self.record(k, now);
-            }
-            let t = self.time_for(k);
-            let out = self.core.start_cycle(k, t);
-            if let Err(e) = self.send_all(out) {
+            if let Err(e) = self.step_start(&mut st, false) {
                 return DriverExit::Transport(e);
             }
-            self.tick(k);
-            if dead {
-                // Loss of light on the input: this cycle comes back dark.
-                let _ = self.core.dark_input(k, now);
-                returned = returned.max(Some(k));
-            }
-            last_start = now;
-            k += 1;
         }
     }
 }

@@ -1,18 +1,16 @@
 //! In-process loopback ring: one bounded channel per link. Same interface as the zenoh
 //! transport, used by deterministic tests and benchmarks that run members as threads.
 
-use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, Mutex};
 
-use crossbeam_channel::{bounded, Receiver, Sender};
-
-use super::{deliver, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
+use super::queue::{frame_queue, QueueReceiver, QueueSender};
+use super::{monotonic_ns, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
 
 /// A ring of `n` in-process links. Link k carries member k's frames to member k+1.
 #[derive(Debug)]
 pub struct LoopbackRing {
-    links: Vec<(Sender<Vec<u8>>, Arc<AtomicU64>)>,
-    receivers: Mutex<Vec<Option<Receiver<Vec<u8>>>>>,
+    links: Vec<QueueSender>,
+    receivers: Mutex<Vec<Option<QueueReceiver>>>,
     cut: Arc<Vec<std::sync::atomic::AtomicBool>>,
 }
 
@@ -22,8 +20,8 @@ impl LoopbackRing {
         let mut links = Vec::with_capacity(n);
         let mut receivers = Vec::with_capacity(n);
         for _ in 0..n {
-            let (tx, rx) = bounded(RX_QUEUE_FRAMES);
-            links.push((tx, Arc::new(AtomicU64::new(0))));
+            let (tx, rx) = frame_queue(RX_QUEUE_FRAMES);
+            links.push(tx);
             receivers.push(Some(rx));
         }
         let cut = Arc::new(
@@ -65,16 +63,13 @@ impl LoopbackRing {
             .get_mut(up)
             .and_then(Option::take)
             .ok_or_else(|| TransportError::Io(format!("member {k} already joined")))?;
-        let (tx, dropped) = &self.links[k];
-        let link_rx = LinkRx::new(rx, Arc::clone(&self.links[up].1));
         Ok((
             LoopbackTx {
-                tx: tx.clone(),
-                dropped: Arc::clone(dropped),
+                tx: self.links[k].clone(),
                 cut: Arc::clone(&self.cut),
                 k,
             },
-            link_rx,
+            LinkRx::new(rx, None),
         ))
     }
 
@@ -89,8 +84,7 @@ impl LoopbackRing {
 /// Sending half of a loopback link.
 #[derive(Debug)]
 pub struct LoopbackTx {
-    tx: Sender<Vec<u8>>,
-    dropped: Arc<AtomicU64>,
+    tx: QueueSender,
     cut: Arc<Vec<std::sync::atomic::AtomicBool>>,
     k: usize,
 }
@@ -100,7 +94,7 @@ impl LinkTx for LoopbackTx {
         if self.cut[self.k].load(std::sync::atomic::Ordering::Relaxed) {
             return Ok(());
         }
-        deliver(&self.tx, &self.dropped, frame.to_vec());
+        self.tx.push(frame.to_vec(), monotonic_ns());
         Ok(())
     }
 }

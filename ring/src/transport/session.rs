@@ -6,6 +6,29 @@ use zenoh::Wait;
 
 use super::TransportError;
 
+/// The environment variable zenoh reads its thread-pool sizes from (RON), once, when the
+/// process first uses zenoh.
+pub const RUNTIME_ENV: &str = "ZENOH_RUNTIME";
+
+/// zenoh's thread pools for a ring member process: one runtime (the receive pool) that every
+/// other pool hands over to, with a single worker thread. A member receives one ring frame per
+/// cycle on one link plus a trickle of control traffic: one thread owns the sockets and runs the
+/// receive path, so a frame's arrival wakes exactly one thread (zenoh's default, five pools and
+/// two receive workers, wakes a socket-polling thread, then a receive worker, and moves tasks
+/// between them).
+pub const MEMBER_RUNTIME: &str =
+    "(rx: (worker_threads: 1), tx: (handover: rx), acc: (handover: rx), app: (handover: rx), net: (handover: rx))";
+
+/// Batches in the real-time transmit queue of each zenoh link (zenoh's maximum; its default is
+/// 2). A ring frame is express, so it travels as a batch of its own: on a healthy paced or
+/// lockstep ring one link carries at most `ring.in_flight` frames at a time (a member forwards
+/// cycle k+N only after the master saw cycle k come back, i.e. after this link's frame of cycle k
+/// was written and read), and `ring.in_flight` is at most
+/// [`crate::runtime::stepped::MAX_IN_FLIGHT`].
+pub const RING_TX_QUEUE_BATCHES: usize = 16;
+
+const _: () = assert!(crate::runtime::stepped::MAX_IN_FLIGHT as usize * 2 <= RING_TX_QUEUE_BATCHES);
+
 /// Where a process listens and whom it connects to.
 #[derive(Debug, Clone, Default)]
 pub struct SessionOptions {
@@ -77,6 +100,14 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
     };
     set(&mut c, "listen/endpoints", json_list(&listen))?;
     set(&mut c, "connect/endpoints", json_list(&opts.connect))?;
+    // The real-time queue of every link (ring frames only use that priority) holds more frames
+    // than can ever be in flight on a healthy ring, so a ring frame's put never waits for room
+    // (see `zenoh_link`: the put may run on zenoh's single receive thread).
+    set(
+        &mut c,
+        "transport/link/tx/queue/size/real_time",
+        RING_TX_QUEUE_BATCHES.to_string(),
+    )?;
     set(
         &mut c,
         "timestamping/enabled",
@@ -147,6 +178,7 @@ mod tests {
         let s = format!("{c}");
         assert!(s.contains("\"mode\":\"peer\""), "{s}");
         assert!(s.contains("127.0.0.1:7447"), "{s}");
+        assert!(s.contains("\"real_time\":16"), "{s}");
     }
 
     #[test]

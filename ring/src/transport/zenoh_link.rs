@@ -1,18 +1,20 @@
 //! Ring links over zenoh: member k publishes on `mcc/<cluster>/ring/<ring>/link/<k>` and
 //! subscribes to its upstream neighbour's key.
 
-use std::sync::atomic::AtomicU64;
-use std::sync::Arc;
-
-use crossbeam_channel::bounded;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
-use super::{deliver, upstream_of, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES};
+use std::sync::{Arc, OnceLock};
+
+use super::queue::frame_queue;
+use super::{
+    deliver, monotonic_ns, upstream_of, InlineSlot, LinkRx, LinkTx, TransportError, RX_QUEUE_FRAMES,
+};
 use crate::control::link_key;
 
-/// Sending half of a zenoh ring link (a declared publisher, express, real-time priority).
+/// Sending half of a zenoh ring link (a declared publisher: express, real-time priority, a link
+/// queue that a healthy ring can never fill; see [`join`]).
 pub struct ZenohTx {
     publisher: Publisher<'static>,
 }
@@ -25,8 +27,10 @@ impl std::fmt::Debug for ZenohTx {
 
 impl LinkTx for ZenohTx {
     fn send(&self, frame: &[u8]) -> Result<(), TransportError> {
+        // The send stamp travels out of band, as an attachment (hop latency, see `hops`).
         self.publisher
             .put(frame.to_vec())
+            .attachment(monotonic_ns().to_le_bytes().to_vec())
             .wait()
             .map_err(|e| TransportError::Io(e.to_string()))
     }
@@ -43,8 +47,7 @@ impl std::fmt::Debug for ZenohRxGuard {
     }
 }
 
-/// Join ring `ring` of `cluster` as member `k` of `n` (publisher with blocking congestion
-/// control: on one machine a frame is never dropped).
+/// Join ring `ring` of `cluster` as member `k` of `n`.
 pub fn join(
     session: &zenoh::Session,
     cluster: &str,
@@ -52,49 +55,56 @@ pub fn join(
     k: usize,
     n: usize,
 ) -> Result<(ZenohTx, LinkRx, ZenohRxGuard), TransportError> {
-    join_with(session, cluster, ring, k, n, false)
-}
-
-/// [`join`]; with `drop_when_congested` the publisher drops a frame its link cannot take
-/// (clusters on several hosts: a member never waits for a dead network, as a MACRO
-/// transmitter sends into a cut fibre; the loss is loss of light downstream).
-pub fn join_with(
-    session: &zenoh::Session,
-    cluster: &str,
-    ring: &str,
-    k: usize,
-    n: usize,
-    drop_when_congested: bool,
-) -> Result<(ZenohTx, LinkRx, ZenohRxGuard), TransportError> {
     if n == 0 || k >= n {
         return Err(TransportError::Io(format!(
             "member {k} out of range 0..{n}"
         )));
     }
+    // Express: never held back to share a batch with later messages; real-time priority: no
+    // other traffic shares its queue.
+    //
+    // Drop, not Block, and still no frame is lost while the ring is healthy: a paced or lockstep
+    // ring carries at most `ring.in_flight` (<= 8) frames per link at a time (cycle k+N starts
+    // only once the frame of cycle k came back, so the frame of k on this link was written and
+    // read), and the link's real-time queue holds `session::RING_TX_QUEUE_BATCHES` (16) express
+    // frames: a put always finds room and never waits. The queue can only fill when the
+    // downstream member truly stopped reading (frozen, hung) while the sync master runs the
+    // downed ring on its own clock. Then Drop loses frames to a member that is not listening, as
+    // light into a dead fibre; Block would stall the put, which runs on zenoh's single receive
+    // thread (`runtime::inline`) — the same thread that runs this link's transmit task, so it
+    // would wait for itself — stopping everything else this process receives (status, control,
+    // the upstream frames) for zenoh's 5 s block timeout and then closing the link.
+    // (tests/scenarios/cluster.rs `lockstep_rings_under_full_load_lose_no_frame`.)
     let publisher = session
         .declare_publisher(link_key(cluster, ring, k))
-        .congestion_control(if drop_when_congested {
-            CongestionControl::Drop
-        } else {
-            CongestionControl::Block
-        })
+        .congestion_control(CongestionControl::Drop)
         .priority(Priority::RealTime)
         .express(true)
         .wait()
         .map_err(|e| TransportError::Io(format!("declare publisher: {e}")))?;
-    let (tx, rx) = bounded(RX_QUEUE_FRAMES);
-    let dropped = Arc::new(AtomicU64::new(0));
-    let d2 = Arc::clone(&dropped);
+    let (tx, rx) = frame_queue(RX_QUEUE_FRAMES);
+    let slot: InlineSlot = Arc::new(OnceLock::new());
+    let slot2 = Arc::clone(&slot);
     let subscriber = session
         .declare_subscriber(link_key(cluster, ring, upstream_of(k, n)))
         .callback(move |sample| {
-            deliver(&tx, &d2, sample.payload().to_bytes().into_owned());
+            let sent_ns = sample
+                .attachment()
+                .and_then(|a| <[u8; 8]>::try_from(a.to_bytes().as_ref()).ok())
+                .map(u64::from_le_bytes)
+                .unwrap_or(0);
+            deliver(
+                &slot2,
+                &tx,
+                sample.payload().to_bytes().into_owned(),
+                sent_ns,
+            );
         })
         .wait()
         .map_err(|e| TransportError::Io(format!("declare subscriber: {e}")))?;
     Ok((
         ZenohTx { publisher },
-        LinkRx::new(rx, dropped),
+        LinkRx::new(rx, Some(slot)),
         ZenohRxGuard {
             _subscriber: subscriber,
         },

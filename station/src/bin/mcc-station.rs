@@ -7,6 +7,7 @@ use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 use mcc_station::config::PlantConfig;
+use mcc_station::mi::Globals;
 use mcc_station::station_app::StationApp;
 
 /// A MACRO station joining a ring from the cluster config the orchestrator hands it.
@@ -61,7 +62,19 @@ fn main() -> std::process::ExitCode {
             .copied()
             .filter(|n| !bound.contains(n))
             .collect();
-        let app = StationApp::new(&servo, &[], &plant).map_err(anyhow::Error::msg)?;
+        // The run directory holds the resolved config; station state lives beside it in
+        // state/, which `mcc down` leaves alone.
+        let state_file = st
+            .state_file
+            .clone()
+            .unwrap_or_else(|| run_dir.join("state").join(format!("{}.state", st.name)));
+        let globals = Globals::from_check(st.check.period, st.check.min_syncs, st.check.max_errors);
+        let app = StationApp::new(&servo, &[], &plant)
+            .map_err(anyhow::Error::msg)?
+            .with_setup(globals, Some(state_file));
+        if let Some(e) = app.mi().config_error() {
+            tracing::error!("{e}: the station runs on its config values (MI4 bit 2)");
+        }
         let mut extra = serde_json::Map::new();
         extra.insert("nodes".into(), serde_json::json!(st.nodes));
         let app = mcc_station::emcl_rt::app::with_drives(ctx, app, &mut extra, &run_dir)?;

@@ -2,7 +2,7 @@
 //! advance to the tick's ring time (bound drives read their node's command registers and
 //! write its feedback registers, which the station app does not serve).
 
-use mcc_ring::core::RingApp;
+use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::member::RingMember;
 
 use super::service::{EmclService, Shared};
@@ -45,6 +45,18 @@ impl<A: RingApp> RingApp for DriveStationApp<A> {
 
     fn take_ring_reset(&mut self) -> bool {
         self.inner.take_ring_reset()
+    }
+
+    fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
+        self.inner.sync_ring(ring);
+    }
+
+    fn on_check(&mut self, report: &CheckReport) {
+        self.inner.on_check(report);
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        self.inner.status_extra()
     }
 }
 

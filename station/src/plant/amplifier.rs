@@ -92,6 +92,11 @@ impl Amplifier {
         self.p
     }
 
+    /// Change the parameters (enable, fault latch and latched command are kept).
+    pub fn set_params(&mut self, p: AmpParams) {
+        self.p = p;
+    }
+
     /// Latch the command registers: enable bit, register 0 and register 2.
     pub fn update(&mut self, enable: bool, r0: u32, r2: u16) {
         self.command = f64::from(crate::plant::encoder::signed24(r0)) / f64::from(1u32 << 23);

@@ -50,6 +50,11 @@ impl Motor {
         self.p
     }
 
+    /// Change the parameters (position and speed are kept).
+    pub fn set_params(&mut self, p: MotorParams) {
+        self.p = p;
+    }
+
     /// Shaft angle, rad.
     pub fn position(&self) -> f64 {
         self.theta

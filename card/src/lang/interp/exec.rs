@@ -24,6 +24,8 @@ pub(crate) struct Out {
     pub lines: Vec<String>,
     /// Flow control for the line loop.
     pub flow: Flow,
+    /// A MACRO auxiliary command's accesses: the line waits for them (`exec_macro`).
+    pub aux: Option<super::exec_macro::AuxJob>,
 }
 
 impl Out {
@@ -80,6 +82,7 @@ impl Pmac<'_> {
             | K::MacroAuxWrite { .. }
             | K::MacroSlaveCmd { .. }
             | K::MacroSlaveVar { .. }
+            | K::MacroSlaveRange { .. }
             | K::MacroSlaveRead { .. }
             | K::MacroSlaveWrite { .. } => self.exec_macro(s, cmd, out),
 

@@ -28,6 +28,7 @@ impl VarEnv<'_> {
             VarKind::P => self.state.vars.p(n).ok(),
             VarKind::Q => self.state.vars.q(self.cs, n).ok(),
             VarKind::M => self.state.read_m(n).ok(),
+            VarKind::Ext(_) => None,
         }
     }
 
@@ -38,6 +39,7 @@ impl VarEnv<'_> {
             VarKind::P => self.state.vars.set_p(n, v).map(|_| ()),
             VarKind::Q => self.state.vars.set_q(self.cs, n, v).map(|_| ()),
             VarKind::M => self.state.write_m(n, v),
+            VarKind::Ext(_) => return Err(3),
         };
         r.map_err(|e| e.err_code())
     }
@@ -176,12 +178,12 @@ impl Pmac<'_> {
                 addr,
                 values,
             } => {
-                let a = u16::try_from(*addr).map_err(|_| 3u16)?;
+                let a = self.mem_addr(*addr)?;
                 if values.is_empty() || values.len() > 16 {
                     return Err(3);
                 }
                 for (k, v) in values.iter().enumerate() {
-                    let at = a.wrapping_add(k as u16);
+                    let at = (a + k as u32) & self.model.state.map().max_addr;
                     let i = v.value.round().clamp(-(2f64.powi(47)), 2f64.powi(48)) as i64;
                     match space {
                         MemSpace::X => self.model.state.write(Space::X, at, (i as u32) & 0xFF_FFFF),
@@ -213,6 +215,14 @@ impl Pmac<'_> {
     }
 
     /// Writes to I-variables may change what the interpreter caches (I18 buffer warning).
+    /// A `R`/`W` address inside the profile's map (PMAC2 $FFFF, Turbo $7FFFF), else ERR003.
+    fn mem_addr(&self, addr: u32) -> Result<u32, u16> {
+        if addr > self.model.state.map().max_addr {
+            return Err(3);
+        }
+        Ok(addr)
+    }
+
     fn after_ivar_write(&mut self, kind: VarKind) {
         if kind == VarKind::I {
             self.sync_global_flags();
@@ -227,13 +237,13 @@ impl Pmac<'_> {
         count: u32,
         out: &mut Out,
     ) -> Exec {
-        let a = u16::try_from(addr).map_err(|_| 3u16)?;
+        let a = self.mem_addr(addr)?;
         if !(1..=16).contains(&count) {
             return Err(3);
         }
         let mut words = Vec::with_capacity(count as usize);
         for k in 0..count {
-            let at = a.wrapping_add(k as u16);
+            let at = (a + k) & self.model.state.map().max_addr;
             let text = match space {
                 MemSpace::X | MemSpace::Y => {
                     let sp = if space == MemSpace::X {

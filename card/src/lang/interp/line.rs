@@ -9,6 +9,7 @@
 //! system stops the run with an [`Effect`] until `Card::finish_effect` hands the result back.
 
 use super::exec::{Flow, Out};
+use super::exec_macro::{AuxJob, AuxStep};
 use super::image::{Effect, EffectResult};
 use super::reply::{Framing, Outcome, Reply};
 use super::{Pmac, Session};
@@ -57,6 +58,9 @@ pub enum Step {
     Yield,
     /// A command needs this done before the line can go on (`Card::finish_effect`).
     Effect(Effect),
+    /// A MACRO auxiliary access is on the ring: call `Card::step_line` again after a servo
+    /// tick (the line holds back later lines of its connection only).
+    Wait,
 }
 
 /// A selection query (`P0..8191`, `M1..100->`) being answered in slices.
@@ -83,6 +87,8 @@ pub struct LineRun {
     outcome: Option<Outcome>,
     split: Option<Split>,
     waiting: Option<Effect>,
+    /// A MACRO auxiliary command waiting for the ring.
+    pub(super) aux: Option<AuxJob>,
     /// Issued by a program (`CMD"…"`): no chain addressing, the caller frames the reply.
     program: bool,
 }
@@ -91,6 +97,19 @@ impl LineRun {
     /// The line waits for an effect.
     pub fn is_waiting(&self) -> bool {
         self.waiting.is_some()
+    }
+
+    /// A MACRO auxiliary command of the line waits for the ring.
+    pub fn waits_for_ring(&self) -> bool {
+        self.aux.is_some()
+    }
+
+    pub(super) fn push_line(&mut self, f: Framing, text: String) {
+        self.lines.push((f, text));
+    }
+
+    pub(super) fn fail(&mut self, code: u16) {
+        self.outcome = Some(Outcome::Err(code));
     }
 }
 
@@ -155,6 +174,7 @@ impl Pmac<'_> {
             outcome,
             split: None,
             waiting: None,
+            aux: None,
             program,
         }
     }
@@ -171,6 +191,9 @@ impl Pmac<'_> {
         }
         self.clamp_session(s);
         loop {
+            if run.aux.is_some() && self.step_aux(run) == AuxStep::Wait {
+                return Step::Wait;
+            }
             if let Some(outcome) = run.outcome {
                 return Step::Done(self.finish_run(run, s, outcome));
             }
@@ -252,6 +275,7 @@ impl Pmac<'_> {
                 run.outcome = Some(Outcome::Err(code));
                 continue;
             }
+            run.aux = out.aux;
             match out.flow {
                 Flow::Next => {}
                 Flow::Effect(e) => {
@@ -383,6 +407,7 @@ impl Pmac<'_> {
                     return (outcome, std::mem::take(&mut run.lines));
                 }
                 Step::Yield => {}
+                Step::Wait => self.abandon_aux(&mut run),
                 Step::Effect(e) => {
                     run.waiting = None;
                     if e == Effect::Load {
@@ -399,9 +424,21 @@ impl Pmac<'_> {
     pub(crate) fn run_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> Vec<u8> {
         let mut run = self.start_line(s, line, remember);
         loop {
-            match self.step_line(&mut run, s, &mut Budget::unlimited()) {
-                Step::Done(r) => return r,
+            match self.step_detached(&mut run, s) {
+                Some(r) => return r,
+                None => self.abandon_aux(&mut run),
+            }
+        }
+    }
+
+    /// Run `run` as far as it goes with effects detached: its reply, or `None` while a MACRO
+    /// auxiliary command waits for the ring (call again after a servo tick).
+    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+        loop {
+            match self.step_line(run, s, &mut Budget::unlimited()) {
+                Step::Done(r) => return Some(r),
                 Step::Yield => {}
+                Step::Wait => return None,
                 Step::Effect(e) => {
                     run.waiting = None;
                     if e == Effect::Load {

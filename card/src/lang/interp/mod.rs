@@ -225,6 +225,8 @@ impl Card {
             match self.step_line(&mut run, session, &mut Budget::unlimited()) {
                 Step::Done(r) => return r,
                 Step::Yield => {}
+                // No servo loop turns meanwhile: the access fails as a timeout.
+                Step::Wait => self.view().abandon_aux(&mut run),
                 Step::Effect(e) => {
                     let r = self.perform(&e);
                     self.finish_effect(&mut run, session, r);
@@ -284,6 +286,18 @@ impl Card {
         self.view().run_line(session, line, true)
     }
 
+    /// Begin a line run on the servo thread with effects detached (the daisy chain): see
+    /// [`Card::step_detached`].
+    pub(crate) fn start_detached(&mut self, session: &mut Session, line: &[u8]) -> LineRun {
+        self.view().start_line(session, line, true)
+    }
+
+    /// Advance a detached line run: its reply, or `None` while a MACRO auxiliary command
+    /// waits for the ring (call again after a servo tick).
+    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+        self.view().step_detached(run, s)
+    }
+
     /// Execute one control-character command (0x01..=0x1A other than CR, LF, TAB/CTRL-I, BS).
     /// Returns the framed reply (possibly empty). CTRL-I (0x09) re-executes the last command
     /// line; CTRL-Y returns the last line (the host port puts it back into its line buffer);
@@ -296,6 +310,18 @@ impl Card {
     /// Returns the unsolicited output to send to the host (possibly empty).
     pub fn program_command(&mut self, motor: u16, coord: u16, line: &[u8]) -> Vec<u8> {
         self.view().program_command(motor, coord, line)
+    }
+
+    /// Execute one PMAC on-line command against this card (another dialect reusing the PMAC
+    /// executors for motors and coordinate systems): its reply lines, or the ERR code.
+    pub(crate) fn exec_pmac(
+        &mut self,
+        s: &mut Session,
+        cmd: &crate::lang::ast::CmdKind,
+    ) -> Result<Vec<String>, u16> {
+        let mut out = exec::Out::default();
+        self.view().exec_cmd(s, cmd, &mut out)?;
+        Ok(out.lines)
     }
 
     /// Full-duplex echo toggled by CTRL-T (the host port echoes received characters when set).

@@ -2,6 +2,7 @@
 //! read-only flags, per profile. Tables are computed once per card ([`IVarTable::new`]).
 
 pub(super) mod pmac2;
+pub(super) mod power;
 pub(super) mod turbo;
 
 use crate::domain::profile::{limits, Profile};
@@ -117,6 +118,7 @@ impl IVarTable {
             .map(|i| match profile {
                 Profile::Pmac2 => pmac2::spec(i as u16),
                 Profile::Turbo => turbo::spec(i as u16),
+                Profile::Power => power::spec(i as u16),
             })
             .collect();
         IVarTable { specs }

@@ -1,0 +1,302 @@
+//! Reading and writing data-structure elements and I-variables: the model's own values where
+//! the model keeps one (I-variable aliases, P/Q/M arrays, thread data, status words), the
+//! dialect's store for the rest.
+
+use std::collections::HashMap;
+
+use super::catalog::{self, Class, Def, St, Ty, DEFS};
+use super::parse::ElemRef;
+use super::Thread;
+use crate::model::CardModel;
+
+/// Why an element or variable access failed (the error number and text of the reply).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct AccessError {
+    /// Error number.
+    pub code: u16,
+}
+
+/// Error 21: unknown element, index out of range.
+pub(crate) const ILLEGAL_PARAMETER: AccessError = AccessError { code: 21 };
+/// Error 22: the value is outside the element's range.
+pub(crate) const OUT_OF_RANGE: AccessError = AccessError { code: 22 };
+/// Error 23: a write to a read-only (status) element.
+pub(crate) const READ_ONLY: AccessError = AccessError { code: 23 };
+
+/// An element with every index evaluated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) struct Key {
+    /// Structure.
+    pub st: St,
+    /// Structure index (0 for unindexed structures).
+    pub idx: u32,
+    /// Catalogue entry.
+    pub def: usize,
+    /// Own indices (unused ones 0).
+    pub sub: [u32; 2],
+}
+
+/// Values of elements the model does not keep (setup and status with no model equivalent).
+#[derive(Debug, Default)]
+pub(crate) struct Store {
+    values: HashMap<Key, f64>,
+}
+
+/// Check the indices of `e` (already evaluated as `idx`, `sub`) and build its key.
+pub(crate) fn key(e: &ElemRef, idx: Option<f64>, sub: &[f64]) -> Result<Key, AccessError> {
+    let d = &DEFS[e.def];
+    let idx = match (e.st.count(), idx) {
+        (Some(n), Some(i)) => index(i, n)?,
+        (None, None) => 0,
+        _ => return Err(ILLEGAL_PARAMETER),
+    };
+    if sub.len() != d.dims.len() && !(d.dims.is_empty() && sub.is_empty()) {
+        return Err(ILLEGAL_PARAMETER);
+    }
+    let mut k = [0u32; 2];
+    for (j, (v, dim)) in sub.iter().zip(d.dims).enumerate() {
+        let lim = if *dim == 0 { 65_536 } else { *dim };
+        let x = index(*v, lim)?;
+        if j < 2 {
+            k[j] = x;
+        }
+    }
+    if d.dims.len() > 2 {
+        return Err(ILLEGAL_PARAMETER);
+    }
+    Ok(Key {
+        st: e.st,
+        idx,
+        def: e.def,
+        sub: k,
+    })
+}
+
+fn index(v: f64, n: u32) -> Result<u32, AccessError> {
+    let r = v.floor();
+    if r.is_finite() && r >= 0.0 && r < f64::from(n) {
+        Ok(r as u32)
+    } else {
+        Err(ILLEGAL_PARAMETER)
+    }
+}
+
+/// The name of element `k` as replies print it (`Motor[1].JogSpeed`, `Acc5E3[0].MacroInA[2][3]`).
+pub(crate) fn name(k: &Key, st_name: &str) -> String {
+    let d = &DEFS[k.def];
+    let mut s = String::from(st_name);
+    if k.st.count().is_some() {
+        s.push_str(&format!("[{}]", k.idx));
+    }
+    s.push('.');
+    s.push_str(d.name);
+    for j in 0..d.dims.len().min(2) {
+        s.push_str(&format!("[{}]", k.sub[j]));
+    }
+    s
+}
+
+/// The model I-variable a Power I-variable number stands for (`None`: no model equivalent).
+pub(crate) fn model_ivar(n: u32) -> Option<u32> {
+    match n {
+        0..=3199 => Some(n + 100),
+        5000..=6599 => Some(n + 100),
+        8000..=8099 => Some(n - 8000),
+        _ => None,
+    }
+}
+
+/// The element Power I-variable `n` is a numbered alias of, and its structure name.
+pub(crate) fn ivar_element(n: u32) -> Option<(Key, &'static str)> {
+    let (st, idx, inum, st_name) = match n {
+        0..=3199 => (St::Motor, n / 100, n % 100, "Motor"),
+        5000..=6599 => (St::Coord, (n - 5000) / 100, n % 100, "Coord"),
+        8000..=8099 => (St::Sys, 0, n - 8000, "Sys"),
+        6800..=7199 => (St::Gate2, (n - 6800) / 100, n % 100, "Gate2"),
+        _ => return None,
+    };
+    let def = catalog::by_inum(st, inum)?;
+    Some((
+        Key {
+            st,
+            idx,
+            def,
+            sub: [0, 0],
+        },
+        st_name,
+    ))
+}
+
+/// The model I-variable holding element `k`, if the model keeps it.
+fn model_slot(k: &Key, d: &Def) -> Option<u32> {
+    let inum = d.inum?;
+    match k.st {
+        St::Motor => Some(100 * (k.idx + 1) + inum),
+        St::Coord => Some(5000 + 100 * (k.idx + 1) + inum),
+        St::Sys if inum < 100 => Some(inum),
+        _ => None,
+    }
+}
+
+/// Servo period of the model in ms (model I10 is in 1/8,388,608 ms).
+const I10_UNIT: f64 = 8_388_608.0;
+
+/// Read element `k` for thread `th`.
+pub(crate) fn read(
+    card: &mut CardModel,
+    store: &Store,
+    th: &Thread,
+    k: &Key,
+) -> Result<f64, AccessError> {
+    let d = &DEFS[k.def];
+    let nm = d.name;
+    let st = &mut card.state;
+    let v = match (k.st, nm) {
+        (St::Ldata, "Motor") => f64::from(th.motor),
+        (St::Ldata, "Coord") => f64::from(th.coord),
+        (St::Ldata, "L") => th.local(super::parse::EXT_L, k.sub[0]).unwrap_or(0.0),
+        (St::Ldata, "R") => th.local(super::parse::EXT_R, k.sub[0]).unwrap_or(0.0),
+        (St::Ldata, "D") => th.local(super::parse::EXT_D, k.sub[0]).unwrap_or(0.0),
+        (St::Ldata, "C") => th.local(super::parse::EXT_C, k.sub[0]).unwrap_or(0.0),
+        (St::Sys, "P") => st.vars.p(k.sub[0]).map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "M") => st.read_m(k.sub[0]).map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "I") => read_ivar(card, store, k.sub[0])?,
+        (St::Coord, "Q") => st
+            .vars
+            .q(k.idx as u16 + 1, k.sub[0])
+            .map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "ServoPeriod") => st.peek_ivar(10).unwrap_or(3_713_707.0) / I10_UNIT,
+        (St::Sys, "MaxMotors") => f64::from(st.limits().motors),
+        (St::Sys, "Status") => f64::from(super::exec::global_status(card)),
+        (St::Motor, "Status") => {
+            f64::from(super::exec::motor_status(card, k.idx as u16)[k.sub[0].min(1) as usize])
+        }
+        (St::Coord, "Status") => {
+            f64::from(super::exec::coord_status(card, k.idx as u16)[k.sub[0].min(1) as usize])
+        }
+        _ => match (store.values.get(k), model_slot(k, d)) {
+            (Some(v), _) => *v,
+            (None, Some(n)) => st.read_ivar(n).map_err(|_| ILLEGAL_PARAMETER)?,
+            (None, None) => d.default,
+        },
+    };
+    Ok(v)
+}
+
+/// Write element `k` for thread `th`.
+pub(crate) fn write(
+    card: &mut CardModel,
+    store: &mut Store,
+    th: &mut Thread,
+    k: &Key,
+    v: f64,
+) -> Result<(), AccessError> {
+    let d = &DEFS[k.def];
+    if d.class == Class::Status {
+        return Err(READ_ONLY);
+    }
+    if matches!(d.ty, Ty::Struct) {
+        return Err(ILLEGAL_PARAMETER);
+    }
+    let nm = d.name;
+    let in_range = v.is_nan() && d.ty == Ty::Float || (v >= d.min && v <= d.max);
+    let st = &mut card.state;
+    match (k.st, nm) {
+        (St::Ldata, "Motor") => {
+            th.motor = index(v, u32::from(st.limits().motors)).map_err(|_| OUT_OF_RANGE)? as u16
+        }
+        (St::Ldata, "Coord") => {
+            th.coord = index(v, u32::from(st.limits().coords)).map_err(|_| OUT_OF_RANGE)? as u16
+        }
+        (St::Ldata, "L" | "R" | "D" | "C") => {
+            let f = match nm {
+                "L" => super::parse::EXT_L,
+                "R" => super::parse::EXT_R,
+                "D" => super::parse::EXT_D,
+                _ => super::parse::EXT_C,
+            };
+            if !th.set_local(f, k.sub[0], v) {
+                return Err(ILLEGAL_PARAMETER);
+            }
+        }
+        (St::Sys, "P") => {
+            st.vars.set_p(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?;
+        }
+        (St::Sys, "M") => st.write_m(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "I") => write_ivar(card, store, k.sub[0], v)?,
+        (St::Coord, "Q") => {
+            st.vars
+                .set_q(k.idx as u16 + 1, k.sub[0], v)
+                .map_err(|_| ILLEGAL_PARAMETER)?;
+        }
+        (St::Sys, "ServoPeriod") => {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(OUT_OF_RANGE);
+            }
+            st.set_ivar(10, (v * I10_UNIT).round())
+                .map_err(|_| OUT_OF_RANGE)?;
+        }
+        (St::Sys, "MaxMotors") => return Err(OUT_OF_RANGE),
+        _ => {
+            if !in_range {
+                return Err(OUT_OF_RANGE);
+            }
+            let v = if matches!(d.ty, Ty::Int | Ty::Bool | Ty::Hex | Ty::Addr) {
+                v.trunc()
+            } else {
+                v
+            };
+            // The seed's range is the rule; a value the model's (Turbo) variable cannot hold
+            // is kept by the dialect, which then answers with it.
+            match model_slot(k, d).map(|n| st.set_ivar(n, v)) {
+                Some(Ok(_)) => {
+                    store.values.remove(k);
+                }
+                _ => {
+                    store.values.insert(*k, v);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Power I-variable `n`.
+pub(crate) fn read_ivar(card: &mut CardModel, store: &Store, n: u32) -> Result<f64, AccessError> {
+    if n > 65_535 {
+        return Err(ILLEGAL_PARAMETER);
+    }
+    if let Some((k, _)) = ivar_element(n) {
+        let th = Thread::default();
+        return read(card, store, &th, &k);
+    }
+    match model_ivar(n) {
+        Some(m) => card.state.read_ivar(m).map_err(|_| ILLEGAL_PARAMETER),
+        None => Ok(0.0),
+    }
+}
+
+/// Assign Power I-variable `n`.
+pub(crate) fn write_ivar(
+    card: &mut CardModel,
+    store: &mut Store,
+    n: u32,
+    v: f64,
+) -> Result<(), AccessError> {
+    if n > 65_535 {
+        return Err(ILLEGAL_PARAMETER);
+    }
+    if let Some((k, _)) = ivar_element(n) {
+        let mut th = Thread::default();
+        return write(card, store, &mut th, &k, v);
+    }
+    match model_ivar(n) {
+        Some(m) => card
+            .state
+            .set_ivar(m, v)
+            .map(|_| ())
+            .map_err(|_| OUT_OF_RANGE),
+        // Numbers with no element behind them read 0 and accept nothing.
+        None => Err(ILLEGAL_PARAMETER),
+    }
+}

@@ -1,0 +1,723 @@
+//! Executing a parsed line for one thread and framing its output (see the module docs of
+//! `ppmac` for the reply format).
+
+use super::elements::{self, AccessError, Key, Store, ILLEGAL_PARAMETER};
+use super::parse::{self, Cmd, CsCmd, ElemRef, Fam, MotorCmd, Parsed, Sel, EXT_ELEM, EXT_I};
+use super::{Thread, MAX_LINE};
+use crate::domain::ast::{Expr, VarIndex, VarKind};
+use crate::domain::eval::{self, Env, EvalError};
+use crate::lang::ast::CmdKind;
+use crate::lang::interp::{Card, Session};
+use crate::model::CardModel;
+
+/// The acknowledge ending every line's output.
+const ACK: &[u8] = b"\x06\r\n";
+
+/// Most values one line may report (a list query beyond it is refused: a line is served in
+/// one slice, so this bounds the time it takes; about a millisecond).
+const MAX_VALUES: usize = 8192;
+
+/// Error texts by number ([DECISION]: the seed names only #20; the others are numbered here).
+fn error_text(code: u16) -> &'static str {
+    match code {
+        20 => "ILLEGAL CMD",
+        21 => "ILLEGAL PARAMETER",
+        22 => "OUT OF RANGE NUMBER",
+        23 => "READ ONLY",
+        24 => "MOTOR NOT ACTIVE",
+        25 => "NOT READY TO RUN",
+        26 => "PROGRAM RUNNING",
+        27 => "FUNCTION NOT SUPPORTED",
+        _ => "ERROR",
+    }
+}
+
+/// The Power error a PMAC executor's `ERRnnn` stands for.
+fn from_pmac(code: u16) -> u16 {
+    match code {
+        1 => 26,
+        3 | 4 => 21,
+        13 => 24,
+        10..=17 => 25,
+        _ => 21,
+    }
+}
+
+struct Ctx<'a> {
+    card: &'a mut Card,
+    store: &'a mut Store,
+    th: &'a mut Thread,
+    out: Vec<u8>,
+    values: usize,
+}
+
+/// Run one line for thread `th`: its framed output.
+pub(crate) fn run_line(
+    card: &mut Card,
+    store: &mut Store,
+    th: &mut Thread,
+    line: &[u8],
+) -> Vec<u8> {
+    th.lines += 1;
+    let mut cx = Ctx {
+        card,
+        store,
+        th,
+        out: Vec::new(),
+        values: 0,
+    };
+    if line.len() > MAX_LINE {
+        cx.error(line, 0, 20);
+        cx.out.extend_from_slice(ACK);
+        return cx.out;
+    }
+    let lim = cx.card.model.state.limits();
+    let parsed = parse::parse_line(line, lim.motors, lim.coords);
+    if let Some(e) = parsed.error {
+        // The line is parsed whole first: a syntax error is reported before anything the
+        // commands before it print (as gpascii does), and those commands still run.
+        cx.error(line, e.at, e.code);
+    }
+    cx.exec_all(&parsed, line);
+    cx.out.extend_from_slice(ACK);
+    cx.out
+}
+
+/// The output of a line that prints nothing: its error (if any) and the ACK.
+pub(crate) fn frame(th: &Thread, line: &[u8], e: Option<parse::SyntaxError>) -> Vec<u8> {
+    let mut out = Vec::new();
+    if let Some(e) = e {
+        let s = format!(
+            "stdin:{}:{}: error #{}: {}: {}\r\n",
+            th.lines,
+            e.at + 1,
+            e.code,
+            error_text(e.code),
+            String::from_utf8_lossy(line).trim_end()
+        );
+        out.extend_from_slice(s.as_bytes());
+    }
+    out.extend_from_slice(ACK);
+    out
+}
+
+impl Ctx<'_> {
+    fn error(&mut self, line: &[u8], at: usize, code: u16) {
+        let text = String::from_utf8_lossy(line);
+        let s = format!(
+            "stdin:{}:{}: error #{}: {}: {}\r\n",
+            self.th.lines,
+            at + 1,
+            code,
+            error_text(code),
+            text.trim_end()
+        );
+        self.out.extend_from_slice(s.as_bytes());
+    }
+
+    fn say(&mut self, s: &str) {
+        self.out.extend_from_slice(s.as_bytes());
+        self.out.extend_from_slice(b"\r\n");
+    }
+
+    fn exec_all(&mut self, p: &Parsed, line: &[u8]) {
+        // A `#list` / `&list` applies to the next command only.
+        let mut motors: Option<Vec<u16>> = None;
+        let mut coords: Option<Vec<u16>> = None;
+        for it in &p.items {
+            let r = match &it.cmd {
+                Cmd::Motors(v, list) => {
+                    if *list || v.len() != 1 {
+                        motors = Some(v.clone());
+                    } else {
+                        self.th.motor = v[0];
+                        motors = None;
+                    }
+                    continue;
+                }
+                Cmd::Coords(v, list) => {
+                    if *list || v.len() != 1 {
+                        coords = Some(v.clone());
+                    } else {
+                        self.th.coord = v[0];
+                        coords = None;
+                    }
+                    continue;
+                }
+                Cmd::Motor(m) => {
+                    let list = motors.take().unwrap_or_else(|| vec![self.th.motor]);
+                    self.motor_cmd(m, &list)
+                }
+                Cmd::Cs(c) => {
+                    let list = coords.take().unwrap_or_else(|| vec![self.th.coord]);
+                    self.cs_cmd(c, &list)
+                }
+                other => {
+                    motors = None;
+                    coords = None;
+                    self.exec(other, &p.elems)
+                }
+            };
+            if let Err(code) = r {
+                self.error(line, it.at, code);
+                return;
+            }
+        }
+    }
+
+    fn exec(&mut self, cmd: &Cmd, elems: &[ElemRef]) -> Result<(), u16> {
+        match cmd {
+            Cmd::MotorQuery => {
+                let s = format!("#{}", self.th.motor);
+                self.say(&s);
+            }
+            Cmd::CoordQuery => {
+                let s = format!("&{}", self.th.coord);
+                self.say(&s);
+            }
+            Cmd::GlobalStatus => {
+                let s = format!("{:08X}", global_status(&self.card.model));
+                self.say(&s);
+            }
+            Cmd::Echo(None) => {
+                let s = format!("{}", self.th.echo);
+                self.say(&s);
+            }
+            Cmd::Echo(Some(n)) => {
+                if *n > 127 {
+                    return Err(22);
+                }
+                self.th.echo = *n;
+            }
+            Cmd::Info(w) => self.info(w),
+            Cmd::VarQuery(f, sel) => self.var_query(*f, sel, elems)?,
+            Cmd::VarSet(f, ix, e) => {
+                let n = self.index(ix, elems)?;
+                let v = self.eval(e, elems)?;
+                self.var_write(*f, n, v).map_err(|e| e.code)?;
+            }
+            Cmd::IDef(f, sel) => {
+                if *f != Fam::I {
+                    return Err(20);
+                }
+                for n in self.sel_numbers(sel, elems)? {
+                    let def = elements::ivar_element(n)
+                        .map(|(k, st)| elements::name(&k, st))
+                        .unwrap_or_default();
+                    let s = if self.th.echo & 4 != 0 {
+                        def
+                    } else {
+                        format!("I{n}->{def}")
+                    };
+                    self.say(&s);
+                }
+            }
+            Cmd::ElemQuery(e) => {
+                let k = self.key(e, elems)?;
+                let v = self.elem_read(e, &k)?;
+                let text = self.elem_value_text(&k, e, v);
+                let s = if self.th.echo & 1 != 0 {
+                    text
+                } else {
+                    format!("{}={text}", self.elem_name(&k, e))
+                };
+                self.say(&s);
+            }
+            Cmd::ElemSet(e, x) => {
+                let k = self.key(e, elems)?;
+                let v = self.eval(x, elems)?;
+                let v = match e.bits {
+                    Some((start, width)) => {
+                        let old = self.elem_read(
+                            &ElemRef {
+                                bits: None,
+                                ..e.clone()
+                            },
+                            &k,
+                        )?;
+                        set_bits(old, start, width, v).ok_or(22u16)?
+                    }
+                    None => v,
+                };
+                elements::write(&mut self.card.model, self.store, self.th, &k, v)
+                    .map_err(|e| e.code)?;
+            }
+            Cmd::ElemAddr(e) => {
+                let k = self.key(e, elems)?;
+                // [DECISION] An element's address is its place in the catalogue: structure
+                // block, index and entry (stable, never 0: no function elements are modelled).
+                let a = 0x1000_0000u64
+                    + (u64::from(k.idx) << 20)
+                    + ((k.def as u64) << 8)
+                    + u64::from(k.sub[0] * 4 + k.sub[1]);
+                let text = if self.th.echo & 8 != 0 {
+                    a.to_string()
+                } else {
+                    format!("${a:X}")
+                };
+                let s = if self.th.echo & 1 != 0 {
+                    text
+                } else {
+                    format!("{}.a={text}", self.elem_name(&k, e))
+                };
+                self.say(&s);
+            }
+            Cmd::AxisDef(m, text) => {
+                // The definition forms are the classic ones: run as a PMAC command with the
+                // model numbering (`#n->0` undefines).
+                let line = format!("&{}#{}->{}", self.th.coord + 1, m + 1, text);
+                let mut s = Session::with_id(0);
+                let r = self.card.command_line(&mut s, line.as_bytes());
+                let r = String::from_utf8_lossy(&r).into_owned();
+                if r.contains("ERR") {
+                    return Err(21);
+                }
+                if text.is_empty() {
+                    let def: String = r
+                        .chars()
+                        .filter(|c| !c.is_control())
+                        .collect::<String>()
+                        .trim()
+                        .to_string();
+                    self.say(&def);
+                }
+            }
+            Cmd::PlcCtl(on, n) => {
+                let line = format!("{} PLC {n}", if *on { "ENABLE" } else { "DISABLE" });
+                let mut s = Session::with_id(0);
+                let r = self.card.command_line(&mut s, line.as_bytes());
+                if String::from_utf8_lossy(&r).contains("ERR") {
+                    return Err(21);
+                }
+            }
+            Cmd::Motors(..) | Cmd::Coords(..) | Cmd::Motor(_) | Cmd::Cs(_) => {}
+        }
+        Ok(())
+    }
+
+    fn info(&mut self, w: &str) {
+        match w {
+            "cid" => {
+                let s = self
+                    .card
+                    .model
+                    .state
+                    .limits()
+                    .cid
+                    .unwrap_or(604_020)
+                    .to_string();
+                self.say(&s);
+            }
+            "vers" => self.say("2.6.0.0"),
+            "type" => self.say("PWR PMAC UMAC"),
+            "cpu" => self.say("mcc emulated, x86_64"),
+            "date" => self.say(env!("CARGO_PKG_VERSION")),
+            "size" | "free" => {
+                let used = self.card.model.bufs.used() * 8;
+                let total = 16_777_216u64;
+                let prog = if w == "size" {
+                    total
+                } else {
+                    total - used.min(total)
+                };
+                for l in [
+                    format!("Program Buffer = {prog}"),
+                    "User Buffer = 1048576".to_string(),
+                    "Table Buffer = 1048576".to_string(),
+                    "Lookahead Buffer = 1048576".to_string(),
+                ] {
+                    self.say(&l);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    // ---- variables -------------------------------------------------------------------------
+
+    fn sel_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
+        let v: Vec<u32> = match sel {
+            Sel::One(ix) => vec![self.index(ix, elems)?],
+            Sel::Range(a, b) => {
+                if (b - a) as usize >= MAX_VALUES {
+                    return Err(22);
+                }
+                (*a..=*b).collect()
+            }
+            Sel::List(a, n, step) => {
+                if *n as usize > MAX_VALUES || *step == 0 {
+                    return Err(22);
+                }
+                (0..*n)
+                    .map(|k| a.saturating_add(k.saturating_mul(*step)))
+                    .collect()
+            }
+        };
+        self.values += v.len();
+        if self.values > MAX_VALUES {
+            return Err(22);
+        }
+        Ok(v)
+    }
+
+    fn var_query(&mut self, f: Fam, sel: &Sel, elems: &[ElemRef]) -> Result<(), u16> {
+        for n in self.sel_numbers(sel, elems)? {
+            let v = self.var_read(f, n).map_err(|e| e.code)?;
+            let s = if self.th.echo & 2 != 0 {
+                fmt(v)
+            } else {
+                format!("{}{n}={}", f.letter(), fmt(v))
+            };
+            self.say(&s);
+        }
+        Ok(())
+    }
+
+    fn var_read(&mut self, f: Fam, n: u32) -> Result<f64, AccessError> {
+        let cs = self.th.coord + 1;
+        let st = &mut self.card.model.state;
+        match f {
+            Fam::P => st.vars.p(n).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::Q => st.vars.q(cs, n).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::M => st.read_m(n).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::I => elements::read_ivar(&mut self.card.model, self.store, n),
+            _ => {
+                let VarKind::Ext(fam) = f.kind() else {
+                    return Err(ILLEGAL_PARAMETER);
+                };
+                self.th.local(fam, n).ok_or(ILLEGAL_PARAMETER)
+            }
+        }
+    }
+
+    fn var_write(&mut self, f: Fam, n: u32, v: f64) -> Result<(), AccessError> {
+        let cs = self.th.coord + 1;
+        let st = &mut self.card.model.state;
+        match f {
+            Fam::P => st
+                .vars
+                .set_p(n, v)
+                .map(|_| ())
+                .map_err(|_| ILLEGAL_PARAMETER),
+            Fam::Q => st
+                .vars
+                .set_q(cs, n, v)
+                .map(|_| ())
+                .map_err(|_| ILLEGAL_PARAMETER),
+            Fam::M => st.write_m(n, v).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::I => elements::write_ivar(&mut self.card.model, self.store, n, v),
+            _ => {
+                let VarKind::Ext(fam) = f.kind() else {
+                    return Err(ILLEGAL_PARAMETER);
+                };
+                if self.th.set_local(fam, n, v) {
+                    Ok(())
+                } else {
+                    Err(ILLEGAL_PARAMETER)
+                }
+            }
+        }
+    }
+
+    // ---- elements --------------------------------------------------------------------------
+
+    fn key(&mut self, e: &ElemRef, elems: &[ElemRef]) -> Result<Key, u16> {
+        let idx = match &e.idx {
+            Some(x) => Some(self.eval(x, elems)?),
+            None => None,
+        };
+        let mut sub = Vec::with_capacity(e.sub.len());
+        for x in &e.sub {
+            sub.push(self.eval(x, elems)?);
+        }
+        elements::key(e, idx, &sub).map_err(|e| e.code)
+    }
+
+    fn elem_read(&mut self, e: &ElemRef, k: &Key) -> Result<f64, u16> {
+        let v = elements::read(&mut self.card.model, self.store, self.th, k).map_err(|e| e.code)?;
+        Ok(match e.bits {
+            Some((start, width)) => get_bits(v, start, width),
+            None => v,
+        })
+    }
+
+    fn elem_name(&self, k: &Key, e: &ElemRef) -> String {
+        let mut s = elements::name(k, e.st_name);
+        if let Some((start, width)) = e.bits {
+            s.push_str(&format!(".{start}.{width}"));
+        }
+        s
+    }
+
+    fn elem_value_text(&self, _k: &Key, e: &ElemRef, v: f64) -> String {
+        let d = &super::catalog::DEFS[e.def];
+        if e.bits.is_none()
+            && matches!(d.ty, super::catalog::Ty::Hex | super::catalog::Ty::Addr)
+            && self.th.echo & 8 == 0
+            && v.is_finite()
+            && v >= 0.0
+        {
+            format!("${:X}", v as u64)
+        } else {
+            fmt(v)
+        }
+    }
+
+    // ---- expressions -----------------------------------------------------------------------
+
+    fn eval(&mut self, e: &Expr, elems: &[ElemRef]) -> Result<f64, u16> {
+        let mut env = PowerEnv { cx: self, elems };
+        eval::eval(e, &mut env).map_err(|e| if e.code == 3 { 21 } else { 20 })
+    }
+
+    fn index(&mut self, ix: &VarIndex, elems: &[ElemRef]) -> Result<u32, u16> {
+        match ix {
+            VarIndex::Const(n) => Ok(*n),
+            VarIndex::Expr(e) => {
+                let v = self.eval(e, elems)?.floor();
+                if v.is_finite() && (0.0..=f64::from(u32::MAX)).contains(&v) {
+                    Ok(v as u32)
+                } else {
+                    Err(21)
+                }
+            }
+        }
+    }
+
+    // ---- motors and coordinate systems -----------------------------------------------------
+
+    fn pmac(&mut self, motor: u16, coord: u16, cmd: &CmdKind) -> Result<Vec<String>, u16> {
+        let mut s = Session {
+            motor: motor + 1,
+            coord: coord + 1,
+            ..Session::with_id(0)
+        };
+        self.card.exec_pmac(&mut s, cmd).map_err(from_pmac)
+    }
+
+    fn motor_cmd(&mut self, m: &MotorCmd, list: &[u16]) -> Result<(), u16> {
+        let coord = self.th.coord;
+        let mut report = Vec::new();
+        for &x in list {
+            let cmd = match m {
+                MotorCmd::Jog(kind, trigger) => CmdKind::Jog {
+                    kind: *kind,
+                    trigger: *trigger,
+                },
+                MotorCmd::Kill | MotorCmd::DKill => CmdKind::Kill,
+                MotorCmd::Home => CmdKind::Home,
+                MotorCmd::HomeZ => CmdKind::HomeZ,
+                MotorCmd::Enable => CmdKind::MotorInit,
+                MotorCmd::Out(v) => CmdKind::OpenLoop(*v),
+                MotorCmd::Position | MotorCmd::DesPos => CmdKind::Position,
+                MotorCmd::Velocity => CmdKind::Velocity,
+                MotorCmd::FollowingError => CmdKind::FollowingError,
+                MotorCmd::Status => {
+                    let [a, b] = motor_status(&self.card.model, x);
+                    report.push(format!("{a:08X}{b:08X}"));
+                    continue;
+                }
+            };
+            let lines = self.pmac(x, coord, &cmd)?;
+            report.extend(lines);
+        }
+        if !report.is_empty() {
+            let s = report.join(" ");
+            self.say(&s);
+        }
+        Ok(())
+    }
+
+    fn cs_cmd(&mut self, c: &CsCmd, list: &[u16]) -> Result<(), u16> {
+        let motor = self.th.motor;
+        let mut report = Vec::new();
+        for &x in list {
+            let cmd = match c {
+                CsCmd::Run => CmdKind::Run,
+                CsCmd::Step => CmdKind::Step,
+                CsCmd::Quit => CmdKind::Quit,
+                CsCmd::Abort => CmdKind::Abort,
+                CsCmd::Hold => CmdKind::Hold,
+                CsCmd::Resume => CmdKind::Resume,
+                CsCmd::Begin(v) => CmdKind::Begin(crate::domain::ast::Number::dec(*v)),
+                CsCmd::Override(v) => {
+                    if !(-200.0..=200.0).contains(v) {
+                        return Err(22);
+                    }
+                    CmdKind::OverrideSet(v.max(0.0))
+                }
+                CsCmd::OverrideQuery => CmdKind::OverrideQuery,
+                CsCmd::Status => {
+                    let [a, b] = coord_status(&self.card.model, x);
+                    report.push(format!("{a:08X}{b:08X}"));
+                    continue;
+                }
+                CsCmd::Position => {
+                    if self.card.model.run.motors_in(x + 1).is_empty() {
+                        report.push("No Motors".to_string());
+                        continue;
+                    }
+                    CmdKind::Position
+                }
+            };
+            let lines = self.pmac(motor, x, &cmd)?;
+            report.extend(lines);
+        }
+        if !report.is_empty() {
+            let s = report.join(" ");
+            self.say(&s);
+        }
+        Ok(())
+    }
+}
+
+/// The expression environment of a thread: P/Q/M from the model, I in Power numbering, the
+/// thread's own L/R/D/C, and the line's elements.
+struct PowerEnv<'c, 'a> {
+    cx: &'c mut Ctx<'a>,
+    elems: &'c [ElemRef],
+}
+
+fn no_var() -> EvalError {
+    EvalError {
+        code: 3,
+        msg: "no such variable",
+    }
+}
+
+impl Env for PowerEnv<'_, '_> {
+    fn var(&mut self, kind: VarKind, n: u32) -> Result<f64, EvalError> {
+        match kind {
+            VarKind::P => self.cx.var_read(Fam::P, n).map_err(|_| no_var()),
+            VarKind::Q => self.cx.var_read(Fam::Q, n).map_err(|_| no_var()),
+            VarKind::M => self.cx.var_read(Fam::M, n).map_err(|_| no_var()),
+            VarKind::I => Err(no_var()),
+            VarKind::Ext(EXT_I) => self.cx.var_read(Fam::I, n).map_err(|_| no_var()),
+            VarKind::Ext(f) if f >= EXT_ELEM => {
+                let e = self
+                    .elems
+                    .get(usize::from(f - EXT_ELEM))
+                    .ok_or_else(no_var)?
+                    .clone();
+                let k = self.cx.key(&e, self.elems).map_err(|_| no_var())?;
+                self.cx.elem_read(&e, &k).map_err(|_| no_var())
+            }
+            VarKind::Ext(f) => self.cx.th.local(f, n).ok_or_else(no_var),
+        }
+    }
+
+    fn radians(&self) -> bool {
+        true
+    }
+
+    fn ieee(&self) -> bool {
+        true
+    }
+
+    fn random(&mut self) -> f64 {
+        self.cx.card.model.random()
+    }
+}
+
+/// A value as replies print it: integers without a point, others with up to 15 significant
+/// digits, `nan`, `inf`, `-inf`.
+pub(crate) fn fmt(v: f64) -> String {
+    if v.is_nan() {
+        return "nan".into();
+    }
+    if v.is_infinite() {
+        return if v > 0.0 { "inf" } else { "-inf" }.into();
+    }
+    if v == v.trunc() && v.abs() < 1e15 {
+        return format!("{}", v as i64);
+    }
+    let mag = v.abs().log10().floor() as i32;
+    let decimals = 14 - mag;
+    if (0..=20).contains(&decimals) {
+        let s = format!("{:.*}", decimals as usize, v);
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        format!("{v:e}")
+    }
+}
+
+fn get_bits(v: f64, start: u32, width: u32) -> f64 {
+    let w = v as i64 as u64;
+    let mask = if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    };
+    ((w >> start) & mask) as f64
+}
+
+fn set_bits(old: f64, start: u32, width: u32, v: f64) -> Option<f64> {
+    let mask = if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    };
+    if !(v.is_finite() && v >= 0.0 && (v as u64) <= mask) {
+        return None;
+    }
+    let w = old as i64 as u64;
+    let w = (w & !(mask << start)) | ((v as u64) << start);
+    Some(w as f64)
+}
+
+/// `Motor[x].Status[0..1]` (Power bit layout, seed §2.8) from the model's motor flags.
+pub(crate) fn motor_status(card: &CardModel, x: u16) -> [u32; 2] {
+    let Some(f) = card.state.motors.get(usize::from(x)) else {
+        return [0, 0];
+    };
+    let b = |c: bool, n: u32| u32::from(c) << n;
+    let active = card
+        .state
+        .peek_ivar(100 * (u32::from(x) + 1))
+        .unwrap_or(0.0)
+        != 0.0;
+    let w0 = b(f.trigger_move, 31)
+        | b(f.home_search, 30)
+        | b(f.neg_limit, 29)
+        | b(f.pos_limit, 28)
+        | b(f.warning_fe, 27)
+        | b(f.fatal_fe, 26)
+        | b(f.stopped_on_limit, 25)
+        | b(f.amp_fault, 24)
+        | b(f.home_complete, 15)
+        | b(active && f.desired_velocity_zero, 14)
+        | b(active && !f.open_loop, 13)
+        | b(f.amp_enabled, 12)
+        | b(active && f.in_position, 11)
+        | b(f.block_request, 9)
+        | b(active, 8);
+    let w1 = b(f.backlash_dir, 28);
+    [w0, w1]
+}
+
+/// `Coord[x].Status[0..1]`: the motor bits ORed (faults) or ANDed (ready states) over the
+/// C.S.'s motors, the program state in word 1.
+pub(crate) fn coord_status(card: &CardModel, x: u16) -> [u32; 2] {
+    const AND_BITS: u32 = (1 << 14) | (1 << 13) | (1 << 12) | (1 << 11);
+    let motors = card.run.motors_in(x + 1);
+    let (mut or, mut and) = (0u32, if motors.is_empty() { 0 } else { u32::MAX });
+    for m in &motors {
+        let [w, _] = motor_status(card, m.saturating_sub(1));
+        or |= w;
+        and &= w;
+    }
+    let w0 = (or & !AND_BITS & 0xFFFF_0000) | (and & AND_BITS);
+    let running = card
+        .state
+        .coords
+        .get(usize::from(x))
+        .is_some_and(|f| f.running);
+    let w1 = u32::from(running) << 27 | u32::from(running) << 26;
+    [w0, w1]
+}
+
+/// `Sys.Status`: the global word (no power-on fault is modelled: all clear).
+pub(crate) fn global_status(_card: &CardModel) -> u32 {
+    0
+}

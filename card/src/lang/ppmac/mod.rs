@@ -1,0 +1,300 @@
+//! The Power PMAC script dialect (seed 000, digest `power-pmac.md`): what a `power` card
+//! speaks on every host connection. Each connection is a *communication thread* with its own
+//! local data ([`Thread`]: `Ldata.Motor`/`Ldata.Coord`, echo mode, L/R/D/C variables, its
+//! line count for error reports). [`Power::line`] takes one command line (bytes, without its
+//! terminator) and returns the thread's output for it, as `gpascii` writes it: each reply line
+//! ends with CR LF, errors read `stdin:{line}:{col}: error #{n}: {TEXT}: {the line}`, and
+//! every line is acknowledged with ACK CR LF (host tools wait for it).
+//!
+//! The dialect runs against the same card as the PMAC dialect (`lang::interp::Card`): the
+//! model's P/Q/M variables, its I-variables (Power numbering mapped onto the model's Turbo
+//! numbering: Power motor `x` is model motor `x+1`, C.S. `x` model C.S. `x+1`, `I8000+n` the
+//! model's global `In`), and the PMAC executors for motor and C.S. commands (jogs, homing,
+//! kills, run control), whose requests become `model::Action`s. Data-structure elements come
+//! from the seed's catalogue (`catalog`); elements without a model equivalent keep their
+//! values here.
+
+mod catalog;
+mod elements;
+mod exec;
+mod parse;
+mod program;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::HashMap;
+
+use crate::lang::interp::Card;
+use crate::model::{BufId, ProgLine};
+
+/// Longest command line accepted (bytes before the terminator).
+pub(crate) const MAX_LINE: usize = 1024;
+
+/// Connections the dialect keeps threads for; the least recently used is forgotten beyond.
+const MAX_THREADS: usize = 512;
+
+/// L- and R-variables per thread (L0-L8191, R0-R8191: seed §2.2).
+pub(crate) const LOCALS: usize = 8192;
+/// D-variables per thread (D0-D54).
+pub(crate) const DVARS: usize = 55;
+/// C-variables per thread (C0-C63).
+pub(crate) const CVARS: usize = 64;
+
+/// One communication thread's local data (`Ldata`).
+#[derive(Debug, Clone)]
+pub struct Thread {
+    /// Addressed motor (`Ldata.Motor`, Power numbering: 0 at power-up).
+    pub motor: u16,
+    /// Addressed coordinate system (`Ldata.Coord`, 0 at power-up).
+    pub coord: u16,
+    /// Echo mode (`echo{n}`, bits 0-6).
+    pub echo: u32,
+    /// Lines received so far (error reports name the line).
+    pub lines: u64,
+    l: Vec<f64>,
+    r: Vec<f64>,
+    d: [f64; DVARS],
+    c: [f64; CVARS],
+}
+
+impl Default for Thread {
+    fn default() -> Self {
+        Thread {
+            motor: 0,
+            coord: 0,
+            echo: 0,
+            lines: 0,
+            l: Vec::new(),
+            r: Vec::new(),
+            d: [0.0; DVARS],
+            c: [0.0; CVARS],
+        }
+    }
+}
+
+impl Thread {
+    /// Thread-local variable `n` of family `f` (`None`: out of range).
+    pub(crate) fn local(&self, f: u16, n: u32) -> Option<f64> {
+        let n = n as usize;
+        match f {
+            parse::EXT_L if n < LOCALS => Some(self.l.get(n).copied().unwrap_or(0.0)),
+            parse::EXT_R if n < LOCALS => Some(self.r.get(n).copied().unwrap_or(0.0)),
+            parse::EXT_D => self.d.get(n).copied(),
+            parse::EXT_C => self.c.get(n).copied(),
+            _ => None,
+        }
+    }
+
+    /// Store thread-local variable `n` of family `f`; `false` when out of range.
+    pub(crate) fn set_local(&mut self, f: u16, n: u32, v: f64) -> bool {
+        let n = n as usize;
+        let slot = match f {
+            parse::EXT_L | parse::EXT_R if n < LOCALS => {
+                let vec = if f == parse::EXT_L {
+                    &mut self.l
+                } else {
+                    &mut self.r
+                };
+                if vec.len() <= n {
+                    vec.resize(n + 1, 0.0);
+                }
+                &mut vec[n]
+            }
+            parse::EXT_D => match self.d.get_mut(n) {
+                Some(s) => s,
+                None => return false,
+            },
+            parse::EXT_C => match self.c.get_mut(n) {
+                Some(s) => s,
+                None => return false,
+            },
+            _ => return false,
+        };
+        *slot = v;
+        true
+    }
+}
+
+/// The dialect's state on one card: the communication threads and the values of elements the
+/// model does not keep.
+#[derive(Debug, Default)]
+pub struct Power {
+    threads: HashMap<u64, (Thread, u64)>,
+    clock: u64,
+    store: elements::Store,
+    open: Option<OpenBuf>,
+}
+
+/// The one buffer open on the card (seed §2.9: one at a time across all threads).
+#[derive(Debug)]
+struct OpenBuf {
+    conn: u64,
+    id: BufId,
+    blocks: program::Blocks,
+    lines: usize,
+}
+
+impl Power {
+    /// A dialect with no threads yet and every element at its default.
+    pub fn new() -> Self {
+        Power::default()
+    }
+
+    /// Execute one command line of connection `conn` on `card`: the bytes to send back.
+    pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
+        let mut th = self.take_thread(conn);
+        let out = match self.buffer_command(card, conn, &mut th, line) {
+            Some(out) => out,
+            None => exec::run_line(card, &mut self.store, &mut th, line),
+        };
+        self.threads.insert(conn, (th, self.clock));
+        out
+    }
+
+    /// Connection `conn` closed: forget its thread, close a buffer it left open.
+    pub fn end(&mut self, card: &mut Card, conn: u64) {
+        self.threads.remove(&conn);
+        if self.open.as_ref().is_some_and(|o| o.conn == conn) {
+            // A buffer left open by a vanished connection is closed (its errors have no one to
+            // go to).
+            let _ = self.close(card);
+        }
+    }
+
+    /// `open prog|plc n`, `close`, and the lines entered into an open buffer.
+    fn buffer_command(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        th: &mut Thread,
+        line: &[u8],
+    ) -> Option<Vec<u8>> {
+        let text = String::from_utf8_lossy(line).to_ascii_lowercase();
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let mine = self.open.as_ref().is_some_and(|o| o.conn == conn);
+        match words.as_slice() {
+            ["open", kind, n] => {
+                th.lines += 1;
+                let r = self.open_buffer(card, conn, kind, n);
+                return Some(exec::frame(th, line, r.err()));
+            }
+            ["close"] | ["close", "all", "buffers"] => {
+                th.lines += 1;
+                let r = if self.open.is_some() {
+                    self.close(card)
+                } else {
+                    Ok(())
+                };
+                return Some(exec::frame(th, line, r.err()));
+            }
+            _ if mine => {}
+            _ => return None,
+        }
+        th.lines += 1;
+        let o = self.open.as_mut()?;
+        let r = match program::parse_program_line(line, &mut o.blocks) {
+            Ok(stmts) if stmts.is_empty() => Ok(()),
+            Ok(stmts) => {
+                o.lines += 1;
+                card.model
+                    .bufs
+                    .append(o.id, ProgLine::new(stmts))
+                    .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+            }
+            Err(e) => Err(e),
+        };
+        Some(match r {
+            Ok(()) => exec::frame(th, line, None),
+            Err(e) => {
+                // Seed §2.9: a line that is not a valid buffer command erases and closes the
+                // open buffer.
+                let id = o.id;
+                self.open = None;
+                card.model.bufs.remove(id);
+                exec::frame(th, line, Some(e))
+            }
+        })
+    }
+
+    fn open_buffer(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        kind: &str,
+        n: &str,
+    ) -> Result<(), parse::SyntaxError> {
+        let bad = |code| parse::SyntaxError { at: 0, code };
+        if self.open.is_some() {
+            return Err(bad(21));
+        }
+        let n: u32 = n.parse().map_err(|_| bad(21))?;
+        let id = match kind {
+            "prog" if (1..=32_767).contains(&n) => BufId::Prog(n as u16),
+            "plc" if n <= 31 => BufId::Plc(n as u8),
+            "prog" | "plc" => return Err(bad(21)),
+            _ => return Err(bad(20)),
+        };
+        if card.model.state.coords.iter().any(|c| c.running) && matches!(id, BufId::Prog(_)) {
+            return Err(bad(26));
+        }
+        // Seed §2.9: `open` clears the buffer.
+        card.model.bufs.remove(id);
+        card.model.bufs.open(id).map_err(|_| bad(21))?;
+        match id {
+            BufId::Prog(_) => card.model.run.cs.iter_mut().for_each(|c| c.pointer = None),
+            BufId::Plc(k) => card.model.run.plc[usize::from(k)].enabled = false,
+            BufId::Rot => {}
+        }
+        self.open = Some(OpenBuf {
+            conn,
+            id,
+            blocks: Vec::new(),
+            lines: 0,
+        });
+        Ok(())
+    }
+
+    /// Close the open buffer: an empty one is deleted (seed: `open` then `close`), an
+    /// unbalanced one is erased with an error.
+    fn close(&mut self, card: &mut Card) -> Result<(), parse::SyntaxError> {
+        let Some(o) = self.open.take() else {
+            return Ok(());
+        };
+        if o.lines == 0 {
+            card.model.bufs.remove(o.id);
+            return Ok(());
+        }
+        if !o.blocks.is_empty() {
+            card.model.bufs.remove(o.id);
+            return Err(parse::SyntaxError { at: 0, code: 20 });
+        }
+        card.model
+            .bufs
+            .close(o.id)
+            .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+    }
+
+    /// The thread of `conn` (a fresh one for a new connection).
+    pub fn thread(&self, conn: u64) -> Option<&Thread> {
+        self.threads.get(&conn).map(|(t, _)| t)
+    }
+
+    fn take_thread(&mut self, conn: u64) -> Thread {
+        self.clock += 1;
+        if let Some((t, _)) = self.threads.remove(&conn) {
+            return t;
+        }
+        if self.threads.len() >= MAX_THREADS {
+            let oldest = self
+                .threads
+                .iter()
+                .min_by_key(|(_, (_, t))| *t)
+                .map(|(k, _)| *k);
+            if let Some(k) = oldest {
+                self.threads.remove(&k);
+            }
+        }
+        Thread::default()
+    }
+}

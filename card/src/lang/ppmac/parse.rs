@@ -1,0 +1,1124 @@
+//! The Power PMAC on-line command line: commands separated by white space (case ignored),
+//! parsed whole before anything runs ([`parse_line`]). Expressions become `domain::ast`
+//! expressions; variables of the families the model does not keep (L, R, D, C) and data-
+//! structure elements become `VarKind::Ext` references resolved by the executor.
+
+use super::catalog::{self, St};
+use crate::domain::ast::{BinOp, Expr, ExprKind, MathFn, Number, Pos, VarIndex, VarKind, VarRef};
+
+/// Deepest expression nesting the parser accepts.
+const MAX_DEPTH: u32 = 64;
+
+/// A syntax error at byte `at` of the line (error 20 unless stated).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct SyntaxError {
+    /// Byte offset.
+    pub at: usize,
+    /// Error number.
+    pub code: u16,
+}
+
+type P<T> = Result<T, SyntaxError>;
+
+/// A variable family of the Power script.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Fam {
+    /// Global P.
+    P,
+    /// Per-C.S. Q.
+    Q,
+    /// Pointer M.
+    M,
+    /// Setup alias I.
+    I,
+    /// Thread-local L.
+    L,
+    /// Thread-local R.
+    R,
+    /// Argument D.
+    D,
+    /// Kinematic C.
+    C,
+}
+
+impl Fam {
+    /// Its letter as replies print it.
+    pub(crate) fn letter(self) -> char {
+        match self {
+            Fam::P => 'P',
+            Fam::Q => 'Q',
+            Fam::M => 'M',
+            Fam::I => 'I',
+            Fam::L => 'L',
+            Fam::R => 'R',
+            Fam::D => 'D',
+            Fam::C => 'C',
+        }
+    }
+
+    fn of(c: u8) -> Option<Fam> {
+        Some(match c {
+            b'p' => Fam::P,
+            b'q' => Fam::Q,
+            b'm' => Fam::M,
+            b'i' => Fam::I,
+            b'l' => Fam::L,
+            b'r' => Fam::R,
+            b'd' => Fam::D,
+            b'c' => Fam::C,
+            _ => return None,
+        })
+    }
+
+    /// The `VarKind` of the family in expressions: the model's own for P/Q/M, an extension
+    /// family for the rest (I too: its numbers are the Power numbering).
+    pub(crate) fn kind(self) -> VarKind {
+        match self {
+            Fam::P => VarKind::P,
+            Fam::Q => VarKind::Q,
+            Fam::M => VarKind::M,
+            Fam::I => VarKind::Ext(EXT_I),
+            Fam::L => VarKind::Ext(EXT_L),
+            Fam::R => VarKind::Ext(EXT_R),
+            Fam::D => VarKind::Ext(EXT_D),
+            Fam::C => VarKind::Ext(EXT_C),
+        }
+    }
+}
+
+/// Extension family numbers (`VarKind::Ext`) of the dialect.
+pub(crate) const EXT_I: u16 = 1;
+/// L-variables.
+pub(crate) const EXT_L: u16 = 2;
+/// R-variables.
+pub(crate) const EXT_R: u16 = 3;
+/// D-variables.
+pub(crate) const EXT_D: u16 = 4;
+/// C-variables.
+pub(crate) const EXT_C: u16 = 5;
+/// Element `k` of the line's element table is `Ext(EXT_ELEM + k)`.
+pub(crate) const EXT_ELEM: u16 = 100;
+
+/// Which variables a command names.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Sel {
+    /// One, constant or computed.
+    One(VarIndex),
+    /// `a..b`
+    Range(u32, u32),
+    /// `start,count[,spacing]`
+    List(u32, u32, u32),
+}
+
+/// A data-structure element as written (indices may be expressions).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ElemRef {
+    /// Its structure.
+    pub st: St,
+    /// The structure name as written (alias), for replies.
+    pub st_name: &'static str,
+    /// Structure index (`Motor[3]`), `None` for `Sys`, `Gather`, `Ldata`.
+    pub idx: Option<Expr>,
+    /// Element index in the catalogue.
+    pub def: usize,
+    /// The element's own indices (`MacroInA[2][3]`).
+    pub sub: Vec<Expr>,
+    /// Bit range `.start.width` (`.k` = one bit).
+    pub bits: Option<(u32, u32)>,
+}
+
+/// A motor command.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum MotorCmd {
+    /// A jog (`j+`, `j=…`, `j:…`, `j^…`, `j=*` …) with an optional trigger offset.
+    Jog(crate::domain::ast::JogKind, Option<f64>),
+    /// `k` / `kill`
+    Kill,
+    /// `dkill`
+    DKill,
+    /// `hm` / `home`
+    Home,
+    /// `hmz` / `homez`
+    HomeZ,
+    /// `$`
+    Enable,
+    /// `out{c}`
+    Out(f64),
+    /// `p`
+    Position,
+    /// `v`
+    Velocity,
+    /// `f`
+    FollowingError,
+    /// `d`
+    DesPos,
+    /// `?`
+    Status,
+}
+
+/// A coordinate-system command.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum CsCmd {
+    /// `r` / `run`
+    Run,
+    /// `s` / `step`
+    Step,
+    /// `q` / `pause`
+    Quit,
+    /// `a` / `abort`
+    Abort,
+    /// `h` / `hold`
+    Hold,
+    /// `resume`
+    Resume,
+    /// `b{n}` / `begin{n}`
+    Begin(f64),
+    /// `%{n}`
+    Override(f64),
+    /// `%`
+    OverrideQuery,
+    /// `?` after `&`
+    Status,
+    /// `p` after `&`: axis positions.
+    Position,
+}
+
+/// One parsed command.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Cmd {
+    /// `#n` (modal) or `#list` (next command only).
+    Motors(Vec<u16>, bool),
+    /// `#`
+    MotorQuery,
+    /// `&n` / `&list`
+    Coords(Vec<u16>, bool),
+    /// `&`
+    CoordQuery,
+    /// A motor command for the addressed motor(s).
+    Motor(MotorCmd),
+    /// A C.S. command for the addressed C.S.(s).
+    Cs(CsCmd),
+    /// `?` alone: `Sys.Status`.
+    GlobalStatus,
+    /// Variable query.
+    VarQuery(Fam, Sel),
+    /// Variable assignment.
+    VarSet(Fam, VarIndex, Expr),
+    /// `I{n}->`
+    IDef(Fam, Sel),
+    /// Element query.
+    ElemQuery(ElemRef),
+    /// Element assignment.
+    ElemSet(ElemRef, Expr),
+    /// `name.a`
+    ElemAddr(ElemRef),
+    /// `echo` / `echo{n}`
+    Echo(Option<u32>),
+    /// `cid`, `vers`, `type`, `cpu`, `date`, `size`, `free`, `buffer`
+    Info(&'static str),
+    /// `#n->{definition}` (empty: the query `#n->`)
+    AxisDef(u16, String),
+    /// `enable plc n` / `disable plc n` (`true`: enable)
+    PlcCtl(bool, u32),
+}
+
+/// A command with where it started.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Item {
+    /// The command.
+    pub cmd: Cmd,
+    /// Byte offset.
+    pub at: usize,
+}
+
+/// A parsed line: the commands before the first error, the error, and the element table of
+/// the line's expressions (`Ext(EXT_ELEM + k)`).
+#[derive(Debug, Default)]
+pub(crate) struct Parsed {
+    /// Commands in order.
+    pub items: Vec<Item>,
+    /// First syntax error.
+    pub error: Option<SyntaxError>,
+    /// Elements named inside expressions.
+    pub elems: Vec<ElemRef>,
+}
+
+pub(crate) struct Cur<'a> {
+    s: &'a [u8],
+    pub(crate) i: usize,
+    elems: Vec<ElemRef>,
+    ext: bool,
+}
+
+fn err<T>(at: usize) -> P<T> {
+    Err(SyntaxError { at, code: 20 })
+}
+
+impl<'a> Cur<'a> {
+    pub(crate) fn new(s: &'a [u8]) -> Self {
+        Cur {
+            s,
+            i: 0,
+            elems: Vec::new(),
+            ext: false,
+        }
+    }
+
+    /// The bytes not yet parsed.
+    pub(crate) fn rest(&self) -> &'a [u8] {
+        self.s.get(self.i..).unwrap_or_default()
+    }
+
+    /// Elements, I-variables or thread-local variables were named in the expressions parsed
+    /// so far (they resolve per communication thread).
+    pub(crate) fn has_elems(&self) -> bool {
+        self.ext || !self.elems.is_empty()
+    }
+
+    /// `w` as a whole word (case ignored).
+    pub(crate) fn eat_word(&mut self, w: &str) -> bool {
+        let save = self.i;
+        if self.eat_str(w)
+            && !self
+                .peek()
+                .is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_')
+        {
+            return true;
+        }
+        self.i = save;
+        false
+    }
+
+    /// A word, lower-cased (letters, digits, underscore; starting with a letter).
+    pub(crate) fn word_lower(&mut self) -> Option<String> {
+        self.word()
+    }
+
+    /// A literal number with an optional sign.
+    pub(crate) fn signed_number(&mut self) -> Option<f64> {
+        signed(self)
+    }
+
+    pub(crate) fn peek(&self) -> Option<u8> {
+        self.s.get(self.i).map(u8::to_ascii_lowercase)
+    }
+
+    pub(crate) fn peek_at(&self, k: usize) -> Option<u8> {
+        self.s.get(self.i + k).map(u8::to_ascii_lowercase)
+    }
+
+    pub(crate) fn ws(&mut self) {
+        while matches!(self.peek(), Some(b' ' | b'\t')) {
+            self.i += 1;
+        }
+    }
+
+    pub(crate) fn eat(&mut self, c: u8) -> bool {
+        if self.peek() == Some(c) {
+            self.i += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    pub(crate) fn eat_str(&mut self, t: &str) -> bool {
+        let n = t.len();
+        match self.s.get(self.i..self.i + n) {
+            Some(w) if w.eq_ignore_ascii_case(t.as_bytes()) => {
+                self.i += n;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    pub(crate) fn at_end(&self) -> bool {
+        self.i >= self.s.len()
+    }
+
+    /// A word of letters/digits/underscore starting with a letter (lower-cased).
+    fn word(&mut self) -> Option<String> {
+        let st = self.i;
+        if !self.peek().is_some_and(|c| c.is_ascii_alphabetic()) {
+            return None;
+        }
+        while self
+            .peek()
+            .is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_')
+        {
+            self.i += 1;
+        }
+        Some(String::from_utf8_lossy(&self.s[st..self.i]).to_ascii_lowercase())
+    }
+
+    fn word_exact(&mut self) -> Option<&'a str> {
+        let st = self.i;
+        self.word()?;
+        std::str::from_utf8(&self.s[st..self.i]).ok()
+    }
+
+    pub(crate) fn uint(&mut self) -> Option<u32> {
+        let st = self.i;
+        while self.peek().is_some_and(|c| c.is_ascii_digit()) {
+            self.i += 1;
+        }
+        if st == self.i {
+            return None;
+        }
+        std::str::from_utf8(&self.s[st..self.i])
+            .ok()?
+            .parse::<u32>()
+            .ok()
+            .or(Some(u32::MAX))
+    }
+
+    /// A literal number: decimal (with fraction and exponent) or `$hex`.
+    fn number(&mut self) -> Option<f64> {
+        let st = self.i;
+        if self.eat(b'$') {
+            let h = self.i;
+            while self.peek().is_some_and(|c| c.is_ascii_hexdigit()) {
+                self.i += 1;
+            }
+            if h == self.i {
+                self.i = st;
+                return None;
+            }
+            let t = std::str::from_utf8(&self.s[h..self.i]).ok()?;
+            return Some(u64::from_str_radix(t, 16).map_or(f64::INFINITY, |v| v as f64));
+        }
+        while self.peek().is_some_and(|c| c.is_ascii_digit()) {
+            self.i += 1;
+        }
+        if self.peek() == Some(b'.') && self.peek_at(1).is_some_and(|c| c.is_ascii_digit()) {
+            self.i += 1;
+            while self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                self.i += 1;
+            }
+        } else if self.peek() == Some(b'.') && self.i > st && self.peek_at(1) != Some(b'.') {
+            self.i += 1;
+        }
+        if self.i == st {
+            return None;
+        }
+        if self.peek() == Some(b'e') {
+            let save = self.i;
+            self.i += 1;
+            if matches!(self.peek(), Some(b'+' | b'-')) {
+                self.i += 1;
+            }
+            if self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                while self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                    self.i += 1;
+                }
+            } else {
+                self.i = save;
+            }
+        }
+        std::str::from_utf8(&self.s[st..self.i]).ok()?.parse().ok()
+    }
+
+    // ---- expressions -----------------------------------------------------------------------
+
+    pub(crate) fn expr(&mut self, depth: u32) -> P<Expr> {
+        self.binary(1, depth)
+    }
+
+    fn binary(&mut self, level: u8, depth: u32) -> P<Expr> {
+        if depth > MAX_DEPTH {
+            return err(self.i);
+        }
+        let mut l = if level == 1 {
+            self.binary(2, depth + 1)?
+        } else {
+            self.unary(depth + 1)?
+        };
+        loop {
+            let save = self.i;
+            self.ws();
+            let op = match (level, self.peek(), self.peek_at(1)) {
+                (1, Some(b'+'), n) if n != Some(b'=') => BinOp::Add,
+                (1, Some(b'-'), n) if n != Some(b'=') => BinOp::Sub,
+                (1, Some(b'|'), n) if n != Some(b'|') && n != Some(b'=') => BinOp::Or,
+                (1, Some(b'^'), n) if n != Some(b'=') => BinOp::Xor,
+                (2, Some(b'*'), n) if n != Some(b'=') => BinOp::Mul,
+                (2, Some(b'/'), n) if n != Some(b'=') && n != Some(b'/') => BinOp::Div,
+                (2, Some(b'%'), n) if n != Some(b'=') => BinOp::Mod,
+                (2, Some(b'&'), n) if n != Some(b'&') && n != Some(b'=') => BinOp::And,
+                (2, Some(b'<'), Some(b'<')) => BinOp::Shl,
+                (2, Some(b'>'), Some(b'>')) => BinOp::Shr,
+                _ => {
+                    self.i = save;
+                    return Ok(l);
+                }
+            };
+            self.i += if matches!(op, BinOp::Shl | BinOp::Shr) {
+                2
+            } else {
+                1
+            };
+            self.ws();
+            let r = if level == 1 {
+                self.binary(2, depth + 1)?
+            } else {
+                self.unary(depth + 1)?
+            };
+            let pos = l.pos;
+            l = Expr {
+                kind: ExprKind::Bin(op, Box::new(l), Box::new(r)),
+                pos,
+            };
+        }
+    }
+
+    fn unary(&mut self, depth: u32) -> P<Expr> {
+        if depth > MAX_DEPTH {
+            return err(self.i);
+        }
+        self.ws();
+        let at = self.i;
+        let pos = Pos(at as u32);
+        let mk = |kind| Expr { kind, pos };
+        match self.peek() {
+            Some(b'-') => {
+                self.i += 1;
+                let e = self.unary(depth + 1)?;
+                Ok(mk(ExprKind::Neg(Box::new(e))))
+            }
+            Some(b'~') => {
+                self.i += 1;
+                let e = self.unary(depth + 1)?;
+                Ok(mk(ExprKind::BitNot(Box::new(e))))
+            }
+            Some(b'(') => {
+                self.i += 1;
+                let e = self.expr(depth + 1)?;
+                self.ws();
+                if !self.eat(b')') {
+                    return err(self.i);
+                }
+                Ok(e)
+            }
+            Some(c) if c.is_ascii_digit() || c == b'.' || c == b'$' => match self.number() {
+                Some(v) => Ok(mk(ExprKind::Num(Number::dec(v)))),
+                None => err(at),
+            },
+            Some(c) if c.is_ascii_alphabetic() => self.primary_word(depth),
+            _ => err(at),
+        }
+    }
+
+    fn primary_word(&mut self, depth: u32) -> P<Expr> {
+        let at = self.i;
+        let pos = Pos(at as u32);
+        // A variable: family letter then a number or a parenthesised index.
+        if let Some(f) = self.peek().and_then(Fam::of) {
+            if self
+                .peek_at(1)
+                .is_some_and(|c| c.is_ascii_digit() || c == b'(')
+            {
+                self.i += 1;
+                let index = self.var_index(depth)?;
+                self.ext |= matches!(f.kind(), VarKind::Ext(_));
+                return Ok(Expr {
+                    kind: ExprKind::Var(VarRef {
+                        kind: f.kind(),
+                        index,
+                        pos,
+                    }),
+                    pos,
+                });
+            }
+        }
+        let Some(w) = self.word_exact() else {
+            return err(at);
+        };
+        if let Some(f) = math_fn(w) {
+            self.ws();
+            if !self.eat(b'(') {
+                return err(self.i);
+            }
+            let mut args = Vec::new();
+            self.ws();
+            if !self.eat(b')') {
+                loop {
+                    args.push(self.expr(depth + 1)?);
+                    self.ws();
+                    if self.eat(b')') {
+                        break;
+                    }
+                    if !self.eat(b',') || args.len() >= 3 {
+                        return err(self.i);
+                    }
+                }
+            }
+            return Ok(Expr {
+                kind: ExprKind::Math(f, args),
+                pos,
+            });
+        }
+        if catalog::structure(w).is_some() {
+            self.i = at;
+            let e = self.element(depth)?;
+            let k = self.elems.len();
+            if k >= 64 {
+                return err(at);
+            }
+            self.elems.push(e);
+            return Ok(Expr {
+                kind: ExprKind::Var(VarRef {
+                    kind: VarKind::Ext(EXT_ELEM + k as u16),
+                    index: VarIndex::Const(0),
+                    pos,
+                }),
+                pos,
+            });
+        }
+        err(at)
+    }
+
+    /// `n` or `(expr)` after a family letter.
+    pub(crate) fn var_index(&mut self, depth: u32) -> P<VarIndex> {
+        if self.eat(b'(') {
+            let e = self.expr(depth + 1)?;
+            self.ws();
+            if !self.eat(b')') {
+                return err(self.i);
+            }
+            return Ok(VarIndex::Expr(Box::new(e)));
+        }
+        match self.uint() {
+            Some(n) => Ok(VarIndex::Const(n)),
+            None => err(self.i),
+        }
+    }
+
+    /// `[expr]` (a bracketed index).
+    fn bracket(&mut self, depth: u32) -> P<Expr> {
+        if !self.eat(b'[') {
+            return err(self.i);
+        }
+        let e = self.expr(depth + 1)?;
+        self.ws();
+        if !self.eat(b']') {
+            return err(self.i);
+        }
+        Ok(e)
+    }
+
+    /// `Struct[idx].Name[.Name][i][j][.start[.width]]`.
+    pub(crate) fn element(&mut self, depth: u32) -> P<ElemRef> {
+        let at = self.i;
+        let Some(w) = self.word() else {
+            return err(at);
+        };
+        let Some((st, st_name)) = catalog::structure(&w) else {
+            return err(at);
+        };
+        let idx = match st.count() {
+            Some(_) => Some(self.bracket(depth)?),
+            None => None,
+        };
+        let mut name = String::new();
+        let mut sub = Vec::new();
+        let mut bits = None;
+        while self.peek() == Some(b'.') {
+            let dot = self.i;
+            self.i += 1;
+            if self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                if name.is_empty() {
+                    return err(self.i);
+                }
+                let start = self.uint().unwrap_or(u32::MAX);
+                let width = if self.peek() == Some(b'.')
+                    && self.peek_at(1).is_some_and(|c| c.is_ascii_digit())
+                {
+                    self.i += 1;
+                    self.uint().unwrap_or(u32::MAX)
+                } else {
+                    1
+                };
+                if start > 63 || width == 0 || width > 64 || start + width > 64 {
+                    return Err(SyntaxError { at: dot, code: 21 });
+                }
+                bits = Some((start, width));
+                break;
+            }
+            let save = self.i;
+            let Some(seg) = self.word_exact() else {
+                return err(self.i);
+            };
+            // `.a` after a complete element name is the address query (handled by the caller).
+            if seg.eq_ignore_ascii_case("a") && !name.is_empty() {
+                self.i = dot;
+                break;
+            }
+            if !sub.is_empty() {
+                self.i = save;
+                return err(save);
+            }
+            if !name.is_empty() {
+                name.push('.');
+            }
+            name.push_str(seg);
+            while self.peek() == Some(b'[') {
+                if sub.len() >= 3 {
+                    return err(self.i);
+                }
+                sub.push(self.bracket(depth)?);
+            }
+        }
+        if name.is_empty() {
+            return err(self.i);
+        }
+        let Some(def) = catalog::find(st, &name) else {
+            return Err(SyntaxError { at, code: 21 });
+        };
+        Ok(ElemRef {
+            st,
+            st_name,
+            idx,
+            def,
+            sub,
+            bits,
+        })
+    }
+
+    // ---- commands --------------------------------------------------------------------------
+
+    /// A list of motor/C.S. numbers after `#`/`&`: `n`, `a,b`, `a..b`, `*`.
+    fn num_list(&mut self, all: u16) -> P<Option<(Vec<u16>, bool)>> {
+        if self.eat(b'*') {
+            return Ok(Some(((0..all).collect(), true)));
+        }
+        let Some(first) = self.uint() else {
+            return Ok(None);
+        };
+        let mut v = Vec::new();
+        let mut list = false;
+        let mut cur = first;
+        loop {
+            if self.eat_str("..") {
+                let Some(last) = self.uint() else {
+                    return err(self.i);
+                };
+                if last < cur || last >= u32::from(all) {
+                    return Err(SyntaxError {
+                        at: self.i,
+                        code: 21,
+                    });
+                }
+                v.extend((cur..=last).map(|n| n as u16));
+                list = true;
+            } else {
+                if cur >= u32::from(all) {
+                    return Err(SyntaxError {
+                        at: self.i,
+                        code: 21,
+                    });
+                }
+                v.push(cur as u16);
+            }
+            if self.peek() == Some(b',') && self.peek_at(1).is_some_and(|c| c.is_ascii_digit()) {
+                self.i += 1;
+                cur = self.uint().unwrap_or(u32::MAX);
+                list = true;
+            } else {
+                break;
+            }
+        }
+        Ok(Some((v, list)))
+    }
+}
+
+/// The Power script's scalar functions.
+fn math_fn(w: &str) -> Option<MathFn> {
+    use MathFn as M;
+    Some(match w.to_ascii_lowercase().as_str() {
+        "abs" => M::Abs,
+        "acos" => M::Acos,
+        "acosd" => M::AcosD,
+        "acosh" => M::Acosh,
+        "asin" => M::Asin,
+        "asind" => M::AsinD,
+        "asinh" => M::Asinh,
+        "atan" => M::Atan,
+        "atand" => M::AtanD,
+        "atanh" => M::Atanh,
+        "atan2" => M::Atan2,
+        "atan2d" => M::Atan2D,
+        "cbrt" => M::Cbrt,
+        "ceil" => M::Ceil,
+        "cos" => M::Cos,
+        "cosd" => M::CosD,
+        "cosh" => M::Cosh,
+        "exp" => M::Exp,
+        "exp2" => M::Exp2,
+        "floor" => M::Floor,
+        "int" => M::Int,
+        "isnan" => M::IsNan,
+        "ln" | "log" => M::Ln,
+        "log2" => M::Log2,
+        "log10" => M::Log10,
+        "madd" => M::Madd,
+        "pow" => M::Pow,
+        "qnrt" => M::Qnrt,
+        "qrrt" => M::Qrrt,
+        "rem" => M::Rem,
+        "rint" => M::Rint,
+        "rnd" => M::Rnd,
+        "randx" => M::RandX,
+        "seed" => M::Seed,
+        "sgn" => M::Sgn,
+        "sin" => M::Sin,
+        "sind" => M::SinD,
+        "sinh" => M::Sinh,
+        "sincos" => M::SinCos,
+        "sincosd" => M::SinCosD,
+        "sqrt" => M::Sqrt,
+        "tan" => M::Tan,
+        "tand" => M::TanD,
+        "tanh" => M::Tanh,
+        _ => return None,
+    })
+}
+
+/// Parse one on-line command line.
+pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
+    let mut c = Cur::new(line);
+    let mut items = Vec::new();
+    let mut error = None;
+    // After `#list`/`&list` a `?`/`p` belongs to that address.
+    let mut last_addr: Option<bool> = None;
+    loop {
+        c.ws();
+        if c.at_end() || c.s[c.i..].starts_with(b"//") {
+            break;
+        }
+        let at = c.i;
+        match command(&mut c, motors, coords, last_addr) {
+            Ok(cmd) => {
+                last_addr = match &cmd {
+                    Cmd::Motors(..) => Some(true),
+                    Cmd::Coords(..) => Some(false),
+                    _ => None,
+                };
+                items.push(Item { cmd, at });
+                // Commands are separated by white space, or follow an address directly.
+                let next = c.peek();
+                if !(c.at_end()
+                    || matches!(next, Some(b' ' | b'\t' | b'#' | b'&'))
+                    || (last_addr.is_some())
+                    || c.s[c.i..].starts_with(b"//"))
+                {
+                    error = Some(SyntaxError { at: c.i, code: 20 });
+                    break;
+                }
+            }
+            Err(e) => {
+                error = Some(e);
+                break;
+            }
+        }
+    }
+    Parsed {
+        items,
+        error,
+        elems: c.elems,
+    }
+}
+
+fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<Cmd> {
+    let at = c.i;
+    let Some(ch) = c.peek() else {
+        return err(at);
+    };
+    match ch {
+        b'#' => {
+            c.i += 1;
+            let l = c.num_list(motors)?;
+            if let Some((v, false)) = &l {
+                if c.eat_str("->") {
+                    let st = c.i;
+                    while c
+                        .peek()
+                        .is_some_and(|d| !matches!(d, b' ' | b'\t' | b'#' | b'&'))
+                    {
+                        c.i += 1;
+                    }
+                    let text = String::from_utf8_lossy(&c.s[st..c.i]).into_owned();
+                    return Ok(Cmd::AxisDef(v[0], text));
+                }
+            }
+            return Ok(match l {
+                Some((v, list)) => Cmd::Motors(v, list),
+                None => Cmd::MotorQuery,
+            });
+        }
+        b'&' => {
+            c.i += 1;
+            return Ok(match c.num_list(coords)? {
+                Some((v, list)) => Cmd::Coords(v, list),
+                None => Cmd::CoordQuery,
+            });
+        }
+        b'?' => {
+            c.i += 1;
+            return Ok(match last {
+                Some(true) => Cmd::Motor(MotorCmd::Status),
+                Some(false) => Cmd::Cs(CsCmd::Status),
+                None => Cmd::GlobalStatus,
+            });
+        }
+        b'%' => {
+            c.i += 1;
+            return Ok(match c.number() {
+                Some(v) => Cmd::Cs(CsCmd::Override(v)),
+                None => Cmd::Cs(CsCmd::OverrideQuery),
+            });
+        }
+        b'$' => {
+            c.i += 1;
+            return Ok(Cmd::Motor(MotorCmd::Enable));
+        }
+        _ => {}
+    }
+    if !ch.is_ascii_alphabetic() {
+        return err(at);
+    }
+    // Variables: a family letter followed by a number or `(`.
+    if let Some(f) = Fam::of(ch) {
+        if c.peek_at(1)
+            .is_some_and(|d| d.is_ascii_digit() || d == b'(')
+        {
+            c.i += 1;
+            return variable(c, f);
+        }
+    }
+    if c.peek() == Some(b'j') && !c.peek_at(1).is_some_and(|d| d.is_ascii_alphabetic()) {
+        c.i += 1;
+        return jog(c);
+    }
+    let mut w = c.word().unwrap_or_default();
+    // Commands that take a number glued on (`echo7`, `b10`, `out5`).
+    for kw in ["echo", "out", "begin", "b"] {
+        if w.len() > kw.len()
+            && w.starts_with(kw)
+            && w.as_bytes()[kw.len()..].iter().all(u8::is_ascii_digit)
+        {
+            c.i -= w.len() - kw.len();
+            w.truncate(kw.len());
+            break;
+        }
+    }
+    let motor = |m| Ok(Cmd::Motor(m));
+    let cs = |m| Ok(Cmd::Cs(m));
+    match w.as_str() {
+        "k" | "kill" => motor(MotorCmd::Kill),
+        "dkill" => motor(MotorCmd::DKill),
+        "hm" | "home" => motor(MotorCmd::Home),
+        "hmz" | "homez" => motor(MotorCmd::HomeZ),
+        "p" if last == Some(false) => cs(CsCmd::Position),
+        "p" => motor(MotorCmd::Position),
+        "v" => motor(MotorCmd::Velocity),
+        "f" => motor(MotorCmd::FollowingError),
+        "d" => motor(MotorCmd::DesPos),
+        "out" => {
+            c.ws();
+            match signed(c) {
+                Some(v) => motor(MotorCmd::Out(v)),
+                None => err(c.i),
+            }
+        }
+        "r" | "run" => cs(CsCmd::Run),
+        "s" | "step" => cs(CsCmd::Step),
+        "q" | "pause" => cs(CsCmd::Quit),
+        "a" | "abort" => cs(CsCmd::Abort),
+        "h" | "hold" => cs(CsCmd::Hold),
+        "resume" => cs(CsCmd::Resume),
+        "b" | "begin" => {
+            c.ws();
+            cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
+        }
+        "enable" | "disable" => {
+            c.ws();
+            if !c.eat_word("plc") {
+                return err(c.i);
+            }
+            c.ws();
+            match c.uint() {
+                Some(n) if n <= 31 => Ok(Cmd::PlcCtl(w == "enable", n)),
+                _ => Err(SyntaxError { at: c.i, code: 21 }),
+            }
+        }
+        "echo" => {
+            let save = c.i;
+            c.ws();
+            let n = c.uint();
+            if n.is_none() {
+                c.i = save;
+            }
+            Ok(Cmd::Echo(n))
+        }
+        "cid" | "vers" | "type" | "cpu" | "date" | "size" | "free" | "buffer" => {
+            Ok(Cmd::Info(match w.as_str() {
+                "cid" => "cid",
+                "vers" => "vers",
+                "type" => "type",
+                "cpu" => "cpu",
+                "date" => "date",
+                "size" => "size",
+                "free" => "free",
+                _ => "buffer",
+            }))
+        }
+        _ if catalog::structure(&w).is_some() => {
+            c.i = at;
+            element_cmd(c)
+        }
+        _ => err(at),
+    }
+}
+
+/// After the family letter: query, list query, assignment or `->` definition query.
+fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
+    let index = c.var_index(0)?;
+    let sel = match &index {
+        VarIndex::Const(a) => {
+            if c.eat_str("..") {
+                match c.uint() {
+                    Some(b) if b >= *a => Sel::Range(*a, b),
+                    _ => return err(c.i),
+                }
+            } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+                c.i += 1;
+                let n = c.uint().unwrap_or(0);
+                let step =
+                    if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+                        c.i += 1;
+                        c.uint().unwrap_or(1)
+                    } else {
+                        1
+                    };
+                Sel::List(*a, n, step)
+            } else {
+                Sel::One(index.clone())
+            }
+        }
+        VarIndex::Expr(_) => Sel::One(index.clone()),
+    };
+    if c.eat_str("->") {
+        return Ok(Cmd::IDef(f, sel));
+    }
+    let save = c.i;
+    c.ws();
+    if c.peek() == Some(b'=') && c.peek_at(1) != Some(b'=') {
+        c.i += 1;
+        let Sel::One(ix) = sel else {
+            return err(save);
+        };
+        c.ws();
+        let e = c.expr(0)?;
+        return Ok(Cmd::VarSet(f, ix, e));
+    }
+    c.i = save;
+    Ok(Cmd::VarQuery(f, sel))
+}
+
+fn element_cmd(c: &mut Cur<'_>) -> P<Cmd> {
+    let e = c.element(0)?;
+    if c.eat_str(".a") {
+        return Ok(Cmd::ElemAddr(e));
+    }
+    let save = c.i;
+    c.ws();
+    if c.peek() == Some(b'=') && c.peek_at(1) != Some(b'=') {
+        c.i += 1;
+        c.ws();
+        let v = c.expr(0)?;
+        return Ok(Cmd::ElemSet(e, v));
+    }
+    c.i = save;
+    Ok(Cmd::ElemQuery(e))
+}
+
+/// After `j`: `+ - / = ={c} =={c} :{c} ^{c} =* :* ^*`, then an optional `^{c}` trigger offset.
+fn jog(c: &mut Cur<'_>) -> P<Cmd> {
+    use crate::domain::ast::JogKind as J;
+    let at = c.i;
+    let kind = match c.peek() {
+        Some(b'+') => {
+            c.i += 1;
+            J::Plus
+        }
+        Some(b'-') => {
+            c.i += 1;
+            J::Minus
+        }
+        Some(b'/') => {
+            c.i += 1;
+            J::Stop
+        }
+        Some(b'=') => {
+            c.i += 1;
+            if c.eat(b'*') {
+                J::VarTo
+            } else if c.eat(b'=') {
+                match signed(c) {
+                    Some(v) => J::ToAndSetPreJog(v),
+                    None => return err(c.i),
+                }
+            } else {
+                match signed(c) {
+                    Some(v) => J::To(v),
+                    None => J::PreJog,
+                }
+            }
+        }
+        Some(b':') => {
+            c.i += 1;
+            if c.eat(b'*') {
+                J::VarRelCommanded
+            } else {
+                match signed(c) {
+                    Some(v) => J::RelCommanded(v),
+                    None => return err(c.i),
+                }
+            }
+        }
+        Some(b'^') => {
+            c.i += 1;
+            if c.eat(b'*') {
+                J::VarRelActual
+            } else {
+                match signed(c) {
+                    Some(v) => J::RelActual(v),
+                    None => return err(c.i),
+                }
+            }
+        }
+        _ => return err(at),
+    };
+    let trigger = if c.eat(b'^') {
+        match signed(c) {
+            Some(v) => Some(v),
+            None => return err(c.i),
+        }
+    } else {
+        None
+    };
+    Ok(Cmd::Motor(MotorCmd::Jog(kind, trigger)))
+}
+
+fn signed(c: &mut Cur<'_>) -> Option<f64> {
+    let save = c.i;
+    let neg = c.eat(b'-');
+    match c.number() {
+        Some(v) => Some(if neg { -v } else { v }),
+        None => {
+            c.i = save;
+            None
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! Variable families a command language defines beyond the model's own I/P/Q/M variables
+//! (thread-local variables, named data-structure elements, typed pointer variables): the
+//! language installs an [`ExtVars`] in the model ([`super::CardModel::set_ext`]), the program
+//! engine and the interpreter reach them as `VarKind::Ext(family)`. Dialect-neutral: the model
+//! only carries the extension and the context of the evaluating thread ([`ExtAt`]).
+
+use std::any::Any;
+
+use super::CardModel;
+
+/// The program thread an expression is evaluated for (its locals are its own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Thread {
+    /// A coordinate system's motion program (1-based C.S.).
+    Cs(u16),
+    /// An interpreted PLC (0-31).
+    Plc(u8),
+    /// A host connection's command thread.
+    Host(u64),
+    /// Commands issued by programs (`CMD"…"`), and everything else.
+    #[default]
+    Internal,
+}
+
+/// Where an extension variable is read or written from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ExtAt {
+    /// The evaluating thread.
+    pub thread: Thread,
+    /// Its addressed coordinate system (1-based).
+    pub coord: u16,
+    /// Its addressed motor (1-based).
+    pub motor: u16,
+    /// Subroutine call depth (0: the top program).
+    pub depth: u16,
+}
+
+impl ExtAt {
+    /// A coordinate system's program at call depth `depth`.
+    pub fn cs(cs: u16, depth: u16) -> Self {
+        ExtAt {
+            thread: Thread::Cs(cs),
+            coord: cs,
+            motor: 1,
+            depth,
+        }
+    }
+}
+
+/// Why an extension variable could not be read or written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExtError {
+    /// No such variable (family or index).
+    NoSuch,
+    /// It cannot be written (a status element).
+    ReadOnly,
+    /// The value is out of the variable's range.
+    Range,
+}
+
+/// A command language's own variable families.
+pub trait ExtVars: std::fmt::Debug + Send {
+    /// Value of `family` number `index`, as seen from `at`.
+    fn read(
+        &mut self,
+        card: &mut CardModel,
+        at: &ExtAt,
+        family: u16,
+        index: u32,
+    ) -> Result<f64, ExtError>;
+    /// Store `v` into `family` number `index`, as seen from `at`.
+    fn write(
+        &mut self,
+        card: &mut CardModel,
+        at: &ExtAt,
+        family: u16,
+        index: u32,
+        v: f64,
+    ) -> Result<(), ExtError>;
+    /// The extension as `Any` (its language reaches its own state).
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+    /// The extension as `Any`.
+    fn as_any(&self) -> &dyn Any;
+}
+
+impl CardModel {
+    /// Install the language's extension.
+    pub fn set_ext(&mut self, ext: Box<dyn ExtVars>) {
+        self.ext = Some(ext);
+    }
+
+    /// The installed extension, if it is a `T`.
+    pub fn ext<T: 'static>(&self) -> Option<&T> {
+        self.ext.as_ref()?.as_any().downcast_ref::<T>()
+    }
+
+    /// The installed extension, if it is a `T`.
+    pub fn ext_mut<T: 'static>(&mut self) -> Option<&mut T> {
+        self.ext.as_mut()?.as_any_mut().downcast_mut::<T>()
+    }
+
+    /// Take the extension out (to use it together with the model); put it back with
+    /// [`CardModel::set_ext`].
+    pub fn take_ext(&mut self) -> Option<Box<dyn ExtVars>> {
+        self.ext.take()
+    }
+
+    /// Read `family` number `index` for `at`.
+    pub fn ext_read(&mut self, at: &ExtAt, family: u16, index: u32) -> Result<f64, ExtError> {
+        let Some(mut e) = self.ext.take() else {
+            return Err(ExtError::NoSuch);
+        };
+        let r = e.read(self, at, family, index);
+        if self.ext.is_none() {
+            self.ext = Some(e);
+        }
+        r
+    }
+
+    /// Write `family` number `index` for `at`.
+    pub fn ext_write(
+        &mut self,
+        at: &ExtAt,
+        family: u16,
+        index: u32,
+        v: f64,
+    ) -> Result<(), ExtError> {
+        let Some(mut e) = self.ext.take() else {
+            return Err(ExtError::NoSuch);
+        };
+        let r = e.write(self, at, family, index, v);
+        if self.ext.is_none() {
+            self.ext = Some(e);
+        }
+        r
+    }
+}

@@ -1,0 +1,186 @@
+//! The card's start-up layer on a ring: the ring settings the cluster config derives, the
+//! motors on their MACRO nodes, the MACRO IC base addresses. It speaks the card's own
+//! numbering (PMAC2: I995/I996, I1000/I1002, Ix00; Turbo: I6840/I6841, I70/I71, Ixx00, I20)
+//! and checks every reply: a refused line stops the start-up with an error naming the line
+//! and the card's `ERRnnn`, so a card never runs half set up.
+
+use crate::domain::Profile;
+use crate::lang::interp::{Card, Session};
+use crate::model::Space;
+
+/// A start-up line the card refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StartupError {
+    /// The line sent.
+    pub line: String,
+    /// The card's reply (framing characters removed), e.g. `ERR003`.
+    pub reply: String,
+}
+
+impl std::fmt::Display for StartupError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the card refused start-up line '{}': {}",
+            self.line, self.reply
+        )
+    }
+}
+
+impl std::error::Error for StartupError {}
+
+/// Send `line`; an error reply (it carries a BEL whatever I6 says) is a [`StartupError`].
+pub(crate) fn send(card: &mut Card, line: &str) -> Result<(), StartupError> {
+    let mut s = Session::default();
+    let reply = card.command_line(&mut s, line.as_bytes());
+    if reply.contains(&0x07) {
+        let text = String::from_utf8_lossy(&reply)
+            .trim_matches(|c: char| c.is_control() || c.is_whitespace())
+            .to_string();
+        return Err(StartupError {
+            line: line.to_string(),
+            reply: if text.is_empty() {
+                "<BELL>".into()
+            } else {
+                text
+            },
+        });
+    }
+    Ok(())
+}
+
+/// The ring settings (I995/I996 on PMAC2, I6840/I6841 on Turbo) the config derives.
+pub(crate) fn apply_ring_settings(
+    card: &mut Card,
+    cfg: u32,
+    nodes: u32,
+) -> Result<(), StartupError> {
+    let rv = card.state.ring_ivars();
+    send(
+        card,
+        &format!("I{}=${cfg:X} I{}=${nodes:X}", rv.cfg, rv.nodes),
+    )
+}
+
+/// Activate the motors whose Ix02 (Turbo Ixx02) register is register 0 of one of `nodes`
+/// (servo nodes only) and enable the Type 1 auxiliary flag copy of those nodes (PMAC2 I1000,
+/// I1002; Turbo I70, I71). On Turbo, I20 reports MACRO IC 0 at $078400 when the card serves
+/// ring nodes (`$0` otherwise), as a Turbo PMAC2 Ultralite does. Returns the motors activated.
+pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Result<Vec<u16>, StartupError> {
+    let map = *card.state.map();
+    let rv = card.state.ring_ivars();
+    let mut aux = 0u32;
+    let mut motors = Vec::new();
+    let max = card.state.limits().motors.min(map.mapped_motors);
+    for x in 1..=max {
+        let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
+        if ix02 & (1 << 19) != 0 && card.profile() == Profile::Pmac2 {
+            continue;
+        }
+        let Some((node, 0)) = map.node_of(Space::Y, ix02 & map.max_addr) else {
+            continue;
+        };
+        if !nodes.contains(&(node as u8)) {
+            continue;
+        }
+        aux |= 1 << node;
+        motors.push(x);
+    }
+    report_macro_ics(card, nodes);
+    let mut line = format!("I{}=${aux:X} I{}=${aux:X}", rv.aux_enable, rv.protocol);
+    // A PMAC2 card on a ring of 16-axis MACRO Stations talks to them over Type 1 auxiliary
+    // communications: I1003 = 32 (the suggested timeout) unless the card has its own value.
+    if card.profile() == Profile::Pmac2 && card.state.peek_ivar(1003).unwrap_or(0.0) == 0.0 {
+        line.push_str(" I1003=32");
+    }
+    for x in &motors {
+        line.push_str(&format!(" I{x}00=1"));
+    }
+    send(card, &line)?;
+    Ok(motors)
+}
+
+/// Turbo I20-I23 (read-only to hosts): MACRO IC 0 at $078400 when the card serves ring nodes,
+/// `$0` (absent) otherwise and for ICs 1-3, as a Turbo PMAC2 Ultralite with one MACRO IC.
+pub(crate) fn report_macro_ics(card: &mut Card, nodes: &[u8]) {
+    if card.profile() != Profile::Turbo {
+        return;
+    }
+    let base = if nodes.is_empty() {
+        0.0
+    } else {
+        f64::from(crate::model::MACRO_IC0_BASE)
+    };
+    card.state.vars.force_i(20, base);
+}
+
+/// The whole ring start-up: ring settings (when the card is on a configured ring), then the
+/// motor wiring (when `wire`).
+pub fn ring_startup(
+    card: &mut Card,
+    ring: Option<(u32, u32)>,
+    nodes: &[u8],
+    wire: bool,
+) -> Result<Vec<u16>, StartupError> {
+    if let Some((cfg, n)) = ring {
+        apply_ring_settings(card, cfg, n)?;
+    }
+    if wire {
+        wire_macro_motors(card, nodes)
+    } else {
+        report_macro_ics(card, nodes);
+        Ok(Vec::new())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q(card: &mut Card, line: &str) -> String {
+        let mut s = Session::default();
+        card.command_line(&mut s, b"I3=2");
+        String::from_utf8_lossy(&card.command_line(&mut s, line.as_bytes()))
+            .trim_matches(|c: char| c.is_control() || c.is_whitespace())
+            .to_string()
+    }
+
+    #[test]
+    fn pmac2_wiring_speaks_pmac2_numbers() {
+        let mut card = Card::new(Profile::Pmac2);
+        ring_startup(&mut card, Some((0x8090, 0x8F_3333)), &[0, 1, 4, 5], true).unwrap();
+        assert_eq!(q(&mut card, "I995 I996"), "$8090\r$8F3333");
+        assert_eq!(q(&mut card, "I1000 I1002"), "$33\r$33");
+        assert_eq!(q(&mut card, "I100 I200 I300 I400 I500"), "1\r1\r1\r1\r0");
+    }
+
+    /// Issue 14 item 1: a Turbo card on a ring is set up in Turbo numbers (I6840/I6841,
+    /// I70/I71, Ixx00) and I20 reports MACRO IC 0 (item 3).
+    #[test]
+    fn turbo_wiring_speaks_turbo_numbers() {
+        let mut card = Card::new(Profile::Turbo);
+        let motors = ring_startup(
+            &mut card,
+            Some((0x8090, 0x8F_3333)),
+            &[0, 1, 4, 5, 8, 9, 12, 13],
+            true,
+        )
+        .unwrap();
+        assert_eq!(motors, [1, 2, 3, 4, 5, 6, 7, 8]);
+        assert_eq!(q(&mut card, "I6840 I6841"), "$8090\r$8F3333");
+        assert_eq!(q(&mut card, "I70 I71"), "$3333\r$3333");
+        assert_eq!(q(&mut card, "I800 I900 I1000 I1002"), "1\r0\r0\r$0");
+        assert_eq!(q(&mut card, "I20 I21"), "$78400\r$0");
+        assert_eq!(q(&mut card, "I995"), "0");
+    }
+
+    #[test]
+    fn a_refused_line_stops_the_start_up() {
+        let mut card = Card::new(Profile::Turbo);
+        // I70 takes 16 bits: a value past it is refused with ERR003 (out of range).
+        let e = send(&mut card, "I70=$10000").unwrap_err();
+        assert_eq!(e.line, "I70=$10000");
+        assert!(e.reply.contains("ERR"), "{e}");
+        assert!(e.to_string().contains("I70=$10000"));
+    }
+}

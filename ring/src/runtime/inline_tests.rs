@@ -1,0 +1,184 @@
+//! Inline receive: rings over zenoh with followers forwarding on the receive thread keep the
+//! lockstep contract cycle for cycle; the receive thread hands a frame over whenever it must.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use super::*;
+use crate::control::MemberKind;
+use crate::core::{CoreConfig, MemberCore};
+use crate::runtime::driver::DriverConfig;
+use crate::runtime::local::{LocalRing, LocalTransport};
+use crate::runtime::tests::{ring, App};
+use crate::settings::RingSettings;
+use crate::transport::queue::frame_queue;
+use crate::transport::{InlineSlot, LinkRx, LinkTx};
+
+fn zenoh_ring(receive_thread_ticks: bool) {
+    let cluster = format!("inline-test-{}-{receive_thread_ticks}", std::process::id());
+    let mut members = ring(400);
+    for m in &mut members[1..] {
+        m.2.max_cycles = None;
+    }
+    let r = LocalRing::start(
+        members,
+        LocalTransport::ZenohInline {
+            cluster,
+            receive_thread_ticks,
+        },
+    )
+    .unwrap();
+    // The sync master stops at its cycle limit; the followers run on until stopped.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !r.is_finished(0) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let follower = r.status(1).expect("follower status");
+    let hop = follower.extra.get("hop").cloned().expect("hop statistics");
+    let out = r.stop();
+    let App::M(m) = &out[0].app else { panic!() };
+    assert_eq!(m.seen.len(), 400);
+    // The loopback ring's relation (command of tick c, answer in frame c+2, latched at c+3)
+    // holds for every cycle once the links are up: forwarding on another thread changes
+    // nothing a member sees.
+    for &(c, fb) in m.seen.iter().rev().take(100) {
+        assert_eq!(u64::from(fb), c - 2, "cycle {c}");
+    }
+    for r in &out {
+        let e = r.core.status().errors;
+        assert_eq!(
+            e.overrun + e.underrun + e.bad_frames,
+            0,
+            "{}: {e:?}",
+            r.core.name()
+        );
+    }
+    // Frames were forwarded on the receive thread.
+    let inline = hop["inline"].as_u64().unwrap();
+    assert!(inline > 100, "{hop}");
+    assert!(hop["count"].as_u64().unwrap() >= inline, "{hop}");
+}
+
+#[test]
+fn lockstep_over_zenoh_with_member_thread_ticks_keeps_the_cycle_relation() {
+    zenoh_ring(false);
+}
+
+#[test]
+fn lockstep_over_zenoh_with_receive_thread_ticks_keeps_the_cycle_relation() {
+    zenoh_ring(true);
+}
+
+/// Captures what a member sends.
+#[derive(Default, Clone)]
+struct Capture(Arc<Mutex<Vec<Vec<u8>>>>);
+
+impl LinkTx for Capture {
+    fn send(&self, frame: &[u8]) -> Result<(), crate::transport::TransportError> {
+        self.0.lock().unwrap().push(frame.to_vec());
+        Ok(())
+    }
+}
+
+fn dcfg(name: &str, position: usize) -> DriverConfig {
+    DriverConfig {
+        max_cycles: None,
+        ..ring(1).into_iter().nth(position).unwrap().2
+    }
+    .renamed(name)
+}
+
+trait Renamed {
+    fn renamed(self, name: &str) -> Self;
+}
+
+impl Renamed for DriverConfig {
+    fn renamed(mut self, name: &str) -> Self {
+        self.name = name.into();
+        self
+    }
+}
+
+/// Frames of cycles 1.. from a sync master at position 0.
+fn master_frames(n: u64) -> Vec<Vec<u8>> {
+    let period = 1_000_000_000 / 2258;
+    let mut m = MemberCore::new(CoreConfig::new(
+        "card0",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x30, 0x0F_0001),
+        period,
+    ));
+    (1..=n)
+        .map(|c| m.start_cycle(c, c * period).remove(0).frame_bytes)
+        .collect()
+}
+
+#[test]
+fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
+    let period = 1_000_000_000 / 2258;
+    let core = MemberCore::new(CoreConfig::new(
+        "station0",
+        MemberKind::Station,
+        1,
+        RingSettings::new(0x8080, 0x0F_8001),
+        period * 100,
+    ));
+    let (qtx, qrx) = frame_queue(16);
+    let slot: InlineSlot = Arc::new(std::sync::OnceLock::new());
+    let rx = LinkRx::new(qrx, Some(Arc::clone(&slot)));
+    let sent = Capture::default();
+    let (_ctx, crx) = crossbeam_channel::unbounded();
+    let driver = Driver::new(
+        dcfg("station0", 1),
+        core,
+        Parked,
+        Box::new(sent.clone()),
+        rx,
+        crx,
+        Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    );
+    let shared: Shared<Parked> = Arc::new(Mutex::new(None));
+    let handler = Handler {
+        shared: Arc::clone(&shared),
+        defer: true,
+        waker: driver.rx.waker(),
+        failed: Mutex::new(None),
+    };
+    *lock(&shared) = Some(Member {
+        d: driver,
+        st: None,
+    });
+    let f = master_frames(4);
+
+    // Idle member: handled at once — forwarded, its tick left for the member's thread.
+    assert!(handler.offer(f[0].clone(), 1).is_none());
+    assert_eq!(sent.0.lock().unwrap().len(), 1);
+    assert!(lock(&shared).as_ref().unwrap().d.has_pending_tick());
+    assert!(
+        handler.waker.wait(Duration::ZERO),
+        "the member's thread is woken"
+    );
+    // A tick pending: the next frame waits its turn.
+    assert_eq!(handler.offer(f[1].clone(), 2), Some((f[1].clone(), 2)));
+    qtx.push(f[1].clone(), 2);
+    {
+        let mut g = lock(&shared);
+        g.as_mut().unwrap().d.take_pending_tick(Some(&mut Parked));
+    }
+    // A frame queued before this one: order is kept.
+    assert_eq!(handler.offer(f[2].clone(), 3), Some((f[2].clone(), 3)));
+    // The member's thread holds the lock: handed over, never waited for.
+    {
+        let _g = lock(&shared);
+        assert_eq!(handler.offer(f[3].clone(), 4), Some((f[3].clone(), 4)));
+    }
+    assert_eq!(
+        sent.0.lock().unwrap().len(),
+        1,
+        "nothing forwarded out of turn"
+    );
+    // Driver gone (the loop ended): everything is queued.
+    lock(&shared).take();
+    assert!(handler.offer(f[3].clone(), 4).is_some());
+}
