@@ -65,10 +65,7 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
     // around); the CLI and the supervisor keep their TCP endpoints. On several hosts every
     // link is a zenoh TCP link from the config (a unix-socket locator handed to another host
     // by gossip would be meaningless there; see `mcc_ring::transport::cluster`).
-    if let Some(sock) = rd
-        .member_socket(name)
-        .filter(|_| !cfg.is_multi_host())
-    {
+    if let Some(sock) = rd.member_socket(name).filter(|_| !cfg.is_multi_host()) {
         rd.create_link_dir()?;
         cmd.arg("--listen").arg(sock);
     }

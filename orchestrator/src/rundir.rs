@@ -382,6 +382,7 @@ mod tests {
         let rd = RunDir {
             dir: PathBuf::from("/run/user/1000/mcc/lab"),
             cluster: "lab".into(),
+            host: None,
         };
         assert_eq!(
             rd.member_socket("card0").as_deref(),
@@ -390,6 +391,7 @@ mod tests {
         let long = RunDir {
             dir: PathBuf::from(format!("/tmp/{}", "x".repeat(100))),
             cluster: "x".into(),
+            host: None,
         };
         assert_eq!(long.member_socket("card0"), None);
     }
