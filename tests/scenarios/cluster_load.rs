@@ -8,49 +8,12 @@
 //! long can only be a frame lost by the transport: the ring must keep cycling, never go down,
 //! latch nothing, and count no error after lock.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use mcc_tests::cluster::Cluster;
+use mcc_tests::load::Busy;
 use mcc_tests::process::{mcc, ok, run_base, unique};
 use serde_json::Value;
-
-/// Threads spinning on the CPU until dropped.
-struct Busy {
-    stop: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
-}
-
-impl Busy {
-    fn start(n: usize) -> Busy {
-        let stop = Arc::new(AtomicBool::new(false));
-        let threads = (0..n)
-            .map(|_| {
-                let stop = Arc::clone(&stop);
-                std::thread::spawn(move || {
-                    let mut x = 0u64;
-                    while !stop.load(Ordering::Relaxed) {
-                        x = std::hint::black_box(
-                            x.wrapping_mul(6364136223846793005).wrapping_add(1),
-                        );
-                    }
-                })
-            })
-            .collect();
-        Busy { stop, threads }
-    }
-}
-
-impl Drop for Busy {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        for t in self.threads.drain(..) {
-            let _ = t.join();
-        }
-    }
-}
 
 /// The default 2 + 2 lockstep cluster's config with `in_flight` cycles in flight and a 20 s
 /// frozen-member wait, written to a file of its own.

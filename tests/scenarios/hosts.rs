@@ -9,6 +9,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use mcc_testing::netns::{self, Lab, RA, RB};
+use mcc_tests::load::Busy;
 use mcc_tests::process::{bin_dir, pid_alive, run_base, run_bounded, text, unique};
 use serde_json::Value;
 
@@ -343,6 +344,121 @@ fn start_router(
     r
 }
 
+/// The router's config for a ring: the real-time queue of each of its links holds as many
+/// express frames as our processes' (`session::RING_TX_QUEUE_BATCHES`), so the frames in
+/// flight on a link (at most `ring.in_flight` <= 8 while the ring is healthy) always find
+/// room there too and congestion control Drop never drops one (README "Running on several
+/// machines" asks the same of a user's router).
+const ROUTER_QUEUES: &str = "transport: { link: { tx: { queue: { size: { real_time: 16 } } } } }";
+
+fn errors(m: &Value) -> Vec<u64> {
+    [
+        "byte_violation",
+        "checksum",
+        "overrun",
+        "underrun",
+        "bad_frames",
+    ]
+    .iter()
+    .map(|k| m["errors"][k].as_u64().unwrap_or(u64::MAX))
+    .collect()
+}
+
+/// Ring frames through the router are never lost by our transport (congestion control Drop,
+/// see `ring/src/transport/zenoh_link.rs`), with the machine fully loaded: lockstep rings
+/// whose every hop crosses `zenohd`, with one and with the most cycles in flight (8), beside
+/// four busy threads. The frozen-member wait is 20 s: in lockstep a lost frame stops the
+/// ring until that wait runs out and then latches a ring fault, so the ring must never go
+/// down, latch nothing and count no error after lock.
+#[test]
+fn hosts_through_a_router_lose_no_frame_under_load() {
+    let Some(zenohd) = zenohd_or_skip("hosts_through_a_router_lose_no_frame_under_load") else {
+        return;
+    };
+    let port = free_port();
+    let rdir = run_base().join(unique("zenohd"));
+    let zcfg = write(
+        &rdir,
+        "zenohd.json5",
+        &format!("{{ mode: \"router\", {ROUTER_QUEUES} }}"),
+    );
+    let _router = start_router(
+        &zenohd,
+        None,
+        &[&format!("tcp/127.0.0.1:{port}")],
+        Some(&zcfg),
+    );
+    for (in_flight, cycles) in [(1u64, 2000u64), (8, 4000)] {
+        let cluster = unique(&format!("rload{in_flight}"));
+        let dir = run_base().join(&cluster);
+        let zenoh =
+            format!("member_timeout_ms = 20000\n[zenoh]\nrouters = [\"tcp/127.0.0.1:{port}\"]\n");
+        let text_cfg =
+            two_hosts(&cluster, "lockstep", &zenoh) + &format!("[ring]\nin_flight = {in_flight}\n");
+        let cfg = write(&dir, "lab.toml", &text_cfg);
+        let (a, b) = (
+            Host::new(&cluster, "a", None),
+            Host::new(&cluster, "b", None),
+        );
+        for o in up_all(&cfg, &[&a, &b], &[]) {
+            assert!(
+                o.status.success(),
+                "{}\n{}",
+                text(&o.stdout),
+                text(&o.stderr)
+            );
+        }
+        let up = wait_status(&a, &cluster, "the whole ring locked", VERB, |s| {
+            locked(s) && both_hosts_up(s)
+        });
+        let busy = Busy::start(4);
+        // Errors count from 500 cycles after lock (bring-up may count some).
+        let c0 = up["ring"]["cycle"].as_u64().unwrap();
+        let first = wait_status(&a, &cluster, "500 cycles after lock", UP, |s| {
+            s["ring"]["cycle"].as_u64().unwrap_or(0) >= c0 + 500
+        });
+        let from = first["ring"]["cycle"].as_u64().unwrap();
+        let before: Vec<Vec<u64>> = first["members"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(errors)
+            .collect();
+        let t0 = Instant::now();
+        let last = wait_status(
+            &b,
+            &cluster,
+            "loaded cycles through the router",
+            Duration::from_secs(240),
+            |s| s["ring"]["cycle"].as_u64().unwrap_or(0) >= from + cycles,
+        );
+        drop(busy);
+        eprintln!(
+            "in_flight {in_flight}: {cycles} lockstep cycles through zenohd in {:?} under load",
+            t0.elapsed()
+        );
+        assert_eq!(last["timing"]["ring_down_count"], 0, "{last:#}");
+        assert_eq!(last["timing"]["ring_down"], false, "{last:#}");
+        assert!(locked(&last), "{last:#}");
+        let members = last["members"].as_array().unwrap();
+        assert_eq!(members.len(), 4, "{last:#}");
+        for (m, b) in members.iter().zip(&before) {
+            assert_eq!(m["alive"], true, "{m:#}");
+            assert_eq!(m["ring_fault_count"], 0, "{m:#}");
+            assert_eq!(&errors(m), b, "errors counted after lock: {m:#}");
+        }
+        let out = a.mcc(&["down", "--cluster", &cluster], VERB);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let out = b.mcc(&["down", "--cluster", &cluster], VERB);
+        assert!(
+            out.status.success() || text(&out.stderr).contains("not running"),
+            "{}",
+            text(&out.stderr)
+        );
+        assert_nothing_left(&cluster);
+    }
+}
+
 /// Through a router on loopback: what a user gets wrong is refused with the problem named,
 /// and nothing half-started is left running.
 #[test]
@@ -555,7 +671,7 @@ fn hosts_across_three_network_namespaces() {
         &rdir,
         "zenohd.json5",
         &format!(
-            "{{ mode: \"router\", transport: {{ auth: {{ usrpwd: {{ user: \"mcc\", password: \"ns-secret\", dictionary_file: \"{rd}/users\" }} }} }}, {acl} }}"
+            "{{ mode: \"router\", transport: {{ auth: {{ usrpwd: {{ user: \"mcc\", password: \"ns-secret\", dictionary_file: \"{rd}/users\" }} }}, link: {{ tx: {{ queue: {{ size: {{ real_time: 16 }} }} }} }} }}, {acl} }}"
         ),
     );
     let _router = start_router(

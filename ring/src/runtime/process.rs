@@ -238,7 +238,13 @@ where
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
         in_flight: config.ring.in_flight,
-        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
+        // The process probe only for an upstream on this member's host: a member the config
+        // puts on another host is on another machine, even when it shares this kernel (network
+        // namespaces, containers: the same boot id), and a cut network must be loss of light.
+        upstream_probe: watch
+            .as_ref()
+            .filter(|_| config.member_host(&upstream) == config.member_host(&args.name))
+            .map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,
