@@ -351,6 +351,16 @@ fn start_router(
 /// machines" asks the same of a user's router).
 const ROUTER_QUEUES: &str = "transport: { link: { tx: { queue: { size: { real_time: 16 } } } } }";
 
+/// A router config file of its own (its files live apart from any cluster's: the router is no
+/// member and outlives `down`).
+fn router_config() -> PathBuf {
+    write(
+        &run_base().join(unique("zenohd")),
+        "zenohd.json5",
+        &format!("{{ mode: \"router\", {ROUTER_QUEUES} }}"),
+    )
+}
+
 fn errors(m: &Value) -> Vec<u64> {
     [
         "byte_violation",
@@ -376,12 +386,7 @@ fn hosts_through_a_router_lose_no_frame_under_load() {
         return;
     };
     let port = free_port();
-    let rdir = run_base().join(unique("zenohd"));
-    let zcfg = write(
-        &rdir,
-        "zenohd.json5",
-        &format!("{{ mode: \"router\", {ROUTER_QUEUES} }}"),
-    );
+    let zcfg = router_config();
     let _router = start_router(
         &zenohd,
         None,
@@ -496,7 +501,13 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
     assert_nothing_left(&cluster);
 
     let port = free_port();
-    let _router = start_router(&zenohd, None, &[&format!("tcp/127.0.0.1:{port}")], None);
+    let zcfg = router_config();
+    let _router = start_router(
+        &zenohd,
+        None,
+        &[&format!("tcp/127.0.0.1:{port}")],
+        Some(&zcfg),
+    );
     let zenoh = format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{port}\"]\n");
     let good = two_hosts(&cluster, "lockstep", &zenoh);
     let cfg = write(&dir, "lab.toml", &good);

@@ -6,6 +6,7 @@ pub mod cluster;
 pub mod emcl;
 pub mod faults;
 pub mod host;
+pub mod hosts;
 pub mod inproc;
 pub mod procstat;
 pub mod ring;
