@@ -11,9 +11,8 @@
 use std::time::{Duration, Instant};
 
 use mcc_tests::cluster::Cluster;
-use mcc_tests::load::Busy;
+use mcc_tests::load::{ring_errors, Busy};
 use mcc_tests::process::{mcc, ok, run_base, unique};
-use serde_json::Value;
 
 /// The default 2 + 2 lockstep cluster's config with `in_flight` cycles in flight and a 20 s
 /// frozen-member wait, written to a file of its own.
@@ -51,19 +50,6 @@ fn config(in_flight: u64) -> String {
     path.to_string_lossy().into_owned()
 }
 
-fn errors(m: &Value) -> Vec<u64> {
-    [
-        "byte_violation",
-        "checksum",
-        "overrun",
-        "underrun",
-        "bad_frames",
-    ]
-    .iter()
-    .map(|k| m["errors"][k].as_u64().unwrap())
-    .collect()
-}
-
 fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
     let path = config(in_flight);
     let c = Cluster::up(&format!("load{in_flight}"), &["--config", &path]);
@@ -79,7 +65,7 @@ fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
         .as_array()
         .unwrap()
         .iter()
-        .map(errors)
+        .map(ring_errors)
         .collect();
     let t0 = Instant::now();
     let last = c.wait(
@@ -99,7 +85,7 @@ fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
     for (m, b) in last["members"].as_array().unwrap().iter().zip(&before) {
         assert_eq!(m["alive"], true, "{m:#}");
         assert_eq!(m["ring_fault_count"], 0, "{m:#}");
-        assert_eq!(&errors(m), b, "errors counted after lock: {m:#}");
+        assert_eq!(&ring_errors(m), b, "errors counted after lock: {m:#}");
     }
     let _ = std::fs::remove_file(&path);
 }

@@ -9,7 +9,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use mcc_testing::netns::{self, Lab, RA, RB};
-use mcc_tests::load::Busy;
+use mcc_tests::load::{ring_errors, Busy};
 use mcc_tests::process::{bin_dir, pid_alive, run_base, run_bounded, text, unique};
 use serde_json::Value;
 
@@ -99,6 +99,27 @@ fn up_all(cfg: &Path, hosts: &[&Host], extra: &[&str]) -> Vec<Output> {
     let mut outs: Vec<Output> = threads.into_iter().map(|t| t.join().unwrap()).collect();
     outs.reverse();
     outs
+}
+
+/// `mcc up --detach --config CFG --host H --timeout T` on host `h`, in a thread.
+fn up_in_background(h: &Host, cfg: &str, timeout_s: u32) -> std::thread::JoinHandle<Output> {
+    let (h, cfg) = (h.clone(), cfg.to_string());
+    std::thread::spawn(move || {
+        let t = timeout_s.to_string();
+        h.mcc(
+            &[
+                "up",
+                "--detach",
+                "--config",
+                &cfg,
+                "--host",
+                h.name,
+                "--timeout",
+                &t,
+            ],
+            UP,
+        )
+    })
 }
 
 fn free_port() -> u16 {
@@ -361,19 +382,6 @@ fn router_config() -> PathBuf {
     )
 }
 
-fn errors(m: &Value) -> Vec<u64> {
-    [
-        "byte_violation",
-        "checksum",
-        "overrun",
-        "underrun",
-        "bad_frames",
-    ]
-    .iter()
-    .map(|k| m["errors"][k].as_u64().unwrap_or(u64::MAX))
-    .collect()
-}
-
 /// Ring frames through the router are never lost by our transport (congestion control Drop,
 /// see `ring/src/transport/zenoh_link.rs`), with the machine fully loaded: lockstep rings
 /// whose every hop crosses `zenohd`, with one and with the most cycles in flight (8), beside
@@ -427,7 +435,7 @@ fn hosts_through_a_router_lose_no_frame_under_load() {
             .as_array()
             .unwrap()
             .iter()
-            .map(errors)
+            .map(ring_errors)
             .collect();
         let t0 = Instant::now();
         let last = wait_status(
@@ -450,7 +458,7 @@ fn hosts_through_a_router_lose_no_frame_under_load() {
         for (m, b) in members.iter().zip(&before) {
             assert_eq!(m["alive"], true, "{m:#}");
             assert_eq!(m["ring_fault_count"], 0, "{m:#}");
-            assert_eq!(&errors(m), b, "errors counted after lock: {m:#}");
+            assert_eq!(&ring_errors(m), b, "errors counted after lock: {m:#}");
         }
         let out = a.mcc(&["down", "--cluster", &cluster], VERB);
         assert!(out.status.success(), "{}", text(&out.stderr));
@@ -547,25 +555,7 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
         &good.replace("rate_hz = 2258.7", "rate_hz = 1000.0"),
     );
     let other_s = other.display().to_string();
-    let first = {
-        let a = a.clone();
-        let cfg_s = cfg_s.clone();
-        std::thread::spawn(move || {
-            a.mcc(
-                &[
-                    "up",
-                    "--detach",
-                    "--config",
-                    &cfg_s,
-                    "--host",
-                    "a",
-                    "--timeout",
-                    "15",
-                ],
-                UP,
-            )
-        })
-    };
+    let first = up_in_background(&a, &cfg_s, 15);
     std::thread::sleep(Duration::from_secs(4));
     let out = b.mcc(&["up", "--detach", "--config", &other_s, "--host", "b"], UP);
     failed_with(&out, "runs cluster");
@@ -582,25 +572,7 @@ fn hosts_through_a_router_refuse_bad_input_and_leave_nothing_behind() {
             1,
         ),
     );
-    let first = {
-        let a = a.clone();
-        let cfg_s = cfg_s.clone();
-        std::thread::spawn(move || {
-            a.mcc(
-                &[
-                    "up",
-                    "--detach",
-                    "--config",
-                    &cfg_s,
-                    "--host",
-                    "a",
-                    "--timeout",
-                    "15",
-                ],
-                UP,
-            )
-        })
-    };
+    let first = up_in_background(&a, &cfg_s, 15);
     std::thread::sleep(Duration::from_secs(4));
     let out = b.mcc(
         &[

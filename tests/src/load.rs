@@ -40,3 +40,18 @@ impl Drop for Busy {
         }
     }
 }
+
+/// A member's ring error counters from `mcc status --json` (`members[i]`): byte violations,
+/// checksum, overrun, underrun, bad frames (a missing counter reads as `u64::MAX`).
+pub fn ring_errors(m: &serde_json::Value) -> Vec<u64> {
+    [
+        "byte_violation",
+        "checksum",
+        "overrun",
+        "underrun",
+        "bad_frames",
+    ]
+    .iter()
+    .map(|k| m["errors"][k].as_u64().unwrap_or(u64::MAX))
+    .collect()
+}

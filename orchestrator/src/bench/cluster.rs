@@ -126,7 +126,12 @@ impl Drop for Running {
     }
 }
 
-fn member_status(session: &zenoh::Session, cluster: &str, name: &str) -> Result<MemberStatus> {
+/// The status of member `name` of `cluster` (3 s to answer).
+pub(crate) fn member_status(
+    session: &zenoh::Session,
+    cluster: &str,
+    name: &str,
+) -> Result<MemberStatus> {
     let text = ctl::query_text(
         session,
         &ctl_key(cluster, name, "status"),

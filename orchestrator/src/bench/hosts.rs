@@ -20,12 +20,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
 use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::{ctl_key, MemberStatus};
 use mcc_ring::transport::cluster::Role;
 
 use super::bringup::{mcc, run_bounded};
-use super::cluster::{self, ClusterSpec};
-use crate::ctl;
+use super::cluster::{self, member_status, ClusterSpec};
 
 /// The router's real-time queue: as deep as mcc's own (README "Running on several machines").
 const ROUTER_CONFIG: &str =
@@ -128,16 +126,6 @@ fn config_text(cluster: &str, path: Path2) -> Result<String> {
         ));
     }
     Ok(t)
-}
-
-fn member_status(session: &zenoh::Session, cluster: &str, name: &str) -> Result<MemberStatus> {
-    let text = ctl::query_text(
-        session,
-        &ctl_key(cluster, name, "status"),
-        None,
-        Duration::from_secs(3),
-    )?;
-    serde_json::from_str(&text).with_context(|| format!("status of {name}"))
 }
 
 /// Start both shares of a two-host ring linked by `path`, measure `window`, take them down.
