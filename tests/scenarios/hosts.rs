@@ -122,6 +122,24 @@ fn up_in_background(h: &Host, cfg: &str, timeout_s: u32) -> std::thread::JoinHan
     })
 }
 
+/// `mcc start-sync` on cards 0 and 1 from host `h`: both execute `line` in the same ring cycle.
+fn start_sync_in_one_cycle(h: &Host, cluster: &str, line: &str) {
+    let s: Value = serde_json::from_str(&h.ok(&[
+        "start-sync",
+        "--cluster",
+        cluster,
+        "--json",
+        "--cards",
+        "0,1",
+        line,
+    ]))
+    .unwrap();
+    let t = s["cycle"].as_u64().unwrap();
+    for c in s["cards"].as_array().unwrap() {
+        assert_eq!(c["executed_cycle"].as_u64(), Some(t), "{s:#}");
+    }
+}
+
 fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
         .unwrap()
@@ -288,20 +306,7 @@ fn hosts_peer_to_peer_lock_and_answer_from_either_host() {
     assert_eq!(b.ok(&["send", "--cluster", &cluster, "@0I0"]).trim(), "0");
     assert_eq!(a.ok(&["send", "--cluster", &cluster, "@1I0"]).trim(), "1");
     // A synchronized start on cards of both hosts lands in one ring cycle.
-    let s: Value = serde_json::from_str(&a.ok(&[
-        "start-sync",
-        "--cluster",
-        &cluster,
-        "--json",
-        "--cards",
-        "0,1",
-        "P7=7",
-    ]))
-    .unwrap();
-    let t = s["cycle"].as_u64().unwrap();
-    for c in s["cards"].as_array().unwrap() {
-        assert_eq!(c["executed_cycle"].as_u64(), Some(t), "{s:#}");
-    }
+    start_sync_in_one_cycle(&a, &cluster, "P7=7");
     // A drill on host b's station, asked on host a, is run by host b's supervisor.
     let out = a.ok(&["fault", "--cluster", &cluster, "station1", "freeze"]);
     assert!(out.contains("on host b"), "{out}");
@@ -771,20 +776,7 @@ subjects = ["links"]
         std::thread::sleep(Duration::from_millis(300));
     }
     // A synchronized start on cards in both namespaces lands in one ring cycle.
-    let s: Value = serde_json::from_str(&b.ok(&[
-        "start-sync",
-        "--cluster",
-        &cluster,
-        "--json",
-        "--cards",
-        "0,1",
-        "P9=9",
-    ]))
-    .unwrap();
-    let t = s["cycle"].as_u64().unwrap();
-    for c in s["cards"].as_array().unwrap() {
-        assert_eq!(c["executed_cycle"].as_u64(), Some(t), "{s:#}");
-    }
+    start_sync_in_one_cycle(&b, &cluster, "P9=9");
     // Taking the veth between the router and host b down: host a's view names the ring link
     // that crosses it (host b, cut off from the router, has no view), the link inside
     // namespace a stays lit, card0 latches a ring fault.
