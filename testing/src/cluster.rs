@@ -3,6 +3,7 @@
 //! through the CLI, and taken down when dropped (`mcc down`, then SIGKILL of any process it
 //! had, then its directory removed).
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -62,6 +63,7 @@ pub struct Builder {
     env: Vec<(String, String)>,
     up_args: Vec<String>,
     owner: Option<u32>,
+    run_dir: Option<PathBuf>,
 }
 
 static NAMES: AtomicU32 = AtomicU32::new(0);
@@ -141,7 +143,8 @@ impl Builder {
         self.drives.push(parse_table(toml_text));
         self
     }
-    /// Another top-level config key (e.g. `extra("rtf", 2.0.into())`).
+    /// Another config key (e.g. `extra("rtf", 2.0.into())`), or a key of a table by its
+    /// dotted path (`extra("ring.in_flight", 8.into())`; missing tables are created).
     pub fn extra(mut self, key: &str, value: Toml) -> Self {
         self.extra.insert(key.to_string(), value);
         self
@@ -164,6 +167,13 @@ impl Builder {
     /// The process the cluster lives with (`mcc up --owner-pid`; default: this process).
     pub fn owner(mut self, pid: u32) -> Self {
         self.owner = Some(pid);
+        self
+    }
+    /// The `MCC_RUN_DIR` the cluster runs in (default: a private directory, removed at
+    /// teardown). A directory given here is never removed: `mcc down` removes the cluster's
+    /// own `<it>/<name>`, and a test can check that a refused start left nothing there.
+    pub fn run_dir(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.run_dir = Some(dir.into());
         self
     }
     /// An extra `mcc up` argument (e.g. `--pty`, `--chain-port`, `4001`).
@@ -244,7 +254,7 @@ impl Builder {
             doc.insert("drives".into(), Toml::Array(drives));
         }
         for (k, v) in &self.extra {
-            doc.insert(k.clone(), v.clone());
+            set_path(&mut doc, k, v.clone())?;
         }
         Ok(doc)
     }
@@ -265,7 +275,7 @@ impl Builder {
             .map_err(|e| Error::new(ErrorKind::Other, format!("{}: {e}", dir.display())))?;
         let runner = Runner {
             mcc,
-            run_dir: dir.join("run"),
+            run_dir: self.run_dir.clone().unwrap_or_else(|| dir.join("run")),
             cluster: name.clone(),
             env: self.env.clone(),
         };
@@ -309,6 +319,27 @@ impl Builder {
         }
         Ok(cluster)
     }
+}
+
+/// Set `path` (`key` or `table.key`) in `doc`; an error if a step of the path is a value that
+/// is not a table.
+fn set_path(doc: &mut Table, path: &str, value: Toml) -> Result<()> {
+    let mut at = doc;
+    let mut parts = path.split('.').peekable();
+    while let Some(k) = parts.next() {
+        if parts.peek().is_none() {
+            at.insert(k.to_string(), value);
+            return Ok(());
+        }
+        let next = at.entry(k).or_insert_with(|| Toml::Table(Table::new()));
+        at = next.as_table_mut().ok_or_else(|| {
+            Error::new(
+                ErrorKind::Config,
+                format!("config key {path:?}: {k:?} is not a table"),
+            )
+        })?;
+    }
+    Ok(())
 }
 
 fn parse_table(text: &str) -> Table {
@@ -480,6 +511,7 @@ impl Cluster {
             env: Vec::new(),
             up_args: Vec::new(),
             owner: None,
+            run_dir: None,
         }
     }
 
@@ -755,7 +787,9 @@ impl Cluster {
 
     /// Recover from a ring fault as a PMAC user does: once every member is alive and locked,
     /// `$$$` on every card, then the members' ring-fault latches (`mcc fault reset`) until the
-    /// ring is healthy. The healthy status.
+    /// ring is healthy and no card reports its ring-fault bit. A card whose bit stays set (its
+    /// `$$$` was lost to a slow chain, or the bit latched again while the ring came back) gets
+    /// its `$$$` again, at most once a second. The healthy status.
     pub fn reset(&mut self, timeout: Duration) -> Result<Status> {
         let members = self.members();
         self.wait_until(None, timeout, |st| {
@@ -764,18 +798,36 @@ impl Cluster {
                     .is_ok_and(|r| r["alive"] == true && r["locked"] == true)
             })
         })?;
-        for n in self.card_numbers() {
-            let _ = self
-                .runner
-                .output(&["send", "--card", &n.to_string(), "$$$"], VERB_TIMEOUT);
+        let cards = self.card_numbers();
+        let runner = self.runner.clone();
+        let clear_card = move |n: u8| {
+            let _ = runner.output(&["send", "--card", &n.to_string(), "$$$"], VERB_TIMEOUT);
+        };
+        for &n in &cards {
+            clear_card(n);
         }
+        let mut sent: HashMap<u8, Instant> = cards.iter().map(|&n| (n, Instant::now())).collect();
         let runner = self.runner.clone();
         self.wait_until(None, timeout, move |st| {
-            let ok = st.locked() && !st.faulted();
-            if !ok {
+            let ring_ok = st.locked() && !st.faulted();
+            if !ring_ok {
                 let _ = runner.output(&["fault", "reset"], VERB_TIMEOUT);
             }
-            ok
+            let latched = st.ring_faulted_cards();
+            for &n in &latched {
+                let due = sent
+                    .get(&n)
+                    .is_none_or(|t| t.elapsed() >= Duration::from_secs(1));
+                if ring_ok && due {
+                    clear_card(n);
+                    sent.insert(n, Instant::now());
+                }
+            }
+            // A card whose bit is unknown (its `info` query went unanswered) is not healthy yet.
+            let known = cards
+                .iter()
+                .all(|&n| st.card(n).is_ok_and(|c| c["ring_fault"] == false));
+            ring_ok && latched.is_empty() && known
         })
     }
 
@@ -822,16 +874,29 @@ impl Cluster {
                 return Err(e);
             }
             let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Err(Error::new(
-                    ErrorKind::WaitTimeout,
-                    format!(
-                        "the condition did not hold within {timeout:?} (ring cycle {start} to {})",
-                        st.cycle()
-                    ),
-                ));
+            let next = if left.is_zero() {
+                None
+            } else {
+                match self.stream()?.next(left) {
+                    Ok(s) => Some(s),
+                    Err(e) if e.kind == ErrorKind::WaitTimeout => None,
+                    Err(e) => return Err(e),
+                }
+            };
+            match next {
+                Some(s) => st = s,
+                None => {
+                    let mut e = Error::new(
+                        ErrorKind::WaitTimeout,
+                        format!(
+                            "the condition did not hold within {timeout:?} (ring cycle {start} to {})",
+                            st.cycle()
+                        ),
+                    );
+                    e.logs.insert("status".into(), st.0.to_string());
+                    return Err(e);
+                }
             }
-            st = self.stream()?.next(left)?;
         }
     }
 
@@ -924,10 +989,12 @@ master = 0
             .station_plant("station0", "[nodes.1]\nhome_position = 9000")
             .drive("name = \"drive0\"\naddress = 1\nstation = \"station0\"")
             .extra("rtf", Toml::Float(2.0))
+            .extra("ring.in_flight", Toml::Integer(8))
             .build_config(&runner())
             .unwrap();
         assert_eq!(doc["clock"].as_str(), Some("lockstep"));
         assert_eq!(doc["rtf"].as_float(), Some(2.0));
+        assert_eq!(doc["ring"]["in_flight"].as_integer(), Some(8));
         let cards = doc["cards"].as_array().unwrap();
         // The Turbo card drops the PMAC2 ring-check defaults; the caller's spelling replaces
         // the default's.
@@ -969,6 +1036,13 @@ master = 0
             e.message.contains("station9") && e.message.contains("station0"),
             "{e}"
         );
+        let e = Cluster::builder()
+            .config_toml(BASE)
+            .extra("cluster.name", Toml::Integer(1))
+            .build_config(&runner())
+            .unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Config);
+        assert!(e.message.contains("\"cluster\" is not a table"), "{e}");
         let e = Cluster::builder()
             .config_toml("cards = [")
             .build_config(&runner())

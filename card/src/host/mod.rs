@@ -16,3 +16,6 @@ pub(crate) mod eth_codec;
 pub(crate) mod port;
 pub(crate) mod server;
 pub(crate) mod zenoh_cmd;
+
+#[cfg(test)]
+mod tests_fuzz;

@@ -481,6 +481,8 @@ class Cluster:
             if n in names:
                 self.send("$$$", card=names[n], check=False)
         extra = [member] if member is not None else []
+        cards = {n: names[n] for n in targets if n in names}
+        sent = {n: time.monotonic() for n in cards}
 
         def healthy(st: Status) -> bool:
             rows = [st.member(m) for m in targets]
@@ -490,7 +492,19 @@ class Cluster:
                 ok = all(r["alive"] and r["locked"] and not r["ring_fault"] for r in rows)
             if not ok:
                 self._runner.run(["fault", "reset", *extra], check=False)
-            return ok
+            # A card's own ring-fault bit must read clear too; one whose bit stays set (its
+            # `$$$` lost, or latched again while the ring came back) gets `$$$` again, at most
+            # once a second. An unknown bit (the card's info went unanswered) is not healthy.
+            rows_by_number = {c["number"]: c for c in st.get("cards", [])}
+            clear = True
+            for name, number in cards.items():
+                bit = rows_by_number.get(number, {}).get("ring_fault")
+                if bit is not False:
+                    clear = False
+                if bit is True and ok and time.monotonic() - sent[name] >= 1.0:
+                    self.send("$$$", card=number, check=False)
+                    sent[name] = time.monotonic()
+            return ok and clear
 
         return self.wait_until(healthy, cycles=cycles, timeout=timeout)
 
