@@ -18,7 +18,7 @@ fi
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps \
     --no-build-isolation --force-reinstall "$here"
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_BIN:-}" ]; then
-    (cd "$root" && cargo build -q -p mcc-orchestrator -p mcc-card -p mcc-station)
+    (cd "$root" && cargo build -q --workspace --bins)
 fi
 bin="${MCC_BIN:-$root/target/debug/mcc}"
 export MCC_BIN="$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")"

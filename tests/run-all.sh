@@ -15,7 +15,7 @@ phase() {
 }
 # Scenario modules that start real multi-process clusters: timing-sensitive on 2 cores, so
 # they run one at a time; everything else runs in parallel.
-MULTI=(chain:: cluster:: drills:: emcl:: gather:: host_limits:: reliability:: stations:: testing_api::)
+MULTI=(chain:: cluster:: drills:: emcl:: gather:: host_limits:: hosts:: reliability:: stations:: testing_api::)
 skips=()
 for m in "${MULTI[@]}"; do skips+=(--skip "$m"); done
 phase fmt cargo fmt --all -- --check
@@ -25,6 +25,8 @@ phase build cargo build --workspace --bins
 # Always the whole workspace (one feature set: nothing is compiled twice).
 phase unit-tests cargo test --workspace --lib --bins
 phase doc-tests cargo test --workspace --doc
+# Clusters on several hosts need zenohd (built once, cached in target/) and `ip` (netns).
+phase hosts-prepare bash tests/hosts/prepare.sh
 phase scenarios-in-process cargo test --workspace --test scenarios -- "${skips[@]}"
 phase scenarios-multi-process cargo test --workspace --test scenarios -- --test-threads=1 "${MULTI[@]}"
 phase host-clients bash tests/clients/run.sh

@@ -65,6 +65,9 @@ pub struct SuperviseArgs {
     /// Stop the cluster when this process exits (`mcc up --owner-pid`).
     #[arg(long, value_name = "PID")]
     pub owner_pid: Option<u32>,
+    /// The host whose share this supervisor runs (`mcc up --host`).
+    #[arg(long, value_name = "NAME")]
+    pub host: Option<String>,
 }
 
 /// `mcc up`.
@@ -89,6 +92,10 @@ pub struct UpArgs {
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Start only host NAME's share of a cluster on several hosts (`host = "NAME"` on its
+    /// members); it joins the other hosts through the configured zenoh routers or peers.
+    #[arg(long, value_name = "NAME")]
+    pub host: Option<String>,
     /// Leave the cluster running in the background and return once the ring is locked.
     #[arg(long)]
     pub detach: bool,
@@ -472,9 +479,13 @@ pub struct BenchRingArgs {
     /// Real-time factor 1: seconds measured per cluster.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub rtf_seconds: f64,
-    /// Only these sections (comma-separated): lockstep, rtf1, realtime.
+    /// Only these sections (comma-separated): lockstep, rtf1, realtime, hosts.
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,
+    /// Hosts section: the zenoh router to start (default `$MCC_ZENOHD`, else `zenohd` on the
+    /// PATH; without one the router row is skipped, saying so).
+    #[arg(long, value_name = "PATH")]
+    pub zenohd: Option<std::path::PathBuf>,
     /// Realtime section: ring members in one process (default 12: 4 cards + 8 stations).
     #[arg(long, value_name = "N", default_value_t = 12, value_parser = clap::value_parser!(u32).range(2..=64))]
     pub members: u32,

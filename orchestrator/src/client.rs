@@ -31,7 +31,7 @@ impl std::fmt::Debug for Attached {
 
 /// Find cluster `name` and connect to it.
 pub fn attach(name: &str) -> Result<Attached> {
-    let rd = RunDir::for_cluster(name)?;
+    let rd = RunDir::find(name)?;
     let Some(info) = rd.running() else {
         bail!(
             "cluster {name:?} is not running (no live supervisor in {})",
@@ -44,6 +44,8 @@ pub fn attach(name: &str) -> Result<Attached> {
         .clone()
         .ok_or_else(|| anyhow!("cluster {name:?} is still starting (no endpoint yet)"))?;
     let session = ctl::connect(
+        &cfg,
+        info.host.as_deref(),
         &endpoint,
         cfg.ring.order.len() + 1 + cfg.standalone_drives().count(),
         Duration::from_millis(1500),
@@ -80,6 +82,7 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
     let mut doc = status::build(&a.cfg, &a.info, &a.rd.dir.display().to_string(), &st, &slow);
     crate::drills::enrich_status(&a.session, &a.cfg, &mut doc);
     crate::emcl::status::enrich(&a.session, &a.cfg, &mut doc);
+    crate::hosts::enrich_status(&a.session, &a.cfg, &mut doc);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

@@ -6,21 +6,38 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, Result};
 use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::{alive_key, ctl_key, CtlReply, MemberStatus};
+use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};
 use zenoh::Wait;
 
 /// Largest control reply accepted, bytes.
 const MAX_REPLY: usize = 1 << 20;
 
-/// Open a CLI session connected to a cluster's supervisor endpoint, and give gossip up to
+/// Open a CLI session to cluster `cfg` running on this machine's `host` (its supervisor's
+/// endpoint on one machine; the routers or peers on several hosts), and give gossip up to
 /// `settle` to connect us directly to the `expected` other peers (peers do not route for
 /// each other, so queries only reach members we are connected to).
-pub fn connect(endpoint: &str, expected: usize, settle: Duration) -> Result<zenoh::Session> {
-    let session = open_session(&SessionOptions {
+pub fn connect(
+    cfg: &ClusterConfig,
+    host: Option<&str>,
+    endpoint: &str,
+    expected: usize,
+    settle: Duration,
+) -> Result<zenoh::Session> {
+    if cfg.is_multi_host() {
+        let host = host.unwrap_or_default();
+        let session = crate::hosts::open(cfg, Role::Client { host })?;
+        crate::hosts::settle(&session, cfg, expected, settle);
+        return Ok(session);
+    }
+    let mut opts = SessionOptions {
         listen: vec!["tcp/127.0.0.1:0".into()],
         connect: vec![endpoint.to_string()],
-    })
-    .map_err(|e| anyhow!("cannot reach the cluster at {endpoint}: {e}"))?;
+        ..Default::default()
+    };
+    cluster::secure(&mut opts, cfg).map_err(|e| anyhow!("{e}"))?;
+    let session =
+        open_session(&opts).map_err(|e| anyhow!("cannot reach the cluster at {endpoint}: {e}"))?;
     let deadline = Instant::now() + settle;
     while Instant::now() < deadline {
         if session.info().peers_zid().wait().count() >= expected {

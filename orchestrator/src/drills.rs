@@ -60,6 +60,11 @@ pub fn enrich_status(session: &zenoh::Session, cfg: &ClusterConfig, doc: &mut Cl
 
 /// `mcc fault MEMBER freeze|thaw|kill|restart`.
 pub fn process_drill(a: &Attached, member: &str, what: &str) -> Result<String> {
+    // On several hosts the supervisor of the member's host runs the drill (every share
+    // serves one restart queryable per host; this machine's record knows only its pids).
+    if a.cfg.is_multi_host() {
+        return crate::hosts::remote::drill(&a.session, &a.cfg, member, what);
+    }
     let pid = a
         .info
         .members

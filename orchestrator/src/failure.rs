@@ -90,6 +90,7 @@ mod tests {
         let rd = RunDir {
             dir: dir.clone(),
             cluster: "f".into(),
+            host: None,
         };
         std::fs::create_dir_all(dir.join("logs")).unwrap();
         std::fs::write(rd.log_path("card0"), "one\ntwo\n").unwrap();

@@ -62,8 +62,10 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
         .arg("--connect")
         .arg(endpoint);
     // Members on this host reach each other over unix sockets (gossip hands the locators
-    // around); the CLI and the supervisor keep their TCP endpoints.
-    if let Some(sock) = rd.member_socket(name) {
+    // around); the CLI and the supervisor keep their TCP endpoints. On several hosts every
+    // link is a zenoh TCP link from the config (a unix-socket locator handed to another host
+    // by gossip would be meaningless there; see `mcc_ring::transport::cluster`).
+    if let Some(sock) = rd.member_socket(name).filter(|_| !cfg.is_multi_host()) {
         rd.create_link_dir()?;
         cmd.arg("--listen").arg(sock);
     }
@@ -81,6 +83,7 @@ pub fn spawn_member(rd: &RunDir, cfg: &ClusterConfig, name: &str, endpoint: &str
 /// Re-execute `mcc supervise --cluster <name> [--owner-pid PID]` as a daemon: new session (no
 /// terminal), stdin null, output to `logs/supervisor.log`. Returns its pid.
 pub fn spawn_supervisor(rd: &RunDir, owner_pid: Option<u32>) -> Result<u32> {
+    let host = rd.host.as_ref().map(|h| format!("--host={h}"));
     let exe = std::env::current_exe().context("cannot find the mcc executable")?;
     let (out, err) = log_stdio(rd, "supervisor")?;
     let mut cmd = Command::new(&exe);
@@ -88,6 +91,7 @@ pub fn spawn_supervisor(rd: &RunDir, owner_pid: Option<u32>) -> Result<u32> {
         .arg(&rd.cluster)
         .arg("supervise")
         .args(owner_pid.map(|p| format!("--owner-pid={p}")))
+        .args(host)
         .stdin(Stdio::null())
         .stdout(out)
         .stderr(err);

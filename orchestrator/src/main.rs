@@ -15,6 +15,7 @@ mod events;
 mod failure;
 mod fault;
 mod gather;
+mod hosts;
 mod launch;
 mod owner;
 mod precheck;

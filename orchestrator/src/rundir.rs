@@ -63,6 +63,10 @@ pub struct SupervisorInfo {
     /// EMCL bus pseudo-terminal path, when one is served.
     #[serde(default)]
     pub emcl_bus_pty: Option<String>,
+    /// The host whose share this supervisor runs (`mcc up --host`), null for a cluster on
+    /// one machine.
+    #[serde(default)]
+    pub host: Option<String>,
 }
 
 impl SupervisorInfo {
@@ -79,6 +83,7 @@ impl SupervisorInfo {
             daisy_chain_pty: None,
             emcl_bus: None,
             emcl_bus_pty: None,
+            host: None,
         }
     }
 }
@@ -90,6 +95,8 @@ pub struct RunDir {
     pub dir: PathBuf,
     /// Cluster name.
     pub cluster: String,
+    /// The host whose share runs here (`mcc up --host`): the directory is `<cluster>@<host>`.
+    pub host: Option<String>,
 }
 
 /// Where run directories live.
@@ -117,7 +124,48 @@ impl RunDir {
         Ok(RunDir {
             dir: base_dir().join(cluster),
             cluster: cluster.to_string(),
+            host: None,
         })
+    }
+
+    /// The run directory of `host`'s share of `cluster` (`<cluster>@<host>`), or the whole
+    /// cluster's without a host.
+    pub fn for_share(cluster: &str, host: Option<&str>) -> Result<Self> {
+        let mut rd = Self::for_cluster(cluster)?;
+        if let Some(h) = host {
+            if let Err(mcc_ring::config::ConfigError::Invalid { key, problem }) =
+                mcc_ring::config::check_name("--host", h)
+            {
+                bail!("{key}: {problem}");
+            }
+            rd.dir = base_dir().join(format!("{cluster}@{h}"));
+            rd.host = Some(h.to_string());
+        }
+        Ok(rd)
+    }
+
+    /// The run directory of `cluster` on this machine: the whole cluster's if it has a
+    /// record, else a host share's (`<cluster>@<host>`) with a live supervisor, else the
+    /// whole cluster's (which then says "not running").
+    pub fn find(cluster: &str) -> Result<Self> {
+        let whole = Self::for_cluster(cluster)?;
+        if whole.read_info().is_some() {
+            return Ok(whole);
+        }
+        let prefix = format!("{cluster}@");
+        let mut shares: Vec<RunDir> = fs::read_dir(base_dir())
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|e| {
+                let name = e.file_name().to_str()?.to_string();
+                let host = name.strip_prefix(&prefix)?.to_string();
+                Self::for_share(cluster, Some(&host)).ok()
+            })
+            .filter(|rd| rd.read_info().is_some())
+            .collect();
+        shares.sort_by_key(|rd| rd.running().is_none());
+        Ok(shares.into_iter().next().unwrap_or(whole))
     }
 
     /// Path of the resolved config.
@@ -284,6 +332,7 @@ mod tests {
         RunDir {
             dir,
             cluster: tag.into(),
+            host: None,
         }
     }
 
@@ -333,6 +382,7 @@ mod tests {
         let rd = RunDir {
             dir: PathBuf::from("/run/user/1000/mcc/lab"),
             cluster: "lab".into(),
+            host: None,
         };
         assert_eq!(
             rd.member_socket("card0").as_deref(),
@@ -341,6 +391,7 @@ mod tests {
         let long = RunDir {
             dir: PathBuf::from(format!("/tmp/{}", "x".repeat(100))),
             cluster: "x".into(),
+            host: None,
         };
         assert_eq!(long.member_socket("card0"), None);
     }

@@ -49,8 +49,33 @@ pub struct ClusterStatus {
     pub emcl_bus_pty: Option<String>,
     /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
     pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
-    /// The supervising process.
+    /// The supervising process (of this machine's share on several hosts).
     pub supervisor: SupervisorRow,
+    /// A cluster on several hosts: each host's share as it answers (empty on one machine).
+    pub hosts: Vec<HostRow>,
+}
+
+/// One host of a cluster on several hosts.
+#[derive(Debug, Clone, Serialize)]
+pub struct HostRow {
+    /// Host name from the config.
+    pub name: String,
+    /// Its share answered (supervisor running and reachable).
+    pub alive: bool,
+    /// The machine's own name, as the share reports it.
+    pub machine: Option<String>,
+    /// Its supervisor's pid (on that machine).
+    pub pid: Option<u32>,
+    /// `starting`, `running`, `stopping`.
+    pub phase: Option<String>,
+    /// It runs the same config as this host.
+    pub same_config: Option<bool>,
+    /// Its members (ring members and stand-alone drives).
+    pub members: Vec<String>,
+    /// Its daisy chain and EMCL bus endpoints (on that machine).
+    pub daisy_chain: Option<String>,
+    /// EMCL bus endpoint (on that machine).
+    pub emcl_bus: Option<String>,
 }
 
 /// Ring summary.
@@ -66,6 +91,9 @@ pub struct RingState {
     pub faulted: bool,
     /// The broken link, e.g. `"station0 → card1"`.
     pub broken_link: Option<String>,
+    /// Every link where light is lost (see [`dark_links`]): on several hosts, each host's
+    /// view names the links that cross a cut network.
+    pub dark_links: Vec<String>,
 }
 
 /// One member.
@@ -122,6 +150,8 @@ pub struct MemberRow {
     pub sched: Option<String>,
     /// Faults injected on its send path.
     pub faults: Vec<ActiveFault>,
+    /// The host it runs on (a cluster on several hosts), else null.
+    pub host: Option<String>,
 }
 
 /// One card.
@@ -141,6 +171,10 @@ pub struct CardRow {
     pub gpascii: Option<u16>,
     /// Power cards: SSH port.
     pub ssh: Option<u16>,
+    /// Address both ports bind (`127.0.0.1` unless the config opens them).
+    pub bind: String,
+    /// The host it runs on (a cluster on several hosts), else null.
+    pub host: Option<String>,
     /// OS pid.
     pub pid: Option<u32>,
     /// Ring-fault bit of the card (X:$0003 bit 4), from its `at` queryable.
@@ -258,7 +292,7 @@ pub fn broken_link(
         // cleared fault): the bad data that made the latch names the link until the reset.
         let bad_input = s.ring_fault
             && s.link_error_cycle.is_some_and(|c| {
-                reference.saturating_sub(c) <= threshold
+                s.cycle.saturating_sub(c) <= threshold
                     || s.ring_fault_cycle
                         .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
             });
@@ -268,6 +302,25 @@ pub fn broken_link(
         }
     }
     None
+}
+
+/// Links `u → m` where light is lost: `m` answers and its input is dark, while `u` does not
+/// answer (dead, or unreachable from here) or answers with light on its own input. A member
+/// that only passes on the darkness of a dark upstream does not name its link.
+pub fn dark_links(cfg: &ClusterConfig, st: &[Option<MemberStatus>]) -> Vec<String> {
+    let order = &cfg.ring.order;
+    let n = order.len();
+    if st.len() != n {
+        return Vec::new();
+    }
+    (0..n)
+        .filter_map(|i| {
+            let up = (i + n - 1) % n;
+            let m = st.get(i)?.as_ref()?;
+            let lit_or_gone = st.get(up)?.as_ref().is_none_or(|u| !u.dark);
+            (m.dark && lit_or_gone).then(|| format!("{} → {}", order[up], order[i]))
+        })
+        .collect()
 }
 
 fn port_of(v: Option<&serde_json::Value>) -> Option<u16> {
@@ -299,6 +352,8 @@ pub fn build(
             .map(|m| m.pid)
             .or_else(|| s.map(|s| s.pid))
     };
+    let host_of =
+        |name: &str| c_multi(cfg).then(|| cfg.member_host(name).unwrap_or_default().to_string());
     let status_of = |name: &str| {
         cfg.position(name)
             .and_then(|i| st.get(i))
@@ -342,6 +397,7 @@ pub fn build(
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),
+                host: host_of(name),
             }
         })
         .collect();
@@ -354,6 +410,7 @@ pub fn build(
         cycle: sm_cycle.unwrap_or_else(|| members.iter().map(|m| m.cycle).max().unwrap_or(0)),
         faulted: link.is_some() || members.iter().any(|m| m.ring_fault),
         broken_link: link,
+        dark_links: dark_links(cfg, st),
     };
     let cards = cfg
         .cards
@@ -368,6 +425,8 @@ pub fn build(
                 pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
                 gpascii: extra_port(s, &["gpascii"]),
                 ssh: extra_port(s, &["ssh"]),
+                bind: c.bind.clone().unwrap_or_else(|| "127.0.0.1".into()),
+                host: host_of(&c.name),
                 pid: pid_of(&c.name, s),
                 ring_fault: None,
                 motors_killed: None,
@@ -424,7 +483,12 @@ pub fn build(
             endpoint: info.endpoint.clone(),
             run_dir: run_dir.into(),
         },
+        hosts: Vec::new(),
     }
+}
+
+fn c_multi(cfg: &ClusterConfig) -> bool {
+    cfg.is_multi_host()
 }
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
@@ -435,14 +499,18 @@ fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
 fn card_ports_text(c: &CardRow) -> String {
     if c.gpascii.is_some() || c.ssh.is_some() {
         format!(
-            "gpascii 127.0.0.1:{}  ssh 127.0.0.1:{}",
+            "gpascii {}:{}  ssh {}:{}",
+            c.bind,
             opt(c.gpascii),
+            c.bind,
             opt(c.ssh)
         )
     } else {
         format!(
-            "ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}",
+            "ascii {}:{}  pmac_eth {}:{}",
+            c.bind,
             opt(c.ascii),
+            c.bind,
             opt(c.pmac_eth)
         )
     }
@@ -520,6 +588,19 @@ pub fn render_table(s: &ClusterStatus) -> String {
             .unwrap_or_default()
     );
     let _ = writeln!(o, "time: {}", timing_text(s));
+    for h in &s.hosts {
+        let state = match (h.alive, h.same_config) {
+            (false, _) => "NOT REACHED".to_string(),
+            (true, Some(false)) => "ANOTHER CONFIG".to_string(),
+            (true, _) => format!(
+                "{} on {} (supervisor pid {})",
+                h.phase.as_deref().unwrap_or("up"),
+                h.machine.as_deref().unwrap_or("?"),
+                opt(h.pid)
+            ),
+        };
+        let _ = writeln!(o, "host {}: {state}: {}", h.name, h.members.join(", "));
+    }
     let _ = writeln!(
         o,
         "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} faults",

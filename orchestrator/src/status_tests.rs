@@ -334,3 +334,28 @@ fn a_member_running_behind_the_sync_master_is_not_cut_off() {
         Some("card1 → station1")
     );
 }
+
+#[test]
+fn dark_links_name_where_light_is_lost_not_where_darkness_is_passed_on() {
+    // card0, station0 | card1, station1: the network between the two pairs is cut.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 500);
+    assert!(dark_links(&cfg, &st).is_empty());
+    // Seen from card0's side: card1 and station1 do not answer, card0's input is dark.
+    let mut a = st.clone();
+    a[2] = None;
+    a[3] = None;
+    a[0].as_mut().unwrap().dark = true;
+    assert_eq!(dark_links(&cfg, &a), vec!["station1 → card0"]);
+    // Seen from card1's side: card1's input is dark, station1 only passes the darkness on.
+    st[0] = None;
+    st[1] = None;
+    st[2].as_mut().unwrap().dark = true;
+    st[3].as_mut().unwrap().dark = true;
+    assert_eq!(dark_links(&cfg, &st), vec!["station0 → card1"]);
+    // A cut injected on station0 (station0 lit, card1 and station1 dark).
+    let mut cut = healthy(&cfg, 500);
+    cut[2].as_mut().unwrap().dark = true;
+    cut[3].as_mut().unwrap().dark = true;
+    assert_eq!(dark_links(&cfg, &cut), vec!["station0 → card1"]);
+}

@@ -8,13 +8,17 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::{alive_key, ctl_key};
-use mcc_ring::transport::session::{free_loopback_endpoint, open_session, SessionOptions};
+use mcc_ring::config::{Topology, LOCAL_HOST};
+use mcc_ring::control::hosts::{DrillRequest, HostProc};
+use mcc_ring::control::{alive_key, ctl_key, CtlReply};
+use mcc_ring::transport::cluster::{self, Role};
+use mcc_ring::transport::session::{free_loopback_endpoint, SessionOptions};
 use zenoh::Wait;
 
-use crate::launch;
+use crate::hosts::share::Share;
 use crate::rundir::{MemberProc, RunDir, SupervisorInfo};
 use crate::sys;
+use crate::{hosts, launch};
 
 /// One started member.
 #[derive(Debug)]
@@ -41,6 +45,10 @@ pub struct Supervisor {
     chain: Option<crate::chain::server::ChainServer>,
     /// The EMCL bus (TCP port, optional pty) when the cluster has drives.
     emcl: Option<crate::emcl::server::BusServer>,
+    /// This host's share on the zenoh network (token, info, down, drills).
+    share: Option<Share>,
+    /// The host this supervisor runs ([`LOCAL_HOST`] for a cluster on one machine).
+    host: String,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -56,7 +64,14 @@ impl Supervisor {
     /// and record everything in `supervisor.json`. On failure, whatever was started is
     /// stopped again.
     pub fn start(rd: RunDir, cfg: ClusterConfig) -> Result<Self> {
-        let (session, endpoint) = open_endpoint(&cfg)?;
+        let host = rd.host.clone().unwrap_or_else(|| LOCAL_HOST.to_string());
+        let (session, endpoint) = open_endpoint(&cfg, &host)?;
+        // Join only the same cluster: same config on every other host, this host not
+        // running elsewhere, none of its members already up.
+        let others = cfg.host_names().len().saturating_sub(1);
+        hosts::settle(&session, &cfg, others, Duration::from_secs(1));
+        hosts::admit::admit(&session, &cfg, &host)?;
+        let share = Share::declare(&session, &cfg, &host, std::process::id())?;
         let token = session
             .liveliness()
             .declare_token(alive_key(&cfg.cluster, "orchestrator"))
@@ -64,6 +79,7 @@ impl Supervisor {
             .map_err(|e| anyhow!("cannot declare the orchestrator liveliness token: {e}"))?;
         let mut info = SupervisorInfo::starting(std::process::id(), &cfg.cluster);
         info.endpoint = Some(endpoint.clone());
+        info.host = rd.host.clone();
         rd.write_info(&info)?;
         let mut sup = Supervisor {
             rd,
@@ -75,6 +91,8 @@ impl Supervisor {
             restarts: None,
             chain: None,
             emcl: None,
+            share: Some(share),
+            host,
         };
         let (rtx, rrx) = mpsc::sync_channel(16);
         let q = sup
@@ -86,9 +104,9 @@ impl Supervisor {
             .wait()
             .map_err(|e| anyhow!("cannot declare the restart queryable: {e}"))?;
         sup.restarts = Some((q, rrx));
-        let mut order = sup.cfg.ring.order.clone();
-        // Stand-alone EMCL drives are processes of their own (not on the ring).
-        order.extend(sup.cfg.standalone_drives().map(|d| d.name.clone()));
+        // This host's members (all of them on one machine), then its stand-alone EMCL drives
+        // (processes of their own, not on the ring).
+        let order = sup.cfg.host_processes(&sup.host);
         for name in &order {
             match launch::spawn_member(&sup.rd, &sup.cfg, name, &endpoint) {
                 Ok(child) => {
@@ -145,7 +163,91 @@ impl Supervisor {
         }
         sup.info.phase = "running".into();
         sup.rd.write_info(&sup.info)?;
+        sup.publish_share();
         Ok(sup)
+    }
+
+    /// What this share's `info` answers: phase, member pids, chain and bus.
+    fn publish_share(&self) {
+        let Some(share) = &self.share else { return };
+        share.update(|h| {
+            h.phase = self.info.phase.clone();
+            h.members = self
+                .info
+                .members
+                .iter()
+                .map(|m| HostProc {
+                    name: m.name.clone(),
+                    pid: m.pid,
+                })
+                .collect();
+            h.daisy_chain = self.info.daisy_chain.clone();
+            h.emcl_bus = self.info.emcl_bus.clone();
+        });
+    }
+
+    /// Another host asked this share to stop (`mcc down` there).
+    pub fn stop_requested(&self) -> bool {
+        self.share.as_ref().is_some_and(Share::down_requested)
+    }
+
+    /// Serve drill requests from other hosts (freeze, thaw, kill, restart of a member here).
+    fn serve_drills(&mut self, out: &mut Vec<String>) {
+        let queries = self
+            .share
+            .as_ref()
+            .map(Share::take_drills)
+            .unwrap_or_default();
+        for q in queries {
+            let req = q
+                .payload()
+                .and_then(|p| serde_json::from_slice::<DrillRequest>(&p.to_bytes()).ok());
+            let reply = match req {
+                None => Err(anyhow!("bad drill request")),
+                Some(r) => self.drill(&r.member, &r.kind).inspect(|m| {
+                    out.push(format!(
+                        "member {} {}: {m} (asked by another host)",
+                        r.member, r.kind
+                    ))
+                }),
+            };
+            let r = match reply {
+                Ok(message) => CtlReply { ok: true, message },
+                Err(e) => CtlReply {
+                    ok: false,
+                    message: format!("{e:#}"),
+                },
+            };
+            let _ = q
+                .reply(
+                    q.key_expr().clone(),
+                    serde_json::to_vec(&r).unwrap_or_default(),
+                )
+                .wait();
+        }
+    }
+
+    /// A process drill on one of this share's members.
+    fn drill(&mut self, member: &str, kind: &str) -> Result<String> {
+        let pid = self
+            .children
+            .iter()
+            .find(|r| r.name == member && r.exited.is_none())
+            .map(|r| r.child.id());
+        let sig = match kind {
+            "restart" => {
+                return self
+                    .restart(member)
+                    .map(|pid| format!("restarted (pid {pid})"))
+            }
+            "freeze" => libc::SIGSTOP,
+            "thaw" => libc::SIGCONT,
+            "kill" => libc::SIGKILL,
+            other => return Err(anyhow!("unknown drill {other:?}")),
+        };
+        let pid = pid.ok_or_else(|| anyhow!("{member} is not running on host {}", self.host))?;
+        sys::signal(pid, sig).map_err(|e| anyhow!("signal {sig} to {member} (pid {pid}): {e}"))?;
+        Ok(format!("{kind}: signal {sig} sent to pid {pid}"))
     }
 
     /// The supervisor's session (directly connected to every member).
@@ -171,6 +273,7 @@ impl Supervisor {
     /// Reap members that exited since the last call; one message per newly dead member.
     pub fn poll(&mut self) -> Vec<String> {
         let mut out = Vec::new();
+        self.serve_drills(&mut out);
         let queries: Vec<zenoh::query::Query> = self
             .restarts
             .as_ref()
@@ -244,6 +347,7 @@ impl Supervisor {
             m.pid = pid;
         }
         self.rd.write_info(&self.info)?;
+        self.publish_share();
         Ok(pid)
     }
 
@@ -252,6 +356,7 @@ impl Supervisor {
     pub fn shutdown(mut self, timeout: Duration) {
         self.info.phase = "stopping".into();
         let _ = self.rd.write_info(&self.info);
+        self.publish_share();
         let _ = self.poll();
         let gets: Vec<_> = self
             .children
@@ -268,9 +373,12 @@ impl Supervisor {
         for replies in gets.into_iter().flatten() {
             let _ = replies.recv();
         }
-        // Members also leave when this token disappears.
+        // Members also leave when these tokens disappear.
         if let Some(t) = self.token.take() {
             let _ = t.undeclare().wait();
+        }
+        if let Some(s) = self.share.as_mut() {
+            s.withdraw();
         }
         let half = timeout / 2;
         self.wait_all(half);
@@ -311,19 +419,36 @@ impl Supervisor {
     }
 }
 
-/// Open the supervisor's session listening on a fresh loopback port (the endpoint members
-/// connect to). zenoh does not report a port bound as `:0`, so a free port is picked first;
-/// if another process grabs it in between, another one is tried.
-fn open_endpoint(cfg: &ClusterConfig) -> Result<(zenoh::Session, String)> {
+/// Open the supervisor's session and name the endpoint members and CLI verbs reach it by.
+/// On one machine: a fresh loopback port (zenoh does not report a port bound as `:0`, so a
+/// free port is picked first; if another process grabs it in between, another one is tried).
+/// On several hosts: the routers, or this host's supervisor endpoint (peer to peer).
+fn open_endpoint(cfg: &ClusterConfig, host: &str) -> Result<(zenoh::Session, String)> {
+    match cfg.topology() {
+        Topology::Routers(r) => {
+            let s = hosts::open(cfg, Role::Supervisor { host })?;
+            return Ok((s, r.first().cloned().unwrap_or_default()));
+        }
+        Topology::PeerToPeer => {
+            let ep = cfg.host_endpoint(host).unwrap_or_default();
+            let s = hosts::open(cfg, Role::Supervisor { host })
+                .map_err(|e| anyhow!("cannot open host {host}'s zenoh endpoint {ep}: {e:#}"))?;
+            return Ok((s, ep));
+        }
+        Topology::Single => {}
+    }
     let mut last = String::new();
     for _ in 0..5 {
         let endpoint = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
         let mut listen = vec![endpoint.clone()];
         listen.extend(cfg.zenoh.listen.iter().cloned());
-        match open_session(&SessionOptions {
+        let mut opts = SessionOptions {
             listen,
             connect: cfg.zenoh.connect.clone(),
-        }) {
+            ..Default::default()
+        };
+        cluster::secure(&mut opts, cfg).map_err(|e| anyhow!("{e}"))?;
+        match hosts::open_with(cfg, &opts) {
             Ok(s) => return Ok((s, endpoint)),
             Err(e) => last = e.to_string(),
         }

@@ -71,10 +71,24 @@ pub fn wait_locked(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
     timeout: Duration,
+    dead: impl FnMut() -> Option<String>,
+) -> Result<Vec<Option<MemberStatus>>> {
+    wait_locked_on(session, cfg, None, timeout, dead)
+}
+
+/// [`wait_locked`] for `host`'s share of a cluster on several hosts: the ring locks once
+/// every host's members are up; meanwhile every other share must run the same config, and a
+/// timeout names the hosts that never started.
+pub fn wait_locked_on(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    host: Option<&str>,
+    timeout: Duration,
     mut dead: impl FnMut() -> Option<String>,
 ) -> Result<Vec<Option<MemberStatus>>> {
     let start = Instant::now();
     let mut last: Option<usize> = None;
+    let mut checked = Instant::now();
     loop {
         let st = ctl::query_statuses(
             session,
@@ -87,13 +101,16 @@ pub fn wait_locked(
             .filter(|s| s.as_ref().is_some_and(|s| s.locked))
             .count();
         if last != Some(locked) {
-            let waiting: Vec<&str> = cfg
+            let waiting: Vec<String> = cfg
                 .ring
                 .order
                 .iter()
                 .zip(&st)
                 .filter(|(_, s)| !s.as_ref().is_some_and(|s| s.locked))
-                .map(|(n, _)| n.as_str())
+                .map(|(n, _)| match cfg.is_multi_host() {
+                    true => format!("{n} on {}", cfg.member_host(n).unwrap_or("?")),
+                    false => n.clone(),
+                })
                 .collect();
             eprintln!(
                 "mcc: ring {}: {locked}/{} members locked{}",
@@ -114,10 +131,63 @@ pub fn wait_locked(
         if let Some(why) = dead() {
             bail!("{why}");
         }
+        if cfg.is_multi_host() && checked.elapsed() >= Duration::from_secs(2) {
+            checked = Instant::now();
+            let found =
+                mcc_ring::runtime::join::shares(session, &cfg.cluster, Duration::from_millis(700));
+            crate::hosts::admit::check_digests(cfg, host.unwrap_or(""), &found)?;
+        }
         if start.elapsed() >= timeout {
-            bail!("the ring did not lock within {} s", timeout.as_secs());
+            bail!(
+                "the ring did not lock within {} s{}",
+                timeout.as_secs(),
+                missing_hosts(session, cfg, &st)
+            );
         }
         std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// `: host b never started (card1, station1 do not answer)` for the hosts of a cluster on
+/// several hosts whose members are missing (empty on one machine).
+fn missing_hosts(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    st: &[Option<MemberStatus>],
+) -> String {
+    if !cfg.is_multi_host() {
+        return String::new();
+    }
+    let live = crate::hosts::remote::live_hosts(session, &cfg.cluster);
+    let mut parts = Vec::new();
+    for h in cfg.host_names() {
+        let silent: Vec<&str> = cfg
+            .ring
+            .order
+            .iter()
+            .zip(st)
+            .filter(|(n, s)| s.is_none() && cfg.member_host(n) == Some(h.as_str()))
+            .map(|(n, _)| n.as_str())
+            .collect();
+        if silent.is_empty() {
+            continue;
+        }
+        if live.contains(&h) {
+            parts.push(format!(
+                "host {h} runs but {} do not answer",
+                silent.join(", ")
+            ));
+        } else {
+            parts.push(format!(
+                "host {h} never started or cannot be reached ({} do not answer; start it there with `mcc up --host {h}`)",
+                silent.join(", ")
+            ));
+        }
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(": {}", parts.join("; "))
     }
 }
 
@@ -140,21 +210,24 @@ fn print_ready(
         doc.ring.cycle,
         cfg.rate_hz
     );
-    let port = |p: Option<u16>| {
-        p.map(|p| format!("127.0.0.1:{p}"))
-            .unwrap_or_else(|| "-".into())
-    };
+    let port =
+        |b: &str, p: Option<u16>| p.map(|p| format!("{b}:{p}")).unwrap_or_else(|| "-".into());
     for c in &doc.cards {
+        let on = c
+            .host
+            .as_ref()
+            .map(|h| format!(" on {h}"))
+            .unwrap_or_default();
         println!(
-            "  {} (card {}, {}, pid {}): {}",
+            "  {} (card {}, {}, pid {}{on}): {}",
             c.name,
             c.number,
             c.profile,
             c.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into()),
             if c.gpascii.is_some() || c.ssh.is_some() {
-                format!("gpascii {}  ssh {}", port(c.gpascii), port(c.ssh))
+                format!("gpascii {}  ssh {}", port(&c.bind, c.gpascii), port(&c.bind, c.ssh))
             } else {
-                format!("ascii {}  pmac_eth {}", port(c.ascii), port(c.pmac_eth))
+                format!("ascii {}  pmac_eth {}", port(&c.bind, c.ascii), port(&c.bind, c.pmac_eth))
             }
         );
     }
@@ -202,8 +275,9 @@ pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
         print!("{}", cfg.to_toml_string()?);
         return Ok(());
     }
+    let host = crate::hosts::check_host(&cfg, args.host.as_deref()).map_err(config)?;
     let owner = args.owner_pid.map(Owner::new).transpose().map_err(config)?;
-    let rd = RunDir::for_cluster(&cfg.cluster).map_err(config)?;
+    let rd = RunDir::for_share(&cfg.cluster, host.as_deref()).map_err(config)?;
     rd.claim(std::process::id())
         .map_err(|e| anyhow::Error::new(Failure::new("running", e)))?;
     if let Err(e) = rd.write_config(&cfg.to_toml_string()?) {
@@ -265,7 +339,14 @@ fn up_detached(
         std::thread::sleep(Duration::from_millis(50));
     };
     let endpoint = info.endpoint.clone().unwrap_or_default();
-    let session = match ctl::connect(&endpoint, cfg.ring.order.len() + 1, Duration::from_secs(3)) {
+    let expected = cfg.ring.order.len() + 1 + cfg.host_names().len().saturating_sub(1);
+    let session = match ctl::connect(
+        cfg,
+        rd.host.as_deref(),
+        &endpoint,
+        expected,
+        Duration::from_secs(3),
+    ) {
         Ok(s) => s,
         Err(e) => return fail(rd, e),
     };
@@ -278,7 +359,7 @@ fn up_detached(
             .find(|m| !sys::pid_alive(m.pid))
             .map(|m| format!("member {} (pid {}) exited", m.name, m.pid))
     };
-    let st = match wait_locked(&session, cfg, timeout, dead) {
+    let st = match wait_locked_on(&session, cfg, rd.host.as_deref(), timeout, dead) {
         Ok(st) => st,
         Err(e) => {
             drop(session);
@@ -288,6 +369,7 @@ fn up_detached(
     if json {
         let mut doc = status::build(cfg, &info, &rd.dir.display().to_string(), &st, &[]);
         crate::drills::enrich_status(&session, cfg, &mut doc);
+        crate::hosts::enrich_status(&session, cfg, &mut doc);
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
     }
@@ -313,9 +395,13 @@ fn up_foreground(
     };
     let cfg = sup.config().clone();
     let session = sup.session().clone();
-    let res = wait_locked(&session, &cfg, timeout, || {
+    let host = sup.run_dir().host.clone();
+    let res = wait_locked_on(&session, &cfg, host.as_deref(), timeout, || {
         if let Ok(sig) = signals.try_recv() {
             return Some(format!("interrupted ({sig})"));
+        }
+        if sup.stop_requested() {
+            return Some("stopped from another host (mcc down)".into());
         }
         sup.poll().into_iter().next()
     });
@@ -366,6 +452,16 @@ fn run_until_stopped(
         if eof.is_some_and(|r| r.try_recv().is_ok()) {
             return;
         }
+        if sup.stop_requested() {
+            tracing::info!("another host asked this share to stop: stopping");
+            if let Some(p) = printer {
+                p.line(&format!(
+                    "{} stopped from another host (mcc down)",
+                    crate::events::PREFIX
+                ));
+            }
+            return;
+        }
         if let Some(o) = owner.filter(|o| !o.alive()) {
             eprintln!("mcc: owner process {} exited: stopping the cluster", o.pid);
             return;
@@ -386,7 +482,7 @@ pub fn cmd_supervise(cluster: &str, args: &crate::cli::SuperviseArgs) -> Result<
     let owner = args
         .owner_pid
         .map(|pid| Owner::new(pid).unwrap_or(Owner::gone(pid)));
-    let rd = RunDir::for_cluster(cluster)?;
+    let rd = RunDir::for_share(cluster, args.host.as_deref())?;
     let (_rt, signals) = stop_signals()?;
     let cfg = ClusterConfig::from_file(&rd.config_path()).context("supervise")?;
     let mut sup = match Supervisor::start(rd.clone(), cfg) {

@@ -29,6 +29,7 @@ pub fn watch(cluster: &str, interval: Duration) -> Result<()> {
         );
         let mut doc = status::build(&a.cfg, &a.info, &run_dir, &st, &slow);
         drills::enrich_status(&a.session, &a.cfg, &mut doc);
+        crate::hosts::enrich_status(&a.session, &a.cfg, &mut doc);
         let line = serde_json::to_string(&doc)?;
         if writeln!(out, "{line}").and_then(|()| out.flush()).is_err() {
             // The reader went away: nothing left to do.

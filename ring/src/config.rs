@@ -27,9 +27,14 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 mod drives;
+mod hosts;
 mod validate;
 
 pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, MAX_DRIVES};
+pub use hosts::{
+    endpoint_is_exposed, exposures, is_loopback, tcp_endpoint, HostConfig, Topology, ZenohAuth,
+    DEFAULT_HOST_PORT, LOCAL_HOST,
+};
 
 pub use validate::{check_name, MAX_MEMBERS, MAX_RTF};
 
@@ -99,8 +104,8 @@ impl std::str::FromStr for ClockMode {
     }
 }
 
-/// Zenoh endpoints of a member (peer mode, scouting off).
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// Zenoh settings of every mcc process (peer mode, scouting off).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ZenohConfig {
     /// Endpoints to listen on (e.g. `tcp/127.0.0.1:7447`).
@@ -109,6 +114,29 @@ pub struct ZenohConfig {
     /// Endpoints to connect to.
     #[serde(default)]
     pub connect: Vec<String>,
+    /// Zenoh routers (`zenohd`) of a cluster on several hosts: every process is a client of
+    /// them and every link goes through them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routers: Vec<String>,
+    /// User/password authentication of zenoh links.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub auth: Option<ZenohAuth>,
+    /// zenoh's access control (`access_control` of zenoh's config, in TOML).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub access_control: Option<toml::Table>,
+    /// TLS settings of `tls/` endpoints (`transport.link.tls` of zenoh's config, in TOML;
+    /// needs mcc built with the `tls` feature).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tls: Option<toml::Table>,
+}
+
+/// `[chain]`: the daisy chain the supervisor serves.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChainConfig {
+    /// Address its TCP port binds (default 127.0.0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bind: Option<String>,
 }
 
 /// The ring: its name and member order.
@@ -207,6 +235,12 @@ pub struct CardConfig {
     /// Where SAVE writes and start-up reads the card's state.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state_file: Option<PathBuf>,
+    /// The host it runs on (clusters on several hosts).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
+    /// Address its ASCII and Ethernet ports bind (default 127.0.0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bind: Option<String>,
 }
 
 /// Station-side ring check (sync-packet watchdog), in ring cycles.
@@ -252,6 +286,9 @@ pub struct StationConfig {
     /// per-node overrides in `[stations.plant.nodes.N]`; parsed and checked by the station.
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub plant: toml::Table,
+    /// The host it runs on (clusters on several hosts).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
     /// Where `MS SAVE` writes and start-up reads the station's MI-variables (default
     /// `<run dir>/state/<name>.state`; `mcc down` never removes it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -285,9 +322,15 @@ pub struct ClusterConfig {
     /// it, so all cards act at the same instant (default: half a period; 0 = tick on arrival).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phase_delay_us: Option<u32>,
-    /// Zenoh endpoints.
+    /// Zenoh endpoints, routers, authentication and access control.
     #[serde(default)]
     pub zenoh: ZenohConfig,
+    /// Hosts of a cluster on several machines (`[hosts.NAME]`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub hosts: BTreeMap<String, HostConfig>,
+    /// The daisy chain (`[chain]`).
+    #[serde(default, skip_serializing_if = "ChainConfig::is_default")]
+    pub chain: ChainConfig,
     /// Ring order and sync master.
     #[serde(default)]
     pub ring: RingConfig,
@@ -306,6 +349,12 @@ pub struct ClusterConfig {
     /// Host-port limits (`[host]`: connections, idle and request timeouts).
     #[serde(default)]
     pub host: crate::hostport::HostLimits,
+}
+
+impl ChainConfig {
+    fn is_default(&self) -> bool {
+        *self == ChainConfig::default()
+    }
 }
 
 /// I995/I996 values a member derives from the config (spec §6.2, §6.3).
@@ -382,6 +431,8 @@ impl ClusterConfig {
                 nodes: default_nodes(),
                 ivars: default_card_ivars(),
                 state_file: None,
+                host: None,
+                bind: None,
             })
             .collect();
         let station_list: Vec<StationConfig> = (0..stations)
@@ -397,6 +448,7 @@ impl ClusterConfig {
                     nodes,
                     check: StationCheck::default(),
                     plant: toml::Table::new(),
+                    host: None,
                     state_file: None,
                 }
             })
@@ -409,6 +461,8 @@ impl ClusterConfig {
             member_timeout_ms: default_member_timeout(),
             phase_delay_us: None,
             zenoh: ZenohConfig::default(),
+            hosts: BTreeMap::new(),
+            chain: ChainConfig::default(),
             ring: RingConfig::default(),
             cards: card_list,
             drives: vec![DriveConfig::new(

@@ -13,6 +13,7 @@
 //! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
 //! - `mcc/<cluster>/emcl/<host>/{frame,status,io}`: the EMCL bus to drive hosts ([`emcl`]).
 //! - `mcc/<cluster>/alive/<member>`: liveliness token of each member and of `orchestrator`.
+//! - `mcc/<cluster>/hosts/<host>/{alive,info,down,drill}`: each host's share ([`hosts`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -20,6 +21,7 @@ use crate::fault::{ActiveFault, FaultSpec};
 
 pub mod chain;
 pub mod emcl;
+pub mod hosts;
 pub mod sync_start;
 
 pub use sync_start::{at_key, AtReply, AtRequest};

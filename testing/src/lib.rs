@@ -26,6 +26,7 @@
 mod cluster;
 mod error;
 mod foreground;
+pub mod netns;
 pub mod procs;
 pub mod run;
 mod status;

@@ -16,7 +16,7 @@ fi
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps \
     --no-build-isolation --force-reinstall "$root/python"
 if [ -z "${MCC_BIN:-}" ]; then
-    (cd "$root" && cargo build -q --release -p mcc-orchestrator -p mcc-card -p mcc-station)
+    (cd "$root" && cargo build -q --release --workspace --bins)
 fi
 bin="${MCC_BIN:-$root/target/release/mcc}"
 export MCC_BIN="$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")"

@@ -5,7 +5,7 @@
 # Creates a venv under target/ on first use; safe to re-run. Exits non-zero on failure.
 # Env: MCC_CARD_BIN (default target/debug/mcc-card), MCC_BIN (default target/debug/mcc),
 #      PYTHON (default python3.11 or python3),
-#      MCC_SKIP_BUILD=1 to skip `cargo build -p mcc-card --bin mcc-card`.
+#      MCC_SKIP_BUILD=1 to skip `cargo build --workspace --bins`.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -24,11 +24,11 @@ if ! "$venv/bin/python" -c 'import dls_powerpmacanalyse, scp, numpy' 2>/dev/null
         -r "$here/requirements-nodeps.txt"
 fi
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_CARD_BIN:-}" ]; then
-    (cd "$root" && cargo build -q -p mcc-card --bin mcc-card)
+    (cd "$root" && cargo build -q --workspace --bins)
 fi
 # The TMCL client tests start a cluster: mcc, mcc-card and mcc-station.
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_BIN:-}" ]; then
-    (cd "$root" && cargo build -q -p mcc-orchestrator -p mcc-card -p mcc-station --bins)
+    (cd "$root" && cargo build -q --workspace --bins)
 fi
 export MCC_BIN="${MCC_BIN:-$root/target/debug/mcc}"
 bin="${MCC_CARD_BIN:-$root/target/debug/mcc-card}"

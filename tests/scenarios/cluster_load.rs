@@ -8,62 +8,12 @@
 //! long can only be a frame lost by the transport: the ring must keep cycling, never go down,
 //! latch nothing, and count no error after lock.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use mcc_testing::{Cluster, Status};
+use mcc_tests::load::{ring_errors, Busy};
 use mcc_tests::process::bin_dir;
 use serde_json::Value;
-
-/// Threads spinning on the CPU until dropped.
-struct Busy {
-    stop: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
-}
-
-impl Busy {
-    fn start(n: usize) -> Busy {
-        let stop = Arc::new(AtomicBool::new(false));
-        let threads = (0..n)
-            .map(|_| {
-                let stop = Arc::clone(&stop);
-                std::thread::spawn(move || {
-                    let mut x = 0u64;
-                    while !stop.load(Ordering::Relaxed) {
-                        x = std::hint::black_box(
-                            x.wrapping_mul(6364136223846793005).wrapping_add(1),
-                        );
-                    }
-                })
-            })
-            .collect();
-        Busy { stop, threads }
-    }
-}
-
-impl Drop for Busy {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        for t in self.threads.drain(..) {
-            let _ = t.join();
-        }
-    }
-}
-
-fn errors(m: &Value) -> Vec<u64> {
-    [
-        "byte_violation",
-        "checksum",
-        "overrun",
-        "underrun",
-        "bad_frames",
-    ]
-    .iter()
-    .map(|k| m["errors"][k].as_u64().unwrap())
-    .collect()
-}
 
 /// Wait (bounded by `timeout`) until the ring has run to cycle `cycle`, for a status every
 /// member answered (on a loaded machine one may answer too late for a given status round:
@@ -105,7 +55,7 @@ fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
         .as_array()
         .unwrap()
         .iter()
-        .map(errors)
+        .map(ring_errors)
         .collect();
     let t0 = Instant::now();
     let last = wait_cycle(
@@ -126,7 +76,7 @@ fn runs_loaded_without_losing_a_frame(in_flight: u64, cycles: u64) {
     for (m, b) in last["members"].as_array().unwrap().iter().zip(&before) {
         assert_eq!(m["alive"], true, "{m:#}");
         assert_eq!(m["ring_fault_count"], 0, "{m:#}");
-        assert_eq!(&errors(m), b, "errors counted after lock: {m:#}");
+        assert_eq!(&ring_errors(m), b, "errors counted after lock: {m:#}");
     }
 }
 

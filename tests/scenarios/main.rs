@@ -7,6 +7,7 @@ mod emcl;
 mod emcl_bound;
 mod gather;
 mod host_limits;
+mod hosts;
 mod macro_station;
 mod motion;
 mod programs;

@@ -31,16 +31,9 @@ pub fn bin_dir() -> PathBuf {
             .expect("target dir")
             .to_path_buf();
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut args = vec![
-            "build",
-            "-q",
-            "-p",
-            "mcc-orchestrator",
-            "-p",
-            "mcc-card",
-            "-p",
-            "mcc-station",
-        ];
+        // The whole workspace, as the test command's build phase does: `-p` alone would
+        // unify features differently and build the dependency graph (zenoh) once more.
+        let mut args = vec!["build", "-q", "--workspace", "--bins"];
         if dir.ends_with("release") {
             args.push("--release");
         }

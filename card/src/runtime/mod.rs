@@ -63,6 +63,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .enable_all()
             .build()
             .context("starting the host-port runtime")?;
+        let bind: Option<std::net::IpAddr> = cc.bind.as_deref().and_then(|b| b.parse().ok());
         let mut extra = serde_json::Map::new();
         // A Power card is reached as Power PMAC users connect (gpascii, SSH); the others
         // have the ASCII and PMAC Ethernet-protocol ports.
@@ -77,6 +78,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                         password: cc.ssh_password.clone(),
                     },
                     max_connections: ctx.config.host.max_connections,
+                    // 127.0.0.1 unless the config opens them (`bind`, checked by the config).
+                    bind: bind.unwrap_or(PowerPortsConfig::default().bind),
                     ..PowerPortsConfig::default()
                 },
             ))?;
@@ -91,7 +94,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                     eth_port: cc.pmac_eth_port,
                     limits: ctx.config.host,
                     name: cc.name.clone(),
-                    bind: PortsConfig::default().bind,
+                    bind: bind.unwrap_or(PortsConfig::default().bind),
                 },
             ))?;
             extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));

@@ -126,7 +126,12 @@ impl Drop for Running {
     }
 }
 
-fn member_status(session: &zenoh::Session, cluster: &str, name: &str) -> Result<MemberStatus> {
+/// The status of member `name` of `cluster` (3 s to answer).
+pub(crate) fn member_status(
+    session: &zenoh::Session,
+    cluster: &str,
+    name: &str,
+) -> Result<MemberStatus> {
     let text = ctl::query_text(
         session,
         &ctl_key(cluster, name, "status"),
@@ -167,7 +172,14 @@ pub fn measure(
         .endpoint
         .clone()
         .ok_or_else(|| anyhow!("{name}: no zenoh endpoint"))?;
-    let session = ctl::connect(&endpoint, info.members.len() + 1, Duration::from_secs(5))?;
+    let cfg = mcc_ring::config::ClusterConfig::from_file(&rd.config_path())?;
+    let session = ctl::connect(
+        &cfg,
+        info.host.as_deref(),
+        &endpoint,
+        info.members.len() + 1,
+        Duration::from_secs(5),
+    )?;
     let sync = info
         .members
         .first()

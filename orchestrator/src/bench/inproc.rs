@@ -58,6 +58,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             open_session(&SessionOptions {
                 listen: vec![listen],
                 connect,
+                ..Default::default()
             })
             .map_err(|e| anyhow!("{e}"))?,
         );

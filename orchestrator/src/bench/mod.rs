@@ -8,6 +8,7 @@ pub mod crash;
 pub mod emcl;
 pub mod faults;
 pub mod host;
+pub mod hosts;
 pub mod inproc;
 pub mod procstat;
 pub mod ring;

@@ -6,7 +6,9 @@
 //! (b) what a cluster at real-time factor 1 costs: `mcc up` with the default clock, CPU per
 //!     member;
 //! (c) realtime sync-arrival lateness per member (in-process ring) beside a bare OS timer probe
-//!     run at the same time.
+//!     run at the same time;
+//! (d) across hosts: one ring on one machine, on two hosts peer to peer, and through `zenohd`
+//!     (the hop cost of the router vs peer to peer; [`super::hosts`]).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -17,7 +19,7 @@ use mcc_ring::config::ClockMode;
 
 use super::cluster::{self, ClusterFigures, ClusterSpec};
 use super::stats::{complete_cycles, lateness, percentile, us};
-use super::{inproc, udp};
+use super::{hosts, inproc, udp};
 use crate::cli::BenchRingArgs;
 
 /// Lockstep targets (issue 8) on the reference 2-core machine: cycles/s by (cards, stations).
@@ -59,18 +61,19 @@ pub fn parse_sizes(text: &str) -> Result<Vec<(u8, u8)>> {
     Ok(v)
 }
 
-/// Which sections to run.
-fn sections(only: Option<&str>) -> Result<(bool, bool, bool)> {
+/// Which sections to run: lockstep, rtf1, realtime, hosts.
+fn sections(only: Option<&str>) -> Result<(bool, bool, bool, bool)> {
     let Some(only) = only else {
-        return Ok((true, true, true));
+        return Ok((true, true, true, true));
     };
-    let mut s = (false, false, false);
+    let mut s = (false, false, false, false);
     for w in only.split(',').map(str::trim).filter(|w| !w.is_empty()) {
         match w {
             "lockstep" => s.0 = true,
             "rtf1" => s.1 = true,
             "realtime" => s.2 = true,
-            other => bail!("--only {other:?}: expected lockstep, rtf1 or realtime"),
+            "hosts" => s.3 = true,
+            other => bail!("--only {other:?}: expected lockstep, rtf1, realtime or hosts"),
         }
     }
     Ok(s)
@@ -94,7 +97,7 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
         }
     }
     let sizes = parse_sizes(&args.sizes)?;
-    let (lockstep, rtf1, realtime) = sections(args.only.as_deref())?;
+    let (lockstep, rtf1, realtime, across) = sections(args.only.as_deref())?;
     let cpus = std::thread::available_parallelism()
         .map(|c| c.get())
         .unwrap_or(1);
@@ -112,6 +115,12 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
     }
     if realtime {
         run_realtime(args)?;
+    }
+    if across {
+        hosts::run(
+            Duration::from_secs_f64(args.seconds),
+            args.zenohd.as_deref(),
+        )?;
     }
     Ok(())
 }
@@ -317,8 +326,12 @@ mod tests {
             let e = parse_sizes(bad).unwrap_err().to_string();
             assert!(e.contains("--sizes"), "{bad}: {e}");
         }
-        assert_eq!(sections(None).unwrap(), (true, true, true));
-        assert_eq!(sections(Some("rtf1")).unwrap(), (false, true, false));
+        assert_eq!(sections(None).unwrap(), (true, true, true, true));
+        assert_eq!(sections(Some("rtf1")).unwrap(), (false, true, false, false));
+        assert_eq!(
+            sections(Some("hosts,lockstep")).unwrap(),
+            (true, false, false, true)
+        );
         assert!(sections(Some("fast"))
             .unwrap_err()
             .to_string()

@@ -54,14 +54,16 @@ impl ChainOptions {
 /// with the process.
 pub type ChainServer = crate::serve::Endpoints;
 
-/// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
+/// Listen on `[chain] bind` (default 127.0.0.1), port `opts.port` (and open a pseudo-terminal if asked).
 pub fn start(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
     opts: &ChainOptions,
 ) -> Result<ChainServer> {
-    let listener = TcpListener::bind(("127.0.0.1", opts.port))
-        .with_context(|| format!("daisy chain: cannot listen on 127.0.0.1:{}", opts.port))?;
+    // 127.0.0.1 unless the config opens it (`[chain] bind`, checked by the config).
+    let bind = cfg.chain.bind.as_deref().unwrap_or("127.0.0.1");
+    let listener = TcpListener::bind((bind, opts.port))
+        .with_context(|| format!("daisy chain: cannot listen on {bind}:{}", opts.port))?;
     let addr = listener.local_addr()?.to_string();
     listener.set_nonblocking(true)?;
     let stop = Arc::new(AtomicBool::new(false));

@@ -68,15 +68,17 @@ pub fn export_up_options(args: &crate::cli::UpArgs) {
 /// A running bus server (its endpoints). Dropping it stops accepting.
 pub type BusServer = crate::serve::Endpoints;
 
-/// Listen on 127.0.0.1:`opts.port` (and open a pseudo-terminal if asked).
+/// Listen on `[emcl] bind` (default 127.0.0.1), port `opts.port` (and open a pseudo-terminal if asked).
 pub fn start(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
     opts: &BusOptions,
 ) -> Result<BusServer> {
     let bus = Bus::start(session.clone(), cfg).context("EMCL bus: cannot start the line")?;
-    let listener = TcpListener::bind(("127.0.0.1", opts.port))
-        .with_context(|| format!("EMCL bus: cannot listen on 127.0.0.1:{}", opts.port))?;
+    // 127.0.0.1 unless the config opens it (`[emcl] bind`, checked by the config).
+    let bind = cfg.emcl.bind.as_deref().unwrap_or("127.0.0.1");
+    let listener = TcpListener::bind((bind, opts.port))
+        .with_context(|| format!("EMCL bus: cannot listen on {bind}:{}", opts.port))?;
     let addr = listener.local_addr()?.to_string();
     listener.set_nonblocking(true)?;
     let stop = Arc::new(AtomicBool::new(false));

@@ -70,7 +70,7 @@ pub fn cmd_emcl(cluster: &str, args: &EmclArgs) -> Result<()> {
     match &args.command {
         EmclCommand::Send { timeout_ms, words } => {
             let frame = parse_frame(words)?;
-            let rd = crate::rundir::RunDir::for_cluster(cluster)?;
+            let rd = crate::rundir::RunDir::find(cluster)?;
             let info = rd
                 .running()
                 .ok_or_else(|| anyhow!("cluster {cluster:?} is not running"))?;

@@ -48,6 +48,9 @@ pub struct EmclConfig {
     /// Also serve a pseudo-terminal.
     #[serde(default)]
     pub pty: bool,
+    /// Address its TCP port binds (default 127.0.0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bind: Option<String>,
 }
 
 /// Motor, encoder and mechanics of a drive.
@@ -173,6 +176,10 @@ pub struct DriveConfig {
     /// Factory values of bank-0 EEPROM parameters (64-87), by number.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub globals: BTreeMap<String, i32>,
+    /// The host a stand-alone drive runs on (clusters on several hosts; a drive on a station
+    /// runs on the station's host).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
 }
 
 fn default_pulse_full_scale() -> i64 {
@@ -191,6 +198,7 @@ impl DriveConfig {
             pulse_full_scale: default_pulse_full_scale(),
             motor: DriveMotor::default(),
             io: DriveIo::default(),
+            host: None,
             axis: BTreeMap::new(),
             globals: BTreeMap::new(),
         }
@@ -482,7 +490,8 @@ address = 8
             c.emcl,
             EmclConfig {
                 port: 4711,
-                pty: true
+                pty: true,
+                bind: None
             }
         );
         let x = c.drive("x").unwrap();

@@ -82,6 +82,7 @@ pub(super) fn validate(cfg: &ClusterConfig) -> R {
     for (list, eps) in [
         ("listen", &cfg.zenoh.listen),
         ("connect", &cfg.zenoh.connect),
+        ("routers", &cfg.zenoh.routers),
     ] {
         for (i, ep) in eps.iter().enumerate() {
             if !ep.contains('/') || ep.starts_with('/') || ep.ends_with('/') {
@@ -110,7 +111,9 @@ pub(super) fn validate(cfg: &ClusterConfig) -> R {
     validate_cards(cfg)?;
     validate_stations(cfg)?;
     validate_ring(cfg)?;
-    super::drives::validate_drives(cfg)
+    super::drives::validate_drives(cfg)?;
+    super::hosts::validate_hosts(cfg)?;
+    super::hosts::validate_security(cfg)
 }
 
 /// `rtf` and `member_timeout_ms` (the clock keys; `clock` itself is checked by the parser).

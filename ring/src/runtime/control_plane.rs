@@ -24,7 +24,7 @@ const LOOP_REPLY_TIMEOUT: Duration = Duration::from_millis(1500);
 pub struct ControlPlane {
     _queryable: Queryable<()>,
     _token: LivelinessToken,
-    _orchestrator_watch: Subscriber<()>,
+    _orchestrator_watch: Option<Subscriber<()>>,
 }
 
 impl std::fmt::Debug for ControlPlane {
@@ -34,12 +34,13 @@ impl std::fmt::Debug for ControlPlane {
 }
 
 /// Declare the control plane of `member` in `cluster`. Requests are forwarded to the member's
-/// loop through `cmds`; `stop` is raised on a shutdown request or when the orchestrator that
-/// was seen goes away.
+/// loop through `cmds`; `stop` is raised on a shutdown request or when the supervisor that
+/// was seen (its liveliness token `orchestrator_key`, see [`orchestrator_key`]) goes away.
 pub fn start(
     session: &zenoh::Session,
     cluster: &str,
     member: &str,
+    orchestrator_key: Option<&str>,
     cmds: Sender<DriverCmd>,
     stop: Arc<AtomicBool>,
 ) -> Result<ControlPlane, String> {
@@ -63,8 +64,14 @@ pub fn start(
         .declare_token(alive_key(cluster, member))
         .wait()
         .map_err(|e| format!("declare liveliness token: {e}"))?;
+    let Some(orch_key) = orchestrator_key.map(str::to_string) else {
+        return Ok(ControlPlane {
+            _queryable: queryable,
+            _token: token,
+            _orchestrator_watch: None,
+        });
+    };
     let seen = Arc::new(AtomicBool::new(false));
-    let orch_key = alive_key(cluster, "orchestrator");
     let weak = session.clone();
     let watch = session
         .liveliness()
@@ -95,8 +102,26 @@ pub fn start(
     Ok(ControlPlane {
         _queryable: queryable,
         _token: token,
-        _orchestrator_watch: watch,
+        _orchestrator_watch: Some(watch),
     })
+}
+
+/// The liveliness token of the supervisor that started `member` (its host's share,
+/// `mcc/<cluster>/hosts/<host>/alive`) on one machine. On several hosts None: the token
+/// travels through the network (a router), and a cut network must not stop a host's members
+/// (they still leave when their supervisor dies: the parent-death signal).
+pub fn orchestrator_key(config: &crate::config::ClusterConfig, member: &str) -> Option<String> {
+    if config.is_multi_host() {
+        return None;
+    }
+    let host = config
+        .member_host(member)
+        .unwrap_or(crate::config::LOCAL_HOST);
+    Some(crate::control::hosts::host_key(
+        &config.cluster,
+        host,
+        "alive",
+    ))
 }
 
 /// Whether the orchestrator's liveliness token is still (or again) there, asked a few times

@@ -117,11 +117,13 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                         SessionOptions {
                             listen: vec![first.clone()],
                             connect: vec![],
+                            ..Default::default()
                         }
                     } else {
                         SessionOptions {
                             listen: vec![free_loopback_endpoint()?],
                             connect: vec![first.clone()],
+                            ..Default::default()
                         }
                     };
                     sessions.push(open_session(&opts)?);

@@ -7,6 +7,7 @@
 pub mod control_plane;
 pub mod driver;
 pub mod inline;
+pub mod join;
 pub mod light;
 pub mod local;
 pub mod logging;

@@ -18,6 +18,7 @@ use crate::config::{ClusterConfig, IVarValue, MemberRef};
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::settings::RingSettings;
+use crate::transport::cluster::{self, Role};
 use crate::transport::session::{open_session, SessionOptions};
 use crate::transport::zenoh_link;
 
@@ -167,7 +168,21 @@ where
     } else {
         args.listen.clone()
     };
-    let session = open_session(&SessionOptions { listen, connect })?;
+    let opts = match cluster::host_options(&config, Role::Member { name: &args.name })? {
+        Some(o) => o,
+        None => {
+            let mut o = SessionOptions {
+                listen,
+                connect,
+                ..Default::default()
+            };
+            cluster::secure(&mut o, &config)?;
+            o
+        }
+    };
+    let session = open_session(&opts)?;
+    // Never join a ring run with another config under this cluster's name.
+    super::join::check(&session, &config)?;
     let (tx, rx, _rx_guard) =
         zenoh_link::join(&session, &config.cluster, &config.ring.name, position, n)?;
 
@@ -195,6 +210,7 @@ where
         &session,
         &config.cluster,
         &args.name,
+        control_plane::orchestrator_key(&config, &args.name).as_deref(),
         cmd_tx,
         Arc::clone(&stop),
     )
@@ -222,7 +238,13 @@ where
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
         in_flight: config.ring.in_flight,
-        upstream_probe: watch.as_ref().map(|w| w.probe.clone()),
+        // The process probe only for an upstream on this member's host: a member the config
+        // puts on another host is on another machine, even when it shares this kernel (network
+        // namespaces, containers: the same boot id), and a cut network must be loss of light.
+        upstream_probe: watch
+            .as_ref()
+            .filter(|_| config.member_host(&upstream) == config.member_host(&args.name))
+            .map(|w| w.probe.clone()),
         harden: true,
         max_cycles: None,
         kind,

@@ -14,7 +14,9 @@
 //! (`member_timeout_ms`, counted as attended silence: time this loop was running to see it,
 //! see [`super::silence`]), a member has stopped answering and the ring is down. The master then
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
-//! counts the silence — until a frame of the current cycle comes back. When its upstream
+//! counts the silence — until a frame of the current cycle, or any cycle it started on its own
+//! clock with light, comes back (a round trip longer than a period, e.g. across hosts, has
+//! several own-clock cycles in flight: the current one is never first). When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
@@ -63,6 +65,8 @@ pub struct Stepper {
     last_start: u64,
     /// Nothing came back within the frozen wait: cycles run on the own clock.
     down: bool,
+    /// The first cycle started on the own clock (the latest ring down).
+    down_from: u64,
     /// Lockstep: the grid is only followed on the own clock; re-based when that begins.
     grid_live: bool,
 }
@@ -105,6 +109,7 @@ impl<A: RingApp> Driver<A> {
             returned: None,
             last_start: self.now_ns(),
             down: false,
+            down_from: 0,
             grid_live: paced,
         }
     }
@@ -145,6 +150,7 @@ impl<A: RingApp> Driver<A> {
                     st.frozen_ns / 1_000_000
                 );
                 st.down = true;
+                st.down_from = st.k;
                 if let Some(c) = self.clock.as_mut() {
                     c.set_ring_down(true);
                 }
@@ -187,8 +193,12 @@ impl<A: RingApp> Driver<A> {
         // the return of the cycle in flight, no more: the ring's count is this master's.
         st.returned = st.returned.max(Some(c.min(st.k.saturating_sub(1))));
         // Back to normal once a cycle of the current window comes back (with N in flight the
-        // frame of k-N is the newest that can).
-        if st.down && c.saturating_add(st.in_flight) >= st.k {
+        // frame of k-N is the newest that can), or — a round trip longer than a period (across
+        // hosts): several own-clock cycles in flight, the current window never comes back
+        // first — once any cycle started on the own clock comes back lit. Those still in
+        // flight drain before the next start.
+        let lit = c >= st.down_from && !self.core.is_dark();
+        if st.down && (c.saturating_add(st.in_flight) >= st.k || lit) {
             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
             st.down = false;
             if let Some(s) = self.clock.as_mut() {

@@ -238,6 +238,8 @@ struct Probe {
     master: bool,
     seen: Vec<(u64, u64, u32, bool)>,
     stall_at: Option<(u64, Duration)>,
+    /// Sleep this long in every tick (a slow link: the ring's round trip exceeds a period).
+    slow: Option<Duration>,
 }
 
 impl RingApp for Probe {
@@ -246,6 +248,9 @@ impl RingApp for Probe {
             if at == cycle {
                 std::thread::sleep(d);
             }
+        }
+        if let Some(d) = self.slow {
+            std::thread::sleep(d);
         }
         self.seen.push((cycle, t, regs.read_regs(0).r0, fault));
         let v = if self.master {
@@ -534,4 +539,27 @@ fn a_liveliness_flap_of_an_upstream_whose_process_is_still_there_is_no_loss_of_l
         assert_eq!(s.errors, Default::default(), "{}", s.name);
         assert!(!s.dark && s.ring_fault_count == 0, "{s:?}");
     }
+}
+
+#[test]
+fn a_ring_slower_than_its_period_comes_back_after_a_frozen_member() {
+    // Across hosts the round trip can exceed a period: station1 takes 3 ms per cycle at
+    // 2258.7 Hz (0.44 ms; its receive queue drains within the member timeout). When station1
+    // freezes, the sync master runs on its own clock,
+    // several of its cycles are then in flight at once, and the first of them that comes
+    // back lit must end the ring down (not only a frame of the current cycle, which can
+    // never come back first).
+    let timeout = Duration::from_millis(1000);
+    let mut m = checked_ring(ClockMode::Paced, 3000, timeout);
+    // station1 (card0's upstream) freezes: nothing comes back to card0 at all.
+    m[3].1.stall_at = Some((200, Duration::from_millis(2000)));
+    m[3].1.slow = Some(Duration::from_millis(3));
+    let out = run_to_end(m, Duration::from_secs(120));
+    let sm = out[0].clock.clone().unwrap();
+    assert!(!sm.ring_down && sm.ring_down_count >= 1, "{sm:?}");
+    assert_eq!(out[0].app.seen.len(), 3000);
+    // Light came back all round: the sync master's input is lit and recent.
+    let s = out[0].core.status();
+    assert!(!s.dark, "{s:?}");
+    assert!(s.last_rx_cycle.is_some_and(|c| c >= 2990), "{s:?}");
 }

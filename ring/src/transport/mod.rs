@@ -5,6 +5,7 @@
 //! [`zenoh_link`] (real processes, zenoh peer mode) and [`loopback`] (in-process channels for
 //! deterministic tests and benchmarks).
 
+pub mod cluster;
 pub mod hops;
 pub mod loopback;
 pub mod queue;

@@ -36,6 +36,35 @@ pub struct SessionOptions {
     pub listen: Vec<String>,
     /// Endpoints to connect to (the orchestrator's, a router, ...).
     pub connect: Vec<String>,
+    /// zenoh client mode: every message goes through the routers in `connect` (clusters on
+    /// several hosts through `zenohd`); no listener, no gossip.
+    pub client: bool,
+    /// User/password authentication of every link (`transport/auth/usrpwd`).
+    pub auth: Option<SessionAuth>,
+    /// zenoh's `access_control` (JSON).
+    pub access_control: Option<serde_json::Value>,
+    /// zenoh's `transport/link/tls` (JSON).
+    pub tls: Option<serde_json::Value>,
+}
+
+/// User/password authentication (zenoh's `usrpwd`).
+#[derive(Clone, Default, PartialEq, Eq)]
+pub struct SessionAuth {
+    /// The user this process authenticates as.
+    pub user: String,
+    /// Its password.
+    pub password: String,
+    /// `user:password` lines of the users this process accepts on its listeners.
+    pub dictionary_file: Option<String>,
+}
+
+impl std::fmt::Debug for SessionAuth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SessionAuth")
+            .field("user", &self.user)
+            .field("dictionary_file", &self.dictionary_file)
+            .finish_non_exhaustive()
+    }
 }
 
 /// Build the zenoh configuration for `opts`.
@@ -45,7 +74,12 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         c.insert_json5(k, &v)
             .map_err(|e| TransportError::Io(format!("zenoh config {k}: {e}")))
     };
-    set(&mut c, "mode", "\"peer\"".into())?;
+    let mode = if opts.client {
+        "\"client\""
+    } else {
+        "\"peer\""
+    };
+    set(&mut c, "mode", mode.into())?;
     set(&mut c, "scouting/multicast/enabled", "false".into())?;
     // Peers learn each other's locators from the peer they connect to and open direct links, so
     // ring frames travel member to member in one hop.
@@ -57,7 +91,9 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         "scouting/gossip/autoconnect_strategy",
         "{ peer: { to_router: \"always\", to_peer: \"greater-zid\" } }".into(),
     )?;
-    let listen = if opts.listen.is_empty() {
+    let listen = if opts.client {
+        opts.listen.clone()
+    } else if opts.listen.is_empty() {
         vec!["tcp/127.0.0.1:0".to_string()]
     } else {
         opts.listen.clone()
@@ -77,7 +113,28 @@ pub fn zenoh_config(opts: &SessionOptions) -> Result<Config, TransportError> {
         "timestamping/enabled",
         "{ router: false, peer: false, client: false }".into(),
     )?;
+    if let Some(a) = &opts.auth {
+        set(&mut c, "transport/auth/usrpwd/user", json_str(&a.user))?;
+        set(
+            &mut c,
+            "transport/auth/usrpwd/password",
+            json_str(&a.password),
+        )?;
+        if let Some(d) = &a.dictionary_file {
+            set(&mut c, "transport/auth/usrpwd/dictionary_file", json_str(d))?;
+        }
+    }
+    if let Some(acl) = &opts.access_control {
+        set(&mut c, "access_control", acl.to_string())?;
+    }
+    if let Some(tls) = &opts.tls {
+        set(&mut c, "transport/link/tls", tls.to_string())?;
+    }
     Ok(c)
+}
+
+fn json_str(s: &str) -> String {
+    serde_json::Value::String(s.to_string()).to_string()
 }
 
 fn json_list(items: &[String]) -> String {
@@ -115,6 +172,7 @@ mod tests {
         let c = zenoh_config(&SessionOptions {
             listen: vec![],
             connect: vec!["tcp/127.0.0.1:7447".into()],
+            ..Default::default()
         })
         .unwrap();
         let s = format!("{c}");
@@ -135,6 +193,7 @@ mod tests {
         let e = zenoh_config(&SessionOptions {
             listen: vec!["not-an-endpoint".into()],
             connect: vec![],
+            ..Default::default()
         });
         assert!(e.is_err());
     }

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::{alive_key, ctl_key, CtlReply};
+use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
@@ -58,10 +59,20 @@ pub fn run(config_path: &Path, name: &str, connect: &[String], listen: &[String]
     } else {
         listen.to_vec()
     };
-    let session = open_session(&SessionOptions {
-        listen,
-        connect: conn,
-    })?;
+    let opts = match cluster::host_options(&cfg, Role::Member { name })? {
+        Some(o) => o,
+        None => {
+            let mut o = SessionOptions {
+                listen,
+                connect: conn,
+                ..Default::default()
+            };
+            cluster::secure(&mut o, &cfg)?;
+            o
+        }
+    };
+    let session = open_session(&opts)?;
+    mcc_ring::runtime::join::check(&session, &cfg)?;
     let n = files.len();
     let shared = Arc::new(Mutex::new(HostState {
         host,
@@ -93,9 +104,13 @@ pub fn run(config_path: &Path, name: &str, connect: &[String], listen: &[String]
     let orch_seen = Arc::new(AtomicBool::new(false));
     let orch_gone: Arc<Mutex<Option<Instant>>> = Arc::new(Mutex::new(None));
     let (seen, gone) = (Arc::clone(&orch_seen), Arc::clone(&orch_gone));
+    // On several hosts no watch (a cut network must not stop the drive; the parent-death
+    // signal still does when its supervisor dies).
+    let key = mcc_ring::runtime::control_plane::orchestrator_key(&cfg, name)
+        .unwrap_or_else(|| format!("mcc/{}/never/{name}", cfg.cluster));
     let _watch = session
         .liveliness()
-        .declare_subscriber(alive_key(&cfg.cluster, "orchestrator"))
+        .declare_subscriber(key)
         .history(true)
         .callback(move |s| {
             let mut g = gone.lock().unwrap_or_else(|e| e.into_inner());

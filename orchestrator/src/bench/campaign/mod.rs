@@ -360,7 +360,7 @@ fn judge_detection(
     let threshold = crate::status::lag_threshold(cfg);
     let named = [&detected, &last]
         .iter()
-        .map(|snap| crate::status::broken_link(cfg, &snap.members, threshold))
+        .map(|snap| crate::status::broken_link(cfg, &snap.members, &[], threshold))
         .collect::<Vec<_>>();
     if !named.iter().any(|l| l.as_deref() == Some(want.as_str())) {
         o.violations
