@@ -9,6 +9,7 @@ mod gather;
 mod host_limits;
 mod macro_station;
 mod motion;
+mod power_ring;
 mod programs;
 mod recovery;
 mod ring_inprocess;

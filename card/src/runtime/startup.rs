@@ -256,7 +256,10 @@ mod tests {
             ask("Motor[0].pDac Motor[1].pDac Motor[2].pDac Motor[8].pDac Motor[9].pDac"),
             "$0\r\n$78420\r\n$78424\r\n$7843C\r\n$0\r\n"
         );
-        assert_eq!(ask("Motor[1].pEnc Motor[1].pEncStatus"), "$3502\r\n$3440\r\n");
+        assert_eq!(
+            ask("Motor[1].pEnc Motor[1].pEncStatus"),
+            "$3502\r\n$3440\r\n"
+        );
         assert_eq!(
             ask("Motor[0].ServoCtrl Motor[1].ServoCtrl Motor[8].ServoCtrl Motor[9].ServoCtrl"),
             "$0\r\n$1\r\n$1\r\n$0\r\n"
