@@ -41,7 +41,7 @@ fn from_reg(v: u32) -> f64 {
 
 /// The 24-bit ring register of a 32-bit element value.
 fn to_reg(v: f64) -> Result<u32, AccessError> {
-    if !v.is_finite() || v < -2_147_483_648.0 || v > 4_294_967_295.0 {
+    if !v.is_finite() || !(-2_147_483_648.0..=4_294_967_295.0).contains(&v) {
         return Err(OUT_OF_RANGE);
     }
     let w = v.floor() as i64;
