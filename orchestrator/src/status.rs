@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::{ClockReport, ErrorCounters, MemberStatus};
-use mcc_ring::fault::FaultSpec;
+use mcc_ring::fault::ActiveFault;
 use serde::Serialize;
 
 use crate::rundir::SupervisorInfo;
@@ -107,12 +107,17 @@ pub struct MemberRow {
     pub dark: bool,
     /// First cycle it ran with a dark input.
     pub dark_since_cycle: Option<u64>,
+    /// The last dark spell that ended, `[first, last]` cycle without light.
+    pub last_dark_spell: Option<(u64, u64)>,
+    /// Latest cycle in which the link into it delivered bad data (packet errors, dark or
+    /// extra frames, silence).
+    pub link_error_cycle: Option<u64>,
     /// Why its ring fault latched (while latched).
     pub fault_reason: Option<String>,
     /// What its cycle thread got from the scheduler (realtime: SCHED_FIFO, locked memory).
     pub sched: Option<String>,
     /// Faults injected on its send path.
-    pub faults: Vec<FaultSpec>,
+    pub faults: Vec<ActiveFault>,
 }
 
 /// One card.
@@ -202,8 +207,13 @@ pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
 
 /// Name the broken link: walk the ring from the member after the sync master; the first
 /// member that is dead ends the walk (`"<dead> → <next>"`: nothing leaves it), else the first
-/// whose last received frame lags its current cycle by more than `threshold` names
-/// `"<upstream> → <member>"` (its upstream, visited before, is fine).
+/// whose last received frame lags its current cycle by more than `threshold`, whose input is
+/// dark, that lost the sync packets, or that latched a ring fault while the link into it
+/// delivered bad data (within the last `threshold` cycles, or within `threshold` cycles of the
+/// latch: a break that healed still names its link until the reset) names `"<upstream> →
+/// <member>"` (its
+/// upstream, visited before, is fine). A card that only misses its own packets is not the
+/// break: they were lost further round the ring.
 pub fn broken_link(
     cfg: &ClusterConfig,
     st: &[Option<MemberStatus>],
@@ -233,7 +243,18 @@ pub fn broken_link(
         };
         // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
         // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.
-        if lag > threshold || s.dark || (!s.locked && s.ring_fault && s.sync_count > 0) {
+        // A fault latched on bad data from the link into it (corrupt, byte violation, overrun,
+        // underrun, delayed frames).
+        // Also, while the latch holds, once the link is whole again (a restarted member, a
+        // cleared fault): the bad data that made the latch names the link until the reset.
+        let bad_input = s.ring_fault
+            && s.link_error_cycle.is_some_and(|c| {
+                reference.saturating_sub(c) <= threshold
+                    || s.ring_fault_cycle
+                        .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
+            });
+        if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
+        {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
         }
     }
@@ -304,6 +325,8 @@ pub fn build(
                 late_cycles: v.late_cycles,
                 dark: v.dark,
                 dark_since_cycle: v.dark_since_cycle,
+                link_error_cycle: v.link_error_cycle,
+                last_dark_spell: v.last_dark_spell,
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),
@@ -492,7 +515,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
     );
     for m in &s.members {
         let e = &m.errors;
-        let faults: Vec<String> = m.faults.iter().map(|f| f.kind.to_string()).collect();
+        let faults: Vec<String> = m.faults.iter().map(|f| f.spec.kind.to_string()).collect();
         let _ = writeln!(
             o,
             "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} {}",

@@ -12,6 +12,7 @@ mod motion;
 mod power_ring;
 mod programs;
 mod recovery;
+mod reliability;
 mod ring_inprocess;
 mod station_aux;
 mod stations;

@@ -22,3 +22,6 @@ pub(crate) mod power_ports;
 pub(crate) mod server;
 pub(crate) mod ssh;
 pub(crate) mod zenoh_cmd;
+
+#[cfg(test)]
+mod tests_fuzz;

@@ -30,7 +30,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(MemberRef::Card(c)) => c.clone(),
             _ => anyhow::bail!("'{}' is not a card in the config", ctx.name),
         };
-        let profile = Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2);
+        let profile = profile_of(&cc);
         let storage = cc.state_file.as_ref().map(FileStorage::new);
         let (mut card, load_error) = startup_card(profile, storage.as_ref());
         // The start-up layer (in the profile's numbering, every reply checked: a refused line
@@ -174,6 +174,19 @@ pub(crate) fn startup_card(
     (card, err)
 }
 
+fn profile_of(cc: &mcc_ring::config::CardConfig) -> Profile {
+    Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2)
+}
+
+/// Check a card's config before anything starts (`mcc up`): its `ivars` applied as the card
+/// applies them at start-up, on a card of its profile; the first refused one is named with the
+/// card's error.
+pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()> {
+    let mut card = Card::new(profile_of(cc));
+    chain::apply_chain_defaults(&mut card, cc.number);
+    apply_ivars(&mut card, &cc.ivars)
+}
+
 /// The config keys that are the ring's check settings of a card (read by the ring runtime,
 /// `card_check`): on a Power card they are no Power I-variables (Power `I1001` is
 /// `Motor[10].PhaseCtrl`; the check is `Macro.TestPeriod`/`TestMaxErrors`/`TestReqdSynchs`,
@@ -221,7 +234,8 @@ fn apply_ivars(
         };
         if let Some(text) = refused {
             anyhow::bail!(
-                "cards.ivars: '{line}' was refused by the card: {}",
+                "ivars: {k} = {}: the card refuses it: {}",
+                v.as_f64(),
                 text.trim_matches(|c: char| c.is_control() || c.is_whitespace())
             );
         }

@@ -147,6 +147,20 @@ fn validate_clock(cfg: &ClusterConfig) -> R {
             ),
         );
     }
+    if let Some(us) = cfg.phase_delay_us {
+        let period = cfg.period_ns();
+        if u64::from(us) * 1000 >= period {
+            return bad(
+                "phase_delay_us",
+                format!(
+                    "{us} µs is not shorter than one ring period ({:.1} µs at {} Hz): a member \
+                     would run cycle k's tick after cycle k+1 began",
+                    period as f64 / 1e3,
+                    cfg.rate_hz
+                ),
+            );
+        }
+    }
     let t = cfg.member_timeout_ms;
     if t == 0 || t > 60_000 {
         return bad("member_timeout_ms", format!("{t} is out of range 1-60000"));
