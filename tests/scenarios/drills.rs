@@ -225,6 +225,11 @@ fn fault_drills(tag: &str, clock: Option<&str>) {
     if let Some(clock) = clock {
         b = b.clock(clock);
     }
+    fault_drills_on(b);
+}
+
+/// The fault drills on the ring `b` starts (2 cards + 2 stations).
+pub(crate) fn fault_drills_on(b: Builder) {
     let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
     for n in 0..2 {
         setup(&c, n, SETUP);

@@ -379,6 +379,12 @@ impl CardState {
             .write(Space::Y, a, w | (bits & I995_STATUS_BITS));
     }
 
+    /// The ring configuration word with its latched status bits, without clearing them (a
+    /// read of I995 / `MacroModeA` clears them).
+    pub(crate) fn ring_cfg_latched(&self) -> u32 {
+        self.memory.read(Space::Y, self.map.ring_cfg_addr)
+    }
+
     /// Auxiliary images of `node`: `(X read/status image, Y write/command image)` (PMAC2
     /// $0F7n, Turbo $344n).
     pub fn aux_images(&self, node: usize) -> (u32, u32) {

@@ -193,7 +193,8 @@ pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()
 /// The config keys that are the ring's check settings of a card (read by the ring runtime,
 /// `card_check`): on a Power card they are no Power I-variables (Power `I1001` is
 /// `Motor[10].PhaseCtrl`; the check is `Macro.TestPeriod`/`TestMaxErrors`/`TestReqdSynchs`,
-/// power-pmac.md §3.10), so they are not sent to its dialect.
+/// power-pmac.md §3.10), so they set the model's ring-check variables instead of going to
+/// its dialect.
 const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
 
 /// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands in
@@ -209,6 +210,20 @@ fn apply_ivars(
         let line = format!("{k}={}", v.as_f64());
         let refused = if power {
             if RING_CHECK_KEYS.iter().any(|r| r.eq_ignore_ascii_case(k)) {
+                // The card's own ring check (Macro.TestPeriod/TestMaxErrors/TestReqdSynchs)
+                // is kept in the model's ring I-variables.
+                let rv = card.state.ring_ivars();
+                let slot = match k.to_ascii_uppercase().as_str() {
+                    "I1001" => Some(rv.check_period),
+                    "I1004" => Some(rv.error_limit),
+                    "I1005" => Some(rv.sync_min),
+                    _ => None,
+                };
+                if let Some(n) = slot {
+                    if card.state.set_ivar(n, v.as_f64()).is_err() {
+                        anyhow::bail!("cards.ivars: '{line}' is out of range for the ring check");
+                    }
+                }
                 continue;
             }
             let reply = dialect.line(card, 0, line.as_bytes());

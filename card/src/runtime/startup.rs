@@ -1,6 +1,7 @@
 //! The card's start-up layer on a ring: the ring settings the cluster config derives, the
 //! motors on their MACRO nodes, the MACRO IC base addresses. It speaks the card's own
-//! numbering (PMAC2: I995/I996, I1000/I1002, Ix00; Turbo: I6840/I6841, I70/I71, Ixx00, I20)
+//! numbering (PMAC2: I995/I996, I1000/I1002, Ix00; Turbo: I6840/I6841, I70/I71, Ixx00, I20;
+//! Power: the `Motor[x]` pointer elements, `Motor[x]` x = 1..8 on the servo nodes)
 //! and checks every reply: a refused line stops the start-up with an error naming the line
 //! and the card's `ERRnnn`, so a card never runs half set up.
 
@@ -71,7 +72,11 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Result<Vec<u16>, Star
     let rv = card.state.ring_ivars();
     let mut aux = 0u32;
     let mut motors = Vec::new();
-    let max = card.state.limits().motors.min(map.mapped_motors);
+    let mut max = card.state.limits().motors.min(map.mapped_motors);
+    if card.profile() == Profile::Power {
+        power_motor_pointers(card)?;
+        max = (max + 1).min(card.state.limits().motors);
+    }
     for x in 1..=max {
         let ix02 = card.state.peek_ivar(100 * u32::from(x) + 2).unwrap_or(0.0) as u32;
         if ix02 & (1 << 19) != 0 && card.profile() == Profile::Pmac2 {
@@ -101,6 +106,59 @@ pub fn wire_macro_motors(card: &mut Card, nodes: &[u8]) -> Result<Vec<u16>, Star
     send(card, &line)?;
     Ok(motors)
 }
+
+/// The Motor pointer elements a Power card's start-up sets, in the dialect's names, with the
+/// Turbo I-variable (within the motor's block) the model keeps each in.
+const POWER_POINTERS: [(&str, u32); 5] = [
+    ("pDac", 2),
+    ("pEnc", 3),
+    ("pEnc2", 4),
+    ("pEncStatus", 25),
+    ("pPhaseEnc", 83),
+];
+
+/// A Power card numbers its servo motors from 1 (`Motor[0]` is no servo motor): `Motor[x]`
+/// (x = 1..8) gets the registers of the x-th servo node (0, 1, 4, 5, 8, 9, 12, 13) —
+/// `Motor[x].pDac` its command register, `pEnc`/`pEnc2` its feedback (encoder conversion
+/// entry), `pEncStatus` its flag register, `pPhaseEnc` its phase position — and `Motor[0]`
+/// none. Sent in Power syntax through the dialect, every reply checked.
+fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
+    let mut dialect = crate::lang::ppmac::Power::new();
+    // The model's factory addresses of motor k (Turbo numbering: motor k on the k-th servo
+    // node), read before any is moved.
+    let factory = |card: &Card, k: u16, n: u32| -> u32 {
+        if k == 0 || k > SERVO_NODES {
+            return 0;
+        }
+        card.state.peek_ivar(100 * u32::from(k) + n).unwrap_or(0.0) as u32
+    };
+    let mut lines = Vec::new();
+    for x in 0..=SERVO_NODES {
+        let mut line = String::new();
+        for (name, n) in POWER_POINTERS {
+            line.push_str(&format!("Motor[{x}].{name}=${:X} ", factory(card, x, n)));
+        }
+        lines.push(line);
+    }
+    lines.push("Motor[0].ServoCtrl=0".into());
+    for line in lines {
+        let line = line.trim_end().to_string();
+        let reply = dialect.line(card, 0, line.as_bytes());
+        let text = String::from_utf8_lossy(&reply);
+        if text.contains(": error #") {
+            return Err(StartupError {
+                reply: text
+                    .trim_matches(|c: char| c.is_control() || c.is_whitespace())
+                    .to_string(),
+                line,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Servo nodes of a MACRO IC (0, 1, 4, 5, 8, 9, 12, 13).
+const SERVO_NODES: u16 = 8;
 
 /// Turbo I20-I23 (read-only to hosts): MACRO IC 0 at $078400 when the card serves ring nodes,
 /// `$0` (absent) otherwise and for ICs 1-3, as a Turbo PMAC2 Ultralite with one MACRO IC.
@@ -174,6 +232,41 @@ mod tests {
         assert_eq!(q(&mut card, "I800 I900 I1000 I1002"), "1\r0\r0\r$0");
         assert_eq!(q(&mut card, "I20 I21"), "$78400\r$0");
         assert_eq!(q(&mut card, "I995"), "0");
+    }
+
+    /// Issue 13 item 6: a Power card's start-up points `Motor[1]`..`Motor[8]` at the servo
+    /// nodes (0, 1, 4, 5, 8, 9, 12, 13) through the Motor pointer elements, activates them,
+    /// and leaves `Motor[0]` without a servo node.
+    #[test]
+    fn power_wiring_speaks_power_elements() {
+        let mut card = Card::new(Profile::Power);
+        let motors = ring_startup(
+            &mut card,
+            Some((0x8090, 0x8F_3333)),
+            &[0, 1, 4, 5, 8, 9, 12, 13],
+            true,
+        )
+        .unwrap();
+        // Model motors (Power x + 1).
+        assert_eq!(motors, [2, 3, 4, 5, 6, 7, 8, 9]);
+        let mut p = crate::lang::ppmac::Power::new();
+        let mut ask = |line: &str| {
+            let r = p.line(&mut card, 1, format!("echo7 {line}").as_bytes());
+            String::from_utf8(r).unwrap().replace("\x06\r\n", "")
+        };
+        assert_eq!(
+            ask("Motor[0].pDac Motor[1].pDac Motor[2].pDac Motor[8].pDac Motor[9].pDac"),
+            "$0\r\n$78420\r\n$78424\r\n$7843C\r\n$0\r\n"
+        );
+        assert_eq!(
+            ask("Motor[1].pEnc Motor[1].pEncStatus"),
+            "$3502\r\n$3440\r\n"
+        );
+        assert_eq!(
+            ask("Motor[0].ServoCtrl Motor[1].ServoCtrl Motor[8].ServoCtrl Motor[9].ServoCtrl"),
+            "$0\r\n$1\r\n$1\r\n$0\r\n"
+        );
+        assert_eq!(ask("Gate3[0].MacroEnableA"), "$8F333300\r\n");
     }
 
     #[test]

@@ -148,6 +148,9 @@ pub(crate) fn read(
     th: &Thread,
     k: &Key,
 ) -> Result<f64, AccessError> {
+    if let Some(v) = super::macro_ic::read(card, k) {
+        return Ok(v);
+    }
     let d = &DEFS[k.def];
     let nm = d.name;
     let st = &mut card.state;
@@ -197,6 +200,9 @@ pub(crate) fn write(
     }
     if matches!(d.ty, Ty::Struct) {
         return Err(ILLEGAL_PARAMETER);
+    }
+    if let Some(r) = super::macro_ic::write(card, k, v) {
+        return r;
     }
     let nm = d.name;
     let in_range = v.is_nan() && d.ty == Ty::Float || (v >= d.min && v <= d.max);

@@ -17,6 +17,7 @@
 mod catalog;
 mod elements;
 mod exec;
+mod macro_ic;
 mod parse;
 mod program;
 
