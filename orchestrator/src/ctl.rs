@@ -237,7 +237,7 @@ mod tests {
         let endpoint = free_loopback_endpoint().unwrap();
         let member = open_session(&SessionOptions {
             listen: vec![endpoint.clone()],
-            connect: vec![],
+            ..Default::default()
         })
         .unwrap();
         let _tokens: Vec<_> = ["card1", "station0"]
@@ -277,7 +277,7 @@ mod tests {
             })
             .wait()
             .unwrap();
-        let cli = connect(&endpoint, 1, Duration::from_secs(5)).unwrap();
+        let cli = connect(&cfg, None, &endpoint, 1, Duration::from_secs(5)).unwrap();
         let (st, slow) = query_round(
             &cli,
             &cfg,

@@ -57,12 +57,12 @@ fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
     }
     st[0].as_mut().unwrap().link_error_cycle = Some(2999);
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station1 → card0")
     );
     // Errors long before the latch did not make it: they name nothing.
     st[0].as_mut().unwrap().link_error_cycle = Some(2900);
-    assert_eq!(broken_link(&cfg, &st, 32), None);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
     // The link healed (a restarted member, a cleared fault) long ago: the bad data that made
     // the latch still names its link until the reset.
     st[0].as_mut().unwrap().link_error_cycle = Some(2989);
@@ -71,7 +71,7 @@ fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
         m.last_rx_cycle = Some(9000);
     }
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station1 → card0")
     );
     for m in st.iter_mut().flatten() {
@@ -83,7 +83,7 @@ fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
         m.ring_fault = false;
         m.link_error_cycle = Some(2999);
     }
-    assert_eq!(broken_link(&cfg, &st, 32), None);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
 }
 
 #[test]
