@@ -1,9 +1,9 @@
 //! Reliability: card SAVE under SIGKILL at random moments, a bounded run of its benchmark
-//! (`mcc bench save-crash`).
+//! (`mcc bench save-crash`); a bounded fault campaign (`mcc bench faults --campaign`).
 
 use std::time::Duration;
 
-use mcc_tests::process::{mcc, ok};
+use mcc_tests::process::{mcc, ok, text};
 use serde_json::Value;
 
 fn json(out: std::process::Output, what: &str) -> Value {
@@ -36,4 +36,61 @@ fn card_save_survives_sigkill_at_random_moments() {
     let new = r["found_new"].as_u64().unwrap();
     assert_eq!(old + new, 20, "every trial found old or new state: {r}");
     assert!(r["saves_acked"].as_u64().unwrap() > 0, "{r}");
+}
+
+/// A campaign of 120 faults of every kind (drop-sync, drop-packets, corrupt, byte-violation,
+/// overrun, underrun, delay, delay-us, cut, freeze, kill, restart) at random members, the sync
+/// master included, on a lockstep cluster of its own while programs run on every card: none
+/// against the ring-check rules (every member the rules name latches within its bound in ring
+/// cycles and nobody else, the broken link named, motors killed and station amplifiers off in
+/// the latching cycle, programs back at the same end position after clear + restart + reset;
+/// bursts below the thresholds latch nothing and kill no motor).
+#[test]
+fn fault_campaign_of_120_faults_keeps_the_ring_check_rules() {
+    let n = 120u64;
+    let out = mcc(
+        &[
+            "bench",
+            "faults",
+            "--campaign",
+            "120",
+            "--seed",
+            "11",
+            "--clock",
+            "lockstep",
+            "--json",
+        ],
+        Duration::from_secs(60 * 45),
+    );
+    let stdout = text(&out.stdout);
+    let r: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| {
+        panic!(
+            "mcc bench faults --campaign: {e}: {stdout}\n{}",
+            text(&out.stderr)
+        )
+    });
+    assert_eq!(r["faults"], n, "the campaign ran to its end: {r}");
+    assert_eq!(r["failed"], 0, "violations: {:#}", r["violations"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let kinds = r["kinds"].as_object().expect("kinds");
+    assert_eq!(kinds.len(), 12, "every kind: {r}");
+    let mut detected = 0;
+    for (k, row) in kinds {
+        assert_eq!(row["injected"].as_u64().unwrap(), n / 12, "{k}: {row}");
+        let sustained = row["sustained"].as_u64().unwrap();
+        if sustained > 0 {
+            let lat = &row["latency_cycles"];
+            assert!(lat["n"].as_u64().unwrap() >= sustained, "{k}: {row}");
+            assert!(
+                lat["max"].as_u64().unwrap() <= row["bound_cycles"].as_u64().unwrap(),
+                "{k}: {row}"
+            );
+            detected += sustained;
+        }
+    }
+    for k in ["kill", "restart", "freeze", "cut"] {
+        assert_eq!(kinds[k]["sustained"], n / 12, "{k} is always detected");
+    }
+    assert!(kinds["delay-us"]["sustained"] == 0, "delay-us is never a ring error");
+    assert!(detected > n / 2, "{r}");
 }
