@@ -3,7 +3,9 @@
 
 use std::time::Duration;
 
-use mcc_tests::process::{mcc, ok, text};
+use mcc_tests::process::{
+    mcc, mcc_command, ok, pid_alive, run_base, send_signal, text, wait_until,
+};
 use serde_json::Value;
 
 fn json(out: std::process::Output, what: &str) -> Value {
@@ -93,4 +95,62 @@ fn fault_campaign_of_120_faults_keeps_the_ring_check_rules() {
     }
     assert!(kinds["delay-us"]["sustained"] == 0, "delay-us is never a ring error");
     assert!(detected > n / 2, "{r}");
+}
+
+/// A benchmark interrupted while its cluster runs (SIGINT, as Ctrl-C) leaves nothing behind:
+/// its members exit within 3 s and its run directory is gone.
+#[test]
+fn an_interrupted_benchmark_leaves_no_process_and_no_file() {
+    let mut child = mcc_command(&["bench", "faults", "--campaign", "1000", "--clock", "lockstep"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("mcc bench faults");
+    let name = format!("bench-campaign-{}", child.id());
+    let mut pids = Vec::new();
+    let mut guard = scopeguard(&mut child);
+    wait_until("the benchmark's ring to lock", Duration::from_secs(120), || {
+        let out = mcc(
+            &["status", "--json", "--cluster", &name],
+            Duration::from_secs(30),
+        );
+        let Ok(doc) = serde_json::from_slice::<Value>(&out.stdout) else {
+            return false;
+        };
+        pids = doc["members"]
+            .as_array()
+            .map(|m| m.iter().filter_map(|m| m["pid"].as_u64()).collect())
+            .unwrap_or_default();
+        doc["ring"]["locked"] == true && pids.len() == 4
+    });
+    send_signal(u64::from(guard.0.id()), "-INT");
+    let mut exited = None;
+    wait_until("mcc to exit on SIGINT", Duration::from_secs(30), || {
+        exited = guard.0.try_wait().ok().flatten();
+        exited.is_some()
+    });
+    assert_eq!(exited.and_then(|s| s.code()), Some(130));
+    let t0 = std::time::Instant::now();
+    wait_until("the members to exit", Duration::from_secs(20), || {
+        pids.iter().all(|p| !pid_alive(*p))
+    });
+    assert!(t0.elapsed() < Duration::from_secs(3), "{:?}", t0.elapsed());
+    assert!(!run_base().join(&name).exists(), "run directory left behind");
+    guard.1 = true;
+}
+
+/// Kills the child unless disarmed (a failing test leaves no benchmark running).
+struct Guard<'a>(&'a mut std::process::Child, bool);
+
+fn scopeguard(c: &mut std::process::Child) -> Guard<'_> {
+    Guard(c, false)
+}
+
+impl Drop for Guard<'_> {
+    fn drop(&mut self) {
+        if !self.1 {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
 }
