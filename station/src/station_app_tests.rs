@@ -245,7 +245,10 @@ fn a_renumbered_ring_keeps_the_plant_stepping() {
     assert!(renumbered.velocity > 0.0, "{renumbered:?}");
     // One tick (the renumbering itself) without a step; otherwise the same motion.
     assert!(renumbered.position > 0.0 && renumbered.position < steady.position);
-    assert!(renumbered.velocity > steady.velocity * 0.8, "{renumbered:?} {steady:?}");
+    assert!(
+        renumbered.velocity > steady.velocity * 0.8,
+        "{renumbered:?} {steady:?}"
+    );
 }
 
 #[test]

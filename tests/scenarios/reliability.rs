@@ -93,7 +93,10 @@ fn fault_campaign_of_120_faults_keeps_the_ring_check_rules() {
     for k in ["kill", "restart", "freeze", "cut"] {
         assert_eq!(kinds[k]["sustained"], n / 12, "{k} is always detected");
     }
-    assert!(kinds["delay-us"]["sustained"] == 0, "delay-us is never a ring error");
+    assert!(
+        kinds["delay-us"]["sustained"] == 0,
+        "delay-us is never a ring error"
+    );
     assert!(detected > n / 2, "{r}");
 }
 
@@ -101,28 +104,39 @@ fn fault_campaign_of_120_faults_keeps_the_ring_check_rules() {
 /// its members exit within 3 s and its run directory is gone.
 #[test]
 fn an_interrupted_benchmark_leaves_no_process_and_no_file() {
-    let mut child = mcc_command(&["bench", "faults", "--campaign", "1000", "--clock", "lockstep"])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("mcc bench faults");
+    let mut child = mcc_command(&[
+        "bench",
+        "faults",
+        "--campaign",
+        "1000",
+        "--clock",
+        "lockstep",
+    ])
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::null())
+    .spawn()
+    .expect("mcc bench faults");
     let name = format!("bench-campaign-{}", child.id());
     let mut pids = Vec::new();
     let mut guard = scopeguard(&mut child);
-    wait_until("the benchmark's ring to lock", Duration::from_secs(120), || {
-        let out = mcc(
-            &["status", "--json", "--cluster", &name],
-            Duration::from_secs(30),
-        );
-        let Ok(doc) = serde_json::from_slice::<Value>(&out.stdout) else {
-            return false;
-        };
-        pids = doc["members"]
-            .as_array()
-            .map(|m| m.iter().filter_map(|m| m["pid"].as_u64()).collect())
-            .unwrap_or_default();
-        doc["ring"]["locked"] == true && pids.len() == 4
-    });
+    wait_until(
+        "the benchmark's ring to lock",
+        Duration::from_secs(120),
+        || {
+            let out = mcc(
+                &["status", "--json", "--cluster", &name],
+                Duration::from_secs(30),
+            );
+            let Ok(doc) = serde_json::from_slice::<Value>(&out.stdout) else {
+                return false;
+            };
+            pids = doc["members"]
+                .as_array()
+                .map(|m| m.iter().filter_map(|m| m["pid"].as_u64()).collect())
+                .unwrap_or_default();
+            doc["ring"]["locked"] == true && pids.len() == 4
+        },
+    );
     send_signal(u64::from(guard.0.id()), "-INT");
     let mut exited = None;
     wait_until("mcc to exit on SIGINT", Duration::from_secs(30), || {
@@ -135,7 +149,10 @@ fn an_interrupted_benchmark_leaves_no_process_and_no_file() {
         pids.iter().all(|p| !pid_alive(*p))
     });
     assert!(t0.elapsed() < Duration::from_secs(3), "{:?}", t0.elapsed());
-    assert!(!run_base().join(&name).exists(), "run directory left behind");
+    assert!(
+        !run_base().join(&name).exists(),
+        "run directory left behind"
+    );
     guard.1 = true;
 }
 

@@ -53,8 +53,9 @@ pub fn run(args: &BenchFaultsArgs, n: u64) -> Result<()> {
         below_share: 0.4,
         kinds,
     };
+    let budget = args.minutes.map(|m| Duration::from_secs(60 * m));
     let report = with_cluster(cfg, |sup, cfg| {
-        campaign(sup, cfg, n as usize, args.seed, &opts)
+        campaign(sup, cfg, n as usize, args.seed, &opts, budget)
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -78,6 +79,7 @@ fn campaign(
     n: usize,
     seed: u64,
     opts: &PlanOptions,
+    budget: Option<Duration>,
 ) -> Result<Report> {
     let model = RingModel::from_config(cfg).ok_or_else(|| anyhow!("no ring model"))?;
     let faults = plan::plan(&model, n, seed, opts);
@@ -93,6 +95,13 @@ fn campaign(
     let started = Instant::now();
     let mut outcomes = Vec::new();
     for p in &faults {
+        if budget.is_some_and(|b| started.elapsed() > b) {
+            eprintln!(
+                "campaign: the time budget is spent after {} faults",
+                p.index
+            );
+            break;
+        }
         let mut o = Outcome {
             index: p.index,
             kind: p.kind.to_string(),
@@ -129,6 +138,7 @@ fn campaign(
     Ok(Report::new(
         cfg.clock.as_str(),
         seed,
+        n,
         cfg.ring.order.clone(),
         &outcomes,
         started.elapsed().as_secs_f64(),
