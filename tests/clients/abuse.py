@@ -70,6 +70,7 @@ class Cluster:
             "--owner-pid", str(os.getpid()), timeout=180,
         )
         if up.returncode != 0:
+            shutil.rmtree(self.dir, ignore_errors=True)
             raise RuntimeError(f"mcc up: {up.stdout}{up.stderr}")
         doc = self.status()
         card = doc["cards"][0]

@@ -281,7 +281,9 @@ fn judge_detection(
     let n = cfg.ring.order.len();
     let down = (p.target + 1) % n;
     let dead = matches!(p.action, Action::Freeze | Action::Kill | Action::Restart);
-    let mut dark_onset: Option<u64> = None;
+    // Every dark onset seen downstream (a restarted sync master may renumber the ring, so a
+    // later spell can carry a smaller number): the onset is the latest one before the latch.
+    let mut dark_onsets: Vec<u64> = Vec::new();
     let timeout = Duration::from_secs(30) + cfg.member_timeout();
     let found = observe::wait_for(
         s,
@@ -290,7 +292,7 @@ fn judge_detection(
         timeout,
         |snap| {
             if let Some(m) = snap.member(down).filter(|m| m.dark) {
-                dark_onset = dark_onset.or(m.dark_since_cycle);
+                dark_onsets.extend(m.dark_since_cycle.filter(|c| !dark_onsets.contains(c)));
             }
         },
         |snap| p.expect.must.iter().all(|d| latched(snap, d.member, base)),
@@ -319,6 +321,13 @@ fn judge_detection(
     let _ = observe::wait_cycles(s, cfg, longest + 16, Duration::from_secs(10));
     let last = observe::snapshot(s, cfg);
     // The onset.
+    let down_latch = detected.member(down).and_then(|m| m.ring_fault_cycle);
+    let dark_onset = dark_onsets
+        .iter()
+        .copied()
+        .filter(|&o| down_latch.is_none_or(|l| o <= l))
+        .max()
+        .or_else(|| dark_onsets.first().copied());
     let onset = if dead {
         dark_onset.or_else(|| {
             detected
