@@ -133,6 +133,10 @@ pub struct CardRow {
     pub ascii: Option<u16>,
     /// PMAC Ethernet protocol TCP port.
     pub pmac_eth: Option<u16>,
+    /// Power cards: raw TCP `gpascii` port.
+    pub gpascii: Option<u16>,
+    /// Power cards: SSH port.
+    pub ssh: Option<u16>,
     /// OS pid.
     pub pid: Option<u32>,
     /// Ring-fault bit of the card (X:$0003 bit 4), from its `at` queryable.
@@ -357,6 +361,8 @@ pub fn build(
                 profile: c.profile.clone(),
                 ascii: extra_port(s, &["ascii", "ascii_port"]),
                 pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
+                gpascii: extra_port(s, &["gpascii"]),
+                ssh: extra_port(s, &["ssh"]),
                 pid: pid_of(&c.name, s),
                 ring_fault: None,
                 motors_killed: None,
@@ -418,6 +424,23 @@ pub fn build(
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
     v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
+}
+
+/// A card's host ports: `gpascii …  ssh …` for a Power card, `ascii …  pmac_eth …` otherwise.
+fn card_ports_text(c: &CardRow) -> String {
+    if c.gpascii.is_some() || c.ssh.is_some() {
+        format!(
+            "gpascii 127.0.0.1:{}  ssh 127.0.0.1:{}",
+            opt(c.gpascii),
+            opt(c.ssh)
+        )
+    } else {
+        format!(
+            "ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}",
+            opt(c.ascii),
+            opt(c.pmac_eth)
+        )
+    }
 }
 
 /// `  RING FAULT, motors killed  program start @cycle N` (empty when nothing is known).
@@ -523,13 +546,12 @@ pub fn render_table(s: &ClusterStatus) -> String {
     for c in &s.cards {
         let _ = writeln!(
             o,
-            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}{}",
+            "card {} ({}, #{} {}): {}{}",
             c.name,
             opt(c.pid),
             c.number,
             c.profile,
-            opt(c.ascii),
-            opt(c.pmac_eth),
+            card_ports_text(c),
             card_state_text(c)
         );
     }

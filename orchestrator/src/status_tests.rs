@@ -180,7 +180,17 @@ fn json_document_has_the_contract_fields() {
     card0
         .extra
         .insert("pmac_eth".into(), serde_json::json!("127.0.0.1:5002"));
+    // A Power card reports its gpascii and SSH ports instead.
+    let card1 = st[2].as_mut().unwrap();
+    card1
+        .extra
+        .insert("gpascii".into(), serde_json::json!(6001));
+    card1.extra.insert("ssh".into(), serde_json::json!(6002));
     let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st)).unwrap();
+    assert_eq!(doc["cards"][1]["gpascii"], 6001);
+    assert_eq!(doc["cards"][1]["ssh"], 6002);
+    assert_eq!(doc["cards"][0]["gpascii"], serde_json::Value::Null);
+    assert_eq!(doc["cards"][0]["ssh"], serde_json::Value::Null);
     for k in [
         "cluster",
         "clock",

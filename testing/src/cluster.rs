@@ -63,6 +63,7 @@ pub struct Builder {
     env: Vec<(String, String)>,
     up_args: Vec<String>,
     owner: Option<u32>,
+    run_dir: Option<PathBuf>,
 }
 
 static NAMES: AtomicU32 = AtomicU32::new(0);
@@ -142,7 +143,8 @@ impl Builder {
         self.drives.push(parse_table(toml_text));
         self
     }
-    /// Another top-level config key (e.g. `extra("rtf", 2.0.into())`).
+    /// Another config key (e.g. `extra("rtf", 2.0.into())`), or a key of a table by its
+    /// dotted path (`extra("ring.in_flight", 8.into())`; missing tables are created).
     pub fn extra(mut self, key: &str, value: Toml) -> Self {
         self.extra.insert(key.to_string(), value);
         self
@@ -165,6 +167,13 @@ impl Builder {
     /// The process the cluster lives with (`mcc up --owner-pid`; default: this process).
     pub fn owner(mut self, pid: u32) -> Self {
         self.owner = Some(pid);
+        self
+    }
+    /// The `MCC_RUN_DIR` the cluster runs in (default: a private directory, removed at
+    /// teardown). A directory given here is never removed: `mcc down` removes the cluster's
+    /// own `<it>/<name>`, and a test can check that a refused start left nothing there.
+    pub fn run_dir(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.run_dir = Some(dir.into());
         self
     }
     /// An extra `mcc up` argument (e.g. `--pty`, `--chain-port`, `4001`).
@@ -245,7 +254,7 @@ impl Builder {
             doc.insert("drives".into(), Toml::Array(drives));
         }
         for (k, v) in &self.extra {
-            doc.insert(k.clone(), v.clone());
+            set_path(&mut doc, k, v.clone())?;
         }
         Ok(doc)
     }
@@ -266,7 +275,7 @@ impl Builder {
             .map_err(|e| Error::new(ErrorKind::Other, format!("{}: {e}", dir.display())))?;
         let runner = Runner {
             mcc,
-            run_dir: dir.join("run"),
+            run_dir: self.run_dir.clone().unwrap_or_else(|| dir.join("run")),
             cluster: name.clone(),
             env: self.env.clone(),
         };
@@ -310,6 +319,27 @@ impl Builder {
         }
         Ok(cluster)
     }
+}
+
+/// Set `path` (`key` or `table.key`) in `doc`; an error if a step of the path is a value that
+/// is not a table.
+fn set_path(doc: &mut Table, path: &str, value: Toml) -> Result<()> {
+    let mut at = doc;
+    let mut parts = path.split('.').peekable();
+    while let Some(k) = parts.next() {
+        if parts.peek().is_none() {
+            at.insert(k.to_string(), value);
+            return Ok(());
+        }
+        let next = at.entry(k).or_insert_with(|| Toml::Table(Table::new()));
+        at = next.as_table_mut().ok_or_else(|| {
+            Error::new(
+                ErrorKind::Config,
+                format!("config key {path:?}: {k:?} is not a table"),
+            )
+        })?;
+    }
+    Ok(())
 }
 
 fn parse_table(text: &str) -> Table {
@@ -481,6 +511,7 @@ impl Cluster {
             env: Vec::new(),
             up_args: Vec::new(),
             owner: None,
+            run_dir: None,
         }
     }
 
@@ -958,10 +989,12 @@ master = 0
             .station_plant("station0", "[nodes.1]\nhome_position = 9000")
             .drive("name = \"drive0\"\naddress = 1\nstation = \"station0\"")
             .extra("rtf", Toml::Float(2.0))
+            .extra("ring.in_flight", Toml::Integer(8))
             .build_config(&runner())
             .unwrap();
         assert_eq!(doc["clock"].as_str(), Some("lockstep"));
         assert_eq!(doc["rtf"].as_float(), Some(2.0));
+        assert_eq!(doc["ring"]["in_flight"].as_integer(), Some(8));
         let cards = doc["cards"].as_array().unwrap();
         // The Turbo card drops the PMAC2 ring-check defaults; the caller's spelling replaces
         // the default's.
@@ -1003,6 +1036,13 @@ master = 0
             e.message.contains("station9") && e.message.contains("station0"),
             "{e}"
         );
+        let e = Cluster::builder()
+            .config_toml(BASE)
+            .extra("cluster.name", Toml::Integer(1))
+            .build_config(&runner())
+            .unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Config);
+        assert!(e.message.contains("\"cluster\" is not a table"), "{e}");
         let e = Cluster::builder()
             .config_toml("cards = [")
             .build_config(&runner())

@@ -8,7 +8,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ExitStatus, Stdio};
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use crate::error::{Error, ErrorKind, Result};
@@ -129,6 +129,37 @@ impl Foreground {
                 ));
             }
             std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// `mcc --cluster NAME args…` on this cluster (bounded); its output, whatever the exit
+    /// status (e.g. `fg.mcc(&["fault", "station0", "cut"])`).
+    pub fn mcc(&self, args: &[&str]) -> Result<std::process::Output> {
+        self.runner.output(args, VERB_TIMEOUT)
+    }
+
+    /// Read stdout lines until one contains `text` (e.g. a `mcc event:` line); that line. The
+    /// lines read on the way are consumed. An error naming `text` and the lines seen if none
+    /// comes within `timeout` or the output ends first.
+    pub fn wait_line(&self, text: &str, timeout: Duration) -> Result<String> {
+        let deadline = Instant::now() + timeout;
+        let mut seen = Vec::new();
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.contains(text) => return Ok(l),
+                Ok(l) => seen.push(l),
+                Err(e) => {
+                    let why = match e {
+                        RecvTimeoutError::Timeout => format!("within {timeout:?}"),
+                        RecvTimeoutError::Disconnected => "before mcc up's output ended".into(),
+                    };
+                    return Err(Error::new(
+                        ErrorKind::WaitTimeout,
+                        format!("no line containing {text:?} {why}; lines seen: {seen:?}"),
+                    ));
+                }
+            }
         }
     }
 

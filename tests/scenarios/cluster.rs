@@ -1,14 +1,63 @@
 //! Multi-process clusters: `mcc up --detach`, `status --json`, `fault`, `down`, supervisor
-//! death, Ctrl-C, two clusters side by side, bad configs. Every test uses its own cluster name
-//! and run directory, bounds every wait, and cleans up in a Drop guard.
+//! death, Ctrl-C, two clusters side by side, bad configs. Every test runs its cluster through
+//! the test API (`mcc_testing`: its own cluster name and run directory, bounded waits, taken
+//! down when dropped).
 
-use std::time::Duration;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
-use mcc_tests::cluster::{all_pids, member_pids, Cluster, Foreground};
-use mcc_tests::process::{mcc, pid_alive, run_base, send_signal, text, unique, wait_until};
+use mcc_testing::{Builder, Cluster, FaultOptions, Foreground, Status};
+use mcc_tests::process::{
+    bin_dir, mcc, pid_alive, run_base, send_signal, text, unique, wait_until,
+};
 use serde_json::Value;
 
-/// `mcc args…` must fail (within 30 s) with a message containing every one of `want`.
+/// Every wait here is a generous bound on a loaded machine, never what is asserted.
+const WAIT: Duration = Duration::from_secs(60);
+
+/// A cluster of this test binary's `mcc`, named after `tag`.
+fn builder(tag: &str) -> Builder {
+    Cluster::builder().mcc(bin_dir().join("mcc")).tag(tag)
+}
+
+fn start(b: Builder) -> Cluster {
+    b.start().unwrap_or_else(|e| panic!("mcc up: {e}"))
+}
+
+/// The status document now.
+fn status(c: &mut Cluster) -> Value {
+    c.status().unwrap_or_else(|e| panic!("mcc status: {e}")).0
+}
+
+/// Wait (bounded by [`WAIT`]) until `f` holds on the status document; that document.
+fn wait(c: &mut Cluster, what: &str, mut f: impl FnMut(&Value) -> bool) -> Value {
+    c.wait_until(None, WAIT, |st| f(&st.0))
+        .unwrap_or_else(|e| panic!("waiting for {what}: {e}"))
+        .0
+}
+
+/// The member pids of a status document (each member must have one).
+fn member_pids(doc: &Value) -> Vec<u64> {
+    doc["members"]
+        .as_array()
+        .expect("members")
+        .iter()
+        .map(|m| m["pid"].as_u64().expect("member pid"))
+        .collect()
+}
+
+/// An `mcc` verb on `c` that must fail with a message containing every one of `want`.
+fn verb_refused(c: &Cluster, args: &[&str], want: &[&str]) {
+    let out = c.mcc(args);
+    assert!(!out.status.success(), "mcc {args:?} succeeded");
+    let err = text(&out.stderr);
+    for w in want {
+        assert!(err.contains(w), "mcc {args:?}: {err}");
+    }
+}
+
+/// `mcc args…` (no cluster of ours) must fail (within 30 s) with a message containing every
+/// one of `want`.
 fn refused(args: &[&str], want: &[&str]) {
     let out = mcc(args, Duration::from_secs(30));
     assert!(!out.status.success(), "mcc {args:?} succeeded");
@@ -20,11 +69,8 @@ fn refused(args: &[&str], want: &[&str]) {
 
 #[test]
 fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
-    let c = Cluster::up(
-        "life",
-        &["--clock", "lockstep", "--cards", "2", "--stations", "2"],
-    );
-    let s1 = c.status();
+    let mut c = start(builder("life").clock("lockstep").cards(2).stations(2));
+    let s1 = status(&mut c);
     assert_eq!(s1["cluster"], c.name.as_str());
     assert_eq!(s1["clock"], "lockstep");
     assert_eq!(s1["ring"]["locked"], true, "{s1:#}");
@@ -42,59 +88,44 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
     }
     let cycle1 = s1["ring"]["cycle"].as_u64().unwrap();
     std::thread::sleep(Duration::from_millis(300));
-    let cycle2 = c.status()["ring"]["cycle"].as_u64().unwrap();
+    let cycle2 = status(&mut c)["ring"]["cycle"].as_u64().unwrap();
     assert!(
         cycle2 > cycle1,
         "cycle did not advance: {cycle1} -> {cycle2}"
     );
 
     // A second `up` of the same cluster is refused.
-    refused(
-        &["up", "--detach", "--cluster", &c.name],
-        &["already running"],
-    );
+    verb_refused(&c, &["up", "--detach"], &["already running"]);
 
     // Cut station0's outgoing link: station0 → card1 is the broken link.
-    let out = mcc(
-        &["fault", "station0", "cut", "--cluster", &c.name],
-        Duration::from_secs(30),
-    );
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let mut last = Value::Null;
-    wait_until("the cut to be reported", Duration::from_secs(30), || {
-        last = c.status();
-        last["ring"]["broken_link"] == "station0 → card1" && last["ring"]["faulted"] == true
+    c.fault("station0", "cut", FaultOptions::default())
+        .unwrap_or_else(|e| panic!("mcc fault: {e}"));
+    let last = wait(&mut c, "the cut to be reported", |d| {
+        d["ring"]["broken_link"] == "station0 → card1" && d["ring"]["faulted"] == true
     });
     let st0 = &last["members"][1];
     assert_eq!(st0["faults"][0]["kind"], "cut", "{last:#}");
-    let bad = mcc(
-        &["fault", "nobody", "cut", "--cluster", &c.name],
-        Duration::from_secs(30),
+    // The CLI's own refusals (the test API refuses these before running mcc).
+    verb_refused(
+        &c,
+        &["fault", "nobody", "cut"],
+        &["unknown member \"nobody\""],
     );
-    assert!(
-        text(&bad.stderr).contains("unknown member \"nobody\""),
-        "{}",
-        text(&bad.stderr)
-    );
-    let bad = mcc(
-        &["fault", "station0", "melt", "--cluster", &c.name],
-        Duration::from_secs(30),
-    );
-    assert!(
-        text(&bad.stderr).contains("unknown fault kind 'melt'"),
-        "{}",
-        text(&bad.stderr)
+    verb_refused(
+        &c,
+        &["fault", "station0", "melt"],
+        &["unknown fault kind 'melt'"],
     );
 
     let pids = member_pids(&last);
     let sup = last["supervisor"]["pid"].as_u64().unwrap();
-    let out = c.down();
+    let out = c.mcc(&["down"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     for p in pids.iter().chain([&sup]) {
         assert!(!pid_alive(*p), "pid {p} survived mcc down");
     }
-    assert!(!run_base().join(&c.name).exists(), "run dir left behind");
-    refused(&["status", "--cluster", &c.name], &["not running"]);
+    assert!(!c.run_base().join(&c.name).exists(), "run dir left behind");
+    verb_refused(&c, &["status"], &["not running"]);
 }
 
 #[test]
@@ -102,13 +133,13 @@ fn killed_supervisor_takes_its_members_with_it() {
     // The default (paced) cluster, one member frozen: every member still exits within 3 s of
     // the orchestrator's SIGKILL (parent-death signal; the orphaned process group of a stopped
     // member gets SIGHUP + SIGCONT from the kernel).
-    let c = Cluster::up("orphan", &[]);
-    let doc = c.status();
+    let mut c = start(builder("orphan"));
+    let doc = status(&mut c);
     let sup = doc["supervisor"]["pid"].as_u64().unwrap();
     let pids = member_pids(&doc);
     send_signal(pids[1], "-STOP");
     send_signal(sup, "-KILL");
-    let t0 = std::time::Instant::now();
+    let t0 = Instant::now();
     wait_until(
         "members to exit after the supervisor died",
         Duration::from_secs(20),
@@ -119,94 +150,106 @@ fn killed_supervisor_takes_its_members_with_it() {
         took < Duration::from_secs(3),
         "members took {took:?} to exit"
     );
-    let out = c.down();
+    let out = c.mcc(&["down"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(!run_base().join(&c.name).exists());
+    assert!(!c.run_base().join(&c.name).exists());
+}
+
+/// A foreground `mcc up` of this test binary's `mcc`; its status once the ring locked.
+fn foreground(tag: &str, extra: &[&str]) -> (Foreground, Status) {
+    let mut fg = Foreground::start(&bin_dir().join("mcc"), tag, extra)
+        .unwrap_or_else(|e| panic!("mcc up: {e}"));
+    fg.wait_ready(Duration::from_secs(120))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let st = fg.status().unwrap_or_else(|e| panic!("mcc status: {e}"));
+    (fg, st)
 }
 
 #[test]
 fn ctrl_c_in_the_foreground_stops_everything() {
-    let name = unique("fg");
-    let mut guard = Cluster::guard(&name);
-    let mut fg = Foreground::start(
-        &name,
+    let (mut fg, doc) = foreground(
+        "fg",
         &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
     );
-    fg.wait_ready(Duration::from_secs(120));
-    let doc = guard.status();
-    guard.pids = all_pids(&doc);
-    let pids = member_pids(&doc);
+    let pids = member_pids(&doc.0);
     send_signal(u64::from(fg.child.id()), "-INT");
-    let status = fg.wait_exit("on SIGINT", Duration::from_secs(30));
+    let status = fg
+        .wait_exit(Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("on SIGINT: {e}"));
     assert!(status.success(), "exit status {status}");
     for p in pids {
         assert!(!pid_alive(p), "member pid {p} survived Ctrl-C");
     }
-    assert!(!run_base().join(&name).exists(), "run dir left behind");
+    assert!(
+        !fg.run_base().join(fg.name()).exists(),
+        "run dir left behind"
+    );
 }
 
 #[test]
 fn two_clusters_run_side_by_side_without_seeing_each_other() {
-    let a = Cluster::up(
-        "a",
-        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
-    );
-    let b = Cluster::up(
-        "b",
-        &["--clock", "lockstep", "--cards", "1", "--stations", "1"],
-    );
-    let (da, db) = (a.status(), b.status());
+    let one = || builder("ab").clock("lockstep").cards(1).stations(1);
+    let mut a = start(one());
+    let mut b = start(one());
+    let (da, db) = (status(&mut a), status(&mut b));
     assert_ne!(da["supervisor"]["endpoint"], db["supervisor"]["endpoint"]);
     let (pa, pb) = (member_pids(&da), member_pids(&db));
     assert!(pa.iter().all(|p| !pb.contains(p)), "{pa:?} vs {pb:?}");
     // Cutting a's ring leaves b's alone.
-    let out = mcc(
-        &["fault", "station0", "cut", "--cluster", &a.name],
-        Duration::from_secs(30),
-    );
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    wait_until("a's cut to be reported", Duration::from_secs(30), || {
-        a.status()["ring"]["broken_link"] == "station0 → card0"
+    a.fault("station0", "cut", FaultOptions::default())
+        .unwrap_or_else(|e| panic!("mcc fault: {e}"));
+    wait(&mut a, "a's cut to be reported", |d| {
+        d["ring"]["broken_link"] == "station0 → card0"
     });
-    let db2 = b.status();
+    let db2 = status(&mut b);
     assert_eq!(db2["ring"]["locked"], true, "{db2:#}");
     assert_eq!(db2["ring"]["broken_link"], Value::Null, "{db2:#}");
     assert!(db2["ring"]["cycle"].as_u64() > db["ring"]["cycle"].as_u64());
     // Taking a down leaves b running.
-    assert!(a.down().status.success());
+    assert!(a.mcc(&["down"]).status.success());
     assert!(pa.iter().all(|p| !pid_alive(*p)));
-    assert_eq!(b.status()["ring"]["locked"], true);
+    assert_eq!(status(&mut b)["ring"]["locked"], true);
+}
+
+/// A start of `b` in a run directory of its own must be refused with a message containing
+/// every one of `want`, and leave nothing in that run directory.
+fn start_refused(b: Builder, what: &str, want: &[&str]) {
+    let dir: PathBuf = run_base().join(unique("refused"));
+    match b.run_dir(&dir).start() {
+        Ok(c) => panic!("{what} was accepted: cluster {}", c.name),
+        Err(e) => {
+            assert_eq!(e.kind, mcc_testing::ErrorKind::Config, "{what}: {e}");
+            for w in want {
+                assert!(e.to_string().contains(w), "{what}: {e}");
+            }
+        }
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .map(|d| d.filter_map(Result::ok).map(|e| e.path()).collect())
+        .unwrap_or_default();
+    assert!(left.is_empty(), "{what} left a run dir: {left:?}");
+    let _ = std::fs::remove_dir(&dir);
 }
 
 #[test]
 fn bad_config_and_arguments_get_a_message_naming_the_problem() {
-    let dir = run_base().join("configs");
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("bad.toml");
-    std::fs::write(
-        &file,
-        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nprofile = \"pmac3\"\n",
-    )
-    .unwrap();
-    let name = unique("bad");
-    let _guard = Cluster::guard(&name);
-    let config = file.to_str().unwrap();
-    let up_with_config = ["up", "--detach", "--cluster", &name, "--config", config];
-    refused(&up_with_config, &["cards[0].profile", "pmac3"]);
-    assert!(
-        !run_base().join(&name).exists(),
-        "a rejected config must not leave a run dir"
+    let card = "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\n";
+    start_refused(
+        builder("bad").config_toml(format!("{card}profile = \"pmac3\"\n")),
+        "profile pmac3",
+        &["cards[0].profile", "pmac3"],
     );
-
-    std::fs::write(
-        &file,
-        "[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\nnodez = [1]\n",
-    )
-    .unwrap();
-    refused(&up_with_config, &["nodez"]);
+    start_refused(
+        builder("bad").config_toml(format!("{card}nodez = [1]\n")),
+        "key nodez",
+        &["nodez"],
+    );
     refused(&["up", "--cluster", "../evil", "--detach"], &["--cluster"]);
     refused(&["up", "--clock", "sometimes"], &["sometimes"]);
-    refused(&["up", "--rate=-3", "--cluster", &name], &["--rate"]);
+    refused(
+        &["up", "--rate=-3", "--cluster", &unique("bad")],
+        &["--rate"],
+    );
     // The clock keys: refused before anything starts, the key and the problem named.
     for (args, problem) in [
         (&["--rtf", "0"][..], "real-time factor"),
@@ -218,25 +261,17 @@ fn bad_config_and_arguments_get_a_message_naming_the_problem() {
             "only the paced clock",
         ),
     ] {
-        let mut a = vec!["up", "--detach", "--cluster", &name];
-        a.extend_from_slice(args);
-        refused(&a, &["rtf", problem]);
-        assert!(!run_base().join(&name).exists(), "{args:?} left a run dir");
+        let b = args.iter().fold(builder("bad"), |b, a| b.up_arg(a));
+        start_refused(b, &format!("{args:?}"), &["rtf", problem]);
     }
-    std::fs::write(
-        &file,
-        "rate_hz = 100\nmember_timeout_ms = 5\n[[cards]]\nname = \"card0\"\nnumber = 0\nmaster = 0\n",
-    )
-    .unwrap();
-    refused(
-        &up_with_config,
+    start_refused(
+        builder("bad").config_toml(format!("rate_hz = 100\nmember_timeout_ms = 5\n{card}")),
+        "member_timeout_ms 5",
         &["member_timeout_ms", "shorter than one ring period"],
     );
-    let _ = std::fs::remove_dir_all(&dir);
-    let _ = std::fs::remove_dir(run_base());
 }
 
-/// The number in a card's reply (`9995.6<CR><ACK>` → 9995.6).
+/// The number a card answered (`9995.6` → 9995.6).
 fn number(reply: &str) -> f64 {
     let t = reply.trim_matches(|c: char| c.is_control() || c.is_whitespace());
     t.parse()
@@ -250,73 +285,58 @@ fn status_word2(reply: &str) -> u32 {
     u32::from_str_radix(&t[6..], 16).expect("hex")
 }
 
+/// The single reply of `line` on card 0 (the test fails if the card refuses it).
+fn ask(c: &Cluster, line: &str) -> String {
+    match c.send(&[line], Some(0)) {
+        Ok(mut r) => r.pop().unwrap_or_default(),
+        Err(e) => panic!("{line}: {e}"),
+    }
+}
+
 #[test]
 fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
-    // No --clock: the default.
-    let c = Cluster::up("paced", &[]);
-    let doc = c.status();
+    // No clock option: the default.
+    let mut c = start(builder("paced"));
+    let doc = status(&mut c);
     assert_eq!(doc["clock"], "paced", "{doc:#}");
     assert_eq!(doc["rtf_requested"], 1.0);
     assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
-    let wait = |what: &str, f: &mut dyn FnMut() -> bool| {
-        wait_until(what, Duration::from_secs(120), f);
-    };
-    // Jog to 10000 counts and stop there.
-    let r = c.ascii(0, &["#1J=10000"]);
-    assert!(!r.contains('\x07'), "{r:?}");
-    wait("the jog to end at 10000", &mut || {
-        let p = number(&c.ascii(0, &["#1P"]));
-        let w2 = status_word2(&c.ascii(0, &["#1?"]));
+    let long = Duration::from_secs(120);
+    // Jog to 10000 counts and stop there (a refused line fails the test in `ask`).
+    ask(&c, "#1J=10000");
+    wait_until("the jog to end at 10000", long, || {
+        let p = number(&ask(&c, "#1P"));
+        let w2 = status_word2(&ask(&c, "#1?"));
         (p - 10000.0).abs() < 10.0 && w2 & 1 == 1
     });
     // Home: the search runs back down to the home switch (5000-6000 counts on the plant),
     // the trigger becomes zero and the motor settles there.
-    let r = c.ascii(0, &["I123=-32", "#1HM"]);
-    assert!(!r.contains('\x07'), "{r:?}");
-    wait("home complete", &mut || {
-        let w2 = status_word2(&c.ascii(0, &["#1?"]));
+    ask(&c, "I123=-32");
+    ask(&c, "#1HM");
+    wait_until("home complete", long, || {
+        let w2 = status_word2(&ask(&c, "#1?"));
         w2 & 0x400 != 0 && w2 & 1 == 1
     });
-    let p = number(&c.ascii(0, &["#1P"]));
+    let p = number(&ask(&c, "#1P"));
     assert!(p.abs() < 10.0, "homed at {p}");
     // LINEAR 10 units at F5 with TA200: 10/5 s + 0.2 s = 2.2 s of ring time = 4969 servo
     // cycles at I10 = 3713707 (0.44271 ms), recorded by the card's own data gathering.
-    let setup = c.ascii(
-        0,
-        &[
-            "&1#1->1000X",
-            "OPEN PROG 2 CLEAR",
-            "LINEAR ABS TA200 TS0 F5",
-            "X10",
-            "CLOSE",
-        ],
-    );
-    assert!(!setup.contains('\x07'), "{setup:?}");
-    let out = run_base().join(format!("paced-gather-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    let dir = out.to_string_lossy().into_owned();
-    let started = std::time::Instant::now();
-    let text = mcc_tests::process::ok(
-        c.mcc(&[
-            "gather", "--card", "0", "--motors", "1", "--cycles", "6000", "--run", "&1B2R",
-            "--out", &dir,
-        ]),
-        "mcc gather",
-    );
-    assert!(text.contains("gather.csv"), "{text}");
-    let csv = std::fs::read_to_string(out.join("gather.csv")).expect("gather.csv");
-    let cmd: Vec<f64> = csv
-        .lines()
-        .skip(1)
-        .map(|l| {
-            l.split(',')
-                .nth(2)
-                .expect("column")
-                .parse()
-                .expect("number")
-        })
-        .collect();
-    let _ = std::fs::remove_dir_all(&out);
+    let setup = [
+        "&1#1->1000X",
+        "OPEN PROG 2 CLEAR",
+        "LINEAR ABS TA200 TS0 F5",
+        "X10",
+        "CLOSE",
+    ];
+    if let Err(e) = c.send(&setup, Some(0)) {
+        panic!("program set-up: {e}");
+    }
+    let started = Instant::now();
+    let traces = c
+        .gather(&[1], &[0], 6000, Some("&1B2R"))
+        .unwrap_or_else(|e| panic!("mcc gather: {e}"));
+    assert_eq!(traces.len(), 1);
+    let cmd = traces[0].commanded(1);
     assert_eq!(cmd.len(), 6001);
     let from = cmd[0];
     assert!(from.abs() < 10.0, "starts at home: {from}");
@@ -338,63 +358,55 @@ fn the_default_paced_cluster_jogs_homes_and_runs_a_program_in_ring_time() {
         (cycles - want).abs() <= 3.0,
         "{cycles} cycles, want {want:.1}"
     );
-    let doc = c.status();
+    let doc = status(&mut c);
     assert_eq!(doc["ring"]["faulted"], false, "{doc:#}");
     assert!(doc["rtf"].as_f64().is_some(), "{doc:#}");
 }
 
 #[path = "cluster_load.rs"]
 mod load;
+
 #[test]
 fn the_foreground_terminal_prints_cluster_events_as_they_happen() {
-    let name = unique("events");
-    let mut guard = Cluster::guard(&name);
-    let mut fg = Foreground::start(&name, &[]);
-    fg.wait_ready(Duration::from_secs(120));
-    let doc = guard.status();
-    guard.pids = all_pids(&doc);
-    let verb = |args: &[&str]| {
-        let mut a = args.to_vec();
-        a.extend_from_slice(&["--cluster", &name]);
-        let out = mcc(&a, Duration::from_secs(60));
+    let (mut fg, _) = foreground("events", &[]);
+    let verb = |fg: &Foreground, args: &[&str]| {
+        let out = fg.mcc(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
         assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
     };
+    let line =
+        |fg: &Foreground, text: &str| fg.wait_line(text, WAIT).unwrap_or_else(|e| panic!("{e}"));
     // A cut: the cards latch (member, class, cycle), each on its own line.
-    verb(&["fault", "station0", "cut"]);
-    let l = fg.wait_line(
-        "ring fault latched: card1 at cycle",
-        Duration::from_secs(60),
-    );
+    verb(&fg, &["fault", "station0", "cut"]);
+    let l = line(&fg, "ring fault latched: card1 at cycle");
     assert!(l.starts_with("mcc event: "), "{l}");
     assert!(l.contains("byte violations (loss of light)"), "{l}");
     // Mended and reset: healthy again.
-    verb(&["fault", "clear"]);
-    wait_until("the ring to re-lock", Duration::from_secs(60), || {
-        let d = guard.status();
-        d["members"]
+    verb(&fg, &["fault", "clear"]);
+    let st = |fg: &mut Foreground| fg.status().unwrap_or_else(|e| panic!("mcc status: {e}")).0;
+    wait_until("the ring to re-lock", WAIT, || {
+        st(&mut fg)["members"]
             .as_array()
             .unwrap()
             .iter()
             .all(|m| m["locked"] == true && m["dark"] == false)
     });
-    wait_until("the ring fault to clear", Duration::from_secs(60), || {
-        for n in 0..2 {
-            guard.ascii(n, &["$$$"]);
+    wait_until("the ring fault to clear", WAIT, || {
+        for n in ["0", "1"] {
+            let _ = fg.mcc(&["send", "--card", n, "$$$"]);
         }
-        let _ = mcc(
-            &["fault", "reset", "--cluster", &name],
-            Duration::from_secs(30),
-        );
-        guard.status()["ring"]["faulted"] == false
+        let _ = fg.mcc(&["fault", "reset"]);
+        st(&mut fg)["ring"]["faulted"] == false
     });
-    fg.wait_line("ring healthy again at cycle", Duration::from_secs(60));
+    line(&fg, "ring healthy again at cycle");
     // A member killed and restarted.
-    verb(&["fault", "station1", "kill"]);
-    fg.wait_line("station1 is gone", Duration::from_secs(60));
-    verb(&["fault", "station1", "restart"]);
-    fg.wait_line("station1 is back", Duration::from_secs(60));
+    verb(&fg, &["fault", "station1", "kill"]);
+    line(&fg, "station1 is gone");
+    verb(&fg, &["fault", "station1", "restart"]);
+    line(&fg, "station1 is back");
     send_signal(u64::from(fg.child.id()), "-INT");
-    let status = fg.wait_exit("on SIGINT", Duration::from_secs(30));
+    let status = fg
+        .wait_exit(Duration::from_secs(30))
+        .unwrap_or_else(|e| panic!("on SIGINT: {e}"));
     assert!(status.success(), "exit status {status}");
 }
 

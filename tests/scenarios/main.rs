@@ -10,6 +10,7 @@ mod host_limits;
 mod macro_station;
 mod motion;
 mod programs;
+mod recovery;
 mod reliability;
 mod ring_inprocess;
 mod station_aux;

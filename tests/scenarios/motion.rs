@@ -50,7 +50,7 @@ pub(crate) struct Rig {
 
 impl Rig {
     /// Card 0 (sync master) + station 0 with all 8 servo nodes, `plant` on every node.
-    fn new(plant: NodePlantConfig) -> Rig {
+    pub(crate) fn new(plant: NodePlantConfig) -> Rig {
         Rig::with_card(plant, ClusterConfig::default_cluster(1, 1), Profile::Pmac2)
     }
 
@@ -108,7 +108,7 @@ impl Rig {
 
     /// Motor x's D: register at calculation-block offset `off` (D:$0028 commanded, $002B
     /// actual, $004B following error), counts.
-    fn d_reg(&mut self, x: u16, off: u16) -> f64 {
+    pub(crate) fn d_reg(&mut self, x: u16, off: u16) -> f64 {
         let c = self.card();
         decode_fixed(c.state.read_long(u32::from(0x0020 + (x - 1) * 0x3C + off))) / D_UNITS
     }

@@ -7,8 +7,8 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use mcc_tests::cluster::Cluster;
-use mcc_tests::process::ok;
+use mcc_testing::{Cluster, FaultOptions};
+use mcc_tests::process::bin_dir;
 
 /// Longest wait for one reply (generous: the machine may be fully loaded; never asserted).
 const REPLY_WAIT: Duration = Duration::from_secs(60);
@@ -17,14 +17,9 @@ const REPLY_WAIT: Duration = Duration::from_secs(60);
 struct Port(TcpStream);
 
 impl Port {
-    fn open(c: &Cluster, n: u64) -> Port {
-        let doc = c.status();
-        let port = doc["cards"]
-            .as_array()
-            .and_then(|cards| cards.iter().find(|c| c["number"] == n))
-            .and_then(|c| c["ascii"].as_u64())
-            .unwrap_or_else(|| panic!("card {n} has no ascii port: {doc:#}"));
-        let s = TcpStream::connect(("127.0.0.1", port as u16)).expect("connect ascii port");
+    fn open(c: &mut Cluster, n: u8) -> Port {
+        let (port, _) = c.ports(n).unwrap_or_else(|e| panic!("card {n} ports: {e}"));
+        let s = TcpStream::connect(("127.0.0.1", port)).expect("connect ascii port");
         s.set_read_timeout(Some(Duration::from_millis(200)))
             .expect("read timeout");
         let mut p = Port(s);
@@ -76,8 +71,14 @@ impl Port {
 
 #[test]
 fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
-    let c = Cluster::up("stations", &["--cards", "1", "--stations", "2"]);
-    let mut p = Port::open(&c, 0);
+    let mut c = Cluster::builder()
+        .mcc(bin_dir().join("mcc"))
+        .tag("stations")
+        .cards(1)
+        .stations(2)
+        .start()
+        .unwrap_or_else(|e| panic!("mcc up: {e}"));
+    let mut p = Port::open(&mut c, 0);
     p.transcript(&[
         ("MS0,MI8", "8\r\x06"),
         ("ms8,i9", "4\r\x06"),
@@ -109,13 +110,10 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     ]);
     // The daisy chain (`@0 MS0,MI8`, the way from a terminal): the card's chain reply waits
     // for the ring as a port's does.
-    let out = ok(
-        c.mcc(&["send", "--card", "0", "--json", "MS0,MI8..9", "P1"]),
-        "mcc send",
-    );
-    let doc: serde_json::Value = serde_json::from_str(&out).expect("send JSON");
-    assert_eq!(doc[0]["reply"], "8\n4\n", "{doc:#}");
-    assert_eq!(doc[1]["reply"], "4\n", "{doc:#}");
+    let replies = c
+        .send(&["MS0,MI8..9", "P1"], Some(0))
+        .unwrap_or_else(|e| panic!("mcc send: {e}"));
+    assert_eq!(replies, ["8\n4", "4"]);
     // A PLC copies a station variable and waits for the ring at the statement.
     p.transcript(&[
         ("OPEN PLC 1 CLEAR", "\x06"),
@@ -135,56 +133,57 @@ fn a_card_configures_and_diagnoses_its_stations_over_the_ring() {
     // SAVE, then the station process restarts: the saved setup comes back.
     p.transcript(&[("MS CONFIG0=37", "\x06"), ("MS SAVE0", "\x06")]);
     p.transcript(&[("MS CONFIG0=1", "\x06")]);
-    ok(c.mcc(&["fault", "station0", "restart"]), "restart station0");
-    recover(&c);
-    let mut p = Port::open(&c, 0);
+    drill(&mut c, "station0", "restart");
+    recover(&mut c);
+    let mut p = Port::open(&mut c, 0);
     p.transcript(&[("MS CONFIG0", "37\r\x06"), ("MS0,MI9", "6\r\x06")]);
     // A frozen station answers nothing: the card's access times out (ERR008, $010000).
-    ok(c.mcc(&["fault", "station1", "freeze"]), "freeze station1");
+    drill(&mut c, "station1", "freeze");
     p.transcript(&[("MS8,MI8", "\x07ERR008\r"), ("RHX:$0798", "010000\r\x06")]);
-    ok(c.mcc(&["fault", "station1", "restart"]), "restart station1");
-    recover(&c);
+    drill(&mut c, "station1", "restart");
+    recover(&mut c);
     // After a ring fault the station's latch holds until MS CLRF (on a healthy ring).
-    let mut p = Port::open(&c, 0);
-    ok(c.mcc(&["fault", "station0", "cut"]), "cut");
-    c.wait("station1 faulted", REPLY_WAIT, |d| {
+    let mut p = Port::open(&mut c, 0);
+    drill(&mut c, "station0", "cut");
+    wait(&mut c, "station1 faulted", |d| {
         d["stations"][1]["ring_fault"] == true
     });
-    ok(c.mcc(&["fault", "clear"]), "fault clear");
+    c.clear(None)
+        .unwrap_or_else(|e| panic!("mcc fault clear: {e}"));
     let deadline = Instant::now() + REPLY_WAIT;
     loop {
         // the card's own latch first ($$$), then the station's through node 15
         p.silent("$$$");
-        p = Port::open(&c, 0);
+        p = Port::open(&mut c, 0);
         if p.send("MS CLRF8") == "\x06" && p.send("MS8,MI4") == "$0\r\x06" {
             break;
         }
         assert!(Instant::now() < deadline, "station1 never cleared");
         std::thread::sleep(Duration::from_millis(200));
     }
-    c.wait("station1 healthy", REPLY_WAIT, |d| {
+    wait(&mut c, "station1 healthy", |d| {
         d["stations"][1]["ring_fault"] == false
     });
 }
 
-/// Members alive and locked again, then every latch reset.
-fn recover(c: &Cluster) {
-    c.wait("members back", REPLY_WAIT, |d| {
-        d["members"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .all(|m| m["alive"] == true && m["locked"] == true)
-    });
-    // `$$$` on a card whose ring-fault bit is set, then the members' latches (again while the
-    // ring settles: a latch clears only after a healthy check period)
-    c.wait("ring fault cleared", REPLY_WAIT, |d| {
-        for card in d["cards"].as_array().unwrap() {
-            if card["ring_fault"] != false {
-                Port::open(c, card["number"].as_u64().unwrap()).silent("$$$");
-            }
-        }
-        let _ = c.mcc(&["fault", "reset"]);
-        d["ring"]["faulted"] == false && d["ring"]["locked"] == true
-    });
+/// `mcc fault MEMBER KIND` (a ring fault or a process drill); the test fails if it does.
+fn drill(c: &mut Cluster, member: &str, kind: &str) {
+    if let Err(e) = c.fault(member, kind, FaultOptions::default()) {
+        panic!("mcc fault {member} {kind}: {e}");
+    }
+}
+
+/// Wait (bounded by [`REPLY_WAIT`]) until `f` holds on the status document.
+fn wait(c: &mut Cluster, what: &str, mut f: impl FnMut(&serde_json::Value) -> bool) {
+    if let Err(e) = c.wait_until(None, REPLY_WAIT, |st| f(&st.0)) {
+        panic!("waiting for {what}: {e}");
+    }
+}
+
+/// Members alive and locked again, then `$$$` on every card and the members' latches reset
+/// until the ring is healthy (the test API's recovery, as a PMAC user does it).
+fn recover(c: &mut Cluster) {
+    if let Err(e) = c.reset(REPLY_WAIT) {
+        panic!("recovery: {e}");
+    }
 }

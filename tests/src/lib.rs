@@ -1,6 +1,4 @@
-//! Shared helpers for the scenario tests: running the cluster's binaries ([`process`]) and
-//! multi-process clusters under a cleanup guard ([`cluster`]), in-process rings ([`inproc`]).
+//! Shared helpers for the scenario tests: running the cluster's binaries ([`process`])
 
-pub mod cluster;
 pub mod inproc;
 pub mod process;

@@ -94,18 +94,6 @@ pub fn mcc(args: &[&str], timeout: Duration) -> Output {
     run_bounded(mcc_command(args), None, timeout).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// `mcc args…` with `input` on stdin, killed (and the test failed) after `timeout`.
-pub fn mcc_with_input(args: &[&str], input: &[u8], timeout: Duration) -> Output {
-    run_bounded(mcc_command(args), Some(input), timeout).unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// `mcc args…` with extra environment variables, killed (and the test failed) after `timeout`.
-pub fn mcc_env(args: &[&str], env: &[(&str, &str)], timeout: Duration) -> Output {
-    let mut c = mcc_command(args);
-    c.envs(env.iter().copied());
-    run_bounded(c, None, timeout).unwrap_or_else(|e| panic!("{e}"))
-}
-
 /// Bytes as text (lossy).
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

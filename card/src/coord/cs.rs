@@ -135,6 +135,54 @@ impl CoordSystem {
         self.pos
     }
 
+    /// Motor positions (counts, axis frame: commanded + position bias) of the present
+    /// programmed position (the end of the last calculated move), [`CoordSystem::motors`]
+    /// order.
+    pub fn program_motor_positions(&self) -> Vec<f64> {
+        let base = self.xf.current().to_base(&self.pos);
+        self.axes
+            .motor_positions(&base, &self.cmd)
+            .iter()
+            .copied()
+            .collect()
+    }
+
+    /// Rename the programmed position without moving (`Z`, `{axis}=`, `PSET`): `f` changes
+    /// it; returns how much each motor's axis-frame position changes — the change of its
+    /// position bias (seed 7250-7270, 10187-10202, 11441-11452).
+    pub fn rename_axes(&mut self, f: impl FnOnce(&mut AxisVec)) -> Vec<f64> {
+        let old = self.program_motor_positions();
+        f(&mut self.pos);
+        let new = self.program_motor_positions();
+        let delta: Vec<f64> = new.iter().zip(&old).map(|(n, o)| n - o).collect();
+        for (c, d) in self.cmd.iter_mut().zip(&delta) {
+            *c += d;
+        }
+        if self.tl.is_idle() {
+            self.tl.clear(self.xf.current().to_base(&self.pos));
+        }
+        delta
+    }
+
+    /// After an abort: the programmed position becomes `p` (the end of the move that was
+    /// executing, where `J=` takes the motors and `R` resumes, seed 8397-8403).
+    pub fn set_program_position(&mut self, p: AxisVec) {
+        self.pos = p;
+        if self.abort.is_some() || self.tl.is_idle() {
+            self.tl.clear(self.xf.current().to_base(&self.pos));
+        }
+    }
+
+    /// Which axes (X..W) the motors of this C.S. use.
+    pub fn axes_used(&self) -> [bool; 9] {
+        self.axes.axes_used()
+    }
+
+    /// The time base has ramped to zero in a feed hold.
+    pub fn hold_complete(&self) -> bool {
+        self.tb.is_held() && self.tb.percent() == 0.0
+    }
+
     /// Trajectory time (ms).
     pub fn tau(&self) -> f64 {
         self.tau
@@ -411,6 +459,11 @@ impl CoordSystem {
     /// `H` feed hold.
     pub fn hold(&mut self) {
         self.tb.hold();
+    }
+
+    /// `\` program hold at `slew` (2^-23 ms per servo cycle per servo cycle).
+    pub fn program_hold(&mut self, slew: f64) {
+        self.tb.program_hold(slew);
     }
 
     /// `R`/`S` release of a feed hold.

@@ -21,6 +21,8 @@ pub struct TimeBase {
     present: f64,
     held: bool,
     recovering: bool,
+    /// `\` program hold: slew per servo cycle from I52 (used for the stop and the restart).
+    hold_slew: Option<f64>,
 }
 
 fn clean(v: f64, dflt: f64) -> f64 {
@@ -43,6 +45,7 @@ impl TimeBase {
             present: i10,
             held: false,
             recovering: false,
+            hold_slew: None,
         }
     }
 
@@ -66,6 +69,14 @@ impl TimeBase {
     pub fn hold(&mut self) {
         self.held = true;
         self.recovering = false;
+        self.hold_slew = None;
+    }
+
+    /// `\` program hold in a segmented move: ramp to 0 at `slew` (I52 converted to 2^-23 ms
+    /// per servo cycle), and back up at the same rate on `R` (seed 1962-1972).
+    pub fn program_hold(&mut self, slew: f64) {
+        self.hold();
+        self.hold_slew = Some(clean(slew, self.ix95));
     }
 
     /// `R`/`S` after `H`: ramp back up at Ix95, then Ix94 governs.
@@ -85,13 +96,16 @@ impl TimeBase {
     pub fn tick(&mut self) -> f64 {
         let target = if self.held { 0.0 } else { self.cmd };
         let slew = if self.held || self.recovering {
-            self.ix95
+            self.hold_slew.unwrap_or(self.ix95)
         } else {
             self.ix94
         };
         let d = target - self.present;
         if d.abs() <= slew {
             self.present = target;
+            if self.recovering {
+                self.hold_slew = None;
+            }
             self.recovering = false;
         } else {
             self.present += slew * d.signum();

@@ -34,6 +34,8 @@ pub enum ActionKind {
     Home,
     /// Zero the position here (`HMZ`).
     HomeZero,
+    /// `$*`: kill and read the absolute position (Ix10 = 0: zero it), bias 0.
+    AbsRead,
     /// A jog (`J+`, `J=…`, …), with the jog-until-trigger distance.
     Jog {
         /// Which jog.
@@ -68,6 +70,11 @@ pub enum ActionKind {
     MFlush,
     /// Re-match axis positions to motor positions (`PMATCH`).
     PMatch,
+    /// `{axis}={v}`: rename the axis's present commanded position through the motors'
+    /// position bias.
+    AxisRename(crate::domain::ast::Axis, f64),
+    /// `Z`: every axis of the C.S. renamed to zero.
+    ZeroAxes,
     // --- every motor / coordinate system
     /// Abort everything (CTRL-A).
     AbortAll,

@@ -133,7 +133,18 @@ impl Trajectory {
             self.plans.truncate(MAX_PLANS - 1);
         }
         let k = self.state_at(at);
-        self.plans.push((at, make(k)));
+        let plan = make(k);
+        if self.plans.len() == 1
+            && self.finished()
+            && k.v == 0.0
+            && k.a == 0.0
+            && plan.end_position() == Some(k.p)
+        {
+            // A motor at rest asked to stay where it is (`J/`, `J=` to the present
+            // position): no move is scheduled, so none is in progress (issue 14 item 16).
+            return;
+        }
+        self.plans.push((at, plan));
     }
 
     /// Replace everything by standing still at `p` now (killed, open loop, enable).

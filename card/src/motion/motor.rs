@@ -37,6 +37,9 @@ pub enum MotorCommand {
     Home,
     /// `HMZ`: the present commanded position becomes zero.
     HomeZero,
+    /// `$*` with Ix10 = 0: kill, the actual position becomes zero, position bias 0, home
+    /// complete cleared (seed 6590-6604).
+    AbsRead,
     /// `A` / `<CTRL-A>`: decelerate at Ix15; killed motors close the loop where they stand.
     Abort,
 }
@@ -135,8 +138,16 @@ pub struct Motor {
     on_program: bool,
     cmd_vel: f64,
     last_out: TickOutput,
-    /// Pre-jog position (`J=`), counts.
+    /// Target position register (`J=`, D:$080B): the most recent programmed position, motor
+    /// counts.
     pub prejog: f64,
+    /// Position bias register (D:$0813), counts: reported position = actual + bias (seed
+    /// 6224, 9729-9731); set by homing (the axis-definition offset), `Z`, `{axis}=`, `PSET`.
+    pub pos_bias: f64,
+    /// Axis-definition offset of the motor's C.S. (counts), set by the caller before a
+    /// command: homing puts it into the position bias (seed 8244-8246).
+    pub axis_offset: f64,
+    home_bias: f64,
     /// `?` status flags.
     pub flags: MotorFlags,
 }
@@ -176,6 +187,9 @@ impl Motor {
             cmd_vel: 0.0,
             last_out: TickOutput::default(),
             prejog: 0.0,
+            pos_bias: 0.0,
+            axis_offset: 0.0,
+            home_bias: 0.0,
             flags: MotorFlags::default(),
         }
     }
@@ -187,6 +201,15 @@ impl Motor {
     /// Commanded position, counts.
     pub fn commanded(&self) -> f64 {
         self.cmd
+    }
+    /// Reported position (`P`, `<CTRL-P>`): actual position plus position bias, counts.
+    pub fn reported(&self) -> f64 {
+        self.actual + self.pos_bias
+    }
+    /// Commanded position in the axis frame (commanded + position bias), counts: what a
+    /// coordinate system matches its axes to.
+    pub fn reported_commanded(&self) -> f64 {
+        self.cmd + self.pos_bias
     }
     /// Following error, counts (`F`; 0 when the loop is open).
     pub fn following_error(&self) -> f64 {
@@ -313,6 +336,7 @@ impl Motor {
                 self.trigger = Some(TriggeredMove::home(p.home_offset, p.fe_trigger));
                 self.flags.home_complete = false;
                 self.flags.home_search = true;
+                self.home_bias = self.axis_offset;
                 self.limit_stop = false;
                 self.flags.abort_decel = false;
                 let jp = Self::jog_params(p, p.home_speed.abs());
@@ -326,7 +350,20 @@ impl Motor {
             MotorCommand::HomeZero => {
                 let z = self.cmd;
                 self.rebase(z);
+                self.pos_bias = self.axis_offset;
                 self.flags.home_complete = true;
+            }
+            MotorCommand::AbsRead => {
+                self.kill();
+                if !p.abs_read {
+                    // Ix10 = 0: no absolute sensor read, the actual position becomes zero.
+                    let z = self.actual;
+                    self.rebase(z);
+                    self.cmd = self.actual;
+                    self.traj.hold(self.actual);
+                }
+                self.pos_bias = 0.0;
+                self.flags.home_complete = false;
             }
             MotorCommand::Abort => {
                 if self.mode != Mode::Closed {
@@ -476,6 +513,10 @@ impl Motor {
             self.cmd_vel = cv / inp.dt_ms;
         }
         self.update_limit_bits(p, &inp.flags);
+        if !self.limit_stop && cv != 0.0 {
+            // Seed 6837: 0 "even when into a limit but moving out of it".
+            self.flags.stopped_on_limit = false;
+        }
         if trip.is_none() && !self.limit_stop {
             if self.flags.pos_limit && cv > 0.0 {
                 *trip = Some(self.trip(TripKind::PlusLimit, p));
@@ -544,6 +585,7 @@ impl Motor {
         };
         if let Some(z) = a.new_zero {
             self.rebase(z);
+            self.pos_bias = self.home_bias;
             self.flags.home_complete = true;
             self.flags.home_search = false;
         }

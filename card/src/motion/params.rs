@@ -52,6 +52,8 @@ pub struct MotorParams {
     pub i7: u32,
     /// I12 jog calculation time, ms.
     pub i12: f64,
+    /// Ix10 ≠ 0: an absolute position read is specified (`$*` reads it instead of zeroing).
+    pub abs_read: bool,
 }
 
 impl Default for MotorParams {
@@ -79,6 +81,7 @@ impl Default for MotorParams {
             dac_offset: 0.0,
             i7: 0,
             i12: 10.0,
+            abs_read: false,
         }
     }
 }
@@ -144,6 +147,7 @@ impl MotorParams {
             dac_offset: iv(29, 0.0),
             i7: gv(7, 0.0).max(0.0) as u32,
             i12: gv(12, 10.0),
+            abs_read: iv(10, 0.0) != 0.0,
         }
     }
 

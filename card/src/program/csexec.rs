@@ -84,6 +84,21 @@ pub struct MoveAt {
     pub offset: u32,
     /// The call stack with the program counter just after the move.
     pub after: Vec<Frame>,
+    /// Programmed axis positions at the end of the move.
+    pub axes_end: crate::coord::axes::AxisVec,
+    /// Motor positions (axis frame, C.S. motor order) at the end of the move: the target
+    /// position register once the move starts executing.
+    pub end: Vec<f64>,
+}
+
+/// A change the program engine asks of a motor (applied by the servo loop, which owns the
+/// motors).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MotorUpdate {
+    /// The target position register (`J=`, D:$080B) becomes this axis-frame position.
+    Target(u16, f64),
+    /// Add this to the motor's position bias (D:$0813).
+    Bias(u16, f64),
 }
 
 /// Waiting states of the calculation.
@@ -137,6 +152,13 @@ pub struct CsExec {
     pub stop_pending: bool,
     /// I53 = 1 stepping: (call depth, line) of the line this `S` executes.
     pub step_line: Option<(usize, usize)>,
+    /// `\` program hold (segmented LINEAR/CIRCLE): once the time base is at zero the motors
+    /// leave program control and may be jogged (seed 7164-7172).
+    pub hold_jog: bool,
+    /// The `\` hold point has been recorded.
+    hold_recorded: bool,
+    /// Motor changes for the servo loop.
+    pub updates: Vec<MotorUpdate>,
 }
 
 impl CsExec {
@@ -160,6 +182,9 @@ impl CsExec {
             cache: Vec::new(),
             stop_pending: false,
             step_line: None,
+            hold_jog: false,
+            hold_recorded: false,
+            updates: Vec::new(),
         }
     }
 
@@ -251,6 +276,12 @@ impl CsExec {
         }
     }
 
+    /// Leave the `\` hold state (R, abort, B).
+    pub fn end_hold_jog(&mut self) {
+        self.hold_jog = false;
+        self.hold_recorded = false;
+    }
+
     /// Discard pending synchronous assignments (MFLUSH, abort).
     pub fn flush_sync(&mut self) {
         self.sync_pending.clear();
@@ -266,6 +297,28 @@ impl CsExec {
         card.exec = crate::model::ExtAt::cs(self.num, 0);
         let c = self.cs.as_mut()?;
         let out = c.tick();
+        for id in &out.started {
+            if let Some(m) = self.move_at.iter().find(|m| m.id == *id) {
+                for (&x, &p) in c.motors().iter().zip(&m.end) {
+                    self.updates.push(MotorUpdate::Target(x, p));
+                }
+            }
+        }
+        if self.hold_jog && c.hold_complete() {
+            // `\` hold complete: the hold point is the stop point R needs (ERR017) and the
+            // target position `J=` returns to; the motors are free to jog.
+            if !self.hold_recorded {
+                self.hold_recorded = true;
+                let list = c.motors().to_vec();
+                for (&x, &p) in list.iter().zip(&out.motors) {
+                    self.updates.push(MotorUpdate::Target(x, p));
+                }
+                if let Some(r) = card.run.cs.get_mut(self.k()) {
+                    r.stop_point = Some(list.into_iter().zip(out.motors).collect());
+                }
+            }
+            return None;
+        }
         for id in &out.started {
             while let Some((bid, _)) = self.sync_bound.front() {
                 if *bid > *id {
@@ -289,13 +342,14 @@ impl CsExec {
     }
 }
 
-/// Commanded positions of `list` (1-based motor numbers).
+/// Commanded positions of `list` (1-based motor numbers) in the axis frame (commanded +
+/// position bias).
 pub(crate) fn commanded(motors: &[Motor], list: &[u16]) -> Vec<f64> {
     list.iter()
         .map(|&m| {
             motors
                 .get((m as usize).wrapping_sub(1))
-                .map_or(0.0, Motor::commanded)
+                .map_or(0.0, Motor::reported_commanded)
         })
         .collect()
 }

@@ -47,6 +47,7 @@ mod tests_flow;
 use crate::model::{Action, ActionKind, CardModel};
 use crate::motion::motor::{Motor, TripScope};
 use csexec::CsExec;
+pub(crate) use csexec::MotorUpdate;
 use motion::PassIo;
 use plc::PlcRunner;
 use stmt::{run_cmds, QueuedCmd};
@@ -166,12 +167,24 @@ impl ProgramEngine {
                 if homing.contains(m) {
                     continue;
                 }
-                if let Some(r) = res.get_mut((*m as usize).wrapping_sub(1)) {
-                    *r = Some(p);
+                let k = (*m as usize).wrapping_sub(1);
+                let bias = motors.get(k).map_or(0.0, |x| x.pos_bias);
+                if let Some(r) = res.get_mut(k) {
+                    *r = Some(p - bias);
                 }
             }
         }
         res
+    }
+
+    /// Motor changes asked by the coordinate systems (target positions of started moves and
+    /// `\` holds, position-bias changes of `Z`, `{axis}=`, `PSET`), drained.
+    pub(crate) fn take_motor_updates(&mut self) -> Vec<MotorUpdate> {
+        let mut out = Vec::new();
+        for x in &mut self.cs {
+            out.append(&mut x.updates);
+        }
+        out
     }
 
     /// A motor tripped (following error, amp fault, limit): abort the programs per `scope`.
@@ -229,6 +242,7 @@ fn run_control(x: &mut CsExec, card: &mut CardModel, motors: &[Motor], cmd: &Act
             x.frames.clear();
             x.flush_sync();
             x.stop_pending = false;
+            x.end_hold_jog();
             if let Some(r) = card.run.cs.get_mut(x.num as usize - 1) {
                 r.stop_point = None;
             }
@@ -262,7 +276,41 @@ fn run_control(x: &mut CsExec, card: &mut CardModel, motors: &[Motor], cmd: &Act
             x.abort(card);
             false
         }
-        ActionKind::Hold | ActionKind::HoldJog | ActionKind::BackUp => {
+        ActionKind::HoldJog => {
+            x.hold_jog(card);
+            true
+        }
+        ActionKind::AxisRename(..) | ActionKind::ZeroAxes => {
+            x.sync_axes(card, motors);
+            if x.busy() {
+                return true;
+            }
+            if let Some(c) = &mut x.cs {
+                // Re-label the present commanded positions (seed 7264, 10187).
+                c.pmatch(&csexec::commanded(motors, c.motors()));
+                let delta = match cmd {
+                    ActionKind::AxisRename(a, v) => match crate::coord::axes::axis_index(*a) {
+                        Some(k) if v.is_finite() => c.rename_axes(|p| p[k] = *v),
+                        _ => return true,
+                    },
+                    _ => {
+                        let used = c.axes_used();
+                        c.rename_axes(|p| {
+                            for (k, u) in used.iter().enumerate() {
+                                if *u {
+                                    p[k] = 0.0;
+                                }
+                            }
+                        })
+                    }
+                };
+                for (&m, d) in c.motors().iter().zip(delta) {
+                    x.updates.push(MotorUpdate::Bias(m, d));
+                }
+            }
+            true
+        }
+        ActionKind::Hold | ActionKind::BackUp => {
             if let Some(c) = &mut x.cs {
                 c.hold();
             }

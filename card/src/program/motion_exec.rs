@@ -118,10 +118,34 @@ impl CsExec {
                 })
             }
             S::Home(list) | S::HomeZ(list) => self.home(card, list, matches!(s.kind, S::Home(_))),
-            S::Pset(_) => {
-                // [DECISION] PSET forces a stop; renaming is not implemented (COORD has no bias).
+            S::Pset(words) => {
+                // PSET forces a stop (no blending through it), then renames the programmed
+                // position through the motors' position bias (seed 11441-11452).
                 if self.cs.as_ref().is_some_and(|c| !c.is_idle()) {
                     return Flow::Wait;
+                }
+                let mut vals = Vec::with_capacity(words.len());
+                for w in words {
+                    let v = match env::value(card, num, &w.value) {
+                        Ok(v) if v.is_finite() => v,
+                        _ => {
+                            self.runtime_error(card, rte::VARIABLE, false);
+                            return Flow::Error;
+                        }
+                    };
+                    if let Some(k) = axis_index(w.axis) {
+                        vals.push((k, v));
+                    }
+                }
+                if let Some(c) = &mut self.cs {
+                    let delta = c.rename_axes(|p| {
+                        for &(k, v) in &vals {
+                            p[k] = v;
+                        }
+                    });
+                    for (&m, d) in c.motors().iter().zip(delta) {
+                        self.updates.push(super::csexec::MotorUpdate::Bias(m, d));
+                    }
                 }
                 Flow::Next
             }

@@ -66,6 +66,8 @@ impl CsExec {
                     prog: p,
                     offset: o,
                     after,
+                    axes_end: c.program_position(),
+                    end: c.program_motor_positions(),
                 });
                 if self.move_at.len() > 32 {
                     self.move_at.pop_front();

@@ -8,6 +8,7 @@ use super::compile::Compiled;
 use super::config::cs_config;
 use super::csexec::{commanded, rte, CsExec, Frame, ProgKey, Wait};
 use crate::coord::cs::CoordSystem;
+use crate::coord::moves::Mode;
 use crate::model::CardModel;
 use crate::motion::motor::Motor;
 
@@ -34,6 +35,7 @@ impl CsExec {
         self.step = step;
         self.step_line = None;
         self.stop_pending = false;
+        self.end_hold_jog();
         if let Some(f) = card.state.coords.get_mut(k) {
             f.block_stop = false;
         }
@@ -88,17 +90,56 @@ impl CsExec {
 
     /// `A`, CTRL-A, CTRL-K, trips, ring fault: decelerate at Ix15, stop the program (resumable
     /// from the program counter), drop synchronous assignments.
+    /// The program counter goes to just after the move that was executing and the programmed
+    /// position to its end: `J=` takes the motors there and `R` resumes from it (seed
+    /// 8397-8403, 6749). Any `/` or `\` stop point is dropped.
     pub fn abort(&mut self, card: &mut CardModel) {
         self.active = false;
         self.wait = Wait::None;
         self.leftover = None;
+        self.stop_pending = false;
+        self.end_hold_jog();
         if let Some(c) = &mut self.cs {
+            let exec = c.executing();
             c.abort();
+            if let Some(m) = exec.and_then(|id| self.move_at.iter().find(|m| m.id == id)) {
+                self.frames = m.after.clone();
+                c.set_program_position(m.axes_end);
+            }
         }
         self.flush_sync();
+        if let Some(r) = card.run.cs.get_mut(self.k()) {
+            r.stop_point = None;
+        }
         if let Some(f) = card.state.coords.get_mut(self.k()) {
             f.running = false;
             f.continuous_request = false;
+            f.program_hold = false;
+        }
+    }
+
+    /// `\` (pmac-commands; seed 6962-6964, 7164-7172): with I13 > 0 in LINEAR or CIRCLE mode a
+    /// program hold — the time base ramps to zero, the `??` program-hold bit is set, the
+    /// program stops calculating and, once stopped, the motors may be jogged; `R` resumes
+    /// once they are back at the hold point (ERR017 otherwise). Otherwise it acts as `H`.
+    pub fn hold_jog(&mut self, card: &mut CardModel) {
+        let i13 = super::env::ivar(card, 13, 0.0);
+        let i52 = super::env::ivar(card, 52, 37_137.0);
+        let busy = self.busy();
+        let Some(c) = &mut self.cs else { return };
+        let mode = c.modal.mode;
+        if i13 <= 0.0 || !busy || !matches!(mode, Mode::Linear | Mode::Circle1 | Mode::Circle2) {
+            c.hold();
+            return;
+        }
+        // I52 is in I10 units per segmentation period (I13 ms).
+        c.program_hold(i52 * c.tb.servo_ms() / i13);
+        self.active = false;
+        self.hold_jog = true;
+        if let Some(f) = card.state.coords.get_mut(self.k()) {
+            f.running = false;
+            f.continuous_request = false;
+            f.program_hold = true;
         }
     }
 

@@ -6,7 +6,7 @@
 //! |---|---|---|
 //! | `K` | addressed | kill |
 //! | `$` | addressed | enable (close the loop where it stands) |
-//! | `$*` | addressed | kill (absolute position read leaves the motor killed) |
+//! | `$*` | addressed | kill; Ix10 = 0: actual position 0; position bias 0 |
 //! | `O{n}` | addressed | open loop at n % of Ix69 |
 //! | `J...` | addressed | jog (`*` forms read the Mx72 jog register), `J!` rounds |
 //! | `HM` / `HMZ` | addressed | homing search / zero here |
@@ -21,7 +21,7 @@ use crate::domain::ast::JogKind;
 use crate::model::{Action, ActionKind, CardModel};
 use crate::motion::motor::{Motor, MotorCommand};
 use crate::motion::params::MotorParams;
-use crate::program::ProgramEngine;
+use crate::program::{MotorUpdate, ProgramEngine};
 
 use super::registers::jog_register;
 
@@ -45,6 +45,7 @@ pub(super) fn apply_action(
             ActionKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),
             ActionKind::Home => (vec![a.motor], Some(MotorCommand::Home)),
             ActionKind::HomeZero => (vec![a.motor], Some(MotorCommand::HomeZero)),
+            ActionKind::AbsRead => (vec![a.motor], Some(MotorCommand::AbsRead)),
             ActionKind::Jog { kind, trigger } => {
                 let k = usize::from(a.motor.max(1) - 1);
                 let Some(m) = motors.get_mut(k) else {
@@ -72,8 +73,37 @@ pub(super) fn apply_action(
         let (Some(m), Some(p)) = (motors.get_mut(k), params.get(k)) else {
             continue;
         };
-        if p.active || cmd == MotorCommand::Kill {
+        // Homing puts the axis-definition offset into the position bias (seed 8244-8246).
+        m.axis_offset = card
+            .run
+            .axes
+            .get(k)
+            .and_then(|d| d.as_ref())
+            .map_or(0.0, |(_, d)| d.offset)
+            .clamp(-1e15, 1e15);
+        if p.active || matches!(cmd, MotorCommand::Kill | MotorCommand::AbsRead) {
             m.command(cmd, p);
+        }
+    }
+}
+
+/// Apply the program engine's motor changes (target registers, position bias). Targets come
+/// in the axis frame; the register holds motor counts.
+pub(super) fn apply_updates(engine: &mut ProgramEngine, motors: &mut [Motor]) {
+    for u in engine.take_motor_updates() {
+        let (x, v) = match u {
+            MotorUpdate::Target(x, p) => (x, p),
+            MotorUpdate::Bias(x, d) => (x, d),
+        };
+        let Some(m) = motors.get_mut(usize::from(x.max(1) - 1)) else {
+            continue;
+        };
+        if !v.is_finite() {
+            continue;
+        }
+        match u {
+            MotorUpdate::Target(..) => m.prejog = v - m.pos_bias,
+            MotorUpdate::Bias(..) => m.pos_bias += v,
         }
     }
 }

@@ -107,6 +107,7 @@ impl Servo {
         for a in card.take_actions() {
             actions::apply_action(card, &mut self.motors, &self.params, &mut self.engine, &a);
         }
+        actions::apply_updates(&mut self.engine, &mut self.motors);
         let ring_fault = card.state.global.ring_fault;
         if ring_fault {
             if !self.ring_fault_seen {
@@ -121,6 +122,7 @@ impl Servo {
         let setpoints = self
             .engine
             .servo_tick(card, cmd, &self.motors, cycle, dt_ms);
+        actions::apply_updates(&mut self.engine, &mut self.motors);
         let mut trips = Vec::new();
         self.outs.clear();
         self.outs.resize(self.motors.len(), TickOutput::default());
@@ -180,6 +182,7 @@ impl Servo {
         registers::count_timers(&mut card.state);
         aux_copy::aux_copy(&mut card.state);
         self.engine.background(card, cmd, &self.motors);
+        actions::apply_updates(&mut self.engine, &mut self.motors);
         let out = self.engine.take_output();
         card.push_output(&out);
     }

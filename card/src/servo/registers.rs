@@ -9,6 +9,7 @@
 //! | X:$0043 (Mx68) | filter output, DAC bits in bits 8-23 |
 //! | D:$004B, D:$0840 | following error, 1/(Ix08·32) counts |
 //! | D:$080B (Mx63) | target (pre-jog) position, 1/(Ix08·32) counts |
+//! | D:$0813 (Mx64) | position bias, 1/(Ix08·32) counts (`P` = actual + bias) |
 //! | X:$003D / Y:$0814 | status words (computed from the motor flags by `CardState`) |
 //! | X:$0000 (M100) | servo cycle counter (24-bit) |
 //!
@@ -79,6 +80,7 @@ pub(super) fn write_motor_registers(
         write_d(st, a, m.following_error() * k08);
     }
     write_d(st, r.target, m.prejog * k08);
+    write_d(st, r.bias, m.pos_bias * k08);
 }
 
 /// Motor `x`'s jog register Mx72 (L memory), counts.
@@ -93,7 +95,7 @@ pub(super) fn jog_register(st: &mut CardState, x: u16) -> f64 {
 pub(super) fn report(card: &mut CardModel, motors: &[Motor]) {
     for (k, m) in motors.iter().enumerate() {
         let x = k as u16 + 1;
-        card.set_motor_report(x, m.actual(), m.velocity(), m.following_error());
+        card.set_motor_report(x, m.reported(), m.velocity(), m.following_error());
         if let Some(f) = card.state.motors.get_mut(k) {
             sync_flags(f, &m.flags);
         }

@@ -257,6 +257,22 @@ fn more_validation_rules() {
     );
     let ports = card("ascii_port = 5000\npmac_eth_port = 5000");
     assert_eq!(invalid(&ports).0, "cards[2].pmac_eth_port");
+    // The Power card's host keys.
+    let (k, p) = invalid(&card("ssh_port = 2222"));
+    assert_eq!(k, "cards[2].ssh_port");
+    assert!(p.contains("power"), "{p}");
+    assert_eq!(
+        invalid(&card("gpascii_port = 2223")).0,
+        "cards[2].gpascii_port"
+    );
+    assert_eq!(invalid(&card("ssh_user = \"\"")).0, "cards[2].ssh_user");
+    assert_eq!(invalid(&card("ssh_user = \"a b\"")).0, "cards[2].ssh_user");
+    assert_eq!(
+        invalid(&card("ssh_password = \"x\\ny\"")).0,
+        "cards[2].ssh_password"
+    );
+    let long = format!("ssh_password = \"{}\"", "p".repeat(129));
+    assert_eq!(invalid(&card(&long)).0, "cards[2].ssh_password");
     let st = |body: &str| format!("{TWO_BY_TWO}\n[[stations]]\nname=\"s9\"\nmaster=0\n{body}");
     let (k, p) = invalid(&st("nodes = [2, 4]"));
     assert_eq!(k, "stations[2].nodes[1]");

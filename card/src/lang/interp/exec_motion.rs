@@ -32,7 +32,8 @@ impl Pmac<'_> {
     fn action(&mut self, s: &Session, cmd: &CmdKind) {
         use CmdKind as K;
         let kind = match cmd {
-            K::Kill | K::MotorAbsRead => ActionKind::Kill,
+            K::Kill => ActionKind::Kill,
+            K::MotorAbsRead => ActionKind::AbsRead,
             K::MotorInit => ActionKind::Enable,
             K::OpenLoop(v) => ActionKind::OpenLoop(*v),
             K::Home => ActionKind::Home,
@@ -54,7 +55,8 @@ impl Pmac<'_> {
             K::OverrideSet(v) => ActionKind::Override(*v),
             K::MFlush => ActionKind::MFlush,
             K::PMatch => ActionKind::PMatch,
-            // Axis renaming (`X=…`, `Z`) is not modelled: accepted, nothing to move.
+            K::AxisRename(a, v) => ActionKind::AxisRename(*a, *v),
+            K::ZeroAxes => ActionKind::ZeroAxes,
             _ => return,
         };
         self.model.push_action(Action {
@@ -184,6 +186,9 @@ impl Pmac<'_> {
                 if self.cs_running(cs) {
                     return Err(1);
                 }
+                // A new program pointer drops the `/` stop point at once, so `B..R` on the
+                // same line is not refused with ERR017 (seed 6749).
+                self.model.run.cs[csk].stop_point = None;
                 let v = num.value;
                 if !(0.0..32_768.0).contains(&v) {
                     return Err(3);
@@ -212,17 +217,23 @@ impl Pmac<'_> {
                 f.continuous_request = false;
                 f.single_step = matches!(cmd, K::Quit) || f.single_step;
                 if matches!(cmd, K::Abort) {
+                    // Seed 6749: `A` gives up resuming from the stop point.
+                    self.model.run.cs[csk].stop_point = None;
                     for m in self.model.run.motors_in(cs) {
                         self.servo(m, Some(true), Some(true), Some(false));
                     }
                 }
                 self.action(s, cmd);
             }
-            K::Hold | K::BackUp => {
+            K::Hold | K::BackUp | K::HoldJog => {
                 self.model.run.cs[csk].held = true;
                 self.action(s, cmd);
             }
-            K::StopAtEnd | K::HoldJog | K::MFlush | K::PMatch | K::AxisRename(..) | K::ZeroAxes => {
+            K::StopAtEnd | K::MFlush | K::PMatch => self.action(s, cmd),
+            K::AxisRename(..) | K::ZeroAxes => {
+                if self.cs_running(cs) {
+                    return Err(1);
+                }
                 self.action(s, cmd)
             }
             K::Abs(list) | K::Inc(list) => {
