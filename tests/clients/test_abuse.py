@@ -12,8 +12,7 @@ def test_500_abusive_connections_leave_a_dls_client_served_and_the_ring_cycling(
     assert r["wrong_replies"] == [], r["wrong_replies"]
     assert r["client_idle"]["n"] == 100
     assert r["client_under_abuse"]["n"] >= 100
-    # A generous wall-clock bound (a loaded machine): served, not starved.
-    assert r["client_under_abuse"]["p99_ms"] < 5000, r["client_under_abuse"]
+    # (Its round-trip times are reported, not asserted: wall-clock speed is the benchmark's.)
     # Every abuser kind really reached the card.
     for kind, s in r["abusers"].items():
         assert s["connections"] >= 100, (kind, s)
