@@ -431,6 +431,10 @@ pub struct BenchFaultsArgs {
     /// Campaign: stations.
     #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=16))]
     pub stations: u8,
+    /// Campaign: start no new fault after this many minutes (the report covers the faults
+    /// run and says how many were planned).
+    #[arg(long, value_name = "M", value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub minutes: Option<u64>,
     /// Campaign: print the report as JSON on stdout (progress goes to stderr).
     #[arg(long)]
     pub json: bool,

@@ -290,12 +290,19 @@ pub fn broken_link(
         // underrun, delayed frames).
         // Also, while the latch holds, once the link is whole again (a restarted member, a
         // cleared fault): the bad data that made the latch names the link until the reset.
+        // A dark spell that ended (light back) holding the latch names it too.
+        let near_latch = |c: u64| {
+            s.ring_fault_cycle
+                .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
+        };
+        let dark_latch = s.last_dark_spell.is_some_and(|(from, to)| {
+            s.ring_fault_cycle
+                .is_some_and(|f| from <= f && f <= to.saturating_add(threshold))
+        });
         let bad_input = s.ring_fault
-            && s.link_error_cycle.is_some_and(|c| {
-                s.cycle.saturating_sub(c) <= threshold
-                    || s.ring_fault_cycle
-                        .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
-            });
+            && (dark_latch
+                || s.link_error_cycle
+                    .is_some_and(|c| s.cycle.saturating_sub(c) <= threshold || near_latch(c)));
         if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
         {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));

@@ -262,7 +262,6 @@ pub struct MemberCore {
     /// Synchronizing master: latest cycle whose sync packet came back.
     last_return: Option<u64>,
     locked: bool,
-    unconsumed: bool,
     /// A frame arrived since the last servo tick.
     rx_since_tick: bool,
     /// Consecutive servo ticks without any frame from upstream.
@@ -328,7 +327,6 @@ impl MemberCore {
             awaiting: None,
             last_return: None,
             locked: false,
-            unconsumed: false,
             rx_since_tick: false,
             silent_ticks: 0,
             sent_cycle: None,
@@ -532,10 +530,18 @@ impl MemberCore {
             ..Default::default()
         };
         self.rx_since_tick = true;
-        if self.unconsumed && self.timing_slack <= 1 {
+        // Stepped clocks: data out of its cycle's order is an overrun — a frame no newer than
+        // the last one received (a delayed frame released late, a repeat). Frames of new
+        // cycles arriving faster than this member ticks (a sync master on its own clock
+        // meeting a descheduled member) are no ring error: only ring content is. A frame
+        // after loss of light may renumber the ring (a restarted sync master).
+        if self.timing_slack <= 1
+            && !frame.is_dark()
+            && !self.dark
+            && self.last_rx_cycle.is_some_and(|l| frame.cycle <= l)
+        {
             ev.errors.push(ErrorClass::Overrun);
         }
-        self.unconsumed = true;
         if self.is_sync_master() {
             ev.returned = Some(frame.cycle);
         }
@@ -761,7 +767,6 @@ impl MemberCore {
 
     /// Run the ring check for one servo cycle; latches the ring fault.
     pub fn run_check(&mut self) -> Option<CheckFault> {
-        self.unconsumed = false;
         self.checked_now = false;
         self.locked_streak = if self.locked {
             self.locked_streak.saturating_add(1)

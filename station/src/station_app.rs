@@ -2,7 +2,8 @@
 //! I/O nodes that echo, run once per ring tick in ring time.
 //!
 //! Each tick: the time step is `time_ns − previous time_ns` (0 on the first tick or if time
-//! did not advance; at most [`crate::servo_node::MAX_TICK_SECONDS`]), so in lockstep mode
+//! did not advance; at most [`crate::servo_node::MAX_TICK_SECONDS`]; time that went back —
+//! the ring renumbered by a restarted sync master — is the new origin), so in lockstep mode
 //! (time = cycle × period) runs are exactly repeatable. Every servo node integrates, takes the
 //! command latched this cycle and writes its feedback registers (sent on the next cycle).
 //!
@@ -137,7 +138,10 @@ impl RingApp for StationApp {
             Some(t0) if time_ns > t0 => ((time_ns - t0) as f64 * 1e-9).min(MAX_TICK_SECONDS),
             _ => 0.0,
         };
-        self.last_time_ns = Some(self.last_time_ns.map_or(time_ns, |t0| t0.max(time_ns)));
+        // Ring time going back is the ring's count re-established by a restarted sync master
+        // (the followers lock to its numbering): the plant steps from the new time on, rather
+        // than standing still until the ring's count passes the old one.
+        self.last_time_ns = Some(time_ns);
         for s in &mut self.servo {
             let n = s.node();
             s.advance(dt);

@@ -223,6 +223,34 @@ fn time_steps_come_from_the_tick_time() {
     assert_eq!(app.ticks(), 4);
 }
 
+/// A restarted sync master renumbers the ring from a lower cycle: the plant goes on stepping
+/// one period per cycle from the new count (it does not stand still until the ring's count
+/// passes the old one).
+#[test]
+fn a_renumbered_ring_keeps_the_plant_stepping() {
+    let run = |renumber: bool| {
+        let mut app = StationApp::new(&[0], &[], &PlantConfig::default()).unwrap();
+        let mut m = member(&[0]);
+        m.route(Packet::new(0, 0, cmd(2000.0, true)));
+        for c in 50_000..50_010u64 {
+            app.tick(c, c * PERIOD_NS, &mut m, false);
+        }
+        let base = if renumber { 0 } else { 50_010 };
+        for c in base..base + 10 {
+            app.tick(c, c * PERIOD_NS, &mut m, false);
+        }
+        app.node(0).unwrap().snapshot()
+    };
+    let (renumbered, steady) = (run(true), run(false));
+    assert!(renumbered.velocity > 0.0, "{renumbered:?}");
+    // One tick (the renumbering itself) without a step; otherwise the same motion.
+    assert!(renumbered.position > 0.0 && renumbered.position < steady.position);
+    assert!(
+        renumbered.velocity > steady.velocity * 0.8,
+        "{renumbered:?} {steady:?}"
+    );
+}
+
 #[test]
 fn bad_node_lists_are_refused_with_a_message() {
     let p = PlantConfig::default();

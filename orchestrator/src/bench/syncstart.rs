@@ -43,6 +43,17 @@ pub fn with_cluster<T>(
             return Err(e);
         }
     };
+    // Interrupted (SIGINT, SIGTERM, SIGHUP): the run directory goes, and the members with
+    // this process (their parent-death signal).
+    let (_signals, stop) = crate::supervisor::stop_signals()?;
+    let dir = rd.clone();
+    std::thread::spawn(move || {
+        if let Ok(which) = stop.recv() {
+            eprintln!("mcc: {which}: the benchmark's cluster stops");
+            let _ = dir.cleanup();
+            std::process::exit(130);
+        }
+    });
     let res = crate::up::wait_locked(sup.session(), &cfg, Duration::from_secs(60), || None)
         .and_then(|_| f(&mut sup, &cfg));
     sup.shutdown(Duration::from_secs(6));

@@ -67,7 +67,9 @@ impl DriveHost {
             Some(t0) if time_ns > t0 => (time_ns - t0).min(MAX_DT_NS),
             _ => 0,
         };
-        self.last_ns = Some(self.last_ns.map_or(time_ns, |t0| t0.max(time_ns)));
+        // Time that went back (the ring renumbered by a restarted sync master) is the new
+        // origin: drives go on stepping from it.
+        self.last_ns = Some(time_ns);
         if let Some((regs, fault)) = ring {
             for d in &mut self.drives {
                 let Some(n) = d.drive.node() else { continue };

@@ -53,8 +53,9 @@ pub fn run(args: &BenchFaultsArgs, n: u64) -> Result<()> {
         below_share: 0.4,
         kinds,
     };
+    let budget = args.minutes.map(|m| Duration::from_secs(60 * m));
     let report = with_cluster(cfg, |sup, cfg| {
-        campaign(sup, cfg, n as usize, args.seed, &opts)
+        campaign(sup, cfg, n as usize, args.seed, &opts, budget)
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -78,6 +79,7 @@ fn campaign(
     n: usize,
     seed: u64,
     opts: &PlanOptions,
+    budget: Option<Duration>,
 ) -> Result<Report> {
     let model = RingModel::from_config(cfg).ok_or_else(|| anyhow!("no ring model"))?;
     let faults = plan::plan(&model, n, seed, opts);
@@ -93,6 +95,13 @@ fn campaign(
     let started = Instant::now();
     let mut outcomes = Vec::new();
     for p in &faults {
+        if budget.is_some_and(|b| started.elapsed() > b) {
+            eprintln!(
+                "campaign: the time budget is spent after {} faults",
+                p.index
+            );
+            break;
+        }
         let mut o = Outcome {
             index: p.index,
             kind: p.kind.to_string(),
@@ -129,6 +138,7 @@ fn campaign(
     Ok(Report::new(
         cfg.clock.as_str(),
         seed,
+        n,
         cfg.ring.order.clone(),
         &outcomes,
         started.elapsed().as_secs_f64(),
@@ -271,7 +281,9 @@ fn judge_detection(
     let n = cfg.ring.order.len();
     let down = (p.target + 1) % n;
     let dead = matches!(p.action, Action::Freeze | Action::Kill | Action::Restart);
-    let mut dark_onset: Option<u64> = None;
+    // Every dark onset seen downstream (a restarted sync master may renumber the ring, so a
+    // later spell can carry a smaller number): the onset is the latest one before the latch.
+    let mut dark_onsets: Vec<u64> = Vec::new();
     let timeout = Duration::from_secs(30) + cfg.member_timeout();
     let found = observe::wait_for(
         s,
@@ -280,7 +292,7 @@ fn judge_detection(
         timeout,
         |snap| {
             if let Some(m) = snap.member(down).filter(|m| m.dark) {
-                dark_onset = dark_onset.or(m.dark_since_cycle);
+                dark_onsets.extend(m.dark_since_cycle.filter(|c| !dark_onsets.contains(c)));
             }
         },
         |snap| p.expect.must.iter().all(|d| latched(snap, d.member, base)),
@@ -309,6 +321,13 @@ fn judge_detection(
     let _ = observe::wait_cycles(s, cfg, longest + 16, Duration::from_secs(10));
     let last = observe::snapshot(s, cfg);
     // The onset.
+    let down_latch = detected.member(down).and_then(|m| m.ring_fault_cycle);
+    let dark_onset = dark_onsets
+        .iter()
+        .copied()
+        .filter(|&o| down_latch.is_none_or(|l| o <= l))
+        .max()
+        .or_else(|| dark_onsets.first().copied());
     let onset = if dead {
         dark_onset.or_else(|| {
             detected

@@ -69,9 +69,27 @@ pub fn statuses(s: &zenoh::Session, cfg: &ClusterConfig) -> Snapshot {
     }
 }
 
-/// Member statuses and card states.
+/// Member statuses and card states, for a judgement: a member that did not answer is asked
+/// again (twice, with longer waits) before it counts as silent — on a loaded machine a status
+/// query can take longer than the fast look allows, and that is no fault of the ring.
 pub fn snapshot(s: &zenoh::Session, cfg: &ClusterConfig) -> Snapshot {
     let mut snap = statuses(s, cfg);
+    for wait in [1500, 3000] {
+        if snap.members.iter().all(Option::is_some) {
+            break;
+        }
+        let again = query_statuses(
+            s,
+            cfg,
+            Duration::from_millis(wait),
+            Duration::from_millis(2 * wait),
+        );
+        for (m, a) in snap.members.iter_mut().zip(again) {
+            if m.is_none() {
+                *m = a;
+            }
+        }
+    }
     snap.cards = card_infos(s, cfg);
     snap
 }

@@ -154,11 +154,20 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
     let mut order: Vec<Kind> = (0..n).map(|i| kinds[i % kinds.len()]).collect();
     order.shuffle(&mut rng);
     let members = model.members.len().max(1);
+    // Each kind visits the members in a shuffled round: every member (the sync master
+    // included) gets every kind once the kind has been drawn as often as there are members.
+    let mut rounds: std::collections::HashMap<Kind, (Vec<usize>, usize)> = Default::default();
     order
         .into_iter()
         .enumerate()
         .map(|(index, kind)| {
-            let target = rng.random_range(0..members);
+            let (round, next) = rounds.entry(kind).or_insert_with(|| (Vec::new(), 0));
+            if *next % members == 0 {
+                *round = (0..members).collect();
+                round.shuffle(&mut rng);
+            }
+            let target = round[*next % members];
+            *next += 1;
             let wait_ms = rng.random_range(0..=300);
             let below = rng.random_bool(opts.below_share.clamp(0.0, 1.0));
             let seed = rng.random::<u64>();
@@ -252,6 +261,19 @@ mod tests {
             }
         }
         assert!(p.iter().filter(|f| !f.sustained()).count() > 40);
+    }
+
+    /// The plan of the test command's campaign (120 faults, seed 11): every kind reaches
+    /// every member, the sync master included.
+    #[test]
+    fn the_test_commands_campaign_reaches_every_member_with_every_kind() {
+        let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
+        let p = plan(&model, 120, 11, &opts());
+        for k in KINDS {
+            for t in 0..4 {
+                assert!(p.iter().any(|f| f.kind == k && f.target == t), "{k} on {t}");
+            }
+        }
     }
 
     #[test]

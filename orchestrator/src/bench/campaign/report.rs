@@ -96,6 +96,8 @@ pub struct Report {
     pub seed: u64,
     /// Ring order.
     pub ring: Vec<String>,
+    /// Faults planned (more than `faults` when a time budget stopped the campaign).
+    pub planned: usize,
     /// Faults injected.
     pub faults: usize,
     /// Faults with a violation.
@@ -113,6 +115,7 @@ impl Report {
     pub fn new(
         clock: &str,
         seed: u64,
+        planned: usize,
         ring: Vec<String>,
         outcomes: &[Outcome],
         seconds: f64,
@@ -140,6 +143,7 @@ impl Report {
             clock: clock.to_string(),
             seed,
             ring,
+            planned,
             faults: outcomes.len(),
             failed: outcomes.iter().filter(|o| !o.violations.is_empty()).count(),
             kinds,
@@ -151,8 +155,13 @@ impl Report {
     /// The readable report.
     pub fn text(&self) -> String {
         let mut out = format!(
-            "fault campaign: {} faults on a {} ring ({}), seed {}, {:.0} s\n",
+            "fault campaign: {} faults{} on a {} ring ({}), seed {}, {:.0} s\n",
             self.faults,
+            if self.planned > self.faults {
+                format!(" of {} planned (time budget)", self.planned)
+            } else {
+                String::new()
+            },
             self.clock,
             self.ring.join(" → "),
             self.seed,
@@ -269,6 +278,7 @@ mod tests {
         };
         let r = Report::new(
             "paced",
+            3,
             3,
             vec!["card0".into(), "station0".into()],
             &[
