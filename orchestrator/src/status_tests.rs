@@ -76,10 +76,10 @@ fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
     );
     // A long dark spell (a sync master restarted) that made the latch, light back since.
     st[0].as_mut().unwrap().link_error_cycle = Some(5000);
-    assert_eq!(broken_link(&cfg, &st, 32), None);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
     st[0].as_mut().unwrap().last_dark_spell = Some((2985, 5000));
     assert_eq!(
-        broken_link(&cfg, &st, 32).as_deref(),
+        broken_link(&cfg, &st, &[], 32).as_deref(),
         Some("station1 → card0")
     );
     st[0].as_mut().unwrap().last_dark_spell = None;

@@ -225,9 +225,17 @@ fn print_ready(
             c.profile,
             c.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into()),
             if c.gpascii.is_some() || c.ssh.is_some() {
-                format!("gpascii {}  ssh {}", port(&c.bind, c.gpascii), port(&c.bind, c.ssh))
+                format!(
+                    "gpascii {}  ssh {}",
+                    port(&c.bind, c.gpascii),
+                    port(&c.bind, c.ssh)
+                )
             } else {
-                format!("ascii {}  pmac_eth {}", port(&c.bind, c.ascii), port(&c.bind, c.pmac_eth))
+                format!(
+                    "ascii {}  pmac_eth {}",
+                    port(&c.bind, c.ascii),
+                    port(&c.bind, c.pmac_eth)
+                )
             }
         );
     }
