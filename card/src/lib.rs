@@ -55,9 +55,9 @@ pub use runtime::bench_servo::{
     run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
 };
 pub use runtime::ring_app::CardRingApp;
-pub use runtime::run_ring_card;
-pub use runtime::standalone::{run_standalone, StandaloneOpts};
+pub use runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 pub use runtime::startup::{ring_startup, wire_macro_motors, StartupError};
+pub use runtime::{check_card_config, run_ring_card};
 pub use service::handle::{spawn_card_thread, CardHandle};
 pub use service::storage::FileStorage;
 pub use servo::Servo;

@@ -328,9 +328,26 @@ pub enum BenchCommand {
     /// A cluster of its own for N minutes beside an OS timer probe (optionally under CPU
     /// load): ring faults, achieved real-time factor, late cycles, lag, longest stall.
     Soak(BenchSoakArgs),
+    /// Card SAVE under SIGKILL at random moments: old or new state, never corrupt or mixed,
+    /// no leaked file.
+    SaveCrash(BenchSaveCrashArgs),
     /// One process of `bench ring`'s raw UDP ring (internal).
     #[command(hide = true)]
     UdpMember(BenchUdpMemberArgs),
+}
+
+/// `mcc bench save-crash`.
+#[derive(Debug, Args)]
+pub struct BenchSaveCrashArgs {
+    /// Trials (one SIGKILL each).
+    #[arg(long, value_name = "N", default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub trials: u32,
+    /// Seed of the kill moments.
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub seed: u64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mcc bench soak`.
@@ -380,7 +397,8 @@ pub struct BenchSyncArgs {
 /// `mcc bench faults`.
 #[derive(Debug, Args)]
 pub struct BenchFaultsArgs {
-    /// Clock mode of the benchmark cluster: paced (default), lockstep or realtime.
+    /// Clock mode of the benchmark cluster: paced (default), lockstep or realtime (the
+    /// campaign refuses realtime: there a scheduling delay is a ring error by design).
     #[arg(long, value_name = "MODE", value_parser = parse_clock)]
     pub clock: Option<ClockMode>,
     /// Only these drills (comma-separated labels or fault words, e.g. `cut,freeze`).
@@ -389,6 +407,26 @@ pub struct BenchFaultsArgs {
     /// Seconds to wait for detection per drill.
     #[arg(long, value_name = "S", default_value_t = 15)]
     pub timeout: u64,
+    /// Instead of the drills: a campaign of N random faults of every kind at random members
+    /// and times while programs run on every card, each held to the ring-check rules.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub campaign: Option<u64>,
+    /// Campaign: seed of the plan (same seed, same faults).
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub seed: u64,
+    /// Campaign: only these kinds (comma-separated: drop-sync, drop-packets, corrupt,
+    /// byte-violation, overrun, underrun, delay, delay-us, cut, freeze, kill, restart).
+    #[arg(long, value_name = "LIST")]
+    pub kinds: Option<String>,
+    /// Campaign: cards (each followed by its stations in the ring).
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=8))]
+    pub cards: u8,
+    /// Campaign: stations.
+    #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=16))]
+    pub stations: u8,
+    /// Campaign: print the report as JSON on stdout (progress goes to stderr).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mcc bench bringup`.

@@ -59,6 +59,7 @@ fn main() {
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Bench(BenchCommand::UdpMember(a)) => bench::udp::member(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
+        Command::Bench(BenchCommand::SaveCrash(a)) => bench::crash::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::{ClockReport, ErrorCounters, MemberStatus};
-use mcc_ring::fault::FaultSpec;
+use mcc_ring::fault::ActiveFault;
 use serde::Serialize;
 
 use crate::rundir::SupervisorInfo;
@@ -111,12 +111,17 @@ pub struct MemberRow {
     pub dark: bool,
     /// First cycle it ran with a dark input.
     pub dark_since_cycle: Option<u64>,
+    /// The last dark spell that ended, `[first, last]` cycle without light.
+    pub last_dark_spell: Option<(u64, u64)>,
+    /// Latest cycle in which the link into it delivered bad data (packet errors, dark or
+    /// extra frames, silence).
+    pub link_error_cycle: Option<u64>,
     /// Why its ring fault latched (while latched).
     pub fault_reason: Option<String>,
     /// What its cycle thread got from the scheduler (realtime: SCHED_FIFO, locked memory).
     pub sched: Option<String>,
     /// Faults injected on its send path.
-    pub faults: Vec<FaultSpec>,
+    pub faults: Vec<ActiveFault>,
 }
 
 /// One card.
@@ -132,6 +137,10 @@ pub struct CardRow {
     pub ascii: Option<u16>,
     /// PMAC Ethernet protocol TCP port.
     pub pmac_eth: Option<u16>,
+    /// Power cards: raw TCP `gpascii` port.
+    pub gpascii: Option<u16>,
+    /// Power cards: SSH port.
+    pub ssh: Option<u16>,
     /// OS pid.
     pub pid: Option<u32>,
     /// Ring-fault bit of the card (X:$0003 bit 4), from its `at` queryable.
@@ -203,11 +212,15 @@ pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
 /// Name the broken link: walk the ring from the member after the sync master; the first
 /// member that is gone (no answer, and no liveliness token: `slow[i]` false) ends the walk
 /// (`"<dead> → <next>"`: nothing leaves it), else the first whose last received frame lags its
-/// own current cycle by more than `threshold` names `"<upstream> → <member>"` (its upstream,
-/// visited before, is fine). A member that is slow to answer (`slow[i]`) is passed over: its
-/// link is judged by the members downstream of it. The lag is measured against the member's
-/// own cycle, never the sync master's: a member running behind the master (scheduled late on
-/// a busy machine) has received what it ran, and is not cut off.
+/// own current cycle by more than `threshold`, whose input is dark, that lost the sync
+/// packets, or that latched a ring fault while the link into it delivered bad data (within the
+/// last `threshold` cycles, or within `threshold` cycles of the latch: a break that healed
+/// still names its link until the reset) names `"<upstream> → <member>"` (its upstream,
+/// visited before, is fine). A card that only misses its own packets is not the break: they
+/// were lost further round the ring. A member that is slow to answer (`slow[i]`) is passed
+/// over: its link is judged by the members downstream of it. Lags are measured against the
+/// member's own cycle, never the sync master's: a member running behind the master (scheduled
+/// late on a busy machine) has received what it ran, and is not cut off.
 pub fn broken_link(
     cfg: &ClusterConfig,
     st: &[Option<MemberStatus>],
@@ -233,13 +246,25 @@ pub fn broken_link(
                 order.get((idx + 1) % n)?
             ));
         };
+        let reference = s.cycle;
         let lag = match s.last_rx_cycle {
-            Some(rx) => s.cycle.saturating_sub(rx),
-            None => s.cycle,
+            Some(rx) => reference.saturating_sub(rx),
+            None => reference,
         };
         // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
         // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.
-        if lag > threshold || s.dark || (!s.locked && s.ring_fault && s.sync_count > 0) {
+        // A fault latched on bad data from the link into it (corrupt, byte violation, overrun,
+        // underrun, delayed frames).
+        // Also, while the latch holds, once the link is whole again (a restarted member, a
+        // cleared fault): the bad data that made the latch names the link until the reset.
+        let bad_input = s.ring_fault
+            && s.link_error_cycle.is_some_and(|c| {
+                reference.saturating_sub(c) <= threshold
+                    || s.ring_fault_cycle
+                        .is_some_and(|f| c <= f.saturating_add(threshold) && f <= c + threshold)
+            });
+        if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
+        {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
         }
     }
@@ -313,6 +338,8 @@ pub fn build(
                 late_cycles: v.late_cycles,
                 dark: v.dark,
                 dark_since_cycle: v.dark_since_cycle,
+                link_error_cycle: v.link_error_cycle,
+                last_dark_spell: v.last_dark_spell,
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),
@@ -340,6 +367,8 @@ pub fn build(
                 profile: c.profile.clone(),
                 ascii: extra_port(s, &["ascii", "ascii_port"]),
                 pmac_eth: extra_port(s, &["pmac_eth", "pmac_eth_port"]),
+                gpascii: extra_port(s, &["gpascii"]),
+                ssh: extra_port(s, &["ssh"]),
                 pid: pid_of(&c.name, s),
                 ring_fault: None,
                 motors_killed: None,
@@ -401,6 +430,23 @@ pub fn build(
 
 fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
     v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
+}
+
+/// A card's host ports: `gpascii …  ssh …` for a Power card, `ascii …  pmac_eth …` otherwise.
+fn card_ports_text(c: &CardRow) -> String {
+    if c.gpascii.is_some() || c.ssh.is_some() {
+        format!(
+            "gpascii 127.0.0.1:{}  ssh 127.0.0.1:{}",
+            opt(c.gpascii),
+            opt(c.ssh)
+        )
+    } else {
+        format!(
+            "ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}",
+            opt(c.ascii),
+            opt(c.pmac_eth)
+        )
+    }
 }
 
 /// `  RING FAULT, motors killed  program start @cycle N` (empty when nothing is known).
@@ -482,7 +528,7 @@ pub fn render_table(s: &ClusterStatus) -> String {
     );
     for m in &s.members {
         let e = &m.errors;
-        let faults: Vec<String> = m.faults.iter().map(|f| f.kind.to_string()).collect();
+        let faults: Vec<String> = m.faults.iter().map(|f| f.spec.kind.to_string()).collect();
         let _ = writeln!(
             o,
             "{:>3} {:<12} {:<7} {:>7} {:<5} {:<6} {:>10} {:>10} {:>5} {:>5} {:>5} {:>5} {:>5}  {:<5} {}",
@@ -512,13 +558,12 @@ pub fn render_table(s: &ClusterStatus) -> String {
     for c in &s.cards {
         let _ = writeln!(
             o,
-            "card {} ({}, #{} {}): ascii 127.0.0.1:{}  pmac_eth 127.0.0.1:{}{}",
+            "card {} ({}, #{} {}): {}{}",
             c.name,
             opt(c.pid),
             c.number,
             c.profile,
-            opt(c.ascii),
-            opt(c.pmac_eth),
+            card_ports_text(c),
             card_state_text(c)
         );
     }

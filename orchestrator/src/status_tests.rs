@@ -44,6 +44,49 @@ fn healthy_ring_has_no_broken_link() {
 }
 
 #[test]
+fn bad_data_on_a_link_names_it_but_lost_own_packets_do_not() {
+    // corrupt on station1's sends: card0 (the sync master, downstream) latched on checksum
+    // errors; card1 latched too, only because its own packets did not come back (no link
+    // error of its own): the link named is station1 → card0.
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    for i in [0, 2] {
+        let m = st[i].as_mut().unwrap();
+        m.ring_fault = true;
+        m.ring_fault_cycle = Some(2990);
+    }
+    st[0].as_mut().unwrap().link_error_cycle = Some(2999);
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station1 → card0")
+    );
+    // Errors long before the latch did not make it: they name nothing.
+    st[0].as_mut().unwrap().link_error_cycle = Some(2900);
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
+    // The link healed (a restarted member, a cleared fault) long ago: the bad data that made
+    // the latch still names its link until the reset.
+    st[0].as_mut().unwrap().link_error_cycle = Some(2989);
+    for m in st.iter_mut().flatten() {
+        m.cycle = 9000;
+        m.last_rx_cycle = Some(9000);
+    }
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station1 → card0")
+    );
+    for m in st.iter_mut().flatten() {
+        m.cycle = 3000;
+        m.last_rx_cycle = Some(3000);
+    }
+    // A tolerated burst (no latch) names nothing either.
+    for m in st.iter_mut().flatten() {
+        m.ring_fault = false;
+        m.link_error_cycle = Some(2999);
+    }
+    assert_eq!(broken_link(&cfg, &st, &[], 32), None);
+}
+
+#[test]
 fn cut_is_localised_to_the_link_after_the_cutting_member() {
     // order: card0*, station0, card1, station1. station0 cut its outgoing link at cycle 1000:
     // card1 and station1 receive nothing since; the sync master's sync never returns.
@@ -128,7 +171,17 @@ fn json_document_has_the_contract_fields() {
     card0
         .extra
         .insert("pmac_eth".into(), serde_json::json!("127.0.0.1:5002"));
+    // A Power card reports its gpascii and SSH ports instead.
+    let card1 = st[2].as_mut().unwrap();
+    card1
+        .extra
+        .insert("gpascii".into(), serde_json::json!(6001));
+    card1.extra.insert("ssh".into(), serde_json::json!(6002));
     let doc = serde_json::to_value(build(&cfg, &info(), "/run/x", &st, &[])).unwrap();
+    assert_eq!(doc["cards"][1]["gpascii"], 6001);
+    assert_eq!(doc["cards"][1]["ssh"], 6002);
+    assert_eq!(doc["cards"][0]["gpascii"], serde_json::Value::Null);
+    assert_eq!(doc["cards"][0]["ssh"], serde_json::Value::Null);
     for k in [
         "cluster",
         "clock",

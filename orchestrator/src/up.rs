@@ -146,13 +146,16 @@ fn print_ready(
     };
     for c in &doc.cards {
         println!(
-            "  {} (card {}, {}, pid {}): ascii {}  pmac_eth {}",
+            "  {} (card {}, {}, pid {}): {}",
             c.name,
             c.number,
             c.profile,
             c.pid.map(|p| p.to_string()).unwrap_or_else(|| "-".into()),
-            port(c.ascii),
-            port(c.pmac_eth)
+            if c.gpascii.is_some() || c.ssh.is_some() {
+                format!("gpascii {}  ssh {}", port(c.gpascii), port(c.ssh))
+            } else {
+                format!("ascii {}  pmac_eth {}", port(c.ascii), port(c.pmac_eth))
+            }
         );
     }
     for s in &doc.stations {

@@ -183,6 +183,19 @@ pub struct CardConfig {
     /// PMAC Ethernet protocol TCP port (0 = ephemeral).
     #[serde(default)]
     pub pmac_eth_port: u16,
+    /// Power cards: raw TCP `gpascii` ("Telnet") port, one command thread per connection
+    /// (0 = ephemeral).
+    #[serde(default)]
+    pub gpascii_port: u16,
+    /// Power cards: SSH port (0 = ephemeral).
+    #[serde(default)]
+    pub ssh_port: u16,
+    /// Power cards: the SSH login's user (default `root`, as on a Power PMAC).
+    #[serde(default = "default_ssh_user")]
+    pub ssh_user: String,
+    /// Power cards: the SSH login's password (default `deltatau`, as on a Power PMAC).
+    #[serde(default = "default_ssh_password")]
+    pub ssh_password: String,
     /// MACRO master number (I996 bits 20–23), 0–15.
     pub master: u8,
     /// Activated MACRO nodes (I996 bits 0–14).
@@ -361,6 +374,10 @@ impl ClusterConfig {
                 profile: default_profile(),
                 ascii_port: 0,
                 pmac_eth_port: 0,
+                gpascii_port: 0,
+                ssh_port: 0,
+                ssh_user: default_ssh_user(),
+                ssh_password: default_ssh_password(),
                 master: (c % 256) as u8,
                 nodes: default_nodes(),
                 ivars: default_card_ivars(),
@@ -627,6 +644,12 @@ fn default_member_timeout() -> u64 {
 }
 fn default_profile() -> String {
     "pmac2".to_string()
+}
+fn default_ssh_user() -> String {
+    "root".to_string()
+}
+fn default_ssh_password() -> String {
+    "deltatau".to_string()
 }
 fn default_nodes() -> Vec<u8> {
     DEFAULT_NODES.to_vec()

@@ -16,7 +16,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::fault::FaultSpec;
+use crate::fault::{ActiveFault, FaultSpec};
 
 pub mod chain;
 pub mod emcl;
@@ -113,11 +113,20 @@ pub struct MemberStatus {
     /// First ring cycle this member ran with a dark input (while `dark`).
     #[serde(default)]
     pub dark_since_cycle: Option<u64>,
+    /// The last dark spell that ended, `[first, last]` cycle without light (a member upstream
+    /// that died and came back, a cut that was mended).
+    #[serde(default)]
+    pub last_dark_spell: Option<(u64, u64)>,
+    /// Latest ring cycle in which the link into this member delivered bad data: a packet
+    /// error, a dark frame, a frame too many, or no frame at all (not a master's own packets
+    /// missing, which means a break further round the ring).
+    #[serde(default)]
+    pub link_error_cycle: Option<u64>,
     /// Why the latched ring fault was declared (while `ring_fault`).
     #[serde(default)]
     pub fault_reason: Option<String>,
     /// Faults currently injected on this member's send path.
-    pub faults: Vec<FaultSpec>,
+    pub faults: Vec<ActiveFault>,
     /// Synchronizing master: how the ring's clock is keeping time.
     #[serde(default)]
     pub clock: Option<ClockReport>,

@@ -43,6 +43,12 @@ pub trait RingApp {
         false
     }
 
+    /// Asked for every status report: add the application's own fields (a station's
+    /// amplifiers, ...) to the member's `extra`. The default adds nothing.
+    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
+        let _ = extra;
+    }
+
     /// Called once before every tick (before the ring check): the application reads and
     /// changes its member's ring settings through `ring` (a card's I995/I996/I1001/I1004/
     /// I1005 are these settings). The default leaves them alone.
@@ -280,6 +286,10 @@ pub struct MemberCore {
     dark: bool,
     /// First cycle run with a dark input.
     dark_since: Option<u64>,
+    /// The last dark spell that ended: first and last cycle without light.
+    last_dark: Option<(u64, u64)>,
+    /// Latest cycle in which the link into this member delivered bad data.
+    link_error_cycle: Option<u64>,
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
@@ -330,6 +340,8 @@ impl MemberCore {
             timing_slack: cfg.timing_slack.max(1),
             dark: false,
             dark_since: None,
+            last_dark: None,
+            link_error_cycle: None,
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
@@ -533,7 +545,9 @@ impl MemberCore {
         self.last_rx_cycle = Some(frame.cycle);
         // Light again: a newly started sync master's numbering may be adopted (see on_sync).
         let was_dark = std::mem::take(&mut self.dark);
-        self.dark_since = None;
+        if let Some(from) = self.dark_since.take() {
+            self.last_dark = Some((from, frame.cycle.saturating_sub(1).max(from)));
+        }
 
         let intact = usize::from(frame.declared) * PACKET_LEN;
         let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
@@ -582,6 +596,7 @@ impl MemberCore {
             }
             forwards.extend(r.forward);
         }
+        let mut own_missing_error = 0;
         // A master's command packets of the previous cycle come back in this cycle's frame; a
         // frame without them is missing its packets (data underrun): the ring is broken
         // somewhere downstream of this master.
@@ -597,12 +612,17 @@ impl MemberCore {
             self.own_missing = self.own_missing.saturating_add(1);
             if self.own_missing > self.timing_slack {
                 ev.errors.push(ErrorClass::Underrun);
+                own_missing_error = 1;
             }
         }
         if frame.packets.len() < intact {
             ev.errors.push(ErrorClass::Underrun);
         } else if frame.packets.len() > intact {
             ev.errors.push(ErrorClass::Overrun);
+        }
+        // Everything but this master's own packets missing is wrong with the link into it.
+        if ev.errors.len() > own_missing_error {
+            self.link_error_cycle = Some(frame.cycle.max(self.cycle));
         }
         for e in &ev.errors {
             self.status.record(*e);
@@ -633,6 +653,7 @@ impl MemberCore {
     fn on_dark(&mut self, frame: &Frame, now_ns: u64, mut ev: CoreEvents) -> CoreEvents {
         ev.errors.push(ErrorClass::ByteViolation);
         self.status.record(ErrorClass::ByteViolation);
+        self.link_error_cycle = Some(frame.cycle.max(self.cycle));
         if !self.dark {
             self.dark = true;
             self.dark_since = Some(frame.cycle);
@@ -776,6 +797,7 @@ impl MemberCore {
                         MemberKind::Station => ErrorClass::ByteViolation,
                         MemberKind::Card => ErrorClass::Underrun,
                     });
+                    self.link_error_cycle = Some(self.cycle);
                 }
             }
             self.rx_since_tick = false;
@@ -838,7 +860,7 @@ impl MemberCore {
     }
 
     /// Injected faults still active.
-    pub fn faults(&self) -> Vec<FaultSpec> {
+    pub fn faults(&self) -> Vec<crate::fault::ActiveFault> {
         self.faults.active()
     }
 
@@ -863,6 +885,8 @@ impl MemberCore {
             late_cycles: self.late_cycles,
             dark: self.dark,
             dark_since_cycle: self.dark_since,
+            last_dark_spell: self.last_dark,
+            link_error_cycle: self.link_error_cycle,
             fault_reason: self
                 .ring_fault
                 .then(|| self.last_fault.map(|f| f.to_string()))

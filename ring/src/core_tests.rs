@@ -345,6 +345,56 @@ fn a_dark_frame_is_a_byte_violation_passed_on_dark() {
         !st.dark && st.dark_since_cycle.is_none() && st.locked,
         "{st:?}"
     );
+    // The spell is remembered once it is over.
+    assert_eq!(st.last_dark_spell, Some((4, 4)));
+}
+
+#[test]
+fn bad_data_on_the_input_link_is_dated_but_lost_own_packets_are_not() {
+    // A master (card 1) downstream of the sync master: its command packets for node 1 come
+    // back one cycle after it sent them.
+    let mut cfg = CoreConfig::new(
+        "c1",
+        MemberKind::Card,
+        1,
+        RingSettings::new(0x8090, 0x1F_8002),
+        P,
+    );
+    cfg.upstream = Some(0);
+    let mut m = MemberCore::new(cfg);
+    let own = Packet::new(1, 1, NodeRegs::default());
+    let f = |seq, c, p: &[Packet]| frame(seq, c, p).encode();
+    m.on_frame(&f(1, 1, &[Packet::sync(0, 15, 1)]), 0);
+    m.run_check();
+    m.on_frame(&f(2, 2, &[Packet::sync(0, 15, 2), own]), 0);
+    m.run_check();
+    assert_eq!(m.status().link_error_cycle, None);
+    // Its own packets stop coming back: underruns, but nothing wrong with the link into it.
+    for c in 3..6 {
+        let ev = m.on_frame(&f(c, c, &[Packet::sync(0, 15, c)]), 0);
+        m.run_check();
+        if c > 3 {
+            assert_eq!(ev.errors, vec![crate::status::ErrorClass::Underrun], "{c}");
+        }
+    }
+    assert_eq!(m.status().link_error_cycle, None);
+    // A corrupt packet on the link: dated with its cycle.
+    let mut bad = frame(6, 6, &[Packet::sync(0, 15, 6), own]);
+    bad.packets[23] ^= 0xFF;
+    let ev = m.on_frame(&bad.encode(), 0);
+    // (the corrupted packet was its own: still missing)
+    assert_eq!(
+        ev.errors,
+        vec![
+            crate::status::ErrorClass::Checksum,
+            crate::status::ErrorClass::Underrun
+        ]
+    );
+    assert_eq!(m.status().link_error_cycle, Some(6));
+    m.run_check();
+    // So is a dark frame.
+    m.on_frame(&Frame::dark(0, 7, 0, 7, 0).encode(), 0);
+    assert_eq!(m.status().link_error_cycle, Some(7));
 }
 
 #[test]

@@ -196,6 +196,19 @@ impl FaultSpec {
     }
 }
 
+/// A fault as a member reports it (`faults` in its status): the spec, and the first ring cycle
+/// it applied to (`null` until the member's next send after injection). In JSON the spec's
+/// fields plus `since_cycle`.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct ActiveFault {
+    /// The injected fault.
+    #[serde(flatten)]
+    pub spec: FaultSpec,
+    /// First ring cycle whose frame it acted on.
+    #[serde(default)]
+    pub since_cycle: Option<u64>,
+}
+
 /// A frame the fault layer lets through, before the member stamps its link sequence number
 /// (frames a `delay` releases late get a fresh one, so the receiver reads them as late data
 /// rather than as stale duplicates).
@@ -275,15 +288,19 @@ impl FaultLayer {
         self.faults.clear();
     }
 
-    /// The faults still active.
-    pub fn active(&self) -> Vec<FaultSpec> {
-        self.faults.iter().map(|a| a.spec.clone()).collect()
+    /// The faults still active, with the cycle each started acting.
+    pub fn active(&self) -> Vec<ActiveFault> {
+        self.faults
+            .iter()
+            .map(|a| ActiveFault {
+                spec: a.spec.clone(),
+                since_cycle: a.first_cycle,
+            })
+            .collect()
     }
 
+    /// Drop faults whose cycles are over (counted from the first frame each acted on).
     fn expire(&mut self, cycle: u64) {
-        for a in &mut self.faults {
-            a.first_cycle.get_or_insert(cycle);
-        }
         self.faults.retain(|a| !a.expired(cycle));
     }
 
@@ -314,6 +331,10 @@ impl FaultLayer {
     /// Pass one frame of ring cycle `cycle` through the active faults: 0, 1 or more frames
     /// to put on the link now (held frames released first, in order).
     pub fn on_send(&mut self, cycle: u64, mut frame: Frame) -> Vec<Sent> {
+        // A fault's cycles count from the first frame it acts on.
+        for a in &mut self.faults {
+            a.first_cycle.get_or_insert(cycle);
+        }
         let mut out = self.poll(cycle);
         let (mut drop, mut cut) = (false, false);
         let (mut delay_cycles, mut delay_us) = (0u32, 0u32);

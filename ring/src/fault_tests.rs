@@ -212,3 +212,30 @@ fn probability_is_seeded() {
     let dropped = pattern(7).iter().filter(|d| **d).count();
     assert!((16..=48).contains(&dropped), "{dropped}");
 }
+
+#[test]
+fn active_faults_report_the_cycle_they_started_acting_on() {
+    let mut l = FaultLayer::new(15);
+    l.inject(FaultSpec {
+        cycles: Some(3),
+        ..FaultSpec::always(FaultKind::Corrupt)
+    })
+    .unwrap();
+    assert_eq!(l.active()[0].since_cycle, None, "nothing sent yet");
+    // The runtime polls between cycles (held frames): that does not start the fault.
+    l.poll(40);
+    assert_eq!(l.active()[0].since_cycle, None, "polled, nothing sent yet");
+    l.on_send(41, frame(41));
+    l.on_send(42, frame(42));
+    let a = &l.active()[0];
+    assert_eq!(a.since_cycle, Some(41));
+    // The status JSON keeps the spec's shape and adds `since_cycle`.
+    let v = serde_json::to_value(a).unwrap();
+    assert_eq!(v["kind"], "corrupt");
+    assert_eq!(v["cycles"], 3);
+    assert_eq!(v["since_cycle"], 41);
+    let back: ActiveFault = serde_json::from_value(v).unwrap();
+    assert_eq!(&back, a);
+    l.on_send(44, frame(44));
+    assert!(l.active().is_empty(), "expired after 3 cycles");
+}

@@ -12,6 +12,7 @@ pub mod check;
 pub mod config;
 pub mod control;
 pub mod core;
+pub mod expect;
 pub mod fault;
 pub mod frame;
 pub mod holdover;

@@ -31,6 +31,7 @@ pub struct StationApp {
     last_time_ns: Option<u64>,
     ticks: u64,
     ring_fault: bool,
+    shutdown_cycle: Option<u64>,
     mi: StationMi,
 }
 
@@ -70,6 +71,7 @@ impl StationApp {
             last_time_ns: None,
             ticks: 0,
             ring_fault: false,
+            shutdown_cycle: None,
             mi: StationMi::new(setup, None),
         })
     }
@@ -99,6 +101,12 @@ impl StationApp {
         self.ring_fault
     }
 
+    /// The ring cycle whose tick shut the amplifiers down for the present ring fault (none
+    /// while the ring is healthy).
+    pub fn shutdown_cycle(&self) -> Option<u64> {
+        self.shutdown_cycle
+    }
+
     /// The servo node with this number.
     pub fn node(&self, n: u8) -> Option<&ServoNode> {
         self.servo.iter().find(|s| s.node() == n)
@@ -116,10 +124,15 @@ impl StationApp {
 }
 
 impl RingApp for StationApp {
-    fn tick(&mut self, _cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+    fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.ticks += 1;
         let ring_fault = self.mi.tick(regs, ring_fault, &mut self.servo);
         self.ring_fault = ring_fault;
+        self.shutdown_cycle = match (ring_fault, self.shutdown_cycle) {
+            (true, None) => Some(cycle),
+            (true, c) => c,
+            (false, _) => None,
+        };
         let dt = match self.last_time_ns {
             Some(t0) if time_ns > t0 => ((time_ns - t0) as f64 * 1e-9).min(MAX_TICK_SECONDS),
             _ => 0.0,
@@ -161,8 +174,23 @@ impl RingApp for StationApp {
         }
     }
 
+    /// The MI-variable fields, `ring_shutdown_cycle` (the cycle the ring fault shut the
+    /// amplifiers down; null while healthy) and `amps_enabled` (the servo nodes whose
+    /// amplifier is on).
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
-        self.mi.status_extra()
+        let mut extra = self.mi.status_extra();
+        extra.insert(
+            "ring_shutdown_cycle".into(),
+            serde_json::json!(self.shutdown_cycle),
+        );
+        let on: Vec<u8> = self
+            .servo
+            .iter()
+            .filter(|s| s.snapshot().flags.amp_enabled)
+            .map(ServoNode::node)
+            .collect();
+        extra.insert("amps_enabled".into(), serde_json::json!(on));
+        extra
     }
 }
 

@@ -186,8 +186,16 @@ fn ring_fault_zeroes_outputs_and_drops_enables_in_the_same_tick() {
             ST_AMP_ENABLED | ST_FAULT
         );
     }
+    let extra = app.status_extra();
+    assert_eq!(extra["ring_shutdown_cycle"], serde_json::Value::Null);
+    assert_eq!(extra["amps_enabled"], serde_json::json!([0, 1]));
     app.tick(20, 20 * PERIOD_NS, &mut m, true);
     assert!(app.ring_fault());
+    app.tick(21, 21 * PERIOD_NS, &mut m, true);
+    // The status names the tick that shut the amplifiers down, while the fault lasts.
+    let extra = app.status_extra();
+    assert_eq!(extra["ring_shutdown_cycle"], 20);
+    assert_eq!(extra["amps_enabled"], serde_json::json!([]));
     assert_eq!(m.write_regs(2), NodeRegs::default());
     for n in [0, 1] {
         let w = m.write_regs(n);
@@ -195,6 +203,8 @@ fn ring_fault_zeroes_outputs_and_drops_enables_in_the_same_tick() {
         assert!(!app.node(n).unwrap().amplifier().enable_requested());
         assert_ne!(w.r0, 0, "position keeps being reported");
     }
+    app.tick(22, 22 * PERIOD_NS, &mut m, false);
+    assert_eq!(app.shutdown_cycle(), None);
 }
 
 #[test]

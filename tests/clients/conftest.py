@@ -3,6 +3,7 @@
 import json
 import os
 import select
+import signal
 import socket
 import struct
 import subprocess
@@ -29,9 +30,12 @@ class CardProcess:
         if not ready:
             self.stop()
             raise RuntimeError("mcc-card did not report its ports")
-        ports = json.loads(self.proc.stdout.readline())
-        self.ascii = ports["ascii"]
-        self.pmac_eth = ports["pmac_eth"]
+        self.ports = json.loads(self.proc.stdout.readline())
+        # A Power card has the gpascii and SSH ports instead of the ASCII and Ethernet ones.
+        self.ascii = self.ports.get("ascii")
+        self.pmac_eth = self.ports.get("pmac_eth")
+        self.gpascii = self.ports.get("gpascii")
+        self.ssh = self.ports.get("ssh")
 
     def stop(self):
         try:
@@ -40,6 +44,29 @@ class CardProcess:
         except Exception:
             self.proc.kill()
             self.proc.wait()
+
+
+@pytest.fixture(scope="module")
+def power_card():
+    card = CardProcess("power")
+    yield card
+    card.stop()
+
+
+# dls_pmaclib's PPmacSshInterface waits forever for a reply's end: tests using it are bounded.
+POWER_TEST_TIMEOUT = 300
+
+
+@pytest.fixture
+def deadline():
+    def expired(signum, frame):
+        raise TimeoutError("no answer in time")
+
+    old = signal.signal(signal.SIGALRM, expired)
+    signal.alarm(POWER_TEST_TIMEOUT)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs the Python host-client tests (dls-pmaclib against a real `mcc-card --standalone`;
+# Runs the Python host-client tests (dls-pmaclib against a real `mcc-card --standalone`,
+# its PPmacSshInterface and dls-powerpmacanalyse against Power cards;
 # pytrinamic and pyTMCL against a running cluster's EMCL bus).
 # Creates a venv under target/ on first use; safe to re-run. Exits non-zero on failure.
 # Env: MCC_CARD_BIN (default target/debug/mcc-card), MCC_BIN (default target/debug/mcc),
@@ -16,6 +17,11 @@ fi
 if ! "$venv/bin/python" -c 'import dls_pmaclib, dls_pmacanalyse, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
         -r "$here/requirements.txt"
+fi
+# dls-powerpmacanalyse without its GUI dependencies (see requirements-nodeps.txt).
+if ! "$venv/bin/python" -c 'import dls_powerpmacanalyse, scp, numpy' 2>/dev/null; then
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps \
+        -r "$here/requirements-nodeps.txt"
 fi
 if [ "${MCC_SKIP_BUILD:-0}" != "1" ] && [ -z "${MCC_CARD_BIN:-}" ]; then
     (cd "$root" && cargo build -q -p mcc-card --bin mcc-card)

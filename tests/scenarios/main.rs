@@ -11,6 +11,7 @@ mod macro_station;
 mod motion;
 mod programs;
 mod recovery;
+mod reliability;
 mod ring_inprocess;
 mod station_aux;
 mod stations;

@@ -3,7 +3,9 @@
 //! `mcc-card --standalone [--profile pmac2|turbo|power] [--ascii-port P] [--eth-port P]
 //! [--state-file PATH] [--exit-on-stdin-eof] [--max-connections N] [--idle-timeout-s S]
 //! [--request-timeout-ms MS]` runs the card with its host ports and no ring,
-//! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening.
+//! printing `{"ascii":PORT,"pmac_eth":PORT}` once listening. A Power card (`--profile power`)
+//! has a `gpascii` and an SSH port instead (`--gpascii-port P --ssh-port P --ssh-user U
+//! --ssh-password W`) and prints `{"gpascii":PORT,"ssh":PORT}`.
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // the process
 
@@ -11,7 +13,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use mcc_card::{run_standalone, Profile, StandaloneOpts};
+use mcc_card::{run_standalone, PowerHostOpts, Profile, StandaloneOpts};
 use mcc_ring::hostport::HostLimits;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -39,6 +41,18 @@ struct Args {
     /// PMAC Ethernet protocol port on 127.0.0.1 (0 = ephemeral).
     #[arg(long, default_value_t = 0)]
     eth_port: u16,
+    /// Power card: raw TCP gpascii port on 127.0.0.1 (0 = ephemeral).
+    #[arg(long)]
+    gpascii_port: Option<u16>,
+    /// Power card: SSH port on 127.0.0.1 (0 = ephemeral).
+    #[arg(long)]
+    ssh_port: Option<u16>,
+    /// Power card: SSH user [default: root].
+    #[arg(long)]
+    ssh_user: Option<String>,
+    /// Power card: SSH password [default: deltatau].
+    #[arg(long)]
+    ssh_password: Option<String>,
     /// File SAVE writes and start-up loads.
     #[arg(long)]
     state_file: Option<PathBuf>,
@@ -103,6 +117,13 @@ fn main() -> ExitCode {
         );
         return ExitCode::from(2);
     }
+    let power_host = match power_host_opts(&args) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("mcc-card: {e}");
+            return ExitCode::from(2);
+        }
+    };
     let opts = StandaloneOpts {
         profile: match args.profile {
             ProfileArg::Pmac2 => Profile::Pmac2,
@@ -113,6 +134,7 @@ fn main() -> ExitCode {
         eth_port: args.eth_port,
         state_file: args.state_file,
         exit_on_stdin_eof: args.exit_on_stdin_eof,
+        power_host,
         limits,
     };
     match run_standalone(opts) {
@@ -122,4 +144,42 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A Power card's host-port options (`None`: not a Power card, which must not be given them).
+fn power_host_opts(args: &Args) -> Result<Option<PowerHostOpts>, String> {
+    if !matches!(args.profile, ProfileArg::Power) {
+        let given = [
+            ("--gpascii-port", args.gpascii_port.is_some()),
+            ("--ssh-port", args.ssh_port.is_some()),
+            ("--ssh-user", args.ssh_user.is_some()),
+            ("--ssh-password", args.ssh_password.is_some()),
+        ];
+        return match given.iter().find(|(_, g)| *g) {
+            Some((flag, _)) => Err(format!(
+                "{flag} is an option of a Power card (--profile power)"
+            )),
+            None => Ok(None),
+        };
+    }
+    let mut o = PowerHostOpts {
+        gpascii_port: args.gpascii_port.unwrap_or(0),
+        ssh_port: args.ssh_port.unwrap_or(0),
+        ..PowerHostOpts::default()
+    };
+    if let Some(u) = &args.ssh_user {
+        if u.is_empty() || u.chars().any(|c| c.is_whitespace() || c.is_control()) {
+            return Err(format!(
+                "--ssh-user {u:?}: give a non-empty name without spaces"
+            ));
+        }
+        o.ssh_user = u.clone();
+    }
+    if let Some(p) = &args.ssh_password {
+        if p.chars().any(char::is_control) {
+            return Err("--ssh-password: control characters are not allowed".into());
+        }
+        o.ssh_password = p.clone();
+    }
+    Ok(Some(o))
 }

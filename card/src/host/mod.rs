@@ -5,6 +5,9 @@
 //! - [`eth_codec`]: PMAC Ethernet `VR_` request/reply state machine (pure).
 //! - [`port`]: the [`port::Interpreter`] seam between the codecs and the card.
 //! - [`server`]: tokio TCP servers for both ports.
+//! - [`gpascii`]: the Power PMAC `gpascii` command thread's banner, lines and reply framing (pure).
+//! - [`ssh`]: the Power PMAC card's SSH server and its shell emulation.
+//! - [`power_ports`]: tokio servers for a Power card's raw `gpascii` port and SSH.
 
 //! - [`zenoh_cmd`]: the `mcc/<cluster>/card/<n>/cmd` queryable.
 
@@ -13,6 +16,12 @@
 pub(crate) mod ascii;
 pub(crate) mod bench;
 pub(crate) mod eth_codec;
+pub(crate) mod gpascii;
 pub(crate) mod port;
+pub(crate) mod power_ports;
 pub(crate) mod server;
+pub(crate) mod ssh;
 pub(crate) mod zenoh_cmd;
+
+#[cfg(test)]
+mod tests_fuzz;

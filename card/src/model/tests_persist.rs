@@ -58,3 +58,26 @@ fn image_keeps_memory_regions() {
     t.reset(Some(&img)).unwrap();
     assert_eq!(t.read(Space::Y, 0x0730), 0x123456);
 }
+
+#[test]
+fn saved_values_come_back_bit_exact() {
+    // Found by fuzzing: JSON numbers must parse back to the same f64 (serde_json's
+    // float_roundtrip), or SAVE + $$$ moves a value by one unit in the last place.
+    let values = vec![
+        -14700.061580553913,
+        0.1,
+        1.0 / 3.0,
+        2.0e-300,
+        -9.87654321e17,
+    ];
+    let mut img = sample();
+    img.qvars = vec![values.clone()];
+    img.pvars = values.clone();
+    img.ivars = values.clone();
+    let back = decode(&encode(&img)).unwrap();
+    for got in [&back.qvars[0], &back.pvars, &back.ivars] {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(got), bits(&values));
+    }
+    assert_eq!(encode(&back), encode(&img));
+}

@@ -15,7 +15,9 @@ use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
 use crate::core::CardCore;
+use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
+use crate::host::ssh::server::Credentials;
 use crate::host::zenoh_cmd::declare_cmd_queryable;
 use crate::lang::interp::{Card, Profile};
 use crate::service::storage::{self, FileStorage};
@@ -28,7 +30,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             Some(MemberRef::Card(c)) => c.clone(),
             _ => anyhow::bail!("'{}' is not a card in the config", ctx.name),
         };
-        let profile = Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2);
+        let profile = profile_of(&cc);
         let storage = cc.state_file.as_ref().map(FileStorage::new);
         let (mut card, load_error) = startup_card(profile, storage.as_ref());
         // The start-up layer (in the profile's numbering, every reply checked: a refused line
@@ -61,16 +63,41 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .enable_all()
             .build()
             .context("starting the host-port runtime")?;
-        let ports = rt.block_on(serve(
-            handle.clone(),
-            PortsConfig {
-                ascii_port: cc.ascii_port,
-                eth_port: cc.pmac_eth_port,
-                limits: ctx.config.host,
-                name: cc.name.clone(),
-                bind: PortsConfig::default().bind,
-            },
-        ))?;
+        let mut extra = serde_json::Map::new();
+        // A Power card is reached as Power PMAC users connect (gpascii, SSH); the others
+        // have the ASCII and PMAC Ethernet-protocol ports.
+        let ports: Box<dyn std::any::Any> = if cc.profile == "power" {
+            let ports = rt.block_on(serve_power(
+                handle.clone(),
+                PowerPortsConfig {
+                    gpascii_port: cc.gpascii_port,
+                    ssh_port: cc.ssh_port,
+                    creds: Credentials {
+                        user: cc.ssh_user.clone(),
+                        password: cc.ssh_password.clone(),
+                    },
+                    max_connections: ctx.config.host.max_connections,
+                    ..PowerPortsConfig::default()
+                },
+            ))?;
+            extra.insert("gpascii".into(), serde_json::json!(ports.gpascii.port()));
+            extra.insert("ssh".into(), serde_json::json!(ports.ssh.port()));
+            Box::new(ports)
+        } else {
+            let ports = rt.block_on(serve(
+                handle.clone(),
+                PortsConfig {
+                    ascii_port: cc.ascii_port,
+                    eth_port: cc.pmac_eth_port,
+                    limits: ctx.config.host,
+                    name: cc.name.clone(),
+                    bind: PortsConfig::default().bind,
+                },
+            ))?;
+            extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
+            extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
+            Box::new(ports)
+        };
         let queryable = rt
             .block_on(declare_cmd_queryable(
                 &ctx.session,
@@ -90,11 +117,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         )
         .map_err(|e| anyhow!("declare card at queryable: {e}"))?;
 
-        let mut extra = serde_json::Map::new();
         extra.insert("number".into(), serde_json::json!(cc.number));
         extra.insert("profile".into(), serde_json::json!(cc.profile));
-        extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
-        extra.insert("pmac_eth".into(), serde_json::json!(ports.pmac_eth.port()));
         // A refused state file (issue 9 item 7): `cards[].state_file_error` in the status.
         extra.insert("state_file_error".into(), serde_json::json!(load_error));
         // The daisy chain (pmac-commands §8.3): every chain byte reaches every card.
@@ -116,7 +140,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .with_resource(Box::new(chain_q))
             .with_resource(Box::new(at_queryable))
             .with_resource(Box::new(queryable))
-            .with_resource(Box::new(ports))
+            .with_resource(ports)
             .with_resource(Box::new(rt));
         Ok((app, extra))
     })
@@ -150,19 +174,54 @@ pub(crate) fn startup_card(
     (card, err)
 }
 
-/// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands.
+fn profile_of(cc: &mcc_ring::config::CardConfig) -> Profile {
+    Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2)
+}
+
+/// Check a card's config before anything starts (`mcc up`): its `ivars` applied as the card
+/// applies them at start-up, on a card of its profile; the first refused one is named with the
+/// card's error.
+pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()> {
+    let mut card = Card::new(profile_of(cc));
+    chain::apply_chain_defaults(&mut card, cc.number);
+    apply_ivars(&mut card, &cc.ivars)
+}
+
+/// The config keys that are the ring's check settings of a card (read by the ring runtime,
+/// `card_check`): on a Power card they are no Power I-variables (Power `I1001` is
+/// `Motor[10].PhaseCtrl`; the check is `Macro.TestPeriod`/`TestMaxErrors`/`TestReqdSynchs`,
+/// power-pmac.md §3.10), so they are not sent to its dialect.
+const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
+
+/// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands in
+/// the card's own language (a Power card: its dialect, Power numbering).
 fn apply_ivars(
     card: &mut Card,
     ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
 ) -> anyhow::Result<()> {
+    let power = card.profile() == Profile::Power;
+    let mut dialect = crate::lang::ppmac::Power::new();
     let mut s = crate::lang::interp::Session::default();
     for (k, v) in ivars {
         let line = format!("{k}={}", v.as_f64());
-        let reply = card.command_line(&mut s, line.as_bytes());
-        if reply.contains(&0x07) {
+        let refused = if power {
+            if RING_CHECK_KEYS.iter().any(|r| r.eq_ignore_ascii_case(k)) {
+                continue;
+            }
+            let reply = dialect.line(card, 0, line.as_bytes());
+            let text = String::from_utf8_lossy(&reply).into_owned();
+            text.contains(": error #").then_some(text)
+        } else {
+            let reply = card.command_line(&mut s, line.as_bytes());
+            reply
+                .contains(&0x07)
+                .then(|| String::from_utf8_lossy(&reply).into_owned())
+        };
+        if let Some(text) = refused {
             anyhow::bail!(
-                "cards.ivars: '{line}' was refused by the card: {}",
-                String::from_utf8_lossy(&reply).trim()
+                "ivars: {k} = {}: the card refuses it: {}",
+                v.as_f64(),
+                text.trim_matches(|c: char| c.is_control() || c.is_whitespace())
             );
         }
     }

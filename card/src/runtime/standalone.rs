@@ -1,6 +1,7 @@
 //! `mcc-card --standalone`: one card with its host ports and no ring. Prints
-//! `{"ascii":PORT,"pmac_eth":PORT}` on stdout once listening; runs until SIGTERM, Ctrl-C, or
-//! (with `exit_on_stdin_eof`) until stdin closes.
+//! `{"ascii":PORT,"pmac_eth":PORT}` (a Power card: `{"gpascii":PORT,"ssh":PORT}`) on stdout
+//! once listening; runs until SIGTERM, Ctrl-C, or (with `exit_on_stdin_eof`) until stdin
+//! closes.
 
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
@@ -8,7 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::core::CardCore;
+use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
+use crate::host::ssh::server::Credentials;
 use crate::lang::interp::Profile;
 use crate::runtime::startup_card;
 use crate::service::handle::channel;
@@ -29,11 +32,59 @@ pub struct StandaloneOpts {
     pub exit_on_stdin_eof: bool,
     /// Host-port limits.
     pub limits: mcc_ring::hostport::HostLimits,
+    /// The card's host ports are a Power PMAC's (`gpascii` and SSH) instead of the ASCII and
+    /// Ethernet-protocol ports.
+    pub power_host: Option<PowerHostOpts>,
+}
+
+/// A Power card's host ports.
+#[derive(Debug, Clone)]
+pub struct PowerHostOpts {
+    /// Raw TCP `gpascii` port (0 = ephemeral).
+    pub gpascii_port: u16,
+    /// SSH port (0 = ephemeral).
+    pub ssh_port: u16,
+    /// SSH user.
+    pub ssh_user: String,
+    /// SSH password.
+    pub ssh_password: String,
+}
+
+impl Default for PowerHostOpts {
+    fn default() -> Self {
+        let creds = Credentials::default();
+        PowerHostOpts {
+            gpascii_port: 0,
+            ssh_port: 0,
+            ssh_user: creds.user,
+            ssh_password: creds.password,
+        }
+    }
+}
+
+impl PowerHostOpts {
+    /// The port configuration these options give.
+    pub(crate) fn ports_config(&self) -> PowerPortsConfig {
+        PowerPortsConfig {
+            gpascii_port: self.gpascii_port,
+            ssh_port: self.ssh_port,
+            creds: Credentials {
+                user: self.ssh_user.clone(),
+                password: self.ssh_password.clone(),
+            },
+            ..PowerPortsConfig::default()
+        }
+    }
 }
 
 /// The line printed once the ports listen.
 pub(crate) fn ports_json(ascii: u16, pmac_eth: u16) -> String {
     format!("{{\"ascii\":{ascii},\"pmac_eth\":{pmac_eth}}}")
+}
+
+/// The line a Power card prints once its ports listen.
+pub(crate) fn power_ports_json(gpascii: u16, ssh: u16) -> String {
+    format!("{{\"gpascii\":{gpascii},\"ssh\":{ssh}}}")
 }
 
 /// Run the standalone card until asked to stop.
@@ -57,6 +108,17 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
             .spawn(move || runner.run_until(&stop))?
     };
     let r = rt.block_on(async move {
+        if let Some(power) = &opts.power_host {
+            let cfg = PowerPortsConfig {
+                max_connections: opts.limits.max_connections,
+                ..power.ports_config()
+            };
+            let ports = serve_power(card, cfg).await?;
+            print_line(&power_ports_json(ports.gpascii.port(), ports.ssh.port()))?;
+            wait_for_stop(opts.exit_on_stdin_eof).await;
+            ports.shutdown().await;
+            return Ok(());
+        }
         let cfg = PortsConfig {
             ascii_port: opts.ascii_port,
             eth_port: opts.eth_port,
@@ -64,15 +126,7 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
             ..PortsConfig::default()
         };
         let ports = serve(card, cfg).await?;
-        {
-            let mut out = io::stdout().lock();
-            writeln!(
-                out,
-                "{}",
-                ports_json(ports.ascii.port(), ports.pmac_eth.port())
-            )?;
-            out.flush()?;
-        }
+        print_line(&ports_json(ports.ascii.port(), ports.pmac_eth.port()))?;
         wait_for_stop(opts.exit_on_stdin_eof).await;
         ports.shutdown().await;
         Ok(())
@@ -80,6 +134,12 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
     stop.store(true, Ordering::Relaxed);
     let _ = card_thread.join();
     r
+}
+
+fn print_line(line: &str) -> io::Result<()> {
+    let mut out = io::stdout().lock();
+    writeln!(out, "{line}")?;
+    out.flush()
 }
 
 async fn wait_for_stop(exit_on_stdin_eof: bool) {
@@ -117,5 +177,9 @@ mod tests {
     #[test]
     fn ports_json_shape() {
         assert_eq!(super::ports_json(1025, 7), r#"{"ascii":1025,"pmac_eth":7}"#);
+        assert_eq!(
+            super::power_ports_json(23, 22),
+            r#"{"gpascii":23,"ssh":22}"#
+        );
     }
 }

@@ -58,6 +58,9 @@ fn index(cfg: &ClusterConfig, name: &str) -> Result<usize> {
 
 /// Run the benchmark and print one line per drill.
 pub fn run(args: &BenchFaultsArgs) -> Result<()> {
+    if let Some(n) = args.campaign {
+        return crate::bench::campaign::run(args, n);
+    }
     let mut cfg = ClusterConfig::default_cluster(2, 2);
     cfg.cluster = format!("bench-faults-{}", std::process::id());
     cfg.clock = args.clock.unwrap_or(ClockMode::Paced);

@@ -1,8 +1,10 @@
 //! Benchmarks (`mcc bench ...`).
 
 pub mod bringup;
+pub mod campaign;
 pub mod chain;
 pub mod cluster;
+pub mod crash;
 pub mod emcl;
 pub mod faults;
 pub mod host;

@@ -217,6 +217,11 @@ fn more_validation_rules() {
         invalid(&with("member_timeout_ms = 0")).0,
         "member_timeout_ms"
     );
+    // A phase delay of a period or more would tick cycle k after cycle k+1 began.
+    let (k, p) = invalid(&with("rate_hz = 1000.0\nphase_delay_us = 1000"));
+    assert_eq!(k, "phase_delay_us");
+    assert!(p.contains("1000.0 µs"), "{p}");
+    assert!(ClusterConfig::from_toml_str(&with("rate_hz = 1000.0\nphase_delay_us = 999")).is_ok());
     let ring = |body: &str| with(&format!("[ring]\n{body}"));
     let (k, p) = invalid(&ring("order = [\"card0\", \"station0\", \"card1\"]"));
     assert_eq!(k, "ring.order");
@@ -252,6 +257,22 @@ fn more_validation_rules() {
     );
     let ports = card("ascii_port = 5000\npmac_eth_port = 5000");
     assert_eq!(invalid(&ports).0, "cards[2].pmac_eth_port");
+    // The Power card's host keys.
+    let (k, p) = invalid(&card("ssh_port = 2222"));
+    assert_eq!(k, "cards[2].ssh_port");
+    assert!(p.contains("power"), "{p}");
+    assert_eq!(
+        invalid(&card("gpascii_port = 2223")).0,
+        "cards[2].gpascii_port"
+    );
+    assert_eq!(invalid(&card("ssh_user = \"\"")).0, "cards[2].ssh_user");
+    assert_eq!(invalid(&card("ssh_user = \"a b\"")).0, "cards[2].ssh_user");
+    assert_eq!(
+        invalid(&card("ssh_password = \"x\\ny\"")).0,
+        "cards[2].ssh_password"
+    );
+    let long = format!("ssh_password = \"{}\"", "p".repeat(129));
+    assert_eq!(invalid(&card(&long)).0, "cards[2].ssh_password");
     let st = |body: &str| format!("{TWO_BY_TWO}\n[[stations]]\nname=\"s9\"\nmaster=0\n{body}");
     let (k, p) = invalid(&st("nodes = [2, 4]"));
     assert_eq!(k, "stations[2].nodes[1]");
@@ -383,4 +404,126 @@ fn clock_keys_are_checked_before_anything_starts() {
     // The old name of the key is still read.
     let c = ClusterConfig::from_toml_str(&with("lockstep_timeout_ms = 250")).unwrap();
     assert_eq!(c.member_timeout_ms, 250);
+}
+
+mod fuzz {
+    //! Fuzzing the cluster config: any text, and real configs with any key's value replaced,
+    //! a line dropped or lines swapped: an error naming the problem or a config whose every
+    //! derived quantity (periods, timeouts, ring settings) computes without a panic, and that
+    //! round-trips through its TOML. A longer run: `PROPTEST_CASES=20000 cargo test -p
+    //! mcc-ring --lib config::tests::fuzz`.
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Values that probe limits and types.
+    const VALUES: &[&str] = &[
+        "0",
+        "1",
+        "-1",
+        "2",
+        "255",
+        "256",
+        "65535",
+        "65536",
+        "4294967296",
+        "9223372036854775807",
+        "18446744073709551615",
+        "-9223372036854775808",
+        "1e308",
+        "-1e308",
+        "nan",
+        "inf",
+        "0.5",
+        "\"\"",
+        "\"x\"",
+        "\"card0\"",
+        "\"station0\"",
+        "\"lockstep\"",
+        "\"paced\"",
+        "\"realtime\"",
+        "\"/\"",
+        "\"/nonexistent/dir/\"",
+        "true",
+        "false",
+        "[]",
+        "[\"card0\"]",
+        "[\"card0\", \"card0\"]",
+        "{}",
+        "[[]]",
+        "\"tcp/127.0.0.1:0\"",
+        "1970-01-01",
+    ];
+
+    fn sample() -> String {
+        let mut d = ClusterConfig::default_cluster(2, 2);
+        d.cards[0].ivars.insert("I1001".into(), IVarValue::Int(8));
+        d.to_toml_string().unwrap()
+    }
+
+    /// Every quantity the members and the orchestrator derive from a valid config.
+    fn derive_all(c: &ClusterConfig) {
+        let _ = (
+            c.phase_delay_ns(),
+            c.wall_period_ns(),
+            c.member_timeout(),
+            c.period_ns(),
+        );
+        for m in &c.ring.order {
+            let _ = (
+                c.ring_settings(m),
+                c.upstream(m),
+                c.position(m),
+                c.member(m),
+            );
+        }
+        let _ = crate::expect::RingModel::from_config(c);
+    }
+
+    fn check(text: &str) -> Result<(), TestCaseError> {
+        if let Ok(c) = ClusterConfig::from_toml_str(text) {
+            derive_all(&c);
+            let again = c.to_toml_string().expect("a valid config serializes");
+            let back = ClusterConfig::from_toml_str(&again);
+            prop_assert_eq!(back.as_ref(), Ok(&c));
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        #[test]
+        fn fuzz_any_text(text in "(?s).{0,400}") {
+            check(&text)?;
+        }
+
+        #[test]
+        fn fuzz_real_config_with_values_replaced(
+            edits in proptest::collection::vec(
+                (any::<prop::sample::Index>(), 0u8..4, proptest::sample::select(VALUES)), 1..6),
+        ) {
+            let mut lines: Vec<String> = sample().lines().map(String::from).collect();
+            for (at, what, value) in edits {
+                let i = at.index(lines.len());
+                match what {
+                    0 | 1 => {
+                        if let Some((k, _)) = lines[i].split_once(" = ") {
+                            lines[i] = format!("{k} = {value}");
+                        }
+                    }
+                    2 => {
+                        lines.remove(i);
+                        if lines.is_empty() {
+                            break;
+                        }
+                    }
+                    _ => {
+                        let j = (i + 1) % lines.len();
+                        lines.swap(i, j);
+                    }
+                }
+            }
+            check(&lines.join("\n"))?;
+        }
+    }
 }

@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{ClockMode, ClusterConfig, ConfigError, SYNC_NODE};
+use super::{CardConfig, ClockMode, ClusterConfig, ConfigError, SYNC_NODE};
 
 /// Most members one ring may hold.
 pub const MAX_MEMBERS: usize = 64;
@@ -147,6 +147,20 @@ fn validate_clock(cfg: &ClusterConfig) -> R {
             ),
         );
     }
+    if let Some(us) = cfg.phase_delay_us {
+        let period = cfg.period_ns();
+        if u64::from(us) * 1000 >= period {
+            return bad(
+                "phase_delay_us",
+                format!(
+                    "{us} µs is not shorter than one ring period ({:.1} µs at {} Hz): a member \
+                     would run cycle k's tick after cycle k+1 began",
+                    period as f64 / 1e3,
+                    cfg.rate_hz
+                ),
+            );
+        }
+    }
     let t = cfg.member_timeout_ms;
     if t == 0 || t > 60_000 {
         return bad("member_timeout_ms", format!("{t} is out of range 1-60000"));
@@ -215,9 +229,12 @@ fn validate_cards(cfg: &ClusterConfig) -> R {
                 ),
             );
         }
+        check_power_host(&key, c)?;
         for (field, port) in [
             ("ascii_port", c.ascii_port),
             ("pmac_eth_port", c.pmac_eth_port),
+            ("gpascii_port", c.gpascii_port),
+            ("ssh_port", c.ssh_port),
         ] {
             if port == 0 {
                 continue;
@@ -360,6 +377,52 @@ fn validate_ring(cfg: &ClusterConfig) -> R {
             format!(
                 "{sm:?} is not a card of this config (the synchronizing master must be a card)"
             ),
+        );
+    }
+    Ok(())
+}
+
+/// Longest SSH user name / password a config may give.
+const MAX_SSH_CREDENTIAL: usize = 128;
+
+/// The Power card's host keys: `gpascii_port`/`ssh_port` only on a `power` card, a usable
+/// SSH login (non-empty user, printable, bounded).
+fn check_power_host(key: &str, c: &CardConfig) -> Result<(), ConfigError> {
+    if c.profile != "power" {
+        for (field, port) in [("gpascii_port", c.gpascii_port), ("ssh_port", c.ssh_port)] {
+            if port != 0 {
+                return bad(
+                    format!("{key}.{field}"),
+                    format!(
+                        "only a card with profile = \"power\" has this port ({:?} has the \
+                         ascii_port and pmac_eth_port)",
+                        c.profile
+                    ),
+                );
+            }
+        }
+    }
+    for (field, v) in [("ssh_user", &c.ssh_user), ("ssh_password", &c.ssh_password)] {
+        if v.is_empty() && field == "ssh_user" {
+            return bad(format!("{key}.{field}"), "must not be empty".to_string());
+        }
+        if v.len() > MAX_SSH_CREDENTIAL {
+            return bad(
+                format!("{key}.{field}"),
+                format!("longer than {MAX_SSH_CREDENTIAL} bytes"),
+            );
+        }
+        if v.chars().any(char::is_control) {
+            return bad(
+                format!("{key}.{field}"),
+                "must not contain control characters".to_string(),
+            );
+        }
+    }
+    if c.ssh_user.chars().any(char::is_whitespace) {
+        return bad(
+            format!("{key}.ssh_user"),
+            format!("{:?} contains white space", c.ssh_user),
         );
     }
     Ok(())

@@ -141,4 +141,45 @@ mod tests {
             "truncated segment header"
         );
     }
+
+    mod fuzz {
+        use super::super::*;
+        use proptest::prelude::*;
+
+        const OPS: &[u8] = &[OP_DATA, OP_CLOSE, OP_QUERY_START, OP_TAKE_START];
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(500))]
+
+            #[test]
+            fn any_request_bytes_decode_or_name_the_problem(
+                p in proptest::collection::vec(any::<u8>(), 0..64)
+            ) {
+                if let Ok(r) = decode_request(&p) {
+                    prop_assert_eq!(encode_request(r.op, r.conn, r.data), p);
+                }
+            }
+
+            #[test]
+            fn any_reply_bytes_decode_or_name_the_problem(
+                p in proptest::collection::vec(any::<u8>(), 0..64)
+            ) {
+                if let Ok(segs) = decode_reply(&p) {
+                    prop_assert_eq!(encode_reply(&segs), p);
+                }
+            }
+
+            #[test]
+            fn requests_and_replies_round_trip(
+                op in proptest::sample::select(OPS),
+                conn: u64,
+                data in proptest::collection::vec(any::<u8>(), 0..MAX_CHUNK.min(300)),
+                segs in proptest::collection::vec((any::<u32>(), proptest::collection::vec(any::<u8>(), 0..40)), 0..8),
+            ) {
+                let req = encode_request(op, conn, &data);
+                prop_assert_eq!(decode_request(&req), Ok(Request { op, conn, data: &data }));
+                prop_assert_eq!(decode_reply(&encode_reply(&segs)), Ok(segs));
+            }
+        }
+    }
 }

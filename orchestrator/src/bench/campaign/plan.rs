@@ -1,0 +1,264 @@
+//! The campaign's plan: which fault, on which member, when, for how long — drawn from one seed
+//! (the same seed and ring give the same plan), every kind equally often, and each fault's
+//! expectation from the ring-check rules ([`mcc_ring::expect`]). Pure.
+
+use std::fmt;
+
+use mcc_ring::expect::{Disturbance, Expectation, RingModel};
+use mcc_ring::fault::{FaultKind, FaultSpec};
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+
+/// The kinds of fault a campaign injects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Kind {
+    /// `drop-sync`.
+    DropSync,
+    /// `drop-packets`.
+    DropPackets,
+    /// `corrupt`.
+    Corrupt,
+    /// `byte-violation`.
+    ByteViolation,
+    /// `overrun`.
+    Overrun,
+    /// `underrun`.
+    Underrun,
+    /// `delay=N` (ring cycles).
+    Delay,
+    /// `delay-us=N` (the transport holds each frame).
+    DelayUs,
+    /// `cut`.
+    Cut,
+    /// SIGSTOP (past the frozen-member wait, or a stall shorter than it).
+    Freeze,
+    /// SIGKILL, then `mcc fault MEMBER restart` to recover.
+    Kill,
+    /// `mcc fault MEMBER restart` on a running member (kill and start again at once).
+    Restart,
+}
+
+/// Every kind, in report order.
+pub const KINDS: [Kind; 12] = [
+    Kind::DropSync,
+    Kind::DropPackets,
+    Kind::Corrupt,
+    Kind::ByteViolation,
+    Kind::Overrun,
+    Kind::Underrun,
+    Kind::Delay,
+    Kind::DelayUs,
+    Kind::Cut,
+    Kind::Freeze,
+    Kind::Kill,
+    Kind::Restart,
+];
+
+impl fmt::Display for Kind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Kind::DropSync => "drop-sync",
+            Kind::DropPackets => "drop-packets",
+            Kind::Corrupt => "corrupt",
+            Kind::ByteViolation => "byte-violation",
+            Kind::Overrun => "overrun",
+            Kind::Underrun => "underrun",
+            Kind::Delay => "delay",
+            Kind::DelayUs => "delay-us",
+            Kind::Cut => "cut",
+            Kind::Freeze => "freeze",
+            Kind::Kill => "kill",
+            Kind::Restart => "restart",
+        })
+    }
+}
+
+impl Kind {
+    /// Parse a kind's name (as printed).
+    pub fn parse(s: &str) -> Option<Kind> {
+        KINDS.iter().copied().find(|k| k.to_string() == s.trim())
+    }
+}
+
+/// What is done to the target.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// A send-path fault (`spec.cycles`: a burst; none: until cleared).
+    Frames(FaultSpec),
+    /// SIGSTOP until the ring has detected it (a stopped process is loss of light, seen
+    /// by the member downstream on this machine); then restart.
+    Freeze,
+    /// SIGKILL; then restart.
+    Kill,
+    /// Restart at once (the supervisor kills the process and starts a new one).
+    Restart,
+}
+
+/// One planned fault.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planned {
+    /// Its place in the campaign (0-based).
+    pub index: usize,
+    /// The kind.
+    pub kind: Kind,
+    /// Ring index of the member it is done to.
+    pub target: usize,
+    /// Wall time the programs run before it is injected, ms.
+    pub wait_ms: u64,
+    /// What is done.
+    pub action: Action,
+    /// What the ring checks must make of it.
+    pub expect: Expectation,
+}
+
+impl Planned {
+    /// It must be detected (and then recovered from).
+    pub fn sustained(&self) -> bool {
+        !self.expect.must.is_empty()
+    }
+
+    /// A one-line description: `cut on station0`, `corrupt on card1 for 1 cycle`.
+    pub fn describe(&self, names: &[String]) -> String {
+        let who = names.get(self.target).map(String::as_str).unwrap_or("?");
+        match &self.action {
+            Action::Frames(s) => match s.cycles {
+                Some(n) => format!("{} on {who} for {n} cycle(s)", s.kind),
+                None => format!("{} on {who}", s.kind),
+            },
+            Action::Freeze => format!("freeze {who}"),
+            Action::Kill => format!("kill {who}"),
+            Action::Restart => format!("restart {who}"),
+        }
+    }
+}
+
+/// Tuning of the plan.
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// Share of faults that have a tolerated form (bursts, stalls) planned in that form.
+    pub below_share: f64,
+    /// Only these kinds (empty: all).
+    pub kinds: Vec<Kind>,
+}
+
+/// Draw `n` faults for `model` from `seed`: every kind in turn (in shuffled order), random
+/// members, waits, durations and amounts.
+pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<Planned> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let kinds: Vec<Kind> = if opts.kinds.is_empty() {
+        KINDS.to_vec()
+    } else {
+        opts.kinds.clone()
+    };
+    let mut order: Vec<Kind> = (0..n).map(|i| kinds[i % kinds.len()]).collect();
+    order.shuffle(&mut rng);
+    let members = model.members.len().max(1);
+    order
+        .into_iter()
+        .enumerate()
+        .map(|(index, kind)| {
+            let target = rng.random_range(0..members);
+            let wait_ms = rng.random_range(0..=300);
+            let below = rng.random_bool(opts.below_share.clamp(0.0, 1.0));
+            let seed = rng.random::<u64>();
+            let frames = |k: FaultKind, rng: &mut StdRng| {
+                let safe = model.safe_burst(target, k);
+                let cycles = (below && safe > 0).then(|| rng.random_range(1..=safe.min(16)));
+                Action::Frames(FaultSpec {
+                    kind: k,
+                    cycles,
+                    probability: 1.0,
+                    seed,
+                })
+            };
+            let action = match kind {
+                Kind::DropSync => frames(FaultKind::DropSync, &mut rng),
+                Kind::DropPackets => frames(FaultKind::DropPackets, &mut rng),
+                Kind::Corrupt => frames(FaultKind::Corrupt, &mut rng),
+                Kind::ByteViolation => frames(FaultKind::ByteViolation, &mut rng),
+                Kind::Overrun => frames(FaultKind::Overrun, &mut rng),
+                Kind::Underrun => frames(FaultKind::Underrun, &mut rng),
+                Kind::Delay => {
+                    let k = FaultKind::DelayCycles(rng.random_range(1..=8));
+                    frames(k, &mut rng)
+                }
+                Kind::DelayUs => Action::Frames(FaultSpec {
+                    kind: FaultKind::DelayMicros(rng.random_range(50..=3000)),
+                    cycles: Some(rng.random_range(20..=400)),
+                    probability: 1.0,
+                    seed,
+                }),
+                Kind::Cut => frames(FaultKind::Cut, &mut rng),
+                Kind::Freeze => Action::Freeze,
+                Kind::Kill => Action::Kill,
+                Kind::Restart => Action::Restart,
+            };
+            let what = match &action {
+                Action::Frames(s) => Disturbance::Frames {
+                    kind: s.kind,
+                    cycles: s.cycles,
+                },
+                Action::Freeze | Action::Kill | Action::Restart => Disturbance::Dark,
+            };
+            Planned {
+                index,
+                kind,
+                target,
+                wait_ms,
+                expect: model.expect(target, what),
+                action,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mcc_ring::config::ClusterConfig;
+
+    fn opts() -> PlanOptions {
+        PlanOptions {
+            below_share: 0.4,
+            kinds: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_plan_covers_every_kind_and_member_reproducibly() {
+        let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
+        let p = plan(&model, 240, 7, &opts());
+        assert_eq!(p, plan(&model, 240, 7, &opts()), "same seed, same plan");
+        assert_ne!(p, plan(&model, 240, 8, &opts()));
+        for k in KINDS {
+            assert_eq!(p.iter().filter(|f| f.kind == k).count(), 20, "{k}");
+            assert!(
+                p.iter().any(|f| f.kind == k && f.target == 0),
+                "{k} on the sync master"
+            );
+        }
+        for t in 0..4 {
+            assert!(p.iter().any(|f| f.target == t));
+        }
+        // Kill and restart must always be detected; below-threshold forms are quiet.
+        for f in &p {
+            match (&f.action, f.kind) {
+                (Action::Kill | Action::Restart | Action::Freeze, _) => assert!(f.sustained()),
+                (Action::Frames(s), Kind::DelayUs) => {
+                    assert!(f.expect.quiet() && s.cycles.is_some())
+                }
+                (Action::Frames(s), _) => assert_eq!(s.cycles.is_none(), f.sustained(), "{f:?}"),
+            }
+        }
+        assert!(p.iter().filter(|f| !f.sustained()).count() > 40);
+    }
+
+    #[test]
+    fn kind_names_round_trip() {
+        for k in KINDS {
+            assert_eq!(Kind::parse(&k.to_string()), Some(k));
+        }
+        assert_eq!(Kind::parse("melt"), None);
+    }
+}
