@@ -280,9 +280,10 @@ pub fn broken_link(
                 order.get((idx + 1) % n)?
             ));
         };
+        let reference = s.cycle;
         let lag = match s.last_rx_cycle {
-            Some(rx) => s.cycle.saturating_sub(rx),
-            None => s.cycle,
+            Some(rx) => reference.saturating_sub(rx),
+            None => reference,
         };
         // Frames still arrive but sync packets do not (drop-sync upstream): the member runs on
         // its holdover clock, unlocked, with a ring fault. A dark input: loss of light.

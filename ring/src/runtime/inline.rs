@@ -265,6 +265,9 @@ fn lead<B: RingApp>(
                 if let Some(exit) = d.stop_or_done() {
                     return exit;
                 }
+                // A lockstep ring may keep this loop busy cycle after cycle: requests taken
+                // by `stop_or_done` are answered here, not when it ends.
+                answer_status(d, &app);
                 if let Err(e) = d.flush_delayed() {
                     return DriverExit::Transport(e);
                 }

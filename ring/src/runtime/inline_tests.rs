@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use super::*;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore};
-use crate::runtime::driver::DriverConfig;
+use crate::runtime::driver::{DriverCmd, DriverConfig};
 use crate::runtime::local::{LocalRing, LocalTransport};
 use crate::runtime::tests::{ring, App};
 use crate::settings::RingSettings;
@@ -184,20 +184,19 @@ fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
 }
 
 /// An application that counts its ticks and how often its status map is built.
+#[derive(Default)]
 struct Counted {
-    app: App,
     ticks: u64,
-    maps: Arc<std::sync::atomic::AtomicU64>,
+    built: std::cell::Cell<u64>,
 }
 
 impl crate::core::RingApp for Counted {
-    fn tick(&mut self, c: u64, t: u64, regs: &mut crate::member::RingMember, f: bool) {
+    fn tick(&mut self, _c: u64, _t: u64, _regs: &mut crate::member::RingMember, _f: bool) {
         self.ticks += 1;
-        self.app.tick(c, t, regs, f);
     }
 
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
-        self.maps.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.built.set(self.built.get() + 1);
         let mut m = serde_json::Map::new();
         m.insert("ticks".into(), self.ticks.into());
         m
@@ -205,67 +204,59 @@ impl crate::core::RingApp for Counted {
 }
 
 #[test]
-fn the_app_status_map_is_built_only_for_a_status_request_and_is_fresh() {
-    // Followers tick on their own threads (the application stays there): a wake-up without a
-    // status request never builds the application's status map, and a request gets the
-    // application's fields as they are when it is answered.
-    let cluster = format!("inline-status-{}", std::process::id());
-    let maps: Vec<Arc<std::sync::atomic::AtomicU64>> = (0..3).map(|_| Arc::default()).collect();
-    let members = ring(100_000)
-        .into_iter()
-        .zip(&maps)
-        .map(|((core, app, mut d), maps)| {
-            d.max_cycles = None;
-            let app = Counted {
-                app,
-                ticks: 0,
-                maps: Arc::clone(maps),
-            };
-            (core, app, d)
-        })
-        .collect();
-    let r = LocalRing::start(
-        members,
-        LocalTransport::ZenohInline {
-            cluster,
-            receive_thread_ticks: false,
-        },
-    )
-    .unwrap();
-    let ticks = |s: &crate::control::MemberStatus| s.extra["ticks"].as_u64().unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let a = loop {
-        let s = r.status(1).expect("follower status");
-        if s.rx_frames >= 100 {
-            break s;
-        }
-        assert!(Instant::now() < deadline, "the ring did not run: {s:?}");
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    let built = maps[1].load(std::sync::atomic::Ordering::Relaxed);
-    // Let the ring run at least 200 more cycles with no status request.
-    let mut b_frames = a.rx_frames;
-    while b_frames < a.rx_frames + 200 {
-        assert!(Instant::now() < deadline, "the ring stopped");
-        std::thread::sleep(Duration::from_millis(20));
-        b_frames = r.status(2).expect("station1 status").rx_frames;
+fn a_status_request_waits_for_the_member_thread_and_gets_the_app_fields_of_that_moment() {
+    // The application lives on the member's thread (inline receive, `run`); the driver holds
+    // a stand-in. Wake-ups without a request never build the application's status map; a
+    // request taken by the driver is answered by the member's thread with the fields the
+    // application has then.
+    let period = 1_000_000_000 / 2258;
+    let core = MemberCore::new(CoreConfig::new(
+        "station0",
+        MemberKind::Station,
+        1,
+        RingSettings::new(0x8080, 0x0F_8001),
+        period * 100,
+    ));
+    let (_qtx, qrx) = frame_queue(16);
+    let (ctx, crx) = crossbeam_channel::unbounded();
+    let mut d = Driver::new(
+        dcfg("station0", 1),
+        core,
+        Parked,
+        Box::new(Capture::default()),
+        LinkRx::new(qrx, None),
+        crx,
+        Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    );
+    d.app_elsewhere = true;
+    let mut app = Counted::default();
+    for _ in 0..100 {
+        app.ticks += 1;
+        answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
     }
-    assert_eq!(
-        maps[1].load(std::sync::atomic::Ordering::Relaxed),
-        built,
-        "station0 built its status map with no request for it"
-    );
-    // A request: the application's tick count moved exactly as the frames it received.
-    let b = r.status(1).expect("follower status");
-    assert_eq!(
-        maps[1].load(std::sync::atomic::Ordering::Relaxed),
-        built + 1
-    );
-    assert!(b.rx_frames >= a.rx_frames + 200, "{a:?} {b:?}");
-    assert_eq!(
-        ticks(&b) - ticks(&a),
-        b.rx_frames - a.rx_frames,
-        "{a:?} {b:?}"
-    );
-    r.stop();
+    assert_eq!(app.built.get(), 0, "a status map built with no request");
+    // A request: taken by the driver's control pass, not answered there.
+    let (tx, rx) = crossbeam_channel::bounded(1);
+    ctx.send(DriverCmd::Status(tx)).unwrap();
+    assert!(!d.service());
+    assert!(d.status_wanted());
+    assert!(rx.try_recv().is_err(), "answered without the application");
+    // The application moves on, then the member's thread answers: the fields of now.
+    app.ticks = 4242;
+    answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
+    let s = rx.try_recv().expect("answered by the member's thread");
+    assert_eq!(s.extra["ticks"], 4242);
+    assert_eq!(s.name, "station0");
+    assert_eq!(app.built.get(), 1);
+    assert!(!d.status_wanted());
+    answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
+    assert_eq!(app.built.get(), 1);
+    // With the application in the driver (`run_send`, or no inline receive) the control pass
+    // answers at once.
+    d.app_elsewhere = false;
+    let (tx, rx) = crossbeam_channel::bounded(1);
+    ctx.send(DriverCmd::Status(tx)).unwrap();
+    assert!(!d.service());
+    let s = rx.try_recv().expect("answered in the control pass");
+    assert!(s.extra.get("ticks").is_none(), "{s:?}");
 }
