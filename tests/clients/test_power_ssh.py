@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from dls_pmaclib.dls_pmacremote import PPmacSshInterface
-from emcl_cluster import SCRUB, UP_TIMEOUT, EmclCluster, wait_for
+from mcc_cluster import SCRUB, UP_TIMEOUT, Cluster, wait_for
 
 
 @pytest.fixture(autouse=True)
@@ -85,7 +85,7 @@ def test_wrong_credentials_are_refused(power_card):
         assert not p.isConnectionOpen
 
 
-class PowerCluster(EmclCluster):
+class PowerCluster(Cluster):
     """`mcc up --detach --config` of a lockstep cluster whose card0 (the sync master) is a Power
     card, with one station, in a private run directory; `mcc down` at the end."""
 
