@@ -2,7 +2,7 @@
 
 What a host author sees on the wall clock when the default cluster runs motion: a LINEAR
 move of 10 units at F5 with TA200 (10/5 s + 0.2 s = 2.2 s on a PMAC), a jog of 10,000 counts
-at I122 = 32 counts/ms (0.3125 s + I121 acceleration), and a home search. Each is timed
+at I122 = 32 counts/ms (0.3125 s + I120 = 50 ms of acceleration), and a home search. Each is timed
 from the command's reply to the motor settling, polling the card through dls-pmaclib's
 PmacEthernetInterface as host software does; the report gives each run, their mean and the
 ratio to the PMAC's time. Ring time is asserted in the scenario tests; this is the wall-clock
@@ -88,8 +88,10 @@ def main(argv: List[str]) -> int:
         print(f"cluster: {a.cards} cards + {a.stations} stations, clock {st['clock']}, "
               f"rtf requested {st.get('rtf_requested')}; up and locked in {up:.2f} s")
         tol = 5.0
-        # Jog 0 -> 10000 -> 0 counts at I122 = 32 counts/ms, I121 = 50 ms (S-curve off).
-        h.send("I122=32 I121=50 I120=50")
+        # Jog 0 -> 10000 -> 0 counts at I122 = 32 counts/ms, I120 = 50 ms acceleration, no
+        # S-curve (I121 = 0), and I119 high enough not to govern (with the default I119 =
+        # 0.015625 counts/ms^2 the ramp takes 800 ms each way, as on a PMAC).
+        h.send("I119=10 I122=32 I121=0 I120=50")
         jog_s = 10000 / 32 / 1000 + 0.050
         jogs = []
         for i in range(a.repeat):
