@@ -302,8 +302,11 @@ pub fn broken_link(
         });
         let bad_input = s.ring_fault
             && (dark_latch
-                || s.link_error_cycle
-                    .is_some_and(|c| s.cycle.saturating_sub(c) <= threshold || near_latch(c)));
+                || s.link_error_cycle.is_some_and(|c| {
+                    // A stamp beyond the member's own cycle is from before a renumbering (a
+                    // restarted sync master): stale, no evidence of this break.
+                    c <= s.cycle && (s.cycle - c <= threshold || near_latch(c))
+                }));
         if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
         {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));

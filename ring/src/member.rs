@@ -239,10 +239,17 @@ impl RingMember {
 
     /// Synchronizing master: keep packets of other masters for the next cycle's frame.
     /// Returns how many were dropped because the hold buffer was full.
+    ///
+    /// A node address has one slot per cycle, as on a MACRO ring: a later packet for an
+    /// address already held replaces it in place (delayed frames released late bring old
+    /// copies: passing both on would make the members downstream see more packets than a
+    /// cycle holds, an overrun on a link that is whole).
     pub fn hold(&mut self, packets: impl IntoIterator<Item = Packet>) -> usize {
         let mut dropped = 0;
         for p in packets {
-            if self.held.len() < MAX_HELD_PACKETS {
+            if let Some(slot) = self.held.iter_mut().find(|h| h.address() == p.address()) {
+                *slot = p;
+            } else if self.held.len() < MAX_HELD_PACKETS {
                 self.held.push(p);
             } else {
                 dropped += 1;
@@ -371,9 +378,25 @@ mod tests {
     #[test]
     fn hold_is_bounded() {
         let mut sm = RingMember::new(RingSettings::new(0x30, 0x0F_0000));
-        let many = vec![Packet::default(); MAX_HELD_PACKETS + 3];
-        assert_eq!(sm.hold(many), 3);
-        assert_eq!(sm.take_held().len(), MAX_HELD_PACKETS);
+        // More packets than there are addresses: one slot per address, never more.
+        let many: Vec<Packet> = (0..MAX_HELD_PACKETS + 3)
+            .map(|i| Packet::new((i / 16) as u8, (i % 16) as u8, regs(i as u32)))
+            .collect();
+        assert_eq!(sm.hold(many), 0);
+        let held = sm.take_held();
+        assert_eq!(held.len(), MAX_HELD_PACKETS);
+        assert_eq!(held[0].regs.r0, 256, "address $00 holds its latest copy");
         assert!(sm.take_held().is_empty());
+    }
+
+    /// One slot per node address and cycle: a late copy (a delayed frame released) replaces
+    /// the held packet of its address in place, it is not passed on beside it.
+    #[test]
+    fn hold_keeps_one_packet_per_address_the_latest() {
+        let mut sm = RingMember::new(RingSettings::new(0x30, 0x0F_0000));
+        let a = |node, r0| Packet::new(1, node, regs(r0));
+        assert_eq!(sm.hold([a(0, 10), a(1, 11)]), 0);
+        assert_eq!(sm.hold([a(0, 20), a(2, 22)]), 0);
+        assert_eq!(sm.take_held(), vec![a(0, 20), a(1, 11), a(2, 22)]);
     }
 }

@@ -314,6 +314,44 @@ fn delayed_frames_arrive_as_overrun() {
     assert_eq!(sim.member(2).cycle(), 5);
 }
 
+/// Frames held 7 cycles by the member upstream of the sync master (the campaign's
+/// `delay=7 on station1`) come back late, all at once: the sync master sees the overrun (the
+/// link into it), and passes another master's packets on one per node address (the latest),
+/// so the card downstream gets no more packets than a cycle holds — its link is whole and it
+/// records no link error (found by the fault campaign: `mcc status` named the wrong link).
+#[test]
+fn delayed_frames_into_the_sync_master_are_no_error_further_round() {
+    let mut sim = ring(vec![
+        card(0x30, 0x0F_0001, unchecked(), &[0]),
+        station(0x80, 0x0F_8001, unchecked(), &[0]),
+        card(0x8090, 0x1F_8002, unchecked(), &[1]),
+        station(0x8080, 0x1F_8002, unchecked(), &[1]),
+    ]);
+    sim.run(5);
+    sim.inject(
+        3,
+        FaultSpec {
+            cycles: Some(7),
+            ..FaultSpec::always(FaultKind::DelayCycles(7))
+        },
+    )
+    .unwrap();
+    sim.run(30);
+    assert!(
+        sim.member(0).status().errors.overrun > 0,
+        "the sync master sees the late frames"
+    );
+    for i in [1, 2] {
+        let e = sim.member(i).status().errors;
+        assert_eq!(
+            (e.overrun, e.byte_violation, e.checksum),
+            (0, 0, 0),
+            "member {i}: {e:?}"
+        );
+        assert_eq!(sim.member(i).status().link_error_cycle, None, "member {i}");
+    }
+}
+
 /// The §6.8 pseudo-code, evaluated on per-servo-cycle (error, sync) flags: the servo cycle
 /// (1-based) at which the check declares a fault, with errors firing at once.
 fn expected_fault_cycle(

@@ -382,8 +382,33 @@ fn judge_detection(
         .map(|snap| crate::status::broken_link(cfg, &snap.members, &[], threshold))
         .collect::<Vec<_>>();
     if !named.iter().any(|l| l.as_deref() == Some(want.as_str())) {
-        o.violations
-            .push(format!("mcc status names {:?}, not {want:?}", named));
+        // What each member showed (for the diagnosis: which rule named the link).
+        let seen = detected
+            .members
+            .iter()
+            .enumerate()
+            .map(|(i, m)| match m {
+                Some(m) => format!(
+                    "{}: cycle {} rx {:?} locked {} fault {} at {:?} link_error {:?} dark {} spell {:?} ({})",
+                    name(cfg, i),
+                    m.cycle,
+                    m.last_rx_cycle,
+                    m.locked,
+                    m.ring_fault,
+                    m.ring_fault_cycle,
+                    m.link_error_cycle,
+                    m.dark,
+                    m.last_dark_spell,
+                    m.fault_reason.clone().unwrap_or_default()
+                ),
+                None => format!("{}: no answer", name(cfg, i)),
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        o.violations.push(format!(
+            "mcc status names {:?}, not {want:?} (at detection: {seen})",
+            named
+        ));
     }
     // Cards kill their motors; stations drop their amplifiers in the latching cycle.
     for (k, c) in cfg.cards.iter().enumerate() {
