@@ -14,7 +14,7 @@ py="${PYTHON:-$(command -v python3.11 || command -v python3)}"
 if [ ! -x "$venv/bin/python" ]; then
     "$py" -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c 'import dls_pmaclib, dls_pmacanalyse, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
+if ! "$venv/bin/python" -c 'import dls_pmaclib, dls_pmacanalyse, pmac_motorhome, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
         -r "$here/requirements.txt"
 fi

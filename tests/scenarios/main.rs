@@ -13,6 +13,7 @@ mod motion;
 mod power_ring;
 mod programs;
 mod recovery;
+mod registers;
 mod reliability;
 mod ring_inprocess;
 mod station_aux;

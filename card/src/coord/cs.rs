@@ -222,6 +222,11 @@ impl CoordSystem {
         self.tau
     }
 
+    /// The clock stands in a DWELL.
+    pub fn in_dwell(&self) -> bool {
+        self.tl.in_dwell(self.tau)
+    }
+
     /// Nothing queued, executing or aborting.
     pub fn is_idle(&self) -> bool {
         self.abort.is_none() && self.tl.is_idle()

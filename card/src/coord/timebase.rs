@@ -54,6 +54,12 @@ impl TimeBase {
         self.i10 / TWO23
     }
 
+    /// New Ix94 / Ix95 slews (read live: a change applies from the next `%` or `R`).
+    pub fn set_slews(&mut self, ix94: f64, ix95: f64) {
+        self.ix94 = clean(ix94, self.ix94);
+        self.ix95 = clean(ix95, self.ix95);
+    }
+
     /// `%{p}`: commanded override in percent (negative/NaN → 0, saturates at 2^23/I10·100).
     pub fn set_percent(&mut self, p: f64) {
         let p = if p.is_finite() && p > 0.0 { p } else { 0.0 };

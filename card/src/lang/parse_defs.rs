@@ -325,8 +325,9 @@ pub(crate) fn mem_addr_count(c: &mut Cursor) -> Result<(u32, u32), ParseError> {
     } else {
         1
     };
-    if !(1..=16).contains(&count) || addr > 0xFFFF {
-        return Err(c.syntax("address above $FFFF or count outside 1..16"));
+    // The profile's own limit (PMAC2 $FFFF, Turbo $7FFFF) is checked when it executes.
+    if !(1..=16).contains(&count) || addr > 0xFF_FFFF {
+        return Err(c.syntax("address above $FFFFFF or count outside 1..16"));
     }
     Ok((addr, count))
 }
@@ -334,8 +335,8 @@ pub(crate) fn mem_addr_count(c: &mut Cursor) -> Result<(u32, u32), ParseError> {
 /// `W{space}{addr},{value}[,{value}...]` (the space letter is consumed).
 pub(crate) fn write_mem(c: &mut Cursor, space: MemSpace) -> Result<CmdKind, ParseError> {
     let addr = c.req_uint("address expected")?;
-    if addr > 0xFFFF {
-        return Err(c.syntax("address above $FFFF"));
+    if addr > 0xFF_FFFF {
+        return Err(c.syntax("address above $FFFFFF"));
     }
     let mut values = Vec::new();
     while c.eat_ws(b',') {

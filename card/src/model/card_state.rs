@@ -41,6 +41,9 @@ pub struct CardState {
     pub password_matched: bool,
     /// Words reserved by `DEFINE UBUFFER` (saved from $9FFF downward).
     pub ubuffer_words: u32,
+    /// Per C.S.: its `%` command register was written through memory (an M-variable, `W`)
+    /// since the servo loop last looked ([`CardState::take_feed_write`]).
+    feed_written: Vec<bool>,
 }
 
 impl CardState {
@@ -63,6 +66,7 @@ impl CardState {
             password: String::new(),
             password_matched: true,
             ubuffer_words: 0,
+            feed_written: vec![false; limits.coords as usize],
         };
         s.factory_memory();
         s
@@ -108,6 +112,7 @@ impl CardState {
             let addr = self.ivar_mirror(n).unwrap_or(self.map.ring_cfg_addr);
             self.memory.write(Space::Y, addr, d as u32);
         }
+        self.reset_feed_words();
     }
 
     // ---- I-variables -----------------------------------------------------------------------
@@ -322,6 +327,10 @@ impl CardState {
                 self.vars.force_i(n, value as f64);
             }
             Some(Special::EctWord(n)) => self.vars.force_i(n, value as f64),
+            Some(Special::FeedCmd(x)) if x <= self.limits.coords => {
+                self.memory.write(space, addr, value);
+                self.feed_written[x as usize - 1] = true;
+            }
             Some(Special::P(n)) => {
                 let old = encode_float(self.vars.p(n).unwrap_or(0.0));
                 let _ = self
@@ -346,6 +355,43 @@ impl CardState {
     /// Write the 48-bit long word at `addr` (X high), as `WL` does.
     pub fn write_long(&mut self, addr: Addr, w: u64) {
         mvar::set_long(self, addr, w)
+    }
+
+    // ---- `%` command registers (seed 6645-6650) -------------------------------------------
+
+    /// Address of C.S. `cs`'s `%` command register (X), if mapped.
+    fn feed_addr(&self, cs: u16) -> Option<Addr> {
+        (cs >= 1 && cs <= self.limits.coords.min(self.map.mapped_coords))
+            .then(|| self.map.cs_feed_cmd + Addr::from(cs - 1) * self.map.cs_stride)
+    }
+
+    /// Store the `%` command register of `cs` as the `%` command does (I10 units, 24-bit
+    /// signed), without marking it written through memory.
+    pub fn set_feed_word(&mut self, cs: u16, word: i64) {
+        if let Some(a) = self.feed_addr(cs) {
+            let w = word.clamp(-(1 << 23), (1 << 23) - 1) as u32 & 0xFF_FFFF;
+            self.memory.write(Space::X, a, w);
+        }
+    }
+
+    /// Every C.S.'s `%` command register at 100 % (= I10), as after power-up.
+    pub(crate) fn reset_feed_words(&mut self) {
+        let i10 = self.vars.i(10).unwrap_or(3_713_707.0);
+        for cs in 1..=self.limits.coords {
+            self.set_feed_word(cs, i10.round() as i64);
+        }
+        self.feed_written.iter_mut().for_each(|w| *w = false);
+    }
+
+    /// The value of C.S. `cs`'s `%` command register if an M-variable or `W` wrote it since
+    /// the last call (the servo loop then applies it as an override).
+    pub fn take_feed_write(&mut self, cs: u16) -> Option<i64> {
+        let k = usize::from(cs).checked_sub(1)?;
+        if !std::mem::take(self.feed_written.get_mut(k)?) {
+            return None;
+        }
+        let w = self.memory.read(Space::X, self.feed_addr(cs)?);
+        Some(i64::from(((w << 8) as i32) >> 8))
     }
 
     // ---- MACRO ring side (used by the runtime) ------------------------------------------

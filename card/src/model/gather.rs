@@ -22,6 +22,10 @@ use crate::model::Space;
 /// `???` word 1 bit 19: data gathering on.
 pub(super) const GATHER_ON: u32 = 1 << 19;
 
+/// `???` word 1 bit 17: gathering armed to start on the rising edge of machine input MI2
+/// (`GATHER TRIGGER`, seed 7062, 8173).
+pub(super) const GATHER_ON_TRIGGER: u32 = 1 << 17;
+
 /// Long words per `LIST GATHER` line.
 pub(super) const WORDS_PER_LINE: usize = 16;
 
@@ -35,6 +39,8 @@ pub struct GatherBuffer {
     pending: bool,
     /// Servo cycles since the last sample.
     timer: u32,
+    /// MI2 as seen at the previous servo cycle (for its rising edge).
+    mi2_was: bool,
 }
 
 impl GatherBuffer {
@@ -78,6 +84,15 @@ impl GatherBuffer {
     /// One servo cycle: take a sample if one is due. `capacity` is the defined buffer size in
     /// long words (`None`: no buffer). Returns whether a sample was taken.
     pub fn on_servo_cycle(&mut self, st: &mut CardState, capacity: Option<u32>) -> bool {
+        // MI2: bit 1 of the machine-input word (PMAC2 Y:$FFC2, Turbo Y:$078802).
+        let mi2 = st.read(Space::Y, st.map().machine_inputs) & 2 != 0;
+        let rose = mi2 && !self.mi2_was;
+        self.mi2_was = mi2;
+        if st.global.word1_other & GATHER_ON_TRIGGER != 0 && rose {
+            st.global.word1_other &= !GATHER_ON_TRIGGER;
+            st.global.word1_other |= GATHER_ON;
+            self.start();
+        }
         if st.global.word1_other & GATHER_ON == 0 {
             self.pending = false;
             return false;

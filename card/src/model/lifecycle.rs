@@ -113,6 +113,7 @@ impl CardState {
         self.coords = vec![CsFlags::default(); lim.coords as usize];
         self.global = GlobalFlags::default();
         self.password_matched = self.password.is_empty();
+        self.reset_feed_words();
     }
 
     /// `$$$***`: I-variables to factory defaults, ECT and VME/DPRAM setup to defaults,

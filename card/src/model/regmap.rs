@@ -75,6 +75,9 @@ pub(crate) struct MemMap {
     pub(crate) addr_digits: usize,
     /// Largest address accepted.
     pub(crate) max_addr: Addr,
+    /// Machine-input word (Y) whose bit 1 is MI2, the `GATHER TRIGGER` input: PMAC2
+    /// Y:$FFC2 (JOPTO, seed 15527), Turbo Y:$078802.
+    pub(crate) machine_inputs: Addr,
 }
 
 /// Offsets of the motor registers the servo loop maintains, from a motor's block.
@@ -126,6 +129,7 @@ impl MemMap {
                 ect_ivar: None,
                 addr_digits: 4,
                 max_addr: 0xFFFF,
+                machine_inputs: 0xFFC2,
             },
             Profile::Turbo | Profile::Power => MemMap {
                 global_status: 0x0006,
@@ -151,6 +155,7 @@ impl MemMap {
                 ect_ivar: Some(8000),
                 addr_digits: 6,
                 max_addr: 0x7_FFFF,
+                machine_inputs: 0x07_8802,
             },
         }
     }
@@ -256,6 +261,9 @@ impl MemMap {
                 if let Some(x) = block(self.cs_status1, self.cs_stride, self.mapped_coords) {
                     return Some(Special::Coord(x, 1));
                 }
+                if let Some(x) = block(self.cs_feed_cmd, self.cs_stride, self.mapped_coords) {
+                    return Some(Special::FeedCmd(x));
+                }
             }
             Space::Y => {
                 if let Some(x) = block(self.motor_status2, self.motor_stride2, self.mapped_motors) {
@@ -301,6 +309,8 @@ pub(crate) enum Special {
     RingNodes,
     /// An ECT word that is also an I-variable (Turbo I8000-I8191).
     EctWord(u32),
+    /// C.S. x's `%` command register (Ix93's default target, seed 6645-6650).
+    FeedCmd(u16),
     /// Half of P-variable n's 48-bit float (X = high, Y = low).
     P(u32),
     /// Half of C.S. 1's Q-variable n.
@@ -326,6 +336,9 @@ mod tests {
         assert_eq!(m.classify(Space::Y, 0x17FF), Some(Special::Q(1023)));
         assert_eq!(m.classify(Space::X, 0x0814), None);
         assert_eq!(m.classify(Space::X, 0x01F9), None);
+        assert_eq!(m.classify(Space::X, 0x0806), Some(Special::FeedCmd(1)));
+        assert_eq!(m.classify(Space::X, 0x08C6), Some(Special::FeedCmd(2)));
+        assert_eq!(m.classify(Space::Y, 0x0806), None);
         let r = m.motor_regs(2).unwrap();
         assert_eq!(
             (r.actual, r.target, r.bias, r.jog),
@@ -366,6 +379,7 @@ mod tests {
         assert_eq!(m.classify(Space::Y, 0x203F), Some(Special::Coord(1, 2)));
         assert_eq!(m.classify(Space::Y, 0x2040), Some(Special::Coord(1, 3)));
         assert_eq!(m.classify(Space::Y, 0x3501), Some(Special::EctWord(8000)));
+        assert_eq!(m.classify(Space::X, 0x2100), Some(Special::FeedCmd(2)));
         assert_eq!(m.classify(Space::Y, 0x07_840F), Some(Special::RingCfg));
         assert_eq!(m.classify(Space::X, 0x6001), Some(Special::P(1)));
         assert_eq!(m.node_of(Space::Y, 0x07_8428), Some((4, 0)));

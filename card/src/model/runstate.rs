@@ -21,6 +21,11 @@ pub struct CsRun {
     pub pc_text: Option<String>,
     /// `PE` reply kept by the program engine (the move executing).
     pub pe_text: Option<String>,
+    /// (program, word offset) of the next line to be calculated (`LIST PC`), kept with
+    /// `pc_text`; program 0 = rotary buffer.
+    pub pc_at: Option<(u32, u32)>,
+    /// (program, word offset) of the line of the move executing (`LIST PE`).
+    pub pe_at: Option<(u32, u32)>,
     /// Where a `/` stop left the motors (motor, commanded position in counts): R/S away from
     /// it is ERR017. Set and cleared by the program engine.
     pub stop_point: Option<Vec<(u16, f64)>>,
@@ -56,6 +61,9 @@ pub struct RunState {
     /// Per motor: (position, velocity, following error) in counts, as the motion code last
     /// reported them (`P`, `V`, `F`, CTRL-P/V/F).
     pub report: Vec<(f64, f64, f64)>,
+    /// Per PLC: word offset of the line its next scan executes first (`LIST PLC n,`), as the
+    /// PLC runner last left it.
+    pub plc_next: Vec<u32>,
 }
 
 impl RunState {
@@ -79,6 +87,7 @@ impl RunState {
                 plcs
             ],
             report: vec![(0.0, 0.0, 0.0); motors as usize],
+            plc_next: vec![0; plcs],
         }
     }
 

@@ -569,13 +569,10 @@ impl Motor {
             *trip = Some(self.trip(TripKind::IntegratedFe, p));
             return 0.0;
         }
-        let mut dac = out.dac;
-        if self.flags.pos_limit {
-            dac = dac.min(0.0);
-        }
-        if self.flags.neg_limit {
-            dac = dac.max(0.0);
-        }
+        // The loop stays closed on a limit: the motor is servoed to where the Ix15
+        // deceleration ended (a limit blocks commanded motion into it, not the drive), so it
+        // comes in position there, as the DLS homing PLCs expect after a limit stop.
+        let dac = out.dac;
         if self.limit_stop && self.traj.finished() {
             self.limit_stop = false;
             self.flags.abort_decel = false;

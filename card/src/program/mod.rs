@@ -159,7 +159,17 @@ impl ProgramEngine {
         let mut res = vec![None; motors.len()];
         for x in &mut self.cs {
             x.sync_axes(card, motors);
-            let Some((list, pos)) = x.tick(card) else {
+            let ticked = x.tick(card);
+            // `?` word 1 bit 15 "dwell in progress" on every motor of the C.S. (seed 6820).
+            if let Some(c) = &x.cs {
+                let dwell = c.in_dwell();
+                for &m in c.motors() {
+                    if let Some(f) = card.state.motors.get_mut(usize::from(m).wrapping_sub(1)) {
+                        f.dwell = dwell;
+                    }
+                }
+            }
+            let Some((list, pos)) = ticked else {
                 continue;
             };
             let homing = x.homing().to_vec();
@@ -318,7 +328,11 @@ fn run_control(x: &mut CsExec, card: &mut CardModel, motors: &[Motor], cmd: &Act
         }
         ActionKind::Override(v) => {
             x.sync_axes(card, motors);
+            let profile = card.profile();
+            let slew = |nn| env::ivar(card, env::cs_ivar(profile, x.num, nn), f64::NAN);
+            let (ix94, ix95) = (slew(94), slew(95));
             if let Some(c) = &mut x.cs {
+                c.tb.set_slews(ix94, ix95);
                 c.tb.set_percent(*v);
             }
             true

@@ -68,13 +68,19 @@ impl CsExec {
                     self.runtime_error(card, rte::VARIABLE, false);
                     return Flow::Error;
                 };
-                self.modal(card, |c| match &s.kind {
+                let flow = self.modal(card, |c| match &s.kind {
                     S::Pvt(_) => c.modal.set_pvt(v),
                     S::Ta(_) => c.modal.set_ta(v),
                     S::Ts(_) => c.modal.set_ts(v),
                     S::Tm(_) => c.modal.set_tm(v),
                     _ => c.modal.set_f(v),
-                })
+                });
+                if matches!(s.kind, S::F(_) | S::Tm(_)) && !matches!(flow, Flow::Error) {
+                    // Polled, Ix89 reports the most recent F or TM (seed 4541-4543).
+                    let n = env::cs_ivar(card.profile(), num, 89);
+                    card.state.vars.force_i(n, v);
+                }
+                flow
             }
             S::Abs(list) | S::Inc(list) => {
                 let inc = matches!(s.kind, S::Inc(_));

@@ -78,7 +78,7 @@ impl PlcRunner {
 
     /// Follow enable transitions and source changes: a PLC (re-)enabled or edited starts at
     /// the top.
-    fn track(&mut self, card: &CardModel, n: u8) {
+    fn track(&mut self, card: &mut CardModel, n: u8) {
         let enabled = card.run.plc.get(n as usize).is_some_and(|p| p.enabled);
         let st = &mut self.plcs[n as usize];
         let lines = card.bufs.plcs.get(&n).map(|p| &p.lines);
@@ -92,6 +92,9 @@ impl PlcRunner {
             st.code = None;
             st.broken = false;
             st.pc = 0;
+            if let Some(at) = card.run.plc_next.get_mut(n as usize) {
+                *at = 0;
+            }
             if let Some(l) = lines {
                 match compile(l, true) {
                     Ok(c) => st.code = Some(Arc::new(c)),
@@ -209,6 +212,9 @@ impl PlcRunner {
             }
         }
         let enabled = card.run.plc.get(k).is_some_and(|p| p.enabled);
+        if let Some(at) = card.run.plc_next.get_mut(k) {
+            *at = code.offset_of(pc);
+        }
         let st = &mut self.plcs[k];
         st.pc = pc;
         st.was_active = enabled;

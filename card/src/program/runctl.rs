@@ -26,6 +26,7 @@ impl CsExec {
             c.release();
             if idle {
                 c.cfg = cs_config(card, self.num, c.motors());
+                c.tb.set_slews(c.cfg.ix94, c.cfg.ix95);
                 if super::env::ivar(card, 14, 1.0) != 0.0 {
                     let pos = commanded(motors, c.motors());
                     c.pmatch(&pos);
@@ -197,13 +198,23 @@ impl CsExec {
                 .collect();
             Some(parts.join(">"))
         };
+        let pc_at = self.frames.last().map(|f| {
+            let n = match f.key {
+                ProgKey::Prog(n) => u32::from(n),
+                ProgKey::Rot => 0,
+            };
+            (n, f.code.offset_of(f.pc))
+        });
         let exec = self.cs.as_ref().and_then(CoordSystem::executing);
-        let pe = exec
+        let pe_at = exec
             .and_then(|id| self.move_at.iter().find(|m| m.id == id))
-            .map(|m| format!("P{}:{}", m.prog, m.offset));
+            .map(|m| (m.prog, m.offset));
+        let pe = pe_at.map(|(p, o)| format!("P{p}:{o}"));
         if let Some(r) = card.run.cs.get_mut(k) {
             r.pc_text = pc.clone();
             r.pe_text = pe.or(pc);
+            r.pc_at = pc_at;
+            r.pe_at = pe_at.or(pc_at);
         }
     }
 }

@@ -59,6 +59,31 @@ pub struct Servo {
     amp_on: Vec<u32>,
 }
 
+/// A `%` command register written through memory (an M-variable from a PLC or a host, `W`)
+/// since the last tick becomes that C.S.'s feedrate override, as `%` would make it (seed
+/// 6645-6650: `M197=P1*I10/100` is `&1%(P1)`). Negative values command 0.
+fn feed_registers(card: &mut CardModel) {
+    let i10 = card.state.peek_ivar(10).unwrap_or(DEFAULT_I10);
+    let i10 = if i10.is_finite() && i10 > 0.0 {
+        i10
+    } else {
+        DEFAULT_I10
+    };
+    for cs in 1..=card.state.limits().coords {
+        if let Some(w) = card.state.take_feed_write(cs) {
+            let pct = (w.max(0) as f64) * 100.0 / i10;
+            if let Some(r) = card.run.cs.get_mut(usize::from(cs) - 1) {
+                r.override_pct = pct;
+            }
+            card.push_action(crate::model::Action {
+                motor: 1,
+                coord: cs,
+                kind: crate::model::ActionKind::Override(pct),
+            });
+        }
+    }
+}
+
 impl Servo {
     /// A servo loop for `card` (one motor per profile motor, all killed).
     pub fn new(card: &CardModel) -> Self {
@@ -104,6 +129,7 @@ impl Servo {
             let ix02 = card.state.vars.i(100 * u32::from(x) + 2).unwrap_or(0.0);
             self.ix02.push(ix02.max(0.0) as u32);
         }
+        feed_registers(card);
         for a in card.take_actions() {
             actions::apply_action(card, &mut self.motors, &self.params, &mut self.engine, &a);
         }

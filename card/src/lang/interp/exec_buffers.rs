@@ -18,6 +18,8 @@ use crate::lang::ast::{
 
 /// Bit 19 of `???` word 1: data gathering on.
 const GATHER_ON: u32 = 1 << 19;
+/// `???` word 1 bit 17: gathering armed to start on the rising edge of MI2.
+const GATHER_ON_TRIGGER: u32 = 1 << 17;
 
 fn to_err(e: BufErr) -> u16 {
     e.0
@@ -110,12 +112,18 @@ impl Pmac<'_> {
             CmdKind::List(t) => self.list(s, t, out)?,
             CmdKind::Define(t) => self.define(s, t)?,
             CmdKind::Delete(t) => self.delete(s, *t)?,
-            CmdKind::Gather { .. } => {
-                // No MI2 input is simulated: GATHER TRIGGER starts like GATHER.
+            CmdKind::Gather { trigger: false } => {
+                self.model.state.global.word1_other &= !GATHER_ON_TRIGGER;
                 self.model.state.global.word1_other |= GATHER_ON;
                 self.model.gather.start();
             }
-            CmdKind::EndGather => self.model.state.global.word1_other &= !GATHER_ON,
+            // Armed: `???` bit 17 until the servo cycle after MI2 rises (seed 7062, 8173).
+            CmdKind::Gather { trigger: true } => {
+                self.model.state.global.word1_other |= GATHER_ON_TRIGGER;
+            }
+            CmdKind::EndGather => {
+                self.model.state.global.word1_other &= !(GATHER_ON | GATHER_ON_TRIGGER)
+            }
             CmdKind::Plc(pc) => {
                 for n in plc_list(&pc.list)? {
                     let p = &mut self.model.run.plc[n as usize];
@@ -208,14 +216,24 @@ impl Pmac<'_> {
                 if id.protected() && !self.password_ok() {
                     return Err(2);
                 }
-                list_lines(&p.lines, render(long), offsets(span))
+                // LIST PLC n, with no start: from the line the PLC's next scan executes
+                // first (seed 8785-8791); LIST PROG's start defaults to 0.
+                let at = match id {
+                    BufId::Plc(k) if span.offsets && span.start.is_none() => {
+                        self.model.run.plc_next.get(k as usize).copied()
+                    }
+                    _ => None,
+                };
+                let offs = offsets(span).map(|(s, l)| (at.unwrap_or(s), l));
+                list_lines(&p.lines, render(long), offs)
             }
             ListTarget::Rotary(span) => self.rotary_lines(s.coord, long, offsets(span)),
             ListTarget::Gather(span) => {
                 let (start, len) = (span.start, span.len);
                 self.model.gather.list_lines(start, len)
             }
-            ListTarget::Pc(span) | ListTarget::Pe(span) => self.list_pc(s.coord, span, long)?,
+            ListTarget::Pc(span) => self.list_pc(s.coord, span, long, false)?,
+            ListTarget::Pe(span) => self.list_pc(s.coord, span, long, true)?,
             ListTarget::Comp(def) | ListTarget::BlComp(def) | ListTarget::TComp(def) => {
                 let tables = match t {
                     ListTarget::Comp(_) => &self.model.bufs.defines.comp,
@@ -252,14 +270,20 @@ impl Pmac<'_> {
             .unwrap_or_default()
     }
 
-    /// `LIST PC` / `LIST PE`: from the line the C.S. points at; first line `P{n}:{off}:text`.
-    fn list_pc(&self, cs: u16, span: &ListSpan, long: bool) -> Result<Vec<String>, u16> {
-        let (prog, label) = self.model.run.cs[cs as usize - 1].pointer.ok_or(3u16)?;
+    /// `LIST PC` / `LIST PE` (seed 8720-8770): from the next line to be calculated (PC) or
+    /// the line of the move executing (PE) while a program is under way, otherwise from the
+    /// line the C.S. points at; first line `P{n}:{off}:text`.
+    fn list_pc(&self, cs: u16, span: &ListSpan, long: bool, pe: bool) -> Result<Vec<String>, u16> {
+        let r = &self.model.run.cs[cs as usize - 1];
+        let (pointed, label) = r.pointer.ok_or(3u16)?;
+        let (prog, start) = match if pe { r.pe_at } else { r.pc_at } {
+            Some((p, off)) if p > 0 => (p, off),
+            _ => (pointed, self.label_offset(pointed, label)),
+        };
         let p = u16::try_from(prog)
             .ok()
             .and_then(|n| self.model.bufs.progs.get(&n))
             .ok_or(3u16)?;
-        let start = self.label_offset(prog, label);
         let len = if span.offsets { span.len } else { Some(1) };
         let mut v = list_lines(&p.lines, render(long), Some((start, len)));
         if let Some(first) = v.first_mut() {

@@ -180,6 +180,9 @@ impl Pmac<'_> {
                     .max(1.0);
                 let max = 8_388_608.0 / i10 * 100.0;
                 self.model.run.cs[csk].override_pct = v.min(max);
+                // The `%` command register (X:$0806, Turbo X:$2000 …) holds it in I10 units.
+                let word = (v.min(max) * i10 / 100.0).round() as i64;
+                self.model.state.set_feed_word(cs, word);
                 self.action(s, cmd);
             }
             K::Begin(num) => {
@@ -196,8 +199,8 @@ impl Pmac<'_> {
                 let prog = v.trunc() as u32;
                 let label = ((v - v.trunc()) * 100_000.0).round() as u32;
                 self.model.run.cs[csk].pointer = Some((prog, label));
-                self.model.run.cs[csk].pc_text = None;
-                self.model.run.cs[csk].pe_text = None;
+                let r = &mut self.model.run.cs[csk];
+                (r.pc_text, r.pe_text, r.pc_at, r.pe_at) = (None, None, None, None);
                 self.action(s, cmd);
             }
             K::Run | K::Step | K::Resume => {

@@ -10,6 +10,11 @@ use super::Pmac;
 use crate::domain::ast::AxisDef;
 use crate::model::{persist, user_memory_words, Buffers, ProgLine, RunState, PLCS};
 
+/// PMAC2 register holding the end of unreserved memory (X:$0F3F).
+const UNRESERVED_END_REG: u32 = 0x0F3F;
+/// One past the top of user memory (the DEFINE'd buffers stack down from $9FFF).
+const MEMORY_END: u64 = 0xA000;
+
 /// `???` word 1 bit 10: saved data bad, factory defaults used.
 pub(super) const EAROM_ERROR: u32 = 1 << 10;
 
@@ -332,5 +337,22 @@ impl Pmac<'_> {
         g.plc_open = matches!(id, Some(BufId::Plc(_)));
         g.binary_rotary = binary;
         g.buffer_nearly_full = nearly_full;
+        self.note_memory_end();
+    }
+
+    /// PMAC2 X:$0F3F: the end of unreserved memory (seed 7768-7778). The DEFINE'd buffers
+    /// (UBUFFER first, then tables, TBUF, rotary buffers, GATHER) stack down from $9FFF, so
+    /// it holds $A000 with none and the start of the lowest one otherwise.
+    fn note_memory_end(&mut self) {
+        if self.model.profile() != crate::domain::profile::Profile::Pmac2 {
+            return;
+        }
+        let b = &self.model.bufs;
+        let rot: u64 = b.rotary.values().map(|r| u64::from(r.size)).sum();
+        let end = MEMORY_END.saturating_sub(b.defines.words() + rot);
+        self.model
+            .state
+            .memory
+            .write(crate::model::Space::X, UNRESERVED_END_REG, end as u32);
     }
 }
