@@ -93,14 +93,31 @@ pub fn cmd_send(cluster: &str, args: &crate::cli::SendArgs) -> Result<()> {
 }
 
 /// The error a reply carries: `ERRnnn` after a `<BELL>`, `BELL` when the card sent no code
-/// (I6 = 2), else None.
+/// (I6 = 2), a Power card's `error #n` (its `stdin:L:C: error #n: TEXT: line`), else None.
 pub fn reply_error(reply: &[u8]) -> Option<String> {
+    if let Some(e) = power_error(reply) {
+        return Some(e);
+    }
     let bell = reply.iter().position(|&c| c == 0x07)?;
     let rest = String::from_utf8_lossy(reply.get(bell + 1..).unwrap_or_default()).into_owned();
     let code = rest.split(|c: char| !c.is_ascii_alphanumeric()).find(|w| {
         w.len() == 6 && w.starts_with("ERR") && w[3..].bytes().all(|b| b.is_ascii_digit())
     });
     Some(code.map_or_else(|| "BELL".to_string(), str::to_string))
+}
+
+/// A Power card's error line (`stdin:1:1: error #20: ILLEGAL CMD: …`): `error #20`.
+pub fn power_error(reply: &[u8]) -> Option<String> {
+    let text = String::from_utf8_lossy(reply);
+    text.split("\r\n").find_map(|l| {
+        let rest = l.strip_prefix("stdin:")?;
+        let at = rest.find(": error #")?;
+        let code: String = rest[at + 9..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        (!code.is_empty()).then(|| format!("error #{code}"))
+    })
 }
 
 /// `mcc term`: the interactive terminal on a running cluster's chain; leaving it leaves the
@@ -134,6 +151,11 @@ mod tests {
     #[test]
     fn errors_are_read_from_the_reply() {
         assert_eq!(reply_error(b"\x07ERR003\r").as_deref(), Some("ERR003"));
+        assert_eq!(
+            reply_error(b"stdin:2:1: error #20: ILLEGAL CMD: foo\r\n\x06\r\n").as_deref(),
+            Some("error #20")
+        );
+        assert_eq!(reply_error(b"P1=2\r\n\x06\r\n"), None);
         assert_eq!(
             reply_error(b"\x07\r\nERR015\r\n").as_deref(),
             Some("ERR015")

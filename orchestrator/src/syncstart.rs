@@ -373,7 +373,10 @@ pub fn cmd_start_sync(cluster: &str, args: &crate::cli::StartSyncArgs) -> Result
             println!("  card {}: {}", c.card, c.reply);
         }
     }
-    if out.cards.iter().any(|c| c.reply.contains("<BEL>")) {
+    let refused = |c: &CardStart| {
+        c.reply.contains("<BEL>") || crate::send::power_error(c.raw_reply.as_bytes()).is_some()
+    };
+    if out.cards.iter().any(refused) {
         bail!("a card refused the line (see its reply)");
     }
     Ok(())

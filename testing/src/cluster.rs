@@ -212,7 +212,9 @@ impl Builder {
         for (which, profile) in &self.profiles {
             for card in select(cards, *which, &numbers)? {
                 card.insert("profile".into(), Toml::String(profile.clone()));
-                if profile != "pmac2" {
+                // A Power card takes the config's I1001/I1004/I1005 as its ring check
+                // (Macro.TestPeriod/TestMaxErrors/TestReqdSynchs); a Turbo card would refuse them.
+                if profile == "turbo" {
                     strip_pmac2_ring_check(card);
                 }
             }
@@ -386,7 +388,8 @@ fn select<'a>(
 }
 
 /// The embedded default arms the PMAC2 ring check (I1001/I1004/I1005); a Turbo card refuses
-/// those numbers, so a card switched to another profile starts without them.
+/// those numbers, so a card switched to the Turbo profile starts without them (a Power card
+/// keeps them: they are its ring check, see "Power PMAC" in ARCHITECTURE.md).
 fn strip_pmac2_ring_check(card: &mut Table) {
     let default = [("I1001", 16), ("I1004", 2), ("I1005", 4)];
     if let Some(Toml::Table(iv)) = card.get_mut("ivars") {
@@ -661,13 +664,20 @@ impl Cluster {
                 program_start_cycle: c["program_start_cycle"].as_u64(),
             })
             .collect();
-        if let Some(bad) = cards.iter().find(|c| c.reply.contains("<BEL>")) {
-            let code = bad
-                .reply
-                .split("ERR")
-                .nth(1)
-                .map(|d| format!("ERR{}", &d[..d.len().min(3)]))
-                .unwrap_or_else(|| "BELL".into());
+        // A PMAC card's `<BEL>ERRnnn`, a Power card's `stdin:L:C: error #n: …`.
+        let refused = |c: &&CardStart| c.reply.contains("<BEL>") || c.reply.contains(": error #");
+        if let Some(bad) = cards.iter().find(refused) {
+            let power = bad.reply.split(": error #").nth(1).map(|d| {
+                let n: String = d.chars().take_while(char::is_ascii_digit).collect();
+                format!("error #{n}")
+            });
+            let code = power.unwrap_or_else(|| {
+                bad.reply
+                    .split("ERR")
+                    .nth(1)
+                    .map(|d| format!("ERR{}", &d[..d.len().min(3)]))
+                    .unwrap_or_else(|| "BELL".into())
+            });
             return Err(Error::new(
                 ErrorKind::Card { code },
                 format!("card {} refused {line:?}: {}", bad.card, bad.reply),
@@ -1012,6 +1022,22 @@ master = 0
             Some(9000)
         );
         assert_eq!(doc["drives"][0]["address"].as_integer(), Some(1));
+    }
+
+    #[test]
+    fn a_power_card_keeps_the_ring_check() {
+        // The ring check is what makes a Power sync master latch its own ring fault.
+        let doc = Cluster::builder()
+            .config_toml(BASE)
+            .card_profile(1, "power")
+            .build_config(&runner())
+            .unwrap();
+        let cards = doc["cards"].as_array().unwrap();
+        assert_eq!(cards[1]["profile"].as_str(), Some("power"));
+        assert_eq!(
+            cards[1]["ivars"].to_string(),
+            "{ I1001 = 16, I1004 = 2, I1005 = 4 }"
+        );
     }
 
     #[test]

@@ -14,7 +14,7 @@ const WAIT: Duration = Duration::from_secs(60);
 /// Ring check period of the default cluster's cards (I1001).
 const I1001: u64 = 16;
 /// The program every card starts.
-const SETUP: &[&str] = &[
+pub(crate) const SETUP: &[&str] = &[
     "&1#1->1000X",
     "#1J/",
     "OPEN PROG 1 CLEAR",
@@ -191,7 +191,7 @@ fn restart(c: &mut Cluster, member: &str) {
 
 /// Recovery as a PMAC user does it (`mcc_testing::Cluster::reset`: clear, then `$$$` on
 /// every card and the members' latches until the ring is healthy), then motion again.
-fn recover(c: &mut Cluster) {
+fn recover(c: &mut Cluster, setups: Setups) {
     if let Err(e) = c.clear(None) {
         panic!("fault clear: {e}");
     }
@@ -205,8 +205,8 @@ fn recover(c: &mut Cluster) {
             .all(|c| c["ring_fault"] == false)
     });
     // Motion can be commanded again.
-    for n in 0..2 {
-        setup(c, n, SETUP);
+    for (n, lines) in setups.iter().enumerate() {
+        setup(c, n as u8, lines);
     }
     let o = start_sync(c, "0,1", 1);
     let t = o[0]["cycle"].as_u64().unwrap();
@@ -230,9 +230,18 @@ fn fault_drills(tag: &str, clock: Option<&str>) {
 
 /// The fault drills on the ring `b` starts (2 cards + 2 stations).
 pub(crate) fn fault_drills_on(b: Builder) {
+    fault_drills_with(b, [SETUP, SETUP]);
+}
+
+/// The set-up lines of card 0 and card 1, each in its card's language.
+pub(crate) type Setups<'a> = [&'a [&'a str]; 2];
+
+/// [`fault_drills_on`] with each card's own set-up lines (a Power card takes Power syntax on
+/// the daisy chain); every card starts `&1b1r` after each recovery.
+pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
     let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
-    for n in 0..2 {
-        setup(&c, n, SETUP);
+    for (n, lines) in setups.iter().enumerate() {
+        setup(&c, n as u8, lines);
     }
     drill(
         &mut c,
@@ -241,7 +250,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
         "card1",
         &["card0", "card1"],
     );
-    recover(&mut c);
+    recover(&mut c, setups);
     drill(
         &mut c,
         &["station0", "drop-sync"],
@@ -249,7 +258,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
         "card1",
         &["card0", "card1"],
     );
-    recover(&mut c);
+    recover(&mut c, setups);
     drill(
         &mut c,
         &["station0", "kill"],
@@ -258,7 +267,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
         &["card0", "card1"],
     );
     restart(&mut c, "station0");
-    recover(&mut c);
+    recover(&mut c, setups);
     drill(
         &mut c,
         &["card1", "freeze"],
@@ -268,7 +277,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
     );
     // A thawed member whose zenoh session expired leaves; restart brings it back.
     restart(&mut c, "card1");
-    recover(&mut c);
+    recover(&mut c, setups);
     // The synchronizing master itself: killed, then frozen. The member downstream of it
     // (station0) sees loss of light and runs on its own clock, so card1 counts the cycles;
     // a restarted sync master takes up the ring's cycle count (or the ring its new one).
@@ -280,7 +289,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
         &["card1"],
     );
     restart(&mut c, "card0");
-    recover(&mut c);
+    recover(&mut c, setups);
     drill(
         &mut c,
         &["card0", "freeze"],
@@ -289,7 +298,7 @@ pub(crate) fn fault_drills_on(b: Builder) {
         &["card1"],
     );
     restart(&mut c, "card0");
-    recover(&mut c);
+    recover(&mut c, setups);
 }
 
 #[test]

@@ -137,12 +137,64 @@ fn power_sync_master_drives_its_nodes_beside_a_pmac2_card() {
     c.stop();
 }
 
-/// Known defect (issue 13 item 6, left open): on this ring the Power sync master goes dark
-/// after a cut (byte violations counted) but never latches its own ring fault, while the
-/// PMAC2 card does; its ring check does not arm although the config's I1001/I1004/I1005 now
-/// reach the model's ring-check variables. Run with `--ignored` to see it.
+/// The program every card starts in the drills, in Power syntax for the Power card (card0);
+/// the PMAC2 card takes the drills' own PMAC set-up.
+const POWER_SETUP: &[&str] = &["&1#1->1000X", "#1j/", "open prog 1", "dwell 1", "close"];
+
+/// The fault drills of an all-PMAC2 ring on the mixed ring. Known defect (issue 13 item 6,
+/// still open): the Power sync master goes dark after a cut (byte violations counted, status
+/// `fault_reason` null) but never latches its own ring fault, while the PMAC2 card does. Found
+/// so far: the test builder stripped I1001/I1004/I1005 from every non-PMAC2 card, so the
+/// Power card started with its check disarmed (fixed: only a Turbo card loses them; the
+/// card's I80/I81/I82 now hold 16/2/4 after start-up); the drill still fails on the first cut,
+/// so a second cause remains in how the ring core checks this member. Run with `--ignored`.
 #[test]
 #[ignore = "a Power sync master does not latch its ring fault yet (see the doc comment)"]
 fn power_sync_master_ring_faults_are_detected_localised_and_recovered() {
-    crate::drills::fault_drills_on(mixed_ring("pwrfault"));
+    crate::drills::fault_drills_with(mixed_ring("pwrfault"), [POWER_SETUP, crate::drills::SETUP]);
+}
+
+/// Issue 13 item 6: the daisy chain reaches a Power card with Power syntax (`@0`): element
+/// queries answered as gpascii writes them, byte for byte; a synchronized start across the
+/// Power card and the PMAC2 card runs both programs in the tick of one ring cycle.
+#[test]
+fn the_daisy_chain_reaches_a_power_card_in_power_syntax() {
+    let mut c = mixed_ring("pwrchain")
+        .start()
+        .unwrap_or_else(|e| panic!("cluster up: {e}"));
+    let send = |c: &mut Cluster, card: &str, line: &str| -> serde_json::Value {
+        let out = c.mcc(&["send", "--json", "--card", card, "--", line]);
+        assert!(out.status.success(), "mcc send {line}: {out:?}");
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("send JSON");
+        doc[0].clone()
+    };
+    let r = send(&mut c, "0", "Motor[1].ServoCtrl Gate3[0].MacroEnableA.8.16");
+    assert_eq!(
+        r["framed"],
+        "Motor[1].ServoCtrl=$1<CR>\n<LF>Gate3[0].MacroEnableA.8.16=13107<CR>\n<LF><ACK><CR>\n<LF>",
+        "{r:#}"
+    );
+    assert_eq!(r["error"], serde_json::Value::Null);
+    // A PMAC-only line is a Power error there, named as such.
+    let r = send(&mut c, "0", "OPEN PROG 1 CLEAR");
+    assert_eq!(r["error"], "error #20", "{r:#}");
+    // The PMAC2 card keeps PMAC syntax.
+    let r = send(&mut c, "1", "I1001");
+    assert_eq!(r["reply"], "16\n", "{r:#}");
+    // Programs in each card's language, then one synchronized start of both.
+    // One connection (a buffer its thread opened closes when the connection ends).
+    c.send(POWER_SETUP, Some(0))
+        .expect("card0 set-up in Power syntax");
+    c.send(crate::drills::SETUP, Some(1)).expect("card1 set-up");
+    std::thread::sleep(Duration::from_millis(500));
+    let s = c.start_sync("&1b1r", &[0, 1]).expect("start-sync");
+    assert_eq!(s.cards.len(), 2, "{s:?}");
+    for k in &s.cards {
+        assert_eq!(k.executed_cycle, Some(s.cycle), "{s:?}");
+        assert_eq!(k.program_start_cycle, Some(s.cycle), "{s:?}");
+    }
+    // The Power card answered as gpascii does (an ACK line), the PMAC2 card in its framing.
+    assert_eq!(s.cards[0].reply, "<ACK><CR><LF>", "{s:?}");
+    assert_eq!(s.cards[1].reply, "<LF>", "{s:?}");
+    c.stop();
 }

@@ -402,13 +402,13 @@ proptest! {
         let mut port = crate::service::chain::ChainPort::new();
         for (id, data) in &chunks {
             // A line waiting for the ring (`MS…` on a card without one) parks: no reply yet.
-            for (pos, reply) in port.feed(&mut card, *id, data).into_iter().flatten() {
+            for (pos, reply) in port.feed(&mut card, None, *id, data).into_iter().flatten() {
                 prop_assert!((pos as usize) < data.len());
                 prop_assert!(reply.len() <= MAX_REPLY);
             }
         }
         for id in 0..3 {
-            port.close(&mut card, id);
+            port.close(&mut card, None, id);
         }
         let mut s = crate::lang::interp::Session::with_id(9);
         let _ = card.command_line(&mut s, b"CLOSE");

@@ -256,7 +256,8 @@ mod tests {
         };
         assert_eq!(
             ask("Motor[0].pDac Motor[1].pDac Motor[2].pDac Motor[8].pDac Motor[9].pDac"),
-            "$0\r\n$78420\r\n$78424\r\n$7843C\r\n$0\r\n"
+            "$0\r\nGate3[0].MacroOutA[0][0].a\r\nGate3[0].MacroOutA[1][0].a\r\n\
+             Gate3[0].MacroOutA[13][0].a\r\n$0\r\n"
         );
         assert_eq!(
             ask("Motor[1].pEnc Motor[1].pEncStatus"),

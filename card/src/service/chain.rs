@@ -39,6 +39,11 @@ use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
 use crate::lang::ast::CmdKind;
 use crate::lang::interp::overlong_probe;
 use crate::lang::interp::{ctrl_n, Card, LineRun, Session, MAX_LINE};
+use crate::lang::ppmac::Power;
+
+/// A Power card's dialect threads of chain connections are kept under the connection id with
+/// this bit set (host-port connections count up from 0 and never reach it).
+pub(crate) const POWER_CHAIN_CONN: u64 = 1 << 63;
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
 pub(crate) const MAX_CONNECTIONS: usize = 64;
@@ -119,10 +124,13 @@ impl ChainPort {
 
     /// Connection `id` is gone: close the buffer it left open, forget its state (a line
     /// waiting for the ring is dropped; its access expires unclaimed).
-    pub(crate) fn close(&mut self, card: &mut Card, id: u64) {
+    pub(crate) fn close(&mut self, card: &mut Card, power: Option<&mut Power>, id: u64) {
         self.parked.remove(&id);
         if let Some(c) = self.conns.remove(&id) {
             card.end_session(&c.session);
+            if let Some(p) = power {
+                p.end(card, POWER_CHAIN_CONN | id);
+            }
         }
     }
 
@@ -139,21 +147,31 @@ impl ChainPort {
 
     /// Run one request against the card; the encoded reply (`None`: a line waits for the
     /// ring, the reply comes from [`ChainPort::resume`]).
-    pub(crate) fn handle(&mut self, card: &mut Card, req: &Request<'_>) -> Option<Vec<u8>> {
+    pub(crate) fn handle(
+        &mut self,
+        card: &mut Card,
+        power: Option<&mut Power>,
+        req: &Request<'_>,
+    ) -> Option<Vec<u8>> {
         Some(match req.op {
             OP_CLOSE => {
-                self.close(card, req.conn);
+                self.close(card, power, req.conn);
                 Vec::new()
             }
-            OP_QUERY_START => vec![self.start_flags(card, req.conn)],
-            OP_TAKE_START => self.take_start(card, req.conn),
-            _ => encode_reply(&self.feed(card, req.conn, req.data)?),
+            OP_QUERY_START => vec![self.start_flags(card, power.as_deref(), req.conn)],
+            OP_TAKE_START => self.take_start(card, power, req.conn),
+            _ => encode_reply(&self.feed(card, power, req.conn, req.data)?),
         })
     }
 
     /// Go on with the parked line of connection `id`: the encoded reply of its request once
     /// the line (and the rest of the request) is done.
-    pub(crate) fn resume(&mut self, card: &mut Card, id: u64) -> Option<Vec<u8>> {
+    pub(crate) fn resume(
+        &mut self,
+        card: &mut Card,
+        power: Option<&mut Power>,
+        id: u64,
+    ) -> Option<Vec<u8>> {
         let mut p = self.parked.remove(&id)?;
         let Some(r) = card.step_detached(&mut p.run, &mut p.session) else {
             self.parked.insert(id, p);
@@ -167,14 +185,14 @@ impl ChainPort {
             p.out.push((p.at, r));
         }
         let rest = std::mem::take(&mut p.rest);
-        let out = self.feed_from(card, id, &rest, p.base, p.out)?;
+        let out = self.feed_from(card, power, id, &rest, p.base, p.out)?;
         Some(encode_reply(&out))
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
-    pub(crate) fn start_flags(&self, card: &mut Card, id: u64) -> u8 {
+    pub(crate) fn start_flags(&self, card: &mut Card, power: Option<&Power>, id: u64) -> u8 {
         match self.conns.get(&id) {
-            Some(c) if starts_program(card, c) => {
+            Some(c) if starts_program(card, power, c) => {
                 FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
             }
             _ => 0,
@@ -186,8 +204,13 @@ impl ChainPort {
     /// taken) when the line does not start a program. The card then stays silent at the
     /// `<CR>` that would have executed it, and the connection's motor/C.S. follow the line's
     /// `#n`/`&n` as if it had run here.
-    pub(crate) fn take_start(&mut self, card: &mut Card, id: u64) -> Vec<u8> {
-        let flags = self.start_flags(card, id);
+    pub(crate) fn take_start(
+        &mut self,
+        card: &mut Card,
+        power: Option<&mut Power>,
+        id: u64,
+    ) -> Vec<u8> {
+        let flags = self.start_flags(card, power.as_deref(), id);
         let Some(c) = self.conns.get_mut(&id) else {
             return Vec::new();
         };
@@ -197,6 +220,15 @@ impl ChainPort {
         let line = std::mem::take(&mut c.buf);
         c.synced = true;
         let mut out = vec![flags];
+        if let Some(p) = power {
+            // A Power card: the thread's `Ldata.Motor`/`Ldata.Coord` in Power numbering.
+            let key = POWER_CHAIN_CONN | id;
+            let (m, cs) = p.addressing(key);
+            out.extend_from_slice(format!("#{m}&{cs} ").as_bytes());
+            out.extend_from_slice(&line);
+            p.adopt_addressing(card, key, &line);
+            return out;
+        }
         out.extend_from_slice(format!("#{}&{}", c.session.motor, c.session.coord).as_bytes());
         out.extend_from_slice(&line);
         for cmd in crate::lang::parse_line(&line).unwrap_or_default() {
@@ -214,6 +246,7 @@ impl ChainPort {
     pub(crate) fn feed(
         &mut self,
         card: &mut Card,
+        mut power: Option<&mut Power>,
         id: u64,
         data: &[u8],
     ) -> Option<Vec<(u32, Vec<u8>)>> {
@@ -221,15 +254,16 @@ impl ChainPort {
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
             let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
             if let Some(&old) = oldest.map(|(k, _)| k) {
-                self.close(card, old);
+                self.close(card, power.as_deref_mut(), old);
             }
         }
-        self.feed_from(card, id, data, 0, Vec::new())
+        self.feed_from(card, power, id, data, 0, Vec::new())
     }
 
     fn feed_from(
         &mut self,
         card: &mut Card,
+        mut power: Option<&mut Power>,
         id: u64,
         data: &[u8],
         base: u32,
@@ -240,7 +274,7 @@ impl ChainPort {
         conn.last_used = clock;
         for (i, &b) in data.iter().enumerate() {
             let at = base + i as u32;
-            match byte(card, conn, b) {
+            match byte(card, power.as_deref_mut(), conn, b) {
                 Exec::Reply(r) if !r.is_empty() => out.push((at, r)),
                 Exec::Reply(_) => {}
                 Exec::Wait(run, session, talking) => {
@@ -268,9 +302,12 @@ impl ChainPort {
 const PREFIX_ROOM: usize = 16;
 
 /// The collected line would start a program (`R`/`S`) if executed now.
-fn starts_program(card: &Card, c: &Conn) -> bool {
+fn starts_program(card: &Card, power: Option<&Power>, c: &Conn) -> bool {
     if c.overflow || c.buf.is_empty() || c.buf.len() + PREFIX_ROOM > MAX_LINE {
         return false;
+    }
+    if let Some(p) = power {
+        return p.starts_program(card, POWER_CHAIN_CONN | c.session.id, &c.buf);
     }
     if card.open_session() == Some(c.session.id) {
         return false;
@@ -282,15 +319,17 @@ fn starts_program(card: &Card, c: &Conn) -> bool {
 }
 
 /// Process one received byte; the reply this card sends because of it.
-fn byte(card: &mut Card, c: &mut Conn, b: u8) -> Exec {
+fn byte(card: &mut Card, power: Option<&mut Power>, c: &mut Conn, b: u8) -> Exec {
     if b == b'\r' {
         let sa = card.software_addressing();
-        if !(std::mem::take(&mut c.at_pending) && sa) {
-            return execute(card, c);
+        if std::mem::take(&mut c.at_pending) && sa {
+            // `@` then <CR>: the report-card command.
+            collect(card, c, b'@');
         }
-        // `@` then <CR>: the report-card command.
-        collect(card, c, b'@');
-        return execute(card, c);
+        return match power {
+            Some(p) => execute_power(card, p, c),
+            None => execute(card, c),
+        };
     }
     Exec::Reply(byte_other(card, c, b))
 }
@@ -417,6 +456,26 @@ fn execute(card: &mut Card, c: &mut Conn) -> Exec {
         return Exec::Wait(Box::new(run), s, talking);
     };
     restore(c, &s);
+    Exec::Reply(if talking { r } else { Vec::new() })
+}
+
+/// `<CR>` on a Power card: the collected line runs through its Power dialect on the
+/// connection's own communication thread, and the reply is what `gpascii` writes (each line
+/// ended by CR LF, then ACK CR LF; errors as `stdin:L:C: error #n: …`).
+fn execute_power(card: &mut Card, p: &mut Power, c: &mut Conn) -> Exec {
+    let talking = card.chain_talking(&c.session);
+    if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
+        return Exec::Reply(Vec::new());
+    }
+    let mut line = std::mem::take(&mut c.buf);
+    if std::mem::take(&mut c.overflow) {
+        // Longer than the dialect takes: it answers its own #20 for it.
+        line = vec![b' '; crate::lang::ppmac::MAX_LINE + 1];
+    }
+    if line.is_empty() && !talking {
+        return Exec::Reply(Vec::new());
+    }
+    let r = p.line(card, POWER_CHAIN_CONN | c.session.id, &line);
     Exec::Reply(if talking { r } else { Vec::new() })
 }
 

@@ -29,6 +29,10 @@ pub(crate) const REPLY_TIMEOUT: Duration = Duration::from_secs(120);
 /// Requests taken from the channel per pump (the rest wait for the next one).
 const DRAIN_PER_PUMP: usize = 256;
 
+/// The Power dialect thread synchronized starts run on (beside the chain's threads, see
+/// `chain::POWER_CHAIN_CONN`).
+const SYNC_POWER_CONN: u64 = super::chain::POWER_CHAIN_CONN - 1;
+
 /// What reaches the servo thread.
 #[derive(Debug)]
 pub enum Request {
@@ -259,7 +263,10 @@ impl Runner {
                     return;
                 }
                 let closing = req.op == OP_CLOSE;
-                match self.chain.handle(&mut self.core.card, &req) {
+                match self
+                    .chain
+                    .handle(&mut self.core.card, self.core.power.as_mut(), &req)
+                {
                     Some(r) => {
                         let _ = env.reply.send(Response::Chain(Ok(r)));
                     }
@@ -304,7 +311,10 @@ impl Runner {
     /// connections sent meanwhile (in order, until one waits again).
     fn resume_chain(&mut self) {
         for conn in self.chain.parked() {
-            let Some(reply) = self.chain.resume(&mut self.core.card, conn) else {
+            let Some(reply) =
+                self.chain
+                    .resume(&mut self.core.card, self.core.power.as_mut(), conn)
+            else {
                 continue;
             };
             let Some(queue) = self.chain_wait.get_mut(&conn) else {
@@ -315,7 +325,10 @@ impl Runner {
             }
             while let Some((payload, _)) = queue.front() {
                 let r = match mcc_ring::control::chain::decode_request(payload) {
-                    Ok(req) => self.chain.handle(&mut self.core.card, &req).map(Ok),
+                    Ok(req) => self
+                        .chain
+                        .handle(&mut self.core.card, self.core.power.as_mut(), &req)
+                        .map(Ok),
                     Err(e) => Some(Err(e.to_string())),
                 };
                 let Some(r) = r else {
@@ -392,7 +405,12 @@ impl Runner {
             let saved = card.model.take_actions();
             for (id, line) in due {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
-                let reply = card.run_detached(&mut self.sync_session, &line);
+                // A Power card runs the line in its own dialect, on the synchronized-start
+                // thread (its `Ldata` persists from start to start, as a session does).
+                let reply = match self.core.power.as_mut() {
+                    Some(p) => p.line(card, SYNC_POWER_CONN, &line),
+                    None => card.run_detached(&mut self.sync_session, &line),
+                };
                 done.push((id, ns, reply));
             }
             let fresh = card.model.take_actions();

@@ -8,6 +8,8 @@ use mcc_ring::control::chain::{decode_request, encode_request};
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
     cards: Vec<(Card, ChainPort)>,
+    /// The Power dialect of a `power` card (its lines run there).
+    power: Vec<Option<Power>>,
 }
 
 impl Cable {
@@ -21,14 +23,29 @@ impl Cable {
                 (c, ChainPort::new())
             })
             .collect();
-        Cable { cards }
+        let power = (0..n).map(|_| None).collect();
+        Cable { cards, power }
+    }
+
+    /// Card 0 a Power card, card 1 a PMAC2 card.
+    fn mixed() -> Self {
+        let mut c = Cable::new(2);
+        let mut p = Card::new(Profile::Power);
+        apply_chain_defaults(&mut p, 0);
+        c.cards[0].0 = p;
+        c.power[0] = Some(Power::new());
+        c
     }
 
     /// Broadcast `data` on connection `conn`; merged replies (position, then card order).
     fn send(&mut self, conn: u64, data: &[u8]) -> Vec<u8> {
         let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
-        for (k, (card, port)) in self.cards.iter_mut().enumerate() {
-            for (p, b) in port.feed(card, conn, data).unwrap_or_default() {
+        let cards = self.cards.iter_mut().zip(self.power.iter_mut());
+        for (k, ((card, port), power)) in cards.enumerate() {
+            for (p, b) in port
+                .feed(card, power.as_mut(), conn, data)
+                .unwrap_or_default()
+            {
                 segs.push((p, k, b));
             }
         }
@@ -166,18 +183,18 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     let mut c = Cable::new(1);
     let (card, port) = &mut c.cards[0];
     for id in 0..(MAX_CONNECTIONS as u64 + 10) {
-        let _ = port.feed(card, id, b"P1\r");
+        let _ = port.feed(card, None, id, b"P1\r");
     }
     assert_eq!(port.connections(), MAX_CONNECTIONS);
     assert_eq!(
-        port.feed(card, 500, b"OPEN PROG 1 CLEAR\r")
+        port.feed(card, None, 500, b"OPEN PROG 1 CLEAR\r")
             .unwrap_or_default(),
         vec![(17, vec![6])]
     );
-    port.close(card, 500);
+    port.close(card, None, 500);
     // The buffer is closed again: another connection may open one.
     assert_eq!(
-        port.feed(card, 501, b"OPEN PROG 2\r"),
+        port.feed(card, None, 501, b"OPEN PROG 2\r"),
         Some(vec![(11, vec![6])])
     );
 }
@@ -188,6 +205,7 @@ impl Cable {
         let (card, port) = &mut self.cards[k];
         port.handle(
             card,
+            self.power[k].as_mut(),
             &Request {
                 op,
                 conn,
@@ -247,7 +265,7 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     assert_eq!(c.ask(1, "I995=$30 I1003=32 I1000=0"), b"\x06");
     assert_eq!(c.send(1, b"@1\r"), b"\x06");
     let (card, port) = &mut c.cards[1];
-    assert_eq!(port.feed(card, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"), None);
+    assert_eq!(port.feed(card, None, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"), None);
     assert!(port.is_parked(1));
     // the servo tick streams the request; the station's reply comes back around the ring
     let first = card.model.aux.servo_tick((0, 0));
@@ -257,7 +275,7 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     for k in 0..reply.len() as u64 {
         let (r2, r3) = stream_word(WordKind::Reply, tag, 0, &reply, k).encode();
         card.model.aux.servo_tick((r2, r3));
-        done = port.resume(card, 1);
+        done = port.resume(card, None, 1);
         if done.is_some() {
             break;
         }
@@ -273,7 +291,59 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     // a line whose card is not a master gets ERR008 at once (never parked)
     let (card0, port0) = &mut c.cards[0];
     assert_eq!(
-        port0.feed(card0, 2, b"MS0,MI8\r"),
+        port0.feed(card0, None, 2, b"MS0,MI8\r"),
         Some(vec![(7, b"\x07ERR008\r".to_vec())])
     );
+}
+
+#[test]
+fn a_power_card_on_the_chain_speaks_power() {
+    let mut c = Cable::mixed();
+    // `@0`: the Power card answers in its dialect, as gpascii writes it.
+    assert_eq!(
+        c.send(1, b"@0Motor[2].JogSpeed=12.5 Motor[2].JogSpeed\r"),
+        b"Motor[2].JogSpeed=12.5\r\n\x06\r\n"
+    );
+    assert_eq!(c.send(1, b"echo1 Motor[2].JogSpeed\r"), b"12.5\r\n\x06\r\n");
+    // A PMAC-only command is an error there, in the Power form (line 4 of this thread).
+    assert_eq!(
+        c.send(1, b"I222\r"),
+        b"I222=12.5\r\n\x06\r\n",
+        "I222 is Motor[2].JogSpeed in Power numbering"
+    );
+    let e = c.send(1, b"OPEN PROG 1 CLEAR\r");
+    assert_eq!(
+        e,
+        b"stdin:4:1: error #20: ILLEGAL CMD: OPEN PROG 1 CLEAR\r\n\x06\r\n".to_vec(),
+        "{}",
+        String::from_utf8_lossy(&e)
+    );
+    // The PMAC2 card beside it keeps PMAC syntax.
+    assert_eq!(c.send(1, b"@1I122\r"), b"32\r\x06");
+    // Another chain connection is another Power thread (its own echo mode).
+    assert_eq!(
+        c.send(2, b"Motor[2].JogSpeed\r"),
+        b"Motor[2].JogSpeed=12.5\r\n\x06\r\n"
+    );
+}
+
+#[test]
+fn a_power_line_that_starts_a_program_is_taken_with_its_thread_addressing() {
+    let mut c = Cable::mixed();
+    assert_eq!(c.send(1, b"@0#3&2\r"), b"\x06\r\n");
+    let _ = c.send(1, b"b1r");
+    assert_eq!(c.op(0, OP_QUERY_START, 1), vec![FLAG_STARTS | FLAG_TALKS]);
+    let mut want = vec![FLAG_STARTS | FLAG_TALKS];
+    want.extend_from_slice(b"#3&2 b1r");
+    assert_eq!(c.op(0, OP_TAKE_START, 1), want);
+    // Silent at the <CR>: the line runs in the synchronized start.
+    assert_eq!(c.send(1, b"\r"), b"");
+    // A query is no start; nor is a line with a syntax error.
+    let _ = c.send(1, b"&3 Coord[3].Status[0]");
+    assert_eq!(c.op(0, OP_QUERY_START, 1), [0]);
+    let _ = c.send(1, b"\r");
+    let _ = c.send(1, b"r)");
+    assert_eq!(c.op(0, OP_QUERY_START, 1), [0]);
+    let _ = c.send(1, b"\r");
+    assert_eq!(c.send(1, b"#\r"), b"#3\r\n\x06\r\n");
 }

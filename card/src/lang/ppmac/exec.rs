@@ -244,12 +244,7 @@ impl Ctx<'_> {
             }
             Cmd::ElemAddr(e) => {
                 let k = self.key(e, elems)?;
-                // [DECISION] An element's address is its place in the catalogue: structure
-                // block, index and entry (stable, never 0: no function elements are modelled).
-                let a = 0x1000_0000u64
-                    + (u64::from(k.idx) << 20)
-                    + ((k.def as u64) << 8)
-                    + u64::from(k.sub[0] * 4 + k.sub[1]);
+                let a = self.elem_address(&k);
                 let text = if self.th.echo & 8 != 0 {
                     a.to_string()
                 } else {
@@ -441,6 +436,20 @@ impl Ctx<'_> {
         })
     }
 
+    /// The address `name.a` stands for. [DECISION] A ring-IC register (`Gate3[0].MacroOutA
+    /// [j][k]` …) has the model's register address, the value Motor pointer elements hold;
+    /// any other element its place in the catalogue: structure block, index and entry
+    /// (stable, never 0: no function elements are modelled).
+    fn elem_address(&self, k: &Key) -> u64 {
+        if let Some(a) = super::macro_ic::register_address(&self.card.model, k) {
+            return u64::from(a);
+        }
+        0x1000_0000u64
+            + (u64::from(k.idx) << 20)
+            + ((k.def as u64) << 8)
+            + u64::from(k.sub[0] * 4 + k.sub[1])
+    }
+
     fn elem_name(&self, k: &Key, e: &ElemRef) -> String {
         let mut s = elements::name(k, e.st_name);
         if let Some((start, width)) = e.bits {
@@ -451,6 +460,14 @@ impl Ctx<'_> {
 
     fn elem_value_text(&self, _k: &Key, e: &ElemRef, v: f64) -> String {
         let d = &super::catalog::DEFS[e.def];
+        if e.bits.is_none() && d.ty == super::catalog::Ty::Addr {
+            // A pointer at a ring register reads back as that register's `.a` (seed:
+            // `Motor[8].pDac = Gate3[0].MacroOutA[8][0].a`).
+            let out = d.name.starts_with("pDac");
+            if let Some(n) = super::macro_ic::register_name(&self.card.model, v, out) {
+                return n;
+            }
+        }
         if e.bits.is_none()
             && matches!(d.ty, super::catalog::Ty::Hex | super::catalog::Ty::Addr)
             && self.th.echo & 8 == 0
@@ -600,6 +617,10 @@ impl Env for PowerEnv<'_, '_> {
                     .ok_or_else(no_var)?
                     .clone();
                 let k = self.cx.key(&e, self.elems).map_err(|_| no_var())?;
+                if n == parse::ELEM_ADDRESS {
+                    // `name.a` in an expression: the element's address.
+                    return Ok(self.cx.elem_address(&k) as f64);
+                }
                 self.cx.elem_read(&e, &k).map_err(|_| no_var())
             }
             VarKind::Ext(f) => self.cx.th.local(f, n).ok_or_else(no_var),

@@ -124,6 +124,44 @@ pub(crate) fn write(card: &mut CardModel, k: &Key, v: f64) -> Option<Result<(), 
     Some(r)
 }
 
+/// Bit marking an X-space register in an element address (Y-space addresses are the model's
+/// own, as the motor pointer I-variables hold them).
+const X_SPACE: u32 = 1 << 19;
+
+/// The address of a ring-IC register element (`Gate3[0].MacroInA/MacroOutA[j][k]`,
+/// `Gate2[0].Macro[j][k]`): the model's address of node j's register k, which is what the
+/// Motor pointer elements hold (`Motor[x].pDac=Gate3[0].MacroOutA[j][0].a` re-points the
+/// motor); `None` for any other element.
+pub(crate) fn register_address(card: &CardModel, k: &Key) -> Option<u32> {
+    let (name, _) = ring_element(k)?;
+    if !matches!(name, "MacroInA" | "MacroOutA" | "Macro") {
+        return None;
+    }
+    let (space, addr) = card
+        .state
+        .map()
+        .node_addr(k.sub[0] as usize, k.sub[1] as usize);
+    Some(addr | if space == Space::X { X_SPACE } else { 0 })
+}
+
+/// The ring-IC register element at address `a` (see [`register_address`]) as a pointer reads
+/// back: `Gate3[0].MacroOutA[j][k].a` for an output pointer (`out`), `Gate3[0].MacroInA[j][k].a`
+/// otherwise; `None` when `a` is no ring register.
+pub(crate) fn register_name(card: &CardModel, a: f64, out: bool) -> Option<String> {
+    if !(a.is_finite() && a > 0.0 && a <= f64::from(u32::MAX)) {
+        return None;
+    }
+    let a = a as u32;
+    let space = if a & X_SPACE != 0 { Space::X } else { Space::Y };
+    let map = card.state.map();
+    let (node, reg) = map.node_of(space, a & !X_SPACE & map.max_addr)?;
+    if (a & !X_SPACE) > map.max_addr {
+        return None;
+    }
+    let bank = if out { "MacroOutA" } else { "MacroInA" };
+    Some(format!("Gate3[0].{bank}[{node}][{reg}].a"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,6 +17,7 @@
 mod catalog;
 mod elements;
 mod exec;
+mod listing;
 mod macro_ic;
 mod parse;
 mod program;
@@ -125,6 +126,8 @@ pub struct Power {
     clock: u64,
     store: elements::Store,
     open: Option<OpenBuf>,
+    /// The text of every closed buffer, as `list` shows it.
+    sources: listing::Sources,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -134,6 +137,8 @@ struct OpenBuf {
     id: BufId,
     blocks: program::Blocks,
     lines: usize,
+    /// Its text so far (the lines `list` will show).
+    text: Vec<String>,
 }
 
 impl Power {
@@ -147,7 +152,13 @@ impl Power {
         let mut th = self.take_thread(conn);
         let out = match self.buffer_command(card, conn, &mut th, line) {
             Some(out) => out,
-            None => exec::run_line(card, &mut self.store, &mut th, line),
+            None => match self.reset_command(card, &mut th, line) {
+                Some(out) => out,
+                None => match listing::command(card, &self.sources, &mut th, line) {
+                    Some(out) => out,
+                    None => exec::run_line(card, &mut self.store, &mut th, line),
+                },
+            },
         };
         self.threads.insert(conn, (th, self.clock));
         out
@@ -161,6 +172,27 @@ impl Power {
             // go to).
             let _ = self.close(card);
         }
+    }
+
+    /// `$$$`, `$$$***` and `save`, alone on their line: the model's reset, factory
+    /// re-initialisation and save (effects the card's runtime performs, as for the PMAC
+    /// dialect). `$$$` and `$$$***` send no reply at all (seed §2.7); `save` its ACK.
+    fn reset_command(&mut self, card: &mut Card, th: &mut Thread, line: &[u8]) -> Option<Vec<u8>> {
+        let text = String::from_utf8_lossy(line).trim().to_ascii_lowercase();
+        let pmac: &[u8] = match text.as_str() {
+            "$$$" => b"$$$",
+            "$$$***" => b"$$$***",
+            "save" => b"SAVE",
+            _ => return None,
+        };
+        th.lines += 1;
+        let mut s = crate::lang::interp::Session::with_id(0);
+        let _ = card.run_detached(&mut s, pmac);
+        Some(if text == "save" {
+            exec::frame(th, line, None)
+        } else {
+            Vec::new()
+        })
     }
 
     /// `open prog|plc n`, `close`, and the lines entered into an open buffer.
@@ -195,8 +227,12 @@ impl Power {
         th.lines += 1;
         let o = self.open.as_mut()?;
         let r = match program::parse_program_line(line, &mut o.blocks) {
-            Ok(stmts) if stmts.is_empty() => Ok(()),
+            Ok(stmts) if stmts.is_empty() => {
+                o.text.extend(listing::text_of(line));
+                Ok(())
+            }
             Ok(stmts) => {
+                o.text.extend(listing::text_of(line));
                 o.lines += 1;
                 card.model
                     .bufs
@@ -233,7 +269,11 @@ impl Power {
         let id = match kind {
             "prog" if (1..=32_767).contains(&n) => BufId::Prog(n as u16),
             "plc" if n <= 31 => BufId::Plc(n as u8),
-            "prog" | "plc" => return Err(bad(21)),
+            // Subprograms have their own numbers (the model's buffers from 32768 on).
+            "subprog" if n <= 32_767 => {
+                BufId::Prog(crate::domain::profile::POWER_SUBPROG_BASE + n as u16)
+            }
+            "prog" | "plc" | "subprog" => return Err(bad(21)),
             _ => return Err(bad(20)),
         };
         if card.model.state.coords.iter().any(|c| c.running) && matches!(id, BufId::Prog(_)) {
@@ -241,6 +281,7 @@ impl Power {
         }
         // Seed §2.9: `open` clears the buffer.
         card.model.bufs.remove(id);
+        self.sources.remove(&id);
         card.model.bufs.open(id).map_err(|_| bad(21))?;
         match id {
             BufId::Prog(_) => card.model.run.cs.iter_mut().for_each(|c| c.pointer = None),
@@ -252,6 +293,7 @@ impl Power {
             id,
             blocks: Vec::new(),
             lines: 0,
+            text: Vec::new(),
         });
         Ok(())
     }
@@ -273,7 +315,48 @@ impl Power {
         card.model
             .bufs
             .close(o.id)
-            .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+            .map_err(|_| parse::SyntaxError { at: 0, code: 21 })?;
+        self.sources.insert(o.id, o.text);
+        Ok(())
+    }
+
+    /// The line `line` of connection `conn` would start a motion program (`r`/`s`, also
+    /// after `b{n}`) if it ran now (not while `conn` has a buffer open, not with a syntax
+    /// error): the daisy chain's synchronized start asks this.
+    pub fn starts_program(&self, card: &Card, conn: u64, line: &[u8]) -> bool {
+        if self.open.as_ref().is_some_and(|o| o.conn == conn) || line.len() > MAX_LINE {
+            return false;
+        }
+        let lim = card.model.state.limits();
+        let p = parse::parse_line(line, lim.motors, lim.coords);
+        p.error.is_none()
+            && p.items.iter().any(|it| {
+                matches!(
+                    it.cmd,
+                    parse::Cmd::Cs(parse::CsCmd::Run | parse::CsCmd::Step)
+                )
+            })
+    }
+
+    /// The addressed motor and C.S. (`Ldata.Motor`, `Ldata.Coord`) of connection `conn`.
+    pub fn addressing(&self, conn: u64) -> (u16, u16) {
+        self.thread(conn).map_or((0, 0), |t| (t.motor, t.coord))
+    }
+
+    /// Connection `conn` takes the modal `#n`/`&n` of `line` as if it had run (the line was
+    /// taken to run elsewhere: a synchronized start).
+    pub fn adopt_addressing(&mut self, card: &Card, conn: u64, line: &[u8]) {
+        let lim = card.model.state.limits();
+        let p = parse::parse_line(line, lim.motors, lim.coords);
+        let mut th = self.take_thread(conn);
+        for it in &p.items {
+            match &it.cmd {
+                parse::Cmd::Motors(v, false) if v.len() == 1 => th.motor = v[0],
+                parse::Cmd::Coords(v, false) if v.len() == 1 => th.coord = v[0],
+                _ => {}
+            }
+        }
+        self.threads.insert(conn, (th, self.clock));
     }
 
     /// The thread of `conn` (a fresh one for a new connection).

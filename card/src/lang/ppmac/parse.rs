@@ -98,6 +98,8 @@ pub(crate) const EXT_D: u16 = 4;
 pub(crate) const EXT_C: u16 = 5;
 /// Element `k` of the line's element table is `Ext(EXT_ELEM + k)`.
 pub(crate) const EXT_ELEM: u16 = 100;
+/// The index of an element variable that stands for its address (`name.a`), not its value.
+pub(crate) const ELEM_ADDRESS: u32 = 1;
 
 /// Which variables a command names.
 #[derive(Debug, Clone, PartialEq)]
@@ -565,11 +567,20 @@ impl<'a> Cur<'a> {
             if k >= 64 {
                 return err(at);
             }
+            // `name.a`: the element's address (not followed by more of a name).
+            let save = self.i;
+            let address = self.eat_str(".a")
+                && !self
+                    .peek()
+                    .is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_' || c == b'.');
+            if !address {
+                self.i = save;
+            }
             self.elems.push(e);
             return Ok(Expr {
                 kind: ExprKind::Var(VarRef {
                     kind: VarKind::Ext(EXT_ELEM + k as u16),
-                    index: VarIndex::Const(0),
+                    index: VarIndex::Const(if address { ELEM_ADDRESS } else { 0 }),
                     pos,
                 }),
                 pos,
@@ -799,6 +810,7 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
         let at = c.i;
         match command(&mut c, motors, coords, last_addr) {
             Ok(cmd) => {
+                let cmd_is_begin = matches!(cmd, Cmd::Cs(CsCmd::Begin(_)));
                 last_addr = match &cmd {
                     Cmd::Motors(..) => Some(true),
                     Cmd::Coords(..) => Some(false),
@@ -807,8 +819,10 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
                 items.push(Item { cmd, at });
                 // Commands are separated by white space, or follow an address directly.
                 let next = c.peek();
+                let glued_start = cmd_is_begin && matches!(next, Some(b'r' | b's'));
                 if !(c.at_end()
                     || matches!(next, Some(b' ' | b'\t' | b'#' | b'&'))
+                    || glued_start
                     || (last_addr.is_some())
                     || c.s[c.i..].starts_with(b"//"))
                 {
@@ -903,9 +917,16 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     let mut w = c.word().unwrap_or_default();
     // Commands that take a number glued on (`echo7`, `b10`, `out5`).
     for kw in ["echo", "out", "begin", "b"] {
+        let tail = w.as_bytes().get(kw.len()..).unwrap_or_default();
+        // `b1r` / `b1s`: a program start glued on (`&1b1r`).
+        let digits = match tail.last() {
+            Some(b'r' | b's') if kw.starts_with('b') => &tail[..tail.len() - 1],
+            _ => tail,
+        };
         if w.len() > kw.len()
             && w.starts_with(kw)
-            && w.as_bytes()[kw.len()..].iter().all(u8::is_ascii_digit)
+            && !digits.is_empty()
+            && digits.iter().all(u8::is_ascii_digit)
         {
             c.i -= w.len() - kw.len();
             w.truncate(kw.len());

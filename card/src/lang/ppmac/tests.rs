@@ -228,3 +228,124 @@ fn buffer_rules() {
     assert_eq!(t.send("open plc 2"), "");
     assert!(t.send("system\"ls\"").contains("error #27"));
 }
+
+/// Seed §2.7 (L36521-36754, L33567-33602): `list prog|subprog|plc n` without, with a trailing
+/// comma, with a count and with a start and count; line numbers count the listed lines from
+/// 0 (not `N` labels); `buffer` names each stored buffer with its offset and size.
+#[test]
+fn list_and_buffer_read_programs_back() {
+    let mut t = T::new();
+    for l in [
+        "open prog 25",
+        "  linear abs   // mode",
+        "N10: X10 Y20",
+        "",
+        "dwell 50",
+        "if (P1 > 0) {",
+        "X0 Y0",
+        "}",
+        "close",
+        "open subprog 7",
+        "P2=P2+1",
+        "return",
+        "close",
+        "open plc 3",
+        "P3++",
+        "close",
+    ] {
+        assert_eq!(t.send(l), "", "{l}");
+    }
+    let all = "linear abs\r\nN10: X10 Y20\r\ndwell 50\r\nif (P1 > 0) {\r\nX0 Y0\r\n}\r\n";
+    assert_eq!(t.send("list prog 25"), all);
+    assert_eq!(
+        t.send("list prog 25,"),
+        "0:linear abs\r\n1:N10: X10 Y20\r\n2:dwell 50\r\n3:if (P1 > 0) {\r\n4:X0 Y0\r\n5:}\r\n"
+    );
+    assert_eq!(
+        t.send("list prog 25, 2"),
+        "0:linear abs\r\n1:N10: X10 Y20\r\n"
+    );
+    assert_eq!(
+        t.send("list prog 25, 2, 2"),
+        "2:dwell 50\r\n3:if (P1 > 0) {\r\n"
+    );
+    assert_eq!(t.send("LIST PROG25,4,99"), "4:X0 Y0\r\n5:}\r\n");
+    assert_eq!(t.send("list subprog 7"), "P2=P2+1\r\nreturn\r\n");
+    assert_eq!(t.send("list plc 3,"), "0:P3++\r\n");
+    // Sizes are the listed text's bytes (each line with its terminator), offsets running.
+    assert_eq!(
+        t.send("buffer"),
+        "Prog25 offset 0, size 55\r\nSubProg7 offset 55, size 15\r\nPlc3 offset 70, size 5\r\n"
+    );
+    // Reopening clears; a bad line erases the buffer; absent buffers are an error.
+    assert_eq!(t.send("open prog 25"), "");
+    assert_eq!(t.send("X5"), "");
+    assert_eq!(t.send("close"), "");
+    assert_eq!(t.send("list prog 25"), "X5\r\n");
+    assert_eq!(t.send("open plc 3"), "");
+    assert!(t.send("P3 P3 +").contains("error #20"));
+    assert!(t
+        .send("list plc 3")
+        .contains("error #21: ILLEGAL PARAMETER"));
+    assert!(t.send("list prog 99").contains("error #21"));
+    assert!(t.send("list prog 1,2,3,4").contains("error #20"));
+    assert!(t.send("list pc,").contains("error #27"));
+    assert_eq!(
+        t.send("buffer"),
+        "Prog25 offset 0, size 3\r\nSubProg7 offset 3, size 15\r\n"
+    );
+}
+
+/// Seed L16417-16424: `Motor[x].pDac = Gate3[0].MacroOutA[n][0].a` points a motor at a MACRO
+/// node's command register; the pointer reads back as that element's `.a`, and the motor's
+/// output then reaches the new node.
+#[test]
+fn motor_pointers_take_macro_register_addresses() {
+    let mut t = T::new();
+    assert_eq!(t.send("echo0"), "");
+    assert_eq!(
+        t.send("Motor[3].pDac=Gate3[0].MacroOutA[4][0].a Motor[3].pDac"),
+        "Motor[3].pDac=Gate3[0].MacroOutA[4][0].a\r\n"
+    );
+    assert_eq!(
+        t.send("Motor[3].pEnc=Gate3[0].MacroInA[5][0].a Motor[3].pEnc"),
+        "Motor[3].pEnc=Gate3[0].MacroInA[5][0].a\r\n"
+    );
+    // The address is the model's register address (what the Turbo-numbered I-variable holds).
+    let a = t.send("Gate3[0].MacroOutA[4][0].a");
+    assert_eq!(a, "Gate3[0].MacroOutA[4][0].a=$78428\r\n");
+    assert_eq!(
+        t.send("I302"),
+        "I302=$78428\r\n".replace("$78428", "492584")
+    );
+    // Arithmetic on an address, and other elements' addresses, are plain values.
+    assert_eq!(t.send("P1=Gate3[0].MacroOutA[1][0].a P1"), "P1=492580\r\n");
+    assert_eq!(
+        t.send("Motor[3].pDac=$1234 Motor[3].pDac"),
+        "Motor[3].pDac=$1234\r\n"
+    );
+    assert!(t
+        .send("Motor[3].pDac=Gate3[0].MacroOutA[16][0].a")
+        .contains("error #21"));
+    // The motor's command now goes to node 4's register.
+    assert_eq!(t.send("Motor[3].pDac=Gate3[0].MacroOutA[4][0].a"), "");
+    let ix02 = t.card.model.state.peek_ivar(402).unwrap() as u32;
+    let map = *t.card.model.state.map();
+    assert_eq!(map.node_of(crate::model::Space::Y, ix02), Some((4, 0)));
+}
+
+/// `&1b1r` (begin and run glued on), `$$$` (no reply at all) and `save` (its ACK).
+#[test]
+fn begin_run_glued_and_reset_commands() {
+    let mut t = T::new();
+    assert!(!t.send("&1b1r").contains("error #20"));
+    let lim = t.card.model.state.limits();
+    let p = super::parse::parse_line(b"&1b1r", lim.motors, lim.coords);
+    assert!(p.error.is_none(), "{p:?}");
+    assert_eq!(p.items.len(), 3);
+    let r = t.p.line(&mut t.card, 1, b"$$$");
+    assert!(r.is_empty(), "{r:?}");
+    assert_eq!(t.card.take_detached_effects().len(), 1);
+    assert_eq!(t.send("save"), "");
+    assert_eq!(t.card.take_detached_effects().len(), 1);
+}

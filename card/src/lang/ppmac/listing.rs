@@ -1,0 +1,212 @@
+//! Reading programs back (seed §2.7, L33567-33602 and L36521-36754): `list prog|subprog|plc n`
+//! with the seed's line-number forms, and `buffer` (each stored buffer's name, offset and
+//! size). The dialect keeps each closed buffer's text as it was entered (comments and blank
+//! lines dropped, surrounding white space trimmed): the lines `list` shows and numbers from 0.
+
+use std::collections::BTreeMap;
+
+use super::{exec, Thread};
+use crate::domain::profile::POWER_SUBPROG_BASE;
+use crate::lang::interp::Card;
+use crate::model::BufId;
+
+/// Longest listing one command sends (lines), as for other list replies.
+const MAX_LIST_LINES: usize = 8192;
+
+/// The text of every closed buffer, in the order `buffer` reports them (motion programs,
+/// subprograms, PLCs; each by number).
+#[derive(Debug, Default)]
+pub(crate) struct Sources(BTreeMap<(u8, u32), Vec<String>>);
+
+/// The listing order and number of buffer `id`.
+fn key(id: BufId) -> (u8, u32) {
+    match id {
+        BufId::Prog(n) if n >= POWER_SUBPROG_BASE => (1, u32::from(n - POWER_SUBPROG_BASE)),
+        BufId::Prog(n) => (0, u32::from(n)),
+        BufId::Plc(n) => (2, u32::from(n)),
+        BufId::Rot => (3, 0),
+    }
+}
+
+fn id_of(kind: u8, n: u32) -> Option<BufId> {
+    match kind {
+        0 if (1..=32_767).contains(&n) => Some(BufId::Prog(n as u16)),
+        1 if n <= 32_767 => Some(BufId::Prog(POWER_SUBPROG_BASE + n as u16)),
+        2 if n <= 31 => Some(BufId::Plc(n as u8)),
+        _ => None,
+    }
+}
+
+impl Sources {
+    pub(crate) fn insert(&mut self, id: BufId, text: Vec<String>) {
+        self.0.insert(key(id), text);
+    }
+
+    pub(crate) fn remove(&mut self, id: &BufId) {
+        self.0.remove(&key(*id));
+    }
+}
+
+/// The listed form of one line entered into a buffer: without its `//` comment and outer
+/// white space; `None` for a line with nothing left.
+pub(crate) fn text_of(line: &[u8]) -> Option<String> {
+    let s = String::from_utf8_lossy(line);
+    let s = s.split("//").next().unwrap_or_default().trim();
+    (!s.is_empty()).then(|| s.to_string())
+}
+
+/// What a `list` names: which lines, numbered or not.
+#[derive(Debug, PartialEq)]
+struct Range {
+    first: usize,
+    count: Option<usize>,
+    numbered: bool,
+}
+
+/// `list {prog|subprog|plc} n[,[a[,b]]]`: the buffer kind, number and range; `Err(())` for
+/// a malformed one.
+fn parse_list(rest: &str) -> Result<(u8, u32, Range), ()> {
+    let rest = rest.trim_start();
+    let (kind, after) = [("subprog", 1u8), ("prog", 0), ("plc", 2)]
+        .iter()
+        .find_map(|(w, k)| rest.strip_prefix(w).map(|a| (*k, a)))
+        .ok_or(())?;
+    let mut parts = after.split(',');
+    let n: u32 = parts
+        .next()
+        .unwrap_or_default()
+        .trim()
+        .parse()
+        .map_err(|_| ())?;
+    let nums: Vec<&str> = parts.map(str::trim).collect();
+    let num = |t: &str| t.parse::<usize>().map_err(|_| ());
+    let range = match nums.as_slice() {
+        [] => Range {
+            first: 0,
+            count: None,
+            numbered: false,
+        },
+        [""] => Range {
+            first: 0,
+            count: None,
+            numbered: true,
+        },
+        [c] => Range {
+            first: 0,
+            count: Some(num(c)?),
+            numbered: true,
+        },
+        [a, c] => Range {
+            first: num(a)?,
+            count: Some(num(c)?),
+            numbered: true,
+        },
+        _ => return Err(()),
+    };
+    Ok((kind, n, range))
+}
+
+fn name(kind: u8, n: u32) -> String {
+    match kind {
+        0 => format!("Prog{n}"),
+        1 => format!("SubProg{n}"),
+        _ => format!("Plc{n}"),
+    }
+}
+
+/// `list …` and `buffer` alone on a line: the thread's framed output (`None`: not one of
+/// them).
+pub(crate) fn command(
+    card: &mut Card,
+    sources: &Sources,
+    th: &mut Thread,
+    line: &[u8],
+) -> Option<Vec<u8>> {
+    let text = String::from_utf8_lossy(line).trim().to_ascii_lowercase();
+    let mut out = Vec::new();
+    let mut say = |s: &str| {
+        out.extend_from_slice(s.as_bytes());
+        out.extend_from_slice(b"\r\n");
+    };
+    if text == "buffer" {
+        th.lines += 1;
+        // Offsets count the program memory's bytes in the order listed; a buffer's size is
+        // the bytes of its text (each line with its terminator).
+        let mut offset = 0usize;
+        for (&(kind, n), lines) in &sources.0 {
+            let exists = id_of(kind, n).is_some_and(|id| card.model.bufs.program(id).is_some());
+            if !exists {
+                continue;
+            }
+            let size: usize = lines.iter().map(|l| l.len() + 1).sum();
+            say(&format!("{} offset {offset}, size {size}", name(kind, n)));
+            offset += size;
+        }
+        out.extend_from_slice(&exec::frame(th, line, None));
+        return Some(out);
+    }
+    let rest = text.strip_prefix("list")?;
+    if !rest.starts_with(|c: char| c.is_ascii_whitespace()) {
+        return None;
+    }
+    th.lines += 1;
+    let bad = |code| {
+        Some(exec::frame(
+            th,
+            line,
+            Some(super::parse::SyntaxError { at: 0, code }),
+        ))
+    };
+    let Ok((kind, n, range)) = parse_list(rest) else {
+        let other = ["pc", "apc", "forward", "inverse", "rotary"];
+        let w = rest
+            .trim_start()
+            .split([' ', ','])
+            .next()
+            .unwrap_or_default();
+        return bad(if other.contains(&w) { 27 } else { 20 });
+    };
+    let Some(id) = id_of(kind, n) else {
+        return bad(21);
+    };
+    if card.model.bufs.program(id).is_none() {
+        return bad(21);
+    }
+    let empty = Vec::new();
+    let lines = sources.0.get(&(kind, n)).unwrap_or(&empty);
+    let count = range.count.unwrap_or(usize::MAX).min(MAX_LIST_LINES);
+    for (i, l) in lines.iter().enumerate().skip(range.first).take(count) {
+        if range.numbered {
+            say(&format!("{i}:{l}"));
+        } else {
+            say(l);
+        }
+    }
+    out.extend_from_slice(&exec::frame(th, line, None));
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn list_forms_of_the_seed() {
+        let r = |first, count, numbered| Range {
+            first,
+            count,
+            numbered,
+        };
+        assert_eq!(parse_list(" prog 2000"), Ok((0, 2000, r(0, None, false))));
+        assert_eq!(parse_list(" prog 2000,"), Ok((0, 2000, r(0, None, true))));
+        assert_eq!(parse_list(" plc 10, 5"), Ok((2, 10, r(0, Some(5), true))));
+        assert_eq!(
+            parse_list(" subprog 1000, 8, 20"),
+            Ok((1, 1000, r(8, Some(20), true)))
+        );
+        assert_eq!(parse_list(" prog3"), Ok((0, 3, r(0, None, false))));
+        assert_eq!(parse_list(" prog x"), Err(()));
+        assert_eq!(parse_list(" prog 1,2,3,4"), Err(()));
+        assert_eq!(parse_list(" rotary"), Err(()));
+    }
+}
