@@ -267,6 +267,10 @@ pub fn broken_link(
         return None;
     }
     let sm = cfg.position(&cfg.ring.sync_master)?;
+    // Content (a dead member, a dark input, bad data, lost sync) names the link first; lag
+    // alone only when no member shows content: a member between the sync master and the break
+    // that is starved of CPU lags the master's own-clock count without being cut off.
+    let mut lagging: Option<String> = None;
     for k in 1..=n {
         let idx = (sm + k) % n;
         let up = (idx + n - 1) % n;
@@ -307,12 +311,14 @@ pub fn broken_link(
                     // restarted sync master): stale, no evidence of this break.
                     c <= s.cycle && (s.cycle - c <= threshold || near_latch(c))
                 }));
-        if lag > threshold || s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0)
-        {
+        if s.dark || bad_input || (!s.locked && s.ring_fault && s.sync_count > 0) {
             return Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
         }
+        if lag > threshold && lagging.is_none() {
+            lagging = Some(format!("{} → {}", order.get(up)?, order.get(idx)?));
+        }
     }
-    None
+    lagging
 }
 
 /// Links `u → m` where light is lost: `m` answers and its input is dark, while `u` does not

@@ -368,3 +368,54 @@ fn dark_links_name_where_light_is_lost_not_where_darkness_is_passed_on() {
     cut[3].as_mut().unwrap().dark = true;
     assert_eq!(dark_links(&cfg, &cut), vec!["station0 → card1"]);
 }
+
+/// Content before lag: a member between the sync master and the break that is starved of
+/// CPU lags the master's own-clock count, but the member whose input carries the break's
+/// content (dark frames, bad data) names the link.
+#[test]
+fn content_names_the_link_before_a_starved_member_s_lag() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    // card1 (position 2) ran behind: 100 cycles without a frame of its own count.
+    st[2].as_mut().unwrap().last_rx_cycle = Some(2900);
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station0 → card1"),
+        "lag alone still names a link"
+    );
+    // The sync master's input is dark: that is the break.
+    st[0].as_mut().unwrap().dark = true;
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station1 → card0")
+    );
+    // Or it latched on bad data from its input.
+    st[0].as_mut().unwrap().dark = false;
+    let m = st[0].as_mut().unwrap();
+    m.ring_fault = true;
+    m.ring_fault_cycle = Some(2995);
+    m.link_error_cycle = Some(2998);
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station1 → card0")
+    );
+}
+
+/// A link-error stamp beyond the member's own cycle is from before a renumbering (a
+/// restarted sync master): it is no evidence of the present latch.
+#[test]
+fn a_link_error_stamp_from_before_a_renumbering_names_nothing() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 3000);
+    for i in [0, 2] {
+        let m = st[i].as_mut().unwrap();
+        m.ring_fault = true;
+        m.ring_fault_cycle = Some(2990);
+    }
+    st[2].as_mut().unwrap().link_error_cycle = Some(90_000);
+    st[0].as_mut().unwrap().link_error_cycle = Some(2999);
+    assert_eq!(
+        broken_link(&cfg, &st, &[], 32).as_deref(),
+        Some("station1 → card0")
+    );
+}
