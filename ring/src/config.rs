@@ -50,6 +50,9 @@ pub const DEFAULT_RATE_HZ: f64 = 2258.7;
 /// Largest accepted config file, bytes.
 pub const MAX_CONFIG_BYTES: usize = 1 << 20;
 
+/// Most cycles that may be in flight around a ring (`in_flight`).
+pub const MAX_IN_FLIGHT: u64 = 8;
+
 /// Ring clock mode (architecture §3.3).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -278,6 +278,25 @@ impl RingCheck {
     }
 }
 
+/// Ring-check parameters of a card from its I-variable overrides (I1001, I1004, I1005, I8).
+pub fn card_check(
+    ivars: &std::collections::BTreeMap<String, crate::config::IVarValue>,
+) -> RingCheck {
+    let get = |k: &str, d: u32| {
+        ivars
+            .iter()
+            .find(|(n, _)| n.eq_ignore_ascii_case(k))
+            .map(|(_, v)| v.as_f64().clamp(0.0, 65_535.0) as u32)
+            .unwrap_or(d)
+    };
+    RingCheck::card(
+        get("I1001", 0),
+        get("I1004", 2),
+        get("I1005", 4),
+        get("I8", 2),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
