@@ -266,7 +266,7 @@ impl RunDir {
     pub fn cleanup(&self) -> Result<()> {
         // (Plus the temporaries of `write_atomic`, left by a process killed while writing.)
         for f in [self.config_path(), self.info_path()] {
-            remove_if_exists(&f.with_extension("tmp"))?;
+            mcc_ring::runtime::atomic_file::remove_temporaries(&f);
             remove_if_exists(&f)?;
         }
         let logs = self.dir.join(LOG_DIR);
@@ -310,16 +310,11 @@ fn remove_if_exists(p: &Path) -> Result<()> {
     }
 }
 
-/// Write to a temporary sibling, fsync, rename.
+/// Write atomically (`mcc_ring::runtime::atomic_file`: temporary sibling, fsync, rename,
+/// fsync the directory).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension("tmp");
-    {
-        let mut f =
-            fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-    }
-    fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    mcc_ring::runtime::atomic_file::write_atomic(path, bytes)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 #[cfg(test)]
@@ -367,9 +362,13 @@ mod tests {
         fs::write(format!("{path}.lock"), "").unwrap();
         fs::write(rd.dir.join(LINK_DIR).join("notes.txt"), "mine").unwrap();
         // A temporary left by a supervisor killed while writing its record is ours.
-        fs::write(rd.info_path().with_extension("tmp"), "{").unwrap();
+        fs::write(
+            mcc_ring::runtime::atomic_file::temp_path(&rd.info_path()),
+            "{",
+        )
+        .unwrap();
         rd.cleanup().unwrap();
-        assert!(!rd.info_path().with_extension("tmp").exists());
+        assert!(!mcc_ring::runtime::atomic_file::temp_path(&rd.info_path()).exists());
         assert!(!std::path::Path::new(path).exists());
         assert!(rd.dir.join(LINK_DIR).join("notes.txt").exists());
         assert!(rd.dir.join("card0.state").exists());

@@ -4,6 +4,7 @@
 //! the common process `main` ([`process`])
 //! and its logging set-up ([`logging`]).
 
+pub mod atomic_file;
 pub mod control_plane;
 pub mod driver;
 pub mod inline;
