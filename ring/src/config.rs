@@ -30,7 +30,7 @@ mod drives;
 mod hosts;
 mod validate;
 
-pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, MAX_DRIVES};
+pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, ParamNumberError, MAX_DRIVES};
 pub use hosts::{
     endpoint_is_exposed, exposures, is_loopback, tcp_endpoint, HostConfig, Topology, ZenohAuth,
     DEFAULT_HOST_PORT, LOCAL_HOST,

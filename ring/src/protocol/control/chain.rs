@@ -51,22 +51,45 @@ pub fn encode_request(op: u8, conn: u64, data: &[u8]) -> Vec<u8> {
     v
 }
 
-/// Decode a request payload; a message naming the problem when malformed.
-pub fn decode_request(p: &[u8]) -> Result<Request<'_>, String> {
-    let (&op, rest) = p.split_first().ok_or("empty chain request")?;
+/// Why a chain request or reply payload was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ChainCodecError {
+    /// No bytes at all.
+    #[error("empty chain request")]
+    Empty,
+    /// An op byte this protocol does not have.
+    #[error("unknown chain request op 0x{0:02X}")]
+    UnknownOp(u8),
+    /// Fewer than the 8 bytes of the connection id.
+    #[error("chain request shorter than its connection id")]
+    NoConnectionId,
+    /// A request's data beyond [`MAX_CHUNK`].
+    #[error("chain request of {0} bytes exceeds {MAX_CHUNK}")]
+    ChunkTooLong(usize),
+    /// A reply beyond [`MAX_REPLY`].
+    #[error("reply of {0} bytes is too large")]
+    ReplyTooLarge(usize),
+    /// A reply segment shorter than its length says.
+    #[error("truncated segment")]
+    TruncatedSegment,
+    /// Bytes left that do not make a segment header.
+    #[error("truncated segment header")]
+    TruncatedHeader,
+}
+
+/// Decode a request payload; the error names the problem when malformed.
+pub fn decode_request(p: &[u8]) -> Result<Request<'_>, ChainCodecError> {
+    let (&op, rest) = p.split_first().ok_or(ChainCodecError::Empty)?;
     if ![OP_DATA, OP_CLOSE, OP_QUERY_START, OP_TAKE_START].contains(&op) {
-        return Err(format!("unknown chain request op 0x{op:02X}"));
+        return Err(ChainCodecError::UnknownOp(op));
     }
     let id: [u8; 8] = rest
         .get(..8)
         .and_then(|b| b.try_into().ok())
-        .ok_or("chain request shorter than its connection id")?;
+        .ok_or(ChainCodecError::NoConnectionId)?;
     let data = rest.get(8..).unwrap_or_default();
     if data.len() > MAX_CHUNK {
-        return Err(format!(
-            "chain request of {} bytes exceeds {MAX_CHUNK}",
-            data.len()
-        ));
+        return Err(ChainCodecError::ChunkTooLong(data.len()));
     }
     Ok(Request {
         op,
@@ -86,21 +109,21 @@ pub fn encode_reply(segments: &[(u32, Vec<u8>)]) -> Vec<u8> {
     v
 }
 
-/// Decode one card's reply segments; a message naming the problem when malformed.
-pub fn decode_reply(mut p: &[u8]) -> Result<Vec<(u32, Vec<u8>)>, String> {
+/// Decode one card's reply segments; the error names the problem when malformed.
+pub fn decode_reply(mut p: &[u8]) -> Result<Vec<(u32, Vec<u8>)>, ChainCodecError> {
     if p.len() > MAX_REPLY {
-        return Err(format!("reply of {} bytes is too large", p.len()));
+        return Err(ChainCodecError::ReplyTooLarge(p.len()));
     }
     let mut out = Vec::new();
     while let Some((head, rest)) = p.split_first_chunk::<8>() {
         let pos = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
         let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as usize;
-        let bytes = rest.get(..len).ok_or("truncated segment")?;
+        let bytes = rest.get(..len).ok_or(ChainCodecError::TruncatedSegment)?;
         out.push((pos, bytes.to_vec()));
         p = rest.get(len..).unwrap_or_default();
     }
     if !p.is_empty() {
-        return Err("truncated segment header".into());
+        return Err(ChainCodecError::TruncatedHeader);
     }
     Ok(out)
 }
@@ -116,9 +139,9 @@ mod tests {
         let d = decode_request(&req).unwrap();
         assert_eq!((d.op, d.conn, d.data), (OP_DATA, 0x0102, &b"P1\r"[..]));
         assert!(decode_request(b"").is_err());
-        assert!(decode_request(b"Q12345678")
-            .unwrap_err()
-            .contains("op 0x51"));
+        let e = decode_request(b"Q12345678").unwrap_err();
+        assert_eq!(e, ChainCodecError::UnknownOp(b'Q'));
+        assert!(e.to_string().contains("op 0x51"), "{e}");
         assert!(decode_request(b"D1234").is_err());
         assert!(decode_request(&encode_request(OP_DATA, 1, &[b'P'; MAX_CHUNK + 1])).is_err());
         assert!(decode_request(&encode_request(OP_TAKE_START, 3, &[])).is_ok());
@@ -134,11 +157,11 @@ mod tests {
         assert_eq!(decode_reply(b"").unwrap(), vec![]);
         assert_eq!(
             decode_reply(b"\x03\0\0\0\x05\0\0\0ab").unwrap_err(),
-            "truncated segment"
+            ChainCodecError::TruncatedSegment
         );
         assert_eq!(
             decode_reply(b"\x03\0\0").unwrap_err(),
-            "truncated segment header"
+            ChainCodecError::TruncatedHeader
         );
     }
 
