@@ -25,6 +25,9 @@ phase build cargo build --workspace --bins
 # Always the whole workspace (one feature set: nothing is compiled twice).
 phase unit-tests cargo test --workspace --lib --bins
 phase doc-tests cargo test --workspace --doc
+# The ring's pure protocol alone, without its runtime feature (no zenoh, no threads): builds
+# only mcc-ring and its small dependencies, never the rest of the workspace again.
+phase ring-pure bash -c 'cargo build -p mcc-ring --no-default-features -q && cargo test -p mcc-ring --no-default-features --lib -q'
 # Clusters on several hosts need zenohd (built once, cached in target/) and `ip` (netns).
 phase hosts-prepare bash tests/hosts/prepare.sh
 phase scenarios-in-process cargo test --workspace --test scenarios -- "${skips[@]}"

@@ -3,34 +3,13 @@
 
 use clap::Parser;
 
-mod bench;
-mod chain;
 mod cli;
-mod client;
-mod ctl;
-mod down;
-mod drills;
-mod emcl;
-mod events;
-mod failure;
-mod fault;
-mod gather;
-mod hosts;
-mod launch;
-mod owner;
-mod precheck;
-mod rundir;
-mod send;
-mod serve;
-mod status;
-mod supervisor;
-mod syncstart;
-mod sys;
-mod term;
-mod up;
-mod watch;
+mod cluster;
+mod verbs;
 
 use cli::{BenchCommand, Cli, Command};
+use cluster::{chain, emcl, failure};
+use verbs::{bench, down, fault, gather, send, start_sync, status, term, up};
 
 fn main() {
     let cli = Cli::parse();
@@ -45,12 +24,12 @@ fn main() {
             up::cmd_up(cli.cluster.as_deref(), a)
         }
         Command::Send(a) => send::cmd_send(&cluster, a),
-        Command::Term(a) => send::cmd_term(&cluster, a),
+        Command::Term(a) => term::cmd_term(&cluster, a),
         Command::Bench(BenchCommand::Chain(a)) => bench::chain::run(a),
-        Command::Status(a) => client::cmd_status(&cluster, a),
+        Command::Status(a) => status::cmd_status(&cluster, a),
         Command::Fault(a) => fault::cmd_fault(&cluster, a),
         Command::Down(a) => down::cmd_down(&cluster, a),
-        Command::StartSync(a) => syncstart::cmd_start_sync(&cluster, a),
+        Command::StartSync(a) => start_sync::cmd_start_sync(&cluster, a),
         Command::Gather(a) => gather::cmd_gather(&cluster, a),
         Command::Bench(BenchCommand::Ring(a)) => bench::ring::run(a),
         Command::Bench(BenchCommand::Host(a)) => bench::host::run(a),
@@ -62,7 +41,7 @@ fn main() {
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Bench(BenchCommand::SaveCrash(a)) => bench::crash::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
-        Command::Emcl(a) => emcl::verbs::cmd_emcl(&cluster, a),
+        Command::Emcl(a) => verbs::emcl::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
     };
     if let Err(e) = res {

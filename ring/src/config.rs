@@ -30,7 +30,7 @@ mod drives;
 mod hosts;
 mod validate;
 
-pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, MAX_DRIVES};
+pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, ParamNumberError, MAX_DRIVES};
 pub use hosts::{
     endpoint_is_exposed, exposures, is_loopback, tcp_endpoint, HostConfig, Topology, ZenohAuth,
     DEFAULT_HOST_PORT, LOCAL_HOST,
@@ -49,6 +49,9 @@ pub const SYNC_NODE: u8 = 15;
 pub const DEFAULT_RATE_HZ: f64 = 2258.7;
 /// Largest accepted config file, bytes.
 pub const MAX_CONFIG_BYTES: usize = 1 << 20;
+
+/// Most cycles that may be in flight around a ring (`in_flight`).
+pub const MAX_IN_FLIGHT: u64 = 8;
 
 /// Ring clock mode (architecture §3.3).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]

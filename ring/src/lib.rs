@@ -1,28 +1,25 @@
 //! mcc-ring: the MACRO-style ring.
 //!
-//! Pure protocol core (packets, frames, I995/I996 routing, error classes, ring check, fault
-//! layer, holdover clock, member core, deterministic in-process simulator) plus the edges that
-//! do I/O: [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's
-//! cycle loop and control plane).
+//! Two layers. The pure protocol ([`protocol`]: packets, frames, I995/I996 routing, error
+//! classes, ring check, fault layer, holdover clock, member core, deterministic in-process
+//! simulator) with the cluster config ([`config`]) and host-port limits ([`hostport`]) takes
+//! bytes and times as arguments and builds alone (`--no-default-features`). The edges that do
+//! I/O, [`transport`] (zenoh and in-process loopback links) and [`runtime`] (a member's cycle
+//! loop and control plane), sit behind the `runtime` feature (on by default).
 
 #![warn(missing_docs, unreachable_pub)]
 
-pub mod aux_channel;
-pub mod check;
 pub mod config;
-pub mod control;
-pub mod core;
-pub mod expect;
-pub mod fault;
-pub mod frame;
-pub mod holdover;
 pub mod hostport;
-pub mod member;
-pub mod packet;
+pub mod protocol;
+#[cfg(feature = "runtime")]
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
 pub mod runtime;
-pub mod settings;
-pub mod sim;
-pub mod status;
+#[cfg(feature = "runtime")]
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
 pub mod transport;
+
+pub use protocol::{
+    aux_channel, check, control, core, expect, fault, frame, holdover, member, packet, settings,
+    sim, status,
+};

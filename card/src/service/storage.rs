@@ -2,43 +2,21 @@
 //! atomically — a temporary file in the same directory, fsync, rename over the target, fsync
 //! the directory — so a crash leaves either the old or the new file.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::lang::interp::Storage;
 #[cfg(test)]
 use crate::model::persist::{decode, encode, PersistError, PersistImage};
 
-/// Temporary file name used while writing `path`.
-pub(crate) fn temp_path(path: &Path) -> PathBuf {
-    let mut name = path
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
-    name.push(format!(".tmp{}", std::process::id()));
-    path.with_file_name(name)
-}
+/// Temporary file name used while writing `path` (the one atomic write of every SAVE-like
+/// writer: `mcc_ring::runtime::atomic_file`).
+#[cfg(test)]
+use mcc_ring::runtime::atomic_file::temp_path;
 
 /// Write `bytes` to `path` atomically: temp file in the same directory, write, fsync, rename,
 /// fsync the directory.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = temp_path(path);
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)?;
-        let dir = path
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        std::fs::File::open(dir)?.sync_all()
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    mcc_ring::runtime::atomic_file::write_atomic(path, bytes)
 }
 
 /// Save an image to `path` atomically.
@@ -68,30 +46,11 @@ pub(crate) fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
 /// Remove temporaries a SAVE cut short left beside `path` (`<name>.tmp<pid>`: the process was
 /// killed between writing and renaming). Returns how many were removed.
 pub(crate) fn remove_stale_temporaries(path: &Path) -> usize {
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
-        return 0;
-    };
-    let dir = if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        dir
-    };
-    let prefix = format!("{}.tmp", name.to_string_lossy());
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return 0;
-    };
-    let mut removed = 0;
-    for e in entries.flatten() {
-        let n = e.file_name().to_string_lossy().into_owned();
-        let pid_part = n.strip_prefix(&prefix);
-        if pid_part.is_some_and(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()))
-            && std::fs::remove_file(e.path()).is_ok()
-        {
-            tracing::warn!(file = %e.path().display(), "removed a SAVE temporary left by a killed process");
-            removed += 1;
-        }
+    let removed = mcc_ring::runtime::atomic_file::remove_temporaries(path);
+    for f in &removed {
+        tracing::warn!(file = %f.display(), "removed a SAVE temporary left by a killed process");
     }
-    removed
+    removed.len()
 }
 
 /// Move a refused state file aside (`<name>.bad-<n>`, the first free n) so nothing overwrites

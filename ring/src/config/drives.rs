@@ -210,17 +210,22 @@ impl DriveConfig {
     }
 
     /// Parameter overrides as (number, value); the error names the key.
-    pub fn overrides(map: &BTreeMap<String, i32>) -> Result<Vec<(u8, i32)>, String> {
+    pub fn overrides(map: &BTreeMap<String, i32>) -> Result<Vec<(u8, i32)>, ParamNumberError> {
         map.iter()
             .map(|(k, v)| {
                 k.trim()
                     .parse::<u8>()
                     .map(|n| (n, *v))
-                    .map_err(|_| format!("{k:?} is not a parameter number 0-255"))
+                    .map_err(|_| ParamNumberError(k.clone()))
             })
             .collect()
     }
 }
+
+/// A drive parameter override whose key is no parameter number 0-255 (the key).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?} is not a parameter number 0-255")]
+pub struct ParamNumberError(pub String);
 
 impl ClusterConfig {
     /// The drive called `name`.
@@ -336,7 +341,7 @@ pub(super) fn validate_drives(cfg: &ClusterConfig) -> Result<(), ConfigError> {
         validate_io(&format!("{key}.io"), &d.io)?;
         for (field, map) in [("axis", &d.axis), ("globals", &d.globals)] {
             if let Err(e) = DriveConfig::overrides(map) {
-                return bad(format!("{key}.{field}"), e);
+                return bad(format!("{key}.{field}"), e.to_string());
             }
         }
     }

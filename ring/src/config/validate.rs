@@ -363,13 +363,13 @@ fn validate_ring(cfg: &ClusterConfig) -> R {
             format!("member {missing:?} is missing from the ring order"),
         );
     }
-    if !(1..=crate::runtime::stepped::MAX_IN_FLIGHT).contains(&cfg.ring.in_flight) {
+    if !(1..=super::MAX_IN_FLIGHT).contains(&cfg.ring.in_flight) {
         return bad(
             "ring.in_flight",
             format!(
                 "{} cycles in flight: must be 1 to {}",
                 cfg.ring.in_flight,
-                crate::runtime::stepped::MAX_IN_FLIGHT
+                super::MAX_IN_FLIGHT
             ),
         );
     }

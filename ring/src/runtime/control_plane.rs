@@ -43,7 +43,7 @@ pub fn start(
     orchestrator_key: Option<&str>,
     cmds: Sender<DriverCmd>,
     stop: Arc<AtomicBool>,
-) -> Result<ControlPlane, String> {
+) -> Result<ControlPlane, super::DeclareError> {
     let prefix = ctl_key(cluster, member, "");
     let stop_q = Arc::clone(&stop);
     let queryable = session
@@ -58,12 +58,12 @@ pub fn start(
                 .spawn(move || answer(query, &prefix, &cmds, &stop));
         })
         .wait()
-        .map_err(|e| format!("declare control queryable: {e}"))?;
+        .map_err(super::DeclareError::of("control queryable"))?;
     let token = session
         .liveliness()
         .declare_token(alive_key(cluster, member))
         .wait()
-        .map_err(|e| format!("declare liveliness token: {e}"))?;
+        .map_err(super::DeclareError::of("liveliness token"))?;
     let Some(orch_key) = orchestrator_key.map(str::to_string) else {
         return Ok(ControlPlane {
             _queryable: queryable,
@@ -98,7 +98,7 @@ pub fn start(
             }
         })
         .wait()
-        .map_err(|e| format!("declare orchestrator watch: {e}"))?;
+        .map_err(super::DeclareError::of("orchestrator watch"))?;
     Ok(ControlPlane {
         _queryable: queryable,
         _token: token,

@@ -141,7 +141,7 @@ pub fn watch_upstream(
     cluster: &str,
     upstream: &str,
     stop: Arc<AtomicBool>,
-) -> Result<UpstreamWatch, String> {
+) -> Result<UpstreamWatch, super::DeclareError> {
     let dead = Arc::new(AtomicBool::new(false));
     let probe = StopProbe::default();
     let seen = AtomicBool::new(false);
@@ -180,7 +180,7 @@ pub fn watch_upstream(
             }
         })
         .wait()
-        .map_err(|e| format!("declare upstream liveliness watch: {e}"))?;
+        .map_err(super::DeclareError::of("upstream liveliness watch"))?;
     Ok(UpstreamWatch {
         _subscriber: subscriber,
         dead,

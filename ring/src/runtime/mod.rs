@@ -4,6 +4,7 @@
 //! the common process `main` ([`process`])
 //! and its logging set-up ([`logging`]).
 
+pub mod atomic_file;
 pub mod control_plane;
 pub mod driver;
 pub mod inline;
@@ -24,3 +25,23 @@ mod pipeline_tests;
 mod tests;
 #[cfg(test)]
 mod tests_stepped;
+
+/// A zenoh declaration (queryable, token, subscriber) of a member's runtime failed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("declare {what}: {message}")]
+pub struct DeclareError {
+    /// What was declared.
+    pub what: &'static str,
+    /// zenoh's message.
+    pub message: String,
+}
+
+impl DeclareError {
+    /// A `map_err` for the declaration of `what`.
+    pub(crate) fn of(what: &'static str) -> impl Fn(zenoh::Error) -> Self {
+        move |e| DeclareError {
+            what,
+            message: e.to_string(),
+        }
+    }
+}

@@ -13,8 +13,9 @@ use tracing::{info, info_span};
 
 use super::control_plane;
 use super::driver::{Driver, DriverConfig, DriverExit};
+pub use crate::check::card_check;
 use crate::check::RingCheck;
-use crate::config::{ClusterConfig, IVarValue, MemberRef};
+use crate::config::{ClusterConfig, MemberRef};
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::settings::RingSettings;
@@ -59,23 +60,6 @@ impl std::fmt::Debug for MemberContext {
             .field("position", &self.position)
             .finish_non_exhaustive()
     }
-}
-
-/// Ring-check parameters of a card from its I-variable overrides (I1001, I1004, I1005, I8).
-pub fn card_check(ivars: &std::collections::BTreeMap<String, IVarValue>) -> RingCheck {
-    let get = |k: &str, d: u32| {
-        ivars
-            .iter()
-            .find(|(n, _)| n.eq_ignore_ascii_case(k))
-            .map(|(_, v)| v.as_f64().clamp(0.0, 65_535.0) as u32)
-            .unwrap_or(d)
-    };
-    RingCheck::card(
-        get("I1001", 0),
-        get("I1004", 2),
-        get("I1005", 4),
-        get("I8", 2),
-    )
 }
 
 /// The clock-dependent parts of a member core's set-up: holdover period and grace, timing

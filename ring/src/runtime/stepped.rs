@@ -47,8 +47,7 @@ use crate::transport::TransportError;
 /// starts a new cycle this often rather than waiting.
 pub const BRINGUP_RETRY_NS: u64 = 20_000_000;
 
-/// Most cycles that may be in flight around a ring (`in_flight`).
-pub const MAX_IN_FLIGHT: u64 = 8;
+pub use crate::config::MAX_IN_FLIGHT;
 
 /// The stepped sync master's state between cycles.
 #[derive(Debug, Clone)]

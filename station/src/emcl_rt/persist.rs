@@ -2,7 +2,6 @@
 //! fsync, rename, fsync of the folder) so a crash leaves the old image or the new one.
 
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Largest state file read (a full image is ~20 KiB).
@@ -30,26 +29,12 @@ pub fn load(path: &Path) -> std::io::Result<Option<Vec<u8>>> {
 /// Write `bytes` to `path` atomically; `durable` adds the fsyncs (a download in progress
 /// writes without them: the page cache survives a killed process).
 pub fn write_atomic(path: &Path, bytes: &[u8], durable: bool) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        fs::create_dir_all(dir)?;
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        if durable {
-            f.sync_all()?;
-        }
-    }
-    fs::rename(&tmp, path)?;
-    if durable {
-        if let Some(dir) = path.parent() {
-            fs::File::open(dir)?.sync_all()?;
-        }
-    }
-    Ok(())
+    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    let how = AtomicWrite {
+        durable,
+        create_dir: true,
+    };
+    write_atomic_with(path, bytes, how)
 }
 
 /// Keep a corrupt image for inspection: rename it to `<file>.corrupt` (the drive starts
@@ -73,7 +58,7 @@ mod tests {
         write_atomic(&p, b"one", true).unwrap();
         write_atomic(&p, b"two", false).unwrap();
         assert_eq!(load(&p).unwrap().as_deref(), Some(&b"two"[..]));
-        assert!(!dir.join("sub").join("d.eeprom.tmp").exists());
+        assert!(!mcc_ring::runtime::atomic_file::temp_path(&p).exists());
         let kept = keep_corrupt(&p).unwrap();
         assert_eq!(fs::read(&kept).unwrap(), b"two");
         assert_eq!(load(&p).unwrap(), None);

@@ -6,7 +6,6 @@
 //! corrupt file: the station starts from its config values with the configuration-error bit
 //! (MI4 bit 2) set, and says why in its log.
 
-use std::io::Write;
 use std::path::Path;
 
 use super::Setup;
@@ -55,27 +54,12 @@ pub fn decode(bytes: &[u8]) -> Result<Setup, String> {
 /// Write `setup` to `path` atomically: a temporary file beside it, fsync, rename over the old
 /// one, fsync the directory. The old file stays intact if anything fails.
 pub fn save(path: &Path, setup: &Setup) -> std::io::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir)?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "station".into());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&encode(setup))?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)?;
-        std::fs::File::open(dir)?.sync_all()
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    let how = AtomicWrite {
+        durable: true,
+        create_dir: true,
+    };
+    write_atomic_with(path, &encode(setup), how)
 }
 
 /// What start-up found at the state file's path.

@@ -1,0 +1,114 @@
+//! `mcc send [--card N] LINE…` (for scripts): the lines as a new host connection on the
+//! cluster's daisy chain.
+
+use std::time::Duration;
+
+use anyhow::{bail, Result};
+
+use crate::cluster::attach::attach;
+use crate::cluster::chain::text::{render, translate};
+
+/// `mcc send`: each LINE is sent (with `<CR>`), its reply printed. With `--card N` the first
+/// line is prefixed with `@N`. Exit status 0 even when a card answers an error (the output
+/// shows it); a line nobody answered is noted on stderr. With `--json` one array is printed:
+/// per line `{"line", "reply" (plain text), "framed" (framing shown), "error" ("ERRnnn",
+/// "BELL" without a code, or null), "answered", "silent_cards"}`.
+pub fn cmd_send(cluster: &str, args: &crate::cli::SendArgs) -> Result<()> {
+    if args.lines.iter().any(|l| l.len() > 64 * 1024) {
+        bail!("a LINE is longer than 65536 bytes");
+    }
+    let a = attach(cluster)?;
+    if a.cfg.cards.is_empty() {
+        bail!("cluster {cluster:?} has no cards");
+    }
+    let link = a.chain_link(args.timeout_ms);
+    // A card not yet routable would look silent: give routing a moment first.
+    let _ = link.wait_ready(Duration::from_millis(args.timeout_ms.clamp(100, 3000)));
+    let mut doc = Vec::new();
+    for (i, line) in args.lines.iter().enumerate() {
+        let mut bytes = Vec::new();
+        if let (0, Some(n)) = (i, args.card) {
+            bytes.extend_from_slice(format!("@{n:X}").as_bytes());
+        }
+        bytes.extend_from_slice(&translate(line));
+        let r = link.send(&bytes);
+        let answered = !(r.bytes.is_empty() && bytes.last() == Some(&b'\r'));
+        if args.json {
+            doc.push(serde_json::json!({
+                "line": line,
+                "reply": render(&r.bytes, false).replace("<BELL>", ""),
+                "framed": render(&r.bytes, true),
+                "error": reply_error(&r.bytes),
+                "answered": answered,
+                "silent_cards": r.silent,
+            }));
+            continue;
+        }
+        let mut text = render(&r.bytes, args.show_framing);
+        if !text.is_empty() && !text.ends_with('\n') {
+            text.push('\n');
+        }
+        print!("{text}");
+        if !answered {
+            eprintln!("mcc send: no card answered {line:?} (is the addressed card on the chain?)");
+        }
+        if !r.silent.is_empty() {
+            eprintln!("mcc send: card(s) {:?} did not answer in time", r.silent);
+        }
+    }
+    link.close();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    }
+    Ok(())
+}
+
+/// The error a reply carries: `ERRnnn` after a `<BELL>`, `BELL` when the card sent no code
+/// (I6 = 2), a Power card's `error #n` (its `stdin:L:C: error #n: TEXT: line`), else None.
+pub fn reply_error(reply: &[u8]) -> Option<String> {
+    if let Some(e) = power_error(reply) {
+        return Some(e);
+    }
+    let bell = reply.iter().position(|&c| c == 0x07)?;
+    let rest = String::from_utf8_lossy(reply.get(bell + 1..).unwrap_or_default()).into_owned();
+    let code = rest.split(|c: char| !c.is_ascii_alphanumeric()).find(|w| {
+        w.len() == 6 && w.starts_with("ERR") && w[3..].bytes().all(|b| b.is_ascii_digit())
+    });
+    Some(code.map_or_else(|| "BELL".to_string(), str::to_string))
+}
+
+/// A Power card's error line (`stdin:1:1: error #20: ILLEGAL CMD: …`): `error #20`.
+pub fn power_error(reply: &[u8]) -> Option<String> {
+    let text = String::from_utf8_lossy(reply);
+    text.split("\r\n").find_map(|l| {
+        let rest = l.strip_prefix("stdin:")?;
+        let at = rest.find(": error #")?;
+        let code: String = rest[at + 9..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        (!code.is_empty()).then(|| format!("error #{code}"))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reply_error;
+
+    #[test]
+    fn errors_are_read_from_the_reply() {
+        assert_eq!(reply_error(b"\x07ERR003\r").as_deref(), Some("ERR003"));
+        assert_eq!(
+            reply_error(b"stdin:2:1: error #20: ILLEGAL CMD: foo\r\n\x06\r\n").as_deref(),
+            Some("error #20")
+        );
+        assert_eq!(reply_error(b"P1=2\r\n\x06\r\n"), None);
+        assert_eq!(
+            reply_error(b"\x07\r\nERR015\r\n").as_deref(),
+            Some("ERR015")
+        );
+        assert_eq!(reply_error(b"\x07").as_deref(), Some("BELL"));
+        assert_eq!(reply_error(b"5\r\x06"), None);
+        assert_eq!(reply_error(b""), None);
+    }
+}
