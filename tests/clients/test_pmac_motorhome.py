@@ -135,8 +135,9 @@ def plant_position(p, node):
 
 
 def marks(case):
-    """home_limit homes ~99 counts (≈ 11 servo cycles at Ixx23) past the −limit edge: the
-    trigger is seen late and the card falls back to software capture. Known defect, open."""
+    """home_limit homes ~99 counts past the −limit edge: its retrace returns to the release
+    count, overshoots into the −limit, the limit stop leaves it on the limit and the HM
+    triggers at once (ARCHITECTURE.md, pmac-motorhome suite). Known defect, open."""
     if case[3] is home_limit:
         return [pytest.mark.xfail(strict=True, reason="home_limit zero ~99 counts late")]
     return []
