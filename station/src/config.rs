@@ -88,6 +88,10 @@ pub struct NodePlantConfig {
     /// Flag capture select (MI913, the station's I9n3): 0 home switch, 1 +limit, 2 −limit,
     /// 3 user flag (default 0). The selected flag, edge applied, is reported in the HOME bit.
     pub capture_flag: u8,
+    /// Output mode select (MI916, the station's I9n6): 0 PWM A/B + PWM C, 1 DAC + PWM,
+    /// 2 PWM + PFM, 3 DAC + PFM (default 0). The simulated amplifier takes the node's
+    /// command register whatever the output format, so the mode changes no behaviour.
+    pub output_mode: u8,
     /// Mechanical end stops fitted (default false): a hard stop for hard-stop homing.
     pub hard_stops: bool,
     /// Positive end stop, counts (default 1,010,000: past the default +limit).
@@ -126,6 +130,7 @@ impl Default for NodePlantConfig {
             max_substep: 50e-6,
             capture_control: 2,
             capture_flag: 0,
+            output_mode: 0,
             hard_stops: false,
             plus_stop: 1_010_000.0,
             minus_stop: -1_010_000.0,
@@ -216,6 +221,12 @@ impl NodePlantConfig {
             return Err(format!(
                 "capture_flag: 0 (home), 1 (+limit), 2 (-limit) or 3 (user), got {}",
                 self.capture_flag
+            ));
+        }
+        if self.output_mode > 3 {
+            return Err(format!(
+                "output_mode: 0, 1, 2 or 3 (MI916), got {}",
+                self.output_mode
             ));
         }
         if self.max_substep > 0.01 {

@@ -3,6 +3,7 @@ driven with `mcc` verbs, `mcc down` at the end. Every wait is bounded."""
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -49,6 +50,27 @@ class Cluster:
             pass
         finally:
             shutil.rmtree(self.run_dir, ignore_errors=True)
+
+
+def turbo_ring_config(tmp_path, stations, plant=""):
+    """The default layout (`mcc up --print-config`) with one Turbo card and `stations`
+    stations, without the PMAC2 ring-check I-variables (they do not exist on a Turbo card);
+    `plant` (TOML tables) goes into the first station, right after its check table."""
+    text = subprocess.run([MCC_BIN, "up", "--print-config", "--cards", "1", "--stations",
+                           str(stations)], capture_output=True, text=True, check=True,
+                          timeout=60).stdout
+    text = text.replace('profile = "pmac2"', 'profile = "turbo"')
+    text = re.sub(r"\[cards\.ivars\]\n(I10\d\d = \d+\n)+", "", text)
+    assert 'profile = "turbo"' in text and "I1001" not in text, text
+    text = text.replace("max_errors = 4\n", "max_errors = 4\n" + plant, 1)
+    path = tmp_path / "turbo.toml"
+    path.write_text(text)
+    return path
+
+
+def turbo_cluster(tag, tmp_path, stations, plant=""):
+    """A running cluster of `turbo_ring_config(tmp_path, stations, plant)`."""
+    return Cluster(tag, "--config", str(turbo_ring_config(tmp_path, stations, plant)))
 
 
 def wait_for(what, f, timeout=120.0):

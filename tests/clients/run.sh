@@ -14,9 +14,19 @@ py="${PYTHON:-$(command -v python3.11 || command -v python3)}"
 if [ ! -x "$venv/bin/python" ]; then
     "$py" -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c 'import dls_pmaclib, dls_pmacanalyse, pmac_motorhome, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
+if ! "$venv/bin/python" -c 'import dls_pmaclib, dls_pmacanalyse, dls_pmac_control, pmac_motorhome, pytest, pytrinamic, pyTMCL, serial' 2>/dev/null; then
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
         -r "$here/requirements.txt"
+fi
+# dls-pmaccontrol's Qt (PyQt5 wheels, offscreen) needs a few system libraries (GL, X11/xcb,
+# fontconfig, freetype, glib) that a bare CI machine may lack: install them with apt-get, as
+# root, only when Qt cannot load.
+if ! QT_QPA_PLATFORM=offscreen "$venv/bin/python" -c 'from PyQt5.QtWidgets import QApplication; QApplication([])' >/dev/null 2>&1 \
+    && command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+    glib=libglib2.0-0
+    apt-cache show libglib2.0-0t64 >/dev/null 2>&1 && glib=libglib2.0-0t64
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+        libgl1 "$glib" libfontconfig1 libfreetype6 libx11-6 libxcb1 libxext6 >/dev/null
 fi
 # dls-powerpmacanalyse without its GUI dependencies (see requirements-nodeps.txt).
 if ! "$venv/bin/python" -c 'import dls_powerpmacanalyse, scp, numpy' 2>/dev/null; then

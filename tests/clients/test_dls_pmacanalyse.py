@@ -12,28 +12,15 @@ from pathlib import Path
 
 import pytest
 
-from mcc_cluster import MCC_BIN, Cluster
+from mcc_cluster import turbo_cluster
 
 #: The tool reads one card in ~20 s unloaded; a generous bound for a loaded machine.
 ANALYSE_TIMEOUT = 900
 
 
-def turbo_config(tmp_path):
-    """The default layout with one Turbo card and two stations (the PMAC2 ring-check
-    I-variables of the default do not exist on a Turbo card)."""
-    text = subprocess.run([MCC_BIN, "up", "--print-config", "--cards", "1", "--stations", "2"],
-                          capture_output=True, text=True, check=True, timeout=60).stdout
-    text = text.replace('profile = "pmac2"', 'profile = "turbo"')
-    text = re.sub(r"\[cards\.ivars\]\n(I10\d\d = \d+\n)+", "", text)
-    assert 'profile = "turbo"' in text and "I1001" not in text, text
-    path = tmp_path / "turbo.toml"
-    path.write_text(text)
-    return path
-
-
 @pytest.fixture(scope="module")
 def turbo_ring(tmp_path_factory):
-    c = Cluster("pmacanalyse", "--config", str(turbo_config(tmp_path_factory.mktemp("cfg"))))
+    c = turbo_cluster("pmacanalyse", tmp_path_factory.mktemp("cfg"), 2)
     yield c
     c.stop()
 
@@ -72,8 +59,9 @@ def test_dls_pmacanalyse_reads_the_macro_stations_back(turbo_ring, tmp_path):
     pmc = (backup / "card0.pmc").read_text()
 
     # Per node: every node of the card's ring (I6841 = $F3333: 0, 1, 4, 5, 8, 9, 12, 13)
-    # answers the flag-capture control and select (MI912, MI913) it holds; MI910-MI911,
-    # MI914-MI930 are not variables of these stations (ERR008) and are left out.
+    # answers the encoder decode (MI910, the plant's x4 quadrature), the flag-capture control
+    # and select (MI912, MI913) and the output mode (MI916) it holds; MI911, MI914-MI915 and
+    # MI917-MI930 are not variables of these stations (ERR008) and are left out.
     nodes = [0, 1, 4, 5, 8, 9, 12, 13]
     want = {n: (2, 0) for n in nodes}
     want[4] = (14, 0)
@@ -81,7 +69,8 @@ def test_dls_pmacanalyse_reads_the_macro_stations_back(turbo_ring, tmp_path):
     want[8] = (2, 2)
     expected = []
     for n in nodes:
-        expected += [f"ms{n},i912={want[n][0]}", f"ms{n},i913={want[n][1]}"]
+        expected += [f"ms{n},i910=7", f"ms{n},i912={want[n][0]}", f"ms{n},i913={want[n][1]}",
+                     f"ms{n},i916=0"]
     assert section(pmc, "Macro station I-variables") == expected
 
     # Global: station 0's firmware version, configuration number, ring check settings and

@@ -17,8 +17,6 @@ count the station reports, 5 fractional bits) minus the motor's reported positio
 the motor's zero lies in plant counts; it must be within 1 count of the switch edge.
 """
 
-import re
-import subprocess
 import time
 
 import pytest
@@ -33,7 +31,7 @@ from pmac_motorhome.sequences import (
     home_rlim,
 )
 
-from mcc_cluster import MCC_BIN, Cluster
+from mcc_cluster import turbo_cluster
 
 PLC = 11
 #: (group, motor, node, sequence, switch edge in plant counts)
@@ -59,19 +57,6 @@ plus_stop = 30000
 """
 
 
-def config(tmp_path):
-    """One Turbo card and one station whose plants have switches at ±30000 counts."""
-    text = subprocess.run([MCC_BIN, "up", "--print-config", "--cards", "1", "--stations", "1"],
-                          capture_output=True, text=True, check=True, timeout=60).stdout
-    text = text.replace('profile = "pmac2"', 'profile = "turbo"')
-    text = re.sub(r"\[cards\.ivars\]\n(I10\d\d = \d+\n)+", "", text)
-    # the plant tables belong to the (only) station: right after its check table
-    text = text.replace("max_errors = 4\n", "max_errors = 4\n" + PLANT, 1)
-    path = tmp_path / "motorhome.toml"
-    path.write_text(text)
-    return path
-
-
 def suggested_mvars(x):
     """The Turbo suggested M-variables the generated PLC uses for motor x (status words
     Y:$0000C0 / X:$0000B0, actual position D:$00008B, jog register L:$0000D7)."""
@@ -83,7 +68,7 @@ def suggested_mvars(x):
 
 @pytest.fixture(scope="module")
 def ring(tmp_path_factory):
-    c = Cluster("motorhome", "--config", str(config(tmp_path_factory.mktemp("cfg"))))
+    c = turbo_cluster("motorhome", tmp_path_factory.mktemp("cfg"), 1, PLANT)
     yield c
     c.stop()
 
@@ -150,8 +135,9 @@ def plant_position(p, node):
 
 
 def marks(case):
-    """home_limit homes ~99 counts (≈ 11 servo cycles at Ixx23) past the −limit edge: the
-    trigger is seen late and the card falls back to software capture. Known defect, open."""
+    """home_limit homes ~99 counts past the −limit edge: its retrace returns to the release
+    count, overshoots into the −limit, the limit stop leaves it on the limit and the HM
+    triggers at once (ARCHITECTURE.md, pmac-motorhome suite). Known defect, open."""
     if case[3] is home_limit:
         return [pytest.mark.xfail(strict=True, reason="home_limit zero ~99 counts late")]
     return []

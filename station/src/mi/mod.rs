@@ -139,9 +139,16 @@ fn global(n: u16) -> Option<G> {
     })
 }
 
-/// Node variables: MI912/MI913 (capture) and the plant block MI950-MI970.
+/// MI910 (encoder decode control): the plant's encoder is x4 quadrature, clockwise — the
+/// only decode it has, so the only value MI910 takes.
+const ENCODER_DECODE: u8 = 7;
+
+/// Node variables: MI910 (decode), MI912/MI913 (capture), MI916 (output mode) and the plant
+/// block MI950-MI970.
 #[derive(Clone, Copy)]
 enum N {
+    Decode,
+    OutputMode,
     CaptureControl,
     CaptureFlag,
     Mode,
@@ -151,8 +158,10 @@ enum N {
 
 fn node_var(n: u16) -> Option<N> {
     Some(match n {
+        910 => N::Decode,
         912 => N::CaptureControl,
         913 => N::CaptureFlag,
+        916 => N::OutputMode,
         950 => N::Mode,
         951 => N::Real(|c| &mut c.torque_full_scale),
         952 => N::Real(|c| &mut c.torque_limit),
@@ -212,6 +221,8 @@ impl Setup {
                 .cloned()
                 .ok_or(slave_error::WRONG_NODE)?;
             return Ok(match v {
+                N::Decode => (f64::from(ENCODER_DECODE), Decimal),
+                N::OutputMode => (f64::from(cfg.output_mode), Decimal),
                 N::CaptureControl => (f64::from(cfg.capture_control), Decimal),
                 N::CaptureFlag => (f64::from(cfg.capture_flag), Decimal),
                 N::Mode => (mode_number(cfg.mode), Decimal),
@@ -246,6 +257,12 @@ impl Setup {
                 .cloned()
                 .ok_or(slave_error::WRONG_NODE)?;
             match var {
+                N::Decode => {
+                    if whole(v, 15)? != u32::from(ENCODER_DECODE) {
+                        return Err(slave_error::OUT_OF_RANGE);
+                    }
+                }
+                N::OutputMode => cfg.output_mode = whole(v, 3)? as u8,
                 N::CaptureControl => cfg.capture_control = whole(v, 15)? as u8,
                 N::CaptureFlag => cfg.capture_flag = whole(v, 3)? as u8,
                 N::Mode => {
@@ -319,6 +336,8 @@ mod tests {
         );
         assert_eq!(s.read(&live, 0, 958), Ok((1.25e-5, ValueFormat::Decimal)));
         assert_eq!(s.read(&live, 1, 912), Ok((2.0, ValueFormat::Decimal)));
+        assert_eq!(s.read(&live, 0, 910), Ok((7.0, ValueFormat::Decimal)));
+        assert_eq!(s.read(&live, 1, 916), Ok((0.0, ValueFormat::Decimal)));
         assert_eq!(s.read(&live, 0, 7), Err(slave_error::UNKNOWN_VARIABLE));
         assert_eq!(s.read(&live, 4, 958), Err(slave_error::WRONG_NODE));
     }
@@ -332,6 +351,8 @@ mod tests {
             (0u8, 958u16, -1.0, slave_error::OUT_OF_RANGE), // inertia must be > 0
             (0, 912, 1.0, slave_error::OUT_OF_RANGE),       // index capture: no index channel
             (0, 913, 4.0, slave_error::OUT_OF_RANGE),
+            (0, 910, 3.0, slave_error::OUT_OF_RANGE), // x4 clockwise decode only
+            (0, 916, 4.0, slave_error::OUT_OF_RANGE),
             (0, 950, 3.0, slave_error::OUT_OF_RANGE),
             (0, 967, 2e6, slave_error::OUT_OF_RANGE), // −limit above +limit
             (0, 8, 256.0, slave_error::OUT_OF_RANGE),
@@ -358,6 +379,10 @@ mod tests {
         assert_eq!(s.nodes[&0].mode, AmpMode::Velocity);
         assert_eq!(s.write(&mut live, 0, 968, 0.0), Ok(Changed::Node(0)));
         assert!(!s.nodes[&0].limits);
+        assert_eq!(s.write(&mut live, 1, 916, 2.0), Ok(Changed::Node(1)));
+        assert_eq!(s.nodes[&1].output_mode, 2);
+        assert_eq!(s.read(&live, 1, 916), Ok((2.0, ValueFormat::Decimal)));
+        assert_eq!(s.write(&mut live, 1, 910, 7.0), Ok(Changed::Node(1)));
         assert_eq!(s.write(&mut live, 0, 10, 0.0), Ok(Changed::Globals));
         assert_eq!(s.write(&mut live, 0, 5, 17.0), Ok(Changed::Nothing));
         assert_eq!(live.errors, 17);
