@@ -141,15 +141,13 @@ fn power_sync_master_drives_its_nodes_beside_a_pmac2_card() {
 /// the PMAC2 card takes the drills' own PMAC set-up.
 const POWER_SETUP: &[&str] = &["&1#1->1000X", "#1j/", "open prog 1", "dwell 1", "close"];
 
-/// The fault drills of an all-PMAC2 ring on the mixed ring. Known defect (issue 13 item 6,
-/// still open): the Power sync master goes dark after a cut (byte violations counted, status
-/// `fault_reason` null) but never latches its own ring fault, while the PMAC2 card does. Found
-/// so far: the test builder stripped I1001/I1004/I1005 from every non-PMAC2 card, so the
-/// Power card started with its check disarmed (fixed: only a Turbo card loses them; the
-/// card's I80/I81/I82 now hold 16/2/4 after start-up); the drill still fails on the first cut,
-/// so a second cause remains in how the ring core checks this member. Run with `--ignored`.
+/// The fault drills of an all-PMAC2 ring on the mixed ring (issue 13 item 6): every cut,
+/// dropped sync packet, kill and freeze is latched by every card the drill expects — the Power
+/// sync master (card0) included — within the same cycle bounds, localised, and recovered with
+/// `$$$`. (The card-side half, a Power sync master set up as the card
+/// process does latching its own fault on loss of light, is the lockstep unit test
+/// `a_power_sync_master_latches_its_ring_fault_on_loss_of_light`.)
 #[test]
-#[ignore = "a Power sync master does not latch its ring fault yet (see the doc comment)"]
 fn power_sync_master_ring_faults_are_detected_localised_and_recovered() {
     crate::drills::fault_drills_with(mixed_ring("pwrfault"), [POWER_SETUP, crate::drills::SETUP]);
 }

@@ -484,3 +484,74 @@ mod tests {
         assert!(!r.contains(&7), "{:?}", String::from_utf8_lossy(&r));
     }
 }
+
+/// Issue 13 item 6: a Power card as the ring's synchronizing master, set up as the card
+/// process sets it up (start-up layer, config ring-check keys), latches its own ring fault.
+#[cfg(test)]
+mod power_sync_master_tests {
+    use super::*;
+    use crate::domain::Profile;
+    use mcc_ring::config::IVarValue;
+    use mcc_ring::control::MemberKind;
+    use mcc_ring::core::{CoreConfig, MemberCore};
+
+    #[test]
+    fn a_power_sync_master_latches_its_ring_fault_on_loss_of_light() {
+        let nodes = [0u8, 1, 4, 5, 8, 9, 12, 13];
+        let ivars: std::collections::BTreeMap<String, IVarValue> =
+            [("I1001", 16), ("I1004", 2), ("I1005", 4)]
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), IVarValue::Int(v)))
+                .collect();
+        let (i995, i996) = (0x30u32, 0x0F_3333u32);
+        let layer = {
+            let ivars = ivars.clone();
+            move |card: &mut Card| {
+                super::super::startup::ring_startup(card, Some((i995, i996)), &nodes, true)
+                    .expect("start-up");
+                super::super::apply_ivars(card, &ivars).expect("ivars");
+            }
+        };
+        let mut card = Card::new(Profile::Power);
+        layer(&mut card);
+        let mut app = CardRingApp::for_card(card, &nodes).with_startup(Box::new(layer));
+        let mut cfg = CoreConfig::new(
+            "card0",
+            MemberKind::Card,
+            0,
+            RingSettings::new(i995, i996),
+            1_000_000,
+        );
+        cfg.check = mcc_ring::runtime::process::card_check(&ivars);
+        let mut core = MemberCore::new(cfg);
+        assert!(core.is_sync_master());
+        // Healthy cycles: the master's frames come back with their sync packet.
+        let mut cycle = 0;
+        for _ in 0..40 {
+            cycle += 1;
+            let out = core.start_cycle(cycle, cycle * 1_000_000);
+            for o in out {
+                let ev = core.on_frame(&o.frame_bytes, cycle * 1_000_000);
+                assert!(ev.errors.is_empty(), "cycle {cycle}: {ev:?}");
+            }
+            assert_eq!(core.tick_app(&mut app, cycle, cycle * 1_000_000), None);
+        }
+        let p = core.check().params();
+        assert!(core.check().armed(), "{p:?}");
+        assert_eq!((p.period, p.error_limit, p.sync_min), (16, 2, 4), "{p:?}");
+        // Loss of light on the master's input: the check latches within one check period.
+        let cut = cycle;
+        while !core.ring_fault() {
+            cycle += 1;
+            assert!(
+                cycle < cut + 20,
+                "no ring fault latched: {:?}",
+                core.status()
+            );
+            let _ = core.start_cycle(cycle, cycle * 1_000_000);
+            let _ = core.dark_input(cycle, cycle * 1_000_000);
+            core.tick_app(&mut app, cycle, cycle * 1_000_000);
+        }
+        assert!(core.status().fault_reason.is_some());
+    }
+}
