@@ -19,6 +19,10 @@ pub mod runtime;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge
 pub mod transport;
 
+#[cfg(test)]
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // reads the crate's own source
+mod api_check;
+
 pub use protocol::{
     aux_channel, check, control, core, expect, fault, frame, holdover, member, packet, settings,
     sim, status,

@@ -141,7 +141,7 @@ impl Default for NodePlantConfig {
 
 impl NodePlantConfig {
     /// Check ranges; the error names the key and the problem.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PlantError> {
         let finite = [
             ("torque_full_scale", self.torque_full_scale),
             ("torque_limit", self.torque_limit),
@@ -164,7 +164,10 @@ impl NodePlantConfig {
         ];
         for (k, v) in finite {
             if !v.is_finite() {
-                return Err(format!("{k}: must be a finite number, got {v}"));
+                return Err(PlantError::key(
+                    k,
+                    format!("must be a finite number, got {v}"),
+                ));
             }
         }
         let positive = [
@@ -174,7 +177,7 @@ impl NodePlantConfig {
         ];
         for (k, v) in positive {
             if v <= 0.0 {
-                return Err(format!("{k}: must be > 0, got {v}"));
+                return Err(PlantError::key(k, format!("must be > 0, got {v}")));
             }
         }
         let non_negative = [
@@ -187,40 +190,55 @@ impl NodePlantConfig {
         ];
         for (k, v) in non_negative {
             if v < 0.0 {
-                return Err(format!("{k}: must be ≥ 0, got {v}"));
+                return Err(PlantError::key(k, format!("must be ≥ 0, got {v}")));
             }
         }
         if self.limits && self.minus_limit >= self.plus_limit {
-            return Err(format!(
-                "minus_limit: must be below plus_limit ({} ≥ {})",
-                self.minus_limit, self.plus_limit
+            return Err(PlantError::key(
+                "minus_limit",
+                format!(
+                    "must be below plus_limit ({} ≥ {})",
+                    self.minus_limit, self.plus_limit
+                ),
             ));
         }
         if self.hard_stops && self.minus_stop >= self.plus_stop {
-            return Err(format!(
-                "minus_stop: must be below plus_stop ({} ≥ {})",
-                self.minus_stop, self.plus_stop
+            return Err(PlantError::key(
+                "minus_stop",
+                format!(
+                    "must be below plus_stop ({} ≥ {})",
+                    self.minus_stop, self.plus_stop
+                ),
             ));
         }
         let k_rad = self.stop_stiffness * self.counts_per_rev / std::f64::consts::TAU;
         let k_max = self.inertia / (self.max_substep * self.max_substep);
         if self.hard_stops && k_rad > k_max {
-            return Err(format!(
-                "stop_stiffness: at most {:.6} N·m per count with this inertia and max_substep, got {}",
-                k_max / self.counts_per_rev * std::f64::consts::TAU,
-                self.stop_stiffness
+            return Err(PlantError::key(
+                "stop_stiffness",
+                format!(
+                    "at most {:.6} N·m per count with this inertia and max_substep, got {}",
+                    k_max / self.counts_per_rev * std::f64::consts::TAU,
+                    self.stop_stiffness
+                ),
             ));
         }
         if !matches!(self.capture_control, 2 | 3 | 6 | 7 | 10 | 11 | 14 | 15) {
-            return Err(format!(
-                "capture_control: one of 2, 3, 6, 7, 10, 11, 14, 15 (a flag edge), got {}",
-                self.capture_control
+            return Err(PlantError::key(
+                "capture_control",
+                format!(
+                    "one of 2, 3, 6, 7, 10, 11, 14, 15 (a flag edge), got {}",
+                    self.capture_control
+                ),
             ));
         }
         if self.capture_flag > 3 {
-            return Err(format!(
-                "capture_flag: 0 (home), 1 (+limit), 2 (-limit) or 3 (user), got {}",
-                self.capture_flag
+            return Err(PlantError::key(
+                "capture_flag",
+                format!(
+                    "0 (home), 1 (+limit), 2 (-limit) or 3 (user), got {}",
+                    self.capture_flag
+                ),
             ));
         }
         if self.output_mode > 3 {
@@ -230,9 +248,9 @@ impl NodePlantConfig {
             ));
         }
         if self.max_substep > 0.01 {
-            return Err(format!(
-                "max_substep: at most 0.01 s, got {}",
-                self.max_substep
+            return Err(PlantError::key(
+                "max_substep",
+                format!("at most 0.01 s, got {}", self.max_substep),
             ));
         }
         Ok(())
@@ -292,48 +310,46 @@ pub struct PlantConfig {
 impl PlantConfig {
     /// Parse a station's `plant` table (`[stations.plant]`, with `[stations.plant.nodes.N]`
     /// override tables). Errors name the offending key, prefixed with `plant.`.
-    pub fn from_table(table: &toml::Table) -> Result<Self, String> {
+    pub fn from_table(table: &toml::Table) -> Result<Self, PlantError> {
         let mut base = table.clone();
         let overrides = match base.remove("nodes") {
             None => toml::Table::new(),
             Some(toml::Value::Table(t)) => t,
             Some(other) => {
-                return Err(format!(
-                    "plant.nodes: expected a table, got {}",
-                    other.type_str()
+                return Err(PlantError::key(
+                    "plant.nodes",
+                    format!("expected a table, got {}", other.type_str()),
                 ))
             }
         };
-        let defaults = parse_node(&base).map_err(|e| format!("plant.{e}"))?;
+        let defaults = parse_node(&base).map_err(|e| e.within("plant"))?;
         let mut nodes = BTreeMap::new();
         for (key, v) in overrides {
-            let n: u8 = key
-                .parse()
-                .ok()
-                .filter(|n| *n < 16)
-                .ok_or_else(|| format!("plant.nodes.{key}: not a node number 0-15"))?;
+            let n: u8 = key.parse().ok().filter(|n| *n < 16).ok_or_else(|| {
+                PlantError::key(format!("plant.nodes.{key}"), "not a node number 0-15")
+            })?;
             let t = match v {
                 toml::Value::Table(t) => t,
                 other => {
-                    return Err(format!(
-                        "plant.nodes.{key}: expected a table, got {}",
-                        other.type_str()
+                    return Err(PlantError::key(
+                        format!("plant.nodes.{key}"),
+                        format!("expected a table, got {}", other.type_str()),
                     ))
                 }
             };
             let mut merged = base.clone();
             merged.extend(t);
-            let cfg = parse_node(&merged).map_err(|e| format!("plant.nodes.{key}.{e}"))?;
+            let cfg = parse_node(&merged).map_err(|e| e.within(&format!("plant.nodes.{key}")))?;
             nodes.insert(n, cfg);
         }
         Ok(PlantConfig { defaults, nodes })
     }
 
     /// Parse from TOML text holding the plant table's contents.
-    pub fn from_toml_str(s: &str) -> Result<Self, String> {
+    pub fn from_toml_str(s: &str) -> Result<Self, PlantError> {
         let t: toml::Table = s
             .parse()
-            .map_err(|e: toml::de::Error| format!("plant: {}", e.message()))?;
+            .map_err(|e: toml::de::Error| PlantError::Syntax(e.message().to_string()))?;
         Self::from_table(&t)
     }
 
@@ -343,8 +359,52 @@ impl PlantConfig {
     }
 }
 
+/// A plant table or node parameters that cannot be used.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlantError {
+    /// A key whose value is missing, malformed or out of range.
+    #[error("{key}: {problem}")]
+    Key {
+        /// Dotted key path, e.g. `plant.nodes.4.inertia` (`(table)` when serde names none).
+        key: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The plant text is no TOML (the parser's message).
+    #[error("plant: {0}")]
+    Syntax(String),
+}
+
+impl PlantError {
+    fn key(key: impl Into<String>, problem: impl Into<String>) -> Self {
+        PlantError::Key {
+            key: key.into(),
+            problem: problem.into(),
+        }
+    }
+
+    /// The same error with its key inside table `prefix` (`prefix.key`).
+    fn within(self, prefix: &str) -> Self {
+        match self {
+            PlantError::Key { key, problem } => PlantError::Key {
+                key: format!("{prefix}.{key}"),
+                problem,
+            },
+            other => other,
+        }
+    }
+
+    /// The key path the error names (none for a syntax error).
+    pub fn key_path(&self) -> Option<&str> {
+        match self {
+            PlantError::Key { key, .. } => Some(key),
+            PlantError::Syntax(_) => None,
+        }
+    }
+}
+
 /// Deserialize and validate one node's merged table; errors start with the key name.
-fn parse_node(t: &toml::Table) -> Result<NodePlantConfig, String> {
+fn parse_node(t: &toml::Table) -> Result<NodePlantConfig, PlantError> {
     let cfg: NodePlantConfig =
         toml::Value::Table(t.clone())
             .try_into()
@@ -352,8 +412,8 @@ fn parse_node(t: &toml::Table) -> Result<NodePlantConfig, String> {
                 let msg = e.message().to_string();
                 // serde names unknown fields in its message; otherwise blame the table
                 match t.keys().find(|k| msg.contains(&format!("`{k}`"))) {
-                    Some(k) => format!("{k}: {msg}"),
-                    None => format!("(table): {msg}"),
+                    Some(k) => PlantError::key(k.as_str(), msg),
+                    None => PlantError::key("(table)", msg),
                 }
             })?;
     cfg.validate()?;
@@ -392,7 +452,7 @@ mod tests {
 
     #[test]
     fn errors_name_the_key() {
-        let e = |s: &str| PlantConfig::from_toml_str(s).unwrap_err();
+        let e = |s: &str| PlantConfig::from_toml_str(s).unwrap_err().to_string();
         assert!(
             e("inertia = 0").starts_with("plant.inertia: must be > 0"),
             "{}",

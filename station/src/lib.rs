@@ -6,6 +6,10 @@
 
 #![warn(missing_docs, unreachable_pub)]
 
+#[cfg(test)]
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // reads the crate's own source
+#[path = "../../ring/src/api_check.rs"] // one check, shared with mcc-ring
+mod api_check;
 pub mod config;
 pub mod emcl;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives

@@ -383,5 +383,8 @@ fn capture_latches_the_count_at_the_flag_edge_and_end_stops_hold() {
         stop_stiffness: 100.0,
         ..stop
     };
-    assert!(bad.validate().unwrap_err().starts_with("stop_stiffness"));
+    assert_eq!(
+        bad.validate().unwrap_err().key_path(),
+        Some("stop_stiffness")
+    );
 }

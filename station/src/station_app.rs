@@ -24,6 +24,20 @@ use crate::mi::{Globals, Setup};
 use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
 use crate::station_mi::StationMi;
 
+/// A node list [`StationApp::new`] refuses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NodeListError {
+    /// A node number above 15.
+    #[error("node {0}: must be 0-15")]
+    OutOfRange(u8),
+    /// A node listed twice (as servo or I/O node).
+    #[error("node {0}: listed twice")]
+    Duplicate(u8),
+    /// A plant override for a node that is not a servo node of this station.
+    #[error("plant.nodes.{0}: node {0} is not a servo node of this station")]
+    NotServo(u8),
+}
+
 /// A MACRO station with simulated servo nodes.
 #[derive(Clone, Debug)]
 pub struct StationApp {
@@ -40,21 +54,23 @@ impl StationApp {
     /// A station with these servo and I/O nodes (0-15, no duplicates) and plant parameters.
     /// Fails with a message naming the problem (bad node, duplicate, override for a node that
     /// is not a servo node of this station).
-    pub fn new(servo_nodes: &[u8], io_nodes: &[u8], plant: &PlantConfig) -> Result<Self, String> {
+    pub fn new(
+        servo_nodes: &[u8],
+        io_nodes: &[u8],
+        plant: &PlantConfig,
+    ) -> Result<Self, NodeListError> {
         let mut seen = [false; 16];
         for &n in servo_nodes.iter().chain(io_nodes) {
             let slot = seen
                 .get_mut(usize::from(n))
-                .ok_or_else(|| format!("node {n}: must be 0-15"))?;
+                .ok_or(NodeListError::OutOfRange(n))?;
             if *slot {
-                return Err(format!("node {n}: listed twice"));
+                return Err(NodeListError::Duplicate(n));
             }
             *slot = true;
         }
-        if let Some(n) = plant.nodes.keys().find(|n| !servo_nodes.contains(n)) {
-            return Err(format!(
-                "plant.nodes.{n}: node {n} is not a servo node of this station"
-            ));
+        if let Some(&n) = plant.nodes.keys().find(|n| !servo_nodes.contains(n)) {
+            return Err(NodeListError::NotServo(n));
         }
         let setup = Setup {
             globals: Globals::from_check(8, 4, 4),

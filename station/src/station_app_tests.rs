@@ -254,18 +254,28 @@ fn a_renumbered_ring_keeps_the_plant_stepping() {
 #[test]
 fn bad_node_lists_are_refused_with_a_message() {
     let p = PlantConfig::default();
+    let refused = |servo: &[u8], io: &[u8], plant: &PlantConfig| {
+        let e = StationApp::new(servo, io, plant).unwrap_err();
+        (e, e.to_string())
+    };
     assert_eq!(
-        StationApp::new(&[16], &[], &p).unwrap_err(),
-        "node 16: must be 0-15"
+        refused(&[16], &[], &p),
+        (
+            NodeListError::OutOfRange(16),
+            "node 16: must be 0-15".into()
+        )
     );
     assert_eq!(
-        StationApp::new(&[1], &[1], &p).unwrap_err(),
-        "node 1: listed twice"
+        refused(&[1], &[1], &p),
+        (NodeListError::Duplicate(1), "node 1: listed twice".into())
     );
     let q = PlantConfig::from_toml_str("[nodes.3]\namp_fault = true").unwrap();
     assert_eq!(
-        StationApp::new(&[0, 1], &[], &q).unwrap_err(),
-        "plant.nodes.3: node 3 is not a servo node of this station"
+        refused(&[0, 1], &[], &q),
+        (
+            NodeListError::NotServo(3),
+            "plant.nodes.3: node 3 is not a servo node of this station".into()
+        )
     );
     assert!(StationApp::new(&[0, 1, 3], &[], &q)
         .unwrap()

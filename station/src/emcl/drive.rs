@@ -5,7 +5,7 @@
 //! Pure: frames and ticks in, reply bytes out; no clock, no I/O.
 
 use super::codec::{self, status, Instr, Reply, Request, FRAME_LEN};
-use super::eeprom::{EepromImage, COORDS};
+use super::eeprom::{EepromError, EepromImage, COORDS};
 use super::motion::Motion;
 use super::program::Program;
 use super::spec::DriveSpec;
@@ -23,7 +23,7 @@ pub enum EepromLoad {
     /// No image existed: factory defaults.
     Factory,
     /// The image was unreadable or corrupt: factory defaults (the reason).
-    Corrupt(String),
+    Corrupt(EepromError),
     /// GP 64 held a value other than $E4: parameters re-initialised to factory defaults.
     MagicReset,
 }

@@ -130,43 +130,79 @@ impl EepromImage {
     }
 
     /// Decode file bytes; the error says what is wrong.
-    pub fn decode(b: &[u8]) -> Result<Self, String> {
-        let magic = b.get(..8).ok_or("file too short")?;
+    pub fn decode(b: &[u8]) -> Result<Self, EepromError> {
+        let magic = b.get(..8).ok_or(EepromError::TooShort)?;
         if magic != MAGIC {
-            return Err("not an EMCL EEPROM image (bad magic)".into());
+            return Err(EepromError::BadMagic);
         }
-        let word = |at: usize| -> Result<u32, String> {
-            let s = b.get(at..at + 4).ok_or("file truncated")?;
+        let word = |at: usize| -> Result<u32, EepromError> {
+            let s = b.get(at..at + 4).ok_or(EepromError::Truncated)?;
             Ok(u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
         };
         let version = word(8)?;
         if version != VERSION {
-            return Err(format!("unsupported EEPROM image version {version}"));
+            return Err(EepromError::Version(version));
         }
         let len = word(12)? as usize;
         if len > MAX_PAYLOAD {
-            return Err(format!("payload length {len} too large"));
+            return Err(EepromError::TooLarge(len));
         }
         if b.len() != 16 + len + 4 {
-            return Err(format!(
-                "file length {} does not match its header ({} expected)",
-                b.len(),
-                16 + len + 4
-            ));
+            return Err(EepromError::Length {
+                len: b.len(),
+                expected: 16 + len + 4,
+            });
         }
-        let payload = b.get(16..16 + len).ok_or("file truncated")?;
+        let payload = b.get(16..16 + len).ok_or(EepromError::Truncated)?;
         if word(16 + len)? != CRC.checksum(payload) {
-            return Err("checksum mismatch".into());
+            return Err(EepromError::Checksum);
         }
         let cfg = bincode::config::standard().with_limit::<MAX_PAYLOAD>();
         let (mut img, used): (EepromImage, usize) = bincode::serde::decode_from_slice(payload, cfg)
-            .map_err(|e| format!("payload does not decode: {e}"))?;
+            .map_err(|e| EepromError::Payload(e.to_string()))?;
         if used != payload.len() {
-            return Err("trailing bytes after the payload".into());
+            return Err(EepromError::Trailing);
         }
         img.normalise();
         Ok(img)
     }
+}
+
+/// An EEPROM image file that cannot be used.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum EepromError {
+    /// Shorter than the magic.
+    #[error("file too short")]
+    TooShort,
+    /// Not the image magic.
+    #[error("not an EMCL EEPROM image (bad magic)")]
+    BadMagic,
+    /// A header word or the payload is cut off.
+    #[error("file truncated")]
+    Truncated,
+    /// Another format version (the version).
+    #[error("unsupported EEPROM image version {0}")]
+    Version(u32),
+    /// The header's payload length is above the limit (the length).
+    #[error("payload length {0} too large")]
+    TooLarge(usize),
+    /// The file is not as long as its header says.
+    #[error("file length {len} does not match its header ({expected} expected)")]
+    Length {
+        /// Bytes in the file.
+        len: usize,
+        /// Bytes the header implies.
+        expected: usize,
+    },
+    /// The payload does not match its CRC.
+    #[error("checksum mismatch")]
+    Checksum,
+    /// The payload is not an image (the decoder's message).
+    #[error("payload does not decode: {0}")]
+    Payload(String),
+    /// The payload holds more than one image.
+    #[error("trailing bytes after the payload")]
+    Trailing,
 }
 
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
@@ -189,10 +225,17 @@ mod tests {
             assert!(EepromImage::decode(&bad).is_err(), "flip at {k}");
         }
         assert!(EepromImage::decode(&b[..b.len() - 3]).is_err());
-        assert!(EepromImage::decode(b"").is_err());
+        assert_eq!(EepromImage::decode(b""), Err(EepromError::TooShort));
         let mut long = b.clone();
         long.push(0);
-        assert!(EepromImage::decode(&long).is_err());
+        assert_eq!(
+            EepromImage::decode(&long).unwrap_err().to_string(),
+            format!(
+                "file length {} does not match its header ({} expected)",
+                b.len() + 1,
+                b.len()
+            )
+        );
     }
 
     #[test]

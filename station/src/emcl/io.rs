@@ -136,10 +136,10 @@ impl Drive {
     /// Set an input line or inject a driver fault from outside (the test bench): `in0`..`in2`
     /// (0/1), `analog` (0..4095), `enable_in`, `reset_in` (0/1), `overtemp`, `short` (0/1,
     /// AP 208 bits 1 and 3: the driver shuts off and ALARM_OUT rises).
-    pub fn set_input(&mut self, name: &str, v: i64) -> Result<(), String> {
+    pub fn set_input(&mut self, name: &str, v: i64) -> Result<(), InputError> {
         let bit = |v: i64| match v {
             0 | 1 => Ok(v == 1),
-            _ => Err(format!("{name}: {v} is not 0 or 1")),
+            _ => Err(InputError::NotBit(name.to_string(), v)),
         };
         match name {
             "in0" | "in1" | "in2" => {
@@ -151,7 +151,7 @@ impl Drive {
             }
             "analog" => {
                 if !(0..=4095).contains(&v) {
-                    return Err(format!("analog: {v} is out of range 0-4095"));
+                    return Err(InputError::Analog(v));
                 }
                 self.plant.analog = v as u16;
             }
@@ -164,11 +164,7 @@ impl Drive {
             }
             "overtemp" => self.set_fault_bit(1, bit(v)?),
             "short" => self.set_fault_bit(3, bit(v)?),
-            _ => {
-                return Err(format!(
-                    "unknown input {name:?} (in0, in1, in2, analog, enable_in, reset_in, overtemp, short)"
-                ))
-            }
+            _ => return Err(InputError::Unknown(name.to_string())),
         }
         Ok(())
     }
@@ -180,4 +176,18 @@ impl Drive {
             self.driver_faults &= !(1 << b);
         }
     }
+}
+
+/// An input [`Drive::set_input`] refuses.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum InputError {
+    /// A digital line set to something other than 0 or 1 (line, value).
+    #[error("{0}: {1} is not 0 or 1")]
+    NotBit(String, i64),
+    /// The analog input outside 0-4095 (value).
+    #[error("analog: {0} is out of range 0-4095")]
+    Analog(i64),
+    /// No input of that name.
+    #[error("unknown input {0:?} (in0, in1, in2, analog, enable_in, reset_in, overtemp, short)")]
+    Unknown(String),
 }

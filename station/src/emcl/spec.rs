@@ -132,58 +132,88 @@ impl DriveSpec {
 
     /// Check the spec: parameter overrides must exist, be writable and in range; physics in
     /// range. The error names the parameter or key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SpecError> {
         for (&n, &v) in &self.axis_defaults {
-            let p = params::axis(n).ok_or_else(|| format!("axis parameter {n} does not exist"))?;
+            let p = params::axis(n).ok_or(SpecError::NoAxisParam(n))?;
             if p.access != Access::RW {
-                return Err(format!("axis parameter {n} is read-only"));
+                return Err(SpecError::AxisReadOnly(n));
             }
             if !p.range.contains(v) {
-                return Err(format!("axis parameter {n}: {v} is out of range"));
+                return Err(SpecError::AxisRange(n, v));
             }
         }
         for (&n, &v) in &self.global_defaults {
             if !params::global_is_eeprom(n) || n == 73 {
-                return Err(format!(
-                    "global parameter {n}: only the EEPROM parameters 64-87 (not 73) have factory values"
-                ));
+                return Err(SpecError::GlobalNotEeprom(n));
             }
-            let p =
-                params::global(n).ok_or_else(|| format!("global parameter {n} does not exist"))?;
+            let p = params::global(n).ok_or(SpecError::NoGlobalParam(n))?;
             if !p.range.contains(v) {
-                return Err(format!("global parameter {n}: {v} is out of range"));
+                return Err(SpecError::GlobalRange(n, v));
             }
         }
         if self.load > 1023 {
-            return Err(format!("load {} is out of range 0-1023", self.load));
+            return Err(SpecError::Load(self.load));
         }
         if self.analog > 4095 {
-            return Err(format!(
-                "analog input {} is out of range 0-4095",
-                self.analog
-            ));
+            return Err(SpecError::Analog(self.analog));
         }
         if self.home_width < 0 {
-            return Err("home_width must be ≥ 0".into());
+            return Err(SpecError::HomeWidth);
         }
         if !(1..=16_777_216).contains(&self.pulse_full_scale) {
-            return Err(format!(
-                "pulse_full_scale {} is out of range 1-16777216",
-                self.pulse_full_scale
-            ));
+            return Err(SpecError::PulseFullScale(self.pulse_full_scale));
         }
         if let (Some(l), Some(r)) = (self.left_limit, self.right_limit) {
             if l >= r {
-                return Err(format!("left_limit {l} must be below right_limit {r}"));
+                return Err(SpecError::Limits(l, r));
             }
         }
         if let (Some(l), Some(r)) = (self.hard_stop_minus, self.hard_stop_plus) {
             if l >= r {
-                return Err(format!(
-                    "hard_stop_minus {l} must be below hard_stop_plus {r}"
-                ));
+                return Err(SpecError::HardStops(l, r));
             }
         }
         Ok(())
     }
+}
+
+/// A drive description [`DriveSpec::validate`] refuses; names the parameter or key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SpecError {
+    /// An axis parameter override for a number the drive does not have.
+    #[error("axis parameter {0} does not exist")]
+    NoAxisParam(u8),
+    /// An axis parameter override for a read-only parameter.
+    #[error("axis parameter {0} is read-only")]
+    AxisReadOnly(u8),
+    /// An axis parameter override out of the parameter's range (number, value).
+    #[error("axis parameter {0}: {1} is out of range")]
+    AxisRange(u8, i32),
+    /// A global parameter override outside the EEPROM parameters 64-87 (or 73).
+    #[error("global parameter {0}: only the EEPROM parameters 64-87 (not 73) have factory values")]
+    GlobalNotEeprom(u8),
+    /// A global parameter override for a number the drive does not have.
+    #[error("global parameter {0} does not exist")]
+    NoGlobalParam(u8),
+    /// A global parameter override out of the parameter's range (number, value).
+    #[error("global parameter {0}: {1} is out of range")]
+    GlobalRange(u8, i32),
+    /// `load` above 1023.
+    #[error("load {0} is out of range 0-1023")]
+    Load(u16),
+    /// `analog` above 4095.
+    #[error("analog input {0} is out of range 0-4095")]
+    Analog(u16),
+    /// A negative `home_width`.
+    #[error("home_width must be ≥ 0")]
+    HomeWidth,
+    /// `pulse_full_scale` outside 1-16777216.
+    #[error("pulse_full_scale {0} is out of range 1-16777216")]
+    PulseFullScale(i64),
+    /// `left_limit` not below `right_limit` (left, right).
+    #[error("left_limit {0} must be below right_limit {1}")]
+    Limits(i64, i64),
+    /// `hard_stop_minus` not below `hard_stop_plus` (minus, plus).
+    #[error("hard_stop_minus {0} must be below hard_stop_plus {1}")]
+    HardStops(i64, i64),
 }

@@ -6,6 +6,7 @@ use mcc_ring::packet::NodeRegs;
 
 use super::codec::{status, Instr, Reply, Request, FRAME_LEN};
 use super::drive::{Dirty, Drive, EepromLoad};
+use super::io::InputError;
 use super::spec::DriveSpec;
 
 fn i(op: u8, typ: u8, motor: u8, value: i32) -> Instr {
@@ -535,8 +536,18 @@ fn digital_and_analog_io_with_dedicated_outputs() {
     assert_eq!(direct(&mut d, i(14, 0, 1, 1)).0, status::INVALID_VALUE);
     d.set_input("in1", 1).unwrap();
     assert_eq!(direct(&mut d, i(15, 1, 0, 0)).1, 1);
-    assert!(d.set_input("in3", 1).is_err());
-    assert!(d.set_input("analog", 4096).is_err());
+    assert_eq!(
+        d.set_input("in3", 1),
+        Err(InputError::Unknown("in3".into()))
+    );
+    assert_eq!(
+        d.set_input("analog", 4096).unwrap_err().to_string(),
+        "analog: 4096 is out of range 0-4095"
+    );
+    assert_eq!(
+        d.set_input("in0", 2).unwrap_err().to_string(),
+        "in0: 2 is not 0 or 1"
+    );
     // Loopback plug: IN_k follows OUT_k.
     let mut d = Drive::new(DriveSpec {
         loopback: true,

@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use mcc_ring::config::{ClusterConfig, DriveConfig};
+use mcc_ring::config::{ClusterConfig, DriveConfig, ParamNumberError};
 
-use crate::emcl::spec::{DriveSpec, SwitchKind};
+use crate::emcl::spec::{DriveSpec, SpecError, SwitchKind};
 use crate::emcl::{Drive, DriveHost, HostedDrive};
 
 pub mod app;
@@ -15,7 +15,7 @@ pub mod service;
 pub mod standalone;
 
 /// The drive model's description of a configured drive; the error names the key.
-pub fn spec_from_config(d: &DriveConfig) -> Result<DriveSpec, String> {
+pub fn spec_from_config(d: &DriveConfig) -> Result<DriveSpec, DriveSpecError> {
     let m = &d.motor;
     let mut spec = DriveSpec {
         address: d.address,
@@ -51,21 +51,62 @@ pub fn spec_from_config(d: &DriveConfig) -> Result<DriveSpec, String> {
         // Bound drives ship in step/direction mode (AP 254 = 1: step on the rising edge).
         ax.insert(254, 1);
     }
-    for (n, v) in DriveConfig::overrides(&d.axis).map_err(|e| format!("axis: {e}"))? {
+    for (n, v) in DriveConfig::overrides(&d.axis).map_err(DriveSpecError::Axis)? {
         spec.axis_defaults.insert(n, v);
     }
-    for (n, v) in DriveConfig::overrides(&d.globals).map_err(|e| format!("globals: {e}"))? {
+    for (n, v) in DriveConfig::overrides(&d.globals).map_err(DriveSpecError::Globals)? {
         spec.global_defaults.insert(n, v);
     }
     spec.validate()?;
     Ok(spec)
 }
 
+/// A configured drive the drive model refuses: which override or key.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DriveSpecError {
+    /// An `axis` override whose key is no parameter number.
+    #[error("axis: {0}")]
+    Axis(ParamNumberError),
+    /// A `globals` override whose key is no parameter number.
+    #[error("globals: {0}")]
+    Globals(ParamNumberError),
+    /// A value the drive model refuses.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+}
+
+/// A drive of the cluster config the drive model refuses, and which drive.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DriveConfigError {
+    /// Found checking the whole config ([`check_drives`]): the drive's index and name.
+    #[error("config: drives[{index}] ({name}): {problem}")]
+    InConfig {
+        /// Position in `[[drives]]`.
+        index: usize,
+        /// The drive's name.
+        name: String,
+        /// What is wrong.
+        problem: DriveSpecError,
+    },
+    /// Found building a host's drives ([`build_host`]): the drive's name.
+    #[error("drives.{name}: {problem}")]
+    Hosted {
+        /// The drive's name.
+        name: String,
+        /// What is wrong.
+        problem: DriveSpecError,
+    },
+}
+
 /// Check every drive's parameters against the drive model (what the config parser cannot
 /// know); the error names the drive.
-pub fn check_drives(cfg: &ClusterConfig) -> Result<(), String> {
-    for (i, d) in cfg.drives.iter().enumerate() {
-        spec_from_config(d).map_err(|e| format!("config: drives[{i}] ({}): {e}", d.name))?;
+pub fn check_drives(cfg: &ClusterConfig) -> Result<(), DriveConfigError> {
+    for (index, d) in cfg.drives.iter().enumerate() {
+        spec_from_config(d).map_err(|problem| DriveConfigError::InConfig {
+            index,
+            name: d.name.clone(),
+            problem,
+        })?;
     }
     Ok(())
 }
@@ -86,12 +127,15 @@ pub fn build_host(
     cfg: &ClusterConfig,
     host: &str,
     run_dir: &Path,
-) -> Result<(DriveHost, Vec<PathBuf>, Vec<String>), String> {
+) -> Result<(DriveHost, Vec<PathBuf>, Vec<String>), DriveConfigError> {
     let mut drives = Vec::new();
     let mut files = Vec::new();
     let mut notes = Vec::new();
     for d in cfg.drives.iter().filter(|d| d.host() == host) {
-        let spec = spec_from_config(d).map_err(|e| format!("drives.{}: {e}", d.name))?;
+        let spec = spec_from_config(d).map_err(|problem| DriveConfigError::Hosted {
+            name: d.name.clone(),
+            problem,
+        })?;
         let path = state_file(d, run_dir);
         let image = persist::load(&path);
         let bytes = match &image {

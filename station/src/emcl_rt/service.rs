@@ -155,7 +155,7 @@ fn set_io(shared: &Shared, payload: &[u8]) -> CtlReply {
         },
         Err(e) => CtlReply {
             ok: false,
-            message: e,
+            message: e.to_string(),
         },
     }
 }

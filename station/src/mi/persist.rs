@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use super::Setup;
+use crate::config::PlantError;
 
 const MAGIC: &str = "MCCSTATION 1";
 /// Largest state file accepted (a station's setup is a few KiB).
@@ -28,25 +29,58 @@ pub fn encode(setup: &Setup) -> Vec<u8> {
     out
 }
 
+/// A state file that cannot be used.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum StateFileError {
+    /// No newline: no header line.
+    #[error("no header line")]
+    NoHeader,
+    /// The header line is not UTF-8.
+    #[error("header is not text")]
+    HeaderNotText,
+    /// The header does not start with the magic (the header).
+    #[error("not a station state file (header {0:?})")]
+    NotStateFile(String),
+    /// The checksum field is no hexadecimal number.
+    #[error("bad checksum field")]
+    BadChecksumField,
+    /// The body does not match its checksum.
+    #[error("checksum mismatch (truncated or altered)")]
+    ChecksumMismatch,
+    /// The body is not a setup (the JSON error).
+    #[error("body: {0}")]
+    Body(String),
+    /// A node's saved parameters are out of range.
+    #[error("node {node}: {problem}")]
+    Node {
+        /// Node number.
+        node: u8,
+        /// What is wrong with its parameters.
+        problem: PlantError,
+    },
+}
+
 /// Parse a state file's bytes; the error says what is wrong.
-pub fn decode(bytes: &[u8]) -> Result<Setup, String> {
+pub fn decode(bytes: &[u8]) -> Result<Setup, StateFileError> {
     let nl = bytes
         .iter()
         .position(|b| *b == b'\n')
-        .ok_or("no header line")?;
-    let header = std::str::from_utf8(&bytes[..nl]).map_err(|_| "header is not text")?;
+        .ok_or(StateFileError::NoHeader)?;
+    let header = std::str::from_utf8(&bytes[..nl]).map_err(|_| StateFileError::HeaderNotText)?;
     let sum = header
         .strip_prefix(MAGIC)
         .and_then(|r| r.strip_prefix(' '))
-        .ok_or_else(|| format!("not a station state file (header {header:?})"))?;
-    let want = u64::from_str_radix(sum, 16).map_err(|_| "bad checksum field")?;
+        .ok_or_else(|| StateFileError::NotStateFile(header.to_string()))?;
+    let want = u64::from_str_radix(sum, 16).map_err(|_| StateFileError::BadChecksumField)?;
     let body = &bytes[nl + 1..];
     if fnv1a(body) != want {
-        return Err("checksum mismatch (truncated or altered)".into());
+        return Err(StateFileError::ChecksumMismatch);
     }
-    let setup: Setup = serde_json::from_slice(body).map_err(|e| format!("body: {e}"))?;
-    for (n, cfg) in &setup.nodes {
-        cfg.validate().map_err(|e| format!("node {n}: {e}"))?;
+    let setup: Setup =
+        serde_json::from_slice(body).map_err(|e| StateFileError::Body(e.to_string()))?;
+    for (&node, cfg) in &setup.nodes {
+        cfg.validate()
+            .map_err(|problem| StateFileError::Node { node, problem })?;
     }
     Ok(setup)
 }
@@ -86,7 +120,7 @@ pub fn load(path: &Path) -> Loaded {
     match std::fs::read(path) {
         Ok(b) => match decode(&b) {
             Ok(s) => Loaded::Setup(s),
-            Err(e) => Loaded::Corrupt(e),
+            Err(e) => Loaded::Corrupt(e.to_string()),
         },
         Err(e) => Loaded::Corrupt(format!("cannot read: {e}")),
     }
@@ -138,18 +172,25 @@ mod tests {
         let mut flipped = good.clone();
         let last = flipped.len() - 3;
         flipped[last] ^= 0x01;
-        assert!(decode(&flipped).unwrap_err().contains("checksum"));
+        assert_eq!(decode(&flipped), Err(StateFileError::ChecksumMismatch));
         assert!(decode(&good[..good.len() / 2]).is_err());
-        assert!(decode(b"").unwrap_err().contains("header"));
-        assert!(decode(b"MCCSAVE\0 1\n{}")
-            .unwrap_err()
-            .contains("not a station"));
+        assert_eq!(decode(b""), Err(StateFileError::NoHeader));
+        let foreign = decode(b"MCCSAVE\0 1\n{}").unwrap_err();
+        assert_eq!(
+            foreign.to_string(),
+            "not a station state file (header \"MCCSAVE\\0 1\")"
+        );
         // a good checksum over bad values
         let mut s = setup();
         s.nodes.get_mut(&0).unwrap().inertia = -1.0;
         let body = serde_json::to_vec(&s).unwrap();
         let mut f = format!("{MAGIC} {:016x}\n", fnv1a(&body)).into_bytes();
         f.extend(body);
-        assert!(decode(&f).unwrap_err().contains("node 0: inertia"));
+        let e = decode(&f).unwrap_err();
+        assert!(matches!(e, StateFileError::Node { node: 0, .. }), "{e:?}");
+        assert!(
+            e.to_string().starts_with("node 0: inertia: must be > 0"),
+            "{e}"
+        );
     }
 }
