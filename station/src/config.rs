@@ -242,9 +242,9 @@ impl NodePlantConfig {
             ));
         }
         if self.output_mode > 3 {
-            return Err(format!(
-                "output_mode: 0, 1, 2 or 3 (MI916), got {}",
-                self.output_mode
+            return Err(PlantError::key(
+                "output_mode",
+                format!("0, 1, 2 or 3 (MI916), got {}", self.output_mode),
             ));
         }
         if self.max_substep > 0.01 {
