@@ -8,7 +8,9 @@
 //!
 //! Test code may reach upwards (a model test may build its input with the parser).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+use mcc_testing::source::{is_test_file, production_code, rust_files};
 
 /// Each module with the modules it may use.
 const LAYERS: &[(&str, &[&str])] = &[
@@ -45,40 +47,6 @@ const LAYERS: &[(&str, &[&str])] = &[
         ],
     ),
 ];
-
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
-
-fn is_test_file(p: &Path) -> bool {
-    let name = p
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    name.starts_with("tests")
-}
-
-/// The non-test part of a source file: up to an inline `#[cfg(test)] mod … {`.
-fn production_part(text: &str) -> &str {
-    let mut cut = text.len();
-    for (i, _) in text.match_indices("#[cfg(test)]") {
-        let rest = text[i + "#[cfg(test)]".len()..].trim_start();
-        if rest.starts_with("mod ") && rest.lines().next().is_some_and(|l| l.ends_with('{')) {
-            cut = cut.min(i);
-        }
-    }
-    &text[..cut]
-}
 
 /// `crate::X` module names used in `text` (comments aside).
 fn used_modules(text: &str) -> Vec<String> {
@@ -121,13 +89,12 @@ fn modules_only_use_lower_layers() {
     let mut violations = Vec::new();
     let mut checked = 0;
     for (name, uses) in LAYERS {
-        let mut files = Vec::new();
-        rust_files(&src.join(name), &mut files);
+        let files = rust_files(&src.join(name));
         assert!(!files.is_empty(), "module {name} has no files");
         for f in files.iter().filter(|f| !is_test_file(f)) {
             let text = std::fs::read_to_string(f).unwrap_or_default();
             checked += 1;
-            for m in used_modules(production_part(&text)) {
+            for m in used_modules(&production_code(&text)) {
                 let known = LAYERS.iter().any(|(n, _)| *n == m);
                 if known && m != *name && !uses.contains(&m.as_str()) {
                     violations.push(format!("{} uses crate::{m}", f.display()));
@@ -147,7 +114,7 @@ fn modules_only_use_lower_layers() {
 fn the_checker_sees_an_upward_use() {
     let text =
         "use crate::lang::interp::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
-    assert_eq!(used_modules(production_part(text)), ["lang"]);
+    assert_eq!(used_modules(&production_code(text)), ["lang"]);
 }
 
 /// One test-file convention: unit tests live beside the code, inline (`mod tests { … }`) or
@@ -155,8 +122,7 @@ fn the_checker_sees_an_upward_use() {
 #[test]
 fn test_files_follow_one_convention() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
+    let files = rust_files(&src);
     let odd: Vec<_> = files
         .iter()
         .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))

@@ -4,44 +4,11 @@
 //! One file, compiled into the tests of each crate that keeps the rule (mcc-ring, and
 //! mcc-station through `#[path]`); each copy scans its own crate's `src/`. Test files
 //! (`tests*.rs`, `*_tests.rs`, compiled only under `#[cfg(test)]`) and inline
-//! `#[cfg(test)] mod … {` blocks are skipped.
+//! `#[cfg(test)] mod … {` blocks are skipped (`mcc_testing::source`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
-
-fn is_test_file(p: &Path) -> bool {
-    let stem = p.file_stem().unwrap_or_default().to_string_lossy();
-    stem.starts_with("tests") || stem.ends_with("_tests")
-}
-
-/// The code of a source file before its inline `#[cfg(test)] mod … {`, without `//` comments.
-fn production_code(text: &str) -> String {
-    let mut cut = text.len();
-    for (i, _) in text.match_indices("#[cfg(test)]") {
-        let rest = text[i + "#[cfg(test)]".len()..].trim_start();
-        if rest.starts_with("mod ") && rest.lines().next().is_some_and(|l| l.ends_with('{')) {
-            cut = cut.min(i);
-        }
-    }
-    text[..cut]
-        .lines()
-        .map(|l| l.split("//").next().unwrap_or(""))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
+use mcc_testing::source::{is_test_file, production_code, rust_files};
 
 /// Index just past the bracket closing the one opening at `open` (`(`/`)` or `<`/`>`).
 fn skip_group(s: &[u8], open: usize, (o, c): (u8, u8)) -> usize {
@@ -122,16 +89,12 @@ fn the_check_sees_a_string_error() {
     let tests =
         "pub fn ok() {}\n#[cfg(test)]\nmod tests {\n    pub fn t() -> Result<(), String> {}\n}\n";
     assert!(string_error_fns(&production_code(tests)).is_empty());
-    assert!(is_test_file(Path::new("src/a/tests_drive.rs")));
-    assert!(is_test_file(Path::new("src/station_app_tests.rs")));
-    assert!(!is_test_file(Path::new("src/station_app.rs")));
 }
 
 #[test]
 fn no_public_fn_returns_a_string_error() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
+    let files = rust_files(&src);
     assert!(files.len() > 10, "the crate's source files: {files:?}");
     let mut bad = Vec::new();
     for f in files.iter().filter(|f| !is_test_file(f)) {

@@ -29,6 +29,7 @@ mod foreground;
 pub mod netns;
 pub mod procs;
 pub mod run;
+pub mod source;
 mod status;
 
 pub use cluster::{

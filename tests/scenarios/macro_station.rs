@@ -12,8 +12,6 @@ use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
 use mcc_ring::sim::RingSim;
-use mcc_station::config::PlantConfig;
-use mcc_station::mi::Globals;
 use mcc_station::station_app::StationApp;
 
 enum App {
@@ -76,15 +74,7 @@ impl Rig {
         let (mut sim, card) = mcc_tests::inproc::ring_with_handle(
             &cfg,
             Card::new(profile),
-            |sc| {
-                let plant = PlantConfig::from_table(&sc.plant).unwrap();
-                let c = sc.check;
-                let st = StationApp::new(&sc.nodes, &[], &plant).unwrap().with_setup(
-                    Globals::from_check(c.period, c.min_syncs, c.max_errors),
-                    dir.map(|d| d.join(format!("{}.state", sc.name))),
-                );
-                App::Station(Box::new(st))
-            },
+            |sc| App::Station(Box::new(mcc_tests::inproc::station_app(sc, dir))),
             |c| App::Card(Box::new(c)),
         );
         sim.run(20);

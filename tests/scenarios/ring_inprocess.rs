@@ -327,7 +327,20 @@ fn delayed_frames_into_the_sync_master_are_no_error_further_round() {
         card(0x8090, 0x1F_8002, unchecked(), &[1]),
         station(0x8080, 0x1F_8002, unchecked(), &[1]),
     ]);
-    sim.run(5);
+    // Packets members 1 and 2 receive per cycle: one per node address and cycle.
+    let per_cycle = |sim: &mut RingSim<App>, n: u64| {
+        let mut most = [0u64; 2];
+        for _ in 0..n {
+            let before = [1, 2].map(|i| sim.member(i).rx_packets());
+            sim.step();
+            for (k, i) in [1, 2].into_iter().enumerate() {
+                most[k] = most[k].max(sim.member(i).rx_packets() - before[k]);
+            }
+        }
+        most
+    };
+    let healthy = per_cycle(&mut sim, 5);
+    assert!(healthy[0] > 0 && healthy[1] > 0, "{healthy:?}");
     sim.inject(
         3,
         FaultSpec {
@@ -336,10 +349,15 @@ fn delayed_frames_into_the_sync_master_are_no_error_further_round() {
         },
     )
     .unwrap();
-    sim.run(30);
+    let faulted = per_cycle(&mut sim, 30);
     assert!(
         sim.member(0).status().errors.overrun > 0,
         "the sync master sees the late frames"
+    );
+    // The late copies of card1's packets were not passed on beside the current ones.
+    assert!(
+        faulted[0] <= healthy[0] && faulted[1] <= healthy[1],
+        "packets per cycle: healthy {healthy:?}, after the late frames {faulted:?}"
     );
     for i in [1, 2] {
         let e = sim.member(i).status().errors;

@@ -6,16 +6,14 @@
 use mcc_ring::aux_channel::{
     slave_error, AuxMaster, AuxWord, Outcome, Reply, Request, StationCmd, ValueFormat, AUX_NODE,
 };
+use mcc_ring::builder;
 use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CheckReport, CoreConfig, MemberCore, RingApp, RingControl};
+use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;
-use mcc_ring::settings::RingSettings;
 use mcc_ring::sim::RingSim;
-use mcc_station::config::PlantConfig;
-use mcc_station::mi::Globals;
 use mcc_station::station_app::StationApp;
+use mcc_tests::inproc::station_app;
 
 /// A master that runs one auxiliary transaction at a time and records how each ended.
 #[derive(Default)]
@@ -80,36 +78,12 @@ impl RingApp for App {
 /// A ring from the embedded default cluster: `cards` cards, `stations` stations.
 fn ring(cards: usize, stations: usize, state_dir: Option<&std::path::Path>) -> RingSim<App> {
     let cfg = ClusterConfig::default_cluster(cards, stations);
-    let period = cfg.period_ns();
-    let n = cfg.ring.order.len();
-    let members = cfg
-        .ring
-        .order
-        .iter()
-        .enumerate()
-        .map(|(pos, name)| {
-            let rs = cfg.ring_settings(name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let (kind, app) = match cfg.member(name).unwrap() {
-                MemberRef::Card(_) => (MemberKind::Card, App::Card(AuxCard::default())),
-                MemberRef::Station(sc) => {
-                    let plant = PlantConfig::from_table(&sc.plant).unwrap();
-                    let c = sc.check;
-                    let st = StationApp::new(&sc.nodes, &[], &plant).unwrap().with_setup(
-                        Globals::from_check(c.period, c.min_syncs, c.max_errors),
-                        state_dir.map(|d| d.join(format!("{name}.state"))),
-                    );
-                    (MemberKind::Station, App::Station(Box::new(st)))
-                }
-            };
-            // holdover after 1.5 periods: a member cut off from the ring keeps checking
-            let mut cc = CoreConfig::new(name, kind, pos as u16, settings, period * 3 / 2);
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            cc.sync_source = cfg.sync_source();
-            (MemberCore::new(cc), app)
-        })
-        .collect();
-    RingSim::new(members, period)
+    // holdover after 1.5 periods: a member cut off from the ring keeps checking
+    builder::sim(&cfg, cfg.period_ns() * 3 / 2, |_, member| match member {
+        MemberRef::Card(_) => App::Card(AuxCard::default()),
+        MemberRef::Station(sc) => App::Station(Box::new(station_app(sc, state_dir))),
+    })
+    .unwrap()
 }
 
 fn card(sim: &mut RingSim<App>, i: usize) -> &mut AuxCard {

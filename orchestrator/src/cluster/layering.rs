@@ -3,37 +3,9 @@
 //! on top of the plumbing with no import cycle between the two layers. Test code may reach
 //! upwards.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
-
-/// The non-test code of a source file: up to an inline `#[cfg(test)] mod … {`, comments aside.
-fn production_code(text: &str) -> String {
-    let mut cut = text.len();
-    for (i, _) in text.match_indices("#[cfg(test)]") {
-        let rest = text[i + "#[cfg(test)]".len()..].trim_start();
-        if rest.starts_with("mod ") && rest.lines().next().is_some_and(|l| l.ends_with('{')) {
-            cut = cut.min(i);
-        }
-    }
-    text[..cut]
-        .lines()
-        .map(|l| l.split("//").next().unwrap_or(""))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
+use mcc_testing::source::{is_test_file, production_code, rust_files};
 
 /// Whether `code` names the verbs layer: the word `verbs` used as a path segment.
 fn names_verbs(code: &str) -> bool {
@@ -59,13 +31,11 @@ fn the_check_sees_a_verb_import() {
 #[test]
 fn plumbing_never_imports_a_verb() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src.join("cluster"), &mut files);
+    let files = rust_files(&src.join("cluster"));
     assert!(files.len() > 10, "the cluster plumbing's files: {files:?}");
     let mut bad = Vec::new();
     for f in &files {
-        let name = f.file_name().unwrap_or_default().to_string_lossy();
-        if name.ends_with("_tests.rs") || name == "layering.rs" {
+        if is_test_file(f) || f.ends_with("layering.rs") {
             continue;
         }
         let text = std::fs::read_to_string(f).unwrap();

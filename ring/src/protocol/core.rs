@@ -255,6 +255,7 @@ pub struct MemberCore {
     last_rx_seq: Option<u64>,
     last_rx_cycle: Option<u64>,
     rx_frames: u64,
+    rx_packets: u64,
     sync_count: u64,
     cycle: u64,
     last_tick: Option<u64>,
@@ -321,6 +322,7 @@ impl MemberCore {
             last_rx_seq: None,
             last_rx_cycle: None,
             rx_frames: 0,
+            rx_packets: 0,
             sync_count: 0,
             cycle: 0,
             last_tick: None,
@@ -419,6 +421,12 @@ impl MemberCore {
     /// Why the latest ring fault was declared.
     pub fn last_fault(&self) -> Option<CheckFault> {
         self.last_fault
+    }
+
+    /// Whole packets received from upstream so far (a MACRO cycle carries one per node
+    /// address: more in one cycle means copies passed on beside each other).
+    pub fn rx_packets(&self) -> u64 {
+        self.rx_packets
     }
 
     /// Ring cycle of the last frame received from upstream.
@@ -557,6 +565,7 @@ impl MemberCore {
 
         let intact = usize::from(frame.declared) * PACKET_LEN;
         let whole = usize::from(frame.declared).min(frame.packets.len() / PACKET_LEN);
+        self.rx_packets += whole as u64;
         let mut forwards = Vec::with_capacity(whole);
         let mut own_returned = 0usize;
         let mut sync = None;

@@ -5,13 +5,15 @@
 //! fault layer ([`fault`]), the holdover clock ([`holdover`]), the member interface
 //! ([`member`]), the ring settings ([`settings`]), status bits ([`status`]), the auxiliary
 //! channel ([`aux_channel`]), the control-plane messages ([`control`]), the expected verdict
-//! of a fault ([`expect`]) and the deterministic in-process simulator ([`sim`]).
+//! of a fault ([`expect`]), the deterministic in-process simulator ([`sim`]) and the one
+//! builder of a config's ring of member cores ([`builder`]).
 //!
 //! The crate root re-exports each module (`mcc_ring::core`, `mcc_ring::packet`, …), so users
 //! need not name this folder. It builds without the `runtime` feature
 //! (`cargo build -p mcc-ring --no-default-features`).
 
 pub mod aux_channel;
+pub mod builder;
 pub mod check;
 pub mod control;
 pub mod core;

@@ -1,6 +1,6 @@
 //! Run a whole ring inside one process, one thread per member, over the in-process loopback
 //! transport or over real zenoh sessions (one per member, connected over loopback TCP). Used by
-//! tests and by `mcc bench ring`.
+//! tests and by `mcc bench ring` (whose members come from the ring builder, [`crate::builder`]).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -127,6 +127,15 @@ impl<A: RingApp + Send + 'static> LocalRing<A> {
                         }
                     };
                     sessions.push(open_session(&opts)?);
+                }
+                // Gossip connects every peer to every other; wait for the mesh (bounded).
+                let deadline = std::time::Instant::now() + Duration::from_secs(15);
+                while std::time::Instant::now() < deadline
+                    && sessions
+                        .iter()
+                        .any(|s| zenoh::Wait::wait(s.info().peers_zid()).count() + 1 < n)
+                {
+                    std::thread::sleep(Duration::from_millis(20));
                 }
                 for (k, s) in sessions.iter().enumerate() {
                     let (tx, rx, g) = zenoh_link::join(s, cluster, "0", k, n)?;

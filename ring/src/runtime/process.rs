@@ -14,11 +14,9 @@ use tracing::{info, info_span};
 use super::control_plane;
 use super::driver::{Driver, DriverConfig, DriverExit};
 pub use crate::check::card_check;
-use crate::check::RingCheck;
-use crate::config::{ClusterConfig, MemberRef};
+use crate::config::ClusterConfig;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
-use crate::settings::RingSettings;
 use crate::transport::cluster::{self, Role};
 use crate::transport::session::{open_session, SessionOptions};
 use crate::transport::zenoh_link;
@@ -115,23 +113,10 @@ where
         .with_context(|| format!("loading {}", args.config.display()))?;
     let span = info_span!("member", cluster = %config.cluster, name = %args.name);
     let _enter = span.enter();
-    let member = config
-        .member(&args.name)
-        .ok_or_else(|| anyhow!("member '{}' is not in the config", args.name))?;
-    let position = config
-        .position(&args.name)
-        .ok_or_else(|| anyhow!("member '{}' is not in ring.order", args.name))?;
+    // Set up as every ring of member cores is (crate::builder): settings, check, upstream.
+    let mut core_cfg = crate::builder::core_config(&config, &args.name)?;
+    let position = usize::from(core_cfg.position);
     let n = config.ring.order.len();
-    let cs = config
-        .ring_settings(&args.name)
-        .ok_or_else(|| anyhow!("no ring settings for '{}'", args.name))?;
-    let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
-    let check = match member {
-        MemberRef::Card(c) => card_check(&c.ivars),
-        MemberRef::Station(s) => {
-            RingCheck::station(s.check.period, s.check.min_syncs, s.check.max_errors)
-        }
-    };
 
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [
@@ -179,10 +164,6 @@ where
     };
     let (app, extra) = make_app(&ctx)?;
 
-    let mut core_cfg = CoreConfig::new(&args.name, kind, position as u16, settings, 0);
-    core_cfg.check = check;
-    core_cfg.upstream = Some(((position + n - 1) % n) as u16);
-    core_cfg.sync_source = config.sync_source();
     // A restarted member must not look stale to its downstream neighbour.
     core_cfg.seq_base = super::driver::monotonic_ns();
     // The links of a starting cluster come up in any order: check once locked.

@@ -1,21 +1,20 @@
 //! A ring of `n` members run in this process, one thread and one zenoh session each, over the
-//! real zenoh transport and the runtime's member driver — exactly the code a member process
-//! runs, minus the process. The drivers record their timing samples.
+//! real zenoh transport and the runtime's member driver — the cores from the one ring builder
+//! (`mcc_ring::builder`) with the clock set-up of a member process, run by
+//! `mcc_ring::runtime::local` — minus the process. The drivers record their timing samples.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig, MemberRef};
-use mcc_ring::control::MemberKind;
-use mcc_ring::core::{CoreConfig, MemberCore, RingApp};
+use mcc_ring::builder;
+use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_ring::core::RingApp;
 use mcc_ring::member::RingMember;
-use mcc_ring::runtime::driver::{Driver, DriverConfig};
-use mcc_ring::settings::RingSettings;
-use mcc_ring::transport::session::{free_loopback_endpoint, open_session, SessionOptions};
-use mcc_ring::transport::zenoh_link;
-use zenoh::Wait;
+use mcc_ring::runtime::driver::DriverConfig;
+use mcc_ring::runtime::local::{LocalRing, LocalTransport};
+use mcc_ring::runtime::process::apply_clock;
 
 /// A member that computes nothing: the bench measures the ring, not the servo.
 struct Idle;
@@ -44,57 +43,10 @@ pub struct RingRun {
 
 /// Run the ring until the sync master has run `cycles` cycles.
 pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
-    let n = cfg.ring.order.len();
-    let first = free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?;
-    let mut sessions = Vec::new();
-    for k in 0..n {
-        let listen = if k == 0 {
-            first.clone()
-        } else {
-            free_loopback_endpoint().map_err(|e| anyhow!("{e}"))?
-        };
-        let connect = if k == 0 { vec![] } else { vec![first.clone()] };
-        sessions.push(
-            open_session(&SessionOptions {
-                listen: vec![listen],
-                connect,
-                ..Default::default()
-            })
-            .map_err(|e| anyhow!("{e}"))?,
-        );
-    }
-    // Gossip connects every peer to every other; wait for the mesh (bounded).
-    let deadline = Instant::now() + Duration::from_secs(15);
-    while Instant::now() < deadline
-        && sessions
-            .iter()
-            .any(|s| s.info().peers_zid().wait().count() + 1 < n)
-    {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    let mut guards = Vec::new();
-    let mut cmd_senders = Vec::new();
-    let mut drivers = Vec::new();
-    for (k, name) in cfg.ring.order.iter().enumerate() {
-        let (tx, rx, guard) = zenoh_link::join(&sessions[k], &cfg.cluster, &cfg.ring.name, k, n)
-            .map_err(|e| anyhow!("{e}"))?;
-        guards.push(guard);
-        let kind = match cfg.member(name) {
-            Some(MemberRef::Card(_)) => MemberKind::Card,
-            _ => MemberKind::Station,
-        };
-        let cs = cfg
-            .ring_settings(name)
-            .ok_or_else(|| anyhow!("no ring settings for {name}"))?;
-        let settings = RingSettings::new(u32::from(cs.i995), cs.i996);
-        let mut core_cfg = CoreConfig::new(name, kind, k as u16, settings, cfg.period_ns());
-        core_cfg.sync_source = cfg.sync_source();
-        mcc_ring::runtime::process::apply_clock(&mut core_cfg, cfg);
-        let core = MemberCore::new(core_cfg);
-        let sync = cfg.ring.sync_master == *name;
-        let dcfg = DriverConfig {
-            name: name.clone(),
+    let members = builder::members(cfg, |core, _| {
+        let sync = core.settings.is_sync_master();
+        DriverConfig {
+            name: core.name.clone(),
             clock: cfg.clock,
             rate_hz: cfg.rate_hz,
             rtf: cfg.rtf,
@@ -104,62 +56,38 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             upstream_probe: None,
             harden: false,
             max_cycles: sync.then_some(cycles),
-            kind,
-            position: k,
+            kind: core.kind,
+            position: usize::from(core.position),
             extra: serde_json::Map::new(),
             record: cycles as usize + 64,
             phase_delay_ns: cfg.phase_delay_ns(),
-        };
-        let (cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
-        cmd_senders.push(cmd_tx);
-        drivers.push((
-            k,
-            sync,
-            Driver::new(
-                dcfg,
-                core,
-                Idle,
-                Box::new(tx),
-                rx,
-                cmd_rx,
-                Arc::clone(&stop),
-            ),
-        ));
-    }
-    // Followers first, the sync master last, so that the first cycles find everyone listening.
-    drivers.sort_by_key(|(_, sync, _)| *sync);
-    let mut handles = Vec::new();
-    for (k, sync, mut d) in drivers {
-        if sync {
-            std::thread::sleep(Duration::from_millis(200));
         }
-        let stop = Arc::clone(&stop);
-        handles.push((
-            k,
-            std::thread::spawn(move || {
-                let _ = d.run();
-                if sync {
-                    stop.store(true, Ordering::Relaxed);
-                }
-                d.take_records()
-            }),
-        ));
+    })?
+    .into_iter()
+    .map(|(mut core, dcfg)| {
+        apply_clock(&mut core, cfg);
+        (core, Idle, dcfg)
+    })
+    .collect();
+    let sync = cfg
+        .position(&cfg.ring.sync_master)
+        .ok_or_else(|| anyhow!("the sync master is not in the ring"))?;
+    let ring = LocalRing::start(
+        members,
+        LocalTransport::Zenoh {
+            cluster: cfg.cluster.clone(),
+        },
+    )
+    .map_err(|e| anyhow!("{e}"))?;
+    // A generous bound: the sync master runs `cycles` at the config's rate.
+    let bound = Duration::from_secs_f64(cycles as f64 / cfg.rate_hz.max(1.0) * 4.0 + 60.0);
+    let results = ring.join_member(sync, bound);
+    if results.len() != cfg.ring.order.len() {
+        return Err(anyhow!("a bench member thread panicked"));
     }
-    let mut records = vec![Vec::new(); n];
-    for (k, h) in handles {
-        let r = h
-            .join()
-            .map_err(|_| anyhow!("a bench member thread panicked"))?;
-        if let Some(slot) = records.get_mut(k) {
-            *slot = r;
-        }
-    }
-    drop(guards);
-    drop(cmd_senders);
-    for s in sessions {
-        let _ = s.close().wait();
-    }
-    Ok(RingRun { records })
+    Ok(RingRun {
+        records: results.into_iter().map(|r| r.records).collect(),
+    })
 }
 
 /// The bare OS timer at `period_ns`: sleep to each absolute deadline, record wake − deadline
