@@ -6,12 +6,10 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::check::RingCheck;
 use crate::config::IVarValue;
-use crate::core::{CoreConfig, MemberCore, RingApp};
+use crate::core::RingApp;
 use crate::fault::FaultSpec;
 use crate::member::RingMember;
-use crate::settings::RingSettings;
 use crate::sim::RingSim;
 
 /// Writes something new into every node register each cycle (so packets change).
@@ -25,25 +23,15 @@ impl RingApp for Busy {
     }
 }
 
+/// The ring as the member processes build it ([`crate::builder`]); each member's ring check is
+/// the one the model judges by.
 fn sim(cfg: &ClusterConfig) -> RingSim<Busy> {
     let model = RingModel::from_config(cfg).unwrap();
-    let n = cfg.ring.order.len();
-    let members = cfg
-        .ring
-        .order
-        .iter()
-        .zip(&model.members)
-        .enumerate()
-        .map(|(pos, (name, m))| {
-            let rs = cfg.ring_settings(name).unwrap();
-            let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
-            let mut cc = CoreConfig::new(name, m.kind, pos as u16, settings, cfg.period_ns());
-            cc.check = RingCheck::with_params(m.check);
-            cc.upstream = Some(((pos + n - 1) % n) as u16);
-            (MemberCore::new(cc), Busy)
-        })
-        .collect();
-    RingSim::new(members, cfg.period_ns())
+    let sim = crate::builder::sim(cfg, cfg.period_ns(), |_, _| Busy).unwrap();
+    for (i, m) in model.members.iter().enumerate() {
+        assert_eq!(sim.member(i).check().params(), m.check, "member {i}");
+    }
+    sim
 }
 
 #[derive(Clone, Debug)]
