@@ -483,11 +483,12 @@ pub struct BenchRingArgs {
     /// Real-time factor 1: seconds measured per cluster.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub rtf_seconds: f64,
-    /// Only these sections (comma-separated): lockstep, rtf1, realtime, hosts.
+    /// Only these sections (comma-separated): lockstep, rtf1, realtime, hosts, netns.
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,
-    /// Hosts section: the zenoh router to start (default `$MCC_ZENOHD`, else `zenohd` on the
-    /// PATH; without one the router row is skipped, saying so).
+    /// Hosts and netns sections: the zenoh router to start (default `$MCC_ZENOHD`, else
+    /// `zenohd` on the PATH, else `target/zenohd-*/bin/zenohd` of the target directory this
+    /// `mcc` is in; without one the router rows are skipped, saying so).
     #[arg(long, value_name = "PATH")]
     pub zenohd: Option<std::path::PathBuf>,
     /// Realtime section: ring members in one process (default 12: 4 cards + 8 stations).

@@ -33,6 +33,13 @@ use crate::plant::encoder::EncoderParams;
 use crate::plant::flags::Switches;
 use crate::plant::motor::MotorParams;
 
+/// Default differential travel of the limit and home switches, counts: a real switch releases
+/// a little further out than it operates, so a move that ends back towards a switch it has just
+/// left — a servo's undershoot, some 20 counts after a fast jog of the pmac-motorhome suite —
+/// does not trip it again. 100 counts is well inside a mechanical switch's differential travel
+/// at the default 131072 counts per revolution.
+pub const SWITCH_HYSTERESIS: f64 = 100.0;
+
 /// Parameters of one servo node's plant (every field has a default).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -76,6 +83,9 @@ pub struct NodePlantConfig {
     pub minus_limit: f64,
     /// Limit switches fitted (default true).
     pub limits: bool,
+    /// Differential travel of the limit and home switches, counts (default [`SWITCH_HYSTERESIS`]): a switch
+    /// turns on at its configured position and off only this far back outside it.
+    pub switch_hysteresis: f64,
     /// User flag level at start-up (default false).
     pub user_flag: bool,
     /// Longest integration sub-step, seconds (default 50e-6: 9 sub-steps at 2258.7 Hz).
@@ -126,6 +136,7 @@ impl Default for NodePlantConfig {
             plus_limit: 1_000_000.0,
             minus_limit: -1_000_000.0,
             limits: true,
+            switch_hysteresis: SWITCH_HYSTERESIS,
             user_flag: false,
             max_substep: 50e-6,
             capture_control: 2,
@@ -157,6 +168,7 @@ impl NodePlantConfig {
             ("home_width", self.home_width),
             ("plus_limit", self.plus_limit),
             ("minus_limit", self.minus_limit),
+            ("switch_hysteresis", self.switch_hysteresis),
             ("max_substep", self.max_substep),
             ("plus_stop", self.plus_stop),
             ("minus_stop", self.minus_stop),
@@ -186,6 +198,7 @@ impl NodePlantConfig {
             ("viscous", self.viscous),
             ("coulomb", self.coulomb),
             ("home_width", self.home_width),
+            ("switch_hysteresis", self.switch_hysteresis),
             ("stop_stiffness", self.stop_stiffness),
         ];
         for (k, v) in non_negative {
@@ -294,6 +307,7 @@ impl NodePlantConfig {
             home_width: self.home_width,
             plus_limit: self.limits.then_some(self.plus_limit),
             minus_limit: self.limits.then_some(self.minus_limit),
+            hysteresis: self.switch_hysteresis,
         }
     }
 }
@@ -475,6 +489,10 @@ mod tests {
         );
         assert!(e("minus_limit = 2e6").starts_with("plant.minus_limit: must be below"));
         assert!(e("max_substep = 1.0").starts_with("plant.max_substep"));
+        assert!(e("switch_hysteresis = -1").starts_with("plant.switch_hysteresis: must be ≥ 0"));
+        let p = PlantConfig::from_toml_str("[nodes.3]\nswitch_hysteresis = 0").unwrap();
+        assert_eq!(p.node(3).switches().hysteresis, 0.0);
+        assert_eq!(p.node(2).switches().hysteresis, SWITCH_HYSTERESIS);
         assert!(
             e("inertia = nan").contains("finite"),
             "{}",

@@ -23,7 +23,7 @@ use mcc_ring::packet::NodeRegs;
 use crate::config::NodePlantConfig;
 use crate::plant::amplifier::{AmpOutput, Amplifier};
 use crate::plant::encoder::Encoder;
-use crate::plant::flags::{CommandFlags, StatusFlags, Switches, ST_CAPTURED};
+use crate::plant::flags::{CommandFlags, StatusFlags, Switch, SwitchStates, Switches, ST_CAPTURED};
 use crate::plant::motor::Motor;
 
 /// Most sub-steps in one tick (a long gap in realtime mode is integrated in coarser steps).
@@ -55,6 +55,8 @@ pub struct ServoNode {
     motor: Motor,
     encoder: Encoder,
     switches: Switches,
+    /// The switches' states, carried along the shaft's path (they have hysteresis).
+    switch_states: SwitchStates,
     user_flag: bool,
     ring_lockout: bool,
     ring_fault_flag: bool,
@@ -71,6 +73,7 @@ impl ServoNode {
             motor: Motor::new(cfg.motor()),
             encoder: Encoder::new(cfg.encoder()),
             switches: cfg.switches(),
+            switch_states: cfg.switches().at(0.0),
             user_flag: cfg.user_flag,
             ring_lockout: false,
             ring_fault_flag: false,
@@ -94,7 +97,7 @@ impl ServoNode {
         let n = ((dt / self.cfg.max_substep).ceil() as u32).clamp(1, MAX_SUBSTEPS);
         let h = dt / f64::from(n);
         let mut pos = self.counts();
-        let mut level = self.capture_level(pos);
+        let mut level = self.capture_level();
         for _ in 0..n {
             let (stop_torque, stop_damping) = self.stop_contact(pos);
             match self.amp.output(self.motor.velocity()) {
@@ -108,9 +111,11 @@ impl ServoNode {
                 }
             }
             let now = self.counts();
-            let l = self.capture_level(now);
+            let before = self.switch_states;
+            self.switch_states = self.switches.step(before, now);
+            let l = self.capture_level();
             if l && !level {
-                self.latch_edge(pos, now);
+                self.latch_edge(before, pos, now);
             }
             (pos, level) = (now, l);
         }
@@ -120,33 +125,43 @@ impl ServoNode {
         self.encoder.counts(self.motor.position())
     }
 
-    /// The capture flag (MI913) with the MI912 edge applied, at position `counts`.
-    fn capture_level(&self, counts: f64) -> bool {
-        let sw = self.switches.at(counts);
-        let flag = match self.cfg.capture_flag {
-            1 => sw.plus_limit,
-            2 => sw.minus_limit,
-            3 => self.user_flag,
-            _ => sw.home,
+    /// The position switch the capture flag (MI913) selects (None: the user flag).
+    fn capture_switch(&self) -> Option<Switch> {
+        match self.cfg.capture_flag {
+            1 => Some(Switch::PlusLimit),
+            2 => Some(Switch::MinusLimit),
+            3 => None,
+            _ => Some(Switch::Home),
+        }
+    }
+
+    /// The capture flag (MI913) with the MI912 edge applied, at the present switch states.
+    fn capture_level(&self) -> bool {
+        let flag = match self.capture_switch() {
+            Some(s) => self.switch_states.get(s),
+            None => self.user_flag,
         };
         flag != (self.cfg.capture_control & 8 != 0)
     }
 
-    /// The capture flag became true between `from` and `to`: latch the encoder count at the
-    /// switch edge crossed (exact, as the hardware capture of the count at the flag change).
-    fn latch_edge(&mut self, from: f64, to: f64) {
-        let (lo, hi) = if from <= to { (from, to) } else { (to, from) };
+    /// The capture flag became true on the sub-step from `from` (switch states `before`) to
+    /// `to`: latch the encoder count at the switch edge crossed (exact, as the hardware
+    /// capture of the count at the flag change).
+    fn latch_edge(&mut self, before: SwitchStates, from: f64, to: f64) {
         let dir = if to >= from { 1.0 } else { -1.0 };
-        let edge = self
-            .switches
-            .edges()
-            .filter(|&b| b >= lo && b <= hi)
-            .min_by(|a, b| ((a - from).abs()).total_cmp(&(b - from).abs()));
+        let edge = self.capture_switch().and_then(|s| {
+            let on = self.switch_states.get(s);
+            (on != before.get(s))
+                .then(|| self.switches.edge(s, on, from, to))
+                .flatten()
+                .map(|e| (e, on))
+        });
         let at = match edge {
             // The first position past the edge (in the direction of travel) where the flag
-            // is true: the edge itself for an inclusive switch, just past it otherwise.
-            Some(b) if self.capture_level(b) => b,
-            Some(b) => b + dir * 1e-6,
+            // is in its new state: the operate point itself (the region is inclusive), just
+            // past the release point.
+            Some((e, true)) => e,
+            Some((e, false)) => e + dir * 1e-6,
             None => to,
         };
         self.captured = Some(at.floor() as i64);
@@ -178,7 +193,7 @@ impl ServoNode {
         let c = self.counts();
         let lim = c.clamp(self.cfg.minus_stop, self.cfg.plus_stop);
         if lim != c {
-            self.set_position(lim);
+            self.put_shaft(lim);
         }
     }
 
@@ -228,15 +243,14 @@ impl ServoNode {
     /// station ring fault reports FAULT on every node while it is latched.
     pub fn flags(&self) -> StatusFlags {
         let theta = self.motor.position();
-        let counts = self.encoder.counts(theta);
-        let sw = self.switches.at(counts);
+        let sw = self.switch_states;
         let (cha, chb) = self.encoder.channels(theta);
         StatusFlags {
             cha,
             chb,
             amp_enabled: self.amp.active(),
             amp_fault: self.amp.faulted() || self.ring_fault_flag,
-            home: self.capture_level(counts),
+            home: self.capture_level(),
             plus_limit: sw.plus_limit,
             minus_limit: sw.minus_limit,
             user: self.user_flag,
@@ -255,6 +269,7 @@ impl ServoNode {
         self.motor.set_params(cfg.motor());
         self.encoder = Encoder::new(cfg.encoder());
         self.switches = cfg.switches();
+        self.switch_states = self.switches.step(self.switch_states, self.counts());
         if cfg.user_flag != self.cfg.user_flag {
             self.user_flag = cfg.user_flag;
         }
@@ -279,15 +294,22 @@ impl ServoNode {
     /// Set the user flag input (a capture edge when MI913 selects it).
     pub fn set_user_flag(&mut self, on: bool) {
         let c = self.counts();
-        let before = self.capture_level(c);
+        let before = self.capture_level();
         self.user_flag = on;
-        if self.capture_level(c) && !before {
+        if self.capture_level() && !before {
             self.captured = Some(c.floor() as i64);
         }
     }
 
-    /// Put the shaft at `counts` (at rest), e.g. to start a test near a switch.
+    /// Put the shaft at `counts` (at rest), e.g. to start a test near a switch; the switches
+    /// read as if it had come there from outside them.
     pub fn set_position(&mut self, counts: f64) {
+        self.put_shaft(counts);
+        self.switch_states = self.switches.at(counts);
+    }
+
+    /// The shaft at `counts`, at rest (the switches follow on the next sub-step).
+    fn put_shaft(&mut self, counts: f64) {
         let theta = counts / self.cfg.counts_per_rev * std::f64::consts::TAU;
         self.motor.set_state(theta, 0.0);
     }

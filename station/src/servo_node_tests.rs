@@ -340,12 +340,28 @@ fn capture_latches_the_count_at_the_flag_edge_and_end_stops_hold() {
         fb.r1, 5000,
         "the count at the edge, not where the tick ended"
     );
-    // Falling edge (MI912 = 10) going down out of the window: the first count below it.
+    // Falling edge (MI912 = 10) going down out of the window: the first count below it, the
+    // switch's hysteresis (default 100 counts) below the window.
     let cfg = NodePlantConfig {
         capture_control: 10,
         ..NodePlantConfig::default()
     };
     let mut d = ServoNode::new(0, &cfg);
+    d.set_position(4903.0);
+    d.switch_states.home = true; // came from inside the window
+    for _ in 0..3 {
+        d.motor.set_state(d.motor.position(), -omega);
+        d.advance(0.000_442_7);
+    }
+    assert_eq!(d.feedback().r1, 4899);
+    // Without hysteresis the window's own edge.
+    let mut d = ServoNode::new(
+        0,
+        &NodePlantConfig {
+            switch_hysteresis: 0.0,
+            ..cfg
+        },
+    );
     d.set_position(5003.0);
     for _ in 0..3 {
         d.motor.set_state(d.motor.position(), -omega);
@@ -387,4 +403,77 @@ fn capture_latches_the_count_at_the_flag_edge_and_end_stops_hold() {
         bad.validate().unwrap_err().key_path(),
         Some("stop_stiffness")
     );
+}
+
+/// The pmac-motorhome `home_limit` path on one node: off the −limit (the release, captured
+/// `switch_hysteresis` above the switch), back a little towards it (a servo's undershoot), and
+/// then into it. The undershoot trips nothing; the −limit and the capture flag rise only at
+/// the switch position itself, and the count latched there is the switch's.
+#[test]
+fn hysteresis_keeps_a_released_limit_off_until_the_switch_position() {
+    use crate::plant::flags::ST_CAPTURED;
+    let c = NodePlantConfig {
+        minus_limit: -30_000.0,
+        switch_hysteresis: 100.0,
+        capture_flag: 2,
+        capture_control: 10,
+        ..NodePlantConfig::default()
+    };
+    let mut n = ServoNode::new(1, &c);
+    n.set_position(-30_050.0);
+    assert_ne!(n.feedback().r3 & ST_MLIM, 0, "on the limit");
+    let speed = |cps: f64| cps / 131_072.0 * TAU;
+    let run = |n: &mut ServoNode, cps: f64, to: f64| {
+        for _ in 0..100_000 {
+            let p = n.snapshot().position;
+            if (cps > 0.0 && p >= to) || (cps < 0.0 && p <= to) {
+                return;
+            }
+            n.motor.set_state(n.motor.position(), speed(cps));
+            n.advance(50e-6);
+        }
+        panic!("never reached {to}");
+    };
+    // Up and off: still on the switch 50 counts above it, released past −29900.
+    run(&mut n, 20_000.0, -29_950.0);
+    assert_ne!(
+        n.feedback().r3 & ST_MLIM,
+        0,
+        "inside the differential travel"
+    );
+    assert_eq!(n.feedback().r3 & ST_CAPTURED, 0);
+    run(&mut n, 20_000.0, -29_850.0);
+    let fb = n.feedback();
+    assert_eq!(fb.r3 & ST_MLIM, 0, "released");
+    assert_ne!(fb.r3 & ST_CAPTURED, 0);
+    assert_eq!(fb.r1, (-29_900i64 & 0xFFFF) as u16, "the release count");
+    // Back down 80 counts past the release point (an undershoot): still off.
+    run(&mut n, -20_000.0, -29_980.0);
+    assert_eq!(
+        n.feedback().r3 & (ST_MLIM | ST_HOME),
+        ST_HOME,
+        "off; falling-edge flag 1"
+    );
+    // A rising-edge capture (MI912 = 2, as HM uses it) fires at the switch position.
+    let rising = NodePlantConfig {
+        capture_control: 2,
+        ..c
+    };
+    n.reconfigure(&rising);
+    assert_eq!(n.feedback().r3 & (ST_MLIM | ST_HOME), 0);
+    run(&mut n, -20_000.0, -30_010.0);
+    let fb = n.feedback();
+    assert_eq!(fb.r3 & (ST_MLIM | ST_HOME), ST_MLIM | ST_HOME);
+    assert_eq!(fb.r1, (-30_000i64 & 0xFFFF) as u16, "the switch position");
+    // Deterministic: the same path twice gives the same registers.
+    let again = {
+        let mut m = ServoNode::new(1, &c);
+        m.set_position(-30_050.0);
+        run(&mut m, 20_000.0, -29_850.0);
+        m.feedback()
+    };
+    let mut m = ServoNode::new(1, &c);
+    m.set_position(-30_050.0);
+    run(&mut m, 20_000.0, -29_850.0);
+    assert_eq!(m.feedback(), again);
 }

@@ -2,15 +2,22 @@
 ring: the PLC it generates for a "PMAC" controller with MACRO axes is preprocessed and
 downloaded with dls-pmaclib (ClsPmacParser + PmacEthernetInterface.sendSeries, as the DLS
 download tools do), started through the generator's own group variable and watched through
-its own state and status variables. The station plant places the switches:
+its own state and status variables. The station plant places the switches, each with the
+plant's default 100 counts of hysteresis (`switch_hysteresis`, spelled out below: a switch
+operates at its position and releases 100 counts further out, as a real switch's
+differential travel):
 
-| motor | node | sequence        | plant                                    | zero at          |
-|-------|------|-----------------|------------------------------------------|------------------|
-| 1     | 0    | home_hsw        | home switch 5000..6000, limits ±30000    | 5000 (rising)    |
-| 2     | 1    | home_limit      | −limit −30000, Ixx23 < 0, MI913 = 2      | −30000           |
-| 3     | 4    | home_rlim       | −limit −30000, Ixx23 > 0, MI912 = 10     | −30000 (release) |
-| 4     | 5    | home_hsw_hstop  | no limits, end stop at −30000, home 5000 | 5000 (rising)    |
-| 5     | 8    | home_home (HM)  | home switch 5000..6000                   | 5000 (rising)    |
+| motor | node | sequence        | plant                                    | zero at                  |
+|-------|------|-----------------|------------------------------------------|--------------------------|
+| 1     | 0    | home_hsw        | home switch 5000..6000, limits ±30000    | 5000 (rising)            |
+| 2     | 1    | home_limit      | −limit −30000, Ixx23 < 0, MI913 = 2      | −30000 (operate)         |
+| 3     | 4    | home_rlim       | −limit −30000, Ixx23 > 0, MI912 = 10     | −29900 (release: +100)   |
+| 4     | 5    | home_hsw_hstop  | no limits, end stop at −30000, home 5000 | 5000 (rising)            |
+| 5     | 8    | home_home (HM)  | home switch 5000..6000                   | 5000 (rising)            |
+
+home_limit's retrace returns to the −limit's release count and undershoots it by some 20
+counts (the fast jog ramps below): the hysteresis keeps the released switch off there, so
+the limit stop does not fire and the HM (limits off) finds the switch edge itself.
 
 The zero is checked against the plant: the MACRO node's feedback register 0 (the encoder
 count the station reports, 5 fractional bits) minus the motor's reported position is where
@@ -34,21 +41,24 @@ from pmac_motorhome.sequences import (
 from mcc_cluster import turbo_cluster
 
 PLC = 11
+#: Switch hysteresis, counts (the station's default).
+HYSTERESIS = 100
 #: (group, motor, node, sequence, switch edge in plant counts)
 CASES = [
     (2, 1, 0, home_hsw, 5000),
     (3, 2, 1, home_limit, -30000),
-    (4, 3, 4, home_rlim, -30000),
+    (4, 3, 4, home_rlim, -30000 + HYSTERESIS),
     (5, 4, 5, home_hsw_hstop, 5000),
     (6, 5, 8, home_home, 5000),
 ]
 #: One homing sequence runs a few seconds of ring time; a generous bound for a loaded machine.
 HOME_TIMEOUT = 120
 
-PLANT = """
+PLANT = f"""
 [stations.plant]
 plus_limit = 30000
 minus_limit = -30000
+switch_hysteresis = {HYSTERESIS}
 [stations.plant.nodes.5]
 limits = false
 hard_stops = true
@@ -134,17 +144,7 @@ def plant_position(p, node):
     return signed24(raw) / 32.0
 
 
-def marks(case):
-    """home_limit homes ~99 counts past the −limit edge: its retrace returns to the release
-    count, overshoots into the −limit, the limit stop leaves it on the limit and the HM
-    triggers at once (ARCHITECTURE.md, pmac-motorhome suite). Known defect, open."""
-    if case[3] is home_limit:
-        return [pytest.mark.xfail(strict=True, reason="home_limit zero ~99 counts late")]
-    return []
-
-
-@pytest.mark.parametrize(
-    "case", [pytest.param(c, marks=marks(c), id=c[3].__name__) for c in CASES])
+@pytest.mark.parametrize("case", [pytest.param(c, id=c[3].__name__) for c in CASES])
 def test_generated_homing_plc_zeroes_the_motor_at_the_switch_edge(ring, pmac, case):
     g, x, node, seq, edge = case
     state, status, grp = (f"P{PLC}00", f"P{PLC}01", f"P{PLC}02")

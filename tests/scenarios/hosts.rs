@@ -867,3 +867,97 @@ subjects = ["links"]
     );
     assert_nothing_left(&cluster);
 }
+
+/// The bench's namespace names (`mcc-netns`: `mcc<pid><tag>-<ns>`, tag "bench") now present.
+fn bench_namespaces() -> Vec<String> {
+    Command::new("ip")
+        .args(["netns", "list"])
+        .output()
+        .map(|o| {
+            text(&o.stdout)
+                .lines()
+                .filter_map(|l| l.split_whitespace().next())
+                .filter(|n| n.starts_with("mcc") && n.contains("bench-"))
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The first number after `label` on its report line.
+fn figure(report: &str, label: &str) -> Option<f64> {
+    let line = report.lines().find(|l| l.trim_start().starts_with(label))?;
+    line[line.find(label)? + label.len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// `mcc bench ring --only netns` reports the ring across three network namespaces: peer to
+/// peer and through zenohd in one run, with the router's hop cost against peer to peer; where
+/// that cannot run (not root, no `ip`, no zenohd) the report says SKIPPED and why, and the
+/// bench still succeeds. The lab is gone afterwards.
+#[test]
+fn bench_ring_reports_the_ring_across_network_namespaces() {
+    const TEST: &str = "bench_ring_reports_the_ring_across_network_namespaces";
+    let before = bench_namespaces();
+    let mut cmd = Command::new(bin_dir().join("mcc"));
+    cmd.args(["bench", "ring", "--only", "netns", "--seconds", "0.5"])
+        .env_remove("MCC_CHAIN_PORT")
+        .env_remove("MCC_EMCL_PORT")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let zenohd = netns::zenohd();
+    if let Some(z) = &zenohd {
+        cmd.arg("--zenohd").arg(z);
+    }
+    let out = run_bounded(cmd, None, Duration::from_secs(600)).unwrap_or_else(|e| panic!("{e}"));
+    let report = text(&out.stdout);
+    assert!(out.status.success(), "{report}\n{}", text(&out.stderr));
+    assert!(
+        report.contains("(e) across three network namespaces"),
+        "{report}"
+    );
+    match Lab::new("probe") {
+        Err(why) => {
+            eprintln!("SKIPPED {TEST} (measurement part): {why}");
+            assert!(report.contains("network namespaces: SKIPPED ("), "{report}");
+        }
+        Ok(lab) => {
+            drop(lab);
+            let p2p = figure(&report, "namespaces, peer to peer").unwrap_or(0.0);
+            assert!(p2p > 0.0, "no peer-to-peer cycles/s: {report}");
+            match zenohd {
+                None => {
+                    eprintln!("SKIPPED {TEST} (router part): zenohd is not installed");
+                    assert!(
+                        report.contains("namespaces, through zenohd in r: SKIPPED (no zenohd"),
+                        "{report}"
+                    );
+                }
+                Some(_) => {
+                    let r = figure(&report, "namespaces, through zenohd in r").unwrap_or(0.0);
+                    assert!(r > 0.0, "no cycles/s through the router: {report}");
+                    let ratio = report
+                        .lines()
+                        .find_map(|l| l.split("router vs peer to peer: hop ").nth(1))
+                        .and_then(|r| r.split('×').next())
+                        .and_then(|r| r.trim().parse::<f64>().ok());
+                    // The same ring: the ratio is the two rows' hop figures (cycles/s inverted).
+                    let want = p2p / r;
+                    assert!(
+                        ratio.is_some_and(|x| (x - want).abs() <= 0.02 * want + 0.01),
+                        "ratio {ratio:?}, rows give {want:.2}: {report}"
+                    );
+                }
+            }
+        }
+    }
+    let left: Vec<_> = bench_namespaces()
+        .into_iter()
+        .filter(|n| !before.contains(n))
+        .collect();
+    assert!(left.is_empty(), "namespaces left behind: {left:?}");
+}

@@ -90,7 +90,8 @@ fn software_capture_is_late_by_the_flag_latency() {
 
 /// DLS retrace phases flip the capture edge (MSW{ms},I912): with MI912 = 10 (falling edge of
 /// the flag, seed 5195) a search in − from inside the home window captures where the flag
-/// drops, at count 4999 (the first count below the window 5000..=6000).
+/// drops: the switch's release point, its hysteresis (`switch_hysteresis`, default 100
+/// counts) below the window 5000..=6000, so count 4899 (the first count below 4900).
 #[test]
 fn falling_edge_capture_from_inside_the_window() {
     let mut rig = rig_with(NodePlantConfig::default());
@@ -103,7 +104,9 @@ fn falling_edge_capture_from_inside_the_window() {
     rig.cmd("I123=-32");
     home(&mut rig);
     let z = zero_at(&mut rig);
-    assert!((z - 4999.0).abs() < 0.2, "zero at {z}");
+    let release = 5000.0 - cfg.switch_hysteresis;
+    assert_eq!(release, 4900.0, "the default hysteresis");
+    assert!((z - (release - 1.0)).abs() < 0.2, "zero at {z}");
 }
 
 /// MI913 = 1 (I9n3: capture on the +limit flag, seed 5211-5217) with the limit function off

@@ -31,12 +31,20 @@
 //! the default polarity, which is the safe reading.
 //!
 //! **Limits.** PLIM blocks positive motion and MLIM blocks negative motion (the PMAC2 reading
-//! recommended by spec §3.4's [CONFLICT] note). A limit switch is tripped when the motor's
-//! actual position is at or beyond the configured switch position (in encoder counts).
+//! recommended by spec §3.4's [CONFLICT] note). A limit switch trips when the motor's actual
+//! position reaches the configured switch position (in encoder counts) from outside.
 //!
-//! **Home flag.** Active while the actual position is inside the window
+//! **Home flag.** Turns on when the actual position enters the window
 //! `home_position ..= home_position + home_width` (counts): a search in the + direction sees the
 //! flag rise at `home_position`, one in the − direction at `home_position + home_width`.
+//!
+//! **Hysteresis** (`switch_hysteresis`, counts; a real switch's differential travel). Each
+//! switch is a region — the −limit `..= minus_limit`, the +limit `plus_limit ..`, the home
+//! window — that the flag turns on entering (the operate point) and only turns off again once
+//! the position is more than the hysteresis outside it (the release point): the −limit releases
+//! above `minus_limit + h`, the +limit below `plus_limit − h`, the home flag below
+//! `home_position − h` and above `home_position + home_width + h`. The flags therefore depend
+//! on the path, not only on the position: [`Switches::step`] carries them along it.
 
 /// Register-3 bit (card → station): amplifier enable.
 pub const CMD_AMP_ENABLE: u16 = 1 << 6;
@@ -148,6 +156,9 @@ pub struct Switches {
     pub plus_limit: Option<f64>,
     /// Negative limit switch position (counts); None = no switch.
     pub minus_limit: Option<f64>,
+    /// Differential travel of every switch (counts, ≥ 0): how far past its operate point a
+    /// switch that is on must come back before it turns off.
+    pub hysteresis: f64,
 }
 
 /// Which position switches are active at a position.
@@ -161,26 +172,77 @@ pub struct SwitchStates {
     pub minus_limit: bool,
 }
 
+/// One of the position switches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Switch {
+    /// The home switch.
+    Home,
+    /// The positive limit.
+    PlusLimit,
+    /// The negative limit.
+    MinusLimit,
+}
+
+impl SwitchStates {
+    /// The state of switch `s`.
+    pub fn get(&self, s: Switch) -> bool {
+        match s {
+            Switch::Home => self.home,
+            Switch::PlusLimit => self.plus_limit,
+            Switch::MinusLimit => self.minus_limit,
+        }
+    }
+}
+
 impl Switches {
-    /// Every switch edge position (home window ends, limits), counts.
-    pub fn edges(&self) -> impl Iterator<Item = f64> {
-        [
-            Some(self.home_position),
-            Some(self.home_position + self.home_width),
-            self.plus_limit,
-            self.minus_limit,
-        ]
-        .into_iter()
-        .flatten()
+    /// The operate region of switch `s` (`lo ..= hi`, either end may be infinite), or None
+    /// when it is not fitted.
+    fn region(&self, s: Switch) -> Option<(f64, f64)> {
+        match s {
+            Switch::Home => Some((self.home_position, self.home_position + self.home_width)),
+            Switch::PlusLimit => self.plus_limit.map(|p| (p, f64::INFINITY)),
+            Switch::MinusLimit => self.minus_limit.map(|m| (f64::NEG_INFINITY, m)),
+        }
     }
 
-    /// The switch states at actual position `counts`.
+    /// Switch `s` coming to `counts` in state `on`: on inside the operate region; once on, on
+    /// until more than the hysteresis outside it.
+    fn next(&self, s: Switch, on: bool, counts: f64) -> bool {
+        let Some((lo, hi)) = self.region(s) else {
+            return false;
+        };
+        let h = if on { self.hysteresis } else { 0.0 };
+        counts >= lo - h && counts <= hi + h
+    }
+
+    /// The switch states at `counts` for a shaft that came there from outside every switch
+    /// (no history: start-up, a shaft put somewhere).
     pub fn at(&self, counts: f64) -> SwitchStates {
+        self.step(SwitchStates::default(), counts)
+    }
+
+    /// The switch states after a move to `counts` from a position where they were `prev`
+    /// (a move short enough to cross each switch edge at most once).
+    pub fn step(&self, prev: SwitchStates, counts: f64) -> SwitchStates {
         SwitchStates {
-            home: counts >= self.home_position && counts <= self.home_position + self.home_width,
-            plus_limit: self.plus_limit.is_some_and(|p| counts >= p),
-            minus_limit: self.minus_limit.is_some_and(|m| counts <= m),
+            home: self.next(Switch::Home, prev.home, counts),
+            plus_limit: self.next(Switch::PlusLimit, prev.plus_limit, counts),
+            minus_limit: self.next(Switch::MinusLimit, prev.minus_limit, counts),
         }
+    }
+
+    /// Where switch `s` changed to `on` on a move from `from` to `to`: its operate point
+    /// entering the region, its release point (the hysteresis outside) leaving it.
+    pub fn edge(&self, s: Switch, on: bool, from: f64, to: f64) -> Option<f64> {
+        let (lo, hi) = self.region(s)?;
+        let up = to >= from;
+        let e = match (on, up) {
+            (true, true) => lo,
+            (true, false) => hi,
+            (false, true) => hi + self.hysteresis,
+            (false, false) => lo - self.hysteresis,
+        };
+        e.is_finite().then_some(e)
     }
 }
 
@@ -194,6 +256,7 @@ mod tests {
             home_width: 1000.0,
             plus_limit: Some(20_000.0),
             minus_limit: Some(-20_000.0),
+            hysteresis: 0.0,
         }
     }
 
@@ -215,6 +278,83 @@ mod tests {
             ..s
         };
         assert_eq!(none.at(1e12), SwitchStates::default());
+    }
+
+    /// A path through every switch, one step at a time: the states at each position.
+    fn walk(s: &Switches, path: &[f64]) -> Vec<SwitchStates> {
+        let mut st = s.at(path[0]);
+        let mut out = vec![st];
+        for &p in &path[1..] {
+            st = s.step(st, p);
+            out.push(st);
+        }
+        out
+    }
+
+    #[test]
+    fn hysteresis_moves_the_release_points_out_by_the_differential_travel() {
+        let s = Switches {
+            hysteresis: 10.0,
+            ..sw()
+        };
+        // Into the −limit and back out: on at −20000, still on up to −19990, off past it.
+        let m: Vec<bool> = walk(&s, &[-19_999.0, -20_000.0, -20_050.0, -19_995.0, -19_990.0])
+            .iter()
+            .map(|x| x.minus_limit)
+            .collect();
+        assert_eq!(m, [false, true, true, true, true]);
+        assert!(!s.step(s.at(-20_000.0), -19_989.99).minus_limit);
+        // Released, a return that overshoots a few counts back towards it stays off: only
+        // the operate point trips it again.
+        let off = s.step(s.at(-20_000.0), -19_989.0);
+        assert!(!s.step(off, -19_995.0).minus_limit);
+        assert!(s.step(off, -20_000.0).minus_limit);
+        // The +limit mirrors it.
+        assert!(s.step(s.at(20_000.0), 19_990.0).plus_limit);
+        assert!(!s.step(s.at(20_000.0), 19_989.99).plus_limit);
+        // The home window: on entering at either end, off 10 counts outside either end.
+        let h: Vec<bool> = walk(&s, &[4_995.0, 5_000.0, 6_005.0, 6_010.0, 6_010.01, 6_005.0])
+            .iter()
+            .map(|x| x.home)
+            .collect();
+        assert_eq!(h, [false, true, true, true, false, false]);
+        assert!(s.step(s.at(5_500.0), 4_990.0).home);
+        assert!(!s.step(s.at(5_500.0), 4_989.99).home);
+        // The edges: operate points entering, release points leaving.
+        assert_eq!(
+            s.edge(Switch::MinusLimit, true, -19_000.0, -21_000.0),
+            Some(-20_000.0)
+        );
+        assert_eq!(
+            s.edge(Switch::MinusLimit, false, -21_000.0, -19_000.0),
+            Some(-19_990.0)
+        );
+        assert_eq!(
+            s.edge(Switch::PlusLimit, false, 21_000.0, 19_000.0),
+            Some(19_990.0)
+        );
+        assert_eq!(s.edge(Switch::Home, true, 7_000.0, 5_500.0), Some(6_000.0));
+        assert_eq!(s.edge(Switch::Home, false, 5_500.0, 4_000.0), Some(4_990.0));
+        assert_eq!(s.edge(Switch::Home, false, 5_500.0, 7_000.0), Some(6_010.0));
+        let none = Switches {
+            plus_limit: None,
+            ..s
+        };
+        assert_eq!(none.edge(Switch::PlusLimit, true, 0.0, 1e9), None);
+        // Without hysteresis the flags are a function of the position alone.
+        let z = sw();
+        for p in [
+            -20_000.5, -20_000.0, -19_999.5, 5_000.0, 6_000.0, 6_000.5, 20_000.0,
+        ] {
+            for prev in [
+                SwitchStates::default(),
+                z.at(-30_000.0),
+                z.at(30_000.0),
+                z.at(5_500.0),
+            ] {
+                assert_eq!(z.step(prev, p), z.at(p), "{p} from {prev:?}");
+            }
+        }
     }
 
     #[test]

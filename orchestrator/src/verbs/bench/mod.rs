@@ -10,6 +10,7 @@ pub mod faults;
 pub mod host;
 pub mod hosts;
 pub mod inproc;
+pub mod netns;
 pub mod procstat;
 pub mod ring;
 pub mod soak;

@@ -8,7 +8,9 @@
 //! (c) realtime sync-arrival lateness per member (in-process ring) beside a bare OS timer probe
 //!     run at the same time;
 //! (d) across hosts: one ring on one machine, on two hosts peer to peer, and through `zenohd`
-//!     (the hop cost of the router vs peer to peer; [`super::hosts`]).
+//!     (the hop cost of the router vs peer to peer; [`super::hosts`]);
+//! (e) the same two hosts in network namespaces of their own, `zenohd` in a third: peer to peer
+//!     and through the router in one run (root only, else SKIPPED; [`super::netns`]).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -19,7 +21,7 @@ use mcc_ring::config::ClockMode;
 
 use super::cluster::{self, ClusterFigures, ClusterSpec};
 use super::stats::{complete_cycles, lateness, percentile, us};
-use super::{hosts, inproc, udp};
+use super::{hosts, inproc, netns, udp};
 use crate::cli::BenchRingArgs;
 
 /// Lockstep targets (issue 8) on the reference 2-core machine: cycles/s by (cards, stations).
@@ -61,19 +63,36 @@ pub fn parse_sizes(text: &str) -> Result<Vec<(u8, u8)>> {
     Ok(v)
 }
 
-/// Which sections to run: lockstep, rtf1, realtime, hosts.
-fn sections(only: Option<&str>) -> Result<(bool, bool, bool, bool)> {
+/// Which sections to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Sections {
+    lockstep: bool,
+    rtf1: bool,
+    realtime: bool,
+    hosts: bool,
+    netns: bool,
+}
+
+/// Which sections to run: lockstep, rtf1, realtime, hosts, netns (default all).
+fn sections(only: Option<&str>) -> Result<Sections> {
     let Some(only) = only else {
-        return Ok((true, true, true, true));
+        return Ok(Sections {
+            lockstep: true,
+            rtf1: true,
+            realtime: true,
+            hosts: true,
+            netns: true,
+        });
     };
-    let mut s = (false, false, false, false);
+    let mut s = Sections::default();
     for w in only.split(',').map(str::trim).filter(|w| !w.is_empty()) {
         match w {
-            "lockstep" => s.0 = true,
-            "rtf1" => s.1 = true,
-            "realtime" => s.2 = true,
-            "hosts" => s.3 = true,
-            other => bail!("--only {other:?}: expected lockstep, rtf1, realtime or hosts"),
+            "lockstep" => s.lockstep = true,
+            "rtf1" => s.rtf1 = true,
+            "realtime" => s.realtime = true,
+            "hosts" => s.hosts = true,
+            "netns" => s.netns = true,
+            other => bail!("--only {other:?}: expected lockstep, rtf1, realtime, hosts or netns"),
         }
     }
     Ok(s)
@@ -97,7 +116,7 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
         }
     }
     let sizes = parse_sizes(&args.sizes)?;
-    let (lockstep, rtf1, realtime, across) = sections(args.only.as_deref())?;
+    let only = sections(args.only.as_deref())?;
     let cpus = std::thread::available_parallelism()
         .map(|c| c.get())
         .unwrap_or(1);
@@ -107,17 +126,23 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
         "release build"
     };
     println!("mcc bench ring: {cpus} CPUs, {build}");
-    if lockstep {
+    if only.lockstep {
         run_lockstep(&sizes, Duration::from_secs_f64(args.seconds))?;
     }
-    if rtf1 {
+    if only.rtf1 {
         run_rtf1(&sizes, Duration::from_secs_f64(args.rtf_seconds))?;
     }
-    if realtime {
+    if only.realtime {
         run_realtime(args)?;
     }
-    if across {
+    if only.hosts {
         hosts::run(
+            Duration::from_secs_f64(args.seconds),
+            args.zenohd.as_deref(),
+        )?;
+    }
+    if only.netns {
+        netns::run(
             Duration::from_secs_f64(args.seconds),
             args.zenohd.as_deref(),
         )?;
@@ -326,12 +351,24 @@ mod tests {
             let e = parse_sizes(bad).unwrap_err().to_string();
             assert!(e.contains("--sizes"), "{bad}: {e}");
         }
-        assert_eq!(sections(None).unwrap(), (true, true, true, true));
-        assert_eq!(sections(Some("rtf1")).unwrap(), (false, true, false, false));
-        assert_eq!(
-            sections(Some("hosts,lockstep")).unwrap(),
-            (true, false, false, true)
-        );
+        let all = sections(None).unwrap();
+        assert!(all.lockstep && all.rtf1 && all.realtime && all.hosts && all.netns);
+        let rtf1 = Sections {
+            rtf1: true,
+            ..Sections::default()
+        };
+        assert_eq!(sections(Some("rtf1")).unwrap(), rtf1);
+        let two = Sections {
+            lockstep: true,
+            hosts: true,
+            ..Sections::default()
+        };
+        assert_eq!(sections(Some("hosts,lockstep")).unwrap(), two);
+        let netns = Sections {
+            netns: true,
+            ..Sections::default()
+        };
+        assert_eq!(sections(Some(" netns ")).unwrap(), netns);
         assert!(sections(Some("fast"))
             .unwrap_err()
             .to_string()
