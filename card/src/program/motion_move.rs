@@ -236,6 +236,8 @@ impl CsExec {
     /// `READ(...)`: consume the calling line's arguments into Q101..Q126 / Q100.
     pub(super) fn read(&mut self, card: &mut CardModel, letters: &[u8]) {
         let num = self.num;
+        let ext = card.state.limits().sem.read_ext;
+        let at = card.exec;
         let Some(f) = self.frames.last_mut() else {
             return;
         };
@@ -247,11 +249,27 @@ impl CsExec {
                 break;
             }
             mask |= 1 << (k - 1);
-            let _ = card.state.vars.set_q(num, 100 + k, v);
+            match ext {
+                Some(fam) => {
+                    let _ = card.ext_write(&at, fam, k, v);
+                }
+                None => {
+                    let _ = card.state.vars.set_q(num, 100 + k, v);
+                }
+            }
             used += 1;
         }
         f.args.drain(..used);
-        let _ = card.state.vars.set_q(num, 100, f64::from(mask));
+        match ext {
+            Some(fam) => {
+                for n in [0, 54] {
+                    let _ = card.ext_write(&at, fam, n, f64::from(mask));
+                }
+            }
+            None => {
+                let _ = card.state.vars.set_q(num, 100, f64::from(mask));
+            }
+        }
     }
 }
 
