@@ -124,6 +124,10 @@ pub struct Semantics {
     /// of the language's extension family `f`, the mask of letters read (bit k−1) into
     /// numbers 0 and 54 (Power PMAC D-variables); `None`: Q101-Q126 and Q100 (classic).
     pub read_ext: Option<u16>,
+    /// A call of a missing program stops the program with a run-time error and a missing
+    /// label calls the program's top (Power PMAC, seed L39878-39880); `false`: both are
+    /// ignored (classic).
+    pub strict_calls: bool,
 }
 
 /// The classic (PMAC2/Turbo) behaviour.
@@ -135,6 +139,7 @@ const CLASSIC: Semantics = Semantics {
     code_prog_ivar: None,
     max_call_depth: 16,
     read_ext: None,
+    strict_calls: false,
 };
 
 /// The dimensions of `profile`.
@@ -179,6 +184,7 @@ pub(crate) fn limits(profile: Profile) -> Limits {
                 code_prog_ivar: Some(POWER_CODE_PROG_IVAR),
                 max_call_depth: 255,
                 read_ext: Some(POWER_READ_EXT),
+                strict_calls: true,
             },
         },
     }

@@ -316,3 +316,26 @@ fn list_pc_and_apc_follow_the_program_counter() {
     assert_eq!(t.send("list apc,"), "prog 25\r\n3:dwell 50\r\n4:end\r\n");
     assert!(t.send("list pc,x").contains("error #20:"));
 }
+
+/// Seed L39878-39880: a call of a missing subprogram stops the program with an error; a
+/// missing label in an existing one calls its top.
+#[test]
+fn calls_of_missing_subprograms_stop_and_missing_labels_start_at_the_top() {
+    let mut t = T::new();
+    t.load(&[
+        "open subprog 8",
+        "P71 = P71 + 1",
+        "return",
+        "close",
+        "open prog 13",
+        "call 8.25 P72 = 1",
+        "call 9 P73 = 1",
+        "close",
+    ]);
+    t.ready_cs1();
+    assert_eq!(t.send("&1 b13 r"), "");
+    t.run(100);
+    assert_eq!(t.send("P71..73"), "P71=1\r\nP72=1\r\nP73=0\r\n");
+    // The C.S. is no longer running: `Coord[1].Status[1]` bit 27 (block active) clear.
+    assert_eq!(t.send("echo1 Coord[1].Status[1]"), "$0\r\n");
+}
