@@ -42,6 +42,18 @@ pub(crate) struct Store {
     values: HashMap<Key, f64>,
 }
 
+impl Store {
+    /// The value kept for `k`.
+    pub(crate) fn value(&self, k: &Key) -> Option<f64> {
+        self.values.get(k).copied()
+    }
+
+    /// Keep `v` for `k` (no checks: for values the card itself produces).
+    pub(crate) fn set_value(&mut self, k: Key, v: f64) {
+        self.values.insert(k, v);
+    }
+}
+
 /// Check the indices of `e` (already evaluated as `idx`, `sub`) and build its key.
 pub(crate) fn key(e: &ElemRef, idx: Option<f64>, sub: &[f64]) -> Result<Key, AccessError> {
     let d = &DEFS[e.def];

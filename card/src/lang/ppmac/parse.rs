@@ -96,6 +96,8 @@ pub(crate) const EXT_R: u16 = 3;
 pub(crate) const EXT_D: u16 = crate::domain::profile::POWER_READ_EXT;
 /// C-variables.
 pub(crate) const EXT_C: u16 = 5;
+/// The conditional-execution flags of the thread's C.S. (`Coord[x].Cflags`, programs only).
+pub(crate) const EXT_CFLAGS: u16 = 6;
 /// Element `k` of the line's element table is `Ext(EXT_ELEM + k)`.
 pub(crate) const EXT_ELEM: u16 = 100;
 /// The index of an element variable that stands for its address (`name.a`), not its value.

@@ -5,10 +5,11 @@
 //! stack (one per open buffer): `}` ends whatever block is innermost.
 
 use super::catalog;
-use super::parse::{Cur, ElemRef, Fam, SyntaxError};
+use super::parse::{Cur, ElemRef, Fam, SyntaxError, EXT_CFLAGS};
 use crate::domain::ast::{
-    AssignOp, Axis, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, LetterArg, Message, MoveMode,
-    NumRange, PlcControl, PlcVerb, Pos, SendPort, Stmt, StmtKind, VarIndex, VarKind, VarRef,
+    AssignOp, Axis, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg, Message,
+    MoveMode, NumRange, PlcControl, PlcVerb, Pos, SendPort, Stmt, StmtKind, VarIndex, VarKind,
+    VarRef,
 };
 
 /// Deepest block nesting (seed: conditionals nest 32 levels).
@@ -248,8 +249,9 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         return err(at);
     };
     // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
-    const GLUED: [&str; 11] = [
+    const GLUED: [&str; 16] = [
         "f", "tm", "ta", "ts", "dwell", "delay", "goto", "gosub", "callsub", "call", "circle",
+        "cset", "cclr", "cexe", "cexec", "cskip",
     ];
     if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
         if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
@@ -372,6 +374,7 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         }
         // The queues of `send`/`cmd` are flushed at the end of every scan anyway.
         "sendall" | "sendallcmds" => return Ok(()),
+        "cset" | "cclr" | "cexe" | "cexec" | "cskip" => return cond_exec(c, &w, at, out),
         "bstart" => StmtKind::BlockStart,
         "bstop" => StmtKind::BlockStop,
         "home" | "homez" => {
@@ -423,6 +426,62 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         // Passing text to the operating system is not something an emulated card does.
         "system" | "sendallsystemcmds" => return Err(SyntaxError { at, code: 27 }),
         _ => return err(at),
+    };
+    out.push(stmt(kind, at));
+    Ok(())
+}
+
+/// `cset n` / `cclr n` set / clear conditional-execution flag n (0-31) of the C.S.
+/// (`Coord[x].Cflags` bit n); `cexe n` / `cskip n` run / skip the rest of the line when it is
+/// set (seed L39999-40030, L40134-40160, L25130-25150).
+fn cond_exec(c: &mut Cur<'_>, w: &str, at: usize, out: &mut Vec<Stmt>) -> P<()> {
+    c.ws();
+    let n = match c.uint() {
+        Some(n) if n <= 31 => n,
+        _ => return Err(SyntaxError { at: c.i, code: 21 }),
+    };
+    let flags = || Expr {
+        kind: ExprKind::Var(VarRef {
+            kind: VarKind::Ext(EXT_CFLAGS),
+            index: VarIndex::Const(0),
+            pos: Pos(at as u32),
+        }),
+        pos: Pos(at as u32),
+    };
+    let bit = f64::from(1u32 << n);
+    let target = VarRef {
+        kind: VarKind::Ext(EXT_CFLAGS),
+        index: VarIndex::Const(0),
+        pos: Pos(at as u32),
+    };
+    let kind = match w {
+        "cset" => StmtKind::Assign {
+            target,
+            op: AssignOp::Op(BinOp::Or),
+            value: Expr::num(bit),
+        },
+        "cclr" => StmtKind::Assign {
+            target,
+            op: AssignOp::Op(BinOp::And),
+            value: Expr::num(f64::from(!(1u32 << n))),
+        },
+        _ => {
+            let set = Cond::Value(Expr {
+                kind: ExprKind::Bin(BinOp::And, Box::new(flags()), Box::new(Expr::num(bit))),
+                pos: Pos(at as u32),
+            });
+            let cond = if w == "cskip" {
+                Cond::Not(Box::new(set))
+            } else {
+                set
+            };
+            let mut none = Vec::new();
+            let body = statements_to(c, &mut none, true)?;
+            if !none.is_empty() {
+                return err(c.i);
+            }
+            StmtKind::IfLine(cond, body)
+        }
     };
     out.push(stmt(kind, at));
     Ok(())

@@ -13,7 +13,7 @@ use std::any::Any;
 use std::collections::HashMap;
 
 use super::elements::{self, Key, Store};
-use super::parse::{ElemRef, ELEM_ADDRESS, EXT_C, EXT_D, EXT_I, EXT_L, EXT_R};
+use super::parse::{ElemRef, ELEM_ADDRESS, EXT_C, EXT_CFLAGS, EXT_D, EXT_I, EXT_L, EXT_R};
 use super::{Thread, LOCALS};
 use crate::domain::ast::{Expr, VarKind};
 use crate::domain::eval::{self, Env, EvalError};
@@ -130,6 +130,17 @@ impl ProgVars {
     }
 }
 
+/// The key of `Coord[x].Cflags` of the C.S. of `at`.
+fn cflags(at: &ExtAt) -> Result<Key, ExtError> {
+    let def = super::catalog::find(super::catalog::St::Coord, "Cflags").ok_or(ExtError::NoSuch)?;
+    Ok(Key {
+        st: super::catalog::St::Coord,
+        idx: u32::from(at.coord.saturating_sub(1)),
+        def,
+        sub: [0, 0],
+    })
+}
+
 fn access(e: elements::AccessError) -> ExtError {
     match e.code {
         23 => ExtError::ReadOnly,
@@ -153,6 +164,7 @@ impl ExtVars for ProgVars {
                 self.thread(at).local(EXT_L, s).ok_or(ExtError::NoSuch)
             }
             EXT_D | EXT_C => self.thread(at).local(family, index).ok_or(ExtError::NoSuch),
+            EXT_CFLAGS => Ok(self.store.value(&cflags(at)?).unwrap_or(0.0)),
             f if f >= EXT_PELEM => {
                 let (e, k) = self.element(card, at, f)?;
                 if index == ELEM_ADDRESS {
@@ -191,6 +203,12 @@ impl ExtVars for ProgVars {
                 .set_local(family, index, v)
                 .then_some(())
                 .ok_or(ExtError::NoSuch),
+            // `cset`/`cclr`: the C.S.'s status word `Coord[x].Cflags` (a status element to
+            // hosts, written by programs).
+            EXT_CFLAGS => {
+                self.store.set_value(cflags(at)?, v);
+                Ok(())
+            }
             f if f >= EXT_PELEM && index != ELEM_ADDRESS => {
                 let (e, k) = self.element(card, at, f)?;
                 let mut th = self.thread(at).clone();

@@ -339,3 +339,33 @@ fn calls_of_missing_subprograms_stop_and_missing_labels_start_at_the_top() {
     // The C.S. is no longer running: `Coord[1].Status[1]` bit 27 (block active) clear.
     assert_eq!(t.send("echo1 Coord[1].Status[1]"), "$0\r\n");
 }
+
+/// Seed L39999-40160, L25130-25150: `cset`/`cclr` set and clear the C.S.'s conditional
+/// flags (`Coord[x].Cflags` bit n), `cexe n`/`cskip n` run or skip the rest of the line.
+#[test]
+fn conditional_execution_flags() {
+    let mut t = T::new();
+    t.load(&[
+        "open prog 14",
+        "cset 3 cset5 cclr 5",
+        "cexe 3 P80 = 1 P84 = 1",
+        "cskip 3 P81 = 1",
+        "cexec5 P82 = 1",
+        "cskip 5 P83 = 1",
+        "close",
+    ]);
+    t.ready_cs1();
+    assert_eq!(t.send("&1 b14 r"), "");
+    t.run(100);
+    assert_eq!(
+        t.send("P80..84"),
+        "P80=1\r\nP81=0\r\nP82=0\r\nP83=1\r\nP84=1\r\n"
+    );
+    assert_eq!(t.send("Coord[1].Cflags"), "Coord[1].Cflags=$8\r\n");
+    // On-line through `cx` (seed: `&x cx cclrn`), for the thread's C.S.
+    assert_eq!(t.send("cx cset 2 cclr 3"), "");
+    assert_eq!(t.send("Coord[1].Cflags"), "Coord[1].Cflags=$4\r\n");
+    // Hosts cannot write it; a flag number beyond 31 is refused.
+    assert!(t.send("Coord[1].Cflags=1").contains("error #23:"));
+    assert!(t.send("cx cset 32").contains("error #21:"));
+}
