@@ -241,11 +241,17 @@ impl CsExec {
         let Some(f) = self.frames.last_mut() else {
             return;
         };
-        let mut mask = 0u32;
+        let mut mask = 0u64;
         let mut used = 0;
         for &(l, v) in &f.args {
-            let k = u32::from(l.wrapping_sub(b'A')) + 1;
-            if !letters.contains(&l) || !(1..=26).contains(&k) || mask & (1 << (k - 1)) != 0 {
+            // A..Z are 1..26; with an extension family the double letters AA..ZZ (stored as
+            // a..z) are 27..52 (Power PMAC D27-D52).
+            let k = match l {
+                b'A'..=b'Z' => u32::from(l - b'A') + 1,
+                b'a'..=b'z' if ext.is_some() => u32::from(l - b'a') + 27,
+                _ => break,
+            };
+            if !letters.contains(&l) || mask & (1 << (k - 1)) != 0 {
                 break;
             }
             mask |= 1 << (k - 1);
@@ -263,11 +269,11 @@ impl CsExec {
         match ext {
             Some(fam) => {
                 for n in [0, 54] {
-                    let _ = card.ext_write(&at, fam, n, f64::from(mask));
+                    let _ = card.ext_write(&at, fam, n, mask as f64);
                 }
             }
             None => {
-                let _ = card.state.vars.set_q(num, 100, f64::from(mask));
+                let _ = card.state.vars.set_q(num, 100, mask as f64);
             }
         }
     }

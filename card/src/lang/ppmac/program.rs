@@ -544,20 +544,23 @@ fn letter_args(c: &mut Cur<'_>) -> P<Vec<LetterArg>> {
             break;
         };
         let starts = |d: u8| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$');
-        if !c.peek_at(1).is_some_and(starts) {
+        // A double letter (`DD50`) is kept as the lower-case letter.
+        let (len, letter) = if c.peek_at(1) == Some(l) {
+            (2, l)
+        } else {
+            (1, l.to_ascii_uppercase())
+        };
+        if !c.peek_at(len).is_some_and(starts) {
             c.i = save;
             break;
         }
-        c.i += 1;
+        c.i += len;
         let value = data(c)?;
         if is_assign(c) {
             c.i = save;
             break;
         }
-        args.push(LetterArg {
-            letter: l.to_ascii_uppercase(),
-            value,
-        });
+        args.push(LetterArg { letter, value });
     }
     Ok(args)
 }
@@ -573,12 +576,14 @@ fn read_letters(c: &mut Cur<'_>) -> P<Vec<u8>> {
         c.ws();
         match c.peek() {
             Some(l) if l.is_ascii_lowercase() && !matches!(l, b'n' | b'o') => {
+                // A double letter (AA … ZZ → D27 … D52) is kept as the lower-case letter.
                 if c.peek_at(1) == Some(l) {
-                    // Double letters (AA … ZZ → D27 … D52) are not offered.
-                    return Err(SyntaxError { at: c.i, code: 27 });
+                    c.i += 2;
+                    letters.push(l);
+                } else {
+                    c.i += 1;
+                    letters.push(l.to_ascii_uppercase());
                 }
-                c.i += 1;
-                letters.push(l.to_ascii_uppercase());
             }
             _ => return err(c.i),
         }

@@ -76,7 +76,7 @@ fn a_motion_program_reaches_every_variable_family_read_g_codes_and_calls() {
     t.load(&[
         // G3 → `call Coord[1].Gprog` (subprogram 1000) at label 3000.
         "open subprog 1000",
-        "N3000: read(A,B) P20 = D1 + D2 P21 = D0 P22 = D54",
+        "N3000: read(A,B,DD) P20 = D1 + D2 P21 = D0 P22 = D54 P23 = D30",
         "return",
         "close",
         "open subprog 7",
@@ -90,7 +90,7 @@ fn a_motion_program_reaches_every_variable_family_read_g_codes_and_calls() {
         "Motor[1].JogSpeed = 7 P11 = I122",
         "Motor[2].JogSpeed = P11 + 1 Sys.P[12] = 5",
         "C3 = 2 D7 = 6 P13 = C3 + D7",
-        "G3 A2 B5",
+        "G3 A2 B5 DD7",
         // The callee's L0 is the caller's R0 (StackOffset 256).
         "R0 = 42 call 7",
         "call 7.5",
@@ -102,8 +102,11 @@ fn a_motion_program_reaches_every_variable_family_read_g_codes_and_calls() {
     t.run(200);
     assert_eq!(t.send("P10..13"), "P10=6\r\nP11=7\r\nP12=5\r\nP13=8\r\n");
     assert_eq!(t.send("Motor[2].JogSpeed"), "Motor[2].JogSpeed=8\r\n");
-    // read(A,B): D1 = 2, D2 = 5, bits 0 and 1 in D0 and D54.
-    assert_eq!(t.send("P20..22"), "P20=7\r\nP21=3\r\nP22=3\r\n");
+    // read(A,B,DD): D1 = 2, D2 = 5, D30 = 7 (DD: D(26+4)), bits 0, 1 and 29 in D0 and D54.
+    assert_eq!(
+        t.send("P20..23"),
+        "P20=7\r\nP21=536870915\r\nP22=536870915\r\nP23=7\r\n"
+    );
     assert_eq!(t.send("P30..31"), "P30=42\r\nP31=1\r\n");
     // `cmd` ran on the command thread after the tick.
     assert_eq!(t.send("P40"), "P40=6\r\n");
@@ -161,7 +164,6 @@ fn bad_program_lines_are_refused_at_entry() {
         ("D55 = 1", 21),
         ("system \"ls\"", 27),
         ("send 9,\"x\"", 21),
-        ("read(AA)", 27),
     ] {
         assert_eq!(t.send("open prog 9"), "");
         let r = t.send(line);
