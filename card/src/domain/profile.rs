@@ -128,6 +128,10 @@ pub struct Semantics {
     /// label calls the program's top (Power PMAC, seed L39878-39880); `false`: both are
     /// ignored (classic).
     pub strict_calls: bool,
+    /// PLCs call subroutines and subprograms (`gosub`, `callsub`, `call`, G/M/T/D codes, with
+    /// `read`), which then run by PLC rules (Power PMAC); `false`: these statements do nothing
+    /// in a PLC (classic).
+    pub plc_calls: bool,
 }
 
 /// The classic (PMAC2/Turbo) behaviour.
@@ -140,6 +144,7 @@ const CLASSIC: Semantics = Semantics {
     max_call_depth: 16,
     read_ext: None,
     strict_calls: false,
+    plc_calls: false,
 };
 
 /// The dimensions of `profile`.
@@ -185,6 +190,7 @@ pub(crate) fn limits(profile: Profile) -> Limits {
                 max_call_depth: 255,
                 read_ext: Some(POWER_READ_EXT),
                 strict_calls: true,
+                plc_calls: true,
             },
         },
     }

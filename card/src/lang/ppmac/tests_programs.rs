@@ -371,3 +371,44 @@ fn conditional_execution_flags() {
     assert!(t.send("Coord[1].Cflags=1").contains("error #23:"));
     assert!(t.send("cx cset 32").contains("error #21:"));
 }
+
+/// Seed L39868-39880: a PLC calls subroutines and subprograms (which run by PLC rules), with
+/// `read` into the PLC's D-variables and its own L-stack; a missing subprogram stops the PLC.
+#[test]
+fn a_plc_calls_subroutines_and_subprograms() {
+    let mut t = T::new();
+    t.load(&[
+        // M4 → `call Coord[x].Mprog` (subprogram 1001) at label 4000.
+        "open subprog 1001",
+        "N4000: read(Q) P91 = D17 + L0",
+        "return",
+        "close",
+        "open subprog 20",
+        "P92 = P92 + 1",
+        "return",
+        "close",
+        "open plc 5",
+        "R0 = 3 M4 Q10",
+        "gosub 50 call 20 P94 = 1",
+        "disable plc 5",
+        "return",
+        "N50: P93 = 6",
+        "return",
+        "close",
+        "open plc 6",
+        "call 21 P95 = 1",
+        "close",
+    ]);
+    assert_eq!(t.send("enable plc 5 enable plc 6"), "");
+    t.run(50);
+    assert_eq!(
+        t.send("P91..95"),
+        "P91=13\r\nP92=1\r\nP93=6\r\nP94=1\r\nP95=0\r\n"
+    );
+    // PLC 6 stopped at its call of the missing subprogram 21.
+    assert!(!t.card.model.run.plc[6].enabled);
+    assert!(
+        t.card.model.run.plc[4].enabled,
+        "an untouched PLC stays as it was"
+    );
+}
