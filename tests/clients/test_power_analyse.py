@@ -66,3 +66,31 @@ def test_active_elements_are_read_back_index_by_index(ssh):
     # The walk left the card as it was.
     reply, ok = ssh.sendCommand("P17")
     assert ok and reply == "42\r"
+
+
+def test_buffered_programs_are_read_back(ssh):
+    """The tool's program read-back: `buffer` names each buffer with its offset and size, then
+    `list {name}` reads each one's text (seed L33567-33602, L36521-36754)."""
+    for cmd in (
+        "open prog 25",
+        "linear abs",
+        "X10 Y(P1)",
+        "close",
+        "open subprog 7",
+        "return",
+        "close",
+        "open plc 3",
+        "P10 = P10 + 1",
+        "close",
+    ):
+        reply, ok = ssh.sendCommand(cmd)
+        assert ok and reply == "\r\r", (cmd, reply)
+    hw = analyse.PPMACHardwareWriteRead(analyse.PowerPMAC())
+    info = hw.getBufferedProgramsInfo()
+    hw.appendBufferedProgramsInfoWithListings(info)
+    assert info["Motion"] == {
+        "Prog25": ["Prog25", "0", "21", "Motion", ["linear abs\n", "X10 Y(P1)\n"]]
+    }
+    assert info["SubProg"] == {"SubProg7": ["SubProg7", "21", "7", "SubProg", ["return\n"]]}
+    assert info["Plc"] == {"Plc3": ["Plc3", "28", "14", "Plc", ["P10 = P10 + 1\n"]]}
+    assert info["Inverse"] == {} and info["Forward"] == {}

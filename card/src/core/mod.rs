@@ -109,9 +109,12 @@ const DETACHED: u64 = 1 << 63;
 
 impl CardCore {
     /// A core for `card`.
-    pub fn new(card: Card) -> Self {
+    pub fn new(mut card: Card) -> Self {
         let servo = Servo::new(&card.model);
         let power = (card.profile() == Profile::Power).then(Power::new);
+        if power.is_some() {
+            Power::attach(&mut card);
+        }
         CardCore {
             power,
             card,
@@ -390,10 +393,17 @@ impl CardCore {
         self.card.model.aux.servo_tick(returned)
     }
 
-    /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the interpreter).
+    /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the card's language).
     pub fn tick(&mut self, cycle: u64) {
-        let (model, mut cmds) = self.card.split();
-        self.servo.tick(model, &mut cmds, cycle);
+        if let Some(p) = self.power.as_mut() {
+            // A Power card's programs issue `cmd"…"` in Power syntax: its dialect runs them.
+            let mut q = crate::lang::ppmac::CmdQueue::default();
+            self.servo.tick(&mut self.card.model, &mut q, cycle);
+            p.program_commands(&mut self.card, q);
+        } else {
+            let (model, mut cmds) = self.card.split();
+            self.servo.tick(model, &mut cmds, cycle);
+        }
         self.collect_detached();
     }
 }

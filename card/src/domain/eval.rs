@@ -15,6 +15,14 @@ pub(crate) struct EvalError {
     pub msg: &'static str,
 }
 
+impl EvalError {
+    /// No such variable (a bad number or family).
+    pub(crate) const NO_VARIABLE: EvalError = EvalError {
+        code: 3,
+        msg: "no such variable",
+    };
+}
+
 /// What an expression needs from the card.
 pub(crate) trait Env {
     /// Value of variable `kind` number `index` (Q in the evaluating C.S.).

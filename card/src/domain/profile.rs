@@ -120,6 +120,18 @@ pub struct Semantics {
     pub code_prog_ivar: Option<u8>,
     /// Deepest nesting of calls (GOSUB, CALL, G-codes) in a motion program.
     pub max_call_depth: u16,
+    /// Where `READ` puts the arguments: `Some(f)`: letter k (A = 1 … Z = 26) into number k
+    /// of the language's extension family `f`, the mask of letters read (bit k−1) into
+    /// numbers 0 and 54 (Power PMAC D-variables); `None`: Q101-Q126 and Q100 (classic).
+    pub read_ext: Option<u16>,
+    /// A call of a missing program stops the program with a run-time error and a missing
+    /// label calls the program's top (Power PMAC, seed L39878-39880); `false`: both are
+    /// ignored (classic).
+    pub strict_calls: bool,
+    /// PLCs call subroutines and subprograms (`gosub`, `callsub`, `call`, G/M/T/D codes, with
+    /// `read`), which then run by PLC rules (Power PMAC); `false`: these statements do nothing
+    /// in a PLC (classic).
+    pub plc_calls: bool,
 }
 
 /// The classic (PMAC2/Turbo) behaviour.
@@ -130,6 +142,9 @@ const CLASSIC: Semantics = Semantics {
     subprog_base: 0,
     code_prog_ivar: None,
     max_call_depth: 16,
+    read_ext: None,
+    strict_calls: false,
+    plc_calls: false,
 };
 
 /// The dimensions of `profile`.
@@ -173,6 +188,9 @@ pub(crate) fn limits(profile: Profile) -> Limits {
                 subprog_base: POWER_SUBPROG_BASE,
                 code_prog_ivar: Some(POWER_CODE_PROG_IVAR),
                 max_call_depth: 255,
+                read_ext: Some(POWER_READ_EXT),
+                strict_calls: true,
+                plc_calls: true,
             },
         },
     }
@@ -185,6 +203,9 @@ pub(crate) const POWER_IVARS: u16 = 8192;
 /// Model C.S. I-variables Isx40-Isx43 hold `Coord[x].Gprog/Mprog/Tprog/Dprog` on the Power
 /// profile.
 pub(crate) const POWER_CODE_PROG_IVAR: u8 = 40;
+
+/// The extension family of the Power dialect's D-variables (`READ` fills them).
+pub(crate) const POWER_READ_EXT: u16 = 4;
 
 /// Buffer number of Power PMAC subprogram 0 (subprograms 0-32767 are buffers 32768-65535).
 pub(crate) const POWER_SUBPROG_BASE: u16 = 32_768;

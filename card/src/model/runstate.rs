@@ -26,6 +26,8 @@ pub struct CsRun {
     pub pc_at: Option<(u32, u32)>,
     /// (program, word offset) of the line of the move executing (`LIST PE`).
     pub pe_at: Option<(u32, u32)>,
+    /// `pc_at` when the program was last aborted (Power `list apc`).
+    pub apc_at: Option<(u32, u32)>,
     /// Where a `/` stop left the motors (motor, commanded position in counts): R/S away from
     /// it is ERR017. Set and cleared by the program engine.
     pub stop_point: Option<Vec<(u16, f64)>>,

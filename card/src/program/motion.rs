@@ -379,18 +379,27 @@ impl CsExec {
         args: Vec<(u8, f64)>,
         prelude: bool,
     ) -> Flow {
+        let strict = card.state.limits().sem.strict_calls;
+        let missing = |me: &mut Self, card: &mut CardModel| {
+            if strict {
+                me.runtime_error(card, rte::LABEL, false);
+                Flow::Error
+            } else {
+                Flow::Next
+            }
+        };
         let Ok(n) = u16::try_from(prog) else {
-            return Flow::Next;
+            return missing(self, card);
         };
         let code = match self.program(card, n) {
             Ok(Some(c)) => c,
-            Ok(None) => return Flow::Next,
+            Ok(None) => return missing(self, card),
             Err(e) => {
                 self.runtime_error(card, e, false);
                 return Flow::Error;
             }
         };
-        let Some(pc) = code.label(label, 0) else {
+        let Some(pc) = code.label(label, 0).or(strict.then_some(0)) else {
             return Flow::Next;
         };
         self.push_frame(

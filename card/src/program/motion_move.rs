@@ -239,19 +239,51 @@ impl CsExec {
         let Some(f) = self.frames.last_mut() else {
             return;
         };
-        let mut mask = 0u32;
-        let mut used = 0;
-        for &(l, v) in &f.args {
-            let k = u32::from(l.wrapping_sub(b'A')) + 1;
-            if !letters.contains(&l) || !(1..=26).contains(&k) || mask & (1 << (k - 1)) != 0 {
-                break;
-            }
-            mask |= 1 << (k - 1);
-            let _ = card.state.vars.set_q(num, 100 + k, v);
-            used += 1;
+        read_args(card, num, &mut f.args, letters);
+    }
+}
+
+/// `READ(...)` of a program of C.S. `cs` (or a PLC addressing it): consume the leading
+/// arguments of the calling line whose letters are listed into Q101..Q126 and the mask of
+/// letters read into Q100 (classic), or into the language's extension family
+/// (`Semantics::read_ext`, evaluated for `card.exec`).
+pub(crate) fn read_args(card: &mut CardModel, cs: u16, args: &mut Vec<(u8, f64)>, letters: &[u8]) {
+    let ext = card.state.limits().sem.read_ext;
+    let at = card.exec;
+    let mut mask = 0u64;
+    let mut used = 0;
+    for &(l, v) in args.iter() {
+        // A..Z are 1..26; with an extension family the double letters AA..ZZ (stored as
+        // a..z) are 27..52 (Power PMAC D27-D52).
+        let k = match l {
+            b'A'..=b'Z' => u32::from(l - b'A') + 1,
+            b'a'..=b'z' if ext.is_some() => u32::from(l - b'a') + 27,
+            _ => break,
+        };
+        if !letters.contains(&l) || mask & (1 << (k - 1)) != 0 {
+            break;
         }
-        f.args.drain(..used);
-        let _ = card.state.vars.set_q(num, 100, f64::from(mask));
+        mask |= 1 << (k - 1);
+        match ext {
+            Some(fam) => {
+                let _ = card.ext_write(&at, fam, k, v);
+            }
+            None => {
+                let _ = card.state.vars.set_q(cs, 100 + k, v);
+            }
+        }
+        used += 1;
+    }
+    args.drain(..used);
+    match ext {
+        Some(fam) => {
+            for n in [0, 54] {
+                let _ = card.ext_write(&at, fam, n, mask as f64);
+            }
+        }
+        None => {
+            let _ = card.state.vars.set_q(cs, 100, mask as f64);
+        }
     }
 }
 

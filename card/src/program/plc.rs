@@ -7,8 +7,9 @@ use std::sync::Arc;
 
 use super::compile::{compile, Compiled, Op};
 use super::env;
+use super::motion_move::read_args;
 use super::stmt::{exec_common, run_cmds, Commands, Common, Ctx, QueuedCmd};
-use crate::domain::ast::PlcVerb;
+use crate::domain::ast::{PlcVerb, StmtKind};
 use crate::model::CardModel;
 
 /// Most instructions one PLC scan executes; a scan that reaches it ends there and the next
@@ -29,6 +30,18 @@ struct PlcState {
     coord: u16,
     /// A structural defect: the PLC does not run.
     broken: bool,
+    /// Subroutine and subprogram calls under way, innermost last (the code executing is the
+    /// innermost call's, else `code`).
+    calls: Vec<PlcCall>,
+}
+
+/// One call of a PLC: the code called, where the caller resumes, the calling line's
+/// arguments not yet read.
+#[derive(Debug, Clone)]
+struct PlcCall {
+    code: Arc<Compiled>,
+    ret: usize,
+    args: Vec<(u8, f64)>,
 }
 
 /// All 32 interpreted PLCs.
@@ -92,6 +105,7 @@ impl PlcRunner {
             st.code = None;
             st.broken = false;
             st.pc = 0;
+            st.calls.clear();
             if let Some(at) = card.run.plc_next.get_mut(n as usize) {
                 *at = 0;
             }
@@ -112,26 +126,41 @@ impl PlcRunner {
 
     fn scan(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, n: u8, out: &mut Vec<u8>) {
         let k = n as usize;
-        let Some(code) = self.plcs[k].code.clone() else {
+        let Some(top) = self.plcs[k].code.clone() else {
             return;
         };
         if self.plcs[k].broken {
             return;
         }
         self.scans[k] = self.scans[k].saturating_add(1);
-        card.exec = crate::model::ExtAt {
+        let at = |st: &PlcState| crate::model::ExtAt {
             thread: crate::model::Thread::Plc(n),
-            coord: self.plcs[k].coord,
-            motor: self.plcs[k].motor,
-            depth: 0,
+            coord: st.coord,
+            motor: st.motor,
+            depth: u16::try_from(st.calls.len()).unwrap_or(u16::MAX),
         };
+        card.exec = at(&self.plcs[k]);
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         let mut pc = self.plcs[k].pc;
         let mut ops = 0;
         loop {
+            let code = self.plcs[k]
+                .calls
+                .last()
+                .map_or_else(|| top.clone(), |c| c.code.clone());
             let Some(instr) = code.ops.get(pc) else {
-                pc = 0;
-                break;
+                // The end of a called program returns; the end of the PLC ends the scan.
+                match self.plcs[k].calls.pop() {
+                    Some(c) => {
+                        pc = c.ret;
+                        card.exec = at(&self.plcs[k]);
+                        continue;
+                    }
+                    None => {
+                        pc = 0;
+                        break;
+                    }
+                }
             };
             ops += 1;
             if ops > PLC_SCAN_BUDGET {
@@ -161,9 +190,26 @@ impl PlcRunner {
                     pc = super::compile::switch_target(v, cases, *default);
                 }
                 Op::Exec(s) => {
-                    if matches!(s.kind, crate::domain::ast::StmtKind::Return) {
-                        pc = 0;
-                        break;
+                    match self.call_stmt(card, k, &code, pc, &s.kind) {
+                        CallFlow::NotACall => {}
+                        CallFlow::Jump(to) => {
+                            pc = to;
+                            card.exec = at(&self.plcs[k]);
+                            continue;
+                        }
+                        CallFlow::EndScan => {
+                            pc = 0;
+                            break;
+                        }
+                        CallFlow::Stop => {
+                            // A call that cannot be made stops the PLC (seed L39878).
+                            if let Some(p) = card.run.plc.get_mut(k) {
+                                p.enabled = false;
+                            }
+                            pc = 0;
+                            self.plcs[k].calls.clear();
+                            break;
+                        }
                     }
                     let mut ctx = Ctx {
                         motor,
@@ -212,12 +258,117 @@ impl PlcRunner {
             }
         }
         let enabled = card.run.plc.get(k).is_some_and(|p| p.enabled);
-        if let Some(at) = card.run.plc_next.get_mut(k) {
-            *at = code.offset_of(pc);
+        if self.plcs[k].calls.is_empty() {
+            if let Some(at) = card.run.plc_next.get_mut(k) {
+                *at = top.offset_of(pc);
+            }
         }
         let st = &mut self.plcs[k];
         st.pc = pc;
         st.was_active = enabled;
         run_cmds(card, cmd, &mut cmds, out);
     }
+
+    /// Calls, returns and `read` in a PLC (subprograms called from a PLC run by PLC rules,
+    /// seed L39868-39872): what the statement at `pc` of `code` does to the flow.
+    fn call_stmt(
+        &mut self,
+        card: &mut CardModel,
+        k: usize,
+        code: &Arc<Compiled>,
+        pc: usize,
+        s: &StmtKind,
+    ) -> CallFlow {
+        let coord = self.plcs[k].coord;
+        let sem = card.state.limits().sem;
+        if !sem.plc_calls && !matches!(s, StmtKind::Return) {
+            return CallFlow::NotACall;
+        }
+        let (target, args) = match s {
+            StmtKind::Return => {
+                return match self.plcs[k].calls.pop() {
+                    Some(c) => CallFlow::Jump(c.ret),
+                    None => CallFlow::EndScan,
+                };
+            }
+            StmtKind::Read(letters) => {
+                let mut args = self.plcs[k]
+                    .calls
+                    .last_mut()
+                    .map(|c| std::mem::take(&mut c.args))
+                    .unwrap_or_default();
+                read_args(card, coord, &mut args, letters);
+                if let Some(c) = self.plcs[k].calls.last_mut() {
+                    c.args = args;
+                }
+                return CallFlow::Jump(pc + 1);
+            }
+            StmtKind::Gosub(e) | StmtKind::CallSub(e) => {
+                let Ok(v) = env::value(card, coord, e) else {
+                    return CallFlow::Stop;
+                };
+                (None, (super::motion::label_number(v), Vec::new()))
+            }
+            StmtKind::Call(e, a) | StmtKind::Code(_, e, a) => {
+                let Ok(v) = env::value(card, coord, e) else {
+                    return CallFlow::Stop;
+                };
+                let mut args = Vec::with_capacity(a.len());
+                for x in a {
+                    match env::value(card, coord, &x.value) {
+                        Ok(y) => args.push((x.letter, y)),
+                        Err(_) => return CallFlow::Stop,
+                    }
+                }
+                let (prog, label) = match s {
+                    StmtKind::Code(l, ..) => super::motion::code_target_for(card, coord, *l, v),
+                    _ => super::motion::call_target_for(card, v),
+                };
+                (Some(prog), (label, args))
+            }
+            _ => return CallFlow::NotACall,
+        };
+        let (label, args) = args;
+        if self.plcs[k].calls.len() >= usize::from(sem.max_call_depth) {
+            return CallFlow::Stop;
+        }
+        let callee = match target {
+            None => Some(code.clone()),
+            Some(prog) => u16::try_from(prog)
+                .ok()
+                .and_then(|n| card.bufs.progs.get(&n))
+                .and_then(|p| compile(&p.lines, true).ok())
+                .map(Arc::new),
+        };
+        let Some(callee) = callee else {
+            return if sem.strict_calls {
+                CallFlow::Stop
+            } else {
+                CallFlow::Jump(pc + 1)
+            };
+        };
+        let from = if target.is_none() { pc } else { 0 };
+        let to = match callee.label(label, from).or(sem.strict_calls.then_some(0)) {
+            Some(to) => to,
+            None => return CallFlow::Jump(pc + 1),
+        };
+        self.plcs[k].calls.push(PlcCall {
+            code: callee,
+            ret: pc + 1,
+            args,
+        });
+        CallFlow::Jump(to)
+    }
+}
+
+/// What a call statement did to a PLC's flow.
+enum CallFlow {
+    /// Not a call: run it as any statement.
+    NotACall,
+    /// Continue at this instruction (of the code now executing).
+    Jump(usize),
+    /// `return` at the top: the scan ends.
+    EndScan,
+    /// The call cannot be made: the PLC stops.
+    Stop,
 }

@@ -111,6 +111,7 @@ impl CsExec {
         self.flush_sync();
         if let Some(r) = card.run.cs.get_mut(self.k()) {
             r.stop_point = None;
+            r.apc_at = r.pc_at;
         }
         if let Some(f) = card.state.coords.get_mut(self.k()) {
             f.running = false;

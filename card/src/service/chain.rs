@@ -331,7 +331,36 @@ fn byte(card: &mut Card, power: Option<&mut Power>, c: &mut Conn, b: u8) -> Exec
             None => execute(card, c),
         };
     }
+    if power.is_some() && b < 0x20 {
+        return Exec::Reply(power_control(card, c, b));
+    }
     Exec::Reply(byte_other(card, c, b))
+}
+
+/// [DECISION] A control character on a Power card: a `gpascii` thread has no PMAC
+/// control-character commands (no reports, no CTRL-A/K/Q/R/S motion commands), so none of
+/// them acts on the card and none is answered — as on its raw `gpascii` port, which ignores
+/// them. Only line editing, as the controller's terminal does it: `<BS>` erases the last
+/// character collected, `<CTRL-U>` and `<CTRL-X>` the whole line (for this card when it
+/// listens). A broadcast CTRL-A/K on a mixed chain therefore stops the PMAC cards only.
+fn power_control(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
+    if std::mem::take(&mut c.at_pending) && card.software_addressing() {
+        // A lone `@` before it: the report-card command, collected like any line character.
+        collect(card, c, b'@');
+    }
+    if card.chain_listening(&c.session) {
+        match b {
+            0x08 if !c.overflow => {
+                c.buf.pop();
+            }
+            0x15 | 0x18 => {
+                c.buf.clear();
+                c.overflow = false;
+            }
+            _ => {}
+        }
+    }
+    Vec::new()
 }
 
 /// A received byte other than `<CR>`.

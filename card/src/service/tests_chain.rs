@@ -347,3 +347,28 @@ fn a_power_line_that_starts_a_program_is_taken_with_its_thread_addressing() {
     let _ = c.send(1, b"\r");
     assert_eq!(c.send(1, b"#\r"), b"#3\r\n\x06\r\n");
 }
+
+/// Issue 13, [DECISION] in `power_control`: a `gpascii` thread has no PMAC control
+/// characters, so on the chain they neither act on a Power card nor answer from it; line
+/// editing (`<BS>`, `<CTRL-X>`) still edits the line it collects. The PMAC2 card beside it
+/// keeps its control characters.
+#[test]
+fn control_characters_do_not_act_on_a_power_card() {
+    let mut c = Cable::mixed();
+    // CTRL-B (status report) and CTRL-P (positions) to the addressed Power card: no answer.
+    assert_eq!(c.send(1, b"@0\x02"), b"");
+    assert_eq!(c.send(1, b"\x10"), b"");
+    // <BS> erases the last collected character, CTRL-X the whole line.
+    assert_eq!(
+        c.send(1, b"P1=35\x08\x08 P2=9\x18P3=4 P3\r"),
+        b"P3=4\r\n\x06\r\n"
+    );
+    assert_eq!(c.send(1, b"P1=35\x086 P1\r"), b"P1=36\r\n\x06\r\n");
+    // The PMAC2 card still answers its CTRL-B.
+    let r = c.send(1, b"@1\x02");
+    assert_eq!(
+        String::from_utf8_lossy(&r),
+        "850000000000 050000000000 050000000000 050000000000 050000000000 050000000000 \
+         050000000000 050000000000\r"
+    );
+}

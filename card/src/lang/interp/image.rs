@@ -89,6 +89,10 @@ pub(super) struct InterpImageV2 {
     pub defines: crate::model::Defines,
     /// Axis definitions: (motor, C.S., definition text such as `1000X+500`).
     pub axes: Vec<(u16, u16, String)>,
+    /// A Power card's buffers as entered (`lang::ppmac::saved`; absent in older files and on
+    /// other profiles). They replace the buffers `progs`/`plcs` rebuild.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sources: Vec<crate::lang::ppmac::saved::SourceText>,
 }
 
 fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
@@ -159,6 +163,7 @@ impl Pmac<'_> {
                         .map(|(cs, d)| (k as u16 + 1, *cs, crate::model::axis_def_text(d)))
                 })
                 .collect(),
+            sources: crate::lang::ppmac::saved::export(self.model),
         };
         serde_json::to_vec(&img).unwrap_or_default()
     }
@@ -221,6 +226,7 @@ impl Pmac<'_> {
                 }
             }
         }
+        crate::lang::ppmac::saved::restore(self.model, img.sources);
     }
 
     /// Restore INTERP's saved part (an undecodable blob leaves empty buffers).
@@ -229,6 +235,8 @@ impl Pmac<'_> {
         let profile = self.model.profile();
         self.model.run = RunState::new(lim.motors, lim.coords, PLCS);
         self.model.bufs = Buffers::new(user_memory_words(profile));
+        // The buffers are gone: so are a Power card's buffer texts (the image brings its own).
+        crate::lang::ppmac::saved::restore(self.model, Vec::new());
         if blob.is_empty() {
             return;
         }
@@ -308,6 +316,7 @@ impl Pmac<'_> {
         let profile = self.model.profile();
         self.model.state.factory();
         self.model.bufs = Buffers::new(user_memory_words(profile));
+        crate::lang::ppmac::saved::restore(self.model, Vec::new());
         self.mem.open = None;
         self.mem.pending_table = None;
         let lim = self.model.state.limits();

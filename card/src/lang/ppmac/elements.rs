@@ -42,6 +42,18 @@ pub(crate) struct Store {
     values: HashMap<Key, f64>,
 }
 
+impl Store {
+    /// The value kept for `k`.
+    pub(crate) fn value(&self, k: &Key) -> Option<f64> {
+        self.values.get(k).copied()
+    }
+
+    /// Keep `v` for `k` (no checks: for values the card itself produces).
+    pub(crate) fn set_value(&mut self, k: Key, v: f64) {
+        self.values.insert(k, v);
+    }
+}
+
 /// Check the indices of `e` (already evaluated as `idx`, `sub`) and build its key.
 pub(crate) fn key(e: &ElemRef, idx: Option<f64>, sub: &[f64]) -> Result<Key, AccessError> {
     let d = &DEFS[e.def];
@@ -129,6 +141,17 @@ pub(crate) fn ivar_element(n: u32) -> Option<(Key, &'static str)> {
 
 /// The model I-variable holding element `k`, if the model keeps it.
 fn model_slot(k: &Key, d: &Def) -> Option<u32> {
+    if k.st == St::Coord {
+        // `Coord[x].Gprog/Mprog/Tprog/Dprog` have no I-number in the seed; the program engine
+        // finds the G/M/T/D subprograms in the model's Isx40-Isx43 (profile docs).
+        let code = ["Gprog", "Mprog", "Tprog", "Dprog"]
+            .iter()
+            .position(|n| *n == d.name);
+        if let Some(j) = code {
+            let base = u32::from(crate::domain::profile::POWER_CODE_PROG_IVAR);
+            return Some(5000 + 100 * (k.idx + 1) + base + j as u32);
+        }
+    }
     let inum = d.inum?;
     match k.st {
         St::Motor => Some(100 * (k.idx + 1) + inum),
@@ -176,6 +199,14 @@ pub(crate) fn read(
         }
         (St::Coord, "Status") => {
             f64::from(super::exec::coord_status(card, k.idx as u16)[k.sub[0].min(1) as usize])
+        }
+        (St::Motor, "Status[0]" | "Status[1]") => {
+            let w = usize::from(nm.ends_with("[1]"));
+            f64::from(super::exec::motor_status(card, k.idx as u16)[w])
+        }
+        (St::Coord, "Status[0]" | "Status[1]") => {
+            let w = usize::from(nm.ends_with("[1]"));
+            f64::from(super::exec::coord_status(card, k.idx as u16)[w])
         }
         _ => match (store.values.get(k), model_slot(k, d)) {
             (Some(v), _) => *v,

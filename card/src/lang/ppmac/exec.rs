@@ -441,13 +441,7 @@ impl Ctx<'_> {
     /// any other element its place in the catalogue: structure block, index and entry
     /// (stable, never 0: no function elements are modelled).
     fn elem_address(&self, k: &Key) -> u64 {
-        if let Some(a) = super::macro_ic::register_address(&self.card.model, k) {
-            return u64::from(a);
-        }
-        0x1000_0000u64
-            + (u64::from(k.idx) << 20)
-            + ((k.def as u64) << 8)
-            + u64::from(k.sub[0] * 4 + k.sub[1])
+        element_address(&self.card.model, k)
     }
 
     fn elem_name(&self, k: &Key, e: &ElemRef) -> String {
@@ -640,6 +634,17 @@ impl Env for PowerEnv<'_, '_> {
     }
 }
 
+/// The address `name.a` of element `k` (see `Ctx::elem_address`).
+pub(crate) fn element_address(card: &CardModel, k: &Key) -> u64 {
+    if let Some(a) = super::macro_ic::register_address(card, k) {
+        return u64::from(a);
+    }
+    0x1000_0000u64
+        + (u64::from(k.idx) << 20)
+        + ((k.def as u64) << 8)
+        + u64::from(k.sub[0] * 4 + k.sub[1])
+}
+
 /// A value as replies print it: integers without a point, others with up to 15 significant
 /// digits, `nan`, `inf`, `-inf`.
 pub(crate) fn fmt(v: f64) -> String {
@@ -663,7 +668,7 @@ pub(crate) fn fmt(v: f64) -> String {
     }
 }
 
-fn get_bits(v: f64, start: u32, width: u32) -> f64 {
+pub(crate) fn get_bits(v: f64, start: u32, width: u32) -> f64 {
     let w = v as i64 as u64;
     let mask = if width >= 64 {
         u64::MAX
@@ -673,7 +678,7 @@ fn get_bits(v: f64, start: u32, width: u32) -> f64 {
     ((w >> start) & mask) as f64
 }
 
-fn set_bits(old: f64, start: u32, width: u32, v: f64) -> Option<f64> {
+pub(crate) fn set_bits(old: f64, start: u32, width: u32, v: f64) -> Option<f64> {
     let mask = if width >= 64 {
         u64::MAX
     } else {

@@ -16,7 +16,12 @@ const MAX_LIST_LINES: usize = 8192;
 /// The text of every closed buffer, in the order `buffer` reports them (motion programs,
 /// subprograms, PLCs; each by number).
 #[derive(Debug, Default)]
-pub(crate) struct Sources(BTreeMap<(u8, u32), Vec<String>>);
+pub(crate) struct Sources(
+    BTreeMap<(u8, u32), Vec<String>>,
+    /// How many stored lines each text line became (a line with several block statements is
+    /// stored as several: see `program::stored_lines`).
+    BTreeMap<(u8, u32), Vec<usize>>,
+);
 
 /// The listing order and number of buffer `id`.
 fn key(id: BufId) -> (u8, u32) {
@@ -38,13 +43,53 @@ fn id_of(kind: u8, n: u32) -> Option<BufId> {
 }
 
 impl Sources {
-    pub(crate) fn insert(&mut self, id: BufId, text: Vec<String>) {
+    /// Buffer `id` closed with `text`, its line `i` stored as `stored[i]` lines.
+    pub(crate) fn insert(&mut self, id: BufId, text: Vec<String>, stored: Vec<usize>) {
         self.0.insert(key(id), text);
+        self.1.insert(key(id), stored);
     }
 
     pub(crate) fn remove(&mut self, id: &BufId) {
         self.0.remove(&key(*id));
+        self.1.remove(&key(*id));
     }
+
+    /// The text line of buffer `id` that stored line `k` came from (`None`: past the text).
+    fn text_line(&self, id: BufId, k: usize) -> Option<usize> {
+        let counts = self.1.get(&key(id))?;
+        let mut first = 0;
+        for (i, c) in counts.iter().enumerate() {
+            if k < first + c {
+                return Some(i);
+            }
+            first += c;
+        }
+        None
+    }
+
+    /// Every buffer's text, in `buffer` order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (BufId, &Vec<String>)> {
+        self.0
+            .iter()
+            .filter_map(|(&(kind, n), l)| id_of(kind, n).map(|id| (id, l)))
+    }
+}
+
+/// Buffer kinds by name (saved images).
+const KINDS: [(&str, u8); 3] = [("prog", 0), ("subprog", 1), ("plc", 2)];
+
+/// The kind name and Power number of buffer `id`.
+pub(crate) fn name_of(id: BufId) -> Option<(&'static str, u32)> {
+    let (kind, n) = key(id);
+    KINDS.iter().find(|k| k.1 == kind).map(|k| (k.0, n))
+}
+
+/// The buffer of kind `name` number `n`.
+pub(crate) fn id_named(name: &str, n: u32) -> Option<BufId> {
+    KINDS
+        .iter()
+        .find(|k| k.0 == name)
+        .and_then(|k| id_of(k.1, n))
 }
 
 /// The listed form of one line entered into a buffer: without its `//` comment and outer
@@ -157,8 +202,20 @@ pub(crate) fn command(
             Some(super::parse::SyntaxError { at: 0, code }),
         ))
     };
+    if let Some(r) = list_pc(card, sources, th, rest) {
+        return match r {
+            Ok(lines) => {
+                for l in lines {
+                    say(&l);
+                }
+                out.extend_from_slice(&exec::frame(th, line, None));
+                Some(out)
+            }
+            Err(code) => bad(code),
+        };
+    }
     let Ok((kind, n, range)) = parse_list(rest) else {
-        let other = ["pc", "apc", "forward", "inverse", "rotary"];
+        let other = ["forward", "inverse", "rotary"];
         let w = rest
             .trim_start()
             .split([' ', ','])
@@ -184,6 +241,84 @@ pub(crate) fn command(
     }
     out.extend_from_slice(&exec::frame(th, line, None));
     Some(out)
+}
+
+/// `list pc[,[n]]` / `list apc[,[n]]` (seed L36521-36570, L36669-36720): the addressed
+/// C.S.'s program from its program counter (`apc`: where it was when last aborted); with a
+/// comma numbered and headed by the program's name, the end of the program as `end`. `None`:
+/// not one of them.
+fn list_pc(
+    card: &Card,
+    sources: &Sources,
+    th: &Thread,
+    rest: &str,
+) -> Option<Result<Vec<String>, u16>> {
+    let rest = rest.trim();
+    let (abort, after) = if let Some(a) = rest.strip_prefix("apc") {
+        (true, a)
+    } else {
+        (false, rest.strip_prefix("pc")?)
+    };
+    let after = after.trim_start();
+    if !(after.is_empty() || after.starts_with(',')) {
+        return None;
+    }
+    let (numbered, count) = match after.strip_prefix(',').map(str::trim) {
+        None => (false, None),
+        Some("") => (true, None),
+        Some(c) => match c.parse::<usize>() {
+            Ok(c) => (true, Some(c)),
+            Err(_) => return Some(Err(20)),
+        },
+    };
+    let run = card.model.run.cs.get(usize::from(th.coord))?;
+    let at = if abort {
+        run.apc_at
+    } else {
+        run.pc_at.or(run.pointer.map(|(p, _)| (p, 0)))
+    };
+    let Some((prog, offset)) = at else {
+        return Some(Ok(Vec::new()));
+    };
+    let id = match u16::try_from(prog) {
+        Ok(0) | Err(_) => return Some(Err(27)),
+        Ok(n) => BufId::Prog(n),
+    };
+    let Some(p) = card.model.bufs.program(id) else {
+        return Some(Err(21));
+    };
+    // The stored line holding the word offset, and the text line it came from (past the
+    // text: the `return` close appended, listed as `end`).
+    let mut words = 0u64;
+    let mut stored = p.lines.len();
+    for (i, l) in p.lines.iter().enumerate() {
+        words += u64::from(crate::model::StoredLine::words(l));
+        if words > u64::from(offset) {
+            stored = i;
+            break;
+        }
+    }
+    let empty = Vec::new();
+    let text = sources.0.get(&key(id)).unwrap_or(&empty);
+    let first = sources.text_line(id, stored).unwrap_or(text.len());
+    let mut lines: Vec<(usize, &str)> = text.iter().map(String::as_str).enumerate().collect();
+    if numbered {
+        lines.push((text.len(), "end"));
+    }
+    let mut out = Vec::new();
+    if numbered {
+        let (kind, n) = name_of(id)?;
+        out.push(format!("{kind} {n}"));
+    }
+    let take = count.unwrap_or(usize::MAX).min(MAX_LIST_LINES);
+    for (i, l) in lines.into_iter().skip(first).take(take) {
+        out.push(if numbered {
+            format!("{i}:{l}")
+        } else {
+            l.to_string()
+        });
+    }
+    Some(Ok(out))
 }
 
 #[cfg(test)]

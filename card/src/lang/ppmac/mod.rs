@@ -19,11 +19,16 @@ mod elements;
 mod exec;
 mod listing;
 mod macro_ic;
+mod oneline;
 mod parse;
 mod program;
+pub(crate) mod progvars;
+pub(crate) mod saved;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_programs;
 
 use std::collections::HashMap;
 
@@ -118,16 +123,38 @@ impl Thread {
     }
 }
 
+/// The connection id of the thread that runs `cmd"…"` strings of programs and PLCs (seed
+/// §2.13: a dedicated internal thread).
+pub(crate) const CMD_THREAD: u64 = 1 << 62;
+
+/// The program engine's command path on a Power card: `cmd"…"` lines are kept during the
+/// servo tick and run through the dialect after it ([`Power::program_commands`]), on
+/// [`CMD_THREAD`]; their replies go nowhere (the seed's `cmd` has no reply channel).
+#[derive(Debug, Default)]
+pub struct CmdQueue {
+    lines: Vec<Vec<u8>>,
+}
+
+impl crate::program::Commands for CmdQueue {
+    fn line(&mut self, _: &mut crate::model::CardModel, _: u16, _: u16, line: &[u8]) -> Vec<u8> {
+        if self.lines.len() < 256 {
+            self.lines.push(line.to_vec());
+        }
+        Vec::new()
+    }
+
+    fn control(&mut self, _: &mut crate::model::CardModel, _: u16, _: u16, _: u8) -> Vec<u8> {
+        Vec::new()
+    }
+}
+
 /// The dialect's state on one card: the communication threads and the values of elements the
 /// model does not keep.
 #[derive(Debug, Default)]
 pub struct Power {
     threads: HashMap<u64, (Thread, u64)>,
     clock: u64,
-    store: elements::Store,
     open: Option<OpenBuf>,
-    /// The text of every closed buffer, as `list` shows it.
-    sources: listing::Sources,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -139,6 +166,8 @@ struct OpenBuf {
     lines: usize,
     /// Its text so far (the lines `list` will show).
     text: Vec<String>,
+    /// How many stored lines each text line became.
+    stored: Vec<usize>,
 }
 
 impl Power {
@@ -150,18 +179,46 @@ impl Power {
     /// Execute one command line of connection `conn` on `card`: the bytes to send back.
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
         let mut th = self.take_thread(conn);
-        let out = match self.buffer_command(card, conn, &mut th, line) {
-            Some(out) => out,
-            None => match self.reset_command(card, &mut th, line) {
-                Some(out) => out,
-                None => match listing::command(card, &self.sources, &mut th, line) {
+        let mut cmds = Vec::new();
+        let out = if let Some(out) = self.buffer_command(card, conn, &mut th, line) {
+            out
+        } else if let Some(out) = (line.len() <= MAX_LINE)
+            .then(|| oneline::command(card, conn, &mut th, line, &mut cmds))
+            .flatten()
+        {
+            out
+        } else if let Some(out) = self.reset_command(card, &mut th, line) {
+            out
+        } else {
+            progvars::with(card, |card, pv| {
+                match listing::command(card, &pv.sources, &mut th, line) {
                     Some(out) => out,
-                    None => exec::run_line(card, &mut self.store, &mut th, line),
-                },
-            },
+                    None => exec::run_line(card, &mut pv.store, &mut th, line),
+                }
+            })
         };
         self.threads.insert(conn, (th, self.clock));
+        if conn != CMD_THREAD {
+            // `cx cmd"…"`: the text runs on the command thread (a `cmd` text cannot hold
+            // another quoted text, so this does not nest further).
+            for c in cmds {
+                let _ = self.line(card, CMD_THREAD, &c);
+            }
+        }
         out
+    }
+
+    /// Run the `cmd"…"` lines programs issued during a servo tick (see [`CmdQueue`]).
+    pub fn program_commands(&mut self, card: &mut Card, q: CmdQueue) {
+        for l in q.lines {
+            let _ = self.line(card, CMD_THREAD, &l);
+        }
+    }
+
+    /// Install the dialect's variables in `card`'s model: programs and PLCs reach I-, L-,
+    /// R-, D-, C-variables and data-structure elements through it (`model::ExtVars`).
+    pub fn attach(card: &mut Card) {
+        progvars::install(&mut card.model);
     }
 
     /// Connection `conn` closed: forget its thread, close a buffer it left open.
@@ -226,18 +283,24 @@ impl Power {
         }
         th.lines += 1;
         let o = self.open.as_mut()?;
-        let r = match program::parse_program_line(line, &mut o.blocks) {
-            Ok(stmts) if stmts.is_empty() => {
-                o.text.extend(listing::text_of(line));
-                Ok(())
-            }
+        let parsed = progvars::with(card, |_, pv| {
+            program::parse_program_line(line, &mut o.blocks, &mut pv.elems)
+        });
+        let r = match parsed {
+            // A line with nothing to store (blank, a comment, `sendall`) is not listed either:
+            // the listing has one line per stored line (`list pc` relies on it).
+            Ok(stmts) if stmts.is_empty() => Ok(()),
             Ok(stmts) => {
                 o.text.extend(listing::text_of(line));
+                let parts = program::stored_lines(stmts);
                 o.lines += 1;
-                card.model
-                    .bufs
-                    .append(o.id, ProgLine::new(stmts))
-                    .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+                o.stored.push(parts.len());
+                parts.into_iter().try_for_each(|p| {
+                    card.model
+                        .bufs
+                        .append(o.id, ProgLine::new(p))
+                        .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+                })
             }
             Err(e) => Err(e),
         };
@@ -281,7 +344,7 @@ impl Power {
         }
         // Seed §2.9: `open` clears the buffer.
         card.model.bufs.remove(id);
-        self.sources.remove(&id);
+        progvars::with(card, |_, pv| pv.sources.remove(&id));
         card.model.bufs.open(id).map_err(|_| bad(21))?;
         match id {
             BufId::Prog(_) => card.model.run.cs.iter_mut().for_each(|c| c.pointer = None),
@@ -294,6 +357,7 @@ impl Power {
             blocks: Vec::new(),
             lines: 0,
             text: Vec::new(),
+            stored: Vec::new(),
         });
         Ok(())
     }
@@ -316,7 +380,7 @@ impl Power {
             .bufs
             .close(o.id)
             .map_err(|_| parse::SyntaxError { at: 0, code: 21 })?;
-        self.sources.insert(o.id, o.text);
+        progvars::with(card, |_, pv| pv.sources.insert(o.id, o.text, o.stored));
         Ok(())
     }
 

@@ -56,7 +56,7 @@ impl Fam {
         }
     }
 
-    fn of(c: u8) -> Option<Fam> {
+    pub(crate) fn of(c: u8) -> Option<Fam> {
         Some(match c {
             b'p' => Fam::P,
             b'q' => Fam::Q,
@@ -93,9 +93,11 @@ pub(crate) const EXT_L: u16 = 2;
 /// R-variables.
 pub(crate) const EXT_R: u16 = 3;
 /// D-variables.
-pub(crate) const EXT_D: u16 = 4;
+pub(crate) const EXT_D: u16 = crate::domain::profile::POWER_READ_EXT;
 /// C-variables.
 pub(crate) const EXT_C: u16 = 5;
+/// The conditional-execution flags of the thread's C.S. (`Coord[x].Cflags`, programs only).
+pub(crate) const EXT_CFLAGS: u16 = 6;
 /// Element `k` of the line's element table is `Ext(EXT_ELEM + k)`.
 pub(crate) const EXT_ELEM: u16 = 100;
 /// The index of an element variable that stands for its address (`name.a`), not its value.
@@ -249,7 +251,9 @@ pub(crate) struct Cur<'a> {
     s: &'a [u8],
     pub(crate) i: usize,
     elems: Vec<ElemRef>,
-    ext: bool,
+    /// Program text: elements go into the card's program element table (`elems`, shared
+    /// and interned), named `Ext(EXT_PELEM + k)`.
+    prog: bool,
 }
 
 fn err<T>(at: usize) -> P<T> {
@@ -262,19 +266,53 @@ impl<'a> Cur<'a> {
             s,
             i: 0,
             elems: Vec::new(),
-            ext: false,
+            prog: false,
         }
+    }
+
+    /// A cursor over program text whose elements go into `table` (the card's program element
+    /// table; take it back with [`Cur::into_table`]).
+    pub(crate) fn for_program(s: &'a [u8], table: Vec<ElemRef>) -> Self {
+        Cur {
+            s,
+            i: 0,
+            elems: table,
+            prog: true,
+        }
+    }
+
+    /// The element table (see [`Cur::for_program`]).
+    pub(crate) fn into_table(self) -> Vec<ElemRef> {
+        self.elems
+    }
+
+    /// The extension family of element `e`: its place in the line's table (at most 64), or
+    /// in program text its place in the card's table (interned).
+    pub(crate) fn add_elem(&mut self, e: ElemRef) -> Option<u16> {
+        if self.prog {
+            use super::progvars::{EXT_PELEM, MAX_PELEMS};
+            if !constant_indices_valid(&e) {
+                return None;
+            }
+            if let Some(k) = self.elems.iter().position(|x| *x == e) {
+                return Some(EXT_PELEM + k as u16);
+            }
+            if self.elems.len() >= MAX_PELEMS {
+                return None;
+            }
+            self.elems.push(e);
+            return Some(EXT_PELEM + (self.elems.len() - 1) as u16);
+        }
+        if self.elems.len() >= 64 {
+            return None;
+        }
+        self.elems.push(e);
+        Some(EXT_ELEM + (self.elems.len() - 1) as u16)
     }
 
     /// The bytes not yet parsed.
     pub(crate) fn rest(&self) -> &'a [u8] {
         self.s.get(self.i..).unwrap_or_default()
-    }
-
-    /// Elements, I-variables or thread-local variables were named in the expressions parsed
-    /// so far (they resolve per communication thread).
-    pub(crate) fn has_elems(&self) -> bool {
-        self.ext || !self.elems.is_empty()
     }
 
     /// `w` as a whole word (case ignored).
@@ -522,7 +560,6 @@ impl<'a> Cur<'a> {
             {
                 self.i += 1;
                 let index = self.var_index(depth)?;
-                self.ext |= matches!(f.kind(), VarKind::Ext(_));
                 return Ok(Expr {
                     kind: ExprKind::Var(VarRef {
                         kind: f.kind(),
@@ -563,10 +600,6 @@ impl<'a> Cur<'a> {
         if catalog::structure(w).is_some() {
             self.i = at;
             let e = self.element(depth)?;
-            let k = self.elems.len();
-            if k >= 64 {
-                return err(at);
-            }
             // `name.a`: the element's address (not followed by more of a name).
             let save = self.i;
             let address = self.eat_str(".a")
@@ -576,10 +609,11 @@ impl<'a> Cur<'a> {
             if !address {
                 self.i = save;
             }
-            self.elems.push(e);
+            let code = if self.prog { 21 } else { 20 };
+            let fam = self.add_elem(e).ok_or(SyntaxError { at, code })?;
             return Ok(Expr {
                 kind: ExprKind::Var(VarRef {
-                    kind: VarKind::Ext(EXT_ELEM + k as u16),
+                    kind: VarKind::Ext(fam),
                     index: VarIndex::Const(if address { ELEM_ADDRESS } else { 0 }),
                     pos,
                 }),
@@ -683,8 +717,20 @@ impl<'a> Cur<'a> {
         if name.is_empty() {
             return err(self.i);
         }
-        let Some(def) = catalog::find(st, &name) else {
-            return Err(SyntaxError { at, code: 21 });
+        // Some status words are catalogued with their index in the name (`Status[0]`).
+        let literal = match sub.as_slice() {
+            [Expr {
+                kind: ExprKind::Num(n),
+                ..
+            }] if n.value >= 0.0 && n.value.fract() == 0.0 => Some(n.value as u32),
+            _ => None,
+        };
+        let (def, sub) = match catalog::find(st, &name) {
+            Some(d) => (d, sub),
+            None => match literal.and_then(|k| catalog::find(st, &format!("{name}[{k}]"))) {
+                Some(d) => (d, Vec::new()),
+                None => return Err(SyntaxError { at, code: 21 }),
+            },
         };
         Ok(ElemRef {
             st,
@@ -741,6 +787,30 @@ impl<'a> Cur<'a> {
         }
         Ok(Some((v, list)))
     }
+}
+
+/// An element whose indices are all literals names an existing element (program text is
+/// checked at entry: seed §2.9 rejects a bad line when it is sent).
+fn constant_indices_valid(e: &ElemRef) -> bool {
+    let lit = |x: &Expr| match x.kind {
+        ExprKind::Num(n) => Some(n.value),
+        _ => None,
+    };
+    let idx = match &e.idx {
+        Some(x) => match lit(x) {
+            Some(v) => Some(v),
+            None => return true,
+        },
+        None => None,
+    };
+    let mut sub = Vec::new();
+    for x in &e.sub {
+        match lit(x) {
+            Some(v) => sub.push(v),
+            None => return true,
+        }
+    }
+    super::elements::key(e, idx, &sub).is_ok()
 }
 
 /// The Power script's scalar functions.

@@ -4,10 +4,12 @@
 //! `while`, `do … while`, `switch`/`case`. Braces are matched by the caller's [`Blocks`]
 //! stack (one per open buffer): `}` ends whatever block is innermost.
 
-use super::parse::{Cur, SyntaxError};
+use super::catalog;
+use super::parse::{Cur, ElemRef, Fam, SyntaxError, EXT_CFLAGS};
 use crate::domain::ast::{
-    AssignOp, Axis, AxisWord, BinOp, CmpOp, Cond, Expr, MoveMode, NumRange, PlcControl, PlcVerb,
-    Pos, Stmt, StmtKind, VarIndex, VarKind, VarRef,
+    AssignOp, Axis, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg, Message,
+    MoveMode, NumRange, PlcControl, PlcVerb, Pos, SendPort, Stmt, StmtKind, VarIndex, VarKind,
+    VarRef,
 };
 
 /// Deepest block nesting (seed: conditionals nest 32 levels).
@@ -37,25 +39,57 @@ fn err<T>(at: usize) -> P<T> {
     Err(SyntaxError { at, code: 20 })
 }
 
-/// Parse one program line; `blocks` follows the braces.
-pub(crate) fn parse_program_line(line: &[u8], blocks: &mut Blocks) -> P<Vec<Stmt>> {
-    let mut c = Cur::new(line);
+/// Parse one program line; `blocks` follows the braces, `table` is the card's program
+/// element table (elements named in the line are added to it).
+pub(crate) fn parse_program_line(
+    line: &[u8],
+    blocks: &mut Blocks,
+    table: &mut Vec<ElemRef>,
+) -> P<Vec<Stmt>> {
+    let mut c = Cur::for_program(line, std::mem::take(table));
+    let r = statements_to(&mut c, blocks, false);
+    *table = c.into_table();
+    r
+}
+
+/// The statements up to the end of the line (`body`: or up to a `}` closing an outer block,
+/// which ends a one-line body).
+fn statements_to(c: &mut Cur<'_>, blocks: &mut Blocks, body: bool) -> P<Vec<Stmt>> {
     let mut out = Vec::new();
     loop {
         c.ws();
         while c.eat(b';') {
             c.ws();
         }
-        if c.at_end() || c.rest().starts_with(b"//") {
+        if c.at_end() || c.rest().starts_with(b"//") || (body && c.peek() == Some(b'}')) {
             break;
         }
-        statement(&mut c, blocks, &mut out)?;
-    }
-    if c.has_elems() {
-        // Elements and thread-local variables are resolved per thread on-line only.
-        return Err(SyntaxError { at: 0, code: 27 });
+        statement(c, blocks, &mut out)?;
     }
     Ok(out)
+}
+
+/// The stored lines of one program line: a block statement (`if (…) {`, `} else {`, `}`,
+/// `while (…) {`) starts a stored line of its own (after any labels before it), as the
+/// card's buffer structure check expects one block statement per stored line at its start.
+pub(crate) fn stored_lines(stmts: Vec<Stmt>) -> Vec<Vec<Stmt>> {
+    let mut out = Vec::new();
+    let mut cur: Vec<Stmt> = Vec::new();
+    for s in stmts {
+        let block = match &s.kind {
+            StmtKind::If(_) | StmtKind::EndIf | StmtKind::While(_) | StmtKind::EndWhile => true,
+            StmtKind::Else(body) => body.is_empty(),
+            _ => false,
+        };
+        if block && cur.iter().any(|x| !matches!(x.kind, StmtKind::Label(_))) {
+            out.push(std::mem::take(&mut cur));
+        }
+        cur.push(s);
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out
 }
 
 fn stmt(kind: StmtKind, at: usize) -> Stmt {
@@ -118,21 +152,64 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         out.push(stmt(kind, at));
         return Ok(());
     }
-    // Variables: assignment.
-    if let Some(kind) = match ch {
-        b'p' => Some(VarKind::P),
-        b'q' => Some(VarKind::Q),
-        b'm' => Some(VarKind::M),
-        _ => None,
-    } {
+    // Variables (P Q M I L R D C): assignment; `M3`/`D2` without one are codes, `C10` an
+    // axis word.
+    if let Some(f) = Fam::of(ch) {
+        if c.peek_at(1)
+            .is_some_and(|d| d.is_ascii_digit() || d == b'(')
+        {
+            let save = c.i;
+            c.i += 1;
+            if let Ok(index) = c.var_index(0) {
+                if is_assign(c) {
+                    if let VarIndex::Const(n) = index {
+                        if !in_range(f, n) {
+                            return Err(SyntaxError { at, code: 21 });
+                        }
+                    }
+                    let target = VarRef {
+                        kind: f.kind(),
+                        index,
+                        pos: Pos(at as u32),
+                    };
+                    return assignment(c, target, at, out);
+                }
+            }
+            c.i = save;
+        }
+    }
+    // G/M/T/D codes: `call Coord[x].Gprog` … at label code × 1000, with letter arguments.
+    if let Some(l) = code_letter(ch) {
         if c.peek_at(1)
             .is_some_and(|d| d.is_ascii_digit() || d == b'(')
         {
             c.i += 1;
-            let index = c.var_index(0)?;
+            let value = data(c)?;
+            let args = letter_args(c)?;
+            out.push(stmt(StmtKind::Code(l, value, args), at));
+            return Ok(());
+        }
+    }
+    // Data-structure elements: assignment.
+    if ch.is_ascii_alphabetic() {
+        let save = c.i;
+        let word = c.word_lower();
+        c.i = save;
+        if word
+            .as_deref()
+            .is_some_and(|w| catalog::structure(w).is_some())
+        {
+            let e = c.element(0)?;
+            if catalog::DEFS[e.def].class == catalog::Class::Status {
+                return Err(SyntaxError { at, code: 23 });
+            }
+            if !is_assign(c) {
+                return err(c.i);
+            }
+            let fam = c.add_elem(e).ok_or(SyntaxError { at, code: 21 })?;
             let target = VarRef {
-                kind,
-                index,
+                kind: VarKind::Ext(fam),
+                index: VarIndex::Const(0),
                 pos: Pos(at as u32),
             };
             return assignment(c, target, at, out);
@@ -142,12 +219,22 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
     let starts_value = |d: u8| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$');
     if axis_of(ch).is_some() && c.peek_at(1).is_some_and(starts_value) {
         let mut words = Vec::new();
-        while let Some(a) = c.peek().and_then(axis_of) {
+        // After the first word, circle centre (`I J K`) and radius (`R`) words too.
+        while let Some(a) = c
+            .peek()
+            .and_then(|x| axis_of(x).or_else(|| circle_of(x).filter(|_| !words.is_empty())))
+        {
             if !c.peek_at(1).is_some_and(starts_value) {
                 break;
             }
+            let save = c.i;
             c.i += 1;
             let value = data(c)?;
+            if is_assign(c) {
+                // `X10 I5=3`: the move ends before an assignment.
+                c.i = save;
+                break;
+            }
             words.push(AxisWord {
                 axis: a,
                 value,
@@ -158,9 +245,23 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         out.push(stmt(StmtKind::Move(words), at));
         return Ok(());
     }
-    let Some(w) = c.word_lower() else {
+    let Some(mut w) = c.word_lower() else {
         return err(at);
     };
+    // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
+    const GLUED: [&str; 16] = [
+        "f", "tm", "ta", "ts", "dwell", "delay", "goto", "gosub", "callsub", "call", "circle",
+        "cset", "cclr", "cexe", "cexec", "cskip",
+    ];
+    if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
+        if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
+            let known = matches!(w.as_str(), "circle1" | "circle2");
+            if !known {
+                c.i -= w.len() - k;
+                w.truncate(k);
+            }
+        }
+    }
     let kind = match w.as_str() {
         "if" => {
             let cond = paren_cond(c)?;
@@ -169,9 +270,13 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 open(blocks, Block::If, at)?;
                 StmtKind::If(cond)
             } else {
-                let mut body = Vec::new();
+                // The rest of the line is the body (seed: `cx while (P100<40) P(P100)=0
+                // P100++`).
                 let mut none = Vec::new();
-                statement(c, &mut none, &mut body)?;
+                let body = statements_to(c, &mut none, true)?;
+                if body.is_empty() || !none.is_empty() {
+                    return err(c.i);
+                }
                 StmtKind::IfLine(cond, body)
             }
         }
@@ -182,9 +287,13 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 open(blocks, Block::While, at)?;
                 StmtKind::While(cond)
             } else {
-                let mut body = Vec::new();
+                // The rest of the line is the body (seed: `cx while (P100<40) P(P100)=0
+                // P100++`).
                 let mut none = Vec::new();
-                statement(c, &mut none, &mut body)?;
+                let body = statements_to(c, &mut none, true)?;
+                if body.is_empty() || !none.is_empty() {
+                    return err(c.i);
+                }
                 StmtKind::WhileLine(cond, body)
             }
         }
@@ -239,7 +348,48 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "goto" => StmtKind::Goto(data(c)?),
         "gosub" => StmtKind::Gosub(data(c)?),
         "callsub" => StmtKind::CallSub(data(c)?),
-        "call" => StmtKind::Call(data(c)?, Vec::new()),
+        "call" => {
+            let target = data(c)?;
+            StmtKind::Call(target, letter_args(c)?)
+        }
+        "read" => StmtKind::Read(read_letters(c)?),
+        "cmd" => StmtKind::Command(Message::Text(quoted(c)?)),
+        "send" => {
+            // `send n,"text"` to software port n (0-4); printf arguments are not offered.
+            c.ws();
+            match c.uint() {
+                Some(n) if n <= 4 => {}
+                _ => return Err(SyntaxError { at: c.i, code: 21 }),
+            }
+            c.ws();
+            if !c.eat(b',') {
+                return err(c.i);
+            }
+            let text = quoted(c)?;
+            c.ws();
+            if c.peek() == Some(b',') {
+                return Err(SyntaxError { at: c.i, code: 27 });
+            }
+            StmtKind::Send(SendPort::Any, Message::Text(text))
+        }
+        // The queues of `send`/`cmd` are flushed at the end of every scan anyway.
+        "sendall" | "sendallcmds" => return Ok(()),
+        "cset" | "cclr" | "cexe" | "cexec" | "cskip" => return cond_exec(c, &w, at, out),
+        "bstart" => StmtKind::BlockStart,
+        "bstop" => StmtKind::BlockStop,
+        "home" | "homez" => {
+            c.ws();
+            let n = match c.uint() {
+                Some(n) if n <= 31 => n + 1,
+                _ => return Err(SyntaxError { at: c.i, code: 21 }),
+            };
+            let list = vec![NumRange { first: n, last: n }];
+            if w == "home" {
+                StmtKind::Home(list)
+            } else {
+                StmtKind::HomeZ(list)
+            }
+        }
         "linear" => StmtKind::Mode(MoveMode::Linear),
         "rapid" => StmtKind::Mode(MoveMode::Rapid),
         "circle1" => StmtKind::Mode(MoveMode::Circle1),
@@ -274,11 +424,192 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             })
         }
         // Passing text to the operating system is not something an emulated card does.
-        "system" => return Err(SyntaxError { at, code: 27 }),
+        "system" | "sendallsystemcmds" => return Err(SyntaxError { at, code: 27 }),
         _ => return err(at),
     };
     out.push(stmt(kind, at));
     Ok(())
+}
+
+/// `cset n` / `cclr n` set / clear conditional-execution flag n (0-31) of the C.S.
+/// (`Coord[x].Cflags` bit n); `cexe n` / `cskip n` run / skip the rest of the line when it is
+/// set (seed L39999-40030, L40134-40160, L25130-25150).
+fn cond_exec(c: &mut Cur<'_>, w: &str, at: usize, out: &mut Vec<Stmt>) -> P<()> {
+    c.ws();
+    let n = match c.uint() {
+        Some(n) if n <= 31 => n,
+        _ => return Err(SyntaxError { at: c.i, code: 21 }),
+    };
+    let flags = || Expr {
+        kind: ExprKind::Var(VarRef {
+            kind: VarKind::Ext(EXT_CFLAGS),
+            index: VarIndex::Const(0),
+            pos: Pos(at as u32),
+        }),
+        pos: Pos(at as u32),
+    };
+    let bit = f64::from(1u32 << n);
+    let target = VarRef {
+        kind: VarKind::Ext(EXT_CFLAGS),
+        index: VarIndex::Const(0),
+        pos: Pos(at as u32),
+    };
+    let kind = match w {
+        "cset" => StmtKind::Assign {
+            target,
+            op: AssignOp::Op(BinOp::Or),
+            value: Expr::num(bit),
+        },
+        "cclr" => StmtKind::Assign {
+            target,
+            op: AssignOp::Op(BinOp::And),
+            value: Expr::num(f64::from(!(1u32 << n))),
+        },
+        _ => {
+            let set = Cond::Value(Expr {
+                kind: ExprKind::Bin(BinOp::And, Box::new(flags()), Box::new(Expr::num(bit))),
+                pos: Pos(at as u32),
+            });
+            let cond = if w == "cskip" {
+                Cond::Not(Box::new(set))
+            } else {
+                set
+            };
+            let mut none = Vec::new();
+            let body = statements_to(c, &mut none, true)?;
+            if !none.is_empty() {
+                return err(c.i);
+            }
+            StmtKind::IfLine(cond, body)
+        }
+    };
+    out.push(stmt(kind, at));
+    Ok(())
+}
+
+/// Variable `n` of family `f` exists (seed §2.2 ranges).
+fn in_range(f: Fam, n: u32) -> bool {
+    let lim = crate::domain::profile::limits(crate::domain::Profile::Power);
+    match f {
+        Fam::P => n < lim.p_vars,
+        Fam::Q => n < lim.q_vars,
+        Fam::M => n < lim.m_vars,
+        Fam::I => n <= 65_535,
+        Fam::L | Fam::R => (n as usize) < super::LOCALS,
+        Fam::D => (n as usize) < super::DVARS,
+        Fam::C => (n as usize) < super::CVARS,
+    }
+}
+
+/// An assignment operator follows (after white space): `=`, `==`, `op=`, `op==`, `++`, `--`.
+fn is_assign(c: &mut Cur<'_>) -> bool {
+    let save = c.i;
+    c.ws();
+    let r = c.rest();
+    let yes = match r {
+        [b'=', ..] => true,
+        [b'+', b'+', ..] | [b'-', b'-', ..] => true,
+        [b'<', b'<', b'=', ..] | [b'>', b'>', b'=', ..] => true,
+        [op, b'=', ..] => b"+-*/%&|^".contains(op),
+        _ => false,
+    };
+    c.i = save;
+    yes
+}
+
+/// The code letter `G`/`M`/`T`/`D`.
+fn code_letter(ch: u8) -> Option<CodeLetter> {
+    Some(match ch {
+        b'g' => CodeLetter::G,
+        b'm' => CodeLetter::M,
+        b't' => CodeLetter::T,
+        b'd' => CodeLetter::D,
+        _ => return None,
+    })
+}
+
+/// The letter arguments after `call`/`G`/`M`/`T`/`D`: `{letter}{data}` words (not N or O),
+/// up to the first that is not one (the seed's `read` scan, L43517-43563). Letters are
+/// stored upper-case.
+fn letter_args(c: &mut Cur<'_>) -> P<Vec<LetterArg>> {
+    let mut args = Vec::new();
+    loop {
+        let save = c.i;
+        c.ws();
+        let Some(l) = c
+            .peek()
+            .filter(|l| l.is_ascii_lowercase() && !matches!(l, b'n' | b'o'))
+        else {
+            c.i = save;
+            break;
+        };
+        let starts = |d: u8| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$');
+        // A double letter (`DD50`) is kept as the lower-case letter.
+        let (len, letter) = if c.peek_at(1) == Some(l) {
+            (2, l)
+        } else {
+            (1, l.to_ascii_uppercase())
+        };
+        if !c.peek_at(len).is_some_and(starts) {
+            c.i = save;
+            break;
+        }
+        c.i += len;
+        let value = data(c)?;
+        if is_assign(c) {
+            c.i = save;
+            break;
+        }
+        args.push(LetterArg { letter, value });
+    }
+    Ok(args)
+}
+
+/// `read(A,B,…)`: the letters (not N or O), upper-case.
+fn read_letters(c: &mut Cur<'_>) -> P<Vec<u8>> {
+    c.ws();
+    if !c.eat(b'(') {
+        return err(c.i);
+    }
+    let mut letters = Vec::new();
+    loop {
+        c.ws();
+        match c.peek() {
+            Some(l) if l.is_ascii_lowercase() && !matches!(l, b'n' | b'o') => {
+                // A double letter (AA … ZZ → D27 … D52) is kept as the lower-case letter.
+                if c.peek_at(1) == Some(l) {
+                    c.i += 2;
+                    letters.push(l);
+                } else {
+                    c.i += 1;
+                    letters.push(l.to_ascii_uppercase());
+                }
+            }
+            _ => return err(c.i),
+        }
+        c.ws();
+        if c.eat(b')') {
+            return Ok(letters);
+        }
+        if !c.eat(b',') {
+            return err(c.i);
+        }
+    }
+}
+
+/// `"text"` (case kept).
+fn quoted(c: &mut Cur<'_>) -> P<Vec<u8>> {
+    c.ws();
+    if !c.eat(b'"') {
+        return err(c.i);
+    }
+    let r = c.rest();
+    let Some(end) = r.iter().position(|&b| b == b'"') else {
+        return err(c.i);
+    };
+    let text = r[..end].to_vec();
+    c.i += end + 1;
+    Ok(text)
 }
 
 /// `= expr`, a compound `op= expr`, `++`/`--`, or a synchronous `==`/`op==` form.
@@ -330,6 +661,16 @@ fn assignment(c: &mut Cur<'_>, target: VarRef, at: usize, out: &mut Vec<Stmt>) -
 fn data(c: &mut Cur<'_>) -> P<Expr> {
     c.ws();
     c.expr(0)
+}
+
+fn circle_of(ch: u8) -> Option<Axis> {
+    Some(match ch {
+        b'i' => Axis::I,
+        b'j' => Axis::J,
+        b'k' => Axis::K,
+        b'r' => Axis::R,
+        _ => return None,
+    })
 }
 
 fn axis_of(ch: u8) -> Option<Axis> {

@@ -1,0 +1,94 @@
+//! Power buffers in the saved image (issue 13, issue 10 item 5): the text of every closed
+//! program, subprogram and PLC goes into the image as entered (what `list` shows), and at load
+//! each buffer is rebuilt from that text by the Power program parser (so `list` shows it again
+//! and elements and L/R/D/C variables resolve as when it was entered). [DECISION] Kept in the
+//! interpreter's part of format 2 as an optional field (`sources`, JSON): a file without it
+//! (every file before it, and every PMAC2/Turbo card's) loads as before, and a reader of
+//! format 2 that does not know the field ignores it — so the format number stays 2.
+
+use serde::{Deserialize, Serialize};
+
+use super::listing::{self, Sources};
+use super::{program, progvars};
+use crate::model::{BufId, CardModel, ProgLine};
+
+/// One buffer's text in the image.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub(crate) struct SourceText {
+    /// `prog`, `subprog` or `plc`.
+    pub kind: String,
+    /// Its number in the Power numbering.
+    pub n: u32,
+    /// Its lines as `list` shows them.
+    pub lines: Vec<String>,
+}
+
+/// The buffer texts of `card` (none unless it is a Power card with the dialect attached).
+pub(crate) fn export(card: &CardModel) -> Vec<SourceText> {
+    let Some(pv) = card.ext::<progvars::ProgVars>() else {
+        return Vec::new();
+    };
+    pv.sources
+        .iter()
+        .filter_map(|(id, lines)| {
+            let (kind, n) = listing::name_of(id)?;
+            // Only buffers that exist (a text kept for an erased buffer is not saved).
+            card.bufs.program(id)?;
+            Some(SourceText {
+                kind: kind.to_string(),
+                n,
+                lines: lines.clone(),
+            })
+        })
+        .collect()
+}
+
+/// After a load (or a reset that erased the buffers): forget the old texts and rebuild the
+/// buffers of `saved` from theirs. A text that no longer parses leaves its buffer out.
+pub(crate) fn restore(card: &mut CardModel, saved: Vec<SourceText>) {
+    let Some(pv) = card.ext_mut::<progvars::ProgVars>() else {
+        return;
+    };
+    pv.sources = Sources::default();
+    for s in saved {
+        let Some(id) = listing::id_named(&s.kind, s.n) else {
+            continue;
+        };
+        let _ = rebuild(card, id, s.lines);
+    }
+}
+
+fn rebuild(card: &mut CardModel, id: BufId, text: Vec<String>) -> Option<()> {
+    let mut blocks = Vec::new();
+    let mut lines = Vec::new();
+    let mut stored = Vec::new();
+    {
+        let pv = card.ext_mut::<progvars::ProgVars>()?;
+        for t in &text {
+            let stmts =
+                program::parse_program_line(t.as_bytes(), &mut blocks, &mut pv.elems).ok()?;
+            let parts = program::stored_lines(stmts);
+            stored.push(parts.len());
+            lines.extend(parts.into_iter().map(ProgLine::new));
+        }
+    }
+    if !blocks.is_empty() || lines.is_empty() {
+        return None;
+    }
+    card.bufs.remove(id);
+    card.bufs.open(id).ok()?;
+    for l in lines {
+        if card.bufs.append(id, l).is_err() {
+            card.bufs.remove(id);
+            return None;
+        }
+    }
+    if card.bufs.close(id).is_err() {
+        card.bufs.remove(id);
+        return None;
+    }
+    card.ext_mut::<progvars::ProgVars>()?
+        .sources
+        .insert(id, text, stored);
+    Some(())
+}
