@@ -94,6 +94,11 @@ def test_wait_until_counts_ring_cycles(mcc_cluster_factory):
     with pytest.raises(WaitTimeout, match="within 500 ring cycles") as e:
         c.wait_until(lambda st: False, cycles=500)
     assert e.value.status.cycle >= before + 500
+    # The message carries the last status, member by member, for a failure in CI.
+    msg = str(e.value)
+    assert f"last status: cycle {e.value.status.cycle}: locked=True" in msg
+    assert "card0: locked, cycle" in msg and "station0: locked" in msg
+    assert "card ring-fault bits 0=0" in msg
     start = c.status().cycle
     with pytest.raises(WaitTimeout, match="within 300 ring cycles"):
         c.wait_until(lambda: False, cycles=300, since=start)

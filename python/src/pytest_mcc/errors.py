@@ -98,5 +98,12 @@ class WaitTimeout(AssertionError):
     bound passed) without the condition holding. :attr:`status` is the last status seen."""
 
     def __init__(self, message: str, status: Any = None) -> None:
+        # The last status, in one line, so that a failure in CI says what the ring showed.
+        summary = getattr(status, "summary", None)
+        if callable(summary):
+            try:
+                message = f"{message}; last status: {summary()}"
+            except Exception:  # noqa: BLE001 - a partial document must not hide the timeout
+                pass
         super().__init__(message)
         self.status = status

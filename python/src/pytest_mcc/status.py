@@ -63,6 +63,38 @@ class Status(dict):
         """Numbers of the cards whose ring-fault bit is set."""
         return [c["number"] for c in self["cards"] if c.get("ring_fault")]
 
+    def summary(self) -> str:
+        """One line for a failure message: the ring, each member (alive, locked, dark,
+        latched ring fault with its reason, injected faults) and each card's ring-fault bit
+        (``?`` when the card's info went unanswered)."""
+        ring = self.get("ring", {})
+        parts = [f"cycle {ring.get('cycle')}: locked={ring.get('locked')} "
+                 f"faulted={ring.get('faulted')} broken_link={ring.get('broken_link')}"]
+        for m in self.get("members", []):
+            flags = []
+            if not m.get("alive"):
+                flags.append("dead")
+            if m.get("slow"):
+                flags.append("slow")
+            flags.append("locked" if m.get("locked") else "unlocked")
+            if m.get("dark"):
+                flags.append(f"dark since {m.get('dark_since_cycle')}")
+            if m.get("ring_fault"):
+                flags.append(f"ring fault at {m.get('ring_fault_cycle')} "
+                             f"({m.get('fault_reason')})")
+            kinds = [f.get("kind") for f in m.get("faults") or []]
+            if kinds:
+                flags.append("injected " + "+".join(str(k) for k in kinds))
+            flags.append(f"cycle {m.get('cycle')} rx {m.get('last_rx_cycle')}")
+            parts.append(f"{m.get('name')}: " + ", ".join(flags))
+        bits = []
+        for c in self.get("cards", []):
+            rf = c.get("ring_fault")
+            bits.append(f"{c.get('number')}={'?' if rf is None else int(bool(rf))}")
+        if bits:
+            parts.append("card ring-fault bits " + " ".join(bits))
+        return "; ".join(parts)
+
 
 class StatusStream:
     """A running ``mcc status --json --watch MS``: the newest document, and waiting for the

@@ -85,7 +85,8 @@ pub struct MemberStatus {
     pub ring_position: usize,
     /// This member is the synchronizing master.
     pub sync_master: bool,
-    /// Sync packets are arriving (phase-locked).
+    /// Sync packets are arriving (phase-locked) and the ring check runs (a member that arms
+    /// its check after lock: [`crate::core::ARM_AFTER_LOCKED`] cycles locked in a row).
     pub locked: bool,
     /// Latest ring cycle number known (from the sync packet, or the local holdover clock).
     pub cycle: u64,

@@ -886,7 +886,10 @@ impl MemberCore {
             pid: 0,
             ring_position: usize::from(self.position),
             sync_master: self.is_sync_master(),
-            locked: self.locked,
+            // A member that arms its check after lock reports locked only once the check runs:
+            // `mcc up` (and anyone waiting for a locked ring) then knows that a fault injected
+            // from now on is detected, however soon it comes.
+            locked: self.locked && (self.ever_locked || !self.check_after_lock),
             cycle: self.cycle,
             sync_count: self.sync_count,
             rx_frames: self.rx_frames,

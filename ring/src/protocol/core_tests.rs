@@ -529,8 +529,12 @@ fn check_after_lock_waits_for_the_first_lock() {
             0,
         );
         assert_eq!(ev.cycle_complete, Some(c));
+        // Reported locked only once the check is armed: a fault injected by someone who
+        // waited for a locked ring is never missed (the last cycle of the streak arms it).
+        assert!(!m.status().locked, "cycle {c}");
         assert_eq!(m.run_check(), None, "cycle {c}");
     }
+    assert!(m.status().locked);
     let faults: Vec<_> = (0..6).filter_map(|_| m.run_check()).collect();
     assert!(!faults.is_empty());
     assert!(m.ring_fault());
