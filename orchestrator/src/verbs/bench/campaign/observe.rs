@@ -91,6 +91,28 @@ pub fn snapshot(s: &zenoh::Session, cfg: &ClusterConfig) -> Snapshot {
         }
     }
     snap.cards = card_infos(s, cfg);
+    // A card whose member answered but whose card state did not (a busy machine) is asked
+    // twice more: what it reports (a ring fault, killed motors) stays latched until the reset,
+    // so a later answer is the same evidence. A card that is gone is not waited for.
+    for _ in 0..2 {
+        let answered = |k: usize| {
+            let c = &cfg.cards[k];
+            cfg.position(&c.name)
+                .is_some_and(|i| snap.member(i).is_some())
+        };
+        let missing: Vec<usize> = (0..snap.cards.len())
+            .filter(|&k| snap.cards[k].is_none() && answered(k))
+            .collect();
+        if missing.is_empty() {
+            break;
+        }
+        let again = card_infos(s, cfg);
+        for (k, a) in again.into_iter().enumerate() {
+            if missing.contains(&k) {
+                snap.cards[k] = a;
+            }
+        }
+    }
     snap
 }
 
