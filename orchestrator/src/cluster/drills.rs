@@ -24,21 +24,25 @@ pub fn restart_key(cluster: &str) -> String {
 
 /// Ask every card for its `info` (ring fault, killed motors, program start); in config order.
 pub fn card_infos(session: &zenoh::Session, cfg: &ClusterConfig) -> Vec<Option<AtReply>> {
+    card_infos_within(session, cfg, Duration::from_millis(1000))
+}
+
+/// [`card_infos`], each card given `timeout` to answer.
+pub fn card_infos_within(
+    session: &zenoh::Session,
+    cfg: &ClusterConfig,
+    timeout: Duration,
+) -> Vec<Option<AtReply>> {
     let body = AtRequest::Info.to_json();
     let reqs: Vec<(u32, String)> = cfg
         .cards
         .iter()
         .map(|c| (u32::from(c.number), body.clone()))
         .collect();
-    query_all(
-        &session.clone(),
-        &cfg.cluster,
-        &reqs,
-        Duration::from_millis(1000),
-    )
-    .into_iter()
-    .map(|(r, _)| r.ok())
-    .collect()
+    query_all(&session.clone(), &cfg.cluster, &reqs, timeout)
+        .into_iter()
+        .map(|(r, _)| r.ok())
+        .collect()
 }
 
 /// Fill the per-card fields of the status document from [`card_infos`].

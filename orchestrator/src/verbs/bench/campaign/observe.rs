@@ -8,7 +8,7 @@ use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::{AtReply, MemberStatus};
 
 use crate::cluster::ctl::query_statuses;
-use crate::cluster::drills::card_infos;
+use crate::cluster::drills::{card_infos, card_infos_within};
 
 /// One look at the cluster.
 #[derive(Clone, Debug, Default)]
@@ -91,10 +91,13 @@ pub fn snapshot(s: &zenoh::Session, cfg: &ClusterConfig) -> Snapshot {
         }
     }
     snap.cards = card_infos(s, cfg);
-    // A card whose member answered but whose card state did not (a busy machine) is asked
-    // twice more: what it reports (a ring fault, killed motors) stays latched until the reset,
+    // A card whose member answered but whose card state did not is asked twice more, with
+    // longer waits: a card serves its state between servo ticks, and while its sync master is
+    // frozen a follower's next tick waits up to the member timeout before its holdover clock
+    // takes over (seen: "freeze card0: card1 did not report its motors"), besides a busy
+    // machine. What it reports (a ring fault, killed motors) stays latched until the reset,
     // so a later answer is the same evidence. A card that is gone is not waited for.
-    for _ in 0..2 {
+    for wait in [1500, 3000] {
         let answered = |k: usize| {
             let c = &cfg.cards[k];
             cfg.position(&c.name)
@@ -106,7 +109,7 @@ pub fn snapshot(s: &zenoh::Session, cfg: &ClusterConfig) -> Snapshot {
         if missing.is_empty() {
             break;
         }
-        let again = card_infos(s, cfg);
+        let again = card_infos_within(s, cfg, Duration::from_millis(wait));
         for (k, a) in again.into_iter().enumerate() {
             if missing.contains(&k) {
                 snap.cards[k] = a;
