@@ -93,6 +93,13 @@ pub(super) struct InterpImageV2 {
     /// other profiles). They replace the buffers `progs`/`plcs` rebuild.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sources: Vec<crate::lang::ppmac::saved::SourceText>,
+    /// A Power card's M-variable definitions and self-referenced values (absent in older
+    /// files and on other profiles).
+    #[serde(
+        default,
+        skip_serializing_if = "crate::lang::ppmac::saved::SavedM::is_empty"
+    )]
+    pub mvars: crate::lang::ppmac::saved::SavedM,
 }
 
 fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
@@ -164,6 +171,7 @@ impl Pmac<'_> {
                 })
                 .collect(),
             sources: crate::lang::ppmac::saved::export(self.model),
+            mvars: crate::lang::ppmac::saved::export_m(self.model),
         };
         serde_json::to_vec(&img).unwrap_or_default()
     }
@@ -227,6 +235,7 @@ impl Pmac<'_> {
             }
         }
         crate::lang::ppmac::saved::restore(self.model, img.sources);
+        crate::lang::ppmac::saved::restore_m(self.model, img.mvars);
     }
 
     /// Restore INTERP's saved part (an undecodable blob leaves empty buffers).
@@ -235,8 +244,10 @@ impl Pmac<'_> {
         let profile = self.model.profile();
         self.model.run = RunState::new(lim.motors, lim.coords, PLCS);
         self.model.bufs = Buffers::new(user_memory_words(profile));
-        // The buffers are gone: so are a Power card's buffer texts (the image brings its own).
+        // The buffers are gone: so are a Power card's buffer texts and M-variables (the image
+        // brings its own).
         crate::lang::ppmac::saved::restore(self.model, Vec::new());
+        crate::lang::ppmac::saved::restore_m(self.model, Default::default());
         if blob.is_empty() {
             return;
         }

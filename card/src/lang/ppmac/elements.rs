@@ -40,6 +40,8 @@ pub(crate) struct Key {
 #[derive(Debug, Default)]
 pub(crate) struct Store {
     values: HashMap<Key, f64>,
+    /// The M-variables: definitions, self-referenced values, the memory they point into.
+    pub(crate) m: super::mptr::MVars<super::mvars::MElem>,
 }
 
 impl Store {
@@ -51,6 +53,18 @@ impl Store {
     /// Keep `v` for `k` (no checks: for values the card itself produces).
     pub(crate) fn set_value(&mut self, k: Key, v: f64) {
         self.values.insert(k, v);
+    }
+
+    /// The keys of every value kept for element `def` (`backup` reports them).
+    pub(crate) fn keys_of(&self, def: usize) -> Vec<Key> {
+        let mut v: Vec<Key> = self
+            .values
+            .keys()
+            .filter(|k| k.def == def)
+            .copied()
+            .collect();
+        v.sort_by_key(|k| (k.idx, k.sub));
+        v
     }
 }
 
@@ -174,18 +188,23 @@ pub(crate) fn read(
     if let Some(v) = super::macro_ic::read(card, k) {
         return Ok(v);
     }
+    if let Some(v) = super::mvars::read_user_data(store, k) {
+        return Ok(v);
+    }
     let d = &DEFS[k.def];
     let nm = d.name;
     let st = &mut card.state;
     let v = match (k.st, nm) {
         (St::Ldata, "Motor") => f64::from(th.motor),
         (St::Ldata, "Coord") => f64::from(th.coord),
+        (St::Ldata, "CmdStatus") => th.cmd_status,
+        (St::Ldata, "CmdCount") => th.cmd_count,
         (St::Ldata, "L") => th.local(super::parse::EXT_L, k.sub[0]).unwrap_or(0.0),
         (St::Ldata, "R") => th.local(super::parse::EXT_R, k.sub[0]).unwrap_or(0.0),
         (St::Ldata, "D") => th.local(super::parse::EXT_D, k.sub[0]).unwrap_or(0.0),
         (St::Ldata, "C") => th.local(super::parse::EXT_C, k.sub[0]).unwrap_or(0.0),
         (St::Sys, "P") => st.vars.p(k.sub[0]).map_err(|_| ILLEGAL_PARAMETER)?,
-        (St::Sys, "M") => st.read_m(k.sub[0]).map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "M") => super::mvars::read_m(card, store, th, k.sub[0])?,
         (St::Sys, "I") => read_ivar(card, store, k.sub[0])?,
         (St::Coord, "Q") => st
             .vars
@@ -226,6 +245,18 @@ pub(crate) fn write(
     v: f64,
 ) -> Result<(), AccessError> {
     let d = &DEFS[k.def];
+    // Seed L40290-40325: status elements a program sets to watch its `cmd` texts run.
+    match (k.st, d.name) {
+        (St::Ldata, "CmdStatus") if v.is_finite() => {
+            th.cmd_status = v.trunc();
+            return Ok(());
+        }
+        (St::Ldata, "CmdCount") if v.is_finite() && v >= 0.0 => {
+            th.cmd_count = v.trunc();
+            return Ok(());
+        }
+        _ => {}
+    }
     if d.class == Class::Status {
         return Err(READ_ONLY);
     }
@@ -233,6 +264,9 @@ pub(crate) fn write(
         return Err(ILLEGAL_PARAMETER);
     }
     if let Some(r) = super::macro_ic::write(card, k, v) {
+        return r;
+    }
+    if let Some(r) = super::mvars::write_user_data(store, k, v) {
         return r;
     }
     let nm = d.name;
@@ -259,7 +293,7 @@ pub(crate) fn write(
         (St::Sys, "P") => {
             st.vars.set_p(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?;
         }
-        (St::Sys, "M") => st.write_m(k.sub[0], v).map_err(|_| ILLEGAL_PARAMETER)?,
+        (St::Sys, "M") => super::mvars::write_m(card, store, th, k.sub[0], v)?,
         (St::Sys, "I") => write_ivar(card, store, k.sub[0], v)?,
         (St::Coord, "Q") => {
             st.vars

@@ -197,20 +197,41 @@ impl Ctx<'_> {
                 self.var_write(*f, n, v).map_err(|e| e.code)?;
             }
             Cmd::IDef(f, sel) => {
-                if *f != Fam::I {
+                if !matches!(f, Fam::I | Fam::M) {
                     return Err(20);
                 }
+                let m_count = self.card.model.state.limits().m_vars;
                 for n in self.sel_numbers(sel, elems)? {
-                    let def = elements::ivar_element(n)
-                        .map(|(k, st)| elements::name(&k, st))
-                        .unwrap_or_default();
+                    let def = if *f == Fam::M {
+                        if n >= m_count {
+                            return Err(21);
+                        }
+                        super::mvars::def_text(self.store, n)
+                    } else {
+                        elements::ivar_element(n)
+                            .map(|(k, st)| elements::name(&k, st))
+                            .unwrap_or_default()
+                    };
                     let s = if self.th.echo & 4 != 0 {
                         def
                     } else {
-                        format!("I{n}->{def}")
+                        format!("{}{n}->{def}", f.letter())
                     };
                     self.say(&s);
                 }
+            }
+            Cmd::MDef(ix, src) => {
+                let n = self.index(ix, elems)?;
+                match src {
+                    parse::MDefSrc::Ptr(p) => {
+                        super::mvars::define_ptr(&self.card.model, self.store, n, *p)
+                    }
+                    parse::MDefSrc::Elem(e) => {
+                        let k = self.key(e, elems)?;
+                        super::mvars::define_element(&self.card.model, self.store, n, e, k)
+                    }
+                }
+                .map_err(|e| e.code)?;
             }
             Cmd::ElemQuery(e) => {
                 let k = self.key(e, elems)?;
@@ -374,7 +395,7 @@ impl Ctx<'_> {
         match f {
             Fam::P => st.vars.p(n).map_err(|_| ILLEGAL_PARAMETER),
             Fam::Q => st.vars.q(cs, n).map_err(|_| ILLEGAL_PARAMETER),
-            Fam::M => st.read_m(n).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::M => super::mvars::read_m(&mut self.card.model, self.store, self.th, n),
             Fam::I => elements::read_ivar(&mut self.card.model, self.store, n),
             _ => {
                 let VarKind::Ext(fam) = f.kind() else {
@@ -399,7 +420,7 @@ impl Ctx<'_> {
                 .set_q(cs, n, v)
                 .map(|_| ())
                 .map_err(|_| ILLEGAL_PARAMETER),
-            Fam::M => st.write_m(n, v).map_err(|_| ILLEGAL_PARAMETER),
+            Fam::M => super::mvars::write_m(&mut self.card.model, self.store, self.th, n, v),
             Fam::I => elements::write_ivar(&mut self.card.model, self.store, n, v),
             _ => {
                 let VarKind::Ext(fam) = f.kind() else {
@@ -453,25 +474,7 @@ impl Ctx<'_> {
     }
 
     fn elem_value_text(&self, _k: &Key, e: &ElemRef, v: f64) -> String {
-        let d = &super::catalog::DEFS[e.def];
-        if e.bits.is_none() && d.ty == super::catalog::Ty::Addr {
-            // A pointer at a ring register reads back as that register's `.a` (seed:
-            // `Motor[8].pDac = Gate3[0].MacroOutA[8][0].a`).
-            let out = d.name.starts_with("pDac");
-            if let Some(n) = super::macro_ic::register_name(&self.card.model, v, out) {
-                return n;
-            }
-        }
-        if e.bits.is_none()
-            && matches!(d.ty, super::catalog::Ty::Hex | super::catalog::Ty::Addr)
-            && self.th.echo & 8 == 0
-            && v.is_finite()
-            && v >= 0.0
-        {
-            format!("${:X}", v as u64)
-        } else {
-            fmt(v)
-        }
+        value_text(&self.card.model, e.def, e.bits, v, self.th.echo & 8 == 0)
     }
 
     // ---- expressions -----------------------------------------------------------------------
@@ -604,6 +607,9 @@ impl Env for PowerEnv<'_, '_> {
             VarKind::M => self.cx.var_read(Fam::M, n).map_err(|_| no_var()),
             VarKind::I => Err(no_var()),
             VarKind::Ext(EXT_I) => self.cx.var_read(Fam::I, n).map_err(|_| no_var()),
+            VarKind::Ext(parse::EXT_M | parse::EXT_M_SYNC) => {
+                self.cx.var_read(Fam::M, n).map_err(|_| no_var())
+            }
             VarKind::Ext(f) if f >= EXT_ELEM => {
                 let e = self
                     .elems
@@ -631,6 +637,35 @@ impl Env for PowerEnv<'_, '_> {
 
     fn random(&mut self) -> f64 {
         self.cx.card.model.random()
+    }
+}
+
+/// An element's value as a reply prints it: a pointer at a ring register as that register's
+/// `.a` (seed: `Motor[8].pDac = Gate3[0].MacroOutA[8][0].a`), bit-field and address elements
+/// in hex when `hex` (echo bit 3 clear), other values as [`fmt`].
+pub(crate) fn value_text(
+    card: &CardModel,
+    def: usize,
+    bits: Option<(u32, u32)>,
+    v: f64,
+    hex: bool,
+) -> String {
+    let d = &super::catalog::DEFS[def];
+    if bits.is_none() && d.ty == super::catalog::Ty::Addr {
+        let out = d.name.starts_with("pDac");
+        if let Some(n) = super::macro_ic::register_name(card, v, out) {
+            return n;
+        }
+    }
+    if bits.is_none()
+        && matches!(d.ty, super::catalog::Ty::Hex | super::catalog::Ty::Addr)
+        && hex
+        && v.is_finite()
+        && v >= 0.0
+    {
+        format!("${:X}", v as u64)
+    } else {
+        fmt(v)
     }
 }
 

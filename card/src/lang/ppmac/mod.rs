@@ -14,11 +14,14 @@
 //! from the seed's catalogue (`catalog`); elements without a model equivalent keep their
 //! values here.
 
+mod backup;
 mod catalog;
 mod elements;
 mod exec;
 mod listing;
 mod macro_ic;
+mod mptr;
+mod mvars;
 mod oneline;
 mod parse;
 mod program;
@@ -27,6 +30,8 @@ pub(crate) mod saved;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_mvars;
 #[cfg(test)]
 mod tests_programs;
 
@@ -59,6 +64,11 @@ pub struct Thread {
     pub echo: u32,
     /// Lines received so far (error reports name the line).
     pub lines: u64,
+    /// `Ldata.CmdStatus`: 0 once a `cmd` text of this thread ran, minus its error number
+    /// when it failed (the thread may set it beforehand to watch for the change).
+    pub(crate) cmd_status: f64,
+    /// `Ldata.CmdCount`: `cmd` texts of this thread run so far (the thread may reset it).
+    pub(crate) cmd_count: f64,
     l: Vec<f64>,
     r: Vec<f64>,
     d: [f64; DVARS],
@@ -72,6 +82,8 @@ impl Default for Thread {
             coord: 0,
             echo: 0,
             lines: 0,
+            cmd_status: 0.0,
+            cmd_count: 0.0,
             l: Vec::new(),
             r: Vec::new(),
             d: [0.0; DVARS],
@@ -132,13 +144,15 @@ pub(crate) const CMD_THREAD: u64 = 1 << 62;
 /// [`CMD_THREAD`]; their replies go nowhere (the seed's `cmd` has no reply channel).
 #[derive(Debug, Default)]
 pub struct CmdQueue {
-    lines: Vec<Vec<u8>>,
+    /// Each text with the program thread that issued it (its `Ldata.CmdStatus`/`CmdCount`
+    /// report the outcome).
+    lines: Vec<(crate::model::Thread, Vec<u8>)>,
 }
 
 impl crate::program::Commands for CmdQueue {
-    fn line(&mut self, _: &mut crate::model::CardModel, _: u16, _: u16, line: &[u8]) -> Vec<u8> {
+    fn line(&mut self, card: &mut crate::model::CardModel, _: u16, _: u16, line: &[u8]) -> Vec<u8> {
         if self.lines.len() < 256 {
-            self.lines.push(line.to_vec());
+            self.lines.push((card.exec.thread, line.to_vec()));
         }
         Vec::new()
     }
@@ -146,6 +160,14 @@ impl crate::program::Commands for CmdQueue {
     fn control(&mut self, _: &mut crate::model::CardModel, _: u16, _: u16, _: u8) -> Vec<u8> {
         Vec::new()
     }
+}
+
+/// The error number of the first `error #n:` report in `out`.
+fn first_error(out: &[u8]) -> Option<u16> {
+    let s = String::from_utf8_lossy(out);
+    let k = s.find("error #")? + 7;
+    let digits: String = s[k..].chars().take_while(char::is_ascii_digit).collect();
+    digits.parse().ok()
 }
 
 /// The dialect's state on one card: the communication threads and the values of elements the
@@ -191,6 +213,9 @@ impl Power {
             out
         } else {
             progvars::with(card, |card, pv| {
+                if let Some(out) = backup::command(&mut card.model, &pv.store, &mut th, line) {
+                    return out;
+                }
                 match listing::command(card, &pv.sources, &mut th, line) {
                     Some(out) => out,
                     None => exec::run_line(card, &mut pv.store, &mut th, line),
@@ -210,8 +235,10 @@ impl Power {
 
     /// Run the `cmd"…"` lines programs issued during a servo tick (see [`CmdQueue`]).
     pub fn program_commands(&mut self, card: &mut Card, q: CmdQueue) {
-        for l in q.lines {
-            let _ = self.line(card, CMD_THREAD, &l);
+        for (t, l) in q.lines {
+            let out = self.line(card, CMD_THREAD, &l);
+            let status = first_error(&out).map_or(0.0, |e| -f64::from(e));
+            progvars::with(card, |_, pv| pv.command_done(t, status));
         }
     }
 

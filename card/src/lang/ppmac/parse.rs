@@ -76,7 +76,7 @@ impl Fam {
         match self {
             Fam::P => VarKind::P,
             Fam::Q => VarKind::Q,
-            Fam::M => VarKind::M,
+            Fam::M => VarKind::Ext(EXT_M),
             Fam::I => VarKind::Ext(EXT_I),
             Fam::L => VarKind::Ext(EXT_L),
             Fam::R => VarKind::Ext(EXT_R),
@@ -98,6 +98,11 @@ pub(crate) const EXT_D: u16 = crate::domain::profile::POWER_READ_EXT;
 pub(crate) const EXT_C: u16 = 5;
 /// The conditional-execution flags of the thread's C.S. (`Coord[x].Cflags`, programs only).
 pub(crate) const EXT_CFLAGS: u16 = 6;
+/// M-variables (the dialect keeps their pointer definitions: `mvars`).
+pub(crate) const EXT_M: u16 = 7;
+/// An M-variable as the target of a synchronous assignment (`M1==1`: nothing happens when
+/// it is self-referenced).
+pub(crate) const EXT_M_SYNC: u16 = 8;
 /// Element `k` of the line's element table is `Ext(EXT_ELEM + k)`.
 pub(crate) const EXT_ELEM: u16 = 100;
 /// The index of an element variable that stands for its address (`name.a`), not its value.
@@ -208,8 +213,10 @@ pub(crate) enum Cmd {
     VarQuery(Fam, Sel),
     /// Variable assignment.
     VarSet(Fam, VarIndex, Expr),
-    /// `I{n}->`
+    /// `I{n}->`, `M{n}->`: the definition query.
     IDef(Fam, Sel),
+    /// `M{n}->{definition}`
+    MDef(VarIndex, MDefSrc),
     /// Element query.
     ElemQuery(ElemRef),
     /// Element assignment.
@@ -224,6 +231,15 @@ pub(crate) enum Cmd {
     AxisDef(u16, String),
     /// `enable plc n` / `disable plc n` (`true`: enable)
     PlcCtl(bool, u32),
+}
+
+/// What an M-variable definition points at.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum MDefSrc {
+    /// Address or self-referenced form.
+    Ptr(super::mptr::Ptr),
+    /// Element form.
+    Elem(ElemRef),
 }
 
 /// A command with where it started.
@@ -1100,6 +1116,24 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
         VarIndex::Expr(_) => Sel::One(index.clone()),
     };
     if c.eat_str("->") {
+        let defines = c.peek().is_some_and(|b| !b.is_ascii_whitespace());
+        if f == Fam::M && defines {
+            let Sel::One(ix) = sel else {
+                return err(c.i);
+            };
+            let at = c.i;
+            return match super::mptr::parse(c.rest()) {
+                Err(e) => Err(SyntaxError {
+                    at: at + e.at,
+                    code: e.code,
+                }),
+                Ok(Some((p, len))) => {
+                    c.i += len;
+                    Ok(Cmd::MDef(ix, MDefSrc::Ptr(p)))
+                }
+                Ok(None) => Ok(Cmd::MDef(ix, MDefSrc::Elem(c.element(0)?))),
+            };
+        }
         return Ok(Cmd::IDef(f, sel));
     }
     let save = c.i;

@@ -200,7 +200,9 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             .is_some_and(|w| catalog::structure(w).is_some())
         {
             let e = c.element(0)?;
-            if catalog::DEFS[e.def].class == catalog::Class::Status {
+            let d = &catalog::DEFS[e.def];
+            let watch = e.st == catalog::St::Ldata && matches!(d.name, "CmdStatus" | "CmdCount");
+            if d.class == catalog::Class::Status && !watch {
                 return Err(SyntaxError { at, code: 23 });
             }
             if !is_assign(c) {
@@ -653,6 +655,12 @@ fn assignment(c: &mut Cur<'_>, target: VarRef, at: usize, out: &mut Vec<Stmt>) -
         c.ws();
         (op, c.expr(0)?)
     };
+    let mut target = target;
+    if matches!(op, AssignOp::SyncSet | AssignOp::SyncOp(_))
+        && target.kind == VarKind::Ext(super::parse::EXT_M)
+    {
+        target.kind = VarKind::Ext(super::parse::EXT_M_SYNC);
+    }
     out.push(stmt(StmtKind::Assign { target, op, value }, at));
     Ok(())
 }

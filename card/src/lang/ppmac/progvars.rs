@@ -13,7 +13,9 @@ use std::any::Any;
 use std::collections::HashMap;
 
 use super::elements::{self, Key, Store};
-use super::parse::{ElemRef, ELEM_ADDRESS, EXT_C, EXT_CFLAGS, EXT_D, EXT_I, EXT_L, EXT_R};
+use super::parse::{
+    ElemRef, ELEM_ADDRESS, EXT_C, EXT_CFLAGS, EXT_D, EXT_I, EXT_L, EXT_M, EXT_M_SYNC, EXT_R,
+};
 use super::{Thread, LOCALS};
 use crate::domain::ast::{Expr, VarKind};
 use crate::domain::eval::{self, Env, EvalError};
@@ -79,6 +81,14 @@ impl ProgVars {
     /// The locals lent with [`ProgVars::enter`].
     pub(crate) fn leave(&mut self, t: ExecThread) -> Option<Thread> {
         self.threads.remove(&t)
+    }
+
+    /// A `cmd` text program thread `t` issued has run: `status` is 0 or minus its error
+    /// number (`Ldata.CmdStatus`), and `Ldata.CmdCount` counts it.
+    pub(crate) fn command_done(&mut self, t: ExecThread, status: f64) {
+        let th = self.threads.entry(t).or_default();
+        th.cmd_status = status;
+        th.cmd_count += 1.0;
     }
 
     fn thread(&mut self, at: &ExtAt) -> &mut Thread {
@@ -159,6 +169,10 @@ impl ExtVars for ProgVars {
     ) -> Result<f64, ExtError> {
         match family {
             EXT_I => elements::read_ivar(card, &self.store, index).map_err(access),
+            EXT_M | EXT_M_SYNC => {
+                let th = self.thread(at).clone();
+                super::mvars::read_m(card, &self.store, &th, index).map_err(access)
+            }
             EXT_L | EXT_R => {
                 let s = Self::slot(at, family, index).ok_or(ExtError::NoSuch)?;
                 self.thread(at).local(EXT_L, s).ok_or(ExtError::NoSuch)
@@ -191,6 +205,15 @@ impl ExtVars for ProgVars {
     ) -> Result<(), ExtError> {
         match family {
             EXT_I => elements::write_ivar(card, &mut self.store, index, v).map_err(access),
+            // Seed L37058-37064: a synchronous assignment to a self-referenced M-variable is
+            // a no-op, without error.
+            EXT_M_SYNC if super::mvars::is_self_referenced(&self.store, index) => Ok(()),
+            EXT_M | EXT_M_SYNC => {
+                let mut th = self.thread(at).clone();
+                super::mvars::write_m(card, &mut self.store, &mut th, index, v).map_err(access)?;
+                *self.thread(at) = th;
+                Ok(())
+            }
             EXT_L | EXT_R => {
                 let s = Self::slot(at, family, index).ok_or(ExtError::NoSuch)?;
                 self.thread(at)

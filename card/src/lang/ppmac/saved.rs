@@ -12,6 +12,30 @@ use super::listing::{self, Sources};
 use super::{program, progvars};
 use crate::model::{BufId, CardModel, ProgLine};
 
+pub(crate) use super::mvars::SavedM;
+
+/// The M-variable definitions and self-referenced values of `card` (empty unless it is a
+/// Power card with the dialect attached). [DECISION] Saved by `save` and restored at power-up
+/// and `$$$`, like the PMAC dialect's M-definitions and values; an optional field of format 2
+/// (`mvars`), like `sources`. The user buffer itself (`Sys.Idata…`, `user` M-variables) is
+/// RAM: not saved.
+pub(crate) fn export_m(card: &CardModel) -> SavedM {
+    card.ext::<progvars::ProgVars>()
+        .map(|pv| super::mvars::export(&pv.store))
+        .unwrap_or_default()
+}
+
+/// Replace the M-variables of `card` by `saved` (nothing when it is not a Power card).
+pub(crate) fn restore_m(card: &mut CardModel, saved: SavedM) {
+    let Some(mut b) = card.take_ext() else {
+        return;
+    };
+    if let Some(pv) = b.as_any_mut().downcast_mut::<progvars::ProgVars>() {
+        super::mvars::restore(card, &mut pv.store, saved);
+    }
+    card.set_ext(b);
+}
+
 /// One buffer's text in the image.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub(crate) struct SourceText {
