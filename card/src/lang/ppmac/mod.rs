@@ -26,6 +26,7 @@ mod oneline;
 mod parse;
 mod program;
 pub(crate) mod progvars;
+mod rotary;
 pub(crate) mod saved;
 
 #[cfg(test)]
@@ -34,6 +35,8 @@ mod tests;
 mod tests_mvars;
 #[cfg(test)]
 mod tests_programs;
+#[cfg(test)]
+mod tests_rotary;
 
 use std::collections::HashMap;
 
@@ -177,6 +180,8 @@ pub struct Power {
     threads: HashMap<u64, (Thread, u64)>,
     clock: u64,
     open: Option<OpenBuf>,
+    /// The rotary buffer open for entry (`rotary`), if any.
+    rot: Option<rotary::RotOpen>,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -202,7 +207,9 @@ impl Power {
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
         let mut th = self.take_thread(conn);
         let mut cmds = Vec::new();
-        let out = if let Some(out) = self.buffer_command(card, conn, &mut th, line) {
+        let out = if let Some(out) = self.rotary_command(card, conn, &mut th, line) {
+            out
+        } else if let Some(out) = self.buffer_command(card, conn, &mut th, line) {
             out
         } else if let Some(out) = (line.len() <= MAX_LINE)
             .then(|| oneline::command(card, conn, &mut th, line, &mut cmds))
@@ -251,6 +258,9 @@ impl Power {
     /// Connection `conn` closed: forget its thread, close a buffer it left open.
     pub fn end(&mut self, card: &mut Card, conn: u64) {
         self.threads.remove(&conn);
+        if self.rot.is_some_and(|r| r.conn == conn) {
+            self.rot = None;
+        }
         if self.open.as_ref().is_some_and(|o| o.conn == conn) {
             // A buffer left open by a vanished connection is closed (its errors have no one to
             // go to).
@@ -352,7 +362,7 @@ impl Power {
         n: &str,
     ) -> Result<(), parse::SyntaxError> {
         let bad = |code| parse::SyntaxError { at: 0, code };
-        if self.open.is_some() {
+        if self.open.is_some() || self.rot.is_some() {
             return Err(bad(21));
         }
         let n: u32 = n.parse().map_err(|_| bad(21))?;
