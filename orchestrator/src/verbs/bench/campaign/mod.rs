@@ -322,19 +322,23 @@ fn judge_detection(
     let last = observe::snapshot(s, cfg);
     // The onset.
     let down_latch = detected.member(down).and_then(|m| m.ring_fault_cycle);
+    // The cycle after the last frame the downstream member received is a dark onset too: a
+    // poll can miss a short dark spell before a restarted sync master renumbers the ring, and
+    // then the only spell seen is a later one in the new numbering (campaign seed 1000, #467
+    // paced: onset 105 against a latch at 803,820).
+    let after_last_rx = detected
+        .member(down)
+        .and_then(|m| m.last_rx_cycle)
+        .map(|c| c + 1);
     let dark_onset = dark_onsets
         .iter()
         .copied()
+        .chain(after_last_rx.filter(|_| dead))
         .filter(|&o| down_latch.is_none_or(|l| o <= l))
         .max()
         .or_else(|| dark_onsets.first().copied());
     let onset = if dead {
-        dark_onset.or_else(|| {
-            detected
-                .member(down)
-                .and_then(|m| m.last_rx_cycle)
-                .map(|c| c + 1)
-        })
+        dark_onset.or(after_last_rx)
     } else {
         detected
             .member(p.target)
