@@ -301,9 +301,9 @@ impl Power {
         let words: Vec<&str> = text.split_whitespace().collect();
         let mine = self.open.as_ref().is_some_and(|o| o.conn == conn);
         match words.as_slice() {
-            ["open", kind, n] => {
+            ["open", kind, n @ ..] if !n.is_empty() => {
                 th.lines += 1;
-                let r = self.open_buffer(card, conn, kind, n);
+                let r = self.open_buffer(card, conn, kind, &n.concat());
                 return Some(exec::frame(th, line, r.err()));
             }
             ["close"] | ["close", "all", "buffers"] => {
@@ -365,7 +365,26 @@ impl Power {
         if self.open.is_some() || self.rot.is_some() {
             return Err(bad(21));
         }
-        let n: u32 = n.parse().map_err(|_| bad(21))?;
+        // `n[,[stack]][,labels]` (seed L37686-37752): the label count is accepted (the engine
+        // has no label table to size); [DECISION] a stack offset other than the default 256
+        // is #21 (the engine uses one stack offset for every program).
+        let mut args = n.split(',');
+        let n: u32 = args.next().unwrap_or("").parse().map_err(|_| bad(21))?;
+        let opt: Vec<&str> = args.collect();
+        if opt.len() > 2 {
+            return Err(bad(20));
+        }
+        for (k, a) in opt.iter().enumerate() {
+            if a.is_empty() {
+                continue;
+            }
+            match a.parse::<u32>() {
+                Ok(v) if k == 0 && v == 256 => {}
+                Ok(v) if k == 1 && v > 0 => {}
+                Ok(_) => return Err(bad(21)),
+                Err(_) => return Err(bad(20)),
+            }
+        }
         let id = match kind {
             "prog" if (1..=32_767).contains(&n) => BufId::Prog(n as u16),
             "plc" if n <= 31 => BufId::Plc(n as u8),

@@ -227,6 +227,23 @@ fn buffer_rules() {
     // `system` is not offered
     assert_eq!(t.send("open plc 2"), "");
     assert!(t.send("system\"ls\"").contains("error #27"));
+    // Seed L37746-37752: `open prog n[,[stack]][,labels]`; the default stack offset and any
+    // label count are taken, another stack offset is refused (one offset for every program).
+    for ok in [
+        "open prog 2001,,2048",
+        "open prog 5,256,256",
+        "open subprog 3,256",
+        "open prog 1",
+    ] {
+        assert_eq!(t.send(ok), "", "{ok}");
+        assert_eq!(t.send("X1"), "");
+        assert_eq!(t.send("close"), "");
+    }
+    assert!(t.send("open prog 100,64").contains("error #21"));
+    assert!(t.send("open prog 5,512,256").contains("error #21"));
+    assert!(t.send("open prog 5,256,0").contains("error #21"));
+    assert!(t.send("open prog 5,x").contains("error #20"));
+    assert!(t.send("open prog 5,1,2,3").contains("error #20"));
 }
 
 /// Seed §2.7 (L36521-36754, L33567-33602): `list prog|subprog|plc n` without, with a trailing
