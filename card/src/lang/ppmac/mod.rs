@@ -32,6 +32,8 @@ pub(crate) mod saved;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_fuzz;
+#[cfg(test)]
 mod tests_mvars;
 #[cfg(test)]
 mod tests_programs;

@@ -40,6 +40,11 @@ impl T {
         s[..s.len() - 3].to_string()
     }
 
+    /// The whole output of `line` (any bytes).
+    pub(super) fn raw(&mut self, line: &[u8]) -> Vec<u8> {
+        self.p.line(&mut self.card, 1, line)
+    }
+
     pub(super) fn load(&mut self, lines: &[&str]) {
         for l in lines {
             assert_eq!(self.send(l), "", "{l}");
