@@ -288,6 +288,17 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         }
         .to_string(),
         S::Pvt(d) => format!("PVT{}", data(d)),
+        // Power statements (that dialect lists its programs from their text).
+        S::Spline(d) => format!("SPLINE{}", data(d)),
+        S::Td(d) => format!("TD{}", data(d)),
+        S::SendFormat { port, text, args } => {
+            let mut t = format!("SEND{port},\"{}\"", String::from_utf8_lossy(text));
+            for a in args {
+                t.push(',');
+                t.push_str(&data(a));
+            }
+            t
+        }
         S::Abs(l) => format!("ABS{}", axes(l)),
         S::Inc(l) => format!("INC{}", axes(l)),
         S::Frax(l) => format!("FRAX{}", axes(l)),

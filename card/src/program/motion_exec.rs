@@ -63,14 +63,18 @@ impl CsExec {
                 };
                 Ok(())
             }),
-            S::Pvt(e) | S::Ta(e) | S::Ts(e) | S::Tm(e) | S::F(e) => {
+            S::Pvt(e) | S::Ta(e) | S::Td(e) | S::Spline(e) | S::Ts(e) | S::Tm(e) | S::F(e) => {
                 let Ok(v) = env::value(card, num, e) else {
                     self.runtime_error(card, rte::VARIABLE, false);
                     return Flow::Error;
                 };
+                let power = card.profile() == crate::domain::Profile::Power;
                 let flow = self.modal(card, |c| match &s.kind {
                     S::Pvt(_) => c.modal.set_pvt(v),
+                    S::Ta(_) if power => c.modal.set_ta_only(v),
                     S::Ta(_) => c.modal.set_ta(v),
+                    S::Td(_) => c.modal.set_td(v),
+                    S::Spline(_) => c.modal.set_spline(v),
                     S::Ts(_) => c.modal.set_ts(v),
                     S::Tm(_) => c.modal.set_tm(v),
                     _ => c.modal.set_f(v),

@@ -19,6 +19,7 @@ mod elements;
 mod exec;
 mod listing;
 mod macro_ic;
+mod moves;
 mod oneline;
 mod parse;
 mod program;
@@ -27,6 +28,8 @@ pub(crate) mod saved;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_moves;
 #[cfg(test)]
 mod tests_programs;
 
