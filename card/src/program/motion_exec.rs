@@ -84,6 +84,15 @@ impl CsExec {
                     let n = env::cs_ivar(card.profile(), num, 89);
                     card.state.vars.force_i(n, v);
                 }
+                if power && matches!(s.kind, S::Ta(_) | S::Td(_)) && !matches!(flow, Flow::Error) {
+                    // Power: `ta` sets `Coord[x].Ta` and `Coord[x].Td`, `td` the latter
+                    // (seed L4974-4975, L5017-5019).
+                    let p = card.profile();
+                    if matches!(s.kind, S::Ta(_)) {
+                        card.state.vars.force_i(env::cs_ivar(p, num, 87), v);
+                    }
+                    card.state.vars.force_i(env::cs_ivar(p, num, 80), v);
+                }
                 flow
             }
             S::Abs(list) | S::Inc(list) => {

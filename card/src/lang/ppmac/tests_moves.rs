@@ -92,6 +92,7 @@ fn td_sets_the_final_deceleration_time() {
             "ta100 tm400 X1",
             "dwell 10",
             "td0 tm400 X1",
+            "td7",
         ],
         5000,
     );
@@ -108,6 +109,11 @@ fn td_sets_the_final_deceleration_time() {
     let late = crossing(&tr, 2999.0, cyc);
     assert!((late - mid - 199.6).abs() < 0.5, "td0: {mid} {late}");
     assert!((tr[tr.len() - 1] - 3000.0).abs() < 1e-6);
+    // The elements follow: `ta` set both, `td` then Td alone.
+    assert_eq!(
+        t.send("Coord[1].Ta Coord[1].Td"),
+        "Coord[1].Ta=100\r\nCoord[1].Td=7\r\n"
+    );
 }
 
 /// `send n,"fmt",expr…` formats with C printf rules when it runs; escapes are resolved.
