@@ -60,6 +60,19 @@ fn pvt_moves_follow_position_velocity_time() {
     let cyc = Servo::cycle_ms(&t.card.model);
     let moving = tr.iter().filter(|p| p.abs() > 1e-9).count() as f64 * cyc;
     assert!((moving - 400.0).abs() < 1.5, "moving {moving} ms");
+    // With `Coord[1].FeedTime=100` the same velocity is 1 unit per 100 ms.
+    t.load(&[
+        "Coord[1].FeedTime=100",
+        "open prog 34",
+        "inc pvt200",
+        "X0:1",
+        "X0:0",
+        "close",
+    ]);
+    assert_eq!(t.send("&1 b34 r"), "");
+    let tr = trace(&mut t, 1500);
+    let min = tr.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!((min + peak).abs() < 0.5, "min {min} with FeedTime 100");
 }
 
 /// `spline T` sets SPLINE mode with its own segment time (not TA): one point from rest is a
