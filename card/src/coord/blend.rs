@@ -30,12 +30,17 @@ pub(crate) const MAX_PIECES: usize = 16;
 /// How a piece connects to its neighbours.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Kind {
-    /// LINEAR / CIRCLE / DELAY: blended over `ta` ms (TA'), S fraction `s`.
+    /// LINEAR / CIRCLE / DELAY: blended over `ta` ms (TA'), S fraction `s`; a stop at its
+    /// end decelerates over `td` ms (TD', Power `td`), S fraction `sd`.
     Blend {
         /// Effective accel time TA' = max(TA, 2·TS) (ms).
         ta: f64,
         /// TS / TA'.
         s: f64,
+        /// Effective final decel time (ms; TA' unless Power's `td` is in force).
+        td: f64,
+        /// TS / TD'.
+        sd: f64,
     },
     /// PVT segment (contiguous, velocity given).
     Pvt,
@@ -83,7 +88,7 @@ impl Piece {
     }
     fn stop_h(&self) -> f64 {
         match self.kind {
-            Kind::Blend { ta, .. } => (ta / 2.0).min(self.dur / 2.0),
+            Kind::Blend { td, .. } => (td / 2.0).min(self.dur / 2.0),
             _ => 0.0,
         }
     }
@@ -220,9 +225,9 @@ impl Timeline {
             return;
         }
         match p.kind {
-            Kind::Blend { s, .. } => {
+            Kind::Blend { sd, .. } => {
                 let h = p.stop_h();
-                p.out = Out::Stop { h, s };
+                p.out = Out::Stop { h, s: sd };
             }
             Kind::Pvt => {
                 // End the sequence at rest on the programmed point: re-plan the last segment
@@ -294,7 +299,7 @@ impl Timeline {
             xf: np.xf,
         };
         let joined = match (self.pieces.back_mut(), np.kind) {
-            (Some(last), Kind::Blend { ta, s }) if last.out == Out::Undecided => {
+            (Some(last), Kind::Blend { ta, s, .. }) if last.out == Out::Undecided => {
                 let is_blend = matches!(last.kind, Kind::Blend { .. });
                 let h = (ta / 2.0).min(last.dur / 2.0).min(np.dur / 2.0);
                 if is_blend && tau < last.end() - h {
@@ -317,7 +322,7 @@ impl Timeline {
         if !joined {
             self.settle_tail();
             let t0 = self.time_at_rest(tau);
-            if let Kind::Blend { ta, s } = np.kind {
+            if let Kind::Blend { ta, s, .. } = np.kind {
                 piece.h_in = (ta / 2.0).min(np.dur / 2.0);
                 piece.s_in = s;
                 piece.from_rest = true;

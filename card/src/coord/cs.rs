@@ -281,7 +281,7 @@ impl CoordSystem {
             Mode::Rapid => self.push_rapid(&target, &xf)?,
             Mode::Pvt => Some(self.push_pvt(w, &target, &xf)?),
             Mode::Spline1 => {
-                let ta = self.modal.ta.round();
+                let ta = self.modal.spline_time.round();
                 if ta < 1.0 {
                     return Err(CoordError::ZeroAccelTime);
                 }
@@ -355,6 +355,7 @@ impl CoordSystem {
             t = t.max(tap);
         }
         let s = s0 * self.modal.accel()?.0 / tap;
+        let (td, sd) = self.modal.decel(tap, s);
         if self.cfg.ix92 {
             self.tl.settle_tail();
         }
@@ -362,7 +363,7 @@ impl CoordSystem {
             NewPiece {
                 prim,
                 dur: t,
-                kind: Kind::Blend { ta: tap, s },
+                kind: Kind::Blend { ta: tap, s, td, sd },
                 xf: *xf,
             },
             self.tau,
@@ -463,11 +464,12 @@ impl CoordSystem {
             p1: self.pos,
         };
         let (tap, s) = self.modal.accel()?;
+        let (td, sd) = self.modal.decel(tap, s);
         self.tl.push(
             NewPiece {
                 prim,
                 dur: ms.max(tap),
-                kind: Kind::Blend { ta: tap, s },
+                kind: Kind::Blend { ta: tap, s, td, sd },
                 xf,
             },
             self.tau,

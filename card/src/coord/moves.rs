@@ -101,6 +101,8 @@ pub struct CsConfig {
     pub i50: bool,
     /// I90 minimum arc angle (semicircles; 0 = 2^-20).
     pub i90: f64,
+    /// Power `Coord[x].Td`: the final deceleration time at power-up (`None`: TA, as PMAC).
+    pub td: Option<f64>,
     /// Limits of the C.S. motors (same order as the C.S. motor list; missing = defaults).
     pub motors: Vec<MotorLimits>,
 }
@@ -121,6 +123,7 @@ impl Default for CsConfig {
             i13: 0.0,
             i50: true,
             i90: 0.0,
+            td: None,
             motors: Vec::new(),
         }
     }
@@ -146,6 +149,11 @@ pub struct Modal {
     pub feed: Feed,
     /// PVT segment time (ms).
     pub pvt_time: f64,
+    /// SPLINE segment time (ms; PMAC: TA, Power: `spline{t}`).
+    pub spline_time: f64,
+    /// Power `td`: the final deceleration time of blended moves (ms); `None`: TA (PMAC, and
+    /// Power after `ta`, which sets `Coord[x].Td` too).
+    pub td: Option<f64>,
     /// Axes in INC mode (X..W).
     pub inc: [bool; 9],
     /// `ABS(R)`: circle centre vector from the origin.
@@ -186,6 +194,8 @@ impl Modal {
                 1000.0
             }),
             pvt_time: clean(cfg.ix87, 0.0),
+            spline_time: clean(cfg.ix87, 0.0),
+            td: cfg.td.filter(|v| v.is_finite() && *v >= 0.0),
             inc: [false; 9],
             centre_abs: false,
             frax: [true, true, true, false, false, false, false, false, false],
@@ -193,10 +203,36 @@ impl Modal {
         }
     }
 
-    /// `TA{v}` (also the PVT segment time).
+    /// `TA{v}` (also the PVT and SPLINE segment times, and the final deceleration).
     pub fn set_ta(&mut self, v: f64) -> Result<(), CoordError> {
-        self.ta = non_negative(v, "TA")?;
+        self.set_ta_only(v)?;
         self.pvt_time = self.ta;
+        self.spline_time = self.ta;
+        Ok(())
+    }
+
+    /// Power `ta{v}`: the accel and final decel times; the PVT and SPLINE segment times are
+    /// left alone (seed L43355-43356, L43986-43987: Power sets them only with `pvt`/`spline`).
+    pub fn set_ta_only(&mut self, v: f64) -> Result<(), CoordError> {
+        self.ta = non_negative(v, "TA")?;
+        self.td = None;
+        Ok(())
+    }
+
+    /// Power `td{v}`: the final deceleration time (≥ 0; 0 with TS 0 is a step, seed L44490).
+    pub fn set_td(&mut self, v: f64) -> Result<(), CoordError> {
+        self.td = Some(non_negative(v, "TD")?);
+        Ok(())
+    }
+
+    /// Power `spline{t}`: SPLINE mode with segment time t ms (rounded, ≥ 1).
+    pub fn set_spline(&mut self, t: f64) -> Result<(), CoordError> {
+        let t = positive(t, "SPLINE time")?.round();
+        if !(1.0..=8_388_607.0).contains(&t) {
+            return Err(CoordError::BadTime("SPLINE time"));
+        }
+        self.spline_time = t;
+        self.mode = Mode::Spline1;
         Ok(())
     }
 
@@ -227,6 +263,20 @@ impl Modal {
         self.pvt_time = t;
         self.mode = Mode::Pvt;
         Ok(())
+    }
+
+    /// Effective final deceleration time TD' (ms) and its S fraction, given the accel time
+    /// TA' and S fraction in use: with no `td`, those; else TD' = max(TD, 2·TS) rounded as
+    /// TA' is, which may be 0 (a step to rest).
+    pub fn decel(&self, tap: f64, s: f64) -> (f64, f64) {
+        match self.td {
+            None => (tap, s),
+            Some(td) => {
+                let ts = self.ts.round();
+                let tdp = td.round().max(2.0 * ts);
+                (tdp, if tdp > 0.0 { ts / tdp } else { 0.0 })
+            }
+        }
     }
 
     /// `NORMAL` vector (must be finite and non-zero).

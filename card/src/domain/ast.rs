@@ -993,6 +993,28 @@ pub enum StmtKind {
     CallSub(Expr),
     /// `N{n}` without a colon: a synchronous line label (reported, not a jump target).
     SyncLabel(u32),
+    /// Power `spline{data}`: SPLINE mode with its own segment time (ms), apart from TA.
+    Spline(Expr),
+    /// Power `td{data}`: the final deceleration time of blended moves (ms).
+    Td(Expr),
+    /// Power `send n,"fmt",expr,…`: printf-style text (escapes already resolved) formatted
+    /// with the values of `args` when the statement runs.
+    SendFormat {
+        /// Software port 0-4.
+        port: u8,
+        /// Format text.
+        text: Vec<u8>,
+        /// One expression per conversion of `text`.
+        args: Vec<Expr>,
+    },
+    /// Power `cmd"fmt",expr,…`: a command text formatted printf-style with the values of
+    /// `args` when the statement runs.
+    CommandFormat {
+        /// Format text.
+        text: Vec<u8>,
+        /// One expression per conversion of `text`.
+        args: Vec<Expr>,
+    },
     /// `MSW{node},{slavevar},{var}`
     MacroSlaveWrite {
         /// Node.

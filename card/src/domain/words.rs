@@ -62,6 +62,10 @@ pub(crate) fn word_count(s: &Stmt) -> u32 {
         S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => {
             1 + expr_words(d)
         }
+        S::Td(d) | S::Spline(d) => 1 + expr_words(d),
+        S::SendFormat { text, args, .. } | S::CommandFormat { text, args } => {
+            text_words(text.len()) + args.iter().map(expr_words).sum::<u32>()
+        }
         S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) | S::CallSub(d) => {
             1 + expr_words(d)
         }

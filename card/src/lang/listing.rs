@@ -288,6 +288,21 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         }
         .to_string(),
         S::Pvt(d) => format!("PVT{}", data(d)),
+        // Power statements (that dialect lists its programs from their text).
+        S::Spline(d) => format!("SPLINE{}", data(d)),
+        S::Td(d) => format!("TD{}", data(d)),
+        S::SendFormat { text, args, .. } | S::CommandFormat { text, args } => {
+            let head = match &s.kind {
+                S::SendFormat { port, .. } => format!("SEND{port},"),
+                _ => "CMD".to_string(),
+            };
+            let mut t = format!("{head}\"{}\"", String::from_utf8_lossy(text));
+            for a in args {
+                t.push(',');
+                t.push_str(&data(a));
+            }
+            t
+        }
         S::Abs(l) => format!("ABS{}", axes(l)),
         S::Inc(l) => format!("INC{}", axes(l)),
         S::Frax(l) => format!("FRAX{}", axes(l)),

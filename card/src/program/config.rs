@@ -66,6 +66,8 @@ pub(crate) fn cs_config(card: &CardModel, cs: u16, motors: &[u16]) -> CsConfig {
         i13: ivar(card, 13, d.i13),
         i50: ivar(card, 50, 1.0) != 0.0,
         i90: ivar(card, 90, d.i90),
+        // Power's `Coord[x].Td` (legacy Isx80, seed L4995-5027); PMAC has no such time.
+        td: (p == crate::domain::Profile::Power).then(|| c(80, c(87, d.ix87))),
         motors: limits,
     }
 }

@@ -34,6 +34,7 @@ pub(crate) mod motion;
 mod motion_exec;
 mod motion_move;
 pub(crate) mod plc;
+pub(crate) mod printf;
 mod runctl;
 pub(crate) mod stmt;
 

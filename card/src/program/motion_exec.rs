@@ -63,14 +63,18 @@ impl CsExec {
                 };
                 Ok(())
             }),
-            S::Pvt(e) | S::Ta(e) | S::Ts(e) | S::Tm(e) | S::F(e) => {
+            S::Pvt(e) | S::Ta(e) | S::Td(e) | S::Spline(e) | S::Ts(e) | S::Tm(e) | S::F(e) => {
                 let Ok(v) = env::value(card, num, e) else {
                     self.runtime_error(card, rte::VARIABLE, false);
                     return Flow::Error;
                 };
+                let power = card.profile() == crate::domain::Profile::Power;
                 let flow = self.modal(card, |c| match &s.kind {
                     S::Pvt(_) => c.modal.set_pvt(v),
+                    S::Ta(_) if power => c.modal.set_ta_only(v),
                     S::Ta(_) => c.modal.set_ta(v),
+                    S::Td(_) => c.modal.set_td(v),
+                    S::Spline(_) => c.modal.set_spline(v),
                     S::Ts(_) => c.modal.set_ts(v),
                     S::Tm(_) => c.modal.set_tm(v),
                     _ => c.modal.set_f(v),
@@ -79,6 +83,15 @@ impl CsExec {
                     // Polled, Ix89 reports the most recent F or TM (seed 4541-4543).
                     let n = env::cs_ivar(card.profile(), num, 89);
                     card.state.vars.force_i(n, v);
+                }
+                if power && matches!(s.kind, S::Ta(_) | S::Td(_)) && !matches!(flow, Flow::Error) {
+                    // Power: `ta` sets `Coord[x].Ta` and `Coord[x].Td`, `td` the latter
+                    // (seed L4974-4975, L5017-5019).
+                    let p = card.profile();
+                    if matches!(s.kind, S::Ta(_)) {
+                        card.state.vars.force_i(env::cs_ivar(p, num, 87), v);
+                    }
+                    card.state.vars.force_i(env::cs_ivar(p, num, 80), v);
                 }
                 flow
             }

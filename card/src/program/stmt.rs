@@ -170,6 +170,30 @@ pub(crate) fn exec_common(card: &mut CardModel, ctx: &mut Ctx<'_>, s: &StmtKind)
             send(card, ctx.out, m);
             Common::Done
         }
+        StmtKind::SendFormat { text, args, .. } | StmtKind::CommandFormat { text, args } => {
+            let mut vals = Vec::with_capacity(args.len());
+            for e in args {
+                let Ok(v) = env::value(card, ctx.coord, e) else {
+                    return Common::BadVariable;
+                };
+                vals.push(v);
+            }
+            // Checked at entry; a format that no longer parses is used as it stands.
+            let text = match super::printf::parse(text) {
+                Ok(p) => super::printf::format(&p, &vals),
+                Err(_) => text.clone(),
+            };
+            if matches!(s, StmtKind::SendFormat { .. }) {
+                send(card, ctx.out, &Message::Text(text));
+            } else if ctx.cmds.len() < MAX_CMDS {
+                ctx.cmds.push(QueuedCmd {
+                    motor: ctx.motor,
+                    coord: ctx.coord,
+                    msg: Message::Text(text),
+                });
+            }
+            Common::Done
+        }
         StmtKind::Display(_) | StmtKind::CutterComp(_) => Common::Done,
         StmtKind::Plc(pc) => {
             let mut mask = 0u32;

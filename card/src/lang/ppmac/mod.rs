@@ -20,6 +20,7 @@ mod elements;
 mod exec;
 mod listing;
 mod macro_ic;
+mod moves;
 mod mptr;
 mod mvars;
 mod oneline;
@@ -33,6 +34,8 @@ pub(crate) mod saved;
 mod tests;
 #[cfg(test)]
 mod tests_fuzz;
+#[cfg(test)]
+mod tests_moves;
 #[cfg(test)]
 mod tests_mvars;
 #[cfg(test)]
@@ -303,7 +306,9 @@ impl Power {
         let words: Vec<&str> = text.split_whitespace().collect();
         let mine = self.open.as_ref().is_some_and(|o| o.conn == conn);
         match words.as_slice() {
-            ["open", kind, n @ ..] if !n.is_empty() => {
+            ["open", kind, n @ ..]
+                if !n.is_empty() && n.concat().bytes().all(|b| b.is_ascii_digit() || b == b',') =>
+            {
                 th.lines += 1;
                 let r = self.open_buffer(card, conn, kind, &n.concat());
                 return Some(exec::frame(th, line, r.err()));

@@ -7,9 +7,8 @@
 use super::catalog;
 use super::parse::{Cur, ElemRef, Fam, SyntaxError, EXT_CFLAGS};
 use crate::domain::ast::{
-    AssignOp, Axis, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg, Message,
-    MoveMode, NumRange, PlcControl, PlcVerb, Pos, SendPort, Stmt, StmtKind, VarIndex, VarKind,
-    VarRef,
+    AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg,
+    MoveMode, NumRange, PlcControl, PlcVerb, Pos, Stmt, StmtKind, VarIndex, VarKind, VarRef,
 };
 
 /// Deepest block nesting (seed: conditionals nest 32 levels).
@@ -230,6 +229,7 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 break;
             }
             let save = c.i;
+            let is_axis = c.peek().and_then(axis_of).is_some();
             c.i += 1;
             let value = data(c)?;
             if is_assign(c) {
@@ -237,10 +237,16 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 c.i = save;
                 break;
             }
+            // `X{pos}:{vel}`: a PVT move's end velocity (seed L39448-39484).
+            let extra = if is_axis && c.eat(b':') {
+                Some(AxisExtra::Velocity(data(c)?))
+            } else {
+                None
+            };
             words.push(AxisWord {
                 axis: a,
                 value,
-                extra: None,
+                extra,
             });
             c.ws();
         }
@@ -251,9 +257,9 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         return err(at);
     };
     // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
-    const GLUED: [&str; 16] = [
-        "f", "tm", "ta", "ts", "dwell", "delay", "goto", "gosub", "callsub", "call", "circle",
-        "cset", "cclr", "cexe", "cexec", "cskip",
+    const GLUED: [&str; 20] = [
+        "f", "tm", "ta", "ts", "td", "pvt", "spline", "send", "dwell", "delay", "goto", "gosub",
+        "callsub", "call", "circle", "cset", "cclr", "cexe", "cexec", "cskip",
     ];
     if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
         if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
@@ -355,25 +361,15 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             StmtKind::Call(target, letter_args(c)?)
         }
         "read" => StmtKind::Read(read_letters(c)?),
-        "cmd" => StmtKind::Command(Message::Text(quoted(c)?)),
-        "send" => {
-            // `send n,"text"` to software port n (0-4); printf arguments are not offered.
-            c.ws();
-            match c.uint() {
-                Some(n) if n <= 4 => {}
-                _ => return Err(SyntaxError { at: c.i, code: 21 }),
-            }
-            c.ws();
-            if !c.eat(b',') {
-                return err(c.i);
-            }
+        "cmd" => {
             let text = quoted(c)?;
-            c.ws();
-            if c.peek() == Some(b',') {
-                return Err(SyntaxError { at: c.i, code: 27 });
-            }
-            StmtKind::Send(SendPort::Any, Message::Text(text))
+            super::moves::cmd(c, text)?
         }
+        // `send n,"fmt",expr…` to software port n (0-4), printf-style.
+        "send" => super::moves::send(c)?,
+        "pvt" => super::moves::pvt(c)?,
+        "spline" => super::moves::spline(c)?,
+        "td" => super::moves::td(c)?,
         // The queues of `send`/`cmd` are flushed at the end of every scan anyway.
         "sendall" | "sendallcmds" => return Ok(()),
         "cset" | "cclr" | "cexe" | "cexec" | "cskip" => return cond_exec(c, &w, at, out),

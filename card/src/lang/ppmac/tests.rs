@@ -243,6 +243,11 @@ fn buffer_rules() {
     assert!(t.send("open prog 5,512,256").contains("error #21"));
     assert!(t.send("open prog 5,256,0").contains("error #21"));
     assert!(t.send("open prog 5,x").contains("error #20"));
+    assert!(
+        t.send("open prog 5, 256").is_empty(),
+        "white space between the arguments"
+    );
+    assert_eq!(t.send("close"), "");
     assert!(t.send("open prog 5,1,2,3").contains("error #20"));
 }
 

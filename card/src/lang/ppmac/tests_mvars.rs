@@ -309,3 +309,33 @@ fn ldata_cmd_status_and_count_follow_the_thread_s_cmd_texts() {
     );
     assert!(t.send("Ldata.CmdCount=-1").contains("error #"));
 }
+
+/// Seed L40310-40316: `cmd"fmt",expr…` formats the text printf-style when it runs (here an
+/// M-pointer to the bit P10 names); without arguments a `%` is the text's own.
+#[test]
+fn cmd_texts_take_printf_arguments() {
+    let mut t = T::new();
+    t.load(&[
+        "P10=8",
+        "open plc 5",
+        "Ldata.CmdStatus = 1",
+        "cmd\"M1->u.io:$A00000.%u.1\",P10",
+        "cmd \"P%d=%.2f\", P10 + 3, 1/3",
+        "cmd\"&1%50\"",
+        "disable plc 5",
+        "close",
+        "enable plc 5",
+    ]);
+    t.run(20);
+    assert_eq!(t.send("M1->"), "M1->u.io:$A00000.8.1\r\n");
+    assert_eq!(t.send("P11"), "P11=0.33\r\n");
+    assert_eq!(t.send("&1%"), "50\r\n");
+    assert_eq!(
+        t.send("list plc 5").lines().nth(1),
+        Some("cmd\"M1->u.io:$A00000.%u.1\",P10")
+    );
+    for bad in ["cmd\"P1=%d\",1,2", "cmd\"P1=%s\",1", "cmd\"P1=%d\","] {
+        assert_eq!(t.send("open plc 6"), "");
+        assert!(t.send(bad).contains("error #20"), "{bad}");
+    }
+}
