@@ -141,6 +141,8 @@ pub struct MemberRow {
     pub dark_since_cycle: Option<u64>,
     /// The last dark spell that ended, `[first, last]` cycle without light.
     pub last_dark_spell: Option<(u64, u64)>,
+    /// While latched: the first dark cycle of the spell it was in when it latched.
+    pub ring_fault_dark_since: Option<u64>,
     /// Latest cycle in which the link into it delivered bad data (packet errors, dark or
     /// extra frames, silence).
     pub link_error_cycle: Option<u64>,
@@ -411,6 +413,7 @@ pub fn build(
                 dark_since_cycle: v.dark_since_cycle,
                 link_error_cycle: v.link_error_cycle,
                 last_dark_spell: v.last_dark_spell,
+                ring_fault_dark_since: v.ring_fault_dark_since,
                 fault_reason: v.fault_reason.clone(),
                 sched: v.sched.clone(),
                 faults: v.faults.clone(),

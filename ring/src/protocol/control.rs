@@ -120,6 +120,11 @@ pub struct MemberStatus {
     /// that died and came back, a cut that was mended).
     #[serde(default)]
     pub last_dark_spell: Option<(u64, u64)>,
+    /// While latched: the first dark cycle of the spell the member was in when its fault
+    /// latched (the onset of a loss of light as the member itself saw it, in the numbering of
+    /// its latch: a restarted sync master may renumber the ring afterwards).
+    #[serde(default)]
+    pub ring_fault_dark_since: Option<u64>,
     /// Latest ring cycle in which the link into this member delivered bad data: a packet
     /// error, a dark frame, a frame too many, or no frame at all (not a master's own packets
     /// missing, which means a break further round the ring).

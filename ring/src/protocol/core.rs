@@ -293,6 +293,8 @@ pub struct MemberCore {
     ring_fault: bool,
     ring_fault_count: u64,
     ring_fault_cycle: Option<u64>,
+    /// `dark_since` when the fault latched (see `MemberStatus::ring_fault_dark_since`).
+    ring_fault_dark_since: Option<u64>,
     last_fault: Option<CheckFault>,
     holdover_cycles: u64,
     late_cycles: u64,
@@ -345,6 +347,7 @@ impl MemberCore {
             ring_fault: false,
             ring_fault_count: 0,
             ring_fault_cycle: None,
+            ring_fault_dark_since: None,
             last_fault: None,
             holdover_cycles: 0,
             late_cycles: 0,
@@ -824,6 +827,7 @@ impl MemberCore {
             self.ring_fault = true;
             self.ring_fault_count += 1;
             self.ring_fault_cycle = Some(self.cycle);
+            self.ring_fault_dark_since = if self.dark { self.dark_since } else { None };
         }
         self.last_fault = Some(fault);
         Some(fault)
@@ -868,6 +872,7 @@ impl MemberCore {
         if self.ring_fault && self.healthy() {
             self.ring_fault = false;
             self.ring_fault_cycle = None;
+            self.ring_fault_dark_since = None;
             self.last_fault = None;
         }
         !self.ring_fault
@@ -903,6 +908,7 @@ impl MemberCore {
             dark: self.dark,
             dark_since_cycle: self.dark_since,
             last_dark_spell: self.last_dark,
+            ring_fault_dark_since: self.ring_fault_dark_since,
             link_error_cycle: self.link_error_cycle,
             fault_reason: self
                 .ring_fault

@@ -626,3 +626,56 @@ fn the_application_reads_and_changes_the_ring_settings_before_each_tick() {
     assert_eq!(core.member().settings().i995, 0x90);
     assert_eq!(core.check().params().period, 32);
 }
+
+/// A member that latches while its input is dark keeps the spell's first cycle with the latch
+/// (`ring_fault_dark_since`), in the numbering of the latch, whatever comes after: a
+/// restarted sync master renumbering the ring, a later dark spell. A reset forgets it.
+#[test]
+fn a_latch_in_the_dark_keeps_the_spell_s_onset() {
+    let mut cfg = CoreConfig::new(
+        "s",
+        MemberKind::Station,
+        1,
+        RingSettings::new(0x80, 0x0F_8002),
+        P,
+    );
+    cfg.upstream = Some(0);
+    cfg.check = RingCheck::card(2, 2, 2, 0);
+    let mut s = MemberCore::new(cfg);
+    for c in 800_000..800_004 {
+        s.on_frame(&frame(c, c, &[Packet::sync(0, 15, c)]).encode(), 0);
+        assert_eq!(s.run_check(), None);
+    }
+    // The sync master died at cycle 800,004: dark from there, latched a few checks later.
+    let mut latched = None;
+    for c in 800_004..800_020 {
+        s.dark_input(c, P);
+        if s.run_check().is_some() && latched.is_none() {
+            latched = Some(c);
+        }
+    }
+    let st = s.status();
+    assert!(st.ring_fault && latched.is_some(), "{st:?}");
+    assert_eq!(st.ring_fault_dark_since, Some(800_004));
+    // A restarted sync master counts from 0; later another dark spell: the latch's onset stays.
+    for c in 0..3 {
+        s.on_frame(
+            &frame(900_000 + c, c, &[Packet::sync(0, 15, c)]).encode(),
+            0,
+        );
+    }
+    s.dark_input(105, P);
+    let st = s.status();
+    assert_eq!(st.dark_since_cycle, Some(105));
+    assert_eq!(st.ring_fault_dark_since, Some(800_004));
+    // Healthy again and reset: forgotten.
+    for c in 106..112 {
+        s.on_frame(
+            &frame(900_000 + c, c, &[Packet::sync(0, 15, c)]).encode(),
+            0,
+        );
+        s.run_check();
+    }
+    assert!(s.reset(), "{:?}", s.status());
+    assert_eq!(s.status().ring_fault_dark_since, None);
+}

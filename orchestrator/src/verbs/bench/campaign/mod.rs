@@ -337,8 +337,11 @@ fn judge_detection(
         .filter(|&o| down_latch.is_none_or(|l| o <= l))
         .max()
         .or_else(|| dark_onsets.first().copied());
+    // Best of all, the downstream member's own record of the spell it latched in (same
+    // numbering as its latch whatever the ring did since).
+    let latched_in = detected.member(down).and_then(|m| m.ring_fault_dark_since);
     let onset = if dead {
-        dark_onset.or(after_last_rx)
+        latched_in.or(dark_onset).or(after_last_rx)
     } else {
         detected
             .member(p.target)
