@@ -10,8 +10,8 @@ use crate::domain::Profile;
 use crate::lang::interp::Card;
 use crate::servo::Servo;
 
-struct T {
-    card: Card,
+pub(super) struct T {
+    pub(super) card: Card,
     p: Power,
     servo: Servo,
     plant: LoopbackPlant,
@@ -19,7 +19,7 @@ struct T {
 }
 
 impl T {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         let mut card = Card::new(Profile::Power);
         Power::attach(&mut card);
         let servo = Servo::new(&card.model);
@@ -33,14 +33,14 @@ impl T {
     }
 
     /// The reply text of `line` on connection 1 without the final ACK line.
-    fn send(&mut self, line: &str) -> String {
+    pub(super) fn send(&mut self, line: &str) -> String {
         let r = self.p.line(&mut self.card, 1, line.as_bytes());
         let s = String::from_utf8(r).unwrap();
         assert!(s.ends_with("\x06\r\n"), "no ACK: {s:?}");
         s[..s.len() - 3].to_string()
     }
 
-    fn load(&mut self, lines: &[&str]) {
+    pub(super) fn load(&mut self, lines: &[&str]) {
         for l in lines {
             assert_eq!(self.send(l), "", "{l}");
         }
@@ -48,7 +48,7 @@ impl T {
 
     /// `n` servo cycles (plant, servo tick, then the programs' `cmd` lines), as the card
     /// core runs them.
-    fn run(&mut self, n: u64) {
+    pub(super) fn run(&mut self, n: u64) {
         for _ in 0..n {
             self.plant.step(&mut self.card.model, &NODES);
             let mut q = CmdQueue::default();
@@ -59,7 +59,7 @@ impl T {
     }
 
     /// Power motor 1 active, closed loop, the X axis of C.S. 1.
-    fn ready_cs1(&mut self) {
+    pub(super) fn ready_cs1(&mut self) {
         // The auxiliary flag copy of the motors' nodes (what the ring start-up enables).
         let _ = self.card.model.state.set_ivar(70, 13_107.0);
         let _ = self.card.model.state.set_ivar(71, 13_107.0);

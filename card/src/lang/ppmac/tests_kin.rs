@@ -1,0 +1,103 @@
+//! Kinematic subroutines (seed §2.12, L37469-37610): `open forward|inverse`, `#n->I` motors
+//! moved by the inverse routine every servo cycle, the forward routine at a program start.
+
+use super::tests_programs::T;
+
+/// Inverse: L1 = 2000·X, L2 = 1000·(X + Y); forward: its inverse.
+const KIN: [&str; 9] = [
+    "open inverse (1)",
+    "L1 = C6 * 2000",
+    "L2 = (C7 + C6) * 1000",
+    "close",
+    "&1",
+    "open forward",
+    "C6 = L1 / 2000",
+    "C7 = L2 / 1000 - C6",
+    "close",
+];
+
+fn pos(t: &mut T, m: u16) -> f64 {
+    let r = t.send(&format!("#{m}p"));
+    r.trim().parse().unwrap_or_else(|_| panic!("#{m}p: {r:?}"))
+}
+
+/// Power motors 1 and 2 closed loop, both `#n->I` in C.S. 1, with the routines above.
+fn kin_card() -> T {
+    let mut t = T::new();
+    let _ = t.card.model.state.set_ivar(70, 13_107.0);
+    let _ = t.card.model.state.set_ivar(71, 13_107.0);
+    t.load(&KIN);
+    t.load(&[
+        "Motor[1].ServoCtrl=1",
+        "Motor[2].ServoCtrl=1",
+        "&1 #1->I #2->I",
+    ]);
+    t.run(5);
+    assert_eq!(t.send("#1j/ #2j/"), "");
+    t.run(20);
+    t
+}
+
+#[test]
+fn inverse_kinematics_moves_the_motors_along_the_transformed_path() {
+    let mut t = kin_card();
+    t.load(&["open prog 6", "linear abs X1 Y2 tm400", "close"]);
+    assert_eq!(t.send("&1 b6 r"), "");
+    // Mid-move every cycle is transformed: L2/L1 = 1000·3s / 2000·s = 1.5 all along.
+    t.run(250);
+    let (a, b) = (pos(&mut t, 1), pos(&mut t, 2));
+    assert!(a > 200.0 && a < 1800.0, "{a}");
+    assert!((b / a - 1.5).abs() < 0.05, "{a} {b}");
+    t.run(2000);
+    // Tolerance: the loopback plant's settling (the commanded positions are exact).
+    let (a, b) = (pos(&mut t, 1), pos(&mut t, 2));
+    assert!((a - 2000.0).abs() < 1.0, "{a}");
+    assert!((b - 3000.0).abs() < 1.0, "{b}");
+}
+
+#[test]
+fn forward_kinematics_gives_the_start_position_of_a_program() {
+    let mut t = kin_card();
+    // Motors jogged to L1 = 4000, L2 = 5000: forward gives X = 2, Y = 3.
+    assert_eq!(t.send("#1j=4000 #2j=5000"), "");
+    t.run(3000);
+    t.load(&["open prog 7", "linear inc X1 tm300", "close"]);
+    assert_eq!(t.send("&1 b7 r"), "");
+    t.run(2000);
+    // X = 3, Y = 3: L1 = 6000, L2 = 6000.
+    let (a, b) = (pos(&mut t, 1), pos(&mut t, 2));
+    assert!((a - 6000.0).abs() < 1.0, "{a}");
+    assert!((b - 6000.0).abs() < 1.0, "{b}");
+}
+
+#[test]
+fn a_runaway_or_failing_inverse_routine_stops_the_cs_with_a_run_time_error() {
+    for body in ["while (1 > 0) { L3 = L3 + 1 }", "L1 = L(C6 + 9000)"] {
+        let mut t = kin_card();
+        t.load(&["open inverse (1)", body, "close"]);
+        t.load(&["open prog 6", "linear abs X1 Y2 tm400", "close"]);
+        assert_eq!(t.send("&1 b6 r"), "");
+        t.run(100);
+        let f = &t.card.model.state.coords[1];
+        assert!(f.runtime_error && !f.running, "{body}");
+        // The motors stay where they were.
+        assert!(pos(&mut t, 1).abs() < 1.0, "{body}");
+    }
+}
+
+#[test]
+fn bad_kinematic_buffers_and_definitions_are_refused() {
+    let mut t = T::new();
+    assert!(t.send("open forward (128)").contains("error #21:"));
+    assert!(t.send("open inverse (x)").contains("error #21:"));
+    // A bad line erases the open routine, an unbalanced one is refused at `close`.
+    assert_eq!(t.send("open inverse (2)"), "");
+    assert!(t.send("L1 = ").contains("error #20:"));
+    assert_eq!(t.send("open inverse (2)"), "");
+    assert_eq!(t.send("if (C6 > 0) {"), "");
+    assert!(t.send("close").contains("error #20:"));
+    // `#n->I` for a motor of another C.S.
+    assert_eq!(t.send("&2 #3->I"), "");
+    assert!(t.send("&1 #3->I").contains("error #"));
+    assert_eq!(t.send("&2 #3->"), "I\r\n");
+}
