@@ -137,6 +137,12 @@ impl CoordSystem {
             .collect()
     }
 
+    /// The trajectory, not an abort's deceleration or a frozen C.S., sets the motors (inverse
+    /// kinematics apply).
+    pub fn on_path(&self) -> bool {
+        self.abort.is_none() && !self.frozen
+    }
+
     /// The base axis position the trajectory is at now (what inverse kinematics transforms).
     pub fn base_now(&self) -> AxisVec {
         self.tl.eval(self.tau)

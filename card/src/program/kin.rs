@@ -182,7 +182,7 @@ pub(crate) fn apply_inverse(
     motors: &mut [f64],
 ) -> Result<(), KinError> {
     let rows = c.inverse_rows();
-    if rows.is_empty() {
+    if rows.is_empty() || !c.on_path() {
         return Ok(());
     }
     let list: Vec<u16> = rows.iter().map(|&r| c.motors()[r]).collect();

@@ -12,8 +12,79 @@ use crate::lang::interp::Card;
 use crate::model::BufId;
 use crate::model::KinRoutine;
 
+/// One routine: what the engine runs and the text `list` shows (and the saved image keeps).
+#[derive(Debug, Clone)]
+pub(crate) struct Kin {
+    pub(crate) routine: KinRoutine,
+    pub(crate) text: Vec<String>,
+}
+
 /// The kinematic routines of the card: (model C.S., inverse) → routine.
-pub(crate) type Routines = HashMap<(u16, bool), KinRoutine>;
+pub(crate) type Routines = HashMap<(u16, bool), Kin>;
+
+fn routine(code: crate::program::compile::Compiled) -> KinRoutine {
+    KinRoutine {
+        code: Arc::new(code),
+        motor_family: EXT_L,
+        axis_family: EXT_C,
+    }
+}
+
+/// `list forward|inverse [(n)]` (`rest`: after `list`, lower case): the routine's lines, or
+/// the error code; `None`: not such a listing.
+pub(super) fn list(r: &Routines, th: &Thread, rest: &str) -> Option<Result<Vec<String>, u16>> {
+    let key = open_words(&format!("open {rest}"), th)?;
+    Some(r.get(&key).map(|k| k.text.clone()).ok_or(21))
+}
+
+/// The routines' texts for the saved image (`forward`/`inverse`, Power C.S. number).
+pub(crate) fn export(r: &Routines) -> Vec<super::saved::SourceText> {
+    let mut v: Vec<_> = r
+        .iter()
+        .map(|(&(cs, inv), k)| super::saved::SourceText {
+            kind: if inv { "inverse" } else { "forward" }.to_string(),
+            n: u32::from(cs - 1),
+            lines: k.text.clone(),
+        })
+        .collect();
+    v.sort_by(|a, b| (&a.kind, a.n).cmp(&(&b.kind, b.n)));
+    v
+}
+
+/// Rebuild a routine from its saved text (`false`: not a routine's kind; a text that no
+/// longer parses is left out).
+pub(crate) fn rebuild(pv: &mut progvars::ProgVars, kind: &str, n: u32, text: &[String]) -> bool {
+    let inverse = match kind {
+        "forward" => false,
+        "inverse" => true,
+        _ => return false,
+    };
+    if n > MAX_CS {
+        return true;
+    }
+    let mut blocks = Vec::new();
+    let mut lines = Vec::new();
+    for t in text {
+        let Ok(stmts) =
+            super::program::parse_program_line(t.as_bytes(), &mut blocks, &mut pv.elems)
+        else {
+            return true;
+        };
+        let parts = super::program::stored_lines(stmts);
+        lines.extend(parts.into_iter().map(crate::model::ProgLine::new));
+    }
+    if !blocks.is_empty() || lines.is_empty() {
+        return true;
+    }
+    if let Ok(code) = crate::program::compile::compile(&lines, false) {
+        let k = Kin {
+            routine: routine(code),
+            text: text.to_vec(),
+        };
+        pv.kin.insert((n as u16 + 1, inverse), k);
+    }
+    true
+}
 
 /// Power C.S. numbers a routine may belong to (0-127, seed: one of each per C.S.).
 const MAX_CS: u32 = 127;
@@ -97,12 +168,11 @@ impl Power {
             return Err(bad);
         }
         let code = crate::program::compile::compile(&o.kin_lines, false).map_err(|_| bad)?;
-        let r = KinRoutine {
-            code: Arc::new(code),
-            motor_family: EXT_L,
-            axis_family: EXT_C,
+        let k = Kin {
+            routine: routine(code),
+            text: o.text,
         };
-        progvars::with(card, |_, pv| pv.kin.insert(key, r));
+        progvars::with(card, |_, pv| pv.kin.insert(key, k));
         Ok(())
     }
 }

@@ -198,7 +198,7 @@ impl Power {
             out
         } else {
             progvars::with(card, |card, pv| {
-                match listing::command(card, &pv.sources, &mut th, line) {
+                match listing::command(card, &pv.sources, &pv.kin, &mut th, line) {
                     Some(out) => out,
                     None => exec::run_line(card, &mut pv.store, &mut th, line),
                 }

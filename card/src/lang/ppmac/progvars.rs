@@ -230,7 +230,7 @@ impl ExtVars for ProgVars {
     }
 
     fn kinematics(&self, cs: u16, inverse: bool) -> Option<crate::model::KinRoutine> {
-        self.kin.get(&(cs, inverse)).cloned()
+        self.kin.get(&(cs, inverse)).map(|k| k.routine.clone())
     }
 
     fn as_any_mut(&mut self) -> &mut dyn Any {

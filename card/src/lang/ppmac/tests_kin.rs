@@ -101,3 +101,32 @@ fn bad_kinematic_buffers_and_definitions_are_refused() {
     assert!(t.send("&1 #3->I").contains("error #"));
     assert_eq!(t.send("&2 #3->"), "I\r\n");
 }
+
+#[test]
+fn kinematic_routines_list_and_survive_a_save_and_load() {
+    let mut t = kin_card();
+    assert_eq!(
+        t.send("list inverse (1)"),
+        "L1 = C6 * 2000\r\nL2 = (C7 + C6) * 1000\r\n"
+    );
+    // `list forward` alone: the addressed C.S. (1 since `&1`).
+    assert_eq!(
+        t.send("list forward"),
+        "C6 = L1 / 2000\r\nC7 = L2 / 1000 - C6\r\n"
+    );
+    assert!(t.send("list forward (5)").contains("error #21:"));
+    let saved = super::saved::export(&t.card.model);
+    assert!(saved.iter().any(|s| s.kind == "inverse" && s.n == 1));
+    super::saved::restore(&mut t.card.model, Vec::new());
+    assert!(t.send("list inverse (1)").contains("error #21:"));
+    super::saved::restore(&mut t.card.model, saved);
+    assert_eq!(
+        t.send("list inverse 1"),
+        "L1 = C6 * 2000\r\nL2 = (C7 + C6) * 1000\r\n"
+    );
+    // The rebuilt routine runs.
+    t.load(&["open prog 6", "linear abs X1 Y2 tm400", "close"]);
+    assert_eq!(t.send("&1 b6 r"), "");
+    t.run(2500);
+    assert!((pos(&mut t, 2) - 3000.0).abs() < 1.0);
+}
