@@ -21,9 +21,13 @@ use super::stmt::{exec_common, Common, Ctx, NoCommands};
 use crate::coord::axes::AxisVec;
 use crate::model::{CardModel, ExtAt, KinRoutine, Thread};
 
-/// Most instructions one routine call executes (the bound `Coord[x].Ldata.GoBack` sets on
-/// jump-backs, counted here over every instruction): beyond, the routine has failed.
-pub(crate) const MAX_STEPS: usize = 10_000;
+/// Jump-backs (the end of a `while` loop) one routine call may make beyond which it has
+/// failed: `Coord[x].Ldata.GoBack` + 1 (seed L23926-23955, L4076-4080: GoBack's power-up
+/// value 10 for a C.S.). [DECISION] the power-up value is used, not a changed element.
+pub(crate) const MAX_GOBACK: usize = 10 + 1;
+/// Most instructions one routine call executes (a guard; a routine without loops is bounded
+/// by its length, one with loops by [`MAX_GOBACK`]).
+pub(crate) const MAX_STEPS: usize = 100_000;
 
 /// KinPosAxis index of each [`AxisVec`] entry (X Y Z A B C U V W → C6 C7 C8 C0 … C5).
 pub(crate) const AXIS_VAR: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
@@ -31,7 +35,7 @@ pub(crate) const AXIS_VAR: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
 /// Why a routine gave no result.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum KinError {
-    /// More than [`MAX_STEPS`] instructions.
+    /// More than [`MAX_GOBACK`] jump-backs or [`MAX_STEPS`] instructions.
     TooLong,
     /// A statement failed (bad variable) or is not allowed in a kinematic routine.
     Failed,
@@ -45,6 +49,7 @@ fn routine(card: &CardModel, cs: u16, inverse: bool) -> Option<KinRoutine> {
 fn run(card: &mut CardModel, cs: u16, code: &Compiled) -> Result<(), KinError> {
     let mut pc = 0;
     let mut steps = 0;
+    let mut back = 0;
     let mut cmds = Vec::new();
     let mut out = Vec::new();
     let mut none = NoCommands;
@@ -56,7 +61,15 @@ fn run(card: &mut CardModel, cs: u16, code: &Compiled) -> Result<(), KinError> {
         pc += 1;
         match &ins.op {
             Op::Nop => {}
-            Op::Jump { to, .. } => pc = *to,
+            Op::Jump { to, back: b } => {
+                if *b || *to < pc {
+                    back += 1;
+                    if back > MAX_GOBACK {
+                        return Err(KinError::TooLong);
+                    }
+                }
+                pc = *to;
+            }
             Op::Branch { cond, else_to } => {
                 if !env::test(card, cs, cond).map_err(|_| KinError::Failed)? {
                     pc = *else_to;

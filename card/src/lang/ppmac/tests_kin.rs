@@ -80,8 +80,34 @@ fn a_runaway_or_failing_inverse_routine_stops_the_cs_with_a_run_time_error() {
         t.run(100);
         let f = &t.card.model.state.coords[1];
         assert!(f.runtime_error && !f.running, "{body}");
+        eprintln!(
+            "ES {}",
+            t.send("Coord[1].ErrorStatus Coord[1].RunTimeError")
+        );
         // The motors stay where they were.
         assert!(pos(&mut t, 1).abs() < 1.0, "{body}");
+    }
+}
+
+/// `Coord[x].Ldata.GoBack` (10): a loop may jump back 11 times in one call, not 12.
+#[test]
+fn an_iterating_routine_may_jump_back_go_back_plus_one_times() {
+    for (n, ok) in [(11, true), (12, false)] {
+        let mut t = kin_card();
+        t.load(&[
+            "open inverse (1)",
+            "L1 = 0 L2 = 0",
+            &format!("while (L2 < {n}) {{ L2 = L2 + 1 L1 = L1 + C6 * 2000 / {n} }}"),
+            "L2 = (C7 + C6) * 1000",
+            "close",
+        ]);
+        t.load(&["open prog 6", "linear abs X1 Y2 tm400", "close"]);
+        assert_eq!(t.send("&1 b6 r"), "");
+        t.run(2500);
+        assert_eq!(t.card.model.state.coords[1].runtime_error, !ok, "{n}");
+        if ok {
+            assert!((pos(&mut t, 1) - 2000.0).abs() < 1.0);
+        }
     }
 }
 
