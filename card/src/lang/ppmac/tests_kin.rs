@@ -156,3 +156,19 @@ fn kinematic_routines_list_and_survive_a_save_and_load() {
     t.run(2500);
     assert!((pos(&mut t, 2) - 3000.0).abs() < 1.0);
 }
+
+/// On-line `pmatch`: the program position of the C.S. from the forward routine.
+#[test]
+fn pmatch_runs_the_forward_routine() {
+    let mut t = kin_card();
+    assert_eq!(t.send("#1j=4000 #2j=5000"), "");
+    t.run(3000);
+    assert_eq!(t.send("&1 pmatch"), "");
+    t.run(2);
+    let c = t.servo.engine.coord(2).and_then(|x| x.cs.as_ref()).unwrap();
+    let p = c.program_position();
+    assert!(
+        (p[0] - 2.0).abs() < 1e-3 && (p[1] - 3.0).abs() < 1e-3,
+        "{p:?}"
+    );
+}

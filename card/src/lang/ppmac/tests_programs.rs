@@ -13,7 +13,7 @@ use crate::servo::Servo;
 pub(super) struct T {
     pub(super) card: Card,
     p: Power,
-    servo: Servo,
+    pub(super) servo: Servo,
     plant: LoopbackPlant,
     cycle: u64,
 }
