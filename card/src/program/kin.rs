@@ -212,6 +212,31 @@ pub(crate) fn apply_inverse(
     Ok(())
 }
 
+/// The end-of-move targets of the `#m->I` motors of `c` (`end`: C.S. motor order, the other
+/// motors' targets): the inverse routine at the programmed end point.
+pub(crate) fn end_targets(
+    card: &mut CardModel,
+    cs: u16,
+    c: &crate::coord::cs::CoordSystem,
+    end: &mut [f64],
+) -> Result<(), KinError> {
+    let rows = c.inverse_rows();
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let list: Vec<u16> = rows.iter().map(|&r| c.motors()[r]).collect();
+    let base = c.xf.current().to_base(&c.program_position());
+    let Some(res) = inverse(card, cs, &base, &list) else {
+        return Ok(());
+    };
+    for (&r, v) in rows.iter().zip(res?) {
+        if let Some(e) = end.get_mut(r) {
+            *e = v;
+        }
+    }
+    Ok(())
+}
+
 /// PMATCH through the forward routine of `cs` (if it has `#m->I` motors and a forward
 /// routine): the base axis position from the motors' commanded positions `pos` (C.S. motor
 /// order).

@@ -53,6 +53,9 @@ fn inverse_kinematics_moves_the_motors_along_the_transformed_path() {
     let (a, b) = (pos(&mut t, 1), pos(&mut t, 2));
     assert!((a - 2000.0).abs() < 1.0, "{a}");
     assert!((b - 3000.0).abs() < 1.0, "{b}");
+    // The move's target position (where `j=` returns): the end point transformed.
+    let target = |t: &T, m: usize| t.servo.motors[m].prejog;
+    assert!((target(&t, 1) - 2000.0).abs() < 1e-9 && (target(&t, 2) - 3000.0).abs() < 1e-9);
 }
 
 #[test]
