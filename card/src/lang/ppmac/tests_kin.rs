@@ -175,3 +175,16 @@ fn pmatch_runs_the_forward_routine() {
         "{p:?}"
     );
 }
+
+/// A forward routine that never ends stops the program at its start.
+#[test]
+fn a_runaway_forward_routine_stops_the_program_at_its_start() {
+    let mut t = kin_card();
+    t.load(&["open forward (1)", "while (1 > 0) { C6 = C6 + 1 }", "close"]);
+    t.load(&["open prog 6", "linear abs X1 Y2 tm400", "close"]);
+    assert_eq!(t.send("&1 b6 r"), "");
+    t.run(50);
+    let f = &t.card.model.state.coords[1];
+    assert!(f.runtime_error && !f.running);
+    assert!(pos(&mut t, 1).abs() < 1.0 && pos(&mut t, 2).abs() < 1.0);
+}
