@@ -41,15 +41,20 @@ pub enum MotorAxisDef {
         /// Offset in counts.
         offset: f64,
     },
-    /// `#m->I`: the motor belongs to the C.S. for inverse kinematics. No kinematic routine
-    /// exists on this card, so the motor holds its commanded position during axis moves.
+    /// `#m->I`: the motor belongs to the C.S. for inverse kinematics: the C.S.'s inverse
+    /// routine (Power, `program::kin`) sets its position; without one it holds its commanded
+    /// position during axis moves.
     Inverse,
 }
 
 impl MotorAxisDef {
     /// Validate a parsed definition (ERR003 on any defect).
     pub fn from_ast(d: &AxisDef) -> Result<Self, CoordError> {
-        if d.terms.is_empty() || d.terms.len() > 3 {
+        if d.terms.is_empty() {
+            // `#m->I`: a definition without terms.
+            return Ok(MotorAxisDef::Inverse);
+        }
+        if d.terms.len() > 3 {
             return Err(CoordError::BadAxisDef("1 to 3 axis terms"));
         }
         let mut terms = Vec::with_capacity(d.terms.len());

@@ -130,6 +130,45 @@ impl CoordSystem {
         }
     }
 
+    /// Rows (C.S. motor order) of the `#m->I` motors (inverse kinematics).
+    pub fn inverse_rows(&self) -> Vec<usize> {
+        (0..self.axes.motors.len())
+            .filter(|&r| self.axes.inverse[r])
+            .collect()
+    }
+
+    /// The trajectory, not an abort's deceleration or a frozen C.S., sets the motors (inverse
+    /// kinematics apply).
+    pub fn on_path(&self) -> bool {
+        self.abort.is_none() && !self.frozen
+    }
+
+    /// The base axis position the trajectory is at now (what inverse kinematics transforms).
+    pub fn base_now(&self) -> AxisVec {
+        self.tl.eval(self.tau)
+    }
+
+    /// Inverse kinematics set the commanded position of row `r` (velocity follows).
+    pub fn set_kin_motor(&mut self, r: usize, v: f64, first: bool) {
+        let servo = self.tb.servo_ms();
+        if let Some(c) = self.cmd.get_mut(r) {
+            if let Some(x) = self.vel.get_mut(r) {
+                *x = if first { 0.0 } else { (v - *c) / servo };
+            }
+            *c = v;
+        }
+    }
+
+    /// Forward kinematics found base axis position `base` for the present motor positions
+    /// (a PMATCH through the kinematic routine).
+    pub fn set_base_position(&mut self, base: AxisVec) {
+        self.pos = self.xf.current().to_prog(&base);
+        if self.tl.is_idle() {
+            self.tl.clear(base);
+            self.frozen = false;
+        }
+    }
+
     /// Present programmed axis positions (end of the last calculated move).
     pub fn program_position(&self) -> AxisVec {
         self.pos

@@ -83,8 +83,12 @@ fn malformed_definitions_are_err003() {
         ast(&[(f64::NAN, Axis::X)], 0.0),
         ast(&[(1.0, Axis::X)], f64::INFINITY),
         ast(&[(1.0, Axis::I)], 0.0),
-        ast(&[], 0.0),
     ];
+    // A definition without terms is `#m->I` (inverse kinematics), not a defect.
+    assert_eq!(
+        MotorAxisDef::from_ast(&ast(&[], 0.0)),
+        Ok(MotorAxisDef::Inverse)
+    );
     for d in &bad {
         let e = MotorAxisDef::from_ast(d).unwrap_err();
         assert_eq!(e.err_code(), Some(3), "{d:?}");

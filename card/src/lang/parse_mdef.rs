@@ -16,6 +16,17 @@ pub(crate) fn axis_def(c: &mut Cursor, motor: u32) -> Result<CmdKind, ParseError
         Some(l) => Axis::from_letter(l).is_some_and(|a| a.is_motion_axis()),
         None => false,
     };
+    // `#n->I`: an inverse-kinematics motor, stored as a definition without terms.
+    if c.peek() == Some(b'I') && !c.peek_at(1).is_some_and(|b| b.is_ascii_alphanumeric()) {
+        c.bump();
+        return Ok(CmdKind::AxisDefine(
+            motor,
+            AxisDef {
+                terms: Vec::new(),
+                offset: 0.0,
+            },
+        ));
+    }
     if !starts(c) {
         return Ok(CmdKind::AxisDefQuery(motor));
     }

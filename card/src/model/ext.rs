@@ -17,6 +17,8 @@ pub enum Thread {
     Plc(u8),
     /// A host connection's command thread.
     Host(u64),
+    /// The kinematic subroutines of a coordinate system (1-based C.S.).
+    Kin(u16),
     /// Commands issued by programs (`CMD"…"`), and everything else.
     #[default]
     Internal,
@@ -58,6 +60,19 @@ pub enum ExtError {
     Range,
 }
 
+/// A kinematic routine a language provides (see [`ExtVars::kinematics`]): its compiled code
+/// (the engine's form, which the engine downcasts) and the variable families of motor
+/// positions (KinPosMotor) and axis positions (KinPosAxis).
+#[derive(Debug, Clone)]
+pub struct KinRoutine {
+    /// The compiled statements (`program::compile::Compiled`).
+    pub code: std::sync::Arc<dyn Any + Send + Sync>,
+    /// The variable family of motor positions.
+    pub motor_family: u16,
+    /// The variable family of axis positions.
+    pub axis_family: u16,
+}
+
 /// A command language's own variable families.
 pub trait ExtVars: std::fmt::Debug + Send {
     /// Value of `family` number `index`, as seen from `at`.
@@ -77,6 +92,12 @@ pub trait ExtVars: std::fmt::Debug + Send {
         index: u32,
         v: f64,
     ) -> Result<(), ExtError>;
+    /// The forward (`inverse` false) or inverse kinematic routine of C.S. `cs` (1-based),
+    /// if the language has one.
+    fn kinematics(&self, cs: u16, inverse: bool) -> Option<KinRoutine> {
+        let _ = (cs, inverse);
+        None
+    }
     /// The extension as `Any` (its language reaches its own state).
     fn as_any_mut(&mut self) -> &mut dyn Any;
     /// The extension as `Any`.
@@ -103,6 +124,11 @@ impl CardModel {
     /// [`CardModel::set_ext`].
     pub fn take_ext(&mut self) -> Option<Box<dyn ExtVars>> {
         self.ext.take()
+    }
+
+    /// The language's kinematic routine of C.S. `cs` (see [`ExtVars::kinematics`]).
+    pub fn ext_kinematics(&self, cs: u16, inverse: bool) -> Option<KinRoutine> {
+        self.ext.as_ref()?.kinematics(cs, inverse)
     }
 
     /// Read `family` number `index` for `at`.

@@ -120,6 +120,10 @@ impl RunState {
 
 /// Reply text of an axis definition: `1000X`, `8660X-5000Y`, `5000X+8660Y+5000`, `X`.
 pub(crate) fn axis_def_text(d: &AxisDef) -> String {
+    if d.terms.is_empty() {
+        // `#n->I` (inverse kinematics).
+        return "I".to_string();
+    }
     let mut s = String::new();
     for (k, t) in d.terms.iter().enumerate() {
         let neg = t.scale < 0.0;
@@ -143,6 +147,10 @@ pub(crate) fn axis_def_text(d: &AxisDef) -> String {
 
 /// True when all terms use one triple (XYZ or UVW) — required for multi-term definitions.
 pub(crate) fn axis_def_legal(d: &AxisDef) -> bool {
+    if d.terms.is_empty() {
+        // `#n->I`.
+        return true;
+    }
     if d.terms.is_empty() || d.terms.len() > 3 || d.terms.iter().any(|t| !t.axis.is_motion_axis()) {
         return false;
     }

@@ -34,6 +34,9 @@ pub(crate) mod rte {
     /// [DECISION] a move COORD refused (no motors, bad time/feedrate, impossible circle, TA=TS=0,
     /// position out of range, missing transformation matrix, singular matrix).
     pub(crate) const MOVE: u32 = 8;
+    /// [DECISION] a kinematic routine ran too long or failed (Power: `Coord[x].ErrorStatus`
+    /// 16, RunTimeError).
+    pub(crate) const KINEMATICS: u32 = 9;
 }
 
 /// Which buffer a frame executes.
@@ -296,7 +299,13 @@ impl CsExec {
         }
         card.exec = crate::model::ExtAt::cs(self.num, 0);
         let c = self.cs.as_mut()?;
-        let out = c.tick();
+        let mut out = c.tick();
+        if let Err(e) = super::kin::apply_inverse(card, self.num, c, &mut out.motors) {
+            let _ = e;
+            self.runtime_error(card, rte::KINEMATICS, false);
+            return None;
+        }
+        let c = self.cs.as_mut()?;
         for id in &out.started {
             if let Some(m) = self.move_at.iter().find(|m| m.id == *id) {
                 for (&x, &p) in c.motors().iter().zip(&m.end) {

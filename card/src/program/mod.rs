@@ -30,6 +30,7 @@ pub(crate) mod compile;
 pub(crate) mod config;
 pub(crate) mod csexec;
 pub(crate) mod env;
+pub(crate) mod kin;
 pub(crate) mod motion;
 mod motion_exec;
 mod motion_move;
@@ -347,6 +348,10 @@ fn run_control(x: &mut CsExec, card: &mut CardModel, motors: &[Motor], cmd: &Act
                 if c.is_idle() {
                     let pos = csexec::commanded(motors, c.motors());
                     c.pmatch(&pos);
+                    if kin::apply_forward(card, x.num, c, &pos).is_err() {
+                        // [DECISION] a failed forward routine leaves the PMATCH of the
+                        // linear axes in place (an on-line command has no run-time error).
+                    }
                 }
             }
             true

@@ -63,16 +63,23 @@ impl CsExec {
                 if let Some(f) = after.last_mut() {
                     f.pc += 1;
                 }
+                let mut end = c.program_motor_positions();
+                // The `#n->I` motors' targets: the inverse routine at the move's end point.
+                let kin_ok = super::kin::end_targets(card, self.num, c, &mut end).is_ok();
                 self.move_at.push_back(MoveAt {
                     id,
                     prog: p,
                     offset: o,
                     after,
                     axes_end: c.program_position(),
-                    end: c.program_motor_positions(),
+                    end,
                 });
                 if self.move_at.len() > 32 {
                     self.move_at.pop_front();
+                }
+                if !kin_ok {
+                    self.runtime_error(card, rte::KINEMATICS, false);
+                    return Flow::Error;
                 }
                 Flow::Moved
             }

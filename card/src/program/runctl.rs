@@ -22,6 +22,7 @@ impl CsExec {
         }
         self.sync_axes(card, motors);
         let idle = self.cs.as_ref().is_some_and(CoordSystem::is_idle);
+        let mut kin_failed = false;
         if let Some(c) = &mut self.cs {
             c.release();
             if idle {
@@ -30,8 +31,13 @@ impl CsExec {
                 if super::env::ivar(card, 14, 1.0) != 0.0 {
                     let pos = commanded(motors, c.motors());
                     c.pmatch(&pos);
+                    kin_failed = super::kin::apply_forward(card, self.num, c, &pos).is_err();
                 }
             }
+        }
+        if kin_failed {
+            self.runtime_error(card, super::csexec::rte::KINEMATICS, false);
+            return;
         }
         self.step = step;
         self.step_line = None;

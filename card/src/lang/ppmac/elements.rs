@@ -219,6 +219,18 @@ pub(crate) fn read(
         (St::Coord, "Status") => {
             f64::from(super::exec::coord_status(card, k.idx as u16)[k.sub[0].min(1) as usize])
         }
+        // [DECISION] a C.S. stopped by a run-time error of the engine (a kinematic routine
+        // that failed or ran too long, a move it could not compute) reads RunTimeError 1,
+        // ErrorStatus 16 (seed L20168, L25240-25290), 64 (RadiusError) for an impossible circle.
+        (St::Coord, "RunTimeError" | "ErrorStatus") => {
+            let f = st.coords.get(k.idx as usize).filter(|f| f.runtime_error);
+            match (f, nm) {
+                (None, _) => 0.0,
+                (Some(_), "RunTimeError") => 1.0,
+                (Some(f), _) if f.circle_radius_error => 64.0,
+                (Some(_), _) => 16.0,
+            }
+        }
         (St::Motor, "Status[0]" | "Status[1]") => {
             let w = usize::from(nm.ends_with("[1]"));
             f64::from(super::exec::motor_status(card, k.idx as u16)[w])

@@ -553,6 +553,7 @@ impl Ctx<'_> {
                 CsCmd::Abort => CmdKind::Abort,
                 CsCmd::Hold => CmdKind::Hold,
                 CsCmd::Resume => CmdKind::Resume,
+                CsCmd::PMatch => CmdKind::PMatch,
                 CsCmd::Begin(v) => CmdKind::Begin(crate::domain::ast::Number::dec(*v)),
                 CsCmd::Override(v) => {
                     if !(-200.0..=200.0).contains(v) {

@@ -164,6 +164,7 @@ fn name(kind: u8, n: u32) -> String {
 pub(crate) fn command(
     card: &mut Card,
     sources: &Sources,
+    kin: &super::kinematics::Routines,
     th: &mut Thread,
     line: &[u8],
 ) -> Option<Vec<u8>> {
@@ -208,6 +209,16 @@ pub(crate) fn command(
                 for l in lines {
                     say(&l);
                 }
+                out.extend_from_slice(&exec::frame(th, line, None));
+                Some(out)
+            }
+            Err(code) => bad(code),
+        };
+    }
+    if let Some(r) = super::kinematics::list(kin, th, rest.trim()) {
+        return match r {
+            Ok(lines) => {
+                lines.iter().for_each(|l| say(l));
                 out.extend_from_slice(&exec::frame(th, line, None));
                 Some(out)
             }

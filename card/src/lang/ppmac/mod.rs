@@ -18,6 +18,7 @@ mod backup;
 mod catalog;
 mod elements;
 mod exec;
+mod kinematics;
 mod listing;
 mod macro_ic;
 mod moves;
@@ -34,6 +35,8 @@ pub(crate) mod saved;
 mod tests;
 #[cfg(test)]
 mod tests_fuzz;
+#[cfg(test)]
+mod tests_kin;
 #[cfg(test)]
 mod tests_moves;
 #[cfg(test)]
@@ -200,6 +203,10 @@ struct OpenBuf {
     text: Vec<String>,
     /// How many stored lines each text line became.
     stored: Vec<usize>,
+    /// A kinematic routine (model C.S., inverse) instead of the buffer `id`.
+    kin: Option<(u16, bool)>,
+    /// The kinematic routine's stored lines.
+    kin_lines: Vec<ProgLine>,
 }
 
 impl Power {
@@ -228,7 +235,7 @@ impl Power {
                 if let Some(out) = backup::command(&mut card.model, &pv.store, &mut th, line) {
                     return out;
                 }
-                match listing::command(card, &pv.sources, &mut th, line) {
+                match listing::command(card, &pv.sources, &pv.kin, &mut th, line) {
                     Some(out) => out,
                     None => exec::run_line(card, &mut pv.store, &mut th, line),
                 }
@@ -305,6 +312,11 @@ impl Power {
         let text = String::from_utf8_lossy(line).to_ascii_lowercase();
         let words: Vec<&str> = text.split_whitespace().collect();
         let mine = self.open.as_ref().is_some_and(|o| o.conn == conn);
+        if let Some(target) = kinematics::open_words(&text, th) {
+            th.lines += 1;
+            let r = self.open_kin(card, conn, target);
+            return Some(exec::frame(th, line, r.err()));
+        }
         match words.as_slice() {
             ["open", kind, n @ ..]
                 if !n.is_empty() && n.concat().bytes().all(|b| b.is_ascii_digit() || b == b',') =>
@@ -339,6 +351,10 @@ impl Power {
                 let parts = program::stored_lines(stmts);
                 o.lines += 1;
                 o.stored.push(parts.len());
+                if o.kin.is_some() {
+                    o.kin_lines.extend(parts.into_iter().map(ProgLine::new));
+                    return Some(exec::frame(th, line, None));
+                }
                 parts.into_iter().try_for_each(|p| {
                     card.model
                         .bufs
@@ -353,9 +369,11 @@ impl Power {
             Err(e) => {
                 // Seed §2.9: a line that is not a valid buffer command erases and closes the
                 // open buffer.
-                let id = o.id;
+                let (id, kin) = (o.id, o.kin.is_some());
                 self.open = None;
-                card.model.bufs.remove(id);
+                if !kin {
+                    card.model.bufs.remove(id);
+                }
                 exec::frame(th, line, Some(e))
             }
         })
@@ -421,6 +439,8 @@ impl Power {
             lines: 0,
             text: Vec::new(),
             stored: Vec::new(),
+            kin: None,
+            kin_lines: Vec::new(),
         });
         Ok(())
     }
@@ -431,6 +451,9 @@ impl Power {
         let Some(o) = self.open.take() else {
             return Ok(());
         };
+        if o.kin.is_some() {
+            return self.close_kin(card, o);
+        }
         if o.lines == 0 {
             card.model.bufs.remove(o.id);
             return Ok(());

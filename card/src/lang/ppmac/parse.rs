@@ -190,6 +190,9 @@ pub(crate) enum CsCmd {
     Status,
     /// `p` after `&`: axis positions.
     Position,
+    /// `pmatch` (axis positions from motor positions; through the forward kinematic routine
+    /// for a C.S. with `#n->I` motors).
+    PMatch,
 }
 
 /// One parsed command.
@@ -1044,6 +1047,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "a" | "abort" => cs(CsCmd::Abort),
         "h" | "hold" => cs(CsCmd::Hold),
         "resume" => cs(CsCmd::Resume),
+        "pmatch" => cs(CsCmd::PMatch),
         "b" | "begin" => {
             c.ws();
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))

@@ -41,6 +41,8 @@ pub(crate) struct ProgVars {
     threads: HashMap<ExecThread, Thread>,
     /// The text of every closed buffer, as `list` shows it (saved in the image).
     pub(crate) sources: super::listing::Sources,
+    /// The kinematic routines (`open forward|inverse`).
+    pub(crate) kin: super::kinematics::Routines,
 }
 
 /// Install the dialect's variables in `card` (a Power card's model), unless already there.
@@ -248,6 +250,10 @@ impl ExtVars for ProgVars {
             }
             _ => Err(ExtError::NoSuch),
         }
+    }
+
+    fn kinematics(&self, cs: u16, inverse: bool) -> Option<crate::model::KinRoutine> {
+        self.kin.get(&(cs, inverse)).map(|k| k.routine.clone())
     }
 
     fn as_any_mut(&mut self) -> &mut dyn Any {

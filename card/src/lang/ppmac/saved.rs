@@ -52,6 +52,7 @@ pub(crate) fn export(card: &CardModel) -> Vec<SourceText> {
     let Some(pv) = card.ext::<progvars::ProgVars>() else {
         return Vec::new();
     };
+    let kin = super::kinematics::export(&pv.kin);
     pv.sources
         .iter()
         .filter_map(|(id, lines)| {
@@ -64,6 +65,7 @@ pub(crate) fn export(card: &CardModel) -> Vec<SourceText> {
                 lines: lines.clone(),
             })
         })
+        .chain(kin)
         .collect()
 }
 
@@ -74,7 +76,13 @@ pub(crate) fn restore(card: &mut CardModel, saved: Vec<SourceText>) {
         return;
     };
     pv.sources = Sources::default();
+    pv.kin.clear();
     for s in saved {
+        if let Some(pv) = card.ext_mut::<progvars::ProgVars>() {
+            if super::kinematics::rebuild(pv, &s.kind, s.n, &s.lines) {
+                continue;
+            }
+        }
         let Some(id) = listing::id_named(&s.kind, s.n) else {
             continue;
         };

@@ -43,6 +43,7 @@ fn rotary_buffer_rules() {
     t.load(&["define rotary 2048", "open rotary"]);
     // One buffer open at a time.
     assert!(t.send("open prog 3").contains("error #21:"));
+    assert!(t.send("open forward").contains("error #21:"));
     // A line that opens a block another line would close cannot be a rotary line; it
     // closes the buffer.
     assert!(t.send("if (P1 == 0) {").contains("error #20:"));

@@ -1,0 +1,178 @@
+//! `open forward [(n)]` / `open inverse [(n)]` … `close` (seed L37469-37610): the kinematic
+//! routines of Power C.S. `n` (alone: the thread's addressed C.S.), kept in the dialect's
+//! program-side state and run by the engine (`program::kin`) with KinPosMotor n = `L n` and
+//! KinPosAxis = `C` (A0 B1 C2 U3 V4 W5 X6 Y7 Z8).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use super::parse::{SyntaxError, EXT_C, EXT_L};
+use super::{progvars, OpenBuf, Power, Thread};
+use crate::lang::interp::Card;
+use crate::model::BufId;
+use crate::model::KinRoutine;
+
+/// One routine: what the engine runs and the text `list` shows (and the saved image keeps).
+#[derive(Debug, Clone)]
+pub(crate) struct Kin {
+    pub(crate) routine: KinRoutine,
+    pub(crate) text: Vec<String>,
+}
+
+/// The kinematic routines of the card: (model C.S., inverse) → routine.
+pub(crate) type Routines = HashMap<(u16, bool), Kin>;
+
+fn routine(code: crate::program::compile::Compiled) -> KinRoutine {
+    KinRoutine {
+        code: Arc::new(code),
+        motor_family: EXT_L,
+        axis_family: EXT_C,
+    }
+}
+
+/// `list forward|inverse [(n)]` (`rest`: after `list`, lower case): the routine's lines, or
+/// the error code; `None`: not such a listing.
+pub(super) fn list(r: &Routines, th: &Thread, rest: &str) -> Option<Result<Vec<String>, u16>> {
+    let key = open_words(&format!("open {rest}"), th)?;
+    Some(r.get(&key).map(|k| k.text.clone()).ok_or(21))
+}
+
+/// The routines' texts for the saved image (`forward`/`inverse`, Power C.S. number).
+pub(crate) fn export(r: &Routines) -> Vec<super::saved::SourceText> {
+    let mut v: Vec<_> = r
+        .iter()
+        .map(|(&(cs, inv), k)| super::saved::SourceText {
+            kind: if inv { "inverse" } else { "forward" }.to_string(),
+            n: u32::from(cs - 1),
+            lines: k.text.clone(),
+        })
+        .collect();
+    v.sort_by(|a, b| (&a.kind, a.n).cmp(&(&b.kind, b.n)));
+    v
+}
+
+/// Rebuild a routine from its saved text (`false`: not a routine's kind; a text that no
+/// longer parses is left out).
+pub(crate) fn rebuild(pv: &mut progvars::ProgVars, kind: &str, n: u32, text: &[String]) -> bool {
+    let inverse = match kind {
+        "forward" => false,
+        "inverse" => true,
+        _ => return false,
+    };
+    if n > MAX_CS {
+        return true;
+    }
+    let mut blocks = Vec::new();
+    let mut lines = Vec::new();
+    for t in text {
+        let Ok(stmts) =
+            super::program::parse_program_line(t.as_bytes(), &mut blocks, &mut pv.elems)
+        else {
+            return true;
+        };
+        let parts = super::program::stored_lines(stmts);
+        lines.extend(parts.into_iter().map(crate::model::ProgLine::new));
+    }
+    if !blocks.is_empty() || lines.is_empty() {
+        return true;
+    }
+    if let Ok(code) = crate::program::compile::compile(&lines, false) {
+        let k = Kin {
+            routine: routine(code),
+            text: text.to_vec(),
+        };
+        pv.kin.insert((n as u16 + 1, inverse), k);
+    }
+    true
+}
+
+/// Power C.S. numbers a routine may belong to (0-127, seed: one of each per C.S.).
+const MAX_CS: u32 = 127;
+
+/// `open forward|inverse [(n)]` in `text` (lower case): (model C.S., inverse), or `Some` with
+/// C.S. `u16::MAX` for a bad number.
+pub(super) fn open_words(text: &str, th: &Thread) -> Option<(u16, bool)> {
+    let t = text.replace(['(', ')'], " ");
+    let w: Vec<&str> = t.split_whitespace().collect();
+    let (kind, n) = match w.as_slice() {
+        ["open", k] => (*k, None),
+        ["open", k, n] => (*k, Some(*n)),
+        _ => return None,
+    };
+    let inverse = match kind {
+        "forward" => false,
+        "inverse" => true,
+        _ => return None,
+    };
+    let n = match n {
+        None => u32::from(th.coord),
+        Some(n) => n
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n <= MAX_CS)
+            .unwrap_or(u32::MAX),
+    };
+    Some((
+        u16::try_from(n.saturating_add(1)).unwrap_or(u16::MAX),
+        inverse,
+    ))
+}
+
+impl Power {
+    pub(super) fn open_kin(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        (cs, inverse): (u16, bool),
+    ) -> Result<(), SyntaxError> {
+        let bad = |code| SyntaxError { at: 0, code };
+        if self.open.is_some() || self.rot.is_some() {
+            return Err(bad(21));
+        }
+        if cs == u16::MAX {
+            return Err(bad(21));
+        }
+        if card
+            .model
+            .state
+            .coords
+            .get(usize::from(cs - 1))
+            .is_some_and(|c| c.running)
+        {
+            return Err(bad(26));
+        }
+        // Seed §2.9: `open` clears the buffer.
+        progvars::with(card, |_, pv| pv.kin.remove(&(cs, inverse)));
+        self.open = Some(OpenBuf {
+            conn,
+            id: BufId::Rot,
+            blocks: Vec::new(),
+            lines: 0,
+            text: Vec::new(),
+            stored: Vec::new(),
+            kin: Some((cs, inverse)),
+            kin_lines: Vec::new(),
+        });
+        Ok(())
+    }
+
+    pub(super) fn close_kin(&mut self, card: &mut Card, o: OpenBuf) -> Result<(), SyntaxError> {
+        let Some(key) = o.kin else {
+            return Ok(());
+        };
+        if o.lines == 0 {
+            return Ok(());
+        }
+        let bad = SyntaxError { at: 0, code: 20 };
+        if !o.blocks.is_empty() {
+            return Err(bad);
+        }
+        let code = crate::program::compile::compile(&o.kin_lines, false).map_err(|_| bad)?;
+        let k = Kin {
+            routine: routine(code),
+            text: o.text,
+        };
+        progvars::with(card, |_, pv| pv.kin.insert(key, k));
+        Ok(())
+    }
+}
