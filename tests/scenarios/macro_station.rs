@@ -6,7 +6,7 @@
 
 use std::sync::mpsc;
 
-use mcc_card::{Card, CardHandle, CardRingApp, HostRequest, Profile};
+use mcc_card::{Card, CardHandle, CardRingApp, HostRequest, Profile, Request, Response};
 use mcc_ring::config::ClusterConfig;
 use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
@@ -87,16 +87,20 @@ impl Rig {
 
     /// Send `line` on connection `conn` and run the ring until the card answers: the raw
     /// reply and the ring cycles it took.
+    /// The reply to `line` on connection `conn` and the ring cycles it took. The request is
+    /// queued with the card before the first step and its reply read in the step that served
+    /// it (no thread in between: the count is the card's, not the scheduler's).
     fn send_on(&mut self, conn: u64, line: &str) -> (String, u64) {
-        let (tx, rx) = mpsc::channel();
-        let h = self.card.clone();
-        let l = line.as_bytes().to_vec();
-        std::thread::spawn(move || {
-            let _ = tx.send(h.host(conn, HostRequest::Line(l)));
-        });
+        let rx = self
+            .card
+            .submit(Request::Host {
+                conn,
+                req: HostRequest::Line(line.as_bytes().to_vec()),
+            })
+            .expect("the card takes the request");
         let start = self.sim.cycle();
         loop {
-            if let Ok(r) = rx.try_recv() {
+            if let Ok(Response::Host(r)) = rx.try_recv() {
                 let text = String::from_utf8_lossy(&r.bytes).into_owned();
                 return (text, self.sim.cycle() - start);
             }
@@ -105,9 +109,6 @@ impl Rig {
                 "{line}: no reply within {LINE_LIMIT} ring cycles"
             );
             self.sim.step();
-            // let the sender thread hand its request over (the ring is lockstep: waiting here
-            // costs no ring time)
-            std::thread::yield_now();
         }
     }
 

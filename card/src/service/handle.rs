@@ -109,6 +109,15 @@ impl CardHandle {
         rx.recv_deadline(deadline).ok()
     }
 
+    /// Queue `req` without waiting: the receiver of its reply (`None`: the queue is full or
+    /// the card is gone). A lockstep test that steps the card itself gets the reply in the
+    /// step that served it, with no thread in between.
+    pub fn submit(&self, req: Request) -> Option<Receiver<Response>> {
+        let (tx, rx) = bounded(1);
+        self.tx.try_send(Envelope { req, reply: tx }).ok()?;
+        Some(rx)
+    }
+
     /// A host request of connection `conn`; an empty reply when the card is gone.
     pub fn host(&self, conn: u64, req: HostRequest) -> HostReply {
         match self.call(Request::Host { conn, req }, REPLY_TIMEOUT) {
