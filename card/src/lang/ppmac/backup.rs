@@ -142,12 +142,9 @@ fn lines(card: &mut CardModel, store: &Store, p: Part) -> Vec<String> {
         Part::Gates => {
             let mut v = Vec::new();
             for st in [St::Gate3, St::Gate2] {
+                let written = store.indices_of(st);
                 for i in 0..count(st) {
-                    let written = DEFS
-                        .iter()
-                        .enumerate()
-                        .any(|(d, _)| store.keys_of(d).iter().any(|k| k.st == st && k.idx == i));
-                    if (st == St::Gate3 && i == 0) || written {
+                    if (st == St::Gate3 && i == 0) || written.contains(&i) {
                         v.extend(lines(card, store, elems(st, i, i, false, false)));
                     }
                 }

@@ -55,6 +55,15 @@ impl Store {
         self.values.insert(k, v);
     }
 
+    /// The indices of structure `st` any kept value belongs to (`backup Gates`).
+    pub(crate) fn indices_of(&self, st: super::catalog::St) -> std::collections::BTreeSet<u32> {
+        self.values
+            .keys()
+            .filter(|k| k.st == st)
+            .map(|k| k.idx)
+            .collect()
+    }
+
     /// The keys of every value kept for element `def` (`backup` reports them).
     pub(crate) fn keys_of(&self, def: usize) -> Vec<Key> {
         let mut v: Vec<Key> = self

@@ -233,8 +233,10 @@ fn backup_lists_saved_elements_that_feed_back() {
     );
     let gates = t.send("backup Gates");
     assert!(gates.contains("Gate3[0].MacroEnableA="), "{gates}");
-    // Everything.
+    // Everything: within what one line may report (8,192 values).
     let all = t.send("backup");
+    let n = all.matches("\r\n").count();
+    assert!((5_000..=8_192).contains(&n), "{n} lines");
     for part in [
         "Sys.",
         "Motor[0].",
