@@ -207,7 +207,6 @@ fn one(
         recover(sup, cfg, p, reference, &mut o.violations)?;
         return Ok(());
     }
-    let base = before.fault_counts();
     let target = name(cfg, p.target).to_string();
     let t0 = Instant::now();
     match &p.action {
@@ -228,7 +227,7 @@ fn one(
         }
     }
     if p.sustained() {
-        judge_detection(&s, cfg, p, &base, t0, o);
+        judge_detection(&s, cfg, p, &before, t0, o);
         let t1 = Instant::now();
         recover(sup, cfg, p, reference, &mut o.violations)?;
         o.recover_ms = Some(t1.elapsed().as_millis() as u64);
@@ -259,6 +258,40 @@ fn unhealthy(cfg: &ClusterConfig, snap: &Snapshot) -> String {
     parts.join(", ")
 }
 
+/// What a member that latched unexpectedly saw: its receive errors by class since the fault,
+/// the cycle its input link last delivered bad data, where its dark spells lie, and when the
+/// members the rules name latched (for the next one to read).
+fn unexpected_evidence(
+    cfg: &ClusterConfig,
+    p: &Planned,
+    before: &Snapshot,
+    last: &Snapshot,
+    i: usize,
+) -> String {
+    let Some(m) = last.member(i) else {
+        return "no status".into();
+    };
+    let e0 = before.member(i).map(|b| b.errors).unwrap_or_default();
+    let e = m.errors;
+    let mut s = format!(
+        "errors since the fault bv+{} cs+{} ov+{} un+{} bad+{}, link error at {:?}, dark {:?}/{:?}, cycle {}",
+        e.byte_violation.saturating_sub(e0.byte_violation),
+        e.checksum.saturating_sub(e0.checksum),
+        e.overrun.saturating_sub(e0.overrun),
+        e.underrun.saturating_sub(e0.underrun),
+        e.bad_frames.saturating_sub(e0.bad_frames),
+        m.link_error_cycle,
+        m.dark_since_cycle,
+        m.last_dark_spell,
+        m.cycle
+    );
+    for d in &p.expect.must {
+        let c = last.member(d.member).and_then(|x| x.ring_fault_cycle);
+        s.push_str(&format!("; {} latched at {c:?}", name(cfg, d.member)));
+    }
+    s
+}
+
 fn latched(snap: &Snapshot, i: usize, base: &[u64]) -> bool {
     snap.member(i).is_some_and(|m| {
         m.ring_fault
@@ -274,10 +307,12 @@ fn judge_detection(
     s: &zenoh::Session,
     cfg: &ClusterConfig,
     p: &Planned,
-    base: &[u64],
+    before: &Snapshot,
     t0: Instant,
     o: &mut Outcome,
 ) {
+    let counts = before.fault_counts();
+    let base = &counts[..];
     let n = cfg.ring.order.len();
     let down = (p.target + 1) % n;
     let dead = matches!(p.action, Action::Freeze | Action::Kill | Action::Restart);
@@ -375,10 +410,11 @@ fn judge_detection(
         }
         let m = last.member(i);
         o.violations.push(format!(
-            "{} latched a ring fault the rules do not expect (cycle {:?}: {})",
+            "{} latched a ring fault the rules do not expect (cycle {:?}: {}; {})",
             name(cfg, i),
             m.and_then(|m| m.ring_fault_cycle),
-            m.and_then(|m| m.fault_reason.clone()).unwrap_or_default()
+            m.and_then(|m| m.fault_reason.clone()).unwrap_or_default(),
+            unexpected_evidence(cfg, p, before, &last, i)
         ));
     }
     // The link.
