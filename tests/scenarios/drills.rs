@@ -135,6 +135,9 @@ fn drill(c: &mut Cluster, args: &[&str], link: &str, downstream: &str, cards: &[
     if let Err(e) = c.fault(args[0], args[1], FaultOptions::default()) {
         panic!("mcc fault {args:?}: {e}");
     }
+    // The cards' own state (ring-fault bit, killed motors) comes from a query of each card
+    // that can answer late while a member is frozen (zenoh waits for the frozen one too):
+    // wait for it as well, within the same generous bound.
     let doc = wait(c, &format!("{args:?} detected"), WAIT, |d| {
         d["ring"]["broken_link"] == link
             && d["members"]
@@ -143,6 +146,12 @@ fn drill(c: &mut Cluster, args: &[&str], link: &str, downstream: &str, cards: &[
                 .iter()
                 .filter(|m| cards.contains(&m["name"].as_str().unwrap()))
                 .all(|m| m["ring_fault"] == true)
+            && d["cards"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|m| cards.contains(&m["name"].as_str().unwrap()))
+                .all(|m| !m["ring_fault"].is_null())
     });
     let members = doc["members"].as_array().unwrap();
     let get = |n: &str| members.iter().find(|m| m["name"] == n).unwrap();

@@ -58,8 +58,25 @@ pub fn apply_card_infos(doc: &mut ClusterStatus, infos: &[Option<AtReply>]) {
 }
 
 /// Add the cards' own state to a status document.
+/// A card whose member answered but whose own state did not is asked once more, with a
+/// longer wait: a card serves its state between servo ticks, and while its sync master is
+/// frozen a follower's next tick waits up to the member timeout before its holdover clock
+/// takes over (the power-ring drill saw card1's state missing while card0 was frozen). A
+/// card whose member is gone is not waited for.
 pub fn enrich_status(session: &zenoh::Session, cfg: &ClusterConfig, doc: &mut ClusterStatus) {
-    let infos = card_infos(session, cfg);
+    let mut infos = card_infos(session, cfg);
+    let alive = |name: &str| doc.members.iter().any(|m| m.name == name && m.alive);
+    let missing: Vec<usize> = (0..infos.len())
+        .filter(|&k| infos[k].is_none() && cfg.cards.get(k).is_some_and(|c| alive(&c.name)))
+        .collect();
+    if !missing.is_empty() {
+        let again = card_infos_within(session, cfg, Duration::from_millis(3000));
+        for (k, a) in again.into_iter().enumerate() {
+            if missing.contains(&k) {
+                infos[k] = a;
+            }
+        }
+    }
     apply_card_infos(doc, &infos);
 }
 
