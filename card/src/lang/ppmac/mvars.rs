@@ -232,7 +232,7 @@ pub(crate) fn restore(card: &CardModel, store: &mut Store, saved: SavedM) {
                 if !c.at_end() {
                     continue;
                 }
-                if let Some(k) = constant_key(&e) {
+                if let Some(Ok(k)) = super::parse::literal_key(&e) {
                     let _ = define_element(card, store, n, &e, k);
                 }
             }
@@ -244,19 +244,4 @@ pub(crate) fn restore(card: &CardModel, store: &mut Store, saved: SavedM) {
             let _ = store.m.write(n, v);
         }
     }
-}
-
-/// The key of an element whose indices are all literal numbers.
-pub(crate) fn constant_key(e: &ElemRef) -> Option<Key> {
-    use crate::domain::ast::ExprKind;
-    let lit = |x: &crate::domain::ast::Expr| match x.kind {
-        ExprKind::Num(n) => Some(n.value),
-        _ => None,
-    };
-    let idx = match &e.idx {
-        Some(x) => Some(lit(x)?),
-        None => None,
-    };
-    let sub: Option<Vec<f64>> = e.sub.iter().map(lit).collect();
-    elements::key(e, idx, &sub?).ok()
 }

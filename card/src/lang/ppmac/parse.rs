@@ -811,25 +811,23 @@ impl<'a> Cur<'a> {
 /// An element whose indices are all literals names an existing element (program text is
 /// checked at entry: seed §2.9 rejects a bad line when it is sent).
 fn constant_indices_valid(e: &ElemRef) -> bool {
+    literal_key(e).is_none_or(|k| k.is_ok())
+}
+
+/// The key of `e` when every index is a literal number (`None`: some index is computed).
+pub(crate) fn literal_key(
+    e: &ElemRef,
+) -> Option<Result<super::elements::Key, super::elements::AccessError>> {
     let lit = |x: &Expr| match x.kind {
         ExprKind::Num(n) => Some(n.value),
         _ => None,
     };
     let idx = match &e.idx {
-        Some(x) => match lit(x) {
-            Some(v) => Some(v),
-            None => return true,
-        },
+        Some(x) => Some(lit(x)?),
         None => None,
     };
-    let mut sub = Vec::new();
-    for x in &e.sub {
-        match lit(x) {
-            Some(v) => sub.push(v),
-            None => return true,
-        }
-    }
-    super::elements::key(e, idx, &sub).is_ok()
+    let sub: Option<Vec<f64>> = e.sub.iter().map(lit).collect();
+    Some(super::elements::key(e, idx, &sub?))
 }
 
 /// The Power script's scalar functions.

@@ -94,11 +94,18 @@ impl ProgVars {
     }
 
     fn thread(&mut self, at: &ExtAt) -> &mut Thread {
-        self.threads.entry(at.thread).or_insert_with(|| Thread {
+        self.parts(at).1
+    }
+
+    /// The element store and the thread of `at`, borrowed apart (no copy of the thread's
+    /// 8,192-slot stacks per access).
+    fn parts(&mut self, at: &ExtAt) -> (&mut Store, &mut Thread) {
+        let th = self.threads.entry(at.thread).or_insert_with(|| Thread {
             motor: at.motor.saturating_sub(1),
             coord: at.coord.saturating_sub(1),
             ..Thread::default()
-        })
+        });
+        (&mut self.store, th)
     }
 
     /// The stack slot of `L(n)` / `R(n)` at the call depth of `at`.
@@ -172,8 +179,8 @@ impl ExtVars for ProgVars {
         match family {
             EXT_I => elements::read_ivar(card, &self.store, index).map_err(access),
             EXT_M | EXT_M_SYNC => {
-                let th = self.thread(at).clone();
-                super::mvars::read_m(card, &self.store, &th, index).map_err(access)
+                let (store, th) = self.parts(at);
+                super::mvars::read_m(card, store, th, index).map_err(access)
             }
             EXT_L | EXT_R => {
                 let s = Self::slot(at, family, index).ok_or(ExtError::NoSuch)?;
@@ -186,8 +193,8 @@ impl ExtVars for ProgVars {
                 if index == ELEM_ADDRESS {
                     return Ok(super::exec::element_address(card, &k) as f64);
                 }
-                let th = self.thread(at).clone();
-                let v = elements::read(card, &self.store, &th, &k).map_err(access)?;
+                let (store, th) = self.parts(at);
+                let v = elements::read(card, store, th, &k).map_err(access)?;
                 Ok(match e.bits {
                     Some((start, width)) => super::exec::get_bits(v, start, width),
                     None => v,
@@ -211,10 +218,8 @@ impl ExtVars for ProgVars {
             // a no-op, without error.
             EXT_M_SYNC if super::mvars::is_self_referenced(&self.store, index) => Ok(()),
             EXT_M | EXT_M_SYNC => {
-                let mut th = self.thread(at).clone();
-                super::mvars::write_m(card, &mut self.store, &mut th, index, v).map_err(access)?;
-                *self.thread(at) = th;
-                Ok(())
+                let (store, th) = self.parts(at);
+                super::mvars::write_m(card, store, th, index, v).map_err(access)
             }
             EXT_L | EXT_R => {
                 let s = Self::slot(at, family, index).ok_or(ExtError::NoSuch)?;
@@ -236,17 +241,15 @@ impl ExtVars for ProgVars {
             }
             f if f >= EXT_PELEM && index != ELEM_ADDRESS => {
                 let (e, k) = self.element(card, at, f)?;
-                let mut th = self.thread(at).clone();
+                let (store, th) = self.parts(at);
                 let v = match e.bits {
                     Some((start, width)) => {
-                        let old = elements::read(card, &self.store, &th, &k).map_err(access)?;
+                        let old = elements::read(card, store, th, &k).map_err(access)?;
                         super::exec::set_bits(old, start, width, v).ok_or(ExtError::Range)?
                     }
                     None => v,
                 };
-                elements::write(card, &mut self.store, &mut th, &k, v).map_err(access)?;
-                *self.thread(at) = th;
-                Ok(())
+                elements::write(card, store, th, &k, v).map_err(access)
             }
             _ => Err(ExtError::NoSuch),
         }
