@@ -11,7 +11,7 @@
 //! dead (its liveliness went away) or has passed nothing on for the frozen-member wait; each
 //! such cycle is loss of light on their input (a byte violation, a dark frame forwarded).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -42,6 +42,9 @@ pub struct DriverConfig {
     /// Raised while the upstream member is known dead (its liveliness token went away): its
     /// link carries no light.
     pub upstream_dead: Option<Arc<AtomicBool>>,
+    /// Paced and lockstep sync master: how many times a ring member came back (its
+    /// liveliness token reappeared, see [`super::light::watch_rejoins`]).
+    pub rejoins: Option<Arc<AtomicU64>>,
     /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
     pub in_flight: u64,
     /// Whether the upstream process (on this machine) is stopped: consulted once nothing has

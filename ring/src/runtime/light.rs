@@ -11,8 +11,9 @@
 //! process that is gone or a zombie is dead. Only a member on another machine, or one that runs but never answers, is left to the
 //! frozen-member wait.
 
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::collections::HashSet;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
 use tracing::{info, warn};
@@ -185,6 +186,64 @@ pub fn watch_upstream(
         _subscriber: subscriber,
         dead,
         probe,
+    })
+}
+
+/// Keeps the watch declared; drop it to undeclare.
+pub struct RejoinWatch {
+    _subscriber: Subscriber<()>,
+    /// How many times a ring member's liveliness token reappeared after it had been seen.
+    pub rejoins: Arc<AtomicU64>,
+}
+
+impl std::fmt::Debug for RejoinWatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RejoinWatch")
+            .field("rejoins", &self.rejoins)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Sync master: watch the liveliness tokens of the ring's `members` and count each one that
+/// comes back after it was first seen (a member restarted or reconnected). A member that
+/// rejoins opens new links, and frames sent before they are up are lost: the sync master then
+/// runs on its own clock until light comes back (see [`super::stepped`]) instead of waiting
+/// for a cycle that went nowhere.
+pub fn watch_rejoins(
+    session: &zenoh::Session,
+    cluster: &str,
+    members: &[String],
+) -> Result<RejoinWatch, super::DeclareError> {
+    let rejoins = Arc::new(AtomicU64::new(0));
+    let count = Arc::clone(&rejoins);
+    let keys: Vec<(String, String)> = members
+        .iter()
+        .map(|m| (alive_key(cluster, m), m.clone()))
+        .collect();
+    let seen = Mutex::new(HashSet::<String>::new());
+    let subscriber = session
+        .liveliness()
+        .declare_subscriber(alive_key(cluster, "*"))
+        .history(true)
+        .callback(move |sample| {
+            if sample.kind() != SampleKind::Put {
+                return;
+            }
+            let key = sample.key_expr().as_str();
+            let Some((_, name)) = keys.iter().find(|(k, _)| k == key) else {
+                return;
+            };
+            let mut seen = seen.lock().unwrap_or_else(|e| e.into_inner());
+            if !seen.insert(name.clone()) {
+                info!(member = %name, "ring member rejoined");
+                count.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .wait()
+        .map_err(super::DeclareError::of("ring member liveliness watch"))?;
+    Ok(RejoinWatch {
+        _subscriber: subscriber,
+        rejoins,
     })
 }
 

@@ -23,8 +23,6 @@ pub mod timing;
 mod pipeline_tests;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod tests_stepped;
 
 /// A zenoh declaration (queryable, token, subscriber) of a member's runtime failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -194,6 +194,15 @@ where
     } else {
         None
     };
+    // The sync master: members that come back (their new links lose frames until they are up).
+    let rejoins = if config.ring.sync_master == args.name && config.clock.is_stepped() {
+        Some(
+            super::light::watch_rejoins(&session, &config.cluster, &config.ring.order)
+                .map_err(|e| anyhow!(e))?,
+        )
+    } else {
+        None
+    };
 
     let dcfg = DriverConfig {
         name: args.name.clone(),
@@ -202,6 +211,7 @@ where
         rtf: config.rtf,
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
+        rejoins: rejoins.as_ref().map(|w| Arc::clone(&w.rejoins)),
         in_flight: config.ring.in_flight,
         // The process probe only for an upstream on this member's host: a member the config
         // puts on another host is on another machine, even when it shares this kernel (network
@@ -228,6 +238,7 @@ where
     stop.store(true, Ordering::Relaxed);
     drop(_plane);
     drop(watch);
+    drop(rejoins);
     let _ = zenoh::Wait::wait(session.close());
     match exit {
         DriverExit::Stopped | DriverExit::Done => Ok(()),

@@ -4,8 +4,8 @@
 //! delay can look like a ring error.
 //!
 //! - `paced`: and never before its deadline `origin + k × period / rtf` on the wall clock
-//!   ([`PaceGrid`]). After a stall the missed cycles run back to back until the ring is on
-//!   schedule again; beyond [`PACED_BACKLOG_NS`] of lag the schedule is re-based to the
+//!   ([`PaceGrid`]). After a stall the missed cycles run back to back (each still waiting for
+//!   its return) until the ring is on schedule again; beyond [`PACED_BACKLOG_NS`] of lag the schedule is re-based to the
 //!   present and the time counted as lost. Cycles starting more than a period late are counted
 //!   (the real-time interrupt warning); none is ever skipped, and lateness is never an error.
 //! - `lockstep`: as fast as the ring allows.
@@ -16,8 +16,17 @@
 //! runs cycles on its own clock (the paced grid, the nominal rate in lockstep) — its ring check
 //! counts the silence — until a frame of the current cycle, or any cycle it started on its own
 //! clock with light, comes back (a round trip longer than a period, e.g. across hosts, has
-//! several own-clock cycles in flight: the current one is never first). When its upstream
+//! several own-clock cycles in flight: the current one is never first). On the own clock a
+//! cycle starts at most once a period: a backlog is never run back to back there. When its upstream
 //! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
+//!
+//! A member that comes back (its liveliness token reappears: a restarted process) opens new
+//! links, and frames sent before they are all up go nowhere; so does a frame sent the moment
+//! a dead upstream is back. The master never waits for those: from a member's return (or its
+//! upstream's death) on, cycles run on the own clock until a cycle started since comes back
+//! lit. (Waiting instead held the ring for the whole frozen-member wait, and a member between
+//! the master and the restarted one could judge its own, silent but healthy, upstream frozen
+//! and latch a fault nobody asked for: campaign seed 1000, #347.)
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
 //! process) continues from the ring's count: the first frame it gets back tells it.
@@ -68,6 +77,11 @@ pub struct Stepper {
     down_from: u64,
     /// Lockstep: the grid is only followed on the own clock; re-based when that begins.
     grid_live: bool,
+    /// A member came back (or the upstream died): its new links lose frames until they are
+    /// up, so cycles run on the own clock until a cycle from this one on comes back lit.
+    await_light: Option<u64>,
+    /// Rejoins counted so far (see [`super::light::watch_rejoins`]).
+    rejoins_seen: u64,
 }
 
 /// When the next cycle may start.
@@ -110,13 +124,24 @@ impl<A: RingApp> Driver<A> {
             down: false,
             down_from: 0,
             grid_live: paced,
+            await_light: None,
+            rejoins_seen: self.rejoins(),
         }
     }
 
     /// When cycle `st.k` may start (declares the ring down when the frozen wait ran out).
     pub(super) fn step_due(&mut self, st: &mut Stepper, now: u64) -> Due {
+        let rejoins = self.rejoins();
+        if rejoins != st.rejoins_seen {
+            st.rejoins_seen = rejoins;
+            if st.returned.is_some() && st.await_light.is_none() {
+                info!(member = %self.cfg.name, cycle = st.k,
+                    "a ring member came back: cycles run on the own clock until light returns");
+                st.await_light = Some(st.k);
+            }
+        }
         loop {
-            let own_clock = st.down || self.upstream_dead();
+            let own_clock = st.down || st.await_light.is_some() || self.upstream_dead();
             if !st.paced && own_clock != st.grid_live {
                 st.grid_live = own_clock;
                 st.grid.rebase(st.k, now);
@@ -131,7 +156,13 @@ impl<A: RingApp> Driver<A> {
             let (at, hold_frames) = if st.k == 0 {
                 (Some(now), false)
             } else if own_clock {
-                (Some(st.grid.deadline(st.k)), false)
+                // Free-running, as a real sync master: one cycle a period at most. A backlog
+                // is never run back to back here — nothing waits for those frames to come
+                // back, so hundreds would leave at once and overflow the links' queues (the
+                // lost ones then held the ring once it stepped again). The grid keeps the lag
+                // (late cycles, re-based beyond the backlog).
+                let next = st.last_start.saturating_add(self.wall_period_ns());
+                (Some(st.grid.deadline(st.k).max(next)), false)
             } else if st.returned.is_none() {
                 (Some(st.last_start.saturating_add(BRINGUP_RETRY_NS)), false)
             } else if back {
@@ -194,15 +225,31 @@ impl<A: RingApp> Driver<A> {
         // Back to normal once a cycle of the current window comes back (with N in flight the
         // frame of k-N is the newest that can), or — a round trip longer than a period (across
         // hosts): several own-clock cycles in flight, the current window never comes back
-        // first — once any cycle started on the own clock comes back lit. Those still in
-        // flight drain before the next start.
-        let lit = c >= st.down_from && !self.core.is_dark();
-        if st.down && (c.saturating_add(st.in_flight) >= st.k || lit) {
+        // first — once any cycle started on the own clock comes back lit.
+        //
+        // Cycles still out from the own clock are not waited for: nothing held them back, so
+        // on a loaded machine some may have been dropped from a link's queue (a send task
+        // descheduled while cycles kept coming), and the one the master waited for could be
+        // among them — the ring then stood still for the whole frozen-member wait (paced
+        // restart campaign under load). The ring carries light again: stepping resumes from
+        // the next cycle, and the returns still on their way are taken as they come.
+        let lit = !self.core.is_dark();
+        let mut resumed = false;
+        if st.await_light.is_some_and(|from| c >= from) && lit {
+            info!(member = %self.cfg.name, cycle = c, "light is back");
+            st.await_light = None;
+            resumed = true;
+        }
+        if st.down && (c.saturating_add(st.in_flight) >= st.k || (lit && c >= st.down_from)) {
             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
             st.down = false;
             if let Some(s) = self.clock.as_mut() {
                 s.set_ring_down(false);
             }
+            resumed = true;
+        }
+        if resumed && !st.down && st.await_light.is_none() {
+            st.returned = st.returned.max(Some(st.k.saturating_sub(1)));
         }
         Ok(())
     }
@@ -217,7 +264,8 @@ impl<A: RingApp> Driver<A> {
         let k = st.k;
         let now = self.now_ns();
         let dead = self.upstream_dead();
-        let on_grid = (st.paced && st.returned.is_some()) || st.down || dead;
+        let on_grid =
+            (st.paced && st.returned.is_some()) || st.down || st.await_light.is_some() || dead;
         let start = on_grid.then(|| st.grid.on_start(k, now));
         if let Some(s) = start {
             if s.late {
@@ -243,14 +291,24 @@ impl<A: RingApp> Driver<A> {
             self.tick(k);
         }
         if dead {
-            // Loss of light on the input: this cycle comes back dark.
+            // Loss of light on the input: this cycle comes back dark. Once the upstream is
+            // back, its new links may lose frames: the own clock goes on until light returns.
             let _ = self.core.dark_input(k, now);
             st.returned = st.returned.max(Some(k));
+            st.await_light.get_or_insert(k + 1);
         }
         st.last_start = now;
         self.silence.reset(now);
         st.k += 1;
         Ok(())
+    }
+
+    /// Rejoins of ring members seen so far (0 without a watch).
+    fn rejoins(&self) -> u64 {
+        self.cfg
+            .rejoins
+            .as_ref()
+            .map_or(0, |r| r.load(std::sync::atomic::Ordering::Relaxed))
     }
 
     pub(super) fn run_sync_master_stepped(&mut self) -> DriverExit {
@@ -302,3 +360,7 @@ impl<A: RingApp> Driver<A> {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "tests_stepped.rs"]
+mod tests;

@@ -61,6 +61,7 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         rtf: 1.0,
         member_timeout: Duration::from_millis(1000),
         upstream_dead: None,
+        rejoins: None,
         in_flight: 1,
         upstream_probe: None,
         harden: false,

@@ -4,12 +4,13 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::driver::{Driver, DriverConfig, DriverExit};
+use super::Stepper;
 use crate::config::ClockMode;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::frame::Frame;
 use crate::member::RingMember;
+use crate::runtime::driver::{Driver, DriverConfig, DriverExit};
 use crate::settings::RingSettings;
 use crate::transport::loopback::LoopbackRing;
 use crate::transport::LinkTx;
@@ -23,6 +24,55 @@ impl RingApp for Cycles {
     }
 }
 
+/// The sync master card0 of a two-member loopback ring (member 1 is the test's hand), on
+/// `clock`, with the given upstream-death flag and rejoin count.
+fn sync_master(
+    tx0: impl LinkTx + 'static,
+    rx0: crate::transport::LinkRx,
+    clock: ClockMode,
+    max_cycles: Option<u64>,
+    upstream_dead: Option<Arc<AtomicBool>>,
+    rejoins: Option<Arc<std::sync::atomic::AtomicU64>>,
+) -> Driver<Cycles> {
+    let mut cc = CoreConfig::new(
+        "card0",
+        MemberKind::Card,
+        0,
+        RingSettings::new(0x30, 0x0F_0001),
+        (1e9 / 2258.7) as u64,
+    );
+    cc.upstream = Some(1);
+    let d = DriverConfig {
+        name: "card0".into(),
+        clock,
+        rate_hz: 2258.7,
+        rtf: 1.0,
+        // Far longer than any test's bound: a master that waits for a lost cycle fails it.
+        member_timeout: Duration::from_secs(120),
+        upstream_dead,
+        rejoins,
+        upstream_probe: None,
+        in_flight: 1,
+        harden: false,
+        max_cycles,
+        kind: MemberKind::Card,
+        position: 0,
+        extra: serde_json::Map::new(),
+        record: 0,
+        phase_delay_ns: 0,
+    };
+    let (_cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
+    Driver::new(
+        d,
+        MemberCore::new(cc),
+        Cycles::default(),
+        Box::new(tx0),
+        rx0,
+        cmd_rx,
+        Arc::new(AtomicBool::new(false)),
+    )
+}
+
 #[test]
 fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_ahead() {
     // A member that ran on its own clock (it judged its upstream frozen) numbers its dark
@@ -33,44 +83,8 @@ fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_
     let ring = LoopbackRing::new(2);
     let (tx0, rx0) = ring.member(0).unwrap();
     let (tx1, rx1) = ring.member(1).unwrap();
-    let period = (1e9 / 2258.7) as u64;
-    let mut cc = CoreConfig::new(
-        "card0",
-        MemberKind::Card,
-        0,
-        RingSettings::new(0x30, 0x0F_0001),
-        period,
-    );
-    cc.upstream = Some(1);
-    let d = DriverConfig {
-        name: "card0".into(),
-        clock: ClockMode::Lockstep,
-        rate_hz: 2258.7,
-        rtf: 1.0,
-        member_timeout: Duration::from_secs(30),
-        upstream_dead: None,
-        upstream_probe: None,
-        in_flight: 1,
-        harden: false,
-        max_cycles: Some(cycles),
-        kind: MemberKind::Card,
-        position: 0,
-        extra: serde_json::Map::new(),
-        record: 0,
-        phase_delay_ns: 0,
-    };
-    let (_cmd_tx, cmd_rx) = crossbeam_channel::unbounded();
-    let stop = Arc::new(AtomicBool::new(false));
     let master = std::thread::spawn(move || {
-        let mut drv = Driver::new(
-            d,
-            MemberCore::new(cc),
-            Cycles::default(),
-            Box::new(tx0),
-            rx0,
-            cmd_rx,
-            stop,
-        );
+        let mut drv = sync_master(tx0, rx0, ClockMode::Lockstep, Some(cycles), None, None);
         let exit = drv.run();
         (exit, drv.into_parts().1)
     });
@@ -100,4 +114,153 @@ fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_
     assert_eq!(after_future, 5);
     // The master's count is its own: consecutive, never from the far-ahead frame.
     assert_eq!(app.0, (0..cycles).collect::<Vec<_>>());
+}
+
+/// A sync master on the lockstep clock against a hand-driven rest of the ring: when the frame
+/// of a cycle arrives, `hand(cycle)` says which cycles come back now, lit (none: it was lost).
+/// Returns the master's ticks.
+fn master_against(
+    cycles: u64,
+    rejoins: Arc<std::sync::atomic::AtomicU64>,
+    dead: Arc<AtomicBool>,
+    mut hand: impl FnMut(u64) -> Vec<u64>,
+) -> Vec<u64> {
+    let ring = LoopbackRing::new(2);
+    let (tx0, rx0) = ring.member(0).unwrap();
+    let (tx1, rx1) = ring.member(1).unwrap();
+    let master = std::thread::spawn(move || {
+        let mut drv = sync_master(
+            tx0,
+            rx0,
+            ClockMode::Lockstep,
+            Some(cycles),
+            Some(dead),
+            Some(rejoins),
+        );
+        let exit = drv.run();
+        (exit, drv.into_parts().1)
+    });
+    let t0 = Instant::now();
+    let mut seq = 0;
+    while !master.is_finished() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the sync master waits for a cycle that was lost"
+        );
+        let Ok(Some(bytes)) = rx1.recv_timeout(Duration::from_millis(20)) else {
+            continue;
+        };
+        let f = Frame::decode(&bytes).unwrap();
+        for c in hand(f.cycle) {
+            seq += 1;
+            tx1.send(&Frame::with_packets(1, seq, 0, c, &[]).encode())
+                .unwrap();
+        }
+    }
+    let (exit, app) = master.join().unwrap();
+    assert!(matches!(exit, DriverExit::Done), "{exit:?}");
+    app.0
+}
+
+#[test]
+fn a_member_that_comes_back_does_not_stall_the_ring_on_the_frames_its_new_links_lost() {
+    // Campaign (paced, loaded): after `restart station1` the new member's links came up one by
+    // one; the first frames went nowhere and the sync master waited the whole frozen-member
+    // wait for one of them, long enough for a member between it and the restarted one to
+    // judge its own upstream frozen and latch a fault nobody asked for. A member that came
+    // back means frames may be lost: cycles go on on the own clock until light returns.
+    let rejoins = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let r = Arc::clone(&rejoins);
+    let ticks = master_against(80, rejoins, Arc::new(AtomicBool::new(false)), move |c| {
+        if c == 19 {
+            r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        if (20..=25).contains(&c) {
+            vec![]
+        } else {
+            vec![c]
+        }
+    });
+    assert_eq!(ticks, (0..80).collect::<Vec<_>>());
+}
+
+#[test]
+fn an_upstream_back_from_the_dead_does_not_stall_the_ring_on_lost_frames() {
+    // The upstream's death is loss of light (cycles on the own clock, each one dark); once it
+    // is back, the frames its new links lose must not hold the ring either.
+    let dead = Arc::new(AtomicBool::new(false));
+    let d = Arc::clone(&dead);
+    let ticks = master_against(
+        80,
+        Arc::new(std::sync::atomic::AtomicU64::new(0)),
+        dead,
+        move |c| {
+            match c {
+                20 => d.store(true, std::sync::atomic::Ordering::Relaxed),
+                30 => d.store(false, std::sync::atomic::Ordering::Relaxed),
+                _ => {}
+            }
+            if (20..=33).contains(&c) {
+                vec![]
+            } else {
+                vec![c]
+            }
+        },
+    );
+    assert_eq!(ticks, (0..80).collect::<Vec<_>>());
+}
+
+#[test]
+fn cycles_the_own_clock_lost_are_not_waited_for_once_light_is_back() {
+    // On the own clock nothing waits for a cycle to come back, so a loaded machine may drop
+    // some from a link's queue. Light is back when cycle 26 returns; 27, started on the own
+    // clock before that and lost, must not hold the ring for the frozen-member wait.
+    let rejoins = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let r = Arc::clone(&rejoins);
+    let ticks = master_against(
+        80,
+        rejoins,
+        Arc::new(AtomicBool::new(false)),
+        move |c| match c {
+            19 => {
+                r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                vec![19]
+            }
+            20..=26 => vec![],
+            // 26 comes back only now, after 27 (lost) went out.
+            27 => vec![26],
+            _ => vec![c],
+        },
+    );
+    assert_eq!(ticks, (0..80).collect::<Vec<_>>());
+}
+
+#[test]
+fn on_the_own_clock_a_backlog_is_not_run_back_to_back() {
+    // Paced: after a stall of the master itself the grid is behind. Stepping, the missed
+    // cycles may run back to back (each waits for its return); on the own clock nothing waits,
+    // and a 200 ms backlog left as ~450 frames at once, overflowed the links' queues, and the
+    // lost frames held the ring for the frozen-member wait once it stepped again (paced
+    // restart campaign under load). On the own clock a cycle starts once a period at most.
+    let ring = LoopbackRing::new(2);
+    let (tx0, rx0) = ring.member(0).unwrap();
+    let mut drv = sync_master(tx0, rx0, ClockMode::Paced, None, None, None);
+    let period = drv.wall_period_ns();
+    let mut st: Stepper = drv.stepper();
+    // Cycle 100 was due at t = 1 s; the master last started a cycle at 1.15 s and looks now.
+    let t = 1_000_000_000;
+    st.grid = crate::runtime::timing::PaceGrid::new(period, 100, t, 200_000_000);
+    st.k = 100;
+    st.returned = Some(99);
+    st.last_start = t + 150_000_000;
+    let now = st.last_start + 1_000;
+    // Stepping, the cycle is due at once (its deadline is long past).
+    let due = drv.step_due(&mut st, now);
+    assert_eq!(due.at, Some(t));
+    // On the own clock (waiting for light after a member came back): a period after the last.
+    st.await_light = Some(100);
+    let due = drv.step_due(&mut st, now);
+    assert_eq!(due.at, Some(st.last_start + period));
+    assert!(!due.now(now));
+    assert!(due.now(st.last_start + period));
 }

@@ -52,6 +52,7 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             rtf: cfg.rtf,
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
+            rejoins: None,
             in_flight: cfg.ring.in_flight,
             upstream_probe: None,
             harden: false,
