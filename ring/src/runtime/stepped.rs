@@ -5,9 +5,10 @@
 //!
 //! - `paced`: and never before its deadline `origin + k × period / rtf` on the wall clock
 //!   ([`PaceGrid`]). After a stall the missed cycles run back to back (each still waiting for
-//!   its return) until the ring is on schedule again; beyond [`PACED_BACKLOG_NS`] of lag the schedule is re-based to the
-//!   present and the time counted as lost. Cycles starting more than a period late are counted
-//!   (the real-time interrupt warning); none is ever skipped, and lateness is never an error.
+//!   its return) until the ring is on schedule again; beyond [`PACED_BACKLOG_NS`] of lag the
+//!   schedule is re-based to the present and the time counted as lost. Cycles starting more
+//!   than a period late are counted (the real-time interrupt warning); none is ever skipped,
+//!   and lateness is never an error.
 //! - `lockstep`: as fast as the ring allows.
 //!
 //! The one wall-clock judgement: if nothing comes back within the frozen-member wait
@@ -17,8 +18,9 @@
 //! counts the silence — until a frame of the current cycle, or any cycle it started on its own
 //! clock with light, comes back (a round trip longer than a period, e.g. across hosts, has
 //! several own-clock cycles in flight: the current one is never first). On the own clock a
-//! cycle starts at most once a period: a backlog is never run back to back there. When its upstream
-//! neighbour is known dead it does not wait at all: every cycle is loss of light on its input.
+//! cycle starts at most once a period: a backlog is never run back to back there. When its
+//! upstream neighbour is known dead it does not wait at all: every cycle is loss of light on
+//! its input.
 //!
 //! A member that comes back (its liveliness token reappears: a restarted process) opens new
 //! links, and frames sent before they are all up go nowhere; so does a frame sent the moment
@@ -26,7 +28,7 @@
 //! upstream's death) on, cycles run on the own clock until a cycle started since comes back
 //! lit. (Waiting instead held the ring for the whole frozen-member wait, and a member between
 //! the master and the restarted one could judge its own, silent but healthy, upstream frozen
-//! and latch a fault nobody asked for: campaign seed 1000, #347.)
+//! and latch a fault nobody asked for: campaign seed 1000, #346.)
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
 //! process) continues from the ring's count: the first frame it gets back tells it.
