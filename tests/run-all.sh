@@ -20,7 +20,7 @@ skips=()
 for m in "${MULTI[@]}"; do skips+=(--skip "$m"); done
 phase fmt cargo fmt --all -- --check
 phase clippy cargo clippy --workspace --all-targets -- -D warnings
-phase doc cargo doc --workspace --no-deps -q
+phase doc env RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps -q
 phase build cargo build --workspace --bins
 # Always the whole workspace (one feature set: nothing is compiled twice).
 phase unit-tests cargo test --workspace --lib --bins

@@ -134,7 +134,7 @@ pub struct SendArgs {
     /// Address card N (`@N`) before the first line.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=15))]
     pub card: Option<u8>,
-    /// Show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    /// Show framing characters (`<ACK>`, `<CR>`, `<LF>`, `<BELL>`) in replies.
     #[arg(long)]
     pub show_framing: bool,
     /// Milliseconds a card has to answer.
@@ -151,7 +151,7 @@ pub struct SendArgs {
 /// `mcc term`.
 #[derive(Debug, Args)]
 pub struct TermArgs {
-    /// Show framing characters (<ACK>, <CR>, <LF>, <BELL>) in replies.
+    /// Show framing characters (`<ACK>`, `<CR>`, `<LF>`, `<BELL>`) in replies.
     #[arg(long)]
     pub show_framing: bool,
     /// Milliseconds a card has to answer.
@@ -249,7 +249,7 @@ pub struct GatherArgs {
     /// Command line run on each card in the ring cycle gathering starts (e.g. "#1J=2000").
     #[arg(long, value_name = "LINE")]
     pub run: Option<String>,
-    /// Directory for gather.csv and gather.png (several cards: gather-card<N>.csv/.png);
+    /// Directory for gather.csv and gather.png (several cards: `gather-card<N>.csv/.png`);
     /// default `.`, or no files with --json.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,

@@ -3,7 +3,7 @@
 //! stalled-request limits. Pure: the servers pass the time (any monotonic origin) and close
 //! the connections this table names.
 //!
-//! [DECISION] A port serves at most `max_connections` hosts. A new host over the limit evicts
+//! \[DECISION\] A port serves at most `max_connections` hosts. A new host over the limit evicts
 //! the connection that has been idle longest (no request under way, nothing sent for at least
 //! `evict_idle_after`); if every connection is busy or recently active, the new host is
 //! refused with a message naming the limit. So silent connections can never lock a

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-/// Start time of `pid` (field 22 of /proc/<pid>/stat); None when it does not run (or is a
+/// Start time of `pid` (field 22 of `/proc/<pid>/stat`); None when it does not run (or is a
 /// zombie).
 pub fn start_time(pid: u32) -> Option<u64> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;

@@ -39,7 +39,7 @@ pub enum HostRequest {
     Control(u8),
     /// The connection closed: release a buffer it left open, forget its addressing.
     End,
-    /// Execute a command line whose reply may come in parts of about [`STREAM_CHUNK`] bytes
+    /// Execute a command line whose reply may come in parts of about `STREAM_CHUNK` bytes
     /// ([`HostReply::more`]), so a host port never holds more than a part of a long reply.
     LineStreamed(Vec<u8>),
     /// The next part of the connection's streamed line.
@@ -192,7 +192,7 @@ impl CardCore {
     /// Serve queued requests within `budget`, round robin between connections: a line that
     /// needs more than its slice goes behind the requests of other connections, so a host
     /// waiting on a long reply delays another host's one-line query by at most one slice per
-    /// connection with work queued ([DECISION] the fairness bound: a short request is answered
+    /// connection with work queued (\[DECISION\] the fairness bound: a short request is answered
     /// within `(k + 1)` slices when `k` other connections have work queued). A connection's own
     /// requests run in order. A request whose line waits for an effect holds every request
     /// (effects are short, and `$$$` must not interleave with other lines). A line waiting

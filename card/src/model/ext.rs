@@ -60,7 +60,7 @@ pub enum ExtError {
     Range,
 }
 
-/// A kinematic routine a language provides (see [`ExtVars::kinematics`]): its compiled code
+/// A kinematic routine a language provides (see `ExtVars::kinematics`): its compiled code
 /// (the engine's form, which the engine downcasts) and the variable families of motor
 /// positions (KinPosMotor) and axis positions (KinPosAxis).
 #[derive(Debug, Clone)]
@@ -126,7 +126,7 @@ impl CardModel {
         self.ext.take()
     }
 
-    /// The language's kinematic routine of C.S. `cs` (see [`ExtVars::kinematics`]).
+    /// The language's kinematic routine of C.S. `cs` (see `ExtVars::kinematics`).
     pub fn ext_kinematics(&self, cs: u16, inverse: bool) -> Option<KinRoutine> {
         self.ext.as_ref()?.kinematics(cs, inverse)
     }

@@ -9,11 +9,11 @@ use crate::cluster::sys;
 pub struct Owner {
     /// Its pid.
     pub pid: u32,
-    /// Its start time (clock ticks since boot, /proc/<pid>/stat field 22) when first seen.
+    /// Its start time (clock ticks since boot, `/proc/<pid>/stat` field 22) when first seen.
     start: Option<u64>,
 }
 
-/// Start time of `pid` (field 22 of /proc/<pid>/stat), if readable.
+/// Start time of `pid` (field 22 of `/proc/<pid>/stat`), if readable.
 fn start_time(pid: u32) -> Option<u64> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // "pid (comm) S ppid ..." — comm may hold spaces and ')': fields after the last ')'.

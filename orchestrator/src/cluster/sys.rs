@@ -42,7 +42,7 @@ pub fn pid_alive(pid: u32) -> bool {
     exists && !is_zombie(pid)
 }
 
-/// A zombie still answers kill(pid, 0): look at /proc/<pid>/stat.
+/// A zombie still answers kill(pid, 0): look at `/proc/<pid>/stat`.
 fn is_zombie(pid: u32) -> bool {
     let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
         return false;

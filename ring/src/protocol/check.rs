@@ -1,7 +1,7 @@
 //! The ring check of spec §6.8 (cards: I1001, I1004, I1005, RTI = I8+1 servo cycles) and the
 //! station-side equivalent, as one component.
 //!
-//! Decision on the spec's [GAP]: the error-count test fires **at once**, on the check (RTI)
+//! Decision on the spec's \[GAP\]: the error-count test fires **at once**, on the check (RTI)
 //! where `errors` reaches the shutdown count, not at the end of the period ("the safer
 //! reading"); the period's counters then restart. The sync-count and "error on every check"
 //! tests can only be made at the end of a period.

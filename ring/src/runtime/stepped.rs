@@ -41,7 +41,7 @@
 //! accounting and the frozen wait do not depend on N.
 //!
 //! The steps ([`Stepper`] and the `step_*` methods) are shared by this member's own loop
-//! ([`Driver::run_sync_master_stepped`]) and the inline receive ([`super::inline`]), where a
+//! (`Driver::run_sync_master_stepped`) and the inline receive ([`super::inline`]), where a
 //! returning frame starts the next cycle on zenoh's receive thread.
 
 use std::time::Duration;

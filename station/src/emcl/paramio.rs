@@ -41,7 +41,7 @@ impl Drive {
 
     /// SAP (and AAP): write axis parameter `n` in RAM. Unknown or read-only → 3, out of
     /// range → 4. Writing AP 0 starts a positioning move and AP 2 a rotation, as in TMCL
-    /// (the potentiometer example of [L1362] moves the motor through `AAP 0`).
+    /// (the potentiometer example of \[L1362\] moves the motor through `AAP 0`).
     pub fn set_ap(&mut self, n: u8, v: i32) -> Result<(), Status> {
         let p = params::axis(n).ok_or(status::WRONG_TYPE)?;
         if p.access != Access::RW {

@@ -16,9 +16,9 @@ use super::codec::Instr;
 use super::drive::{Ctx, Drive};
 use super::eeprom::PROGRAM_SLOTS;
 
-/// Subroutine stack depth (§6.2, [L1006]).
+/// Subroutine stack depth (§6.2, \[L1006\]).
 pub const STACK_DEPTH: usize = 8;
-/// One WAIT tick, ms ([L1108]).
+/// One WAIT tick, ms (\[L1108\]).
 pub const WAIT_TICK_MS: u64 = 10;
 
 /// Application status (GP 128, instruction 135).

@@ -31,7 +31,7 @@
 //! the default polarity, which is the safe reading.
 //!
 //! **Limits.** PLIM blocks positive motion and MLIM blocks negative motion (the PMAC2 reading
-//! recommended by spec §3.4's [CONFLICT] note). A limit switch trips when the motor's actual
+//! recommended by spec §3.4's \[CONFLICT\] note). A limit switch trips when the motor's actual
 //! position reaches the configured switch position (in encoder counts) from outside.
 //!
 //! **Home flag.** Turns on when the actual position enters the window
