@@ -148,6 +148,35 @@ def test_pytrinamic_refusals_and_silence(trinamic):
         trinamic.send(6, 1, 0, 0, module_id=5)
 
 
+def test_pytrinamic_refused_by_a_full_bus_raises_rather_than_reading_text(cluster):
+    # Issue 26 item 4: the bus serves 16 hosts; the 17th is refused by closing, never with a
+    # text line (which pytrinamic read as the version string "cc: EMCL").
+    frame = bytes([1, 6, 1, 0, 0, 0, 0, 0, 8])  # GAP 1 of drive 1
+    host, port = cluster.tcp.rsplit(":", 1)
+    hosts = []
+    try:
+        for _ in range(16):
+            s = socket.create_connection((host, int(port)), timeout=TIMEOUT)
+            s.sendall(frame)
+            got = b""
+            while len(got) < 9:
+                chunk = s.recv(9 - len(got))
+                assert chunk, "a host below the limit was closed"
+                got += chunk
+            assert got[2] == 100, got
+            hosts.append(s)
+        iface = SocketTmclInterface(cluster.tcp, timeout_s=3)
+        iface._socket.settimeout(3)
+        try:
+            with pytest.raises((ConnectionError, TimeoutError, socket.timeout)):
+                iface.get_version_string()
+        finally:
+            iface.close()
+    finally:
+        for s in hosts:
+            s.close()
+
+
 def test_pytrinamic_download_and_run_a_program(trinamic):
     # pytrinamic's own recipe (examples/.../tmcl_script_load.py): 132, frames, 133, 131, 129 type 0.
     program = [

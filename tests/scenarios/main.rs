@@ -1,5 +1,6 @@
 //! The one scenario test binary: in-process ring, transcripts, multi-process clusters.
 
+mod busy_ports;
 mod chain;
 mod cluster;
 mod drills;
@@ -11,8 +12,10 @@ mod hosts;
 mod macro_station;
 mod motion;
 mod power_ring;
+mod private_run_dir;
 mod programs;
 mod recovery;
+mod refusals;
 mod registers;
 mod reliability;
 mod ring_inprocess;

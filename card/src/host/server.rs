@@ -4,8 +4,9 @@
 //! thread, which serves it between ticks; TCP_NODELAY is set.
 //!
 //! Limits ([`HostLimits`], `[host]` in the cluster config): at most `max_connections` per
-//! port, a new host over the limit evicts the connection idle longest or is refused with a
-//! message ([`ConnTable`]); a connection idle for `idle_timeout_s` is closed; a request must
+//! port, a new host over the limit evicts the connection idle longest or is refused
+//! ([`ConnTable`]: a line on the ASCII port, a close without a byte on the binary Ethernet
+//! port); a connection idle for `idle_timeout_s` is closed; a request must
 //! be complete within `request_timeout_ms` of its first byte (an ASCII line within
 //! [`HostLimits::line_timeout`]); a reply write must progress within the request timeout.
 //! Long replies are streamed from the card part by part ([`crate::core::STREAM_CHUNK`]), so a
@@ -193,6 +194,15 @@ async fn accept_loop(
                     n.notify_one();
                 }
                 id
+            }
+            Admission::Refuse { open } if matches!(kind, Kind::Eth) => {
+                // A PMAC Ethernet host would read text as a reply packet: close, log why.
+                tracing::warn!(
+                    "{what}: {open} connections, none idle: refusing {peer} by closing \
+                     (a binary protocol has no place for a message; host.max_connections)"
+                );
+                let _ = stream.shutdown().await;
+                continue;
             }
             Admission::Refuse { open } => {
                 tracing::warn!("{what}: {open} connections, none idle: refusing {peer}");

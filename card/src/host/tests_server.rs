@@ -285,19 +285,45 @@ async fn silent_connections_make_room_for_a_new_host() {
     p.shutdown().await;
 }
 
+/// Everything the peer sends and whether it then closed (end of stream within the wait).
+async fn read_until_eof(s: &mut TcpStream) -> (Vec<u8>, bool) {
+    let mut v = Vec::new();
+    let eof = tokio::time::timeout(WAIT * 2, s.read_to_end(&mut v))
+        .await
+        .is_ok_and(|r| r.is_ok());
+    (v, eof)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_full_port_of_active_hosts_refuses_with_a_message() {
+async fn a_full_terminal_port_of_active_hosts_refuses_with_a_message() {
     let p = start(limits(1, 10_000)).await;
-    let mut busy = connect(p.pmac_eth).await;
-    busy.write_all(&getresponse(b"")).await.unwrap();
-    assert_eq!(read_n(&mut busy, 1).await, b"\x06");
+    let mut busy = connect(p.ascii).await;
+    busy.write_all(b"UUU\r").await.unwrap();
+    let want = in_process(b"UUU");
+    assert_eq!(read_n(&mut busy, want.len()).await, want);
     // The only connection was active moments ago (eviction needs 5 s of silence).
-    let mut refused = connect(p.pmac_eth).await;
+    let mut refused = connect(p.ascii).await;
     let text = String::from_utf8_lossy(&read_to_close(&mut refused).await).into_owned();
     assert!(
         text.contains("is full: 1 connections open") && text.contains("host.max_connections"),
         "{text:?}"
     );
+    busy.write_all(b"UUU\r").await.unwrap();
+    assert_eq!(read_n(&mut busy, want.len()).await, want);
+    p.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_full_ethernet_port_refuses_by_closing_without_a_byte() {
+    // Issue 26 item 4: a binary host must not read a text line as a reply packet.
+    let p = start(limits(1, 10_000)).await;
+    let mut busy = connect(p.pmac_eth).await;
+    busy.write_all(&getresponse(b"")).await.unwrap();
+    assert_eq!(read_n(&mut busy, 1).await, b"\x06");
+    let mut refused = connect(p.pmac_eth).await;
+    let (got, eof) = read_until_eof(&mut refused).await;
+    assert!(eof, "the refused host's connection is closed");
+    assert_eq!(got, b"", "nothing written to a refused binary host");
     busy.write_all(&getresponse(b"")).await.unwrap();
     assert_eq!(read_n(&mut busy, 1).await, b"\x06");
     p.shutdown().await;

@@ -32,11 +32,13 @@ pub fn sibling_binary(name: &str) -> PathBuf {
 
 fn log_stdio(rd: &RunDir, who: &str) -> Result<(Stdio, Stdio)> {
     let path = rd.log_path(who);
-    let f = OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&path)
-        .with_context(|| format!("cannot open log {}", path.display()))?;
+    // The logs are the user's only, as the rest of the run directory.
+    let f = std::os::unix::fs::OpenOptionsExt::mode(
+        OpenOptions::new().create(true).append(true),
+        mcc_ring::runtime::atomic_file::PRIVATE_MODE,
+    )
+    .open(&path)
+    .with_context(|| format!("cannot open log {}", path.display()))?;
     let f2 = f.try_clone()?;
     Ok((Stdio::from(f), Stdio::from(f2)))
 }

@@ -4,7 +4,7 @@
 //! [`events`], [`drills`]), the status document ([`status`]), the daisy-chain and EMCL bus
 //! servers ([`chain`], [`emcl`], [`serve`]), the synchronized-start protocol ([`sync_start`]),
 //! the interactive terminal ([`terminal`]), clusters on several hosts ([`hosts`]), checks
-//! before start ([`precheck`]) and failure reports ([`failure`]).
+//! before start ([`precheck`], [`fixed_ports`]) and failure reports ([`failure`]).
 //!
 //! Plumbing never uses a verb (`crate::verbs`): the layering test below checks it.
 
@@ -15,6 +15,7 @@ pub mod drills;
 pub mod emcl;
 pub mod events;
 pub mod failure;
+pub mod fixed_ports;
 pub mod hosts;
 pub mod launch;
 pub mod owner;

@@ -3,6 +3,12 @@
 //! `cluster.toml`, `supervisor.json` (supervisor pid, zenoh endpoint, member pids, phase) and
 //! `logs/<member>.log` and `links/<member>.sock` (each member's zenoh unix-socket endpoint, with
 //! zenoh's `.sock.lock` beside it). `mcc down` removes exactly these files, nothing else.
+//!
+//! \[DECISION\] The run directory is the user's only: created 0700 (and tightened to 0700 when
+//! it exists and is ours; one owned by another user is refused), as is the default base
+//! (`$XDG_RUNTIME_DIR/mcc`, `/tmp/mcc-<uid>`); a base named by `MCC_RUN_DIR` is created 0700
+//! but otherwise left as the user made it. `cluster.toml` (which may hold a Power card's
+//! `ssh_password`), `supervisor.json` and the logs are 0600.
 
 use std::fs;
 use std::io::Write;
@@ -12,6 +18,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::cluster::sys;
+use mcc_ring::runtime::atomic_file::PRIVATE_MODE;
 
 /// Resolved config file name.
 pub const CONFIG_FILE: &str = "cluster.toml";
@@ -99,10 +106,20 @@ pub struct RunDir {
     pub host: Option<String>,
 }
 
+/// Mode of run directories (see the module docs).
+pub const DIR_MODE: u32 = 0o700;
+
+/// The base named by `MCC_RUN_DIR`, if set.
+fn chosen_base() -> Option<PathBuf> {
+    std::env::var_os("MCC_RUN_DIR")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from)
+}
+
 /// Where run directories live.
 pub fn base_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("MCC_RUN_DIR").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d);
+    if let Some(d) = chosen_base() {
+        return d;
     }
     if let Some(d) = std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
         let d = PathBuf::from(d);
@@ -196,8 +213,16 @@ impl RunDir {
 
     /// Create the folder of the members' sockets.
     pub fn create_link_dir(&self) -> Result<()> {
-        let d = self.dir.join(LINK_DIR);
-        fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))
+        create_dirs(&self.dir.join(LINK_DIR))
+    }
+
+    /// Make the run directory (and the default base holding it) private to this user.
+    fn make_private(&self) -> Result<()> {
+        let base = base_dir();
+        if chosen_base().is_none() && self.dir.parent() == Some(base.as_path()) {
+            private_dir(&base)?;
+        }
+        private_dir(&self.dir)
     }
 
     /// The supervisor record, if present and readable.
@@ -214,7 +239,7 @@ impl RunDir {
     /// Atomically replace `supervisor.json`.
     pub fn write_info(&self, info: &SupervisorInfo) -> Result<()> {
         let text = serde_json::to_string_pretty(info)?;
-        write_atomic(&self.info_path(), text.as_bytes())
+        write_private(&self.info_path(), text.as_bytes())
     }
 
     /// Claim the run directory for a new cluster owned by process `pid`: refuses if a live
@@ -233,13 +258,14 @@ impl RunDir {
         if self.info_path().exists() {
             self.cleanup()?;
         }
-        fs::create_dir_all(self.dir.join(LOG_DIR))
-            .with_context(|| format!("cannot create run dir {}", self.dir.display()))?;
+        self.make_private()?;
+        create_dirs(&self.dir.join(LOG_DIR))?;
         let text = serde_json::to_string_pretty(&SupervisorInfo::starting(pid, &self.cluster))?;
-        let mut f = match fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(self.info_path())
+        let mut f = match std::os::unix::fs::OpenOptionsExt::mode(
+            fs::OpenOptions::new().write(true).create_new(true),
+            PRIVATE_MODE,
+        )
+        .open(self.info_path())
         {
             Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
@@ -258,7 +284,7 @@ impl RunDir {
 
     /// Write the resolved config.
     pub fn write_config(&self, text: &str) -> Result<()> {
-        write_atomic(&self.config_path(), text.as_bytes())
+        write_private(&self.config_path(), text.as_bytes())
     }
 
     /// Remove the files mcc created (config, supervisor record, logs) and the directory if it
@@ -302,6 +328,38 @@ impl RunDir {
     }
 }
 
+/// Create `dir` and its missing parents, each 0700.
+fn create_dirs(dir: &Path) -> Result<()> {
+    use std::os::unix::fs::DirBuilderExt;
+    fs::DirBuilder::new()
+        .recursive(true)
+        .mode(DIR_MODE)
+        .create(dir)
+        .with_context(|| format!("cannot create {}", dir.display()))
+}
+
+/// `dir` as a directory only this user may enter: created 0700, tightened to 0700 when it
+/// exists and is ours, refused when another user owns it.
+pub fn private_dir(dir: &Path) -> Result<()> {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    create_dirs(dir)?;
+    let md = fs::metadata(dir).with_context(|| format!("cannot read {}", dir.display()))?;
+    if md.uid() != sys::uid() {
+        bail!(
+            "run dir {} belongs to uid {}, not to this user (uid {}): refusing to use it \
+             (remove it, or set MCC_RUN_DIR)",
+            dir.display(),
+            md.uid(),
+            sys::uid()
+        );
+    }
+    if md.permissions().mode() & 0o077 != 0 {
+        fs::set_permissions(dir, fs::Permissions::from_mode(DIR_MODE))
+            .with_context(|| format!("cannot make {} private (0700)", dir.display()))?;
+    }
+    Ok(())
+}
+
 fn remove_if_exists(p: &Path) -> Result<()> {
     match fs::remove_file(p) {
         Ok(()) => Ok(()),
@@ -311,9 +369,9 @@ fn remove_if_exists(p: &Path) -> Result<()> {
 }
 
 /// Write atomically (`mcc_ring::runtime::atomic_file`: temporary sibling, fsync, rename,
-/// fsync the directory).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    mcc_ring::runtime::atomic_file::write_atomic(path, bytes)
+/// fsync the directory), the file 0600 (the run directory's files may hold secrets).
+pub fn write_private(path: &Path, bytes: &[u8]) -> Result<()> {
+    mcc_ring::runtime::atomic_file::write_private(path, bytes)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -345,6 +403,34 @@ mod tests {
         assert_eq!(rd.read_info().unwrap().pid, std::process::id());
         rd.cleanup().unwrap();
         assert!(!rd.dir.exists());
+    }
+
+    #[test]
+    fn the_run_dir_and_its_files_are_the_users_only() {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |p: &Path| fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        let rd = temp_run_dir("private");
+        // A run dir left world-readable (by an older mcc) is tightened.
+        fs::create_dir_all(&rd.dir).unwrap();
+        fs::set_permissions(&rd.dir, fs::Permissions::from_mode(0o755)).unwrap();
+        rd.claim(std::process::id()).unwrap();
+        rd.write_config("[[cards]]\nssh_password = \"secret\"\n")
+            .unwrap();
+        rd.create_link_dir().unwrap();
+        assert_eq!(mode(&rd.dir), 0o700);
+        assert_eq!(mode(&rd.dir.join(LOG_DIR)), 0o700);
+        assert_eq!(mode(&rd.dir.join(LINK_DIR)), 0o700);
+        assert_eq!(mode(&rd.config_path()), 0o600);
+        assert_eq!(mode(&rd.info_path()), 0o600);
+        let mut info = rd.read_info().unwrap();
+        info.phase = "running".into();
+        rd.write_info(&info).unwrap();
+        assert_eq!(mode(&rd.info_path()), 0o600);
+        rd.cleanup().unwrap();
+        // A fresh one is created private.
+        rd.claim(std::process::id()).unwrap();
+        assert_eq!(mode(&rd.dir), 0o700);
+        rd.cleanup().unwrap();
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! What the supervisor's host servers (daisy chain, EMCL bus) share: the TCP accept loop (a
 //! non-blocking listener polled until `stop`, one thread per host connection, admission by
 //! [`ConnTable`]: at most `max_connections`, a new host over the limit evicts the connection
-//! idle longest or is refused with a message), idle timeouts, the raw pseudo-terminal, and the
+//! idle longest or is refused: with a message on a text server, by closing on a binary one),
+//! idle timeouts, the raw pseudo-terminal, and the
 //! endpoints record.
 
 use std::collections::HashMap;
@@ -80,13 +81,25 @@ impl Drop for Activity {
     }
 }
 
+/// How a server tells a host over its connection limit that it is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refusal {
+    /// A text line naming the limit, then close (terminal-like servers: the daisy chain).
+    Text,
+    /// Close without writing a byte (binary protocols: the EMCL bus, whose hosts would read a
+    /// text line as reply frames); the log says why.
+    Close,
+}
+
 /// Serve `listener` until `stop`: each connection runs `serve` on a thread named `thread`;
-/// `what` names the server in log lines and messages.
+/// `what` names the server in log lines and messages; `refusal` is how a host over the limit
+/// is refused.
 pub fn accept_loop(
     listener: TcpListener,
     what: &'static str,
     thread: &'static str,
     limits: HostLimits,
+    refusal: Refusal,
     stop: Arc<AtomicBool>,
     serve: Arc<dyn Fn(TcpStream, Activity) + Send + Sync>,
 ) {
@@ -115,9 +128,7 @@ pub fn accept_loop(
                         id
                     }
                     Admission::Refuse { open } => {
-                        tracing::warn!("{what}: {open} connections, none idle: refusing {peer}");
-                        let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
-                        let _ = stream.write_all(refusal_message(what, open).as_bytes());
+                        refuse(&mut stream, what, open, peer, refusal);
                         continue;
                     }
                 };
@@ -150,6 +161,30 @@ pub fn accept_loop(
                 tracing::warn!("{what} accept: {e}");
                 std::thread::sleep(Duration::from_millis(100));
             }
+        }
+    }
+}
+
+/// Refuse `stream` (a host over the limit) as `refusal` says, logging why.
+fn refuse(
+    stream: &mut TcpStream,
+    what: &str,
+    open: usize,
+    peer: std::net::SocketAddr,
+    refusal: Refusal,
+) {
+    match refusal {
+        Refusal::Text => {
+            tracing::warn!("{what}: {open} connections, none idle: refusing {peer}");
+            let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
+            let _ = stream.write_all(refusal_message(what, open).as_bytes());
+        }
+        Refusal::Close => {
+            tracing::warn!(
+                "{what}: {open} connections, none idle: refusing {peer} by closing \
+                 (a binary protocol has no place for a message; host.max_connections)"
+            );
+            let _ = stream.shutdown(Shutdown::Write);
         }
     }
 }

@@ -169,6 +169,12 @@ pub fn cmd_up(cluster_flag: Option<&str>, args: &UpArgs) -> Result<()> {
         let _ = rd.cleanup();
         return Err(e);
     }
+    // A fixed port another program holds, named by its key before any member starts (after
+    // the claim: a cluster already running on these ports is "running", not "in use").
+    if let Err(e) = crate::cluster::fixed_ports::check_up(&cfg, host.as_deref()) {
+        let _ = rd.cleanup();
+        return Err(config(e.context("config")));
+    }
     let timeout = Duration::from_secs(args.timeout.max(1));
     if args.detach {
         up_detached(&rd, &cfg, timeout, owner, args.json)

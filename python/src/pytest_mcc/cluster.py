@@ -316,7 +316,9 @@ class Cluster:
 
         Returns the reply text (a list of them for a list of lines), without framing and the
         final line break. With ``check`` (default) an error reply raises :class:`CardError`
-        (``.code`` is ``ERRnnn``) and a line no card answered raises :class:`MccError`.
+        (``.code`` is ``ERRnnn``) and a line no card answered (the addressed card is not in
+        the cluster, or did not answer in time) raises :class:`MccError`. A line the card
+        answers with nothing (``$$$``, ``$$$***``) returns ``""``.
         """
         self._need_running()
         lines = [line] if isinstance(line, str) else list(line)
@@ -479,7 +481,7 @@ class Cluster:
                                        for m in self.members), cycles=cycles, timeout=timeout)
         for n in targets:
             if n in names:
-                self.send("$$$", card=names[n], check=False)
+                self.send("$$$", card=names[n])
         extra = [member] if member is not None else []
         cards = {n: names[n] for n in targets if n in names}
         sent = {n: time.monotonic() for n in cards}
@@ -502,7 +504,7 @@ class Cluster:
                 if bit is not False:
                     clear = False
                 if bit is True and ok and time.monotonic() - sent[name] >= 1.0:
-                    self.send("$$$", card=number, check=False)
+                    self.send("$$$", card=number)
                     sent[name] = time.monotonic()
             return ok and clear
 

@@ -14,6 +14,9 @@ pub struct AtomicWrite {
     pub durable: bool,
     /// Create the target's directory first.
     pub create_dir: bool,
+    /// Permission bits of the new file (`None`: 0666 less the umask, as `File::create`);
+    /// the file has them from its creation on, so no other user can open it meanwhile.
+    pub mode: Option<u32>,
 }
 
 impl Default for AtomicWrite {
@@ -21,9 +24,13 @@ impl Default for AtomicWrite {
         AtomicWrite {
             durable: true,
             create_dir: false,
+            mode: None,
         }
     }
 }
+
+/// The mode of a file that may hold secrets (a password): the owner's only.
+pub const PRIVATE_MODE: u32 = 0o600;
 
 /// The temporary file used while writing `path` (`<name>.tmp<pid>` beside it).
 pub fn temp_path(path: &Path) -> PathBuf {
@@ -54,7 +61,7 @@ pub fn write_atomic_with(path: &Path, bytes: &[u8], how: AtomicWrite) -> std::io
     }
     let tmp = temp_path(path);
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
+        let mut f = create(&tmp, how.mode)?;
         f.write_all(bytes)?;
         if how.durable {
             f.sync_all()?;
@@ -70,6 +77,32 @@ pub fn write_atomic_with(path: &Path, bytes: &[u8], how: AtomicWrite) -> std::io
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// [`write_atomic`] of a file only its owner may read or write ([`PRIVATE_MODE`]).
+pub fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let how = AtomicWrite {
+        mode: Some(PRIVATE_MODE),
+        ..AtomicWrite::default()
+    };
+    write_atomic_with(path, bytes, how)
+}
+
+/// Create (truncate) `path` for writing, with `mode` when given — also when the file was
+/// there already (a temporary left by a killed writer keeps its old mode otherwise).
+fn create(path: &Path, mode: Option<u32>) -> std::io::Result<std::fs::File> {
+    let Some(mode) = mode else {
+        return std::fs::File::create(path);
+    };
+    use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+    let f = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .mode(mode)
+        .open(path)?;
+    f.set_permissions(std::fs::Permissions::from_mode(mode))?;
+    Ok(f)
 }
 
 /// Remove the temporaries of writes to `path` cut short (`<name>.tmp<pid>`: the process was
@@ -120,6 +153,28 @@ mod tests {
         std::fs::write(dir.join("sub").join("f.bin.tmpx"), b"not ours").unwrap();
         assert_eq!(remove_temporaries(&path), vec![temp_path(&path)]);
         assert!(dir.join("sub").join("f.bin.tmpx").exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn private_files_are_the_owners_only_whatever_was_there() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("mcc-atomic-mode-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        let path = dir.join("cluster.toml");
+        // A world-readable file and a world-readable temporary left by a killed writer.
+        std::fs::write(&path, b"old").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        std::fs::write(temp_path(&path), b"half").unwrap();
+        std::fs::set_permissions(temp_path(&path), std::fs::Permissions::from_mode(0o666)).unwrap();
+        write_private(&path, b"ssh_password = \"x\"").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"ssh_password = \"x\"");
+        assert_eq!(mode(&path), 0o600);
+        // Without a mode, the default (0666 less the umask: at least the owner's rw).
+        let plain = dir.join("plain");
+        write_atomic(&plain, b"x").unwrap();
+        assert_eq!(mode(&plain) & 0o600, 0o600);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

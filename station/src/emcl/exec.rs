@@ -204,7 +204,7 @@ impl Drive {
                             self.prog.pc = 0;
                         }
                         self.prog.state = super::program::AppState::Run;
-                        self.prog.step_pending = false;
+                        self.prog.steps_pending = 0;
                     }
                     1 => match u16::try_from(i.value) {
                         Ok(a) if usize::from(a) < PROGRAM_SLOTS => self.prog.start_at(a),
@@ -214,11 +214,9 @@ impl Drive {
                 }
                 Ok(echo)
             }
-            130 => {
-                self.prog.state = super::program::AppState::Step;
-                self.prog.step_pending = true;
-                Ok(echo)
-            }
+            // Each accepted step is one instruction; beyond the queue, status 6.
+            130 if self.prog.grant_step() => Ok(echo),
+            130 => Err(status::NOT_AVAILABLE),
             131 => {
                 self.prog.reset();
                 Ok(echo)

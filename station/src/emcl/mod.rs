@@ -31,4 +31,6 @@ mod tests_fuzz;
 #[cfg(test)]
 mod tests_program;
 #[cfg(test)]
+mod tests_step;
+#[cfg(test)]
 mod tests_vectors;

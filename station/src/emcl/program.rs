@@ -9,6 +9,11 @@
 //! status in direct mode is a no-op (§6.7), and so are the host-control instructions
 //! 128..=137 and a jump to an address outside 0..=2047. Running past slot 2047 stops the
 //! program.
+//!
+//! \[DECISION\] Single-stepping (130): every accepted step is one instruction, however many
+//! arrive within one tick (they are counted, not merged); a WAIT is one instruction and holds
+//! its step until it ends. At most [`STEP_QUEUE`] steps wait; one more is answered with
+//! status 6 (not available) and changes nothing. Stop, run and reset drop the steps not taken.
 
 use std::cmp::Ordering;
 
@@ -18,6 +23,9 @@ use super::eeprom::PROGRAM_SLOTS;
 
 /// Subroutine stack depth (§6.2, \[L1006\]).
 pub const STACK_DEPTH: usize = 8;
+/// Steps (130) a drive holds at once; one more is refused with status 6 (see
+/// [`Program::grant_step`]).
+pub const STEP_QUEUE: u16 = 256;
 /// One WAIT tick, ms (\[L1108\]).
 pub const WAIT_TICK_MS: u64 = 10;
 
@@ -101,8 +109,8 @@ pub struct Program {
     pub flags: Flags,
     /// WAIT in progress.
     pub wait: Option<Wait>,
-    /// 130: one step granted.
-    pub step_pending: bool,
+    /// 130: steps granted and not yet taken (each one instruction; at most [`STEP_QUEUE`]).
+    pub steps_pending: u16,
     /// Instructions executed since power-up.
     pub executed: u64,
 }
@@ -113,6 +121,7 @@ impl Program {
         self.pc = pc;
         self.stack.clear();
         self.wait = None;
+        self.steps_pending = 0;
         self.state = AppState::Run;
     }
 
@@ -120,7 +129,18 @@ impl Program {
     pub fn stop(&mut self) {
         self.state = AppState::Stop;
         self.wait = None;
-        self.step_pending = false;
+        self.steps_pending = 0;
+    }
+
+    /// 130: enter single-step mode and grant one more instruction; false (nothing granted)
+    /// when [`STEP_QUEUE`] steps are already waiting.
+    pub fn grant_step(&mut self) -> bool {
+        if self.steps_pending >= STEP_QUEUE {
+            return false;
+        }
+        self.state = AppState::Step;
+        self.steps_pending += 1;
+        true
     }
 
     /// 131: PC 0, stack and WAIT cleared, not running.
@@ -129,7 +149,7 @@ impl Program {
         self.stack.clear();
         self.wait = None;
         self.flags = Flags::default();
-        self.step_pending = false;
+        self.steps_pending = 0;
         self.state = AppState::Reset;
     }
 
@@ -143,11 +163,20 @@ impl Program {
 impl Drive {
     /// One interpreter tick: one instruction, or one check of a WAIT.
     pub(crate) fn program_tick(&mut self) {
-        match self.prog.state {
-            super::program::AppState::Run => {}
-            AppState::Step if self.prog.step_pending => self.prog.step_pending = false,
+        let stepping = match self.prog.state {
+            AppState::Run => false,
+            AppState::Step if self.prog.steps_pending > 0 => true,
             _ => return,
+        };
+        self.program_instr_tick();
+        // A step is taken when its instruction is done: a WAIT holds it until the wait ends.
+        if stepping && self.prog.wait.is_none() {
+            self.prog.steps_pending = self.prog.steps_pending.saturating_sub(1);
         }
+    }
+
+    /// One instruction, or one check of the WAIT in progress.
+    fn program_instr_tick(&mut self) {
         if let Some(w) = self.prog.wait {
             let met = self.wait_met(w.kind, w.until_ms);
             let timed_out =

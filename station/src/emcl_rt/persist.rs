@@ -33,6 +33,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8], durable: bool) -> std::io::Result
     let how = AtomicWrite {
         durable,
         create_dir: true,
+        mode: None,
     };
     write_atomic_with(path, bytes, how)
 }

@@ -92,6 +92,7 @@ pub fn save(path: &Path, setup: &Setup) -> std::io::Result<()> {
     let how = AtomicWrite {
         durable: true,
         create_dir: true,
+        mode: None,
     };
     write_atomic_with(path, &encode(setup), how)
 }

@@ -85,6 +85,7 @@ pub fn start(
                     "daisy chain",
                     "mcc-chain-conn",
                     limits,
+                    crate::cluster::serve::Refusal::Text,
                     stop,
                     serve,
                 )

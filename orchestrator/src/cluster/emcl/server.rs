@@ -99,6 +99,7 @@ pub fn start(
                     "EMCL bus",
                     "mcc-emcl-conn",
                     limits,
+                    crate::cluster::serve::Refusal::Close,
                     stop,
                     serve,
                 )
