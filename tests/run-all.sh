@@ -22,6 +22,7 @@ phase fmt cargo fmt --all -- --check
 phase clippy cargo clippy --workspace --all-targets -- -D warnings
 phase doc env RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps -q
 phase build cargo build --workspace --bins
+phase python-wheel bash python/test-wheel.sh
 # Always the whole workspace (one feature set: nothing is compiled twice).
 phase unit-tests cargo test --workspace --lib --bins
 phase doc-tests cargo test --workspace --doc

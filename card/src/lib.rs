@@ -54,6 +54,7 @@ pub use program::{Commands, NoCommands, ProgramEngine};
 pub use runtime::bench_servo::{
     run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
 };
+pub use runtime::cli::run_process;
 pub use runtime::ring_app::CardRingApp;
 pub use runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 pub use runtime::startup::{ring_startup, wire_macro_motors, StartupError};

@@ -1,9 +1,12 @@
 //! Command-line interface of `mcc` (clap).
 
+use std::ffi::OsString;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use mcc_ring::config::ClockMode;
+
+use crate::cluster::launch;
 
 /// Default cluster name.
 pub const DEFAULT_CLUSTER: &str = "mcc";
@@ -57,6 +60,30 @@ pub enum Command {
     /// Internal: the detached supervisor started by `mcc up --detach`.
     #[command(hide = true)]
     Supervise(SuperviseArgs),
+    /// Internal: a card member process (the `mcc-card` binary's command line), where `mcc`
+    /// is installed alone (the Python wheel; `cluster::launch::member_program`).
+    #[command(name = launch::CARD.subcommand, hide = true, disable_help_flag = true)]
+    RunCard(RoleArgs),
+    /// Internal: a station (or stand-alone drive) member process, as `mcc-station`.
+    #[command(name = launch::STATION.subcommand, hide = true, disable_help_flag = true)]
+    RunStation(RoleArgs),
+}
+
+/// `mcc run-card` / `mcc run-station` (hidden): the member's own arguments, passed on whole.
+#[derive(Debug, Args)]
+pub struct RoleArgs {
+    /// The member binary's arguments.
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, num_args = 0..)]
+    pub args: Vec<OsString>,
+}
+
+impl RoleArgs {
+    /// The member's command line as its own binary would see it: `program` first.
+    pub fn argv(&self, program: &str) -> Vec<OsString> {
+        std::iter::once(OsString::from(program))
+            .chain(self.args.iter().cloned())
+            .collect()
+    }
 }
 
 /// `mcc supervise` (hidden).
@@ -598,5 +625,54 @@ mod tests {
         assert!(Cli::try_parse_from(["mcc", "fault"]).is_err());
         let ok = Cli::try_parse_from(["mcc", "fault", "clear"]).unwrap();
         assert_eq!(ok.cluster_name(), DEFAULT_CLUSTER);
+    }
+}
+
+#[cfg(test)]
+mod role_tests {
+    use super::*;
+
+    #[test]
+    fn a_member_role_gets_its_whole_command_line() {
+        let cli = Cli::try_parse_from([
+            "mcc",
+            "run-card",
+            "--config",
+            "/r/config.toml",
+            "--name",
+            "card0",
+            "--help",
+        ])
+        .unwrap();
+        let Command::RunCard(a) = cli.command else {
+            panic!("not run-card: {:?}", cli.command);
+        };
+        let argv: Vec<String> = a
+            .argv("mcc-card")
+            .into_iter()
+            .map(|s| s.into_string().unwrap())
+            .collect();
+        assert_eq!(
+            argv,
+            [
+                "mcc-card",
+                "--config",
+                "/r/config.toml",
+                "--name",
+                "card0",
+                "--help"
+            ]
+        );
+    }
+
+    #[test]
+    fn the_member_roles_are_hidden_from_help() {
+        use clap::CommandFactory;
+        let help = Cli::command().render_help().to_string();
+        assert!(help.contains("status"), "{help}");
+        assert!(
+            !help.contains("run-card") && !help.contains("run-station"),
+            "{help}"
+        );
     }
 }

@@ -1,6 +1,8 @@
 //! `mcc`: the cluster orchestrator (architecture §6): `up`, `status`, `fault`, `down`,
 //! `bench ring`.
 
+use std::process::ExitCode;
+
 use clap::Parser;
 
 mod cli;
@@ -8,11 +10,19 @@ mod cluster;
 mod verbs;
 
 use cli::{BenchCommand, Cli, Command};
-use cluster::{chain, emcl, failure};
+use cluster::{chain, emcl, failure, launch};
 use verbs::{bench, down, fault, gather, send, start_sync, status, term, up};
 
-fn main() {
+fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A member role run by `mcc` itself sets up its own logging.
+    match &cli.command {
+        Command::RunCard(a) => return mcc_card::run_process(a.argv(launch::CARD.binary)),
+        Command::RunStation(a) => {
+            return mcc_station::process::run_process(a.argv(launch::STATION.binary))
+        }
+        _ => {}
+    }
     // zenoh's own transport chatter (links opened and closed while a CLI verb attaches) is
     // not for the user; MCC_LOG=debug shows it.
     mcc_ring::runtime::logging::init_logging_with("warn,zenoh=error,zenoh_transport=off");
@@ -43,14 +53,17 @@ fn main() {
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),
         Command::Emcl(a) => verbs::emcl::cmd_emcl(&cluster, a),
         Command::Bench(BenchCommand::Emcl(a)) => bench::emcl::run(a),
+        // Run above, before logging.
+        Command::RunCard(_) | Command::RunStation(_) => Ok(()),
     };
     if let Err(e) = res {
         if wants_json(&cli.command) {
             println!("{}", failure::error_json(&e));
         }
         eprintln!("mcc: error: {e:#}");
-        std::process::exit(1);
+        return ExitCode::FAILURE;
     }
+    ExitCode::SUCCESS
 }
 
 /// Verbs asked for JSON output print their errors as JSON too (`failure::error_json`).

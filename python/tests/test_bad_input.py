@@ -85,12 +85,12 @@ def test_the_python_fault_kinds_are_the_cli_s(mcc):
 def test_a_cluster_that_does_not_lock_raises_with_the_member_logs(mcc, tmp_path):
     # A card binary that starts but never joins the ring (it only sleeps).
     marker = f"{os.getpid()}.{time.monotonic_ns() % 1000000}"
-    real = Path(mcc).parent
     slow = tmp_path / "bin"
     slow.mkdir()
     (slow / "mcc-card").write_text(
         f"#!/bin/sh\necho 'card wrapper: pretending to boot slowly' >&2\nexec sleep {marker}\n")
-    (slow / "mcc-station").write_text(f'#!/bin/sh\nexec "{real}/mcc-station" "$@"\n')
+    # The real station: `mcc` runs the role itself (the wheel carries no mcc-station).
+    (slow / "mcc-station").write_text(f'#!/bin/sh\nexec "{mcc}" run-station "$@"\n')
     for f in slow.iterdir():
         f.chmod(0o755)
     c = Cluster(cards=1, stations=1, mcc=mcc, lock_timeout=3, env={"MCC_BIN_DIR": str(slow)})

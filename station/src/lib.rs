@@ -17,6 +17,7 @@ pub mod emcl_rt;
 pub mod macro_aux;
 pub mod mi;
 pub mod plant;
+pub mod process;
 pub mod servo_node;
 pub mod station_app;
 pub mod station_mi;

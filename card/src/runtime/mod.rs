@@ -5,6 +5,7 @@
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
 pub(crate) mod bench_servo;
+pub(crate) mod cli;
 pub(crate) mod ring_app;
 pub(crate) mod standalone;
 pub(crate) mod startup;

@@ -11,6 +11,8 @@ built on for use outside pytest::
         c.wait_until(lambda st: ..., cycles=5000)
 """
 
+from importlib import metadata as _metadata
+
 from .card import Card, Ports
 from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, CardStart, Cluster, Recording,
                       SyncStart, stop_all)
@@ -34,4 +36,8 @@ __all__ = [
     "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
     "WaitTimeout", "stop_all",
 ]
-__version__ = "0.1.0"
+try:
+    #: The installed distribution's version (the wheel's is the mcc workspace's).
+    __version__ = _metadata.version("pytest-mcc")
+except _metadata.PackageNotFoundError:  # imported from a source tree, not installed
+    __version__ = "0+unknown"

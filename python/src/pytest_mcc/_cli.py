@@ -6,6 +6,8 @@ import json
 import os
 import shutil
 import subprocess
+import warnings
+from importlib import metadata
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional, Sequence
 
@@ -25,11 +27,42 @@ SCRUBBED_ENV = ("MCC_CHAIN_PTY", "MCC_CHAIN_PORT", "MCC_TEST_AT_DELAY_MS", "MCC_
 VERB_TIMEOUT = 120.0
 
 
-def find_mcc(explicit: Optional[str] = None) -> str:
-    """The ``mcc`` binary: ``explicit``, else ``$MCC_BIN``, else ``mcc`` on ``PATH``.
+#: The distribution this module is installed from (the wheel carries the ``mcc`` binary).
+DISTRIBUTION = "pytest-mcc"
 
-    The card and station binaries are found by ``mcc`` itself (next to it, or ``$MCC_BIN_DIR``).
+
+def bundled_mcc() -> Optional[str]:
+    """The ``mcc`` binary installed with this package (the wheel's, in the environment's
+    scripts directory), None if the package was installed without it."""
+    try:
+        dist = metadata.distribution(DISTRIBUTION)
+    except metadata.PackageNotFoundError:
+        return None
+    for f in dist.files or ():
+        # RECORD names it relative to site-packages: ``../../../bin/mcc``.
+        if f.name == "mcc" and f.parent.name in ("bin", "Scripts"):
+            p = Path(str(dist.locate_file(f))).resolve()
+            if p.is_file() and os.access(p, os.X_OK):
+                return str(p)
+    return None
+
+
+def find_mcc(explicit: Optional[str] = None) -> str:
+    """The ``mcc`` binary: the one installed with this package (the wheel), else
+    ``explicit`` (``--mcc-bin``), else ``$MCC_BIN``, else ``mcc`` on ``PATH``.
+
+    The wheel's binary comes first so that the plugin always drives the ``mcc`` of its own
+    version. The card and station roles are found by ``mcc`` itself (``$MCC_BIN_DIR``, the
+    binaries next to it, else ``mcc`` runs them itself).
     """
+    bundled = bundled_mcc()
+    given = explicit or os.environ.get("MCC_BIN")
+    if bundled:
+        if given and Path(given).expanduser().resolve() != Path(bundled):
+            warnings.warn(f"pytest-mcc runs the mcc binary it was installed with ({bundled}), "
+                          f"not {given!r} (--mcc-bin/$MCC_BIN are for an install without it)",
+                          stacklevel=2)
+        return bundled
     for cand in (explicit, os.environ.get("MCC_BIN")):
         if cand:
             p = Path(cand).expanduser()
@@ -40,8 +73,8 @@ def find_mcc(explicit: Optional[str] = None) -> str:
     if found:
         return found
     raise MccNotFound(
-        "the mcc binary was not found: put it on PATH, set MCC_BIN=/path/to/mcc, "
-        "or pass --mcc-bin to pytest"
+        "the mcc binary was not found: install the pytest-mcc wheel (pip install pytest-mcc), "
+        "put mcc on PATH, set MCC_BIN=/path/to/mcc, or pass --mcc-bin to pytest"
     )
 
 

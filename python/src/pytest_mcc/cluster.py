@@ -121,7 +121,8 @@ class Cluster:
     :param plants: plant settings per station name, over ``plant``.
     :param drives: ``[[drives]]`` entries (EDB step drives on the EMCL bus).
     :param extra: other top-level config keys, as given (e.g. ``{"rtf": 2.0}``).
-    :param mcc: path of the ``mcc`` binary (default ``$MCC_BIN``, else ``mcc`` on PATH).
+    :param mcc: path of the ``mcc`` binary when the package carries none (the wheel's comes
+        first; default ``$MCC_BIN``, else ``mcc`` on PATH).
     :param name: cluster name (default: unique per process).
     :param lock_timeout: seconds the ring has to lock (``mcc up --timeout``).
     :param env: extra environment for the cluster's processes.

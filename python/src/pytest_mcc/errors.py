@@ -23,7 +23,8 @@ class MccError(Exception):
 
 
 class MccNotFound(MccError):
-    """The ``mcc`` binary could not be found (set ``MCC_BIN`` or ``--mcc-bin``)."""
+    """The ``mcc`` binary could not be found (install the wheel, or set ``MCC_BIN`` or
+    ``--mcc-bin``)."""
 
 
 class ConfigError(MccError, ValueError):

@@ -7,9 +7,10 @@ Fixtures:
 - ``mcc_cluster_factory``: ``factory(**options)`` starts as many clusters as a test needs.
 
 Every cluster is taken down when its test ends (passed, failed or interrupted); a test that
-failed gets the last lines of every member's log in its report. Options: ``--mcc-bin PATH``
-(else ``$MCC_BIN``, else ``mcc`` on PATH); ini keys ``mcc_clock`` (default clock of the
-fixtures' clusters, e.g. ``lockstep``) and ``mcc_lock_timeout`` (seconds).
+failed gets the last lines of every member's log in its report. The ``mcc`` binary: the one
+the wheel installed, else ``--mcc-bin PATH``, else ``$MCC_BIN``, else ``mcc`` on PATH. Ini
+keys ``mcc_clock`` (default clock of the fixtures' clusters, e.g. ``lockstep``) and
+``mcc_lock_timeout`` (seconds).
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ from .cluster import Cluster, stop_all
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("mcc", "mcc cluster under test")
     group.addoption("--mcc-bin", action="store", default=None, metavar="PATH",
-                    help="the mcc binary (default: $MCC_BIN, else mcc on PATH)")
+                    help="the mcc binary when the package carries none (default: $MCC_BIN, "
+                    "else mcc on PATH)")
     parser.addini("mcc_clock", "default clock of mcc fixture clusters (paced, lockstep, "
                   "realtime; empty: mcc's default)", default="")
     parser.addini("mcc_lock_timeout", "seconds an mcc fixture cluster has to lock",

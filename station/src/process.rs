@@ -1,14 +1,17 @@
-//! `mcc-station`: one MACRO station process on a ring.
+//! `mcc-station`: one MACRO station process on a ring ([`run_process`]: the `mcc-station`
+//! binary, and `mcc run-station` where only `mcc` is installed).
 
+use std::ffi::OsString;
 use std::path::PathBuf;
 
 use clap::Parser;
 use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
-use mcc_station::config::PlantConfig;
-use mcc_station::mi::Globals;
-use mcc_station::station_app::StationApp;
+
+use crate::config::PlantConfig;
+use crate::mi::Globals;
+use crate::station_app::StationApp;
 
 /// A MACRO station joining a ring from the cluster config the orchestrator hands it.
 #[derive(Debug, Parser)]
@@ -28,16 +31,18 @@ struct Cli {
     listen: Vec<String>,
 }
 
-fn main() -> std::process::ExitCode {
+/// The station process: `args` is its command line, program name first (see the module doc).
+pub fn run_process<I, T>(args: I) -> std::process::ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
     mcc_ring::runtime::logging::init_logging();
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(args);
     // A `[[drives]]` entry without a station runs as a process of its own (not on the ring).
-    if let Some(r) = mcc_station::emcl_rt::standalone::maybe_run(
-        &cli.config,
-        &cli.name,
-        &cli.connect,
-        &cli.listen,
-    ) {
+    if let Some(r) =
+        crate::emcl_rt::standalone::maybe_run(&cli.config, &cli.name, &cli.connect, &cli.listen)
+    {
         return exit_code(r);
     }
     let run_dir = cli.config.parent().map(PathBuf::from).unwrap_or_default();
@@ -55,7 +60,7 @@ fn main() -> std::process::ExitCode {
         let plant = PlantConfig::from_table(&st.plant)
             .map_err(|e| anyhow::anyhow!("stations.{}: {e}", st.name))?;
         // Nodes bound to EMCL drives are served by the drives, not by a plant.
-        let bound = mcc_station::emcl_rt::app::bound_nodes(&ctx.config, &st.name);
+        let bound = crate::emcl_rt::app::bound_nodes(&ctx.config, &st.name);
         let servo: Vec<u8> = st
             .nodes
             .iter()
@@ -77,7 +82,7 @@ fn main() -> std::process::ExitCode {
         }
         let mut extra = serde_json::Map::new();
         extra.insert("nodes".into(), serde_json::json!(st.nodes));
-        let app = mcc_station::emcl_rt::app::with_drives(ctx, app, &mut extra, &run_dir)?;
+        let app = crate::emcl_rt::app::with_drives(ctx, app, &mut extra, &run_dir)?;
         Ok((app, extra))
     });
     exit_code(r)

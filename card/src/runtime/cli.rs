@@ -1,4 +1,5 @@
-//! `mcc-card`: one PMAC-style controller card process.
+//! `mcc-card`: one PMAC-style controller card process ([`run_process`]: the `mcc-card`
+//! binary, and `mcc run-card` where only `mcc` is installed).
 //!
 //! `mcc-card --standalone [--profile pmac2|turbo|power] [--ascii-port P] [--eth-port P]
 //! [--state-file PATH] [--exit-on-stdin-eof] [--max-connections N] [--idle-timeout-s S]
@@ -9,12 +10,15 @@
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // the process
 
+use std::ffi::OsString;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use mcc_card::{run_standalone, PowerHostOpts, Profile, StandaloneOpts};
 use mcc_ring::hostport::HostLimits;
+
+use crate::domain::Profile;
+use crate::runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum ProfileArg {
@@ -82,11 +86,16 @@ struct Args {
     listen: Vec<String>,
 }
 
-fn main() -> ExitCode {
+/// The card process: `args` is its command line, program name first (see the module doc).
+pub fn run_process<I, T>(args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
     mcc_ring::runtime::logging::init_logging();
-    let args = Args::parse();
+    let args = Args::parse_from(args);
     if let (Some(config), Some(name)) = (args.config.clone(), args.name.clone()) {
-        let r = mcc_card::run_ring_card(mcc_ring::runtime::process::MemberArgs {
+        let r = crate::runtime::run_ring_card(mcc_ring::runtime::process::MemberArgs {
             config,
             name,
             connect: args.connect,
