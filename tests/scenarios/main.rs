@@ -18,6 +18,7 @@ mod reliability;
 mod ring_inprocess;
 mod station_aux;
 mod stations;
+mod status_bits;
 mod testing_api;
 mod transcripts;
 mod triggers;
