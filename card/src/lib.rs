@@ -58,7 +58,7 @@ pub use runtime::cli::run_process;
 pub use runtime::ring_app::CardRingApp;
 pub use runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 pub use runtime::startup::{ring_startup, wire_macro_motors, StartupError};
-pub use runtime::{check_card_config, run_ring_card};
+pub use runtime::{apply_config_ivars, check_card_config, run_ring_card};
 pub use service::handle::{spawn_card_thread, CardHandle, Request, Response};
 pub use service::storage::FileStorage;
 pub use servo::Servo;

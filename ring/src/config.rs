@@ -538,8 +538,12 @@ impl ClusterConfig {
         toml::to_string(self).map_err(|e| ConfigError::Parse(e.to_string()))
     }
 
-    /// Empty ring order → default order; empty sync master → first card in ring order.
+    /// Empty ring order → default order; empty sync master → first card in ring order; a
+    /// card's unset ring-check keys → [`DEFAULT_RING_CHECK`] in its profile's keys.
     fn fill_defaults(&mut self) {
+        for c in &mut self.cards {
+            c.fill_ring_check();
+        }
         if self.ring.order.is_empty() {
             let n = self.cards.len().max(1);
             let mut order = Vec::new();
@@ -672,12 +676,59 @@ impl ClusterConfig {
     }
 }
 
-/// Start-up I-variables of the embedded default cluster's cards: the ring check armed
-/// (I1001 = 16 servo cycles ≈ 7 ms, I1004 = 2 errors, I1005 = 4 sync packets; with the default
-/// I8 = 2 that is 6 checks per period, so I1005 ≤ I1001/(I8+1) holds as the spec requires).
+/// The default ring check of every card profile: period 16 servo cycles ≈ 7 ms, 2 errors,
+/// 4 sync packets (with the default I8 = 2 that is 6 checks per period, so the sync minimum
+/// ≤ period/(I8+1) holds as the spec requires).
+pub const DEFAULT_RING_CHECK: [i64; 3] = [16, 2, 4];
+
+/// The config keys of a card's ring check (period, maximum errors, required syncs) for its
+/// `profile`: PMAC2 I1001/I1004/I1005 (seed 004); Turbo I80/I81/I82 (the Turbo numbering; seed
+/// 000's Turbo-to-Power table maps them to `Macro.TestPeriod`/`TestMaxErrors`/
+/// `TestReqdSynchs`); Power the PMAC2 keys, which the card's start-up layer takes as those
+/// `Macro` elements (Power `I1001` itself is `Motor[10].PhaseCtrl`).
+pub fn ring_check_keys(profile: &str) -> [&'static str; 3] {
+    if profile.eq_ignore_ascii_case("turbo") {
+        ["I80", "I81", "I82"]
+    } else {
+        ["I1001", "I1004", "I1005"]
+    }
+}
+
+impl CardConfig {
+    /// The value of start-up I-variable `key` (case-insensitive), if the config sets it.
+    pub fn ivar(&self, key: &str) -> Option<f64> {
+        self.ivars
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(key))
+            .map(|(_, v)| v.as_f64())
+    }
+
+    /// The ring check's (period, maximum errors, required syncs) as the config sets them in
+    /// the card's profile's keys ([`ring_check_keys`]); unset ones are `None`.
+    pub fn ring_check(&self) -> [Option<f64>; 3] {
+        ring_check_keys(&self.profile).map(|k| self.ivar(k))
+    }
+
+    /// Fill the ring-check keys the config leaves unset with [`DEFAULT_RING_CHECK`] (every
+    /// profile starts with its ring check armed).
+    fn fill_ring_check(&mut self) {
+        for (k, v) in ring_check_keys(&self.profile)
+            .into_iter()
+            .zip(DEFAULT_RING_CHECK)
+        {
+            if self.ivar(k).is_none() {
+                self.ivars.insert(k.to_string(), IVarValue::Int(v));
+            }
+        }
+    }
+}
+
+/// Start-up I-variables of the embedded default cluster's (PMAC2) cards: the ring check armed
+/// ([`DEFAULT_RING_CHECK`] in I1001/I1004/I1005).
 fn default_card_ivars() -> BTreeMap<String, IVarValue> {
-    [("I1001", 16), ("I1004", 2), ("I1005", 4)]
+    ring_check_keys("pmac2")
         .into_iter()
+        .zip(DEFAULT_RING_CHECK)
         .map(|(k, v)| (k.to_string(), IVarValue::Int(v)))
         .collect()
 }

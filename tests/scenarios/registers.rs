@@ -13,7 +13,8 @@ const G_GATHER_ON_TRIGGER: u32 = 1 << 17;
 /// `?` word 1 bit 15: dwell in progress.
 const W1_DWELL: u32 = 1 << 15;
 
-fn rig() -> Rig {
+/// A PMAC2 ring card (I3=2 I6=1) with motors 1 and 2 closed at rest.
+pub(crate) fn rig() -> Rig {
     let mut rig = Rig::new(NodePlantConfig::default());
     rig.cmd("I3=2 I6=1");
     rig.run(20);

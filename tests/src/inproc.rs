@@ -46,8 +46,15 @@ pub fn ring_with_handle<A: RingApp>(
                 if let Err(e) = ring_startup(c, ring, &nodes, true) {
                     panic!("test cluster start-up: {e}");
                 }
-                for (k, v) in &ivars {
-                    c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
+                if c.profile() == mcc_card::Profile::Power {
+                    // As the card process: the ring-check keys become its Macro ring check.
+                    if let Err(e) = mcc_card::apply_config_ivars(c, &ivars) {
+                        panic!("test cluster ivars: {e}");
+                    }
+                } else {
+                    for (k, v) in &ivars {
+                        c.command_line(&mut s, format!("{k}={}", v.as_f64()).as_bytes());
+                    }
                 }
             };
             layer(&mut c);

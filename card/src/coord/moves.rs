@@ -162,6 +162,9 @@ pub struct Modal {
     pub frax: [bool; 9],
     /// NORMAL vector.
     pub normal: [f64; 3],
+    /// Cutter radius compensation: 0 off (`CC0`), 1 left (`CC1`), 2 right (`CC2`). Only the
+    /// `??` bits follow it (word 2 bits 2-3, seed 004 7006-7008); the path is not offset.
+    pub cutter: u8,
 }
 
 fn positive(v: f64, what: &'static str) -> Result<f64, CoordError> {
@@ -200,6 +203,7 @@ impl Modal {
             centre_abs: false,
             frax: [true, true, true, false, false, false, false, false, false],
             normal: [0.0, 0.0, -1.0],
+            cutter: 0,
         }
     }
 

@@ -45,6 +45,10 @@ pub struct Limits {
     pub m_vars: u32,
     /// `CID` answer, `None` when the command does not exist (pmac2: ERR003).
     pub cid: Option<u32>,
+    /// `CPU` / `cpu` answer, `None` when the command does not exist (pmac2: ERR003; seed 004
+    /// has no CPU command). Turbo: the DSP type, as DLS's SimPMAC answers and the DLS pmac
+    /// IOC expects (`DSP56321`, a 240 MHz Option 5F CPU); Power: seed 000's example form.
+    pub cpu: Option<&'static str>,
     /// Hex digits in a `??` reply (12 on PMAC2, 18 on Turbo).
     pub cs_status_digits: u8,
     /// How the motion core and the evaluator behave where the profiles differ.
@@ -158,6 +162,7 @@ pub(crate) fn limits(profile: Profile) -> Limits {
             q_vars: 1024,
             m_vars: 1024,
             cid: None,
+            cpu: None,
             cs_status_digits: 12,
             sem: CLASSIC,
         },
@@ -169,6 +174,7 @@ pub(crate) fn limits(profile: Profile) -> Limits {
             q_vars: 8192,
             m_vars: 8192,
             cid: Some(602413),
+            cpu: Some("DSP56321"),
             cs_status_digits: 18,
             sem: CLASSIC,
         },
@@ -180,6 +186,7 @@ pub(crate) fn limits(profile: Profile) -> Limits {
             q_vars: 8192,
             m_vars: 16_384,
             cid: Some(604020),
+            cpu: Some("Power PC, 460EX"),
             cs_status_digits: 16,
             sem: Semantics {
                 ieee: true,

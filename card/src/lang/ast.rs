@@ -220,6 +220,8 @@ pub(crate) enum CmdKind {
     Size,
     /// `CID` (turbo profile)
     Cid,
+    /// `CPU` (turbo profile: the DSP type)
+    Cpu,
     /// `???`
     GlobalStatus,
 

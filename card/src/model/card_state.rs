@@ -15,6 +15,10 @@ use crate::domain::profile::{limits, ring_ivars, Limits, Profile, RingIvars};
 
 /// I995 bits that are status (cleared when read): 0-3 and 6.
 pub(crate) const I995_STATUS_BITS: u32 = 0x4F;
+/// I995 bit 5: synchronizing master station enable.
+const I995_SYNC_MASTER: u32 = 0x20;
+/// I995 bit 6: sync node packet received (status).
+const I995_SYNC_RECEIVED: u32 = 0x40;
 
 /// One controller card's state.
 #[derive(Debug, Clone)]
@@ -418,11 +422,19 @@ impl CardState {
 
     /// OR ring status bits (bits 0-3 error, bit 6 sync packet received) into the ring
     /// configuration variable (I995 / I6840).
+    ///
+    /// [DECISION] A synchronizing master (I995 bit 5) does not show bit 6 "sync node packet
+    /// received": it generates the sync packet and does not phase-lock to one (bit 7 clear),
+    /// so it reads its set-up `$30` as the manual gives it (seed 004 5495); the ring core
+    /// still counts its own sync packet's returns in its check (the core's own copy).
     pub fn latch_ring_status(&mut self, bits: u32) {
         let a = self.map.ring_cfg_addr;
         let w = self.memory.read(Space::Y, a);
-        self.memory
-            .write(Space::Y, a, w | (bits & I995_STATUS_BITS));
+        let mut bits = bits & I995_STATUS_BITS;
+        if w & I995_SYNC_MASTER != 0 {
+            bits &= !I995_SYNC_RECEIVED;
+        }
+        self.memory.write(Space::Y, a, w | bits);
     }
 
     /// The ring configuration word with its latched status bits, without clearing them (a

@@ -53,9 +53,17 @@ fn i995_mirror_and_clear_on_read() {
     c.set_ivar(995, 0x30 as f64).unwrap();
     assert_eq!(c.read(Space::Y, 0xC08F), 0x30);
     c.latch_ring_status(0x4 | 0x40 | 0x100);
-    assert_eq!(c.peek_ivar(995), Ok((0x30 | 0x44) as f64));
-    assert_eq!(c.ivar_text(995).unwrap(), "$74");
+    // Issue 26 item 10: a synchronizing master shows no "sync node packet received" (bit 6):
+    // it reads its set-up $30 plus error bits (seed 004 5495).
+    assert_eq!(c.peek_ivar(995), Ok((0x30 | 0x4) as f64));
+    assert_eq!(c.ivar_text(995).unwrap(), "$34");
     assert_eq!(c.read_ivar(995), Ok(0x30 as f64));
+    // A non-synchronizing master with sync node phase lock ($90) latches it.
+    c.set_ivar(995, 0x90 as f64).unwrap();
+    c.latch_ring_status(0x40);
+    assert_eq!(c.ivar_text(995).unwrap(), "$D0");
+    assert_eq!(c.read_ivar(995), Ok(0x90 as f64));
+    c.set_ivar(995, 0x30 as f64).unwrap();
     c.latch_ring_status(0x1);
     assert_eq!(c.read(Space::Y, 0xC08F), 0x31);
     assert_eq!(c.read(Space::Y, 0xC08F), 0x30);

@@ -60,6 +60,11 @@ fn status_mode(m: Mode) -> StatusMode {
     }
 }
 
+/// `??` word 2 bit 2: cutter compensation on.
+const CC_ON: u32 = 1 << 2;
+/// `??` word 2 bit 3: cutter compensation to the left.
+const CC_LEFT: u32 = 1 << 3;
+
 /// `??` word-1 (feedrate bit, incremental bit) of axis index k (X..W).
 fn axis_bits(k: usize) -> (u32, u32) {
     const F: [u32; 9] = [19, 21, 23, 7, 9, 11, 13, 15, 17];
@@ -106,6 +111,13 @@ impl CsExec {
         f.radius_inc = !c.modal.centre_abs;
         f.mode = status_mode(c.modal.mode);
         f.move_by_time = matches!(c.modal.feed, Feed::Time(_));
+        // `??` word 2 bit 2 cutter compensation on, bit 3 to the left (seed 004 7006-7008).
+        let cc = match c.modal.cutter {
+            1 => CC_ON | CC_LEFT,
+            2 => CC_ON,
+            _ => 0,
+        };
+        f.other2 = (f.other2 & !(CC_ON | CC_LEFT)) | cc;
     }
 
     /// Waiting for homing: `true` when calculation may go on.

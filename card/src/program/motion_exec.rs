@@ -168,7 +168,14 @@ impl CsExec {
                 }
                 Flow::Next
             }
-            S::CutterRadius(_) | S::CutterComp(_) => Flow::Next,
+            S::CutterRadius(_) => Flow::Next,
+            S::CutterComp(n) => {
+                let n = *n;
+                self.modal(card, |c| {
+                    c.modal.cutter = n;
+                    Ok(())
+                })
+            }
             S::Normal(words) => {
                 let mut n = [0.0; 3];
                 for w in words {

@@ -198,6 +198,16 @@ pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()
 /// its dialect.
 const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
 
+/// Apply a card config's start-up I-variables as the card process does at start-up (a
+/// Power card takes the ring-check keys as its `Macro` ring check; see [`apply_ivars`]):
+/// for in-process harnesses that build the card as the process does.
+pub fn apply_config_ivars(
+    card: &mut Card,
+    ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
+) -> anyhow::Result<()> {
+    apply_ivars(card, ivars)
+}
+
 /// Apply the config's start-up I-variable overrides (`I1001 = 8`, ...) as on-line commands in
 /// the card's own language (a Power card: its dialect, Power numbering).
 fn apply_ivars(

@@ -4,6 +4,8 @@
 //!
 //! Order of one tick:
 //! 1. a `$$$` since the last tick resets every motor (killed, fresh position history);
+//!    otherwise the latched `?` bits a host or PLC wrote (`M145=0`) go into the motors
+//!    ([`registers::take_host_writes`]);
 //! 2. the encoder conversion table ([`ect_pass`]): node register 0 → X:$0721… results;
 //! 3. the interpreter's actions ([`actions`]): the program engine takes the C.S. ones, the
 //!    motors take jog/home/kill/enable/open-loop/abort, CTRL-A, CTRL-K;
@@ -120,6 +122,8 @@ impl Servo {
             self.motors.iter_mut().for_each(|m| *m = Motor::new());
             self.ect = EctPass::default();
             self.ring_fault_seen = false;
+        } else {
+            registers::take_host_writes(card, &mut self.motors);
         }
         self.ect.run(&mut card.state);
         self.params.clear();

@@ -47,6 +47,32 @@ pub(super) fn sync_flags(dst: &mut MotorFlags, src: &MotorFlags) {
     dst.in_position = src.in_position;
 }
 
+/// Copy the latched (event) `?` bits a host or PLC may have written since the last report
+/// from the card's flags into `dst`, the motor's own flags, before the motor runs its cycle.
+/// On a PMAC these bits are memory that the firmware changes only at their events (seed 004
+/// 6833-6870): home complete (cleared at reset and at the start of a home search, set by a
+/// successful home), stopped on position limit (set at the limit stop, cleared when the motor
+/// moves again), trigger move (set at the start of a triggered move, cleared at the
+/// trigger), and the kill causes amplifier fault, fatal and integrated following error (set
+/// at the kill, cleared at the next enable). A write of 0 (`M145=0`) therefore sticks until
+/// the next event; bits the servo evaluates every cycle (limits, in position, warning FE,
+/// desired velocity zero, open loop, amplifier enabled) are the motor's and are not taken.
+pub(super) fn take_latched(dst: &mut MotorFlags, src: &MotorFlags) {
+    dst.stopped_on_limit = src.stopped_on_limit;
+    dst.home_complete = src.home_complete;
+    dst.trigger_move = src.trigger_move;
+    dst.integrated_fe = src.integrated_fe;
+    dst.amp_fault = src.amp_fault;
+    dst.fatal_fe = src.fatal_fe;
+}
+
+/// [`take_latched`] for every motor: the card's flags (host and PLC writes) into the motors.
+pub(super) fn take_host_writes(card: &CardModel, motors: &mut [Motor]) {
+    for (m, f) in motors.iter_mut().zip(card.state.motors.iter()) {
+        take_latched(&mut m.flags, f);
+    }
+}
+
 /// Write a D: register (48-bit fixed point, X high) straight into raw memory.
 fn write_d(st: &mut CardState, addr: Addr, v: f64) {
     let w = encode_fixed(v);

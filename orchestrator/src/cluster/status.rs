@@ -228,17 +228,12 @@ pub struct SupervisorRow {
 }
 
 /// Cycles of lag behind which a member's incoming link counts as broken: four check periods
-/// (the smallest station check period or card I1001), at least 32 cycles, so that the skew
+/// (the smallest station check period or card check period: I1001, Turbo I80), at least 32 cycles, so that the skew
 /// between concurrent status queries never looks like a break.
 pub fn lag_threshold(cfg: &ClusterConfig) -> u64 {
     let station = cfg.stations.iter().map(|s| u64::from(s.check.period));
     let cards = cfg.cards.iter().filter_map(|c| {
-        let v = c
-            .ivars
-            .iter()
-            .find(|(k, _)| k.eq_ignore_ascii_case("I1001"))?
-            .1
-            .as_f64();
+        let v = c.ring_check()[0]?;
         (v >= 1.0).then_some(v as u64)
     });
     let period = station.chain(cards).min().unwrap_or(8);

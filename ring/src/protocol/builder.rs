@@ -10,7 +10,7 @@
 //! base) and in what runs the cores. Card and station logic stay with the caller: mcc-ring
 //! knows neither crate.
 
-use crate::check::{card_check, RingCheck};
+use crate::check::{card_config_check, RingCheck};
 use crate::config::{ClusterConfig, MemberRef};
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
@@ -43,7 +43,7 @@ pub fn core_config(cfg: &ClusterConfig, name: &str) -> Result<CoreConfig, BuildE
         .ok_or_else(|| BuildError::NotInConfig(name.to_string()))?;
     let settings = RingSettings::new(u32::from(rs.i995), rs.i996);
     let (kind, check) = match member {
-        MemberRef::Card(c) => (MemberKind::Card, card_check(&c.ivars)),
+        MemberRef::Card(c) => (MemberKind::Card, card_config_check(c)),
         MemberRef::Station(s) => (
             MemberKind::Station,
             RingCheck::station(s.check.period, s.check.min_syncs, s.check.max_errors),

@@ -278,7 +278,22 @@ impl RingCheck {
     }
 }
 
-/// Ring-check parameters of a card from its I-variable overrides (I1001, I1004, I1005, I8).
+/// Ring-check parameters of a card from its config: its profile's ring-check keys
+/// ([`crate::config::ring_check_keys`]: PMAC2/Power I1001/I1004/I1005, Turbo I80/I81/I82)
+/// and I8; unset keys as in [`card_check`].
+pub fn card_config_check(c: &crate::config::CardConfig) -> RingCheck {
+    let get = |v: Option<f64>, d: u32| v.map_or(d, |v| v.clamp(0.0, 65_535.0) as u32);
+    let [period, errors, syncs] = c.ring_check();
+    RingCheck::card(
+        get(period, 0),
+        get(errors, 2),
+        get(syncs, 4),
+        get(c.ivar("I8"), 2),
+    )
+}
+
+/// Ring-check parameters of a card from its I-variable overrides in PMAC2 numbering (I1001,
+/// I1004, I1005, I8).
 pub fn card_check(
     ivars: &std::collections::BTreeMap<String, crate::config::IVarValue>,
 ) -> RingCheck {

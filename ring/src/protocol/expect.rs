@@ -178,7 +178,7 @@ impl RingModel {
                 let (kind, check) = match cfg.member(name)? {
                     MemberRef::Card(c) => (
                         MemberKind::Card,
-                        crate::check::card_check(&c.ivars).params(),
+                        crate::check::card_config_check(c).params(),
                     ),
                     MemberRef::Station(s) => (
                         MemberKind::Station,

@@ -13,7 +13,7 @@ use tracing::{info, info_span};
 
 use super::control_plane;
 use super::driver::{Driver, DriverConfig, DriverExit};
-pub use crate::check::card_check;
+pub use crate::check::{card_check, card_config_check};
 use crate::config::ClusterConfig;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};

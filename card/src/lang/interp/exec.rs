@@ -72,6 +72,7 @@ impl Pmac<'_> {
             | K::Checksum
             | K::Size
             | K::Cid
+            | K::Cpu
             | K::GlobalStatus
             | K::AddrCard(_)
             | K::AddrAllCards

@@ -55,6 +55,10 @@ impl Pmac<'_> {
                 Some(v) => out.line(v.to_string()),
                 None => return Err(3),
             },
+            CmdKind::Cpu => match self.model.state.limits().cpu {
+                Some(v) => out.line(v),
+                None => return Err(3),
+            },
             CmdKind::GlobalStatus => {
                 self.sync_global_flags();
                 out.line(self.model.state.global_status_text());

@@ -326,7 +326,10 @@ impl Ctx<'_> {
             }
             "vers" => self.say("2.6.0.0"),
             "type" => self.say("PWR PMAC UMAC"),
-            "cpu" => self.say("mcc emulated, x86_64"),
+            "cpu" => {
+                let cpu = self.card.model.state.limits().cpu.unwrap_or_default();
+                self.say(cpu);
+            }
             "date" => self.say(env!("CARGO_PKG_VERSION")),
             "size" | "free" => {
                 let used = self.card.model.bufs.used() * 8;

@@ -59,11 +59,43 @@ pub(crate) fn motor(m: u16, nn: u16) -> S {
     }
 }
 
-/// Spec of Turbo global variable `n` (0..=99).
+/// Spec of Turbo global variable `n` (0..=99), as the Turbo SRM's "Turbo PMAC Global
+/// I-Variables" chapter gives them (sources: ARCHITECTURE.md, Turbo profile). Only the
+/// variables that hold addresses or node bit masks print in hex (`$…` under I9 bit 1): I20-I24
+/// (MACRO IC and DPRAM base addresses), I67/I69 (Modbus buffer addresses), I70-I77 (MACRO node
+/// masks), I83 (parallel ring mask) and I90-I99 (VME address bytes). Every other global
+/// prints in decimal — I30, I37, I40, I41, I42, I47, I60 among them, which the PMAC2 table
+/// prints in hex (on a PMAC2, I20-I44 are DPRAM/gate addresses).
 fn global(n: u16) -> S {
+    let flag = |d: f64| S::int(d, 0.0, 1.0);
     match n {
+        // Clock source I-variable number: on an Ultralite (no Servo IC 0) MACRO IC 0, I6807.
+        19 => S::int(6807.0, 0.0, 9999.0),
         // Set by the card at start-up from the MACRO ICs it has (`$0` = absent).
         20..=23 => S::hex(0.0, f64::from(0x7_FFFFu32)).ro(),
+        // Main DPRAM base address (none on this card).
+        24 => S::hex(0.0, f64::from(0x7_FFFFu32)),
+        // I27 alternate TWS format, I28 display port disable, I30 compensation table wrap,
+        // I38 in-line CALL enable, I42 spline/PVT time control mode, I44 ladder enable,
+        // I45 foreground binary rotary transfer, I48/I49 DPRAM reporting enables,
+        // I51 compensation table enable, I55-I58 DPRAM enables, I62-I64 message controls.
+        27 | 28 | 30 | 38 | 42 | 44 | 45 | 48 | 49 | 51 | 55..=58 | 62..=64 => flag(0.0),
+        // Additional wait states, I39 UBUS ID display control.
+        37 | 39 => S::int(0.0, 0.0, 255.0),
+        // Watchdog timer reset value (0 sets 4095), servo cycles.
+        40 => S::int(0.0, 0.0, 65_535.0),
+        // I-variable lockout control (4 bits).
+        41 => S::int(0.0, 0.0, 15.0),
+        // Auxiliary/main serial port parser disable (2 bits).
+        43 => S::int(0.0, 0.0, 3.0),
+        // CPU frequency control, DPRAM foreground / background reporting periods.
+        46 => S::int(0.0, 0.0, 31.0),
+        47 | 50 => S::int(0.0, 0.0, 255.0),
+        // Filtered velocity sample time and shift.
+        60 | 61 => S::int(0.0, 0.0, 15.0),
+        65 => S::int(0.0, -8_388_608.0, U24),
+        // Modbus TCP buffer / software control panel start addresses.
+        67 | 69 => S::hex(0.0, f64::from(0x03_FFFFu32)),
         68 => S::int(15.0, 0.0, 15.0),
         // MACRO IC 0-3 node auxiliary register enable / protocol type (I70-I77).
         70..=77 => S::hex(0.0, 65_535.0),
@@ -71,9 +103,37 @@ fn global(n: u16) -> S {
         80 => S::int(0.0, 0.0, 255.0),
         81 => S::int(2.0, 0.0, 255.0),
         82 => S::int(4.0, 0.0, 65_535.0),
-        _ => pmac2::global(n),
+        // MACRO parallel ring enable mask; IC number for master communications; ring order.
+        83 => S::hex(0.0, 255.0),
+        84 => S::int(0.0, 0.0, 3.0),
+        85 => S::int(0.0, 0.0, 255.0),
+        86..=89 => S::int(0.0, -8_388_608.0, U24),
+        // VME bus address bytes (no VME bus on this card; the factory values).
+        90..=99 => S::hex(VME_DEFAULTS[usize::from(n - 90)], 255.0),
+        // I0-I18 and the reserved numbers as on PMAC2 (the same meanings, all decimal).
+        _ => {
+            let mut s = pmac2::global(n);
+            s.hex = false;
+            s
+        }
     }
 }
+
+/// Factory values of I90-I99 (VME address modifier, don't-care bits, base address bytes,
+/// interrupt level and vector, DPRAM address and enable, address width): the PMAC2 VME
+/// registers X:$0783-$078C these Turbo variables replace (seed 004 12861-12990).
+const VME_DEFAULTS: [f64; 10] = [
+    0x39 as f64,
+    0x04 as f64,
+    0xFF as f64,
+    0x7F as f64,
+    0xA0 as f64,
+    0x02 as f64,
+    0xA1 as f64,
+    0x00 as f64,
+    0x60 as f64,
+    0x10 as f64,
+];
 
 /// Factory value of ECT word I8000+k: the Ultralite's eight MACRO servo nodes of IC 0
 /// (`$2F8420`+node, `$018000`), then the end of the table.
@@ -131,6 +191,26 @@ mod tests {
         assert_eq!(spec(5188).default, 50.0);
         assert_eq!(spec(10).default, 3_713_707.0);
         assert_eq!(spec(8191).default, 0.0);
+    }
+
+    /// Issue 26 item 13: Turbo globals print as a Turbo prints them — decimal except the
+    /// address and node-mask variables (I42 read back `$0` and the DLS IOC refused it).
+    #[test]
+    fn turbo_globals_print_decimal_except_addresses_and_masks() {
+        let hex: Vec<u16> = (0..100).filter(|&n| spec(n).hex).collect();
+        let want: Vec<u16> = [20, 21, 22, 23, 24, 67, 69]
+            .into_iter()
+            .chain(70..=77)
+            .chain([83])
+            .chain(90..=99)
+            .collect();
+        assert_eq!(hex, want);
+        for n in [30, 37, 40, 41, 42, 47, 60] {
+            assert!(!spec(n).hex, "I{n} decimal");
+        }
+        assert_eq!(spec(42), S::int(0.0, 0.0, 1.0));
+        assert_eq!(spec(19).default, 6807.0, "MACRO IC 0 clock on an Ultralite");
+        assert_eq!(spec(90).default, 57.0);
     }
 
     #[test]
