@@ -10,6 +10,7 @@ mod host_limits;
 mod hosts;
 mod macro_station;
 mod motion;
+mod persistence;
 mod power_ring;
 mod programs;
 mod recovery;
