@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 mod drives;
 mod hosts;
+mod security;
 mod validate;
 
 pub use drives::{DriveConfig, DriveIo, DriveMotor, EmclConfig, ParamNumberError, MAX_DRIVES};
@@ -36,6 +37,7 @@ pub use hosts::{
     DEFAULT_HOST_PORT, LOCAL_HOST,
 };
 
+pub use security::{SecurityConfig, EXPOSE_KEY, FACTORY_SSH_PASSWORD};
 pub use validate::{check_name, MAX_MEMBERS, MAX_RTF};
 
 #[cfg(test)]
@@ -352,6 +354,9 @@ pub struct ClusterConfig {
     /// Host-port limits (`[host]`: connections, idle and request timeouts).
     #[serde(default)]
     pub host: crate::hostport::HostLimits,
+    /// `[security]`: the opt-in to ports without authentication on other hosts' reach.
+    #[serde(default, skip_serializing_if = "SecurityConfig::is_default")]
+    pub security: SecurityConfig,
 }
 
 impl ChainConfig {
@@ -476,6 +481,7 @@ impl ClusterConfig {
             stations: station_list,
             emcl: EmclConfig::default(),
             host: crate::hostport::HostLimits::default(),
+            security: SecurityConfig::default(),
         };
         cfg.fill_defaults();
         cfg
@@ -757,7 +763,7 @@ fn default_ssh_user() -> String {
     "root".to_string()
 }
 fn default_ssh_password() -> String {
-    "deltatau".to_string()
+    FACTORY_SSH_PASSWORD.to_string()
 }
 fn default_nodes() -> Vec<u8> {
     DEFAULT_NODES.to_vec()

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 from dls_pmaclib.dls_pmacremote import PPmacSshInterface
+from conftest import CardProcess
 from mcc_cluster import SCRUB, UP_TIMEOUT, Cluster, wait_for
 
 
@@ -157,3 +158,30 @@ def test_unsupported_shell_commands_get_a_clear_shell_error(power_card):
         assert ask(p, "cid") == "604020\r"
     finally:
         p.disconnect()
+
+
+
+
+def test_a_wrong_password_leaves_password_to_try_again():
+    """Issue 26 item 6, as paramiko (PPmacSshInterface's SSH library) sees it: a refusal is a
+    plain authentication failure that still offers `password` (before: no method was left,
+    `BadAuthenticationType`). A card of its own: no earlier failures to wait for. (paramiko
+    asks for the `ssh-userauth` service again before each attempt, which russh 0.65 ignores,
+    so paramiko's own second attempt on one connection is not answered: ARCHITECTURE, Power
+    SSH; dls_pmaclib makes one attempt per connection.)"""
+    import socket
+
+    import paramiko
+
+    card = CardProcess("power")
+    sock = socket.create_connection(("127.0.0.1", card.ssh), timeout=20)
+    t = paramiko.Transport(sock)
+    t.auth_timeout = 20
+    try:
+        t.start_client(timeout=20)
+        with pytest.raises(paramiko.AuthenticationException) as e:
+            t.auth_password("root", "guess")
+        assert not isinstance(e.value, paramiko.BadAuthenticationType), e.value
+    finally:
+        t.close()
+        card.stop()

@@ -12,6 +12,7 @@ mod hosts;
 mod macro_station;
 mod manual_cases;
 mod motion;
+mod persistence;
 mod power_ring;
 mod private_run_dir;
 mod programs;

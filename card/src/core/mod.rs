@@ -72,6 +72,8 @@ struct Job {
     aux_wait: bool,
     /// A streamed line's reply framed so far and not yet handed out.
     out: Vec<u8>,
+    /// A Power card's `save` or `$$$` waiting for its effect (the replies for either outcome).
+    power_wait: Option<crate::lang::ppmac::PowerWait>,
 }
 
 /// The card core (see the module docs).
@@ -154,6 +156,7 @@ impl CardCore {
             parked: false,
             aux_wait: false,
             out: Vec::new(),
+            power_wait: None,
         });
     }
 
@@ -235,9 +238,22 @@ impl CardCore {
                     if self.power.is_some() =>
                 {
                     budget.spend(1);
-                    self.power
-                        .as_mut()
-                        .map(|p| p.line(&mut self.card, conn, &line))
+                    let (out, wait) = match self.power.as_mut() {
+                        Some(p) => p.host_line(&mut self.card, conn, &line),
+                        None => (Vec::new(), None),
+                    };
+                    match wait {
+                        // Answered once the effect is done ([`CardCore::effect_done`]).
+                        Some(wait) => {
+                            let t = self.next_effect;
+                            self.next_effect += 1;
+                            self.effects.push((t, wait.effect.clone()));
+                            job.waiting = Some(t);
+                            job.power_wait = Some(wait);
+                            None
+                        }
+                        None => Some(out),
+                    }
                 }
                 HostRequest::More => Some(Vec::new()),
                 HostRequest::Line(line) | HostRequest::LineStreamed(line) => {
@@ -263,7 +279,7 @@ impl CardCore {
                             if streamed && job.out.len() >= STREAM_CHUNK {
                                 let mut part = std::mem::take(&mut job.out);
                                 part.shrink_to_fit();
-                                let echo = self.card.echo();
+                                let echo = s.echo;
                                 self.replies.push((
                                     job.token,
                                     HostReply {
@@ -293,11 +309,12 @@ impl CardCore {
                     }
                 }
             };
+            // The connection's own duplex mode (CTRL-T), not another host's.
+            let echo = s.echo;
             self.put_session(conn, s);
             self.collect_detached();
             match done {
                 Some(bytes) => {
-                    let echo = self.card.echo();
                     self.replies.push((
                         job.token,
                         HostReply {
@@ -358,7 +375,35 @@ impl CardCore {
             }
             return;
         }
-        let Some(job) = self.jobs.iter_mut().find(|j| j.waiting == Some(token)) else {
+        let Some(i) = self.jobs.iter().position(|j| j.waiting == Some(token)) else {
+            return;
+        };
+        if self.jobs.get(i).is_some_and(|j| j.power_wait.is_some()) {
+            let Some(job) = self.jobs.remove(i) else {
+                return;
+            };
+            let Some(wait) = job.power_wait else {
+                return;
+            };
+            let bytes = match result {
+                EffectResult::Saved(true) => wait.ok,
+                EffectResult::Saved(false) => wait.failed,
+                loaded @ EffectResult::Loaded(_) => {
+                    self.load_error = self.card.apply_loaded(loaded).err();
+                    wait.ok
+                }
+            };
+            self.replies.push((
+                job.token,
+                HostReply {
+                    bytes,
+                    echo: false,
+                    more: false,
+                },
+            ));
+            return;
+        }
+        let Some(job) = self.jobs.get_mut(i) else {
             return;
         };
         job.waiting = None;

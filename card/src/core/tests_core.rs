@@ -209,3 +209,53 @@ fn a_power_card_answers_every_connection_in_its_own_thread() {
         ]
     );
 }
+
+#[test]
+fn ctrl_t_toggles_the_echo_of_its_own_connection_only() {
+    // Issue 26 item 2: one host's CTRL-T made every other host's port echo its lines.
+    let mut c = core();
+    c.submit(1, 1, HostRequest::Control(0x14));
+    c.submit(2, 2, HostRequest::Line(b"P5".to_vec()));
+    c.submit(3, 1, HostRequest::Line(b"P5".to_vec()));
+    c.submit(4, 2, HostRequest::Control(0x14));
+    c.submit(5, 2, HostRequest::Control(0x14));
+    c.submit(6, 2, HostRequest::Line(b"P5".to_vec()));
+    let (_, mut r) = serve_all(&mut c);
+    r.sort_by_key(|(t, _)| *t);
+    let echo: Vec<(u64, bool)> = r.iter().map(|(t, r)| (*t, r.echo)).collect();
+    assert_eq!(
+        echo,
+        vec![
+            (1, true),
+            (2, false),
+            (3, true),
+            (4, true),
+            (5, false),
+            (6, false)
+        ]
+    );
+}
+
+#[test]
+fn a_power_save_is_answered_once_written_and_a_failed_one_is_an_error() {
+    let mut c = CardCore::new(Card::new(Profile::Power));
+    let answer = |c: &mut CardCore, token: u64, line: &[u8], ok: bool| -> Vec<u8> {
+        c.submit(token, 1, HostRequest::Line(line.to_vec()));
+        c.serve(&mut Budget::new(SLICE_UNITS));
+        let effects = c.take_effects();
+        if let [(t, Effect::Save(_))] = effects.as_slice() {
+            assert!(c.take_replies().is_empty(), "no reply before the write");
+            c.effect_done(*t, EffectResult::Saved(ok));
+        }
+        let r = c.take_replies();
+        assert_eq!(r.len(), 1, "one reply to {line:?}");
+        r[0].1.bytes.clone()
+    };
+    assert_eq!(answer(&mut c, 1, b"echo7 P1=4242", true), b"\x06\r\n");
+    assert_eq!(answer(&mut c, 2, b"save", true), b"\x06\r\n");
+    assert_eq!(
+        answer(&mut c, 3, b"save", false),
+        b"stdin:3:1: error #21: ILLEGAL PARAMETER: save\r\n\x06\r\n"
+    );
+    assert_eq!(answer(&mut c, 4, b"P1", true), b"4242\r\n\x06\r\n");
+}

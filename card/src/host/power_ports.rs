@@ -16,6 +16,7 @@ use tokio::task::JoinHandle;
 
 use super::gpascii::{GpEvent, LineSplitter, BANNER};
 use super::port::{CardPort, Interpreter};
+use super::ssh::penalty::Delays;
 use super::ssh::server::{spawn_ssh, Credentials};
 use crate::service::handle::CardHandle;
 
@@ -34,6 +35,8 @@ pub(crate) struct PowerPortsConfig {
     pub io_timeout: Duration,
     /// Simultaneous connections per port; further ones are closed at once.
     pub max_connections: usize,
+    /// How long a host waits after failed SSH logins.
+    pub ssh_delays: Delays,
 }
 
 impl Default for PowerPortsConfig {
@@ -45,6 +48,7 @@ impl Default for PowerPortsConfig {
             creds: Credentials::default(),
             io_timeout: Duration::from_secs(10),
             max_connections: 64,
+            ssh_delays: Delays::default(),
         }
     }
 }
@@ -86,7 +90,14 @@ pub(crate) async fn serve_power(
             cfg.clone(),
             stop_rx.clone(),
         )),
-        spawn_ssh(ssh, card, cfg.creds.clone(), cfg.max_connections, stop_rx),
+        spawn_ssh(
+            ssh,
+            card,
+            cfg.creds.clone(),
+            cfg.max_connections,
+            cfg.ssh_delays,
+            stop_rx,
+        ),
     ];
     Ok(BoundPowerPorts {
         gpascii: gp_addr,

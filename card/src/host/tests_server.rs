@@ -409,3 +409,39 @@ async fn a_long_terminal_reply_arrives_whole_through_the_stream() {
     assert_eq!(got, want);
     p.shutdown().await;
 }
+
+/// Read until the bytes end with `tail`.
+async fn read_until(s: &mut TcpStream, tail: &[u8]) -> Vec<u8> {
+    let mut got = Vec::new();
+    let mut b = [0u8; 256];
+    while !got.ends_with(tail) {
+        let n = tokio::time::timeout(WAIT, s.read(&mut b))
+            .await
+            .expect("reply in time")
+            .unwrap();
+        assert!(n > 0, "closed; got {got:?}");
+        got.extend_from_slice(&b[..n]);
+    }
+    got
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_hosts_ctrl_t_leaves_another_hosts_replies_alone() {
+    // Issue 26 item 2: after a second host sent CTRL-T, dls-pmaclib's `P5` polls got
+    // `P5\r55\r\x06` (its line echoed back before the reply).
+    let p = start(PortsConfig::default()).await;
+    let mut poller = connect(p.ascii).await;
+    let mut other = connect(p.ascii).await;
+    poller.write_all(b"I3=2 P5=55\r").await.unwrap();
+    read_until(&mut poller, b"\x06").await;
+    other.write_all(b"\x14P6\r").await.unwrap();
+    assert!(read_until(&mut other, b"\x06").await.ends_with(b"0\r\x06"));
+    // The host that asked for full duplex has it.
+    other.write_all(b"P6\r").await.unwrap();
+    assert_eq!(read_n(&mut other, 6).await, b"P6\r0\r\x06");
+    for _ in 0..3 {
+        poller.write_all(b"P5\r").await.unwrap();
+        assert_eq!(read_n(&mut poller, 4).await, b"55\r\x06");
+    }
+    p.shutdown().await;
+}

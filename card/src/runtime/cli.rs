@@ -57,7 +57,8 @@ struct Args {
     /// Power card: SSH password [default: deltatau].
     #[arg(long)]
     ssh_password: Option<String>,
-    /// File SAVE writes and start-up loads.
+    /// File SAVE writes and start-up loads (without it SAVE answers an error: ERR003, on a
+    /// Power card `error #21`).
     #[arg(long)]
     state_file: Option<PathBuf>,
     /// Exit when stdin is closed.

@@ -10,6 +10,8 @@ pub(crate) mod ring_app;
 pub(crate) mod standalone;
 pub(crate) mod startup;
 
+use std::path::PathBuf;
+
 use anyhow::{anyhow, Context};
 use mcc_ring::config::MemberRef;
 use mcc_ring::control::MemberKind;
@@ -24,15 +26,26 @@ use crate::lang::interp::{Card, Profile};
 use crate::service::storage::{self, FileStorage};
 use crate::service::{chain, handle, sync_start};
 
+/// Where a card of a cluster keeps what SAVE writes: its `state_file`, else
+/// `<run dir>/state/<name>.state` (the run directory is the folder of the resolved config;
+/// `mcc down` leaves `state/` alone, as for stations).
+pub(crate) fn state_file(cc: &mcc_ring::config::CardConfig, run_dir: &std::path::Path) -> PathBuf {
+    cc.state_file
+        .clone()
+        .unwrap_or_else(|| run_dir.join("state").join(format!("{}.state", cc.name)))
+}
+
 /// Run card `args.name` of the cluster until stopped.
 pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
+    let run_dir = args.config.parent().map(PathBuf::from).unwrap_or_default();
     run_member(args, MemberKind::Card, |ctx| {
         let cc = match ctx.config.member(&ctx.name) {
             Some(MemberRef::Card(c)) => c.clone(),
             _ => anyhow::bail!("'{}' is not a card in the config", ctx.name),
         };
         let profile = profile_of(&cc);
-        let storage = cc.state_file.as_ref().map(FileStorage::new);
+        let state_path = state_file(&cc, &run_dir);
+        let storage = Some(FileStorage::new(&state_path));
         let (mut card, load_error) = startup_card(profile, storage.as_ref());
         // The start-up layer (in the profile's numbering, every reply checked: a refused line
         // stops the card): the ring settings the config derives (I995/I996; Turbo
@@ -40,7 +53,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
         // I70, I71, I20: unless a saved image says how), the chain
         // address (I0, I1), then the config's own I-variables, which win. Re-applied after
         // every reset: the cluster config is the card's hardware setup.
-        let wire = !cc.state_file.as_ref().is_some_and(|p| p.exists());
+        let wire = !state_path.exists();
         let ring = ctx
             .config
             .ring_settings(&ctx.name)

@@ -26,7 +26,9 @@ pub struct StandaloneOpts {
     pub ascii_port: u16,
     /// Ethernet protocol port (0 = ephemeral).
     pub eth_port: u16,
-    /// Where `SAVE` writes and start-up loads from (none: SAVE keeps nothing across runs).
+    /// Where `SAVE` writes and start-up loads from (none: the card starts from factory
+    /// defaults and SAVE answers an error, ERR003 or Power's `error #21`: it has nowhere to
+    /// keep the state, and acknowledging it would lose it).
     pub state_file: Option<PathBuf>,
     /// Exit when stdin reaches end of file (for supervisors and tests).
     pub exit_on_stdin_eof: bool,
@@ -96,6 +98,9 @@ pub fn run_standalone(opts: StandaloneOpts) -> io::Result<()> {
     // The card lives on its own thread (no ring, no servo loop); the ports reach it through
     // its channel.
     let storage = opts.state_file.as_ref().map(FileStorage::new);
+    if storage.is_none() {
+        tracing::info!("no --state-file: SAVE is refused (nowhere to keep the state)");
+    }
     let (card, load_error) = startup_card(opts.profile, storage.as_ref());
     let mut core = CardCore::new(card);
     core.load_error = load_error;

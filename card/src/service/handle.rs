@@ -157,7 +157,8 @@ pub(crate) struct IoWorker {
 }
 
 impl IoWorker {
-    /// Start the worker over `storage` (none: SAVE keeps nothing, nothing was saved).
+    /// Start the worker over `storage` (none: a SAVE fails, as there is nowhere to keep it,
+    /// and nothing was saved).
     pub(crate) fn start(storage: Option<FileStorage>) -> Self {
         let (tx, jobs) = bounded::<(u64, Effect)>(64);
         let (done, rx) = bounded::<(u64, EffectResult)>(64);
@@ -174,7 +175,10 @@ impl IoWorker {
                                 EffectResult::Saved(false)
                             }
                         },
-                        (Effect::Save(_), None) => EffectResult::Saved(true),
+                        (Effect::Save(_), None) => {
+                            tracing::warn!("SAVE refused: this card has no state file");
+                            EffectResult::Saved(false)
+                        }
                         (Effect::Load, Some(st)) => EffectResult::Loaded(st.load()),
                         (Effect::Load, None) => EffectResult::Loaded(Ok(None)),
                     };

@@ -10,3 +10,6 @@ pub(crate) mod chain;
 pub(crate) mod handle;
 pub(crate) mod storage;
 pub(crate) mod sync_start;
+
+#[cfg(test)]
+mod tests_save;

@@ -13,10 +13,16 @@ use crate::model::persist::{decode, encode, PersistError, PersistImage};
 #[cfg(test)]
 use mcc_ring::runtime::atomic_file::temp_path;
 
-/// Write `bytes` to `path` atomically: temp file in the same directory, write, fsync, rename,
-/// fsync the directory.
+/// Write `bytes` to `path` atomically: temp file in the same directory (created when
+/// missing: the run directory's `state/` of a cluster card), write, fsync, rename, fsync the
+/// directory.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    mcc_ring::runtime::atomic_file::write_atomic(path, bytes)
+    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    let how = AtomicWrite {
+        create_dir: true,
+        ..AtomicWrite::default()
+    };
+    write_atomic_with(path, bytes, how)
 }
 
 /// Save an image to `path` atomically.

@@ -113,7 +113,8 @@ pub(super) fn validate(cfg: &ClusterConfig) -> R {
     validate_ring(cfg)?;
     super::drives::validate_drives(cfg)?;
     super::hosts::validate_hosts(cfg)?;
-    super::hosts::validate_security(cfg)
+    super::hosts::validate_security(cfg)?;
+    super::security::validate_unauthenticated(cfg)
 }
 
 /// `rtf` and `member_timeout_ms` (the clock keys; `clock` itself is checked by the parser).

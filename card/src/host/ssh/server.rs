@@ -7,8 +7,8 @@
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use russh::keys::ssh_key::private::Ed25519Keypair;
 use russh::keys::PrivateKey;
@@ -18,6 +18,7 @@ use tokio::net::TcpListener;
 use tokio::sync::{watch, Semaphore};
 use tokio::task::JoinHandle;
 
+use super::penalty::{Delays, Penalties};
 use super::shell::{Shell, ShellOut, TtyModes};
 use crate::host::port::{CardPort, Interpreter};
 use crate::host::power_ports::accept_limited;
@@ -43,8 +44,13 @@ impl Default for Credentials {
 
 /// Longest a session may stay idle before the server closes it.
 const INACTIVITY: Duration = Duration::from_secs(3600);
-/// A failed login is answered after this long (slows password guessing).
+/// A failed login is answered after this long at least (slows password guessing; a host's
+/// failures add their own growing wait, [`Penalties`]).
 const REJECTION_TIME: Duration = Duration::from_millis(300);
+/// Authentication requests one connection may make; the next one is disconnected ("Too many
+/// authentication attempts"), as sshd's `MaxAuthTries` (6). Every refused request counts,
+/// `none` included.
+pub(crate) const MAX_AUTH_TRIES: usize = 6;
 /// Channels one connection may hold open.
 const MAX_CHANNELS: usize = 16;
 
@@ -57,29 +63,47 @@ fn russh_config() -> Config {
         auth_rejection_time: REJECTION_TIME,
         auth_rejection_time_initial: Some(Duration::ZERO),
         methods: MethodSet::from(&[MethodKind::Password][..]),
-        max_auth_attempts: 6,
+        max_auth_attempts: MAX_AUTH_TRIES,
         keys: vec![key],
         nodelay: true,
         ..Config::default()
     }
 }
 
-/// Accept SSH connections on `listener` until `stop`, at most `max_connections` at a time.
+/// A refused login: the client is told that a password may be tried again (an empty
+/// list of methods makes clients give up, and a second attempt on the connection then waited
+/// for the client's own timeout).
+fn refused() -> Auth {
+    Auth::Reject {
+        proceed_with_methods: Some(MethodSet::from(&[MethodKind::Password][..])),
+        partial_success: false,
+    }
+}
+
+/// Accept SSH connections on `listener` until `stop`, at most `max_connections` at a time;
+/// failed logins make their source host wait `delays`.
 pub(crate) fn spawn_ssh(
     listener: TcpListener,
     card: CardHandle,
     creds: Credentials,
     max_connections: usize,
+    delays: Delays,
     mut stop: watch::Receiver<bool>,
 ) -> JoinHandle<()> {
     let config = Arc::new(russh_config());
     let creds = Arc::new(creds);
+    let penalties = Arc::new(Mutex::new(Penalties::new(delays)));
     tokio::spawn(async move {
         let slots = Arc::new(Semaphore::new(max_connections));
         while let Some((stream, peer, permit)) =
             accept_limited(&listener, &slots, &mut stop, "ssh").await
         {
-            let conn = Conn::new(card.clone(), Arc::clone(&creds), peer);
+            let conn = Conn::new(
+                card.clone(),
+                Arc::clone(&creds),
+                Arc::clone(&penalties),
+                peer,
+            );
             let (config, mut stop) = (Arc::clone(&config), stop.clone());
             tokio::spawn(async move {
                 match russh::server::run_stream(config, stream, conn).await {
@@ -113,20 +137,31 @@ struct Chan {
 struct Conn {
     card: CardHandle,
     creds: Arc<Credentials>,
+    penalties: Arc<Mutex<Penalties>>,
     peer: SocketAddr,
     user: String,
     chans: HashMap<ChannelId, Chan>,
 }
 
 impl Conn {
-    fn new(card: CardHandle, creds: Arc<Credentials>, peer: SocketAddr) -> Self {
+    fn new(
+        card: CardHandle,
+        creds: Arc<Credentials>,
+        penalties: Arc<Mutex<Penalties>>,
+        peer: SocketAddr,
+    ) -> Self {
         Conn {
             card,
             creds,
+            penalties,
             peer,
             user: String::new(),
             chans: HashMap::new(),
         }
+    }
+
+    fn penalties(&self) -> std::sync::MutexGuard<'_, Penalties> {
+        self.penalties.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Carry out what the shell of `id` asked, in order. Terminal output is sent as one data
@@ -224,6 +259,10 @@ impl Handler for Conn {
     type Error = russh::Error;
 
     async fn auth_password(&mut self, user: &str, password: &str) -> Result<Auth, Self::Error> {
+        // The source host's turn first (after its failed logins' wait), right or wrong.
+        let ip = self.peer.ip();
+        let turn = self.penalties().admit(ip, Instant::now());
+        tokio::time::sleep_until(tokio::time::Instant::from_std(turn)).await;
         // Compare without an early exit on the first differing byte.
         let same = |a: &str, b: &str| {
             a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |d, (x, y)| d | (x ^ y)) == 0
@@ -231,12 +270,14 @@ impl Handler for Conn {
         let user_ok = same(user, &self.creds.user);
         let password_ok = same(password, &self.creds.password);
         if user_ok && password_ok {
+            self.penalties().succeeded(ip);
             self.user = user.to_string();
             tracing::info!("ssh: {user} logged in from {}", self.peer);
             return Ok(Auth::Accept);
         }
+        self.penalties().failed(ip, Instant::now());
         tracing::warn!("ssh: login refused for {user:?} from {}", self.peer);
-        Ok(Auth::reject())
+        Ok(refused())
     }
 
     async fn auth_publickey_offered(
@@ -244,7 +285,7 @@ impl Handler for Conn {
         _user: &str,
         _offer: russh::server::PublicKeyOffer<'_>,
     ) -> Result<Auth, Self::Error> {
-        Ok(Auth::reject())
+        Ok(refused())
     }
 
     async fn channel_open_session(

@@ -6,14 +6,20 @@ use std::time::Duration;
 
 use russh::client::{self, AuthResult};
 use russh::keys::PublicKeyOrCertificate;
-use russh::{ChannelMsg, Disconnect};
+use russh::{ChannelMsg, Disconnect, MethodKind};
 
-use super::Credentials;
+use super::{Credentials, MAX_AUTH_TRIES};
 use crate::host::gpascii::BANNER;
 use crate::host::power_ports::tests::start;
 use crate::host::power_ports::{BoundPowerPorts, PowerPortsConfig};
+use crate::host::ssh::penalty::Delays;
 
 const WAIT: Duration = Duration::from_secs(20);
+/// Failed logins' waits short enough for tests that fail several.
+const QUICK: Delays = Delays {
+    first: Duration::from_millis(20),
+    cap: Duration::from_millis(100),
+};
 
 struct Client;
 
@@ -92,6 +98,7 @@ async fn wrong_credentials_are_refused_and_configured_ones_accepted() {
             user: "ops".into(),
             password: "s3cret".into(),
         },
+        ssh_delays: QUICK,
         ..PowerPortsConfig::default()
     };
     let ports = start(cfg).await;
@@ -206,5 +213,54 @@ async fn exec_sessions_run_gpascii_or_refuse_the_command() {
     // Subsystems (sftp) are refused, the connection stays usable.
     let ch = h.channel_open_session().await.unwrap();
     assert!(ch.request_subsystem(true, "sftp").await.is_ok());
+    ports.shutdown().await;
+}
+
+/// Issue 26 item 6: after a wrong password the client is told it may try a password again and
+/// its next attempt is answered (before: no method left, and the second attempt waited for
+/// the client's own timeout); the attempt after `MAX_AUTH_TRIES` refusals is disconnected, as
+/// sshd's MaxAuthTries; the host's failures delay it (growing: `penalty`'s tests) without
+/// locking out the right password.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn each_wrong_password_is_answered_until_the_attempts_run_out() {
+    let cfg = PowerPortsConfig {
+        ssh_delays: QUICK,
+        ..PowerPortsConfig::default()
+    };
+    let ports = start(cfg).await;
+    let config = Arc::new(client::Config::default());
+    let mut h = tokio::time::timeout(WAIT, client::connect(config, ports.ssh, Client))
+        .await
+        .expect("connect in time")
+        .expect("ssh handshake");
+    for k in 1..=MAX_AUTH_TRIES {
+        let r = tokio::time::timeout(WAIT, h.authenticate_password("root", "guess"))
+            .await
+            .unwrap_or_else(|_| panic!("attempt {k} answered in time"))
+            .unwrap_or_else(|e| panic!("attempt {k}: {e}"));
+        match r {
+            AuthResult::Failure {
+                remaining_methods,
+                partial_success: false,
+            } => assert_eq!(&remaining_methods[..], &[MethodKind::Password], "{k}"),
+            other => panic!("attempt {k}: {other:?}"),
+        }
+    }
+    // One more, even the right one, on this connection: disconnected.
+    let r = tokio::time::timeout(WAIT, h.authenticate_password("root", "deltatau"))
+        .await
+        .expect("the last attempt ends in time");
+    assert!(!matches!(r, Ok(AuthResult::Success)), "{r:?}");
+    tokio::time::timeout(WAIT, async {
+        while !h.is_closed() {
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    })
+    .await
+    .expect("the server closes the connection");
+    // A new connection with the right password gets in (after the host's wait).
+    let (h, ok) = login(&ports, "root", "deltatau").await;
+    assert!(ok);
+    let _ = h.disconnect(Disconnect::ByApplication, "", "").await;
     ports.shutdown().await;
 }

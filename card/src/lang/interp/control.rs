@@ -170,8 +170,9 @@ impl Pmac<'_> {
                 self.each_cs(s, &CmdKind::Step);
                 Vec::new()
             }
+            // The connection's own duplex mode (`Session::echo`).
             0x14 => {
-                self.mem.echo = !self.mem.echo;
+                s.echo = !s.echo;
                 Vec::new()
             }
             0x15 => {

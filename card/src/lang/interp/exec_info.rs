@@ -31,6 +31,7 @@ impl Pmac<'_> {
                 *s = Session {
                     chain_addressed: s.chain_addressed,
                     chain_all: s.chain_all,
+                    echo: s.echo,
                     ..Session::with_id(s.id)
                 };
             }

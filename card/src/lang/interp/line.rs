@@ -306,8 +306,10 @@ impl Pmac<'_> {
                 // A refused image is reported by the caller (core load error, log).
                 let _ = self.apply_loaded(loaded);
                 // Power-up/reset: card 0 is the addressed card (§8.2).
+                // The host connection's duplex mode is its port's, kept across the reset.
                 *s = Session {
                     chain_addressed: self.card_number() == 0,
+                    echo: s.echo,
                     ..Session::with_id(s.id)
                 };
                 run.outcome = Some(Outcome::Silent);

@@ -61,6 +61,10 @@ pub struct Session {
     pub chain_addressed: bool,
     /// Serial-chain addressing of this connection: all cards are addressed (`@@`).
     pub chain_all: bool,
+    /// Full duplex (`<CTRL-T>`): the host port echoes what this connection sends. A mode of
+    /// the port it arrives on (seed: "toggle serial port half/full duplex"), so one host's
+    /// CTRL-T never changes another host's replies; power-up (a new connection): half duplex.
+    pub echo: bool,
 }
 
 impl Session {
@@ -72,6 +76,7 @@ impl Session {
             id,
             chain_addressed: true,
             chain_all: false,
+            echo: false,
         }
     }
 }
@@ -98,7 +103,6 @@ pub(crate) struct OpenBuf {
 pub(crate) struct Memory {
     pub(crate) open: Option<OpenBuf>,
     pub(crate) last_line: Vec<u8>,
-    pub(crate) echo: bool,
     /// A compensation table just defined and not yet filled: bare numbers are its entries.
     pub(crate) pending_table: Option<(TableKind, u8)>,
     /// Effects of program-issued commands (`CMD"SAVE"`), for the caller to perform.
@@ -256,12 +260,12 @@ impl Card {
         self.view().finish_effect(run, s, result)
     }
 
-    /// Perform `effect` with this card's own storage (none: SAVE keeps nothing, there is no
-    /// saved image).
+    /// Perform `effect` with this card's own storage (none: SAVE fails, as there is nowhere
+    /// to keep it, and there is no saved image).
     pub fn perform(&mut self, effect: &Effect) -> EffectResult {
         match (effect, self.storage.as_mut()) {
             (Effect::Save(bytes), Some(st)) => EffectResult::Saved(st.save(bytes).is_ok()),
-            (Effect::Save(_), None) => EffectResult::Saved(true),
+            (Effect::Save(_), None) => EffectResult::Saved(false),
             (Effect::Load, Some(st)) => EffectResult::Loaded(st.load()),
             (Effect::Load, None) => EffectResult::Loaded(Ok(None)),
         }
@@ -322,11 +326,6 @@ impl Card {
         let mut out = exec::Out::default();
         self.view().exec_cmd(s, cmd, &mut out)?;
         Ok(out.lines)
-    }
-
-    /// Full-duplex echo toggled by CTRL-T (the host port echoes received characters when set).
-    pub fn echo(&self) -> bool {
-        self.mem.echo
     }
 
     /// The last command line executed (for CTRL-Y / CTRL-I handling in host ports).

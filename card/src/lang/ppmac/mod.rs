@@ -18,6 +18,7 @@ mod backup;
 mod catalog;
 mod elements;
 mod exec;
+mod host_effect;
 mod kinematics;
 mod listing;
 mod macro_ic;
@@ -50,6 +51,7 @@ use std::collections::HashMap;
 
 use crate::lang::interp::Card;
 use crate::model::{BufId, ProgLine};
+pub(crate) use host_effect::PowerWait;
 
 /// Longest command line accepted (bytes before the terminator).
 pub(crate) const MAX_LINE: usize = 1024;
@@ -190,6 +192,11 @@ pub struct Power {
     open: Option<OpenBuf>,
     /// The rotary buffer open for entry (`rotary`), if any.
     rot: Option<rotary::RotOpen>,
+    /// A host line is running ([`Power::host_line`]): its `save` or `$$$` waits for the
+    /// effect.
+    host: bool,
+    /// The effect of the host line running, for its caller to perform.
+    wait: Option<PowerWait>,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -228,7 +235,7 @@ impl Power {
             .flatten()
         {
             out
-        } else if let Some(out) = self.reset_command(card, &mut th, line) {
+        } else if let Some(out) = self.reset_command(card, conn, &mut th, line) {
             out
         } else {
             progvars::with(card, |card, pv| {
@@ -282,8 +289,17 @@ impl Power {
 
     /// `$$$`, `$$$***` and `save`, alone on their line: the model's reset, factory
     /// re-initialisation and save (effects the card's runtime performs, as for the PMAC
-    /// dialect). `$$$` and `$$$***` send no reply at all (seed §2.7); `save` its ACK.
-    fn reset_command(&mut self, card: &mut Card, th: &mut Thread, line: &[u8]) -> Option<Vec<u8>> {
+    /// dialect). `$$$` and `$$$***` send no reply at all (seed §2.7); `save` its ACK. A host
+    /// line's `save` and `$$$` are handed to the caller of [`Power::host_line`], which answers
+    /// once the image is written (an error when it is not) or loaded, before the host's next
+    /// line; others (programs' `cmd`, the chain) are detached.
+    fn reset_command(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        th: &mut Thread,
+        line: &[u8],
+    ) -> Option<Vec<u8>> {
         let text = String::from_utf8_lossy(line).trim().to_ascii_lowercase();
         let pmac: &[u8] = match text.as_str() {
             "$$$" => b"$$$",
@@ -292,6 +308,15 @@ impl Power {
             _ => return None,
         };
         th.lines += 1;
+        if self.host && conn != CMD_THREAD && text != "$$$***" {
+            let wait = match text.as_str() {
+                "save" => PowerWait::save(card, th, line),
+                _ => PowerWait::reset(),
+            };
+            let out = wait.ok.clone();
+            self.wait = Some(wait);
+            return Some(out);
+        }
         let mut s = crate::lang::interp::Session::with_id(0);
         let _ = card.run_detached(&mut s, pmac);
         Some(if text == "save" {
