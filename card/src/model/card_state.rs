@@ -423,7 +423,7 @@ impl CardState {
     /// OR ring status bits (bits 0-3 error, bit 6 sync packet received) into the ring
     /// configuration variable (I995 / I6840).
     ///
-    /// [DECISION] A synchronizing master (I995 bit 5) does not show bit 6 "sync node packet
+    /// \[DECISION\] A synchronizing master (I995 bit 5) does not show bit 6 "sync node packet
     /// received": it generates the sync packet and does not phase-lock to one (bit 7 clear),
     /// so it reads its set-up `$30` as the manual gives it (seed 004 5495); the ring core
     /// still counts its own sync packet's returns in its check (the core's own copy).

@@ -212,7 +212,7 @@ pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()
 const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
 
 /// Apply a card config's start-up I-variables as the card process does at start-up (a
-/// Power card takes the ring-check keys as its `Macro` ring check; see [`apply_ivars`]):
+/// Power card takes the ring-check keys as its `Macro` ring check; see `apply_ivars`):
 /// for in-process harnesses that build the card as the process does.
 pub fn apply_config_ivars(
     card: &mut Card,
