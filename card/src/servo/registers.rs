@@ -37,12 +37,7 @@ pub(super) fn sync_flags(dst: &mut MotorFlags, src: &MotorFlags) {
     dst.abort_decel = src.abort_decel;
     dst.home_search = src.home_search;
     dst.amp_enabled = src.amp_enabled;
-    dst.stopped_on_limit = src.stopped_on_limit;
-    dst.home_complete = src.home_complete;
-    dst.trigger_move = src.trigger_move;
-    dst.integrated_fe = src.integrated_fe;
-    dst.amp_fault = src.amp_fault;
-    dst.fatal_fe = src.fatal_fe;
+    take_latched(dst, src);
     dst.warning_fe = src.warning_fe;
     dst.in_position = src.in_position;
 }
