@@ -215,10 +215,12 @@ pub struct StatusArgs {
 /// `mcc fault`.
 #[derive(Debug, Args)]
 pub struct FaultArgs {
-    /// `MEMBER KIND` or `clear [MEMBER]`. Kinds: drop-sync, drop-packets, corrupt,
+    /// `MEMBER KIND` or `clear [MEMBER]`. Ring kinds: drop-sync, drop-packets, corrupt,
     /// byte-violation, overrun, underrun, delay, delay-us, cut; process drills: freeze
     /// (SIGSTOP), thaw (SIGCONT), kill (SIGKILL), restart (same config, rejoins the ring).
-    #[arg(num_args = 1..=2, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
+    /// Application faults: `STATION axis NODE KIND`, `STATION power-loss`,
+    /// `CARD|chain|bus link KIND`, `CARD input KIND`.
+    #[arg(num_args = 1..=4, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
     #[arg(long, value_name = "N")]
@@ -232,6 +234,9 @@ pub struct FaultArgs {
     /// Delay amount: cycles for `delay`, microseconds for `delay-us`.
     #[arg(long, value_name = "N")]
     pub delay: Option<u64>,
+    /// Amount of an application fault (counts of an encoder glitch, a load, ...).
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub value: Option<f64>,
 }
 
 /// `mcc start-sync`.

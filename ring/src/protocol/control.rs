@@ -194,8 +194,16 @@ pub enum FaultRequest {
         /// The fault.
         spec: FaultSpec,
     },
-    /// Remove every injected fault.
+    /// Remove every injected fault (the send path's and the application's).
     Clear,
+    /// A fault for the member's application, not its send path: a station's axis faults, a
+    /// card's E-stop input or host-link faults. The payload is the application's own request
+    /// (JSON; each application defines and parses its type), handed to
+    /// [`crate::core::RingApp::app_fault`] on the thread that holds the application.
+    App {
+        /// The application's request.
+        fault: serde_json::Value,
+    },
 }
 
 /// Generic control reply.

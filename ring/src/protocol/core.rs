@@ -43,12 +43,6 @@ pub trait RingApp {
         false
     }
 
-    /// Asked for every status report: add the application's own fields (a station's
-    /// amplifiers, ...) to the member's `extra`. The default adds nothing.
-    fn report(&self, extra: &mut serde_json::Map<String, serde_json::Value>) {
-        let _ = extra;
-    }
-
     /// Called once before every tick (before the ring check): the application reads and
     /// changes its member's ring settings through `ring` (a card's I995/I996/I1001/I1004/
     /// I1005 are these settings). The default leaves them alone.
@@ -64,6 +58,18 @@ pub trait RingApp {
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         serde_json::Map::new()
     }
+
+    /// An application fault request ([`crate::control::FaultRequest::App`]): apply it and say
+    /// what was done, or refuse it with a message naming the problem. The default refuses:
+    /// the member has no application faults.
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        let _ = fault;
+        Err("this member takes no application faults".into())
+    }
+
+    /// `mcc fault clear`: remove every application fault (the send path's are cleared by the
+    /// member core). The default has none.
+    fn clear_app_faults(&mut self) {}
 }
 
 /// What the ring check saw in one servo cycle ([`RingApp::on_check`]).
@@ -102,6 +108,14 @@ impl<T: RingApp + ?Sized> RingApp for Box<T> {
 
     fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
         (**self).sync_ring(ring);
+    }
+
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        (**self).app_fault(fault)
+    }
+
+    fn clear_app_faults(&mut self) {
+        (**self).clear_app_faults();
     }
 }
 

@@ -145,11 +145,22 @@ pub struct Driver<A: RingApp> {
     /// [`super::inline`]), not run yet.
     pending_tick: Option<u64>,
     /// The application is kept outside the driver (inline receive keeps it on the member's
-    /// thread): a status request waits in [`Driver::status_waiting`] until that thread
-    /// answers it with the application's fields ([`Driver::answer_status`]).
+    /// thread): a status request or an application fault waits in [`Driver::app_waiting`]
+    /// until that thread answers it ([`Driver::answer_app`]).
     pub(super) app_elsewhere: bool,
-    /// Status requests waiting for the application's fields (only with `app_elsewhere`).
-    status_waiting: Vec<Sender<MemberStatus>>,
+    /// Requests waiting for the application, in arrival order (only with `app_elsewhere`).
+    app_waiting: Vec<AppQuery>,
+}
+
+/// A request that needs the application, queued while it is kept on another thread.
+#[derive(Debug)]
+enum AppQuery {
+    /// A status report with the application's fields.
+    Status(Sender<MemberStatus>),
+    /// [`FaultRequest::App`].
+    Fault(serde_json::Value, Sender<CtlReply>),
+    /// [`FaultRequest::Clear`]: the application's part.
+    Clear,
 }
 
 impl<A: RingApp> std::fmt::Debug for Driver<A> {
@@ -192,7 +203,7 @@ impl<A: RingApp> Driver<A> {
             clock: None,
             pending_tick: None,
             app_elsewhere: false,
-            status_waiting: Vec::new(),
+            app_waiting: Vec::new(),
         }
     }
 
@@ -221,7 +232,7 @@ impl<A: RingApp> Driver<A> {
             clock,
             pending_tick,
             app_elsewhere,
-            status_waiting,
+            app_waiting,
         } = self;
         (
             Driver {
@@ -245,7 +256,7 @@ impl<A: RingApp> Driver<A> {
                 clock,
                 pending_tick,
                 app_elsewhere,
-                status_waiting,
+                app_waiting,
             },
             old,
         )
@@ -483,16 +494,33 @@ impl<A: RingApp> Driver<A> {
         s
     }
 
-    /// Status requests are waiting for the application's fields (see `app_elsewhere`).
-    pub(super) fn status_wanted(&self) -> bool {
-        !self.status_waiting.is_empty()
+    /// Requests are waiting for the application (see `app_elsewhere`).
+    pub(super) fn app_wanted(&self) -> bool {
+        !self.app_waiting.is_empty()
     }
 
-    /// Answer the waiting status requests with the application's fields `app`, taken just now
-    /// on the thread that holds the application.
-    pub(super) fn answer_status(&mut self, app: serde_json::Map<String, serde_json::Value>) {
-        for reply in std::mem::take(&mut self.status_waiting) {
-            let _ = reply.send(self.status_report(app.clone()));
+    /// Answer the waiting requests, in order, with `app`, on the thread that holds it.
+    pub(super) fn answer_app(&mut self, app: &mut dyn RingApp) {
+        for q in std::mem::take(&mut self.app_waiting) {
+            match q {
+                AppQuery::Status(reply) => {
+                    let _ = reply.send(self.status_report(app.status_extra()));
+                }
+                AppQuery::Fault(fault, reply) => {
+                    let _ = reply.send(self.app_fault_reply(app.app_fault(&fault)));
+                }
+                AppQuery::Clear => app.clear_app_faults(),
+            }
+        }
+    }
+
+    fn app_fault_reply(&self, r: Result<String, String>) -> CtlReply {
+        match r {
+            Ok(message) => {
+                info!(member = %self.cfg.name, %message, "application fault");
+                CtlReply { ok: true, message }
+            }
+            Err(message) => CtlReply { ok: false, message },
         }
     }
 
@@ -505,7 +533,7 @@ impl<A: RingApp> Driver<A> {
             match cmd {
                 DriverCmd::Status(reply) => {
                     if self.app_elsewhere {
-                        self.status_waiting.push(reply);
+                        self.app_waiting.push(AppQuery::Status(reply));
                     } else {
                         let extra = self.app.status_extra();
                         let _ = reply.send(self.status_report(extra));
@@ -529,7 +557,21 @@ impl<A: RingApp> Driver<A> {
                         FaultRequest::Clear => {
                             info!(member = %self.cfg.name, "faults cleared");
                             self.core.clear_faults();
+                            if self.app_elsewhere {
+                                self.app_waiting.push(AppQuery::Clear);
+                            } else {
+                                self.app.clear_app_faults();
+                            }
                             "faults cleared".to_string()
+                        }
+                        FaultRequest::App { fault } => {
+                            if self.app_elsewhere {
+                                self.app_waiting.push(AppQuery::Fault(fault, reply));
+                            } else {
+                                let r = self.app.app_fault(&fault);
+                                let _ = reply.send(self.app_fault_reply(r));
+                            }
+                            continue;
                         }
                     };
                     let _ = reply.send(CtlReply {

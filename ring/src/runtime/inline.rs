@@ -235,7 +235,7 @@ fn follow<B: RingApp>(
                 Ok(w) => w,
                 Err(exit) => return exit,
             };
-            answer_status(d, &app);
+            answer_app(d, &mut app);
             wait
         };
         // Waiting needs no lock on the driver: the queue has its own.
@@ -267,7 +267,7 @@ fn lead<B: RingApp>(
                 }
                 // A lockstep ring may keep this loop busy cycle after cycle: requests taken
                 // by `stop_or_done` are answered here, not when it ends.
-                answer_status(d, &app);
+                answer_app(d, &mut app);
                 if let Err(e) = d.flush_delayed() {
                     return DriverExit::Transport(e);
                 }
@@ -293,7 +293,7 @@ fn lead<B: RingApp>(
                     Err(e) => return DriverExit::Transport(e),
                 }
             };
-            answer_status(d, &app);
+            answer_app(d, &mut app);
             let now = d.now_ns();
             let wait = if d.delayed.is_empty() {
                 due.wait(now, std::time::Duration::from_millis(5))
@@ -312,13 +312,13 @@ fn lead<B: RingApp>(
     }
 }
 
-/// Answer the status requests the driver took (it holds a stand-in application) with the
-/// fields of the application kept on the member's thread. The application's status map is
-/// built only when a request waits: never on the hot path of a wake-up without one.
-fn answer_status<B: RingApp>(d: &mut Driver<B>, app: &Option<&mut dyn RingApp>) {
-    if d.status_wanted() {
-        if let Some(a) = app.as_ref() {
-            d.answer_status(a.status_extra());
+/// Answer the requests the driver took for the application (it holds a stand-in) with the
+/// application kept on the member's thread: status fields, application faults. Nothing is
+/// built unless a request waits: never on the hot path of a wake-up without one.
+fn answer_app<B: RingApp>(d: &mut Driver<B>, app: &mut Option<&mut dyn RingApp>) {
+    if d.app_wanted() {
+        if let Some(a) = app.as_mut() {
+            d.answer_app(&mut **a);
         }
     }
 }

@@ -5,7 +5,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::*;
-use crate::control::MemberKind;
+use crate::control::{FaultRequest, MemberKind};
 use crate::core::{CoreConfig, MemberCore};
 use crate::runtime::driver::{DriverCmd, DriverConfig};
 use crate::runtime::local::{LocalRing, LocalTransport};
@@ -183,11 +183,13 @@ fn the_receive_thread_hands_over_when_busy_behind_or_with_a_tick_pending() {
     assert!(handler.offer(f[3].clone(), 4).is_some());
 }
 
-/// An application that counts its ticks and how often its status map is built.
+/// An application that counts its ticks and how often its status map is built, and keeps
+/// the application faults it was given.
 #[derive(Default)]
 struct Counted {
     ticks: u64,
     built: std::cell::Cell<u64>,
+    faults: Vec<serde_json::Value>,
 }
 
 impl crate::core::RingApp for Counted {
@@ -199,7 +201,20 @@ impl crate::core::RingApp for Counted {
         self.built.set(self.built.get() + 1);
         let mut m = serde_json::Map::new();
         m.insert("ticks".into(), self.ticks.into());
+        m.insert("faults".into(), self.faults.len().into());
         m
+    }
+
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        if fault.get("bad").is_some() {
+            return Err("bad fault".into());
+        }
+        self.faults.push(fault.clone());
+        Ok(format!("fault {} applied", self.faults.len()))
+    }
+
+    fn clear_app_faults(&mut self) {
+        self.faults.clear();
     }
 }
 
@@ -232,24 +247,24 @@ fn a_status_request_waits_for_the_member_thread_and_gets_the_app_fields_of_that_
     let mut app = Counted::default();
     for _ in 0..100 {
         app.ticks += 1;
-        answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
+        answer_app(&mut d, &mut Some(&mut app as &mut dyn crate::core::RingApp));
     }
     assert_eq!(app.built.get(), 0, "a status map built with no request");
     // A request: taken by the driver's control pass, not answered there.
     let (tx, rx) = crossbeam_channel::bounded(1);
     ctx.send(DriverCmd::Status(tx)).unwrap();
     assert!(!d.service());
-    assert!(d.status_wanted());
+    assert!(d.app_wanted());
     assert!(rx.try_recv().is_err(), "answered without the application");
     // The application moves on, then the member's thread answers: the fields of now.
     app.ticks = 4242;
-    answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
+    answer_app(&mut d, &mut Some(&mut app as &mut dyn crate::core::RingApp));
     let s = rx.try_recv().expect("answered by the member's thread");
     assert_eq!(s.extra["ticks"], 4242);
     assert_eq!(s.name, "station0");
     assert_eq!(app.built.get(), 1);
-    assert!(!d.status_wanted());
-    answer_status(&mut d, &Some(&mut app as &mut dyn crate::core::RingApp));
+    assert!(!d.app_wanted());
+    answer_app(&mut d, &mut Some(&mut app as &mut dyn crate::core::RingApp));
     assert_eq!(app.built.get(), 1);
     // With the application in the driver (`run_send`, or no inline receive) the control pass
     // answers at once.
@@ -259,4 +274,70 @@ fn a_status_request_waits_for_the_member_thread_and_gets_the_app_fields_of_that_
     assert!(!d.service());
     let s = rx.try_recv().expect("answered in the control pass");
     assert!(s.extra.get("ticks").is_none(), "{s:?}");
+}
+
+#[test]
+fn application_faults_reach_the_application_in_order_with_status_and_clear() {
+    // `mcc fault MEMBER <app kind>`: the request goes to the application on the thread that
+    // holds it, after what was asked before it; a refusal comes back as `ok: false`; `clear`
+    // clears the application's faults too, before a status asked after it is answered.
+    let period = 1_000_000_000 / 2258;
+    let core = MemberCore::new(CoreConfig::new(
+        "station0",
+        MemberKind::Station,
+        1,
+        RingSettings::new(0x8080, 0x0F_8001),
+        period * 100,
+    ));
+    let (_qtx, qrx) = frame_queue(16);
+    let (ctx, crx) = crossbeam_channel::unbounded();
+    let mut d = Driver::new(
+        dcfg("station0", 1),
+        core,
+        Parked,
+        Box::new(Capture::default()),
+        LinkRx::new(qrx, None),
+        crx,
+        Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    );
+    d.app_elsewhere = true;
+    let mut app = Counted::default();
+    let fault = |v: serde_json::Value| {
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        ctx.send(DriverCmd::Fault(FaultRequest::App { fault: v }, tx))
+            .unwrap();
+        rx
+    };
+    let r1 = fault(serde_json::json!({"kind": "jam"}));
+    let r2 = fault(serde_json::json!({"bad": 1}));
+    let (stx, srx) = crossbeam_channel::bounded(1);
+    ctx.send(DriverCmd::Status(stx)).unwrap();
+    let (ctx2, crx2) = crossbeam_channel::bounded(1);
+    ctx.send(DriverCmd::Fault(FaultRequest::Clear, ctx2))
+        .unwrap();
+    let (stx2, srx2) = crossbeam_channel::bounded(1);
+    ctx.send(DriverCmd::Status(stx2)).unwrap();
+    assert!(!d.service());
+    assert!(r1.try_recv().is_err(), "answered without the application");
+    assert!(
+        crx2.try_recv().unwrap().ok,
+        "the ring part of clear answers at once"
+    );
+    answer_app(&mut d, &mut Some(&mut app as &mut dyn crate::core::RingApp));
+    let a1 = r1.try_recv().unwrap();
+    assert_eq!((a1.ok, a1.message.as_str()), (true, "fault 1 applied"));
+    let a2 = r2.try_recv().unwrap();
+    assert_eq!((a2.ok, a2.message.as_str()), (false, "bad fault"));
+    assert_eq!(srx.try_recv().unwrap().extra["faults"], 1);
+    assert_eq!(
+        srx2.try_recv().unwrap().extra["faults"],
+        0,
+        "clear ran before"
+    );
+    // With the application in the driver the control pass answers at once.
+    d.app_elsewhere = false;
+    let r3 = fault(serde_json::json!({"kind": "jam"}));
+    assert!(!d.service());
+    let a3 = r3.try_recv().unwrap();
+    assert!(!a3.ok, "the stand-in takes no application faults: {a3:?}");
 }

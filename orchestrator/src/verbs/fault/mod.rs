@@ -1,5 +1,19 @@
 //! `mcc fault MEMBER KIND [--cycles N] [--probability P] [--seed S] [--delay N]` and
 //! `mcc fault clear [MEMBER]`: fault requests to members' `ctl/<member>/fault` queryables.
+//!
+//! Beside the ring (send-path) faults and the process drills, the application faults:
+//! - `mcc fault STATION axis NODE KIND [--cycles N] [--value V]` and `mcc fault STATION
+//!   power-loss` ([`axis`]): the station plant;
+//! - `mcc fault CARD|chain|bus link KIND [...]` ([`link`]): host links;
+//! - `mcc fault CARD input KIND` ([`input`]): a card's hardware inputs (abort/E-stop).
+//!
+//! Each goes to the member as [`FaultRequest::App`] with the application's own request
+//! ([`app::send_app_fault`]); `mcc fault clear` clears them with the ring faults.
+
+pub mod app;
+pub mod axis;
+pub mod input;
+pub mod link;
 
 use std::time::Duration;
 
@@ -66,6 +80,18 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
                 crate::cluster::drills::process_drill(&a, member, drill)?
             );
             return Ok(());
+        }
+        [member, axis, rest @ ..] if axis == "axis" => {
+            return axis::cmd_axis(cluster, member, rest, args)
+        }
+        [member, word] if word == "power-loss" => {
+            return axis::cmd_power_loss(cluster, member, args)
+        }
+        [target, link, rest @ ..] if link == "link" => {
+            return link::cmd_link(cluster, target, rest, args)
+        }
+        [member, input, rest @ ..] if input == "input" => {
+            return input::cmd_input(cluster, member, rest, args)
         }
         [member, kind] => (
             Some(member.clone()),
@@ -141,6 +167,7 @@ mod tests {
             probability: Some(0.5),
             seed: Some(7),
             delay,
+            value: None,
         }
     }
 
