@@ -160,6 +160,7 @@ fn list_pe_follows_the_executing_line_into_subroutines_and_dwells() {
             "X100",
             "CALL 8",
             "DWELL 1000",
+            "P7=7",
             "X250",
             "X300",
         ],
@@ -183,13 +184,14 @@ fn list_pe_follows_the_executing_line_into_subroutines_and_dwells() {
         "dwelling: {list_pe}"
     );
     let pc = rig.cmd("&1LIST PC");
-    assert!(
-        pc.ends_with(":X250") || pc.ends_with(":DWE1000"),
-        "look-ahead stops at the dwell: {pc}"
-    );
+    // Look-ahead stops at the dwell (seed 004 L10735): the line after it is the next to
+    // calculate, and nothing after it has run.
+    assert!(pc.ends_with(":P7=7"), "look-ahead stops at the dwell: {pc}");
+    assert_eq!(rig.cmd("P7"), "0", "calculated during the dwell");
     rig.run(1500); // ≈ 1900 ms: X250 executes
     let list_pe = rig.cmd("&1LIST PE");
     assert!(list_pe.ends_with(":X250"), "after the dwell: {list_pe}");
+    assert_eq!(rig.cmd("P7"), "7");
     let rest = rig.cmd("&1LIST PE,");
     assert!(rest.ends_with(":RET") && rest.contains(":X300"), "{rest}");
     assert!(!rest.contains("X100") && !rest.contains("DWE"), "{rest}");

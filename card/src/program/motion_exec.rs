@@ -132,9 +132,13 @@ impl CsExec {
                     return Flow::Error;
                 };
                 let dwell = matches!(s.kind, S::Dwell(_));
-                self.queue(card, |c| {
+                let flow = self.queue(card, |c| {
                     if dwell { c.dwell(v) } else { c.delay(v) }.map(Some)
-                })
+                });
+                if dwell && matches!(flow, Flow::Moved) {
+                    self.wait = super::csexec::Wait::Dwell;
+                }
+                flow
             }
             S::Home(list) | S::HomeZ(list) => self.home(card, list, matches!(s.kind, S::Home(_))),
             S::Pset(words) => {

@@ -31,6 +31,7 @@ mod program;
 pub(crate) mod progvars;
 mod rotary;
 pub(crate) mod saved;
+mod status_elems;
 
 #[cfg(test)]
 mod tests;
@@ -46,6 +47,8 @@ mod tests_mvars;
 mod tests_programs;
 #[cfg(test)]
 mod tests_rotary;
+#[cfg(test)]
+mod tests_status;
 
 use std::collections::HashMap;
 
