@@ -36,6 +36,8 @@ mod status_elems;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_forms;
+#[cfg(test)]
 mod tests_fuzz;
 #[cfg(test)]
 mod tests_kin;

@@ -113,8 +113,8 @@ pub(crate) const ELEM_ADDRESS: u32 = 1;
 pub(crate) enum Sel {
     /// One, constant or computed.
     One(VarIndex),
-    /// `a..b`
-    Range(u32, u32),
+    /// `a..b[:n]`: n values per reply line (seed L38087-38089; 1 when absent).
+    Range(u32, u32, u32),
     /// `start,count[,spacing]`
     List(u32, u32, u32),
 }
@@ -923,6 +923,19 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
             }
         }
     }
+    // A motor or C.S. list addresses the command right after it only (it does not change
+    // the modal address): a list with no command is error 20 (seed L31649-31650, L31981).
+    if let (
+        None,
+        Some(Item {
+            cmd: Cmd::Motors(_, true) | Cmd::Coords(_, true),
+            at,
+        }),
+    ) = (&error, items.last())
+    {
+        error = Some(SyntaxError { at: *at, code: 20 });
+        items.pop();
+    }
     Parsed {
         items,
         error,
@@ -999,6 +1012,15 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     if c.peek() == Some(b'j') && !c.peek_at(1).is_some_and(|d| d.is_ascii_alphabetic()) {
         c.i += 1;
+        return jog(c);
+    }
+    // The long forms `jog+`, `jog-`, `jog/`, `jog=…`, `jog:…`, `jog^…` (seed L565-624,
+    // L877-908, the short/long table at L20017-20019).
+    if c.rest().starts_with(b"jog")
+        && c.peek_at(3)
+            .is_some_and(|d| matches!(d, b'+' | b'-' | b'/' | b'=' | b':' | b'^'))
+    {
+        c.i += 3;
         return jog(c);
     }
     let mut w = c.word().unwrap_or_default();
@@ -1096,10 +1118,21 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
     let sel = match &index {
         VarIndex::Const(a) => {
             if c.eat_str("..") {
-                match c.uint() {
-                    Some(b) if b >= *a => Sel::Range(*a, b),
+                let b = match c.uint() {
+                    Some(b) if b >= *a => b,
                     _ => return err(c.i),
-                }
+                };
+                let per_line =
+                    if c.peek() == Some(b':') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+                        c.i += 1;
+                        match c.uint() {
+                            Some(n) if n >= 1 => n,
+                            _ => return err(c.i),
+                        }
+                    } else {
+                        1
+                    };
+                Sel::Range(*a, b, per_line)
             } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
                 c.i += 1;
                 let n = c.uint().unwrap_or(0);
