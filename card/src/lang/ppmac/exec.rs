@@ -278,6 +278,33 @@ impl Ctx<'_> {
                 };
                 self.say(&s);
             }
+            Cmd::AxisQuery(list) => {
+                // A motor of the addressed C.S. reports its definition; one of another C.S.
+                // is preceded by `&n`, which then holds for the lines after it; a motor of no
+                // C.S. belongs to &0 and reports `0` (seed L31662-31690).
+                let mut context = self.th.coord;
+                for &m in list {
+                    let def = self
+                        .card
+                        .model
+                        .run
+                        .axes
+                        .get(usize::from(m))
+                        .cloned()
+                        .flatten();
+                    let (cs, text) = match def {
+                        Some((c, d)) => (c.saturating_sub(1), crate::model::axis_def_text(&d)),
+                        None => (0, "0".to_string()),
+                    };
+                    let prefix = if cs == context {
+                        String::new()
+                    } else {
+                        context = cs;
+                        format!("&{cs}")
+                    };
+                    self.say(&format!("{prefix}#{m}->{text}"));
+                }
+            }
             Cmd::AxisDef(m, text) => {
                 // The definition forms are the classic ones: run as a PMAC command with the
                 // model numbering (`#n->0` undefines).

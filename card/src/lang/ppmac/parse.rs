@@ -232,6 +232,8 @@ pub(crate) enum Cmd {
     Info(&'static str),
     /// `#n->{definition}` (empty: the query `#n->`)
     AxisDef(u16, String),
+    /// `#{list}->`: report the motors' axis definitions (seed L31655-31690).
+    AxisQuery(Vec<u16>),
     /// `enable plc n` / `disable plc n` (`true`: enable)
     PlcCtl(bool, u32),
 }
@@ -952,6 +954,16 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         b'#' => {
             c.i += 1;
             let l = c.num_list(motors)?;
+            if let Some((v, _)) = &l {
+                let query = c.rest().starts_with(b"->")
+                    && c.rest()
+                        .get(2)
+                        .is_none_or(|d| matches!(d, b' ' | b'\t' | b'#' | b'&'));
+                if query {
+                    c.i += 2;
+                    return Ok(Cmd::AxisQuery(v.clone()));
+                }
+            }
             if let Some((v, false)) = &l {
                 if c.eat_str("->") {
                     let st = c.i;

@@ -61,3 +61,26 @@ fn range_queries_group_values_per_line() {
     assert_eq!(t.send("P1..3"), "P1=7\r\nP2=3\r\nP3=5\r\n");
     assert!(t.send("P1..3:0").contains("error #20"));
 }
+
+#[test]
+fn axis_definition_reports_name_the_cs_when_it_changes() {
+    // Seed L31680-31690, the example itself.
+    let mut t = T::new();
+    t.load(&[
+        "&1 #1->500X",
+        "&1 #2->500Y",
+        "&1 #3->500Z",
+        "&2 #4->500X",
+        "&2 #5->500Y",
+        "&2 #6->500Z",
+        "&1",
+    ]);
+    assert_eq!(t.send("#1->"), "#1->500X\r\n");
+    assert_eq!(t.send("#5->"), "&2#5->500Y\r\n");
+    assert_eq!(
+        t.send("#1..7->"),
+        "#1->500X\r\n#2->500Y\r\n#3->500Z\r\n&2#4->500X\r\n#5->500Y\r\n#6->500Z\r\n&0#7->0\r\n"
+    );
+    // The addressed C.S. is still &1 afterwards.
+    assert_eq!(t.send("#2->"), "#2->500Y\r\n");
+}
