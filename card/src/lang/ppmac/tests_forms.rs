@@ -84,3 +84,18 @@ fn axis_definition_reports_name_the_cs_when_it_changes() {
     // The addressed C.S. is still &1 afterwards.
     assert_eq!(t.send("#2->"), "#2->500Y\r\n");
 }
+
+#[test]
+fn f_in_a_program_keeps_its_negative_in_coord_tm_and_tm_its_value() {
+    // Seed L5133-5135: `tm{data}` sets Coord[x].Tm to data, `F{data}` to −data.
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["open prog 6", "linear abs ta10 ts0 F12.5", "X0.5", "close"]);
+    assert_eq!(t.send("&1 b6 r"), "");
+    t.run(400);
+    assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=-12.5\r\n");
+    t.load(&["open prog 7", "linear abs ta10 ts0 tm150", "X0", "close"]);
+    assert_eq!(t.send("&1 b7 r"), "");
+    t.run(400);
+    assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=150\r\n");
+}
