@@ -359,8 +359,48 @@ fn minus_limit_stuck_on_blocks_negative_motion() {
     assert_eq!(rig.status(1).0 & W1_NEG_LIMIT, 0);
 }
 
+/// The −limit chattering stops a − jog at once; stuck off, it lets the jog through the real
+/// switch.
+#[test]
+fn minus_limit_stuck_off_and_chattering() {
+    let plant = NodePlantConfig {
+        minus_limit: -20_000.0,
+        ..NodePlantConfig::default()
+    };
+    let mut rig = rig_with(plant, Profile::Pmac2);
+    rig.cmd("I119=1 I122=16");
+    axis(&mut rig, 0, "minus-limit-chatter", None, None);
+    rig.cmd("#1J-");
+    rig.run(500);
+    let (w1, w2) = rig.status(1);
+    assert_ne!(w2 & W2_STOPPED_ON_LIMIT, 0, "chatter stops it");
+    assert_eq!(w1 & W1_OPEN_LOOP, 0);
+    assert!(
+        rig.num("#1P") > -5_000.0,
+        "stopped at once: {}",
+        rig.num("#1P")
+    );
+    axis(&mut rig, 0, "minus-limit-off", None, None);
+    rig.run(5);
+    rig.cmd("#1J-");
+    rig.run(4000);
+    assert!(
+        rig.num("#1P") < -20_500.0,
+        "ran through: {}",
+        rig.num("#1P")
+    );
+    assert_eq!(rig.status(1).0 & W1_NEG_LIMIT, 0);
+    clear(&mut rig);
+    rig.run(5);
+    assert_ne!(
+        rig.status(1).0 & W1_NEG_LIMIT,
+        0,
+        "the real switch, once cleared"
+    );
+}
+
 /// Home stuck on: `#1HM` finds home where it starts (not at the switch at 5000); stuck off,
-/// the search runs past the switch and goes on.
+/// the search runs past the switch and goes on; chattering, it finds home at once.
 #[test]
 fn home_switch_stuck_on_and_off() {
     let mut rig = rig();
@@ -390,6 +430,20 @@ fn home_switch_stuck_on_and_off() {
         rig.node_position(0)
     );
     assert!(rig.num("#1P").abs() < 10.0, "position zeroed at home");
+    clear(&mut rig);
+    // Chattering: the first on-cycle is the edge the search triggers on.
+    rig.cmd("#1J=-20000");
+    rig.run(6000);
+    let start = rig.node_position(0);
+    axis(&mut rig, 0, "home-chatter", None, None);
+    rig.cmd("#1HM");
+    until(&mut rig, 3000, "home complete", |r| {
+        r.status(1).1 & W2_HOME_COMPLETE != 0
+    });
+    assert!(
+        (rig.node_position(0) - start).abs() < 2_000.0,
+        "homed near {start}"
+    );
     clear(&mut rig);
 }
 
