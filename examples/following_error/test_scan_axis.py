@@ -8,10 +8,11 @@ import pytest
 
 from scan_axis import FollowingErrorTrip, ScanAxes
 
-#: The mover must raise within this many ring cycles of the fault starting (1.1 s of ring
-#: time at 2258.7 Hz): the following error reaches Ixx11 (2000 counts) some 300 cycles into
-#: a jam at 16 counts/ms, the card kills at once, the rest is the host's polling.
-N = 2500
+#: The mover must raise within this many ring cycles of the fault (4.4 s of ring time at
+#: 2258.7 Hz): the following error reaches Ixx11 (2000 counts) some 300 cycles into a jam at
+#: 16 counts/ms and the card kills at once; the rest is the host's polling over TCP, which a
+#: loaded machine slows (the ring keeps wall time).
+N = 10_000
 
 
 def scan(c):
@@ -32,13 +33,13 @@ def test_a_following_error_during_the_scan_stops_it(mcc_cluster_factory, kind, o
     axes = scan(c)
     axes.start({1: 40_000, 2: 40_000})
     c.wait_cycles(300)                         # both axes under way
+    before = c.status().cycle
     c.fault("station0", "axis", 0, kind, **opts)   # motor 1 is node 0 of station0
-    since = c.status()["stations"][0]["axis_faults"][0]["since_cycle"]
     with pytest.raises(FollowingErrorTrip) as trip:
         axes.wait(timeout=30)
     now = c.status().cycle
     assert trip.value.motor == 1
-    assert now - since <= N, f"raised {now - since} cycles after the fault"
+    assert now - before <= N, f"raised {now - before} cycles after the fault"
     # Motor 2 stopped short of its target with motor 1 (the mover killed it). Motor 1 stays
     # where the jam holds it, or runs away under the load once its amplifier is off.
     assert trip.value.positions[2] < 40_000 - 1_000, trip.value
