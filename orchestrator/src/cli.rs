@@ -220,6 +220,11 @@ pub struct FaultArgs {
     /// (SIGSTOP), thaw (SIGCONT), kill (SIGKILL), restart (same config, rejoins the ring).
     /// Application faults: `STATION axis NODE KIND`, `STATION power-loss`,
     /// `CARD|chain|bus link KIND`, `CARD input KIND`.
+    /// Axis kinds (`--cycles N`, else until cleared): amp-fault, encoder-loss,
+    /// encoder-glitch (--value counts), load (--value N·m), jam, plus-limit-on,
+    /// plus-limit-off, plus-limit-chatter, minus-limit-on, minus-limit-off,
+    /// minus-limit-chatter, home-on, home-off, home-chatter; `STATION power-loss` faults every
+    /// amplifier of the station.
     #[arg(num_args = 1..=4, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
