@@ -1,6 +1,7 @@
 //! The one scenario test binary: in-process ring, transcripts, multi-process clusters.
 
 mod busy_ports;
+mod card_inputs;
 mod chain;
 mod cluster;
 mod drills;
