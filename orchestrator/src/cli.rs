@@ -219,7 +219,9 @@ pub struct FaultArgs {
     /// byte-violation, overrun, underrun, delay, delay-us, cut; process drills: freeze
     /// (SIGSTOP), thaw (SIGCONT), kill (SIGKILL), restart (same config, rejoins the ring).
     /// Application faults: `STATION axis NODE KIND`, `STATION power-loss`,
-    /// `CARD|chain|bus link KIND`, `CARD input KIND`.
+    /// `CARD|chain|bus link KIND`, `CARD input KIND` (KIND: abort, feed-hold — the JPAN
+    /// STOP/ and HOLD/ inputs of a PMAC2/Turbo card, the global abort input of a Power card;
+    /// held until cleared or for --cycles N).
     #[arg(num_args = 1..=4, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
@@ -237,6 +239,10 @@ pub struct FaultArgs {
     /// Amount of an application fault (counts of an encoder glitch, a load, ...).
     #[arg(long, value_name = "V", allow_negative_numbers = true)]
     pub value: Option<f64>,
+    /// `CARD input KIND` on a PMAC2/Turbo card: the C.S. the FPD select lines choose
+    /// (0 = none; default 1).
+    #[arg(long, value_name = "N")]
+    pub cs: Option<u16>,
 }
 
 /// `mcc start-sync`.

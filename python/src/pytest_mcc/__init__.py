@@ -14,8 +14,8 @@ built on for use outside pytest::
 from importlib import metadata as _metadata
 
 from .card import Card, Ports
-from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, CardStart, Cluster, Recording,
-                      SyncStart, stop_all)
+from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, INPUT_KINDS, INPUT_OPTIONS, CardStart,
+                      Cluster, Recording, SyncStart, stop_all)
 from .errors import (
     CardError,
     ClusterBusy,
@@ -32,7 +32,7 @@ from .status import Status
 
 __all__ = [
     "Card", "CardError", "CardStart", "Cluster", "ClusterBusy", "ClusterStartError",
-    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "LockTimeout",
+    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "INPUT_KINDS", "INPUT_OPTIONS", "LockTimeout",
     "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
     "WaitTimeout", "stop_all",
 ]

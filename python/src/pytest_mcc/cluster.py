@@ -32,6 +32,10 @@ FAULT_KINDS = ("drop-sync", "drop-packets", "corrupt", "byte-violation", "overru
 DRILLS = ("freeze", "thaw", "kill", "restart")
 #: Options of a ring fault (``mcc fault --cycles/--probability/--seed/--delay``).
 FAULT_OPTIONS = ("cycles", "probability", "seed", "delay")
+#: A card's hardware stop inputs ``mcc fault CARD input KIND`` (README "Card inputs").
+INPUT_KINDS = ("abort", "feed-hold")
+#: Options of ``mcc fault CARD input KIND`` (``--cs N`` the FPD-selected C.S., ``--cycles N``).
+INPUT_OPTIONS = ("cs", "cycles")
 
 _LIVE: Dict[int, "Cluster"] = {}
 _LIVE_LOCK = threading.Lock()
@@ -421,7 +425,7 @@ class Cluster:
         if member not in self.members:
             raise UnknownChoice("member", member, self.members)
 
-    def fault(self, member: str, kind: str, **options: Any) -> str:
+    def fault(self, member: str, kind: str, *words: Any, **options: Any) -> str:
         """Inject ring fault ``kind`` on ``member``'s send path, or run a process drill
         (``mcc fault MEMBER KIND``).
 
@@ -430,7 +434,11 @@ class Cluster:
         :class:`UnknownChoice` at once, naming the valid ones. Returns mcc's message.
         """
         self._need_running()
+        if kind == "input":
+            return self._fault_input(member, words, options)
         self._check_member(member)
+        if words:
+            raise UnknownChoice(f"word after fault {kind!r}", words[0], [])
         if kind not in FAULT_KINDS + DRILLS:
             raise UnknownChoice("fault kind", kind, FAULT_KINDS + DRILLS)
         allowed = () if kind in DRILLS else FAULT_OPTIONS
@@ -445,6 +453,24 @@ class Cluster:
         if kind == "restart":
             self._remember_later()
         return out
+
+    def _fault_input(self, card: str, words: Sequence[Any], options: Dict[str, Any]) -> str:
+        """``fault(CARD, "input", KIND, cs=N, cycles=N)``: hold a card's stop input active
+        (:data:`INPUT_KINDS`) until :meth:`clear`, or for ``cycles`` ring cycles."""
+        assert self.initial_status is not None
+        cards = [c["name"] for c in self.initial_status["cards"]]
+        if card not in cards:
+            raise UnknownChoice("card", card, cards)
+        if len(words) != 1 or words[0] not in INPUT_KINDS:
+            raise UnknownChoice("card input", words[0] if words else None, INPUT_KINDS)
+        for k in options:
+            if k not in INPUT_OPTIONS:
+                raise UnknownChoice("option of fault 'input'", k, INPUT_OPTIONS)
+        args = ["fault", card, "input", str(words[0])]
+        for k in INPUT_OPTIONS:
+            if options.get(k) is not None:
+                args += [f"--{k}", str(options[k])]
+        return self._runner.run(args).stdout.strip()
 
     def _remember_later(self) -> None:
         try:
