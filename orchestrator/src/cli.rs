@@ -466,6 +466,10 @@ pub struct BenchFaultsArgs {
     /// Campaign: cards (each followed by its stations in the ring).
     #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=8))]
     pub cards: u8,
+    /// Card profiles, comma-separated, given to the cards in turn (`pmac2,turbo,power`
+    /// with `--cards 3`: a ring mixing all three; default every card pmac2).
+    #[arg(long, value_name = "LIST")]
+    pub profiles: Option<String>,
     /// Campaign: stations.
     #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=16))]
     pub stations: u8,
