@@ -136,8 +136,8 @@ impl CardCore {
     }
 
     /// Make hardware input `kind` active from ring cycle `cycle` (for `cycles` cycles, or
-    /// until [`inputs::CardInputs::clear`]); `select` is the C.S. the FPD lines select
-    /// (PMAC2/Turbo). See [`inputs`].
+    /// until `CardInputs::clear`); `select` is the C.S. the FPD lines select
+    /// (PMAC2/Turbo). See `core::inputs`.
     pub fn press_input(
         &mut self,
         kind: inputs::InputKind,

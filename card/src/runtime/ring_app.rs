@@ -319,7 +319,7 @@ impl RingApp for CardRingApp {
         std::mem::take(&mut self.reset_wanted)
     }
 
-    /// The card's application faults, by `family`: `input` ([`super::input_fault`]).
+    /// The card's application faults, by `family`: `input` (`runtime::input_fault`, [`crate::InputFaultRequest`]).
     fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
         match fault.get("family").and_then(|f| f.as_str()) {
             Some(super::input_fault::FAMILY) => {
@@ -336,7 +336,7 @@ impl RingApp for CardRingApp {
         self.runner.core.inputs.clear();
     }
 
-    /// `inputs`: the hardware stop inputs held active ([`crate::core::inputs`]).
+    /// `inputs`: the hardware stop inputs held active ([`crate::CardInputs`]).
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         let core = &self.runner.core;
         let mut m = serde_json::Map::new();
