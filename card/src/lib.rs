@@ -39,6 +39,7 @@ mod servo;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // reads the sources
 mod layering;
 
+pub use crate::core::inputs::{CardInputs, HeldInput, InputKind};
 pub use crate::core::rig::{self, LoopbackPlant, Rig};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, Profile};
@@ -55,6 +56,7 @@ pub use runtime::bench_servo::{
     run_servo_bench, run_servo_load_bench, PhaseTiming, ServoBenchReport, ServoLoadReport,
 };
 pub use runtime::cli::run_process;
+pub use runtime::input_fault::InputFaultRequest;
 pub use runtime::ring_app::CardRingApp;
 pub use runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};
 pub use runtime::startup::{ring_startup, wire_macro_motors, StartupError};

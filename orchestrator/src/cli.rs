@@ -224,7 +224,9 @@ pub struct FaultArgs {
     /// encoder-glitch (--value counts), load (--value N·m), jam, plus-limit-on,
     /// plus-limit-off, plus-limit-chatter, minus-limit-on, minus-limit-off,
     /// minus-limit-chatter, home-on, home-off, home-chatter; `STATION power-loss` faults every
-    /// amplifier of the station.
+    /// amplifier of the station. Input kinds: abort, feed-hold — the JPAN STOP/ and HOLD/
+    /// inputs of a PMAC2/Turbo card, the global abort input of a Power card; held until
+    /// cleared or for --cycles N.
     #[arg(num_args = 1..=4, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
@@ -242,6 +244,10 @@ pub struct FaultArgs {
     /// Amount of an application fault (counts of an encoder glitch, a load, ...).
     #[arg(long, value_name = "V", allow_negative_numbers = true)]
     pub value: Option<f64>,
+    /// `CARD input KIND` on a PMAC2/Turbo card: the C.S. the FPD select lines choose
+    /// (0 = none; default 1).
+    #[arg(long, value_name = "N")]
+    pub cs: Option<u16>,
 }
 
 /// `mcc start-sync`.
@@ -465,6 +471,10 @@ pub struct BenchFaultsArgs {
     /// Campaign: cards (each followed by its stations in the ring).
     #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=8))]
     pub cards: u8,
+    /// Card profiles, comma-separated, given to the cards in turn (`pmac2,turbo,power`
+    /// with `--cards 3`: a ring mixing all three; default every card pmac2).
+    #[arg(long, value_name = "LIST")]
+    pub profiles: Option<String>,
     /// Campaign: stations.
     #[arg(long, value_name = "M", default_value_t = 2, value_parser = clap::value_parser!(u8).range(0..=16))]
     pub stations: u8,

@@ -34,6 +34,34 @@ pub const FAULT_KINDS: &[&str] = &[
 /// Process drills (`freeze` = SIGSTOP, `thaw`, `kill`, `restart`).
 pub const DRILLS: &[&str] = &["freeze", "thaw", "kill", "restart"];
 
+/// A card's hardware stop inputs `mcc fault CARD input KIND` (README "Card inputs").
+pub const INPUT_KINDS: &[&str] = &["abort", "feed-hold"];
+
+/// `mcc fault CARD input KIND [--cs N] [--cycles N]` arguments, every word checked first:
+/// `cards` are the cluster's card members.
+fn input_fault_args(
+    cards: &[String],
+    card: &str,
+    kind: &str,
+    cs: Option<u16>,
+    cycles: Option<u64>,
+) -> Result<Vec<String>> {
+    if !cards.iter().any(|c| c == card) {
+        return Err(Error::unknown("card", card, cards));
+    }
+    if !INPUT_KINDS.contains(&kind) {
+        return Err(Error::unknown("card input", kind, INPUT_KINDS));
+    }
+    let mut args: Vec<String> = ["fault", card, "input", kind].map(String::from).to_vec();
+    if let Some(n) = cs {
+        args.extend(["--cs".into(), n.to_string()]);
+    }
+    if let Some(n) = cycles {
+        args.extend(["--cycles".into(), n.to_string()]);
+    }
+    Ok(args)
+}
+
 /// Options of a ring fault (`mcc fault --cycles/--probability/--seed/--delay`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FaultOptions {
@@ -788,6 +816,28 @@ impl Cluster {
         Ok(out.trim().to_string())
     }
 
+    /// Hold card `card`'s stop input `kind` ([`INPUT_KINDS`]) active (`mcc fault CARD input
+    /// KIND`): on PMAC2/Turbo for the C.S. `cs` the FPD lines select (default 1), until
+    /// [`Cluster::clear`] or for `cycles` ring cycles. Unknown cards and kinds are refused at
+    /// once with the valid choices.
+    pub fn input_fault(
+        &self,
+        card: &str,
+        kind: &str,
+        cs: Option<u16>,
+        cycles: Option<u64>,
+    ) -> Result<String> {
+        let cards: Vec<String> = self.initial.0["cards"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|c| c["name"].as_str().map(str::to_string))
+            .collect();
+        let args = input_fault_args(&cards, card, kind, cs, cycles)?;
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        Ok(self.runner.run(&args)?.trim().to_string())
+    }
+
     /// Remove injected faults (`mcc fault clear [MEMBER]`).
     pub fn clear(&self, member: Option<&str>) -> Result<String> {
         let mut args = vec!["fault", "clear"];
@@ -1041,6 +1091,22 @@ master = 0
             cards[1]["ivars"].to_string(),
             "{ I1001 = 16, I1004 = 2, I1005 = 4 }"
         );
+    }
+
+    #[test]
+    fn input_faults_check_every_word_and_name_the_choices() {
+        let cards = ["card0".to_string(), "card1".to_string()];
+        assert_eq!(
+            input_fault_args(&cards, "card1", "abort", Some(2), Some(50)).unwrap(),
+            ["fault", "card1", "input", "abort", "--cs", "2", "--cycles", "50"]
+        );
+        let e = input_fault_args(&cards, "card0", "estop", None, None).unwrap_err();
+        assert!(
+            e.to_string().contains("estop") && e.to_string().contains("feed-hold"),
+            "{e}"
+        );
+        let e = input_fault_args(&cards, "station0", "abort", None, None).unwrap_err();
+        assert!(e.to_string().contains("card0, card1"), "{e}");
     }
 
     #[test]

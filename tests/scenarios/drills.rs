@@ -201,6 +201,7 @@ fn restart(c: &mut Cluster, member: &str) {
 /// Recovery as a PMAC user does it (`mcc_testing::Cluster::reset`: clear, then `$$$` on
 /// every card and the members' latches until the ring is healthy), then motion again.
 fn recover(c: &mut Cluster, setups: Setups) {
+    let all: Vec<String> = (0..setups.len()).map(|n| n.to_string()).collect();
     if let Err(e) = c.clear(None) {
         panic!("fault clear: {e}");
     }
@@ -214,10 +215,10 @@ fn recover(c: &mut Cluster, setups: Setups) {
             .all(|c| c["ring_fault"] == false)
     });
     // Motion can be commanded again.
-    for (n, lines) in setups.iter().enumerate() {
+    for (n, (_, lines)) in setups.iter().enumerate() {
         setup(c, n as u8, lines);
     }
-    let o = start_sync(c, "0,1", 1);
+    let o = start_sync(c, &all.join(","), 1);
     let t = o[0]["cycle"].as_u64().unwrap();
     assert!(o[0]["cards"]
         .as_array()
@@ -239,33 +240,65 @@ fn fault_drills(tag: &str, clock: Option<&str>) {
 
 /// The fault drills on the ring `b` starts (2 cards + 2 stations).
 pub(crate) fn fault_drills_on(b: Builder) {
-    fault_drills_with(b, [SETUP, SETUP]);
+    fault_drills_with(b, &[("pmac2", SETUP), ("pmac2", SETUP)]);
 }
 
-/// The set-up lines of card 0 and card 1, each in its card's language.
-pub(crate) type Setups<'a> = [&'a [&'a str]; 2];
+/// Per card (card k is number k, `cardk`, followed by `stationk` in the ring): its profile and
+/// its set-up lines in its own language (a Power card takes Power syntax on the daisy chain).
+pub(crate) type Setups<'a> = &'a [(&'a str, &'a [&'a str])];
 
-/// [`fault_drills_on`] with each card's own set-up lines (a Power card takes Power syntax on
-/// the daisy chain); every card starts `&1b1r` after each recovery.
+fn names(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// The host-visible ring-fault bit of every latched card whose profile prints one
+/// ([`mcc_ring::expect_card::ring_fault_effect`]: `???` word 1 bit 4 on PMAC2 and Turbo).
+fn latch_bits(c: &Cluster, setups: Setups, latched: &[String]) {
+    use mcc_ring::expect_card::{ring_fault_effect, CardProfile};
+    for (n, (profile, _)) in setups.iter().enumerate() {
+        if !latched.contains(&format!("card{n}")) {
+            continue;
+        }
+        let p = CardProfile::parse(profile).expect("a card profile");
+        if let Some(rb) = ring_fault_effect(p).latch {
+            let r = c.send(&[rb.query], Some(n as u8)).expect("latch read-back");
+            assert_ne!(
+                rb.bits(&r[0]),
+                Some(0),
+                "card{n} ({profile}): {} = {r:?}",
+                rb.query
+            );
+            assert!(rb.bits(&r[0]).is_some(), "card{n}: {r:?}");
+        }
+    }
+}
+
+/// [`fault_drills_on`] with each card's profile and set-up lines; every card starts `&1b1r`
+/// after each recovery. Which cards must latch: every card but a dead or frozen target
+/// (what `mcc_ring::expect` says of these drills on a ring of cards and stations).
 pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
     let mut c = b.start().unwrap_or_else(|e| panic!("cluster up: {e}"));
-    for (n, lines) in setups.iter().enumerate() {
+    for (n, (_, lines)) in setups.iter().enumerate() {
         setup(&c, n as u8, lines);
     }
+    let cards: Vec<String> = (0..setups.len()).map(|n| format!("card{n}")).collect();
+    let but = |x: &str| -> Vec<String> { cards.iter().filter(|c| *c != x).cloned().collect() };
+
     drill(
         &mut c,
         &["station0", "cut"],
         "station0 → card1",
         "card1",
-        &["card0", "card1"],
+        &names(&cards),
     );
+    latch_bits(&c, setups, &cards);
     recover(&mut c, setups);
     drill(
         &mut c,
         &["station0", "drop-sync"],
         "station0 → card1",
         "card1",
-        &["card0", "card1"],
+        &names(&cards),
     );
     recover(&mut c, setups);
     drill(
@@ -273,8 +306,9 @@ pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
         &["station0", "kill"],
         "station0 → card1",
         "card1",
-        &["card0", "card1"],
+        &names(&cards),
     );
+    latch_bits(&c, setups, &cards);
     restart(&mut c, "station0");
     recover(&mut c, setups);
     drill(
@@ -282,7 +316,7 @@ pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
         &["card1", "freeze"],
         "card1 → station1",
         "station1",
-        &["card0"],
+        &names(&but("card1")),
     );
     // A thawed member whose zenoh session expired leaves; restart brings it back.
     restart(&mut c, "card1");
@@ -295,8 +329,9 @@ pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
         &["card0", "kill"],
         "card0 → station0",
         "station0",
-        &["card1"],
+        &names(&but("card0")),
     );
+    latch_bits(&c, setups, &but("card0"));
     restart(&mut c, "card0");
     recover(&mut c, setups);
     drill(
@@ -304,10 +339,32 @@ pub(crate) fn fault_drills_with(b: Builder, setups: Setups) {
         &["card0", "freeze"],
         "card0 → station0",
         "station0",
-        &["card1"],
+        &names(&but("card0")),
     );
     restart(&mut c, "card0");
     recover(&mut c, setups);
+}
+
+/// Issue 23 item 1: the same drills on a ring mixing all three profiles (card0 PMAC2 sync
+/// master, card1 Turbo, card2 Power, each followed by a station): every card latches as the
+/// rules say, PMAC2 and Turbo show `???` word 1 bit 4, every card's motors are killed, and
+/// the ring recovers with `$$$` on each.
+#[test]
+fn ring_faults_on_a_ring_mixing_all_three_profiles() {
+    let b = builder("mixfaults")
+        .clock("lockstep")
+        .cards(3)
+        .stations(3)
+        .card_profile(1, "turbo")
+        .card_profile(2, "power");
+    fault_drills_with(
+        b,
+        &[
+            ("pmac2", SETUP),
+            ("turbo", SETUP),
+            ("power", crate::power_ring::POWER_SETUP),
+        ],
+    );
 }
 
 #[test]

@@ -3,6 +3,7 @@
 mod axis_cli;
 mod axis_faults;
 mod busy_ports;
+mod card_inputs;
 mod chain;
 mod cluster;
 mod drills;

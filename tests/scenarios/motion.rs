@@ -90,6 +90,31 @@ impl Rig {
         r
     }
 
+    /// Run one line in Power syntax on a Power card (its gpascii dialect, as a gpascii
+    /// thread would): the reply without framing characters.
+    pub(crate) fn power(&mut self, line: &str) -> String {
+        let App::Card(a) = self.sim.app_mut(0) else {
+            panic!("member 0 is the card")
+        };
+        let core = a.core();
+        let p = core.power.as_mut().expect("a Power card");
+        let r = p.line(&mut core.card, 7, line.as_bytes());
+        String::from_utf8_lossy(&r)
+            .trim_matches(|c: char| c.is_control() || c.is_whitespace())
+            .to_string()
+    }
+
+    /// The value a Power card answers for one element (`Motor[1].Status[0]=$…`).
+    pub(crate) fn power_value(&mut self, elem: &str) -> u64 {
+        let r = self.power(elem);
+        let v = r.rsplit('=').next().unwrap_or_default();
+        let v = match v.strip_prefix('$') {
+            Some(h) => u64::from_str_radix(h, 16),
+            None => v.parse(),
+        };
+        v.unwrap_or_else(|_| panic!("{elem}: not a number: {r:?}"))
+    }
+
     pub(crate) fn num(&mut self, line: &str) -> f64 {
         let r = self.cmd(line);
         r.parse()

@@ -139,7 +139,7 @@ fn power_sync_master_drives_its_nodes_beside_a_pmac2_card() {
 
 /// The program every card starts in the drills, in Power syntax for the Power card (card0);
 /// the PMAC2 card takes the drills' own PMAC set-up.
-const POWER_SETUP: &[&str] = &["&1#1->1000X", "#1j/", "open prog 1", "dwell 1", "close"];
+pub(crate) const POWER_SETUP: &[&str] = &["&1#1->1000X", "#1j/", "open prog 1", "dwell 1", "close"];
 
 /// The fault drills of an all-PMAC2 ring on the mixed ring (issue 13 item 6): every cut,
 /// dropped sync packet, kill and freeze is latched by every card the drill expects — the Power
@@ -149,7 +149,10 @@ const POWER_SETUP: &[&str] = &["&1#1->1000X", "#1j/", "open prog 1", "dwell 1", 
 /// `a_power_sync_master_latches_its_ring_fault_on_loss_of_light`.)
 #[test]
 fn power_sync_master_ring_faults_are_detected_localised_and_recovered() {
-    crate::drills::fault_drills_with(mixed_ring("pwrfault"), [POWER_SETUP, crate::drills::SETUP]);
+    crate::drills::fault_drills_with(
+        mixed_ring("pwrfault"),
+        &[("power", POWER_SETUP), ("pmac2", crate::drills::SETUP)],
+    );
 }
 
 /// Issue 13 item 6: the daisy chain reaches a Power card with Power syntax (`@0`): element

@@ -8,6 +8,9 @@
 //! One card + one station on the deterministic lockstep ring; commands go in through the
 //! card's PMAC interpreter (on a Power card the model the Power dialect shares; its Power
 //! syntax on this path is `power_ring::power_sync_master_ring_faults_are_detected_localised_and_recovered`).
+//! After the reset motor 1 closes again on every profile — on a Power card `#1j/` in Power
+//! syntax: its `Motor[1]` is the model's second motor block (`Motor[0]` is no servo motor), so
+//! the PMAC path's `#1J/` would address `Motor[0]`.
 
 use mcc_card::Profile;
 use mcc_ring::config::ClusterConfig;
@@ -39,6 +42,16 @@ fn killed(rig: &mut Rig, n: usize) -> bool {
         .all(|m| m.open_loop && !m.amp_enabled)
 }
 
+/// Close motors 1 and 2 in the card's own syntax (Power: `Motor[1]`, `Motor[2]` over the
+/// gpascii dialect; PMAC2/Turbo: `#1J/ #2J/`).
+fn close_motors(rig: &mut Rig, profile: Profile) {
+    if profile == Profile::Power {
+        assert_eq!(rig.power("#1j/ #2j/"), "", "Power jog-stop");
+    } else {
+        rig.cmd("#1J/ #2J/");
+    }
+}
+
 fn cut_is_latched_killed_and_recovered(profile: Profile, name: &str, keys: [&str; 3]) {
     let cfg = config(name);
     let c = &cfg.cards[0];
@@ -60,7 +73,7 @@ fn cut_is_latched_killed_and_recovered(profile: Profile, name: &str, keys: [&str
         .collect();
     assert_eq!(vals, [16.0, 2.0, 4.0], "{name}: the card's check variables");
     rig.run(200);
-    rig.cmd("#1J/ #2J/");
+    close_motors(&mut rig, profile);
     rig.run(100);
     assert!(!ring_fault(&mut rig), "{name}: healthy ring");
     assert!(!killed(&mut rig, 2), "{name}: motors 1 and 2 closed");
@@ -95,14 +108,26 @@ fn cut_is_latched_killed_and_recovered(profile: Profile, name: &str, keys: [&str
     rig.cmd("I3=2 I6=1");
     rig.run(200);
     assert!(!ring_fault(&mut rig), "{name}: `$$$` clears the latch");
-    if profile != Profile::Power {
-        // (A Power card's motors are re-activated by its start-up layer in Power syntax after
-        // its own `$$$`: shown over gpascii by the power_ring drills, not on this PMAC path.)
-        rig.cmd("#1J/");
-        rig.run(100);
-        assert!(
-            !killed(&mut rig, 1),
-            "{name}: motor 1 closes after the reset"
+    // Motor 1 of the card (a Power card's `Motor[1]`: the model's second block, `Motor[0]`
+    // is no servo motor) closes again when commanded, in the card's own syntax.
+    close_motors(&mut rig, profile);
+    rig.run(100);
+    let m1 = usize::from(profile == Profile::Power);
+    let m = &rig.card().state.motors[m1];
+    assert!(
+        !m.open_loop && m.amp_enabled,
+        "{name}: motor 1 closes after the reset: {m:?}"
+    );
+    if profile == Profile::Power {
+        // Motor[1].Status[0]: bit 13 closed loop, bit 12 amplifier enabled.
+        let w = rig.power_value("Motor[1].Status[0]");
+        assert_eq!(w & 0x3000, 0x3000, "{name}: Motor[1].Status[0] = ${w:X}");
+    } else {
+        let (w1, _) = rig.status(1);
+        assert_eq!(
+            w1 & (1 << 18),
+            0,
+            "{name}: ? word 1 bit 18 (open loop) clear"
         );
     }
     rig.run(100);

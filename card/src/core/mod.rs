@@ -5,6 +5,7 @@
 //! runtime's servo thread calls [`CardCore::serve`] with a work budget between ticks, so host
 //! lines of any size are served in bounded slices and never delay a tick.
 
+pub(crate) mod inputs;
 pub mod rig;
 
 #[cfg(test)]
@@ -93,6 +94,8 @@ pub struct CardCore {
     pub load_error: Option<String>,
     /// The Power PMAC dialect (a `power` card): it answers every host line.
     pub power: Option<Power>,
+    /// The hardware stop inputs (abort, feed hold) held active.
+    pub inputs: inputs::CardInputs,
 }
 
 /// Why a loaded image is refused (`None`: it is good, or there is none).
@@ -128,7 +131,23 @@ impl CardCore {
             next_effect: 1,
             clock: 0,
             load_error: None,
+            inputs: inputs::CardInputs::default(),
         }
+    }
+
+    /// Make hardware input `kind` active from ring cycle `cycle` (for `cycles` cycles, or
+    /// until `CardInputs::clear`); `select` is the C.S. the FPD lines select
+    /// (PMAC2/Turbo). See `core::inputs`.
+    pub fn press_input(
+        &mut self,
+        kind: inputs::InputKind,
+        select: u16,
+        cycle: u64,
+        cycles: Option<u64>,
+    ) -> Result<String, String> {
+        let (profile, coords) = (self.card.profile(), self.card.state.limits().coords);
+        self.inputs
+            .press(profile, coords, kind, select, cycle, cycles)
     }
 
     /// Queue request `token` of connection `conn`. [`HostRequest::More`] resumes the
@@ -440,6 +459,7 @@ impl CardCore {
 
     /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the card's language).
     pub fn tick(&mut self, cycle: u64) {
+        self.inputs.before_tick(&mut self.card.model, cycle);
         if let Some(p) = self.power.as_mut() {
             // A Power card's programs issue `cmd"…"` in Power syntax: its dialect runs them.
             let mut q = crate::lang::ppmac::CmdQueue::default();
@@ -449,6 +469,8 @@ impl CardCore {
             let (model, mut cmds) = self.card.split();
             self.servo.tick(model, &mut cmds, cycle);
         }
+        self.inputs
+            .after_tick(&mut self.card.model, &self.servo.motors);
         self.collect_detached();
     }
 }

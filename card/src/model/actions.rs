@@ -58,6 +58,9 @@ pub enum ActionKind {
     StopAtEnd,
     /// Abort: decelerate the C.S.'s motors at Ix15 (`A`).
     Abort,
+    /// Abort the one motor `motor` (Ix15 deceleration): a Power card's global abort input for
+    /// a motor in no C.S. (`Coord[0].AbortAllMode`).
+    AbortMotor,
     /// Feed hold (`H`).
     Hold,
     /// Hold allowing jogs (`\`).

@@ -577,7 +577,11 @@ impl Motor {
             self.limit_stop = false;
             self.flags.abort_decel = false;
         }
-        if self.flags.abort_decel && self.traj.finished() {
+        // A C.S. abort decelerates the program's own path: the motor follows its setpoints
+        // (its trajectory holds each one), and the bit stays until they stop (seed 6805:
+        // "until the commanded deceleration to zero velocity finishes").
+        let program_moving = self.on_program && self.cmd_vel != 0.0;
+        if self.flags.abort_decel && self.traj.finished() && !program_moving {
             self.flags.abort_decel = false;
         }
         dac

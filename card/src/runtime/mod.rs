@@ -6,6 +6,7 @@
 
 pub(crate) mod bench_servo;
 pub(crate) mod cli;
+pub(crate) mod input_fault;
 pub(crate) mod ring_app;
 pub(crate) mod standalone;
 pub(crate) mod startup;

@@ -64,6 +64,8 @@ pub struct CardRingApp {
     resets_seen: u64,
     /// The ring settings the card and its ring core last agreed on (`None`: not yet).
     ring_vars: Option<RingVars>,
+    /// The last ring cycle ticked (application faults start at the next one).
+    last_cycle: u64,
     /// Host ports, queryables and their runtime: they live as long as the app.
     _resources: Vec<Box<dyn std::any::Any>>,
 }
@@ -142,6 +144,7 @@ impl CardRingApp {
             reset_wanted: false,
             stall: std::time::Duration::from_millis(25),
             ring_vars: None,
+            last_cycle: 0,
         }
     }
 
@@ -265,6 +268,7 @@ impl RingApp for CardRingApp {
     }
 
     fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
+        self.last_cycle = cycle;
         self.runner.sync_tick_start(cycle, self.stall);
         let card = &mut self.runner.core.card;
         if self.reported && !card.state.global.ring_fault {
@@ -313,6 +317,31 @@ impl RingApp for CardRingApp {
 
     fn take_ring_reset(&mut self) -> bool {
         std::mem::take(&mut self.reset_wanted)
+    }
+
+    /// The card's application faults, by `family`: `input` (`runtime::input_fault`, [`crate::InputFaultRequest`]).
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        match fault.get("family").and_then(|f| f.as_str()) {
+            Some(super::input_fault::FAMILY) => {
+                super::input_fault::apply(&mut self.runner.core, fault, self.last_cycle + 1)
+            }
+            f => Err(format!(
+                "a card has no {f:?} faults (families: {})",
+                super::input_fault::FAMILY
+            )),
+        }
+    }
+
+    fn clear_app_faults(&mut self) {
+        self.runner.core.inputs.clear();
+    }
+
+    /// `inputs`: the hardware stop inputs held active ([`crate::CardInputs`]).
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        let core = &self.runner.core;
+        let mut m = serde_json::Map::new();
+        m.insert("inputs".into(), core.inputs.status(core.card.profile()));
+        m
     }
 }
 

@@ -40,6 +40,7 @@ pub(super) fn apply_action(
         ActionKind::KillAll => (all, Some(MotorCommand::Kill)),
         c => match c {
             ActionKind::Abort => (card.run.motors_in(a.coord), Some(MotorCommand::Abort)),
+            ActionKind::AbortMotor => (vec![a.motor], Some(MotorCommand::Abort)),
             ActionKind::Kill => (vec![a.motor], Some(MotorCommand::Kill)),
             ActionKind::Enable => (vec![a.motor], Some(MotorCommand::Enable)),
             ActionKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),

@@ -192,6 +192,10 @@ pub struct CardRow {
     /// Why the card's state file was refused at start-up (it started from factory defaults;
     /// the file was kept aside), `null` when it loaded or there was none.
     pub state_file_error: Option<String>,
+    /// Hardware stop inputs held active (`mcc fault CARD input KIND`): each with `kind`,
+    /// `since`, `until` (cycles) and on PMAC2/Turbo the FPD `select`; a Power card also
+    /// reports `abort_all_count` (`Sys.AbortAllCount`). `null` when the card did not answer.
+    pub inputs: Option<serde_json::Value>,
 }
 
 /// One station.
@@ -457,6 +461,7 @@ pub fn build(
                     .and_then(|s| s.extra.get("state_file_error"))
                     .and_then(|v| v.as_str())
                     .map(str::to_string),
+                inputs: s.and_then(|s| s.extra.get("inputs")).cloned(),
             }
         })
         .collect();
@@ -551,6 +556,16 @@ fn card_state_text(c: &CardRow) -> String {
     }
     if let Some(p) = c.program_start_cycle {
         let _ = write!(t, "  program start @cycle {p}");
+    }
+    let held = c.inputs.as_ref().and_then(|i| i["held"].as_array());
+    for h in held.into_iter().flatten() {
+        let _ = write!(t, "  INPUT {}", h["kind"].as_str().unwrap_or("?"));
+        if let Some(cs) = h["select"].as_u64() {
+            let _ = write!(t, " (C.S. {cs})");
+        }
+        if let Some(u) = h["until"].as_u64() {
+            let _ = write!(t, " until cycle {u}");
+        }
     }
     t
 }

@@ -33,6 +33,10 @@ FAULT_KINDS = ("drop-sync", "drop-packets", "corrupt", "byte-violation", "overru
 DRILLS = ("freeze", "thaw", "kill", "restart")
 #: Options of a ring fault (``mcc fault --cycles/--probability/--seed/--delay``).
 FAULT_OPTIONS = ("cycles", "probability", "seed", "delay")
+#: A card's hardware stop inputs ``mcc fault CARD input KIND`` (README "Card inputs").
+INPUT_KINDS = ("abort", "feed-hold")
+#: Options of ``mcc fault CARD input KIND`` (``--cs N`` the FPD-selected C.S., ``--cycles N``).
+INPUT_OPTIONS = ("cs", "cycles")
 
 _LIVE: Dict[int, "Cluster"] = {}
 _LIVE_LOCK = threading.Lock()
@@ -434,6 +438,8 @@ class Cluster:
         :class:`UnknownChoice` at once, naming the valid ones. Returns mcc's message.
         """
         self._need_running()
+        if kind == "input":
+            return self._fault_input(member, words, options)
         self._check_member(member)
         if kind in ("axis", "power-loss"):
             return self._axis_fault(member, kind, words, options)
@@ -459,6 +465,24 @@ class Cluster:
         assert self.initial_status is not None
         build = axismod.axis_args if kind == "axis" else axismod.power_loss_args
         args = build(self.initial_status, station, words, options)
+        return self._runner.run(args).stdout.strip()
+
+    def _fault_input(self, card: str, words: Sequence[Any], options: Dict[str, Any]) -> str:
+        """``fault(CARD, "input", KIND, cs=N, cycles=N)``: hold a card's stop input active
+        (:data:`INPUT_KINDS`) until :meth:`clear`, or for ``cycles`` ring cycles."""
+        assert self.initial_status is not None
+        cards = [c["name"] for c in self.initial_status["cards"]]
+        if card not in cards:
+            raise UnknownChoice("card", card, cards)
+        if len(words) != 1 or words[0] not in INPUT_KINDS:
+            raise UnknownChoice("card input", words[0] if words else None, INPUT_KINDS)
+        for k in options:
+            if k not in INPUT_OPTIONS:
+                raise UnknownChoice("option of fault 'input'", k, INPUT_OPTIONS)
+        args = ["fault", card, "input", str(words[0])]
+        for k in INPUT_OPTIONS:
+            if options.get(k) is not None:
+                args += [f"--{k}", str(options[k])]
         return self._runner.run(args).stdout.strip()
 
     def _remember_later(self) -> None:

@@ -18,6 +18,7 @@ pub mod check;
 pub mod control;
 pub mod core;
 pub mod expect;
+pub mod expect_card;
 pub mod fault;
 pub mod frame;
 pub mod holdover;

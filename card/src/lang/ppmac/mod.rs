@@ -14,6 +14,7 @@
 //! from the seed's catalogue (`catalog`); elements without a model equivalent keep their
 //! values here.
 
+pub(crate) mod abort_all;
 mod backup;
 mod catalog;
 mod elements;

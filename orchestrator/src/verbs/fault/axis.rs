@@ -112,6 +112,7 @@ mod tests {
             seed: None,
             delay: None,
             value,
+            cs: None,
         }
     }
 

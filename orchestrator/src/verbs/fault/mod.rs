@@ -168,6 +168,7 @@ mod tests {
             seed: Some(7),
             delay,
             value: None,
+            cs: None,
         }
     }
 

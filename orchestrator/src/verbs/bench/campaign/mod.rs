@@ -10,6 +10,10 @@
 //!   latched dropped its amplifiers in the latching cycle; after clear (+ restart) and the
 //!   usual reset (`$$$`, latch reset) program 2 ends at the same position as before the
 //!   campaign on every card;
+//! - a card's abort input (`input`, cards only; `--profiles` mixes PMAC2, Turbo and Power
+//!   cards) latches nothing on the ring; the card's C.S. 1 program stops and motor 1 stays
+//!   closed as its profile's expectation says ([`mcc_ring::expect_card`]); `mcc status`
+//!   shows the input; after the clear and the usual recovery program 2 ends where it did;
 //! - a fault below the thresholds (a burst no check can trip on, `delay-us`) latches nothing
 //!   and kills no motor. (A SIGSTOP of any length is no tolerated stall: a stopped process is
 //!   a fact the member downstream sees as loss of light, see the README's Clocks.)
@@ -49,6 +53,18 @@ pub fn run(args: &BenchFaultsArgs, n: u64) -> Result<()> {
     cfg.cluster = format!("bench-campaign-{}", std::process::id());
     cfg.clock = clock;
     cfg.drives.clear();
+    if let Some(list) = &args.profiles {
+        let profiles: Vec<&str> = list.split(',').map(str::trim).collect();
+        for (k, c) in cfg.cards.iter_mut().enumerate() {
+            let p = profiles[k % profiles.len()];
+            if mcc_ring::expect_card::CardProfile::parse(p).is_none() {
+                bail!("--profiles: unknown profile {p:?} (pmac2, turbo, power)");
+            }
+            c.profile = p.to_string();
+            // The ring check in the profile's own keys (filled in at resolve).
+            c.ivars.clear();
+        }
+    }
     let opts = PlanOptions {
         below_share: 0.4,
         kinds,
@@ -224,6 +240,11 @@ fn one(
         }
         Action::Restart => {
             sup.restart(&target)?;
+        }
+        Action::Input => {
+            let r = judge_input(&s, cfg, p, &before, o);
+            recover(sup, cfg, p, reference, &mut o.violations)?;
+            return r;
         }
     }
     if p.sustained() {
@@ -471,6 +492,19 @@ fn judge_detection(
                 .violations
                 .push(format!("{} did not report its motors", c.name)),
         }
+        // The profile's own latch bit, as its host reads it ([`mcc_ring::expect_card`]).
+        let profile = mcc_ring::expect_card::CardProfile::parse(&c.profile);
+        let latch = profile.and_then(|p| mcc_ring::expect_card::ring_fault_effect(p).latch);
+        if let Some(rb) = latch {
+            match motion::send(s, cfg, c.number, rb.query) {
+                Ok(r) if rb.bits(&r).is_some_and(|b| b != 0) => {}
+                Ok(r) => o.violations.push(format!(
+                    "{} ({}) latched a ring fault but {} answers {r:?}",
+                    c.name, c.profile, rb.query
+                )),
+                Err(e) => o.violations.push(format!("{}: {e:#}", c.name)),
+            }
+        }
     }
     for (i, member) in cfg.ring.order.iter().enumerate() {
         if !matches!(cfg.member(member), Some(MemberRef::Station(_)))
@@ -491,6 +525,57 @@ fn judge_detection(
             ));
         }
     }
+}
+
+/// A card's abort input: the card stops its C.S. 1 program with motor 1 closed as its
+/// profile's [`mcc_ring::expect_card::abort_input_effect`] says, its status shows the input,
+/// and the ring latches nothing ([`judge_quiet`]). The recovery clears the input.
+fn judge_input(
+    s: &zenoh::Session,
+    cfg: &ClusterConfig,
+    p: &Planned,
+    before: &Snapshot,
+    o: &mut Outcome,
+) -> Result<()> {
+    use mcc_ring::expect_card::{abort_input_effect, CardProfile};
+    let target = name(cfg, p.target).to_string();
+    let Some(card) = cfg.cards.iter().find(|c| c.name == target) else {
+        bail!("{target} is not a card");
+    };
+    let profile = CardProfile::parse(&card.profile).unwrap_or(CardProfile::Pmac2);
+    let eff = abort_input_effect(profile);
+    for line in eff.wiring {
+        motion::send(s, cfg, card.number, line)?;
+    }
+    let fault = serde_json::json!({"family": "input", "kind": "abort", "select": 1});
+    fault_request(s, cfg, &target, &FaultRequest::App { fault })?;
+    // Ix15 deceleration from F20 takes ~200 cycles.
+    observe::wait_cycles(s, cfg, 400, Duration::from_secs(30))?;
+    let passes = motion::number(s, cfg, card.number, "P101")?;
+    observe::wait_cycles(s, cfg, 600, Duration::from_secs(30))?;
+    if eff.aborts_program && motion::number(s, cfg, card.number, "P101")? != passes {
+        o.violations.push(format!(
+            "{target}: program 1 still runs after its abort input"
+        ));
+    }
+    let reply = motion::send(s, cfg, card.number, eff.motor1.query)?;
+    if eff.motor1.bits(&reply) != Some(eff.closed_value) {
+        o.violations.push(format!(
+            "{target} ({}): motor 1 not closed after the abort input: {} answered {reply:?}",
+            card.profile, eff.motor1.query
+        ));
+    }
+    let snap = observe::snapshot(s, cfg);
+    let held = snap
+        .member(p.target)
+        .and_then(|m| m.extra.get("inputs"))
+        .and_then(|i| i["held"].as_array().map(Vec::len));
+    if held != Some(1) {
+        o.violations.push(format!(
+            "{target}: mcc status does not show the input ({held:?})"
+        ));
+    }
+    judge_quiet(s, cfg, p, before, o)
 }
 
 /// A fault below the thresholds: once it is over and the ring has run three check periods,

@@ -1,7 +1,9 @@
 //! The motion the campaign keeps running on every card: program 1 moves motor 1 back and forth
 //! for ever (counting its passes in P101); program 2 is a finite move list ending at a fixed
 //! point (it sets P100 = 1 when done), run once before the campaign to get each card's end
-//! position and again after every recovery, which must end at the same position.
+//! position and again after every recovery, which must end at the same position. Power
+//! cards get the same programs in Power syntax ([`POWER_SETUP`]) and are read in their own
+//! status format (`#1?`: `Motor[1].Status[0..1]`, 8 hex digits each).
 
 use std::time::{Duration, Instant};
 
@@ -34,6 +36,35 @@ pub const SETUP: &[&str] = &[
     "#1J/",
 ];
 
+/// [`SETUP`] in Power syntax (`while (…) {…}`, lower-case commands).
+pub const POWER_SETUP: &[&str] = &[
+    "&1#1->1000X",
+    "open prog 1",
+    "linear abs ta20 ts0 f20",
+    "while (1 < 2) {",
+    "X2",
+    "X0",
+    "P101=P101+1",
+    "}",
+    "close",
+    "open prog 2",
+    "linear abs ta20 ts0 f20",
+    "X1",
+    "X3",
+    "X2.5",
+    "dwell 20",
+    "P100=1",
+    "close",
+    "#1j/",
+];
+
+/// Card `n` is a Power card.
+pub fn is_power(cfg: &ClusterConfig, n: u8) -> bool {
+    cfg.cards
+        .iter()
+        .any(|c| c.number == n && c.profile == "power")
+}
+
 /// How far program 2's end position may differ from the reference, counts.
 pub const END_TOLERANCE: f64 = 2.0;
 
@@ -42,7 +73,7 @@ pub const END_TOLERANCE: f64 = 2.0;
 pub fn send(s: &zenoh::Session, cfg: &ClusterConfig, number: u8, line: &str) -> Result<String> {
     let key = card_cmd_key(&cfg.cluster, u32::from(number));
     let r = query_text(s, &key, Some(line.to_string()), Duration::from_secs(5))?;
-    if r.contains('\x07') {
+    if r.contains('\x07') || r.contains(": error #") {
         bail!("card {number}: {line:?} answered {r:?}");
     }
     Ok(
@@ -54,7 +85,11 @@ pub fn send(s: &zenoh::Session, cfg: &ClusterConfig, number: u8, line: &str) -> 
 /// A numeric reply.
 pub fn number(s: &zenoh::Session, cfg: &ClusterConfig, n: u8, line: &str) -> Result<f64> {
     let r = send(s, cfg, n, line)?;
-    r.parse()
+    // A Power card names what it prints (`P100=1`).
+    r.rsplit('=')
+        .next()
+        .unwrap_or_default()
+        .parse()
         .map_err(|_| anyhow!("card {n}: {line:?} answered {r:?}, not a number"))
 }
 
@@ -82,7 +117,12 @@ pub fn setup(s: &zenoh::Session, cfg: &ClusterConfig) -> Result<()> {
         }
     }
     for c in &cfg.cards {
-        for line in SETUP {
+        let lines = if c.profile == "power" {
+            POWER_SETUP
+        } else {
+            SETUP
+        };
+        for line in lines {
             send(s, cfg, c.number, line)?;
         }
     }
@@ -98,7 +138,7 @@ pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) ->
         // The jog that closed the loop may still be under way (ring cycles are slow on a
         // loaded machine): wait for its move timer, then retry R for a while.
         let t0 = Instant::now();
-        while motor_word1(s, cfg, c.number)? & MOVE_TIMER != 0 {
+        while moving(s, cfg, c.number)? {
             if t0.elapsed() > timeout {
                 bail!("card {}: motor 1's jog did not end", c.number);
             }
@@ -106,7 +146,7 @@ pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) ->
         }
         let t0 = Instant::now();
         loop {
-            match send(s, cfg, c.number, "&1B2R") {
+            match send(s, cfg, c.number, "&1b2r") {
                 Ok(_) => break,
                 Err(e) if t0.elapsed() > Duration::from_secs(30) => {
                     let why = ["#1?", "#1P", "??", "???"]
@@ -149,30 +189,46 @@ pub fn run_to_end(s: &zenoh::Session, cfg: &ClusterConfig, timeout: Duration) ->
 /// `#1?` word 1 bit 17: move timer active.
 const MOVE_TIMER: u32 = 1 << 17;
 
-/// Motor 1's status words (`#1?`).
+/// Motor 1's status words (`#1?`: two 24-bit words, a Power card's two 32-bit ones).
 fn motor_words(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<[u32; 2]> {
     let r = send(s, cfg, n, "#1?")?;
+    let w = if is_power(cfg, n) { 8 } else { 6 };
     let word = |k: usize| {
-        r.get(6 * k..6 * k + 6)
+        r.get(w * k..w * k + w)
             .and_then(|w| u32::from_str_radix(w, 16).ok())
             .ok_or_else(|| anyhow!("card {n}: #1? answered {r:?}"))
     };
     Ok([word(0)?, word(1)?])
 }
 
-fn motor_word1(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<u32> {
-    Ok(motor_words(s, cfg, n)?[0])
+/// Power `Motor[x].Status[0]` bit 14: desired velocity zero; bit 11: in position.
+const POWER_DES_VEL_ZERO: u32 = 1 << 14;
+const POWER_IN_POS: u32 = 1 << 11;
+
+/// Motor 1's jog is still under way (PMAC: move timer; Power: desired velocity not zero).
+fn moving(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<bool> {
+    let w = motor_words(s, cfg, n)?[0];
+    Ok(if is_power(cfg, n) {
+        w & POWER_DES_VEL_ZERO == 0
+    } else {
+        w & MOVE_TIMER != 0
+    })
 }
 
-/// Motor 1 is in position (`#1?` second word, bit 0).
+/// Motor 1 is in position (`#1?` second word, bit 0; Power `Status[0]` bit 11).
 pub fn in_position(s: &zenoh::Session, cfg: &ClusterConfig, n: u8) -> Result<bool> {
-    Ok(motor_words(s, cfg, n)?[1] & 1 == 1)
+    let w = motor_words(s, cfg, n)?;
+    Ok(if is_power(cfg, n) {
+        w[0] & POWER_IN_POS != 0
+    } else {
+        w[1] & 1 == 1
+    })
 }
 
 /// Start program 1 (endless) on every card.
 pub fn start_endless(s: &zenoh::Session, cfg: &ClusterConfig) -> Result<()> {
     for c in &cfg.cards {
-        send(s, cfg, c.number, "&1B1R")?;
+        send(s, cfg, c.number, "&1b1r")?;
     }
     Ok(())
 }

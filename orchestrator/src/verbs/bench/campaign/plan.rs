@@ -37,10 +37,12 @@ pub enum Kind {
     Kill,
     /// `mcc fault MEMBER restart` on a running member (kill and start again at once).
     Restart,
+    /// A card's abort input (`mcc fault CARD input abort`), on cards only.
+    Input,
 }
 
 /// Every kind, in report order.
-pub const KINDS: [Kind; 12] = [
+pub const KINDS: [Kind; 13] = [
     Kind::DropSync,
     Kind::DropPackets,
     Kind::Corrupt,
@@ -53,6 +55,7 @@ pub const KINDS: [Kind; 12] = [
     Kind::Freeze,
     Kind::Kill,
     Kind::Restart,
+    Kind::Input,
 ];
 
 impl fmt::Display for Kind {
@@ -70,6 +73,7 @@ impl fmt::Display for Kind {
             Kind::Freeze => "freeze",
             Kind::Kill => "kill",
             Kind::Restart => "restart",
+            Kind::Input => "input",
         })
     }
 }
@@ -93,6 +97,8 @@ pub enum Action {
     Kill,
     /// Restart at once (the supervisor kills the process and starts a new one).
     Restart,
+    /// The card's abort input held active, C.S. 1 selected, until the recovery clears it.
+    Input,
 }
 
 /// One planned fault.
@@ -129,6 +135,7 @@ impl Planned {
             Action::Freeze => format!("freeze {who}"),
             Action::Kill => format!("kill {who}"),
             Action::Restart => format!("restart {who}"),
+            Action::Input => format!("abort input on {who}"),
         }
     }
 }
@@ -154,6 +161,9 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
     let mut order: Vec<Kind> = (0..n).map(|i| kinds[i % kinds.len()]).collect();
     order.shuffle(&mut rng);
     let members = model.members.len().max(1);
+    let cards: Vec<usize> = (0..model.members.len())
+        .filter(|&i| model.members[i].kind == mcc_ring::control::MemberKind::Card)
+        .collect();
     // Each kind visits the members in a shuffled round: every member (the sync master
     // included) gets every kind once the kind has been drawn as often as there are members.
     let mut rounds: std::collections::HashMap<Kind, (Vec<usize>, usize)> = Default::default();
@@ -166,8 +176,18 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                 *round = (0..members).collect();
                 round.shuffle(&mut rng);
             }
-            let target = round[*next % members];
+            let mut target = round[*next % members];
             *next += 1;
+            if kind == Kind::Input && !cards.contains(&target) {
+                // Inputs are a card's: the card upstream of the drawn station.
+                target = cards
+                    .iter()
+                    .copied()
+                    .filter(|&c| c <= target)
+                    .max()
+                    .or_else(|| cards.first().copied())
+                    .unwrap_or(0);
+            }
             let wait_ms = rng.random_range(0..=300);
             let below = rng.random_bool(opts.below_share.clamp(0.0, 1.0));
             let seed = rng.random::<u64>();
@@ -202,20 +222,23 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                 Kind::Freeze => Action::Freeze,
                 Kind::Kill => Action::Kill,
                 Kind::Restart => Action::Restart,
+                Kind::Input => Action::Input,
             };
             let what = match &action {
-                Action::Frames(s) => Disturbance::Frames {
+                Action::Frames(s) => Some(Disturbance::Frames {
                     kind: s.kind,
                     cycles: s.cycles,
-                },
-                Action::Freeze | Action::Kill | Action::Restart => Disturbance::Dark,
+                }),
+                Action::Freeze | Action::Kill | Action::Restart => Some(Disturbance::Dark),
+                // The ring does not see a card's input: nobody may latch.
+                Action::Input => None,
             };
             Planned {
                 index,
                 kind,
                 target,
                 wait_ms,
-                expect: model.expect(target, what),
+                expect: what.map_or_else(Expectation::default, |w| model.expect(target, w)),
                 action,
             }
         })
@@ -237,9 +260,9 @@ mod tests {
     #[test]
     fn a_plan_covers_every_kind_and_member_reproducibly() {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
-        let p = plan(&model, 240, 7, &opts());
-        assert_eq!(p, plan(&model, 240, 7, &opts()), "same seed, same plan");
-        assert_ne!(p, plan(&model, 240, 8, &opts()));
+        let p = plan(&model, 260, 7, &opts());
+        assert_eq!(p, plan(&model, 260, 7, &opts()), "same seed, same plan");
+        assert_ne!(p, plan(&model, 260, 8, &opts()));
         for k in KINDS {
             assert_eq!(p.iter().filter(|f| f.kind == k).count(), 20, "{k}");
             assert!(
@@ -254,6 +277,9 @@ mod tests {
         for f in &p {
             match (&f.action, f.kind) {
                 (Action::Kill | Action::Restart | Action::Freeze, _) => assert!(f.sustained()),
+                (Action::Input, _) => {
+                    assert!(f.expect.quiet() && [0, 2].contains(&f.target), "{f:?}")
+                }
                 (Action::Frames(s), Kind::DelayUs) => {
                     assert!(f.expect.quiet() && s.cycles.is_some())
                 }
@@ -270,7 +296,13 @@ mod tests {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
         let p = plan(&model, 120, 11, &opts());
         for k in KINDS {
-            for t in 0..4 {
+            // Inputs are the cards' (members 0 and 2).
+            let targets: &[usize] = if k == Kind::Input {
+                &[0, 2]
+            } else {
+                &[0, 1, 2, 3]
+            };
+            for &t in targets {
                 assert!(p.iter().any(|f| f.kind == k && f.target == t), "{k} on {t}");
             }
         }
