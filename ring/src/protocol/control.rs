@@ -146,6 +146,11 @@ pub struct MemberStatus {
     /// tell from `/proc` whether its process is stopped.
     #[serde(default)]
     pub host_id: Option<String>,
+    /// Its ring link's publisher has a matching subscriber (zenoh's matching status: the
+    /// downstream neighbour's subscriber reached it); null where the transport cannot tell.
+    /// The sync master asks for it after a member rejoins (`runtime::links_up`).
+    #[serde(default)]
+    pub link_matched: Option<bool>,
     /// Free-form extras by kind (card ports, station nodes, ...).
     #[serde(default)]
     pub extra: serde_json::Map<String, serde_json::Value>,

@@ -479,6 +479,11 @@ impl MemberCore {
             .collect()
     }
 
+    /// Synchronizing master: the latest cycle whose own sync packet came back round the ring.
+    pub fn last_sync_return(&self) -> Option<u64> {
+        self.last_return
+    }
+
     /// The link into this member is dark (loss of light).
     pub fn is_dark(&self) -> bool {
         self.dark
@@ -932,6 +937,7 @@ impl MemberCore {
             clock: None,
             sched: None,
             host_id: None,
+            link_matched: None,
             extra: serde_json::Map::new(),
         }
     }

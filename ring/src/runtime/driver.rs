@@ -45,6 +45,11 @@ pub struct DriverConfig {
     /// Paced and lockstep sync master: how many times a ring member came back (its
     /// liveliness token reappeared, see [`super::light::watch_rejoins`]).
     pub rejoins: Option<Arc<AtomicU64>>,
+    /// Paced and lockstep sync master: every ring member's liveliness token is present.
+    pub members_present: Option<Arc<AtomicBool>>,
+    /// Paced and lockstep sync master: 1 + the latest rejoin count (see `rejoins`) for which
+    /// every other member reported its link's publisher matched (see [`super::links_up`]).
+    pub links_matched: Option<Arc<AtomicU64>>,
     /// Paced and lockstep sync master: ring cycles in flight (see [`super::stepped`]).
     pub in_flight: u64,
     /// Whether the upstream process (on this machine) is stopped: consulted once nothing has
@@ -313,6 +318,11 @@ impl<A: RingApp> Driver<A> {
 
     /// The upstream member is known dead, or its process is stopped and nothing comes from it:
     /// its link carries no light.
+    /// Whether this member's outgoing link has a receiver (see [`LinkTx::matched`]).
+    pub(super) fn link_matched(&self) -> Option<bool> {
+        self.tx.matched()
+    }
+
     pub(super) fn upstream_dead(&mut self) -> bool {
         if self.rx_closed {
             return true;
@@ -488,6 +498,7 @@ impl<A: RingApp> Driver<A> {
         s.clock = self.clock.as_ref().map(|c| c.report(monotonic_ns()));
         s.sched = self.sched.clone();
         s.host_id = super::light::host_id();
+        s.link_matched = self.tx.matched();
         if let Some(c) = &s.clock {
             s.late_cycles = s.late_cycles.max(c.late_cycles);
         }

@@ -194,49 +194,135 @@ pub struct RejoinWatch {
     _subscriber: Subscriber<()>,
     /// How many times a ring member's liveliness token reappeared after it had been seen.
     pub rejoins: Arc<AtomicU64>,
+    /// Every ring member's liveliness token is present.
+    pub present: Arc<AtomicBool>,
+    /// 1 + the latest rejoin count for which every other member reported a matching link
+    /// publisher (0: not even at start; see [`super::links_up`]).
+    pub matched_for: Arc<AtomicU64>,
 }
 
 impl std::fmt::Debug for RejoinWatch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RejoinWatch")
             .field("rejoins", &self.rejoins)
+            .field("present", &self.present)
+            .field("matched_for", &self.matched_for)
             .finish_non_exhaustive()
     }
 }
 
-/// Sync master: watch the liveliness tokens of the ring's `members` and count each one that
-/// comes back after it was first seen (a member restarted or reconnected). A member that
+/// How often the sync master asks the members again whose link publisher did not match yet.
+const MATCHED_ASK_EVERY: Duration = Duration::from_millis(10);
+
+/// Whether `member` reports a matching link publisher (None: it did not answer).
+fn link_matched(session: &zenoh::Session, key: &str) -> Option<bool> {
+    session
+        .get(key)
+        .timeout(Duration::from_millis(500))
+        .wait()
+        .ok()
+        .and_then(|r| r.recv().ok())
+        .and_then(|reply| reply.result().ok().map(|s| s.payload().to_bytes().to_vec()))
+        .and_then(|b| serde_json::from_slice::<MemberStatus>(&b).ok())
+        // A transport that cannot tell (none in a process ring) has nothing to wait for.
+        .map(|s| s.link_matched.unwrap_or(true))
+}
+
+/// Ask every member in `keys` for its link's matching status until all have a subscriber,
+/// then record `rejoin + 1` in `matched_for`; gives up when a newer rejoin came (or `stop`).
+fn ask_matched(
+    session: zenoh::Session,
+    keys: Vec<String>,
+    rejoin: u64,
+    rejoins: Arc<AtomicU64>,
+    matched_for: Arc<AtomicU64>,
+    stop: Arc<AtomicBool>,
+) {
+    let mut waiting = keys;
+    while !stop.load(Ordering::Relaxed) && rejoins.load(Ordering::Relaxed) == rejoin {
+        waiting.retain(|k| link_matched(&session, k) != Some(true));
+        if waiting.is_empty() {
+            info!(rejoin, "every ring link's publisher has a subscriber");
+            matched_for.fetch_max(rejoin + 1, Ordering::Relaxed);
+            return;
+        }
+        std::thread::sleep(MATCHED_ASK_EVERY);
+    }
+}
+
+/// Sync master `me`: watch the liveliness tokens of the ring's `members` and count each one
+/// that comes back after it was first seen (a member restarted or reconnected). A member that
 /// rejoins opens new links, and frames sent before they are up are lost: the sync master then
-/// runs on its own clock until light comes back (see [`super::stepped`]) instead of waiting
-/// for a cycle that went nowhere.
+/// runs on its own clock until the links are up ([`super::links_up`], [`super::stepped`])
+/// instead of waiting for a cycle that went nowhere. The watch keeps the facts of that
+/// decision: whether every token is present, and — asked of the other members after each
+/// rejoin — whether every link's publisher has a matching subscriber.
 pub fn watch_rejoins(
     session: &zenoh::Session,
     cluster: &str,
+    me: &str,
     members: &[String],
+    stop: Arc<AtomicBool>,
 ) -> Result<RejoinWatch, super::DeclareError> {
     let rejoins = Arc::new(AtomicU64::new(0));
-    let count = Arc::clone(&rejoins);
+    let present = Arc::new(AtomicBool::new(false));
+    let matched_for = Arc::new(AtomicU64::new(0));
+    let (count, all) = (Arc::clone(&rejoins), Arc::clone(&present));
     let keys: Vec<(String, String)> = members
         .iter()
         .map(|m| (alive_key(cluster, m), m.clone()))
         .collect();
-    let seen = Mutex::new(HashSet::<String>::new());
+    let status_keys: Vec<String> = members
+        .iter()
+        .filter(|m| m.as_str() != me)
+        .map(|m| ctl_key(cluster, m, "status"))
+        .collect();
+    let seen = Mutex::new((HashSet::<String>::new(), HashSet::<String>::new()));
+    let spawn_ask = {
+        let (s, k, c, m, st) = (
+            session.clone(),
+            status_keys.clone(),
+            Arc::clone(&rejoins),
+            Arc::clone(&matched_for),
+            Arc::clone(&stop),
+        );
+        move |r: u64| {
+            // Off zenoh's callback thread.
+            let (s, k, c, m, st) = (
+                s.clone(),
+                k.clone(),
+                Arc::clone(&c),
+                Arc::clone(&m),
+                Arc::clone(&st),
+            );
+            let _ = std::thread::Builder::new()
+                .name("mcc-links-up".into())
+                .spawn(move || ask_matched(s, k, r, c, m, st));
+        }
+    };
+    // The links at start (a restarted sync master judges them too).
+    spawn_ask(0);
     let subscriber = session
         .liveliness()
         .declare_subscriber(alive_key(cluster, "*"))
         .history(true)
         .callback(move |sample| {
-            if sample.kind() != SampleKind::Put {
-                return;
-            }
             let key = sample.key_expr().as_str();
             let Some((_, name)) = keys.iter().find(|(k, _)| k == key) else {
                 return;
             };
-            let mut seen = seen.lock().unwrap_or_else(|e| e.into_inner());
+            let mut guard = seen.lock().unwrap_or_else(|e| e.into_inner());
+            let (seen, here) = &mut *guard;
+            if sample.kind() == SampleKind::Delete {
+                here.remove(name);
+                all.store(false, Ordering::Relaxed);
+                return;
+            }
+            here.insert(name.clone());
+            all.store(here.len() == keys.len(), Ordering::Relaxed);
             if !seen.insert(name.clone()) {
                 info!(member = %name, "ring member rejoined");
-                count.fetch_add(1, Ordering::Relaxed);
+                spawn_ask(count.fetch_add(1, Ordering::Relaxed) + 1);
             }
         })
         .wait()
@@ -244,6 +330,8 @@ pub fn watch_rejoins(
     Ok(RejoinWatch {
         _subscriber: subscriber,
         rejoins,
+        present,
+        matched_for,
     })
 }
 

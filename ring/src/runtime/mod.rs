@@ -10,6 +10,7 @@ pub mod driver;
 pub mod inline;
 pub mod join;
 pub mod light;
+pub mod links_up;
 pub mod local;
 pub mod logging;
 pub mod pacer;

@@ -197,8 +197,14 @@ where
     // The sync master: members that come back (their new links lose frames until they are up).
     let rejoins = if config.ring.sync_master == args.name && config.clock.is_stepped() {
         Some(
-            super::light::watch_rejoins(&session, &config.cluster, &config.ring.order)
-                .map_err(|e| anyhow!(e))?,
+            super::light::watch_rejoins(
+                &session,
+                &config.cluster,
+                &args.name,
+                &config.ring.order,
+                Arc::clone(&stop),
+            )
+            .map_err(|e| anyhow!(e))?,
         )
     } else {
         None
@@ -212,6 +218,8 @@ where
         member_timeout: config.member_timeout(),
         upstream_dead: watch.as_ref().map(|w| Arc::clone(&w.dead)),
         rejoins: rejoins.as_ref().map(|w| Arc::clone(&w.rejoins)),
+        members_present: rejoins.as_ref().map(|w| Arc::clone(&w.present)),
+        links_matched: rejoins.as_ref().map(|w| Arc::clone(&w.matched_for)),
         in_flight: config.ring.in_flight,
         // The process probe only for an upstream on this member's host: a member the config
         // puts on another host is on another machine, even when it shares this kernel (network

@@ -25,10 +25,13 @@
 //! A member that comes back (its liveliness token reappears: a restarted process) opens new
 //! links, and frames sent before they are all up go nowhere; so does a frame sent the moment
 //! a dead upstream is back. The master never waits for those: from a member's return (or its
-//! upstream's death) on, cycles run on the own clock until a cycle started since comes back
-//! lit. (Waiting instead held the ring for the whole frozen-member wait, and a member between
-//! the master and the restarted one could judge its own, silent but healthy, upstream frozen
-//! and latch a fault nobody asked for: campaign seed 1000, #346.)
+//! upstream's death) on, cycles run on the own clock until the links are up — a decision on
+//! facts ([`super::links_up`]: every token present, every link's publisher matched, a few
+//! clean revolutions of the sync packet in a row), not on the first frame back lit, after
+//! which a settling link could still lose one and hold the ring. (Waiting instead held the
+//! ring for the whole frozen-member wait, and a member between the master and the restarted
+//! one could judge its own, silent but healthy, upstream frozen and latch a fault nobody asked
+//! for: campaign seed 1000, #346.)
 //!
 //! A sync master that (re)starts while the ring still carries another count (a restarted
 //! process) continues from the ring's count: the first frame it gets back tells it.
@@ -49,6 +52,7 @@ use std::time::Duration;
 use tracing::{info, trace, warn};
 
 use super::driver::{Driver, DriverExit};
+use super::links_up::{LinkFacts, LinksUp, CLEAN_REVOLUTIONS};
 use super::timing::{PaceGrid, PACED_BACKLOG_NS};
 use crate::config::ClockMode;
 use crate::core::RingApp;
@@ -80,8 +84,8 @@ pub struct Stepper {
     /// Lockstep: the grid is only followed on the own clock; re-based when that begins.
     grid_live: bool,
     /// A member came back (or the upstream died): its new links lose frames until they are
-    /// up, so cycles run on the own clock until a cycle from this one on comes back lit.
-    await_light: Option<u64>,
+    /// up, so cycles run on the own clock until [`LinksUp`] says they are.
+    await_links: Option<LinksUp>,
     /// Rejoins counted so far (see [`super::light::watch_rejoins`]).
     rejoins_seen: u64,
 }
@@ -126,7 +130,7 @@ impl<A: RingApp> Driver<A> {
             down: false,
             down_from: 0,
             grid_live: paced,
-            await_light: None,
+            await_links: None,
             rejoins_seen: self.rejoins(),
         }
     }
@@ -136,14 +140,15 @@ impl<A: RingApp> Driver<A> {
         let rejoins = self.rejoins();
         if rejoins != st.rejoins_seen {
             st.rejoins_seen = rejoins;
-            if st.returned.is_some() && st.await_light.is_none() {
+            if st.returned.is_some() {
                 info!(member = %self.cfg.name, cycle = st.k,
-                    "a ring member came back: cycles run on the own clock until light returns");
-                st.await_light = Some(st.k);
+                    "a ring member came back: cycles run on the own clock until its links are up");
+                // (A newer rejoin: the links are judged again.)
+                st.await_links = Some(LinksUp::new(CLEAN_REVOLUTIONS));
             }
         }
         loop {
-            let own_clock = st.down || st.await_light.is_some() || self.upstream_dead();
+            let own_clock = st.down || st.await_links.is_some() || self.upstream_dead();
             if !st.paced && own_clock != st.grid_live {
                 st.grid_live = own_clock;
                 st.grid.rebase(st.k, now);
@@ -215,8 +220,10 @@ impl<A: RingApp> Driver<A> {
                 // The ring counts further than this (restarted) sync master: go on from the
                 // ring's count.
                 info!(member = %self.cfg.name, from = st.k, to = c + 1,
-                    "continuing the ring's cycle count");
+                    "continuing the ring's cycle count: the own clock until the links are up");
                 st.k = c + 1;
+                // A restarted sync master: its new links may still lose frames.
+                st.await_links = Some(LinksUp::new(CLEAN_REVOLUTIONS));
             }
             // The ring is up: the schedule starts now.
             st.grid.rebase(st.k, now);
@@ -237,10 +244,18 @@ impl<A: RingApp> Driver<A> {
         // the next cycle, and the returns still on their way are taken as they come.
         let lit = !self.core.is_dark();
         let mut resumed = false;
-        if st.await_light.is_some_and(|from| c >= from) && lit {
-            info!(member = %self.cfg.name, cycle = c, "light is back");
-            st.await_light = None;
-            resumed = true;
+        if st.await_links.is_some() {
+            let clean = lit && ev.errors.is_empty() && self.core.last_sync_return() == Some(c);
+            let facts = self.link_facts();
+            if st
+                .await_links
+                .as_mut()
+                .is_some_and(|l| l.on_return(c, clean, facts))
+            {
+                info!(member = %self.cfg.name, cycle = c, "the links are up");
+                st.await_links = None;
+                resumed = true;
+            }
         }
         if st.down && (c.saturating_add(st.in_flight) >= st.k || (lit && c >= st.down_from)) {
             info!(member = %self.cfg.name, cycle = c, "ring cycling again");
@@ -250,7 +265,7 @@ impl<A: RingApp> Driver<A> {
             }
             resumed = true;
         }
-        if resumed && !st.down && st.await_light.is_none() {
+        if resumed && !st.down && st.await_links.is_none() {
             st.returned = st.returned.max(Some(st.k.saturating_sub(1)));
         }
         Ok(())
@@ -266,8 +281,14 @@ impl<A: RingApp> Driver<A> {
         let k = st.k;
         let now = self.now_ns();
         let dead = self.upstream_dead();
+        if st.await_links.is_some() {
+            let facts = self.link_facts();
+            if let Some(l) = st.await_links.as_mut() {
+                l.on_start(k, facts);
+            }
+        }
         let on_grid =
-            (st.paced && st.returned.is_some()) || st.down || st.await_light.is_some() || dead;
+            (st.paced && st.returned.is_some()) || st.down || st.await_links.is_some() || dead;
         let start = on_grid.then(|| st.grid.on_start(k, now));
         if let Some(s) = start {
             if s.late {
@@ -294,15 +315,39 @@ impl<A: RingApp> Driver<A> {
         }
         if dead {
             // Loss of light on the input: this cycle comes back dark. Once the upstream is
-            // back, its new links may lose frames: the own clock goes on until light returns.
+            // back, its new links may lose frames: the own clock goes on until they are up.
             let _ = self.core.dark_input(k, now);
             st.returned = st.returned.max(Some(k));
-            st.await_light.get_or_insert(k + 1);
+            st.await_links
+                .get_or_insert_with(|| LinksUp::new(CLEAN_REVOLUTIONS));
         }
         st.last_start = now;
         self.silence.reset(now);
         st.k += 1;
         Ok(())
+    }
+
+    /// The facts of "the links are up" now ([`super::links_up`]): every ring member's token
+    /// present and the upstream not dead; every link's publisher matched since the latest
+    /// rejoin (this member's own from its transport). A fact without a watch (in-process
+    /// rings) holds.
+    fn link_facts(&mut self) -> LinkFacts {
+        use std::sync::atomic::Ordering::Relaxed;
+        let present = self
+            .cfg
+            .members_present
+            .as_ref()
+            .is_none_or(|p| p.load(Relaxed));
+        let rejoins = self.rejoins();
+        let others = self
+            .cfg
+            .links_matched
+            .as_ref()
+            .is_none_or(|m| m.load(Relaxed) > rejoins);
+        LinkFacts {
+            tokens: present && !self.upstream_dead(),
+            matched: others && self.link_matched() != Some(false),
+        }
     }
 
     /// Rejoins of ring members seen so far (0 without a watch).

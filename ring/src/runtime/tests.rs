@@ -62,6 +62,8 @@ fn dcfg(name: &str, kind: MemberKind, position: usize, cycles: u64) -> DriverCon
         member_timeout: Duration::from_millis(1000),
         upstream_dead: None,
         rejoins: None,
+        members_present: None,
+        links_matched: None,
         in_flight: 1,
         upstream_probe: None,
         harden: false,

@@ -33,6 +33,7 @@ fn sync_master(
     max_cycles: Option<u64>,
     upstream_dead: Option<Arc<AtomicBool>>,
     rejoins: Option<Arc<std::sync::atomic::AtomicU64>>,
+    links_matched: Option<Arc<std::sync::atomic::AtomicU64>>,
 ) -> Driver<Cycles> {
     let mut cc = CoreConfig::new(
         "card0",
@@ -51,6 +52,8 @@ fn sync_master(
         member_timeout: Duration::from_secs(120),
         upstream_dead,
         rejoins,
+        members_present: None,
+        links_matched,
         upstream_probe: None,
         in_flight: 1,
         harden: false,
@@ -84,7 +87,15 @@ fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_
     let (tx0, rx0) = ring.member(0).unwrap();
     let (tx1, rx1) = ring.member(1).unwrap();
     let master = std::thread::spawn(move || {
-        let mut drv = sync_master(tx0, rx0, ClockMode::Lockstep, Some(cycles), None, None);
+        let mut drv = sync_master(
+            tx0,
+            rx0,
+            ClockMode::Lockstep,
+            Some(cycles),
+            None,
+            None,
+            None,
+        );
         let exit = drv.run();
         (exit, drv.into_parts().1)
     });
@@ -117,12 +128,24 @@ fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_
 }
 
 /// A sync master on the lockstep clock against a hand-driven rest of the ring: when the frame
-/// of a cycle arrives, `hand(cycle)` says which cycles come back now, lit (none: it was lost).
-/// Returns the master's ticks.
+/// of a cycle arrives, `hand(cycle)` says which cycles come back now, lit, with the master's
+/// packets (none: it was lost). Returns the master's ticks.
 fn master_against(
     cycles: u64,
     rejoins: Arc<std::sync::atomic::AtomicU64>,
     dead: Arc<AtomicBool>,
+    hand: impl FnMut(u64) -> Vec<u64>,
+) -> Vec<u64> {
+    master_against_facts(cycles, rejoins, dead, None, hand)
+}
+
+/// [`master_against`] with the fact "every other member's link publisher matched" given by
+/// `links_matched` (the rejoin count it holds for).
+fn master_against_facts(
+    cycles: u64,
+    rejoins: Arc<std::sync::atomic::AtomicU64>,
+    dead: Arc<AtomicBool>,
+    links_matched: Option<Arc<std::sync::atomic::AtomicU64>>,
     mut hand: impl FnMut(u64) -> Vec<u64>,
 ) -> Vec<u64> {
     let ring = LoopbackRing::new(2);
@@ -136,12 +159,14 @@ fn master_against(
             Some(cycles),
             Some(dead),
             Some(rejoins),
+            links_matched,
         );
         let exit = drv.run();
         (exit, drv.into_parts().1)
     });
     let t0 = Instant::now();
     let mut seq = 0;
+    let mut sent = std::collections::HashMap::new();
     while !master.is_finished() {
         assert!(
             t0.elapsed() < Duration::from_secs(60),
@@ -151,10 +176,15 @@ fn master_against(
             continue;
         };
         let f = Frame::decode(&bytes).unwrap();
-        for c in hand(f.cycle) {
+        let c0 = f.cycle;
+        sent.insert(c0, f);
+        for c in hand(c0) {
             seq += 1;
-            tx1.send(&Frame::with_packets(1, seq, 0, c, &[]).encode())
-                .unwrap();
+            // Member 1 passes the master's packets on: its sync packet comes back.
+            let mut back = sent.get(&c).cloned().unwrap_or_default();
+            back.sender = 1;
+            back.seq = seq;
+            tx1.send(&back.encode()).unwrap();
         }
     }
     let (exit, app) = master.join().unwrap();
@@ -182,6 +212,55 @@ fn a_member_that_comes_back_does_not_stall_the_ring_on_the_frames_its_new_links_
         }
     });
     assert_eq!(ticks, (0..80).collect::<Vec<_>>());
+}
+
+#[test]
+fn a_frame_lost_after_the_first_lit_return_does_not_stall_the_ring() {
+    // What the first-lit-return rule missed (lockstep campaign under load: 3 stalls of the
+    // frozen-member wait in 385 faults): a restarted member's links carried cycle 24 and then
+    // lost 25. The links are up only after clean revolutions in a row (here 26, 27, 28).
+    let rejoins = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let r = Arc::clone(&rejoins);
+    let ticks = master_against(80, rejoins, Arc::new(AtomicBool::new(false)), move |c| {
+        if c == 19 {
+            r.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        match c {
+            20..=23 | 25 => vec![],
+            _ => vec![c],
+        }
+    });
+    assert_eq!(ticks, (0..80).collect::<Vec<_>>());
+}
+
+#[test]
+fn the_links_are_not_up_before_every_publisher_matched() {
+    // Clean returns are not enough while a member has not reported its link's publisher
+    // matched: a frame lost then (30, 35) costs its cycle only. Once it matched (cycle 40),
+    // a loss (42) starts the count again; then the ring steps on returns.
+    let rejoins = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    // (Matched at start: 1; for the rejoin: 2.)
+    let matched = Arc::new(std::sync::atomic::AtomicU64::new(1));
+    let (r, m) = (Arc::clone(&rejoins), Arc::clone(&matched));
+    let ticks = master_against_facts(
+        90,
+        rejoins,
+        Arc::new(AtomicBool::new(false)),
+        Some(matched),
+        move |c| {
+            use std::sync::atomic::Ordering::Relaxed;
+            match c {
+                19 => r.store(1, Relaxed),
+                40 => m.store(2, Relaxed),
+                _ => {}
+            }
+            match c {
+                30 | 35 | 42 => vec![],
+                _ => vec![c],
+            }
+        },
+    );
+    assert_eq!(ticks, (0..90).collect::<Vec<_>>());
 }
 
 #[test]
@@ -244,7 +323,7 @@ fn on_the_own_clock_a_backlog_is_not_run_back_to_back() {
     // restart campaign under load). On the own clock a cycle starts once a period at most.
     let ring = LoopbackRing::new(2);
     let (tx0, rx0) = ring.member(0).unwrap();
-    let mut drv = sync_master(tx0, rx0, ClockMode::Paced, None, None, None);
+    let mut drv = sync_master(tx0, rx0, ClockMode::Paced, None, None, None, None);
     let period = drv.wall_period_ns();
     let mut st: Stepper = drv.stepper();
     // Cycle 100 was due at t = 1 s; the master last started a cycle at 1.15 s and looks now.
@@ -258,7 +337,7 @@ fn on_the_own_clock_a_backlog_is_not_run_back_to_back() {
     let due = drv.step_due(&mut st, now);
     assert_eq!(due.at, Some(t));
     // On the own clock (waiting for light after a member came back): a period after the last.
-    st.await_light = Some(100);
+    st.await_links = Some(crate::runtime::links_up::LinksUp::new(3));
     let due = drv.step_due(&mut st, now);
     assert_eq!(due.at, Some(st.last_start + period));
     assert!(!due.now(now));

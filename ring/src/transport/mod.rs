@@ -38,6 +38,12 @@ pub enum TransportError {
 pub trait LinkTx: Send {
     /// Put one encoded frame on the link.
     fn send(&self, frame: &[u8]) -> Result<(), TransportError>;
+
+    /// Whether the link has a receiver: zenoh's matching status of the link's publisher (a
+    /// subscriber of the link is known); None where the transport cannot tell (loopback).
+    fn matched(&self) -> Option<bool> {
+        None
+    }
 }
 
 /// Handles frames on the thread that delivers them (zenoh's receive thread), without a hand-off

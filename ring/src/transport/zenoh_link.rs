@@ -5,6 +5,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use super::queue::frame_queue;
@@ -17,6 +18,9 @@ use crate::control::link_key;
 /// queue that a healthy ring can never fill; see [`join`]).
 pub struct ZenohTx {
     publisher: Publisher<'static>,
+    /// zenoh's matching status of the publisher: a subscriber of the link (the downstream
+    /// neighbour's) is known to this process, kept by a matching listener.
+    matched: Arc<AtomicBool>,
 }
 
 impl std::fmt::Debug for ZenohTx {
@@ -33,6 +37,10 @@ impl LinkTx for ZenohTx {
             .attachment(monotonic_ns().to_le_bytes().to_vec())
             .wait()
             .map_err(|e| TransportError::Io(e.to_string()))
+    }
+
+    fn matched(&self) -> Option<bool> {
+        Some(self.matched.load(Ordering::Relaxed))
     }
 }
 
@@ -82,6 +90,19 @@ pub fn join(
         .express(true)
         .wait()
         .map_err(|e| TransportError::Io(format!("declare publisher: {e}")))?;
+    // "The link is up" is a fact zenoh gives (see `runtime::links_up`): the matching status
+    // of the link's publisher, followed as it changes (the downstream neighbour restarted).
+    let matched = Arc::new(AtomicBool::new(false));
+    let m2 = Arc::clone(&matched);
+    publisher
+        .matching_listener()
+        .callback(move |s| m2.store(s.matching(), Ordering::Relaxed))
+        .background()
+        .wait()
+        .map_err(|e| TransportError::Io(format!("declare matching listener: {e}")))?;
+    if let Ok(s) = publisher.matching_status().wait() {
+        matched.fetch_or(s.matching(), Ordering::Relaxed);
+    }
     let (tx, rx) = frame_queue(RX_QUEUE_FRAMES);
     let slot: InlineSlot = Arc::new(OnceLock::new());
     let slot2 = Arc::clone(&slot);
@@ -103,7 +124,7 @@ pub fn join(
         .wait()
         .map_err(|e| TransportError::Io(format!("declare subscriber: {e}")))?;
     Ok((
-        ZenohTx { publisher },
+        ZenohTx { publisher, matched },
         LinkRx::new(rx, Some(slot)),
         ZenohRxGuard {
             _subscriber: subscriber,

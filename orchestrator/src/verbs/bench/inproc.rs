@@ -53,6 +53,8 @@ pub fn run(cfg: &ClusterConfig, cycles: u64) -> Result<RingRun> {
             member_timeout: cfg.member_timeout(),
             upstream_dead: None,
             rejoins: None,
+            members_present: None,
+            links_matched: None,
             in_flight: cfg.ring.in_flight,
             upstream_probe: None,
             harden: false,
