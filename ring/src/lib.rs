@@ -24,6 +24,6 @@ pub mod transport;
 mod api_check;
 
 pub use protocol::{
-    aux_channel, builder, check, control, core, expect, fault, frame, holdover, member, packet,
-    settings, sim, status,
+    aux_channel, builder, check, control, core, expect, fault, frame, holdover, linkfault, member,
+    packet, settings, sim, status,
 };

@@ -21,6 +21,7 @@ pub mod expect;
 pub mod fault;
 pub mod frame;
 pub mod holdover;
+pub mod linkfault;
 pub mod member;
 pub mod packet;
 pub mod settings;
