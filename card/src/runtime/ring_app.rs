@@ -15,6 +15,7 @@
 use mcc_ring::aux_channel::AUX_NODE;
 use mcc_ring::check::RingCheck;
 use mcc_ring::core::{RingApp, RingControl};
+use mcc_ring::linkfault::LinkFaultSlot;
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 use mcc_ring::settings::RingSettings;
@@ -64,6 +65,8 @@ pub struct CardRingApp {
     resets_seen: u64,
     /// The ring settings the card and its ring core last agreed on (`None`: not yet).
     ring_vars: Option<RingVars>,
+    /// The host-link fault its ports consult (`mcc fault CARD link KIND`).
+    link: LinkFaultSlot,
     /// Host ports, queryables and their runtime: they live as long as the app.
     _resources: Vec<Box<dyn std::any::Any>>,
 }
@@ -137,6 +140,7 @@ impl CardRingApp {
             startup: None,
             resets_seen,
             _resources: Vec::new(),
+            link: LinkFaultSlot::default(),
             nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
             reported: false,
             reset_wanted: false,
@@ -186,6 +190,12 @@ impl CardRingApp {
     /// Keep `r` alive as long as the app (ports, queryables, runtimes).
     pub fn with_resource(mut self, r: Box<dyn std::any::Any>) -> Self {
         self._resources.push(r);
+        self
+    }
+
+    /// The host-link fault slot the card's ports consult (installed by `app_fault`).
+    pub fn with_link_faults(mut self, link: LinkFaultSlot) -> Self {
+        self.link = link;
         self
     }
 
@@ -313,6 +323,18 @@ impl RingApp for CardRingApp {
 
     fn take_ring_reset(&mut self) -> bool {
         std::mem::take(&mut self.reset_wanted)
+    }
+
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        super::app_faults::apply(&self.link, fault)
+    }
+
+    fn clear_app_faults(&mut self) {
+        self.link.clear();
+    }
+
+    fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
+        super::app_faults::status(&self.link)
     }
 }
 

@@ -47,6 +47,9 @@ pub struct ClusterStatus {
     pub emcl_bus: Option<String>,
     /// EMCL bus pseudo-terminal path (`mcc up --pty`, `[emcl] pty`), else null.
     pub emcl_bus_pty: Option<String>,
+    /// Host-link faults of the daisy chain and the EMCL bus (`mcc fault chain|bus link`),
+    /// null when the supervisor was not asked or did not answer.
+    pub link_faults: Option<crate::cluster::link_ctl::LinkFaults>,
     /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
     pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
     /// The supervising process (of this machine's share on several hosts).
@@ -192,6 +195,9 @@ pub struct CardRow {
     /// Why the card's state file was refused at start-up (it started from factory defaults;
     /// the file was kept aside), `null` when it loaded or there was none.
     pub state_file_error: Option<String>,
+    /// Its host-link fault (`mcc fault CARD link KIND`: kind, probability, seed, replies,
+    /// delay_ms, seen, hits), null when none.
+    pub link_fault: Option<serde_json::Value>,
 }
 
 /// One station.
@@ -452,6 +458,10 @@ pub fn build(
                     .and_then(|s| s.extra.get("state_file_error"))
                     .and_then(|v| v.as_str())
                     .map(str::to_string),
+                link_fault: s
+                    .and_then(|s| s.extra.get("link_fault"))
+                    .filter(|v| !v.is_null())
+                    .cloned(),
             }
         })
         .collect();
@@ -493,6 +503,7 @@ pub fn build(
         emcl_bus: info.emcl_bus.clone(),
         emcl_bus_pty: info.emcl_bus_pty.clone(),
         drives: Vec::new(),
+        link_faults: None,
         supervisor: SupervisorRow {
             pid: info.pid,
             endpoint: info.endpoint.clone(),

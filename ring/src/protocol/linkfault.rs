@@ -92,19 +92,37 @@ impl fmt::Display for LinkFaultKind {
     }
 }
 
-impl FromStr for LinkFaultKind {
-    type Err = String;
+/// Why a link fault request is refused (each names the problem and the valid choices).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinkFaultError {
+    /// Not one of the kinds.
+    #[error("unknown link fault {0:?} (one of: {all})", all = LinkFaultKind::words())]
+    UnknownKind(String),
+    /// The kind does not apply to this link.
+    #[error("{0}")]
+    NotHere(String),
+    /// Probability outside 0..1.
+    #[error("probability {0} is outside 0.0-1.0")]
+    BadProbability(f64),
+    /// `--cycles 0`.
+    #[error("--cycles must be at least 1 reply (omit it to fault until cleared)")]
+    NoReplies,
+    /// `late` without a delay, or with one too long.
+    #[error("late needs --delay MS (1-{MAX_DELAY_MS}), not {0}")]
+    BadDelay(u64),
+    /// `--delay` on another kind.
+    #[error("--delay only applies to the late link fault, not {0}")]
+    DelayNotLate(LinkFaultKind),
+}
 
-    fn from_str(s: &str) -> Result<Self, String> {
+impl FromStr for LinkFaultKind {
+    type Err = LinkFaultError;
+
+    fn from_str(s: &str) -> Result<Self, LinkFaultError> {
         LINK_KINDS
             .into_iter()
             .find(|k| k.word() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown link fault {s:?} (one of: {})",
-                    LinkFaultKind::words()
-                )
-            })
+            .ok_or_else(|| LinkFaultError::UnknownKind(s.to_string()))
     }
 }
 
@@ -171,30 +189,22 @@ pub const MAX_DELAY_MS: u64 = 60_000;
 
 impl LinkFaultSpec {
     /// Check the values for `target`: a refusal names the problem and the valid choices.
-    pub fn validate(&self, target: LinkTarget) -> Result<(), String> {
+    pub fn validate(&self, target: LinkTarget) -> Result<(), LinkFaultError> {
         if let Some(why) = target.refuses(self.kind) {
-            return Err(why);
+            return Err(LinkFaultError::NotHere(why));
         }
         if !(0.0..=1.0).contains(&self.probability) {
-            return Err(format!(
-                "probability {} is outside 0.0-1.0",
-                self.probability
-            ));
+            return Err(LinkFaultError::BadProbability(self.probability));
         }
         if self.replies == Some(0) {
-            return Err(
-                "--cycles must be at least 1 reply (omit it to fault until cleared)".into(),
-            );
+            return Err(LinkFaultError::NoReplies);
         }
         match (self.kind, self.delay_ms) {
-            (LinkFaultKind::Late, 0) => Err("late needs --delay MS (1-60000)".into()),
-            (LinkFaultKind::Late, d) if d > MAX_DELAY_MS => {
-                Err(format!("--delay {d} ms is over {MAX_DELAY_MS} ms"))
+            (LinkFaultKind::Late, d) if d == 0 || d > MAX_DELAY_MS => {
+                Err(LinkFaultError::BadDelay(d))
             }
             (LinkFaultKind::Late, _) | (_, 0) => Ok(()),
-            (k, _) => Err(format!(
-                "--delay only applies to the late link fault, not {k}"
-            )),
+            (k, _) => Err(LinkFaultError::DelayNotLate(k)),
         }
     }
 }

@@ -126,12 +126,14 @@ fn probability_zero_never_hits_but_counts() {
 fn refusals_name_the_problem_and_the_choices() {
     let e = spec(LinkFaultKind::BadChecksum)
         .validate(LinkTarget::CardPorts)
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("EMCL bus only") && e.contains("no-reply"), "{e}");
     assert!(!e.contains("bad-checksum,"), "{e}");
     assert!(spec(LinkFaultKind::BadChecksum)
         .validate(LinkTarget::Chain)
         .unwrap_err()
+        .to_string()
         .contains("daisy-chain"));
     assert!(spec(LinkFaultKind::BadChecksum)
         .validate(LinkTarget::Bus)
@@ -143,6 +145,7 @@ fn refusals_name_the_problem_and_the_choices() {
     assert!(late0
         .validate(LinkTarget::Chain)
         .unwrap_err()
+        .to_string()
         .contains("--delay"));
     let delayed = LinkFaultSpec {
         delay_ms: 5,
@@ -151,13 +154,18 @@ fn refusals_name_the_problem_and_the_choices() {
     assert!(delayed
         .validate(LinkTarget::Bus)
         .unwrap_err()
+        .to_string()
         .contains("late"));
     let p = LinkFaultSpec {
         probability: 1.5,
         ..spec(LinkFaultKind::Short)
     };
-    assert!(p.validate(LinkTarget::Bus).unwrap_err().contains("1.5"));
-    let e = "melt".parse::<LinkFaultKind>().unwrap_err();
+    assert!(p
+        .validate(LinkTarget::Bus)
+        .unwrap_err()
+        .to_string()
+        .contains("1.5"));
+    let e = "melt".parse::<LinkFaultKind>().unwrap_err().to_string();
     assert!(
         e.contains("melt") && e.contains("stray-bel") && e.contains("bad-checksum"),
         "{e}"
