@@ -27,3 +27,5 @@ pub(crate) mod zenoh_cmd;
 
 #[cfg(test)]
 mod tests_fuzz;
+#[cfg(test)]
+mod tests_link_faults;
