@@ -14,8 +14,8 @@ built on for use outside pytest::
 from importlib import metadata as _metadata
 
 from .card import Card, Ports
-from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, CardStart, Cluster, Recording,
-                      SyncStart, stop_all)
+from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, LINK_KINDS, CardStart, Cluster,
+                      Recording, SyncStart, stop_all)
 from .errors import (
     CardError,
     ClusterBusy,
@@ -32,8 +32,8 @@ from .status import Status
 
 __all__ = [
     "Card", "CardError", "CardStart", "Cluster", "ClusterBusy", "ClusterStartError",
-    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "LockTimeout",
-    "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
+    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "LINK_KINDS",
+    "LockTimeout", "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
     "WaitTimeout", "stop_all",
 ]
 try:

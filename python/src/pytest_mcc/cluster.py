@@ -32,6 +32,11 @@ FAULT_KINDS = ("drop-sync", "drop-packets", "corrupt", "byte-violation", "overru
 DRILLS = ("freeze", "thaw", "kill", "restart")
 #: Options of a ring fault (``mcc fault --cycles/--probability/--seed/--delay``).
 FAULT_OPTIONS = ("cycles", "probability", "seed", "delay")
+#: Host-link faults ``mcc fault CARD|chain|bus link KIND`` (``bad-checksum``: the bus only).
+#: Options: ``cycles`` (the next N replies), ``probability`` (per reply), ``seed``,
+#: ``delay`` (ms, ``late`` only).
+LINK_KINDS = ("no-reply", "late", "short", "stray-cr", "stray-lf", "stray-bel", "stray-ctrl",
+              "corrupt", "reset", "bad-checksum")
 
 _LIVE: Dict[int, "Cluster"] = {}
 _LIVE_LOCK = threading.Lock()
@@ -421,7 +426,7 @@ class Cluster:
         if member not in self.members:
             raise UnknownChoice("member", member, self.members)
 
-    def fault(self, member: str, kind: str, **options: Any) -> str:
+    def fault(self, member: str, kind: str, *words: Any, **options: Any) -> str:
         """Inject ring fault ``kind`` on ``member``'s send path, or run a process drill
         (``mcc fault MEMBER KIND``).
 
@@ -430,6 +435,8 @@ class Cluster:
         :class:`UnknownChoice` at once, naming the valid ones. Returns mcc's message.
         """
         self._need_running()
+        if kind == "link":
+            return self._link_fault(member, words, options)
         self._check_member(member)
         if kind not in FAULT_KINDS + DRILLS:
             raise UnknownChoice("fault kind", kind, FAULT_KINDS + DRILLS)
@@ -445,6 +452,28 @@ class Cluster:
         if kind == "restart":
             self._remember_later()
         return out
+
+    def _link_fault(self, target: str, words: Sequence[Any], options: Dict[str, Any]) -> str:
+        """``fault(TARGET, "link", KIND, **options)``: a host-link fault on a card's ports,
+        the daisy chain or the EMCL bus (:data:`LINK_KINDS`), checked at once."""
+        assert self.initial_status is not None
+        targets = [c["name"] for c in self.initial_status["cards"]] + ["chain", "bus"]
+        if target not in targets:
+            raise UnknownChoice("link target", target, targets)
+        if len(words) != 1 or words[0] not in LINK_KINDS:
+            raise UnknownChoice("link fault kind", words[0] if words else None, LINK_KINDS)
+        kind = str(words[0])
+        if kind == "bad-checksum" and target != "bus":
+            raise UnknownChoice(f"link fault kind on {target} (bad-checksum: the EMCL bus only)",
+                                kind, [k for k in LINK_KINDS if k != "bad-checksum"])
+        for k in options:
+            if k not in FAULT_OPTIONS:
+                raise UnknownChoice(f"option of link fault {kind!r}", k, FAULT_OPTIONS)
+        args = ["fault", target, "link", kind]
+        for k in FAULT_OPTIONS:
+            if options.get(k) is not None:
+                args += [f"--{k}", str(options[k])]
+        return self._runner.run(args).stdout.strip()
 
     def _remember_later(self) -> None:
         try:
