@@ -678,6 +678,9 @@ pub fn render_table(s: &ClusterStatus) -> String {
         let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
     o.push_str(&crate::cluster::emcl::status::render(s));
+    if let Some(t) = link_faults_text(s) {
+        let _ = writeln!(o, "host-link faults: {t}");
+    }
     let _ = writeln!(
         o,
         "zenoh {}  run dir {}  (* = synchronizing master)",
@@ -685,6 +688,30 @@ pub fn render_table(s: &ClusterStatus) -> String {
         s.supervisor.run_dir
     );
     o
+}
+
+/// The active host-link faults, one `target kind (p P, seen/replies, hits)` each; None if none.
+fn link_faults_text(s: &ClusterStatus) -> Option<String> {
+    let one = |target: &str, f: &mcc_ring::linkfault::ActiveLinkFault| {
+        let of = f.spec.replies.map_or(String::new(), |n| format!("/{n}"));
+        format!(
+            "{target} {} (p {}, {}{of} replies seen, {} hit)",
+            f.spec.kind, f.spec.probability, f.seen, f.hits
+        )
+    };
+    let mut all: Vec<String> = s
+        .cards
+        .iter()
+        .filter_map(|c| {
+            let f = serde_json::from_value(c.link_fault.clone()?).ok()?;
+            Some(one(&c.name, &f))
+        })
+        .collect();
+    if let Some(l) = &s.link_faults {
+        all.extend(l.chain.iter().map(|f| one("chain", f)));
+        all.extend(l.bus.iter().map(|f| one("bus", f)));
+    }
+    (!all.is_empty()).then(|| all.join("; "))
 }
 
 #[cfg(test)]
