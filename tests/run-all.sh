@@ -15,7 +15,7 @@ phase() {
 }
 # Scenario modules that start real multi-process clusters: timing-sensitive on 2 cores, so
 # they run one at a time; everything else runs in parallel.
-MULTI=(busy_ports:: chain:: cluster:: drills:: emcl:: gather:: host_limits:: hosts:: persistence:: power_ring:: private_run_dir:: refusals:: reliability:: stations:: testing_api::)
+MULTI=(axis_cli:: busy_ports:: chain:: cluster:: drills:: emcl:: gather:: host_limits:: hosts:: persistence:: power_ring:: private_run_dir:: refusals:: reliability:: stations:: testing_api::)
 skips=()
 for m in "${MULTI[@]}"; do skips+=(--skip "$m"); done
 phase fmt cargo fmt --all -- --check

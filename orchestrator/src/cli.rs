@@ -220,6 +220,11 @@ pub struct FaultArgs {
     /// (SIGSTOP), thaw (SIGCONT), kill (SIGKILL), restart (same config, rejoins the ring).
     /// Application faults: `STATION axis NODE KIND`, `STATION power-loss`,
     /// `CARD|chain|bus link KIND`, `CARD input KIND`.
+    /// Axis kinds (`--cycles N`, else until cleared): amp-fault, encoder-loss,
+    /// encoder-glitch (--value counts), load (--value N·m), jam, plus-limit-on,
+    /// plus-limit-off, plus-limit-chatter, minus-limit-on, minus-limit-off,
+    /// minus-limit-chatter, home-on, home-off, home-chatter; `STATION power-loss` faults every
+    /// amplifier of the station.
     /// Host-link kinds (`CARD|chain|bus link KIND`, on replies only, never on what is stored):
     /// no-reply, late (--delay MS), short, stray-cr, stray-lf, stray-bel, stray-ctrl,
     /// corrupt, reset, bad-checksum (EMCL bus only); --probability is drawn per reply,

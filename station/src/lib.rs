@@ -14,6 +14,7 @@ pub mod config;
 pub mod emcl;
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the I/O edge of the EMCL drives
 pub mod emcl_rt;
+pub mod faults;
 pub mod macro_aux;
 pub mod mi;
 pub mod plant;

@@ -17,12 +17,19 @@
 //!    edge crossed within the sub-step), register 2 = amplifier output torque as a signed 16-bit fraction of
 //!    `torque_full_scale` (a "current" reading), register 3 = status flags
 //!    ([`crate::plant::flags`]).
+//!
+//! Injected axis faults ([`crate::faults`]) are set before step 1 ([`ServoNode::set_faults`]):
+//! a jam holds the shaft, a load adds its torque in step 1, an amplifier fault asserts FAULT
+//! and latches the amplifier off in steps 1 and 2, an encoder loss freezes register 0 and the
+//! A/B levels, a glitch offsets register 0 and the capture, a switch fault forces the flag
+//! (and the capture flag it feeds: a forced rise latches a capture at the present count).
 
 use mcc_ring::packet::NodeRegs;
 
 use crate::config::NodePlantConfig;
+use crate::faults::NodeFaults;
 use crate::plant::amplifier::{AmpOutput, Amplifier};
-use crate::plant::encoder::Encoder;
+use crate::plant::encoder::{wrap24, Encoder};
 use crate::plant::flags::{CommandFlags, StatusFlags, Switch, SwitchStates, Switches, ST_CAPTURED};
 use crate::plant::motor::Motor;
 
@@ -62,6 +69,12 @@ pub struct ServoNode {
     ring_fault_flag: bool,
     /// Encoder count latched at the last capture-flag edge (hardware capture).
     captured: Option<i64>,
+    /// Injected faults of this tick.
+    faults: NodeFaults,
+    /// Register 0 and the A/B levels at the moment the encoder was lost.
+    frozen: Option<(u32, (bool, bool))>,
+    /// Where a jam holds the shaft, counts.
+    jam_at: Option<f64>,
 }
 
 impl ServoNode {
@@ -78,6 +91,9 @@ impl ServoNode {
             ring_lockout: false,
             ring_fault_flag: false,
             captured: None,
+            faults: NodeFaults::default(),
+            frozen: None,
+            jam_at: None,
             cfg: cfg.clone(),
         }
     }
@@ -94,6 +110,11 @@ impl ServoNode {
             return;
         }
         let dt = dt.min(MAX_TICK_SECONDS);
+        if let Some(at) = self.jam_at {
+            self.put_shaft(at);
+            return;
+        }
+        let load = self.faults.load;
         let n = ((dt / self.cfg.max_substep).ceil() as u32).clamp(1, MAX_SUBSTEPS);
         let h = dt / f64::from(n);
         let mut pos = self.counts();
@@ -103,7 +124,7 @@ impl ServoNode {
             match self.amp.output(self.motor.velocity()) {
                 AmpOutput::Torque { drive, damping } => {
                     self.motor
-                        .advance(h, drive + stop_torque, damping + stop_damping)
+                        .advance(h, drive + stop_torque + load, damping + stop_damping)
                 }
                 AmpOutput::Rate(cps) => {
                     self.motor.advance_kinematic(h, self.encoder.omega_for(cps));
@@ -125,6 +146,64 @@ impl ServoNode {
         self.encoder.counts(self.motor.position())
     }
 
+    /// Apply this tick's injected faults (before [`ServoNode::advance`]).
+    pub fn set_faults(&mut self, f: NodeFaults) {
+        let before = self.capture_level();
+        if f.encoder_frozen && self.frozen.is_none() {
+            let theta = self.motor.position();
+            self.frozen = Some((self.register0(), self.encoder.channels(theta)));
+        }
+        if !f.encoder_frozen {
+            self.frozen = None;
+        }
+        self.jam_at = match (f.jam, self.jam_at) {
+            (true, None) => Some(self.counts()),
+            (true, at) => at,
+            (false, _) => None,
+        };
+        self.faults = f;
+        if f.amp_fault {
+            self.amp.inject_fault();
+        }
+        if self.capture_level() && !before {
+            self.captured = Some(self.reported_counts().floor() as i64);
+        }
+    }
+
+    /// The injected faults in effect.
+    pub fn faults(&self) -> NodeFaults {
+        self.faults
+    }
+
+    /// The position the encoder reports, counts (the glitch offset included).
+    fn reported_counts(&self) -> f64 {
+        self.counts() + self.faults.count_offset
+    }
+
+    /// Register 0 at the present state (frozen by an encoder loss, offset by a glitch).
+    fn register0(&self) -> u32 {
+        if let Some((r0, _)) = self.frozen {
+            return r0;
+        }
+        let off = (self.faults.count_offset * 32.0).round() as i64;
+        wrap24(
+            self.encoder
+                .position_32nds(self.motor.position())
+                .saturating_add(off),
+        )
+    }
+
+    /// The switch states as the node reports them (forced by switch faults).
+    fn seen_switches(&self) -> SwitchStates {
+        let f = &self.faults;
+        let s = self.switch_states;
+        SwitchStates {
+            home: f.home.unwrap_or(s.home),
+            plus_limit: f.plus_limit.unwrap_or(s.plus_limit),
+            minus_limit: f.minus_limit.unwrap_or(s.minus_limit),
+        }
+    }
+
     /// The position switch the capture flag (MI913) selects (None: the user flag).
     fn capture_switch(&self) -> Option<Switch> {
         match self.cfg.capture_flag {
@@ -138,7 +217,7 @@ impl ServoNode {
     /// The capture flag (MI913) with the MI912 edge applied, at the present switch states.
     fn capture_level(&self) -> bool {
         let flag = match self.capture_switch() {
-            Some(s) => self.switch_states.get(s),
+            Some(s) => self.seen_switches().get(s),
             None => self.user_flag,
         };
         flag != (self.cfg.capture_control & 8 != 0)
@@ -164,7 +243,7 @@ impl ServoNode {
             Some((e, false)) => e + dir * 1e-6,
             None => to,
         };
-        self.captured = Some(at.floor() as i64);
+        self.captured = Some((at + self.faults.count_offset).floor() as i64);
     }
 
     /// End-stop contact: (torque N·m, damping N·m·s/rad) at position `counts`.
@@ -213,6 +292,9 @@ impl ServoNode {
             self.ring_lockout = false;
         }
         self.amp.update(enable, cmd.r0, cmd.r2);
+        if self.faults.amp_fault {
+            self.amp.inject_fault();
+        }
     }
 
     /// The feedback registers for this cycle.
@@ -231,7 +313,7 @@ impl ServoNode {
             None => (0, 0),
         };
         NodeRegs {
-            r0: self.encoder.register0(self.motor.position()),
+            r0: self.register0(),
             r1,
             r2: current as u16,
             r3: flags.to_reg3(self.cfg.fault_high_true) | captured,
@@ -243,13 +325,16 @@ impl ServoNode {
     /// station ring fault reports FAULT on every node while it is latched.
     pub fn flags(&self) -> StatusFlags {
         let theta = self.motor.position();
-        let sw = self.switch_states;
-        let (cha, chb) = self.encoder.channels(theta);
+        let sw = self.seen_switches();
+        let (cha, chb) = match self.frozen {
+            Some((_, ab)) => ab,
+            None => self.encoder.channels(theta),
+        };
         StatusFlags {
             cha,
             chb,
             amp_enabled: self.amp.active(),
-            amp_fault: self.amp.faulted() || self.ring_fault_flag,
+            amp_fault: self.amp.faulted() || self.ring_fault_flag || self.faults.amp_fault,
             home: self.capture_level(),
             plus_limit: sw.plus_limit,
             minus_limit: sw.minus_limit,

@@ -477,3 +477,72 @@ fn hysteresis_keeps_a_released_limit_off_until_the_switch_position() {
     run(&mut m, 20_000.0, -29_850.0);
     assert_eq!(m.feedback(), again);
 }
+
+#[test]
+fn injected_faults_change_the_feedback_registers_exactly() {
+    use crate::faults::NodeFaults;
+    let mut n = ServoNode::new(0, &cfg());
+    n.apply_command(cmd(4096, true), false);
+    for _ in 0..20 {
+        tick(&mut n, cmd(4096, true), false);
+    }
+    // Encoder loss: register 0 and the A/B levels hold while the shaft moves on.
+    n.set_faults(NodeFaults {
+        encoder_frozen: true,
+        ..Default::default()
+    });
+    let frozen = n.feedback();
+    let before = n.snapshot().position;
+    for _ in 0..20 {
+        let fb = tick(&mut n, cmd(4096, true), false);
+        assert_eq!(fb.r0, frozen.r0);
+        assert_eq!(fb.r3 & 0x30, frozen.r3 & 0x30, "A/B held");
+    }
+    assert!(n.snapshot().position > before + 100.0, "the shaft moved on");
+    // Glitch: register 0 is the true position + V counts, in 1/32 count.
+    n.set_faults(NodeFaults {
+        count_offset: 500.0,
+        ..Default::default()
+    });
+    let truth = (n.snapshot().position * 32.0).floor() as i64;
+    assert_eq!(
+        i64::from(signed24(n.feedback().r0.wrapping_sub(wrap24(truth)))),
+        500 * 32
+    );
+    // Jam: the shaft stands at the position it had, whatever the torque.
+    n.set_faults(NodeFaults {
+        jam: true,
+        ..Default::default()
+    });
+    let at = n.snapshot().position;
+    for _ in 0..20 {
+        tick(&mut n, cmd(32767, true), false);
+        n.set_faults(NodeFaults {
+            jam: true,
+            ..Default::default()
+        });
+    }
+    assert_eq!(n.snapshot().position, at);
+    // Switches forced, FAULT asserted (low-true line: bit 7 clear) and the output off.
+    n.set_faults(NodeFaults {
+        amp_fault: true,
+        plus_limit: Some(true),
+        minus_limit: Some(true),
+        home: Some(true),
+        ..Default::default()
+    });
+    let fb = tick(&mut n, cmd(8192, true), false);
+    assert_eq!(
+        fb.r3 & (ST_PLIM | ST_MLIM | ST_HOME),
+        ST_PLIM | ST_MLIM | ST_HOME
+    );
+    assert_eq!(fb.r3 & (ST_FAULT | ST_AMP_ENABLED), 0);
+    assert_eq!(fb.r2, 0, "no current");
+    // Gone: everything back, the amplifier latch clears when enable drops.
+    n.set_faults(NodeFaults::default());
+    tick(&mut n, cmd(0, false), false);
+    let fb = tick(&mut n, cmd(8192, true), false);
+    assert_eq!(fb.r3 & (ST_PLIM | ST_MLIM | ST_HOME), 0);
+    assert_ne!(fb.r3 & ST_FAULT, 0, "healthy line");
+    assert_ne!(fb.r3 & ST_AMP_ENABLED, 0);
+}

@@ -12,14 +12,22 @@
 //! read 0) and I/O node outputs are zeroed. Position and flag feedback keep being reported, so
 //! the card sees where the coasting motors ended once the ring is back; amplifiers stay off
 //! until the card drops AENA ([`crate::servo_node`]).
+//!
+//! **Axis faults** ([`crate::faults`]): `app_fault` takes a [`StationFaultRequest`]; each tick
+//! first advances the [`FaultTable`] to its ring cycle and hands every servo node its faults
+//! for that cycle, before the plant integrates. `clear_app_faults` removes them all (the
+//! nodes are back to normal in the next tick). Active faults show in the status as
+//! `axis_faults` and `power_loss`.
 
 use std::path::PathBuf;
 
 use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
+use serde::Deserialize;
 
 use crate::config::PlantConfig;
+use crate::faults::{FaultTable, StationFaultRequest};
 use crate::mi::{Globals, Setup};
 use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
 use crate::station_mi::StationMi;
@@ -48,6 +56,7 @@ pub struct StationApp {
     ring_fault: bool,
     shutdown_cycle: Option<u64>,
     mi: StationMi,
+    faults: FaultTable,
 }
 
 impl StationApp {
@@ -90,6 +99,7 @@ impl StationApp {
             ring_fault: false,
             shutdown_cycle: None,
             mi: StationMi::new(setup, None),
+            faults: FaultTable::default(),
         })
     }
 
@@ -134,6 +144,11 @@ impl StationApp {
         self.servo.iter_mut().find(|s| s.node() == n)
     }
 
+    /// The injected axis faults.
+    pub fn faults(&self) -> &FaultTable {
+        &self.faults
+    }
+
     /// Servo nodes in configuration order.
     pub fn servo_nodes(&self) -> impl Iterator<Item = &ServoNode> {
         self.servo.iter()
@@ -158,8 +173,10 @@ impl RingApp for StationApp {
         // (the followers lock to its numbering): the plant steps from the new time on, rather
         // than standing still until the ring's count passes the old one.
         self.last_time_ns = Some(time_ns);
+        self.faults.tick(cycle);
         for s in &mut self.servo {
             let n = s.node();
+            s.set_faults(self.faults.effects(n, cycle));
             s.advance(dt);
             s.apply_command(regs.read_regs(n), ring_fault);
             *regs.write_regs_mut(n) = s.feedback();
@@ -194,9 +211,26 @@ impl RingApp for StationApp {
         }
     }
 
+    /// An axis fault or power loss ([`StationFaultRequest`] as JSON).
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        let req = StationFaultRequest::deserialize(fault).map_err(|e| {
+            format!(
+                "not a station fault ({e}): {{\"op\":\"axis\",\"node\":N,\"kind\":K}} with K one of {}, or {{\"op\":\"power-loss\"}}",
+                crate::faults::AXIS_KINDS.join(", ")
+            )
+        })?;
+        let nodes: Vec<u8> = self.servo.iter().map(ServoNode::node).collect();
+        self.faults.request(&req, &nodes).map_err(|e| e.to_string())
+    }
+
+    fn clear_app_faults(&mut self) {
+        self.faults.clear();
+    }
+
     /// The MI-variable fields, `ring_shutdown_cycle` (the cycle the ring fault shut the
-    /// amplifiers down; null while healthy) and `amps_enabled` (the servo nodes whose
-    /// amplifier is on).
+    /// amplifiers down; null while healthy), `amps_enabled` (the servo nodes whose
+    /// amplifier is on), `axis_faults` (the injected faults: node, kind, value, cycles,
+    /// since_cycle, until_cycle) and `power_loss`.
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         let mut extra = self.mi.status_extra();
         extra.insert(
@@ -210,6 +244,13 @@ impl RingApp for StationApp {
             .map(ServoNode::node)
             .collect();
         extra.insert("amps_enabled".into(), serde_json::json!(on));
+        let faults: Vec<serde_json::Value> =
+            self.faults.active().iter().map(|f| f.to_json()).collect();
+        extra.insert("axis_faults".into(), serde_json::Value::Array(faults));
+        extra.insert(
+            "power_loss".into(),
+            serde_json::Value::Bool(self.faults.power_loss()),
+        );
         extra
     }
 }

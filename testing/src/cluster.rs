@@ -16,6 +16,9 @@ use crate::procs::Tracked;
 use crate::run::{documents, find_mcc, Runner, VERB_TIMEOUT};
 use crate::status::{Status, StatusStream};
 
+mod axis;
+pub use axis::{AXIS_KINDS, AXIS_VALUE_KINDS};
+
 /// Ring faults `mcc fault MEMBER KIND` injects on a member's send path.
 pub const FAULT_KINDS: &[&str] = &[
     "drop-sync",

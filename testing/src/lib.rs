@@ -33,7 +33,8 @@ pub mod source;
 mod status;
 
 pub use cluster::{
-    Builder, CardStart, Cluster, FaultOptions, SyncStart, Trace, DRILLS, FAULT_KINDS, LINK_KINDS,
+    Builder, CardStart, Cluster, FaultOptions, SyncStart, Trace, AXIS_KINDS, AXIS_VALUE_KINDS,
+    DRILLS, FAULT_KINDS, LINK_KINDS,
 };
 pub use error::{Error, ErrorKind, Result};
 pub use foreground::Foreground;

@@ -165,11 +165,13 @@ def test_unsupported_shell_commands_get_a_clear_shell_error(power_card):
 def test_a_wrong_password_leaves_password_to_try_again():
     """Issue 26 item 6, as paramiko (PPmacSshInterface's SSH library) sees it: a refusal is a
     plain authentication failure that still offers `password` (before: no method was left,
-    `BadAuthenticationType`). A card of its own: no earlier failures to wait for. (paramiko
-    asks for the `ssh-userauth` service again before each attempt, which russh 0.65 ignores,
-    so paramiko's own second attempt on one connection is not answered: ARCHITECTURE, Power
-    SSH; dls_pmaclib makes one attempt per connection.)"""
+    `BadAuthenticationType`), and paramiko's next attempts on the same connection are
+    answered: a second wrong password is refused again (paramiko asks for the `ssh-userauth`
+    service before every attempt; russh 0.65 ignored the repeat and left paramiko waiting for
+    its own 20 s timeout, fixed in card/vendor/russh), then the right one logs in. A card of
+    its own: only this test's failures to wait for (0.6 s, then 1.2 s)."""
     import socket
+    import time
 
     import paramiko
 
@@ -182,6 +184,38 @@ def test_a_wrong_password_leaves_password_to_try_again():
         with pytest.raises(paramiko.AuthenticationException) as e:
             t.auth_password("root", "guess")
         assert not isinstance(e.value, paramiko.BadAuthenticationType), e.value
+        started = time.monotonic()
+        with pytest.raises(paramiko.AuthenticationException) as e:
+            t.auth_password("root", "guess again")
+        assert not isinstance(e.value, paramiko.BadAuthenticationType), e.value
+        assert time.monotonic() - started < 15, "the second attempt was not answered"
+        assert t.auth_password("root", "deltatau") == []
+        assert t.is_authenticated()
+    finally:
+        t.close()
+        card.stop()
+
+
+def test_paramiko_attempts_on_one_connection_end_at_max_auth_tries():
+    """sshd's MaxAuthTries (6) as paramiko meets it: six refused attempts on one connection,
+    each answered, then the connection is closed by the server ("Too many authentication
+    attempts"); paramiko raises instead of waiting for its timeout."""
+    import socket
+
+    import paramiko
+
+    card = CardProcess("power")
+    sock = socket.create_connection(("127.0.0.1", card.ssh), timeout=60)
+    t = paramiko.Transport(sock)
+    t.auth_timeout = 30
+    try:
+        t.start_client(timeout=20)
+        for i in range(6):
+            with pytest.raises(paramiko.AuthenticationException):
+                t.auth_password("root", f"guess {i}")
+        with pytest.raises((paramiko.SSHException, EOFError)):
+            t.auth_password("root", "deltatau")
+        assert not t.is_authenticated()
     finally:
         t.close()
         card.stop()

@@ -1,5 +1,7 @@
 //! The one scenario test binary: in-process ring, transcripts, multi-process clusters.
 
+mod axis_cli;
+mod axis_faults;
 mod busy_ports;
 mod chain;
 mod cluster;

@@ -144,6 +144,59 @@ fn list_pe_and_pc_list_from_the_executing_line() {
     assert!(!rest.contains("X200"), "not from the top: {rest}");
 }
 
+/// Issue 26 item 10, seed 8759-8771: `LIST PE` starts at the line executing, not the line
+/// calculated, wherever that line is: a move in a subroutine (`CALL`, the program number of
+/// the subroutine's buffer), a `DWELL` (look-ahead stops at it), and the move after it.
+#[test]
+fn list_pe_follows_the_executing_line_into_subroutines_and_dwells() {
+    let mut rig = rig();
+    rig.cmd("&1 #1->X");
+    enter(&mut rig, "OPEN PROG 8", &["X150", "RETURN"]);
+    enter(
+        &mut rig,
+        "OPEN PROG 7",
+        &[
+            "LINEAR TA50 TS0 TM400",
+            "X100",
+            "CALL 8",
+            "DWELL 1000",
+            "P7=7",
+            "X250",
+            "X300",
+        ],
+    );
+    rig.cmd("&1B7R");
+    // 0-400 ms X100, 400-800 ms X150 (in PROG 8), then the dwell to 1800 ms.
+    rig.run(1300); // ≈ 575 ms: the subroutine's move executes
+    let list_pe = rig.cmd("&1LIST PE");
+    assert!(
+        list_pe.starts_with("P8:") && list_pe.ends_with(":X150"),
+        "in the subroutine: {list_pe}"
+    );
+    assert!(
+        list_pe.starts_with(&format!("{}:", rig.cmd("&1PE"))),
+        "{list_pe}"
+    );
+    rig.run(1500); // ≈ 1240 ms: dwelling
+    let list_pe = rig.cmd("&1LIST PE");
+    assert!(
+        list_pe.starts_with("P7:") && list_pe.ends_with(":DWE1000"),
+        "dwelling: {list_pe}"
+    );
+    let pc = rig.cmd("&1LIST PC");
+    // Look-ahead stops at the dwell (seed 004 L10735): the line after it is the next to
+    // calculate, and nothing after it has run.
+    assert!(pc.ends_with(":P7=7"), "look-ahead stops at the dwell: {pc}");
+    assert_eq!(rig.cmd("P7"), "0", "calculated during the dwell");
+    rig.run(1500); // ≈ 1900 ms: X250 executes
+    let list_pe = rig.cmd("&1LIST PE");
+    assert!(list_pe.ends_with(":X250"), "after the dwell: {list_pe}");
+    assert_eq!(rig.cmd("P7"), "7");
+    let rest = rig.cmd("&1LIST PE,");
+    assert!(rest.ends_with(":RET") && rest.contains(":X300"), "{rest}");
+    assert!(!rest.contains("X100") && !rest.contains("DWE"), "{rest}");
+}
+
 /// Item 15, seed 8785-8817: `LIST PLC 5,,1` lists the line the next scan starts with (the
 /// WHILE a scan ended at ENDWHILE goes back to), `LIST PLC 5,,` from there to the end,
 /// `LIST PLC 5,0` from the top.

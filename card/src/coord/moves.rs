@@ -103,6 +103,9 @@ pub struct CsConfig {
     pub i90: f64,
     /// Power `Coord[x].Td`: the final deceleration time at power-up (`None`: TA, as PMAC).
     pub td: Option<f64>,
+    /// Power `Coord[x].Tm` (legacy Isx89): < 0 a feedrate of its magnitude (seed 000
+    /// L5124-5135). `None`: PMAC, where Ix89 is the default feedrate.
+    pub tm: Option<f64>,
     /// Limits of the C.S. motors (same order as the C.S. motor list; missing = defaults).
     pub motors: Vec<MotorLimits>,
 }
@@ -124,6 +127,7 @@ impl Default for CsConfig {
             i50: true,
             i90: 0.0,
             td: None,
+            tm: None,
             motors: Vec::new(),
         }
     }
@@ -191,11 +195,17 @@ impl Modal {
             mode: Mode::Linear,
             ta: clean(cfg.ix87, 0.0),
             ts: clean(cfg.ix88, 50.0),
-            feed: Feed::Rate(if cfg.ix89.is_finite() && cfg.ix89 > 0.0 {
-                cfg.ix89
-            } else {
-                1000.0
-            }),
+            // [DECISION] a positive Power Tm stays a feedrate until Power's setup elements
+            // have their own defaults (issue 25: the model's Isx89 default is PMAC2's 1000,
+            // the seed's -1); a negative one is the feedrate F left.
+            feed: match cfg.tm {
+                Some(tm) if tm.is_finite() && tm < 0.0 => Feed::Rate(-tm),
+                _ => Feed::Rate(if cfg.ix89.is_finite() && cfg.ix89 > 0.0 {
+                    cfg.ix89
+                } else {
+                    1000.0
+                }),
+            },
             pvt_time: clean(cfg.ix87, 0.0),
             spline_time: clean(cfg.ix87, 0.0),
             td: cfg.td.filter(|v| v.is_finite() && *v >= 0.0),

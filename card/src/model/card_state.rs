@@ -48,6 +48,8 @@ pub struct CardState {
     /// Per C.S.: its `%` command register was written through memory (an M-variable, `W`)
     /// since the servo loop last looked ([`CardState::take_feed_write`]).
     feed_written: Vec<bool>,
+    /// Servo cycles run since power-on or the last reset (Power `Sys.ServoCount`, `Sys.Time`).
+    pub servo_cycles: u64,
 }
 
 impl CardState {
@@ -71,6 +73,7 @@ impl CardState {
             password_matched: true,
             ubuffer_words: 0,
             feed_written: vec![false; limits.coords as usize],
+            servo_cycles: 0,
         };
         s.factory_memory();
         s

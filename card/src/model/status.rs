@@ -250,6 +250,9 @@ pub struct CsFlags {
     pub single_step: bool,
     /// Word 1 bit 0: program running.
     pub running: bool,
+    /// The program engine has moves of this C.S. still to execute (after its calculation
+    /// ended: the last moves of a program). Not a `??` bit: Power `Coord[x].ProgRunning`.
+    pub moves_pending: bool,
     /// Word 2 bit 23: program hold.
     pub program_hold: bool,
     /// Word 2 bit 22: run-time error.
@@ -287,6 +290,7 @@ impl Default for CsFlags {
             continuous_mode: false,
             single_step: false,
             running: false,
+            moves_pending: false,
             program_hold: false,
             runtime_error: false,
             circle_radius_error: false,

@@ -68,6 +68,7 @@ pub(crate) fn cs_config(card: &CardModel, cs: u16, motors: &[u16]) -> CsConfig {
         i90: ivar(card, 90, d.i90),
         // Power's `Coord[x].Td` (legacy Isx80, seed L4995-5027); PMAC has no such time.
         td: (p == crate::domain::Profile::Power).then(|| c(80, c(87, d.ix87))),
+        tm: (p == crate::domain::Profile::Power).then(|| c(89, d.ix89)),
         motors: limits,
     }
 }

@@ -116,6 +116,9 @@ pub enum Wait {
         /// Cycles since the command.
         ticks: u32,
     },
+    /// A DWELL was queued: no line after it is calculated until it has run (look-ahead
+    /// stops at a dwell: seed 004 L10735, seed 000 L41027-41029; a DELAY does not stop it).
+    Dwell,
 }
 
 /// Program state of one coordinate system.

@@ -382,6 +382,7 @@ fn cs_status(x: &CsExec, card: &mut CardModel, motors: &[Motor]) {
             f.running = true;
         }
         f.in_position = idle && inpos;
+        f.moves_pending = !idle;
         f.amp_fault = amp;
         f.fatal_fe = fatal;
         f.warning_fe = warn;

@@ -120,8 +120,16 @@ impl CsExec {
         f.other2 = (f.other2 & !(CC_ON | CC_LEFT)) | cc;
     }
 
-    /// Waiting for homing: `true` when calculation may go on.
+    /// Waiting for homing or a dwell: `true` when calculation may go on.
     fn check_wait(&mut self, motors: &[Motor]) -> bool {
+        if matches!(self.wait, Wait::Dwell) {
+            // The dwell, and every move queued before it, has run.
+            if self.cs.as_ref().is_some_and(|c| !c.is_idle()) {
+                return false;
+            }
+            self.wait = Wait::None;
+            return true;
+        }
         let Wait::Homing {
             motors: list,
             ticks,
@@ -151,13 +159,18 @@ impl CsExec {
     pub fn homing(&self) -> &[u16] {
         match &self.wait {
             Wait::Homing { motors, .. } => motors,
-            Wait::None => &[],
+            Wait::None | Wait::Dwell => &[],
         }
     }
 
     /// One calculation pass.
     pub fn calc(&mut self, card: &mut CardModel, motors: &[Motor], io: &mut PassIo<'_>) {
-        if !self.active || !self.check_wait(motors) {
+        if !self.active {
+            return;
+        }
+        if !self.check_wait(motors) {
+            // Waiting (a home search, a dwell): the moves go on, PE/PC follow them.
+            self.report_pc(card);
             return;
         }
         card.exec = crate::model::ExtAt::cs(self.num, self.depth());
@@ -258,6 +271,10 @@ impl CsExec {
                             back = 0;
                             if self.step && !self.in_block {
                                 self.active = false;
+                            }
+                            if matches!(self.wait, Wait::Dwell) {
+                                // Nothing after a dwell is calculated before it has run.
+                                break;
                             }
                         }
                         Flow::Wait | Flow::Error => break,

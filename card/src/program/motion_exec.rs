@@ -80,9 +80,16 @@ impl CsExec {
                     _ => c.modal.set_f(v),
                 });
                 if matches!(s.kind, S::F(_) | S::Tm(_)) && !matches!(flow, Flow::Error) {
-                    // Polled, Ix89 reports the most recent F or TM (seed 4541-4543).
+                    // Polled, Ix89 reports the most recent F or TM (seed 4541-4543). Power's
+                    // `Coord[x].Tm` keeps an F as its negative (feedrate mode; seed 000
+                    // L5133-5135, L41209-41210).
                     let n = env::cs_ivar(card.profile(), num, 89);
-                    card.state.vars.force_i(n, v);
+                    let kept = if power && matches!(s.kind, S::F(_)) {
+                        -v
+                    } else {
+                        v
+                    };
+                    card.state.vars.force_i(n, kept);
                 }
                 if power && matches!(s.kind, S::Ta(_) | S::Td(_)) && !matches!(flow, Flow::Error) {
                     // Power: `ta` sets `Coord[x].Ta` and `Coord[x].Td`, `td` the latter
@@ -132,9 +139,13 @@ impl CsExec {
                     return Flow::Error;
                 };
                 let dwell = matches!(s.kind, S::Dwell(_));
-                self.queue(card, |c| {
+                let flow = self.queue(card, |c| {
                     if dwell { c.dwell(v) } else { c.delay(v) }.map(Some)
-                })
+                });
+                if dwell && matches!(flow, Flow::Moved) {
+                    self.wait = super::csexec::Wait::Dwell;
+                }
+                flow
             }
             S::Home(list) | S::HomeZ(list) => self.home(card, list, matches!(s.kind, S::Home(_))),
             S::Pset(words) => {

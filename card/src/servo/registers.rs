@@ -123,8 +123,9 @@ pub(super) fn report(card: &mut CardModel, motors: &[Motor]) {
     }
 }
 
-/// Advance the servo cycle counter X:$0000.
+/// Advance the servo cycle counter X:$0000 (and the card's own count of servo cycles).
 pub(super) fn count_cycle(st: &mut CardState) {
+    st.servo_cycles += 1;
     let a = crate::model::SERVO_COUNTER;
     let c = st.memory.read(Space::X, a);
     st.memory.write(Space::X, a, (c + 1) & 0xFF_FFFF);

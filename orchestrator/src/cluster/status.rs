@@ -220,6 +220,11 @@ pub struct StationRow {
     /// second (MI12), check settings (MI8/MI9/MI10, MI6), configuration number (MI2), firmware
     /// version, state-file problems.
     pub mi: Option<serde_json::Value>,
+    /// Injected axis faults (`mcc fault STATION axis …`, `power-loss`): node (null for
+    /// power loss), kind, value, cycles, since_cycle, until_cycle (null: until cleared).
+    pub axis_faults: Vec<serde_json::Value>,
+    /// Station-wide power loss injected (null when it did not answer).
+    pub power_loss: Option<bool>,
 }
 
 /// The supervisor.
@@ -479,6 +484,10 @@ pub fn build(
                 ring_fault: extra("ring_fault").and_then(|v| v.as_bool()),
                 suspected_break: extra("suspected_break").and_then(|v| v.as_bool()),
                 mi: extra("mi"),
+                axis_faults: extra("axis_faults")
+                    .and_then(|v| v.as_array().cloned())
+                    .unwrap_or_default(),
+                power_loss: extra("power_loss").and_then(|v| v.as_bool()),
             }
         })
         .collect();
@@ -591,6 +600,35 @@ pub fn timing_text(s: &ClusterStatus) -> String {
     out
 }
 
+/// A station's injected axis faults as `node 0 load=0.5 (cycles 100-199), power-loss (since
+/// 42)`; none when it has none.
+fn axis_faults_text(st: &StationRow) -> Option<String> {
+    if st.axis_faults.is_empty() {
+        return None;
+    }
+    let one = |f: &serde_json::Value| {
+        let kind = f["kind"].as_str().unwrap_or("?");
+        let what = match (f["node"].as_u64(), f["value"].as_f64()) {
+            (Some(n), Some(v)) => format!("node {n} {kind}={v}"),
+            (Some(n), None) => format!("node {n} {kind}"),
+            (None, _) => kind.to_string(),
+        };
+        let when = match (f["since_cycle"].as_u64(), f["until_cycle"].as_u64()) {
+            (Some(a), Some(b)) => format!("cycles {a}-{}", b.saturating_sub(1)),
+            (Some(a), None) => format!("since {a}, until cleared"),
+            (None, _) => "starting".to_string(),
+        };
+        format!("{what} ({when})")
+    };
+    Some(
+        st.axis_faults
+            .iter()
+            .map(one)
+            .collect::<Vec<_>>()
+            .join(", "),
+    )
+}
+
 /// The human-readable table.
 pub fn render_table(s: &ClusterStatus) -> String {
     let mut o = String::new();
@@ -672,6 +710,11 @@ pub fn render_table(s: &ClusterStatus) -> String {
             card_ports_text(c),
             card_state_text(c)
         );
+    }
+    for st in &s.stations {
+        if let Some(line) = axis_faults_text(st) {
+            let _ = writeln!(o, "station {}: axis faults: {line}", st.name);
+        }
     }
     if let Some(d) = &s.daisy_chain {
         let pty = s.daisy_chain_pty.as_deref().unwrap_or("-");

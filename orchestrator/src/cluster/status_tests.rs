@@ -459,3 +459,36 @@ fn link_faults_show_in_the_card_entry_the_document_and_the_table() {
         "{table}"
     );
 }
+
+#[test]
+fn a_station_s_axis_faults_show_in_json_and_table() {
+    let cfg = ClusterConfig::default_cluster(1, 2);
+    let mut st = healthy(&cfg, 500);
+    let station1 = st[2].as_mut().unwrap();
+    station1.extra.insert(
+        "axis_faults".into(),
+        serde_json::json!([
+            {"node": 4, "kind": "load", "value": 0.5, "cycles": 100,
+             "since_cycle": 400, "until_cycle": 500},
+            {"node": null, "kind": "power-loss", "value": null, "cycles": null,
+             "since_cycle": 450, "until_cycle": null}
+        ]),
+    );
+    station1
+        .extra
+        .insert("power_loss".into(), serde_json::json!(true));
+    let status = build(&cfg, &info(), "/run/x", &st, &[]);
+    let doc = serde_json::to_value(&status).unwrap();
+    assert_eq!(doc["stations"][1]["axis_faults"][0]["kind"], "load");
+    assert_eq!(doc["stations"][1]["power_loss"], true);
+    assert_eq!(doc["stations"][0]["axis_faults"], serde_json::json!([]));
+    assert_eq!(doc["stations"][0]["power_loss"], serde_json::Value::Null);
+    let table = render_table(&status);
+    assert!(
+        table.contains(
+            "station station1: axis faults: node 4 load=0.5 (cycles 400-499), power-loss (since 450, until cleared)"
+        ),
+        "{table}"
+    );
+    assert!(!table.contains("station station0:"), "{table}");
+}

@@ -13,6 +13,7 @@ built on for use outside pytest::
 
 from importlib import metadata as _metadata
 
+from .axis import AXIS_KINDS, AXIS_VALUE_KINDS
 from .card import Card, Ports
 from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, LINK_KINDS, CardStart, Cluster,
                       Recording, SyncStart, stop_all)
@@ -31,9 +32,9 @@ from .gather import Gathered, Trace
 from .status import Status
 
 __all__ = [
-    "Card", "CardError", "CardStart", "Cluster", "ClusterBusy", "ClusterStartError",
-    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "LINK_KINDS",
-    "LockTimeout", "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
+    "AXIS_KINDS", "AXIS_VALUE_KINDS", "Card", "CardError", "CardStart", "Cluster", "ClusterBusy", "ClusterStartError",
+    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "LINK_KINDS", "LockTimeout",
+    "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
     "WaitTimeout", "stop_all",
 ]
 try:

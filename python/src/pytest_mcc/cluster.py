@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
+from . import axis as axismod
 from . import config as cfgmod
 from ._cli import VERB_TIMEOUT, Runner, docs, find_mcc
 from ._procs import Tracked
@@ -428,16 +429,23 @@ class Cluster:
 
     def fault(self, member: str, kind: str, *words: Any, **options: Any) -> str:
         """Inject ring fault ``kind`` on ``member``'s send path, or run a process drill
-        (``mcc fault MEMBER KIND``).
+        (``mcc fault MEMBER KIND``), or an application fault (the CLI's words after
+        ``mcc fault``).
 
         Kinds: :data:`FAULT_KINDS` (options ``cycles``, ``probability``, ``seed``, ``delay``)
-        and :data:`DRILLS` (no options). An unknown member, kind or option raises
+        and :data:`DRILLS` (no options); ``fault(station, "axis", node, kind, value=V,
+        cycles=N)`` with a kind of :data:`~pytest_mcc.axis.AXIS_KINDS` and
+        ``fault(station, "power-loss", cycles=N)``. An unknown member, kind or option raises
         :class:`UnknownChoice` at once, naming the valid ones. Returns mcc's message.
         """
         self._need_running()
         if kind == "link":
             return self._link_fault(member, words, options)
         self._check_member(member)
+        if kind in ("axis", "power-loss"):
+            return self._axis_fault(member, kind, words, options)
+        if words:
+            raise UnknownChoice(f"word after fault kind {kind!r}", words[0], [])
         if kind not in FAULT_KINDS + DRILLS:
             raise UnknownChoice("fault kind", kind, FAULT_KINDS + DRILLS)
         allowed = () if kind in DRILLS else FAULT_OPTIONS
@@ -473,6 +481,13 @@ class Cluster:
         for k in FAULT_OPTIONS:
             if options.get(k) is not None:
                 args += [f"--{k}", str(options[k])]
+        return self._runner.run(args).stdout.strip()
+
+    def _axis_fault(self, station: str, kind: str, words: Sequence[Any],
+                    options: Mapping[str, Any]) -> str:
+        assert self.initial_status is not None
+        build = axismod.axis_args if kind == "axis" else axismod.power_loss_args
+        args = build(self.initial_status, station, words, options)
         return self._runner.run(args).stdout.strip()
 
     def _remember_later(self) -> None:

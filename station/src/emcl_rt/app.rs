@@ -58,6 +58,15 @@ impl<A: RingApp> RingApp for DriveStationApp<A> {
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         self.inner.status_extra()
     }
+
+    /// The station's own faults (axis, power loss) go to the wrapped app.
+    fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        self.inner.app_fault(fault)
+    }
+
+    fn clear_app_faults(&mut self) {
+        self.inner.clear_app_faults();
+    }
 }
 
 /// Nodes of station `station` that drives are bound to (the station app must not serve them).

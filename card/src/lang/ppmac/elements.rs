@@ -202,6 +202,11 @@ pub(crate) fn read(
     }
     let d = &DEFS[k.def];
     let nm = d.name;
+    if d.class == Class::Status {
+        if let Some(v) = super::status_elems::read(card, k, nm) {
+            return Ok(v);
+        }
+    }
     let st = &mut card.state;
     let v = match (k.st, nm) {
         (St::Ldata, "Motor") => f64::from(th.motor),

@@ -278,6 +278,33 @@ impl Ctx<'_> {
                 };
                 self.say(&s);
             }
+            Cmd::AxisQuery(list) => {
+                // A motor of the addressed C.S. reports its definition; one of another C.S.
+                // is preceded by `&n`, which then holds for the lines after it; a motor of no
+                // C.S. belongs to &0 and reports `0` (seed L31662-31690).
+                let mut context = self.th.coord;
+                for &m in list {
+                    let def = self
+                        .card
+                        .model
+                        .run
+                        .axes
+                        .get(usize::from(m))
+                        .cloned()
+                        .flatten();
+                    let (cs, text) = match def {
+                        Some((c, d)) => (c.saturating_sub(1), crate::model::axis_def_text(&d)),
+                        None => (0, "0".to_string()),
+                    };
+                    let prefix = if cs == context {
+                        String::new()
+                    } else {
+                        context = cs;
+                        format!("&{cs}")
+                    };
+                    self.say(&format!("{prefix}#{m}->{text}"));
+                }
+            }
             Cmd::AxisDef(m, text) => {
                 // The definition forms are the classic ones: run as a PMAC command with the
                 // model numbering (`#n->0` undefines).
@@ -357,7 +384,7 @@ impl Ctx<'_> {
     fn sel_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
         let v: Vec<u32> = match sel {
             Sel::One(ix) => vec![self.index(ix, elems)?],
-            Sel::Range(a, b) => {
+            Sel::Range(a, b, _) => {
                 if (b - a) as usize >= MAX_VALUES {
                     return Err(22);
                 }
@@ -380,12 +407,22 @@ impl Ctx<'_> {
     }
 
     fn var_query(&mut self, f: Fam, sel: &Sel, elems: &[ElemRef]) -> Result<(), u16> {
-        for n in self.sel_numbers(sel, elems)? {
-            let v = self.var_read(f, n).map_err(|e| e.code)?;
+        let per_line = match sel {
+            Sel::Range(_, _, n) => (*n as usize).max(1),
+            _ => 1,
+        };
+        let numbers = self.sel_numbers(sel, elems)?;
+        let mut values = Vec::with_capacity(numbers.len());
+        for &n in &numbers {
+            values.push(self.var_read(f, n).map_err(|e| e.code)?);
+        }
+        // `P1..10:5` answers `P1=7,3,5,2,11` then `P6=…` (seed L38087-38089).
+        for (numbers, values) in numbers.chunks(per_line).zip(values.chunks(per_line)) {
+            let list: Vec<String> = values.iter().map(|v| fmt(*v)).collect();
             let s = if self.th.echo & 2 != 0 {
-                fmt(v)
+                list.join(",")
             } else {
-                format!("{}{n}={}", f.letter(), fmt(v))
+                format!("{}{}={}", f.letter(), numbers[0], list.join(","))
             };
             self.say(&s);
         }

@@ -31,9 +31,12 @@ mod program;
 pub(crate) mod progvars;
 mod rotary;
 pub(crate) mod saved;
+mod status_elems;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_forms;
 #[cfg(test)]
 mod tests_fuzz;
 #[cfg(test)]
@@ -46,6 +49,8 @@ mod tests_mvars;
 mod tests_programs;
 #[cfg(test)]
 mod tests_rotary;
+#[cfg(test)]
+mod tests_status;
 
 use std::collections::HashMap;
 

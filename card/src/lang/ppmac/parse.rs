@@ -113,8 +113,8 @@ pub(crate) const ELEM_ADDRESS: u32 = 1;
 pub(crate) enum Sel {
     /// One, constant or computed.
     One(VarIndex),
-    /// `a..b`
-    Range(u32, u32),
+    /// `a..b[:n]`: n values per reply line (seed L38087-38089; 1 when absent).
+    Range(u32, u32, u32),
     /// `start,count[,spacing]`
     List(u32, u32, u32),
 }
@@ -232,6 +232,8 @@ pub(crate) enum Cmd {
     Info(&'static str),
     /// `#n->{definition}` (empty: the query `#n->`)
     AxisDef(u16, String),
+    /// `#{list}->`: report the motors' axis definitions (seed L31655-31690).
+    AxisQuery(Vec<u16>),
     /// `enable plc n` / `disable plc n` (`true`: enable)
     PlcCtl(bool, u32),
 }
@@ -923,6 +925,19 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
             }
         }
     }
+    // A motor or C.S. list addresses the command right after it only (it does not change
+    // the modal address): a list with no command is error 20 (seed L31649-31650, L31981).
+    if let (
+        None,
+        Some(Item {
+            cmd: Cmd::Motors(_, true) | Cmd::Coords(_, true),
+            at,
+        }),
+    ) = (&error, items.last())
+    {
+        error = Some(SyntaxError { at: *at, code: 20 });
+        items.pop();
+    }
     Parsed {
         items,
         error,
@@ -939,6 +954,16 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         b'#' => {
             c.i += 1;
             let l = c.num_list(motors)?;
+            if let Some((v, _)) = &l {
+                let query = c.rest().starts_with(b"->")
+                    && c.rest()
+                        .get(2)
+                        .is_none_or(|d| matches!(d, b' ' | b'\t' | b'#' | b'&'));
+                if query {
+                    c.i += 2;
+                    return Ok(Cmd::AxisQuery(v.clone()));
+                }
+            }
             if let Some((v, false)) = &l {
                 if c.eat_str("->") {
                     let st = c.i;
@@ -999,6 +1024,15 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     if c.peek() == Some(b'j') && !c.peek_at(1).is_some_and(|d| d.is_ascii_alphabetic()) {
         c.i += 1;
+        return jog(c);
+    }
+    // The long forms `jog+`, `jog-`, `jog/`, `jog=…`, `jog:…`, `jog^…` (seed L565-624,
+    // L877-908, the short/long table at L20017-20019).
+    if c.rest().starts_with(b"jog")
+        && c.peek_at(3)
+            .is_some_and(|d| matches!(d, b'+' | b'-' | b'/' | b'=' | b':' | b'^'))
+    {
+        c.i += 3;
         return jog(c);
     }
     let mut w = c.word().unwrap_or_default();
@@ -1096,10 +1130,21 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
     let sel = match &index {
         VarIndex::Const(a) => {
             if c.eat_str("..") {
-                match c.uint() {
-                    Some(b) if b >= *a => Sel::Range(*a, b),
+                let b = match c.uint() {
+                    Some(b) if b >= *a => b,
                     _ => return err(c.i),
-                }
+                };
+                let per_line =
+                    if c.peek() == Some(b':') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
+                        c.i += 1;
+                        match c.uint() {
+                            Some(n) if n >= 1 => n,
+                            _ => return err(c.i),
+                        }
+                    } else {
+                        1
+                    };
+                Sel::Range(*a, b, per_line)
             } else if c.peek() == Some(b',') && c.peek_at(1).is_some_and(|d| d.is_ascii_digit()) {
                 c.i += 1;
                 let n = c.uint().unwrap_or(0);

@@ -128,7 +128,8 @@ fn bad_kinematic_buffers_and_definitions_are_refused() {
     // `#n->I` for a motor of another C.S.
     assert_eq!(t.send("&2 #3->I"), "");
     assert!(t.send("&1 #3->I").contains("error #"));
-    assert_eq!(t.send("&2 #3->"), "I\r\n");
+    assert_eq!(t.send("&2 #3->"), "#3->I\r\n");
+    assert_eq!(t.send("&1 #3->"), "&2#3->I\r\n");
 }
 
 #[test]

@@ -312,15 +312,27 @@ fn list_pc_and_apc_follow_the_program_counter() {
     );
     assert_eq!(t.send("r"), "");
     t.run(100);
-    // In the first dwell the engine has calculated `P2 = 2` already (the counter points at
-    // the next line to calculate, seed L36690: ahead of the motion executing).
-    assert_eq!(t.send("P2"), "P2=2\r\n");
-    assert_eq!(t.send("list pc,"), "prog 25\r\n3:dwell 50\r\n4:end\r\n");
-    assert_eq!(t.send("list pc,1"), "prog 25\r\n3:dwell 50\r\n");
-    assert_eq!(t.send("list pc"), "dwell 50\r\n");
+    // In the first dwell the counter points at the next line to calculate (seed L36690),
+    // and a dwell stops look-ahead: `P2 = 2` is not calculated before the dwell has run
+    // (L41027-41029).
+    assert_eq!(t.send("P2"), "P2=0\r\n");
+    assert_eq!(
+        t.send("list pc,"),
+        "prog 25\r\n2:P2 = 2\r\n3:dwell 50\r\n4:end\r\n"
+    );
+    assert_eq!(t.send("list pc,1"), "prog 25\r\n2:P2 = 2\r\n");
+    assert_eq!(t.send("list pc"), "P2 = 2\r\ndwell 50\r\n");
     assert_eq!(t.send("a"), "");
     t.run(5);
-    assert_eq!(t.send("list apc,"), "prog 25\r\n3:dwell 50\r\n4:end\r\n");
+    assert_eq!(
+        t.send("list apc,"),
+        "prog 25\r\n2:P2 = 2\r\n3:dwell 50\r\n4:end\r\n"
+    );
+    assert_eq!(
+        t.send("P2"),
+        "P2=0\r\n",
+        "aborted in the dwell: never calculated"
+    );
     assert!(t.send("list pc,x").contains("error #20:"));
 }
 

@@ -1,0 +1,101 @@
+//! Issue 25 item 3, on-line command forms of seed 000: the long jog forms (`jog+`, `jog-`,
+//! `jog/`, `jog=`; L565-624, L877-908, L20017-20019), a motor or C.S. list with no command
+//! (error 20, L31649-31650, L31981), and grouped range queries (`P1..10:5`, L38087-38089).
+
+use super::tests_programs::T;
+
+#[test]
+fn long_jog_forms_do_what_the_short_ones_do() {
+    let mut t = T::new();
+    t.ready_cs1();
+    assert_eq!(t.send("#1jog+"), "");
+    t.run(200);
+    assert_eq!(
+        t.send("Motor[1].DesVelZero"),
+        "Motor[1].DesVelZero=0\r\n",
+        "jogging"
+    );
+    assert_eq!(t.send("#1jog/"), "");
+    t.run(800);
+    assert_eq!(
+        t.send("Motor[1].DesVelZero"),
+        "Motor[1].DesVelZero=1\r\n",
+        "stopped"
+    );
+    assert_eq!(t.send("#1jog=0"), "");
+    t.run(3000);
+    let r = t.send("#1p");
+    let p: f64 = r.trim().parse().unwrap();
+    assert!(p.abs() < 1.0, "jog=0 went back to 0: {r:?}");
+    assert_eq!(t.send("#1jog-"), "");
+    t.run(200);
+    assert_eq!(t.send("Motor[1].DesVelZero"), "Motor[1].DesVelZero=0\r\n");
+    assert_eq!(t.send("#1jog/"), "");
+    // A word that only starts like a jog is no jog.
+    assert!(t.send("#1jogx").contains("error #20"), "jogx");
+}
+
+#[test]
+fn a_list_with_no_command_is_error_20() {
+    let mut t = T::new();
+    assert_eq!(
+        t.send("#3..6"),
+        "stdin:1:1: error #20: ILLEGAL CMD: #3..6\r\n"
+    );
+    assert_eq!(
+        t.send("&3..6"),
+        "stdin:2:1: error #20: ILLEGAL CMD: &3..6\r\n"
+    );
+    // One motor or C.S. alone is the modal address, as before; a list with a command works.
+    assert_eq!(t.send("#3"), "");
+    assert_eq!(t.send("&2"), "");
+    assert_eq!(t.send("#3..4k"), "");
+}
+
+#[test]
+fn range_queries_group_values_per_line() {
+    let mut t = T::new();
+    t.load(&["P1=7", "P2=3", "P3=5", "P4=2", "P5=11", "P6=8", "P7=33"]);
+    assert_eq!(t.send("P1..10:5"), "P1=7,3,5,2,11\r\nP6=8,33,0,0,0\r\n");
+    assert_eq!(t.send("P1..7:3"), "P1=7,3,5\r\nP4=2,11,8\r\nP7=33\r\n");
+    assert_eq!(t.send("P1..3"), "P1=7\r\nP2=3\r\nP3=5\r\n");
+    assert!(t.send("P1..3:0").contains("error #20"));
+}
+
+#[test]
+fn axis_definition_reports_name_the_cs_when_it_changes() {
+    // Seed L31680-31690, the example itself.
+    let mut t = T::new();
+    t.load(&[
+        "&1 #1->500X",
+        "&1 #2->500Y",
+        "&1 #3->500Z",
+        "&2 #4->500X",
+        "&2 #5->500Y",
+        "&2 #6->500Z",
+        "&1",
+    ]);
+    assert_eq!(t.send("#1->"), "#1->500X\r\n");
+    assert_eq!(t.send("#5->"), "&2#5->500Y\r\n");
+    assert_eq!(
+        t.send("#1..7->"),
+        "#1->500X\r\n#2->500Y\r\n#3->500Z\r\n&2#4->500X\r\n#5->500Y\r\n#6->500Z\r\n&0#7->0\r\n"
+    );
+    // The addressed C.S. is still &1 afterwards.
+    assert_eq!(t.send("#2->"), "#2->500Y\r\n");
+}
+
+#[test]
+fn f_in_a_program_keeps_its_negative_in_coord_tm_and_tm_its_value() {
+    // Seed L5133-5135: `tm{data}` sets Coord[x].Tm to data, `F{data}` to −data.
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["open prog 6", "linear abs ta10 ts0 F12.5", "X0.5", "close"]);
+    assert_eq!(t.send("&1 b6 r"), "");
+    t.run(400);
+    assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=-12.5\r\n");
+    t.load(&["open prog 7", "linear abs ta10 ts0 tm150", "X0", "close"]);
+    assert_eq!(t.send("&1 b7 r"), "");
+    t.run(400);
+    assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=150\r\n");
+}
