@@ -227,6 +227,10 @@ pub struct FaultArgs {
     /// amplifier of the station. Input kinds: abort, feed-hold — the JPAN STOP/ and HOLD/
     /// inputs of a PMAC2/Turbo card, the global abort input of a Power card; held until
     /// cleared or for --cycles N.
+    /// Host-link kinds (`CARD|chain|bus link KIND`, on replies only, never on what is stored):
+    /// no-reply, late (--delay MS), short, stray-cr, stray-lf, stray-bel, stray-ctrl,
+    /// corrupt, reset, bad-checksum (EMCL bus only); --probability is drawn per reply,
+    /// --cycles N = the next N replies.
     #[arg(num_args = 1..=4, required = true, value_name = "MEMBER KIND | clear [MEMBER]")]
     pub words: Vec<String>,
     /// Apply for this many ring cycles (default: until cleared).
@@ -238,7 +242,8 @@ pub struct FaultArgs {
     /// Random seed for the probability.
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
-    /// Delay amount: cycles for `delay`, microseconds for `delay-us`.
+    /// Delay amount: cycles for `delay`, microseconds for `delay-us`, milliseconds for a
+    /// `late` link fault.
     #[arg(long, value_name = "N")]
     pub delay: Option<u64>,
     /// Amount of an application fault (counts of an encoder glitch, a load, ...).

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from pytest_mcc import (DRILLS, FAULT_KINDS, Cluster, ClusterStartError, ConfigError,
-                        LockTimeout, UnknownChoice)
+from pytest_mcc import (DRILLS, FAULT_KINDS, LINK_KINDS, Cluster, ClusterStartError,
+                        ConfigError, LockTimeout, UnknownChoice)
 from pytest_mcc._procs import start_time
 
 
@@ -71,6 +71,33 @@ def test_unknown_faults_members_and_options_raise_at_once_with_the_choices(mcc_c
     with pytest.raises(Exception, match="probability"):
         mcc_cluster.fault("station0", "corrupt", probability=1.5)
     assert mcc_cluster.status().locked
+
+
+@pytest.mark.mcc(cards=1, stations=1)
+def test_link_faults_check_targets_kinds_and_options_then_apply(mcc_cluster):
+    t = time.monotonic()
+    with pytest.raises(UnknownChoice) as e:
+        mcc_cluster.fault("station0", "link", "short")
+    assert e.value.choices == ["card0", "chain", "bus"]
+    with pytest.raises(UnknownChoice) as e:
+        mcc_cluster.fault("card0", "link", "melt")
+    assert e.value.choices == list(LINK_KINDS)
+    with pytest.raises(UnknownChoice) as e:
+        mcc_cluster.fault("chain", "link", "bad-checksum")
+    assert "bad-checksum" not in e.value.choices and "EMCL bus only" in str(e.value)
+    with pytest.raises(UnknownChoice) as e:
+        mcc_cluster.fault("card0", "link", "late", dealy=20)
+    assert e.value.choices == ["cycles", "probability", "seed", "delay"]
+    assert time.monotonic() - t < 1.0, "validated without asking the cluster"
+    out = mcc_cluster.fault("card0", "link", "no-reply", probability=0.5, seed=1, cycles=4)
+    assert "no-reply" in out, out
+    f = mcc_cluster.status()["cards"][0]["link_fault"]
+    assert (f["kind"], f["probability"], f["seed"], f["replies"]) == ("no-reply", 0.5, 1, 4)
+    mcc_cluster.fault("chain", "link", "late", delay=20)
+    assert mcc_cluster.status()["link_faults"]["chain"]["delay_ms"] == 20
+    mcc_cluster.clear()
+    doc = mcc_cluster.status()
+    assert doc["cards"][0]["link_fault"] is None and doc["link_faults"]["chain"] is None
 
 
 def test_the_python_fault_kinds_are_the_cli_s(mcc):

@@ -25,5 +25,5 @@ mod api_check;
 
 pub use protocol::{
     aux_channel, builder, check, control, core, expect, expect_card, fault, frame, holdover,
-    member, packet, settings, sim, status,
+    linkfault, member, packet, settings, sim, status,
 };

@@ -62,6 +62,22 @@ fn input_fault_args(
     Ok(args)
 }
 
+/// Host-link fault kinds (`mcc fault CARD|chain|bus link KIND`; `bad-checksum` on the bus
+/// only). Options: `cycles` (the next N replies), `probability` (per reply), `seed`,
+/// `delay` (ms, `late` only).
+pub const LINK_KINDS: &[&str] = &[
+    "no-reply",
+    "late",
+    "short",
+    "stray-cr",
+    "stray-lf",
+    "stray-bel",
+    "stray-ctrl",
+    "corrupt",
+    "reset",
+    "bad-checksum",
+];
+
 /// Options of a ring fault (`mcc fault --cycles/--probability/--seed/--delay`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FaultOptions {
@@ -834,6 +850,52 @@ impl Cluster {
             .filter_map(|c| c["name"].as_str().map(str::to_string))
             .collect();
         let args = input_fault_args(&cards, card, kind, cs, cycles)?;
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        Ok(self.runner.run(&args)?.trim().to_string())
+    }
+
+    /// Inject host-link fault `kind` ([`LINK_KINDS`]) on `target`: a card (all its host
+    /// ports), `chain` or `bus` (`mcc fault TARGET link KIND`). Unknown targets and kinds,
+    /// and `bad-checksum` off the bus, are refused at once with the valid choices.
+    pub fn link_fault(&self, target: &str, kind: &str, opts: FaultOptions) -> Result<String> {
+        let mut targets: Vec<String> = self.initial.0["cards"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|c| c["name"].as_str().map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        targets.extend(["chain".to_string(), "bus".to_string()]);
+        if !targets.iter().any(|t| t == target) {
+            return Err(Error::unknown("link target", target, &targets));
+        }
+        if !LINK_KINDS.contains(&kind) {
+            return Err(Error::unknown("link fault kind", kind, LINK_KINDS));
+        }
+        if kind == "bad-checksum" && target != "bus" {
+            let here: Vec<&str> = LINK_KINDS
+                .iter()
+                .copied()
+                .filter(|k| *k != "bad-checksum")
+                .collect();
+            return Err(Error::unknown(
+                &format!("link fault kind on {target} (bad-checksum: the EMCL bus only)"),
+                kind,
+                &here,
+            ));
+        }
+        let mut args: Vec<String> = ["fault", target, "link", kind].map(str::to_string).to_vec();
+        for (k, v) in [
+            ("--cycles", opts.cycles.map(|c| c.to_string())),
+            ("--probability", opts.probability.map(|p| p.to_string())),
+            ("--seed", opts.seed.map(|s| s.to_string())),
+            ("--delay", opts.delay.map(|d| d.to_string())),
+        ] {
+            if let Some(v) = v {
+                args.extend([k.to_string(), v]);
+            }
+        }
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         Ok(self.runner.run(&args)?.trim().to_string())
     }

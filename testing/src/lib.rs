@@ -34,7 +34,7 @@ mod status;
 
 pub use cluster::{
     Builder, CardStart, Cluster, FaultOptions, SyncStart, Trace, AXIS_KINDS, AXIS_VALUE_KINDS,
-    DRILLS, FAULT_KINDS, INPUT_KINDS,
+    DRILLS, FAULT_KINDS, INPUT_KINDS, LINK_KINDS,
 };
 pub use error::{Error, ErrorKind, Result};
 pub use foreground::Foreground;

@@ -102,10 +102,12 @@ fn the_test_api_refuses_bad_input_with_the_choices_and_the_cli_message() {
         c.send(&["I0"], Some(3)).unwrap_err().kind,
         ErrorKind::UnknownChoice { .. }
     ));
+    link_fault_refusals(&c);
     assert!(
         t.elapsed() < Duration::from_secs(1),
         "checked without the cluster"
     );
+    link_fault_applies_shows_and_clears(&mut c);
     drop(c);
 
     let e = builder("apicfg")
@@ -203,4 +205,67 @@ fn a_cluster_follows_its_owner_process() {
         std::thread::sleep(Duration::from_millis(100));
     }
     assert!(c.stop().is_empty());
+}
+
+/// `link_fault` refuses unknown targets and kinds, and bad-checksum off the bus, with the
+/// valid choices (without asking the cluster).
+fn link_fault_refusals(c: &mcc_testing::Cluster) {
+    let e = c
+        .link_fault("station0", "short", FaultOptions::default())
+        .unwrap_err();
+    assert_eq!(
+        e.kind,
+        ErrorKind::UnknownChoice {
+            choices: vec!["card0".into(), "chain".into(), "bus".into()]
+        }
+    );
+    let e = c
+        .link_fault("card0", "melt", FaultOptions::default())
+        .unwrap_err();
+    let all: Vec<String> = mcc_testing::LINK_KINDS
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    assert_eq!(
+        e.kind,
+        ErrorKind::UnknownChoice {
+            choices: all.clone()
+        }
+    );
+    let e = c
+        .link_fault("chain", "bad-checksum", FaultOptions::default())
+        .unwrap_err();
+    let not_bus: Vec<String> = all.into_iter().filter(|k| k != "bad-checksum").collect();
+    assert_eq!(e.kind, ErrorKind::UnknownChoice { choices: not_bus });
+    assert!(e.to_string().contains("EMCL bus only"), "{e}");
+}
+
+/// A card link fault shows in the card's status entry and `clear` removes it; a `late`
+/// without `--delay` is the CLI's refusal.
+fn link_fault_applies_shows_and_clears(c: &mut mcc_testing::Cluster) {
+    let opts = FaultOptions {
+        cycles: Some(5),
+        probability: Some(0.5),
+        seed: Some(3),
+        delay: None,
+    };
+    let msg = c.link_fault("card0", "corrupt", opts).unwrap();
+    assert!(msg.contains("corrupt"), "{msg}");
+    let st = c.status().unwrap();
+    let f = &st.0["cards"][0]["link_fault"];
+    assert_eq!(
+        (
+            f["kind"].as_str(),
+            f["replies"].as_u64(),
+            f["seed"].as_u64()
+        ),
+        (Some("corrupt"), Some(5), Some(3)),
+        "{f}"
+    );
+    let e = c
+        .link_fault("card0", "late", FaultOptions::default())
+        .unwrap_err();
+    assert!(e.to_string().contains("--delay"), "{e}");
+    c.clear(None).unwrap();
+    assert!(c.status().unwrap().0["cards"][0]["link_fault"].is_null());
 }

@@ -8,6 +8,7 @@
 //! - [`gpascii`]: the Power PMAC `gpascii` command thread's banner, lines and reply framing (pure).
 //! - [`ssh`]: the Power PMAC card's SSH server and its shell emulation.
 //! - [`power_ports`]: tokio servers for a Power card's raw `gpascii` port and SSH.
+//! - [`link_reply`]: replies through the card's host-link fault (`mcc fault CARD link`).
 
 //! - [`zenoh_cmd`]: the `mcc/<cluster>/card/<n>/cmd` queryable.
 
@@ -17,6 +18,7 @@ pub(crate) mod ascii;
 pub(crate) mod bench;
 pub(crate) mod eth_codec;
 pub(crate) mod gpascii;
+pub(crate) mod link_reply;
 pub(crate) mod port;
 pub(crate) mod power_ports;
 pub(crate) mod server;
@@ -25,3 +27,5 @@ pub(crate) mod zenoh_cmd;
 
 #[cfg(test)]
 mod tests_fuzz;
+#[cfg(test)]
+mod tests_link_faults;

@@ -14,7 +14,10 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{watch, OwnedSemaphorePermit, Semaphore};
 use tokio::task::JoinHandle;
 
+use mcc_ring::linkfault::LinkFaultSlot;
+
 use super::gpascii::{GpEvent, LineSplitter, BANNER};
+use super::link_reply::write_reply;
 use super::port::{CardPort, Interpreter};
 use super::ssh::penalty::Delays;
 use super::ssh::server::{spawn_ssh, Credentials};
@@ -37,6 +40,8 @@ pub(crate) struct PowerPortsConfig {
     pub max_connections: usize,
     /// How long a host waits after failed SSH logins.
     pub ssh_delays: Delays,
+    /// The card's host-link fault (`mcc fault CARD link KIND`), shared with its ring app.
+    pub link: LinkFaultSlot,
 }
 
 impl Default for PowerPortsConfig {
@@ -49,6 +54,7 @@ impl Default for PowerPortsConfig {
             io_timeout: Duration::from_secs(10),
             max_connections: 64,
             ssh_delays: Delays::default(),
+            link: LinkFaultSlot::default(),
         }
     }
 }
@@ -96,6 +102,7 @@ pub(crate) async fn serve_power(
             cfg.creds.clone(),
             cfg.max_connections,
             cfg.ssh_delays,
+            cfg.link.clone(),
             stop_rx,
         ),
     ];
@@ -197,7 +204,13 @@ async fn gpascii_conn(
                 // The dialect's reply is what gpascii prints, ACK included.
                 GpEvent::Line(l) => {
                     let reply = tokio::task::block_in_place(|| port.line(&l));
-                    out.extend_from_slice(&reply);
+                    if cfg.link.armed() {
+                        write_all(&mut stream, &out, cfg).await?;
+                        out.clear();
+                        write_reply(&mut stream, &cfg.link, &reply, cfg.io_timeout).await?;
+                    } else {
+                        out.extend_from_slice(&reply);
+                    }
                 }
                 GpEvent::Quit => {
                     write_all(&mut stream, &out, cfg).await?;

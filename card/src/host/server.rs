@@ -23,8 +23,11 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{watch, Notify};
 use tokio::task::JoinHandle;
 
+use mcc_ring::linkfault::LinkFaultSlot;
+
 use super::ascii::{AsciiCodec, AsciiEvent};
 use super::eth_codec::{EthAction, EthConn};
+use super::link_reply::write_reply;
 use super::port::{run_event, CardPort, Interpreter};
 use crate::service::handle::CardHandle;
 
@@ -41,6 +44,8 @@ pub(crate) struct PortsConfig {
     pub limits: HostLimits,
     /// The card's name in messages to hosts and the log.
     pub name: String,
+    /// The card's host-link fault (`mcc fault CARD link KIND`), shared with its ring app.
+    pub link: LinkFaultSlot,
 }
 
 impl Default for PortsConfig {
@@ -51,6 +56,7 @@ impl Default for PortsConfig {
             eth_port: 0,
             limits: HostLimits::default(),
             name: "card".into(),
+            link: LinkFaultSlot::default(),
         }
     }
 }
@@ -233,6 +239,7 @@ async fn accept_loop(
                 id,
                 conns: &conns,
                 limits: cfg.limits,
+                link: cfg.link.clone(),
                 evicted,
                 stop,
             };
@@ -279,6 +286,7 @@ struct Conn<'a> {
     id: u64,
     conns: &'a Conns,
     limits: HostLimits,
+    link: LinkFaultSlot,
     evicted: Arc<Notify>,
     stop: watch::Receiver<bool>,
 }
@@ -295,6 +303,36 @@ impl Conn<'_> {
             )),
         }
     }
+
+    /// Write what is pending in `out`, then `reply` through the link fault.
+    async fn write_faulted(&mut self, out: &mut Vec<u8>, reply: &[u8]) -> io::Result<()> {
+        if !out.is_empty() {
+            self.write(out).await?;
+            out.clear();
+        }
+        let timeout = self.limits.request_timeout();
+        write_reply(&mut self.stream, &self.link, reply, timeout).await
+    }
+}
+
+/// The whole reply to `ev` (a long one gathered from all its parts): under a link fault a
+/// reply is faulted as one.
+fn whole_reply(ev: AsciiEvent, port: &mut CardPort) -> Vec<u8> {
+    let mut r = Vec::new();
+    match ev {
+        AsciiEvent::Line(l) => {
+            let mut part = port.line_start(&l);
+            loop {
+                r.extend_from_slice(&part.bytes);
+                if !part.more {
+                    break;
+                }
+                part = port.line_more();
+            }
+        }
+        other => run_event(other, port, &mut r),
+    }
+    r
 }
 
 /// What one wait on a connection gave.
@@ -373,6 +411,11 @@ async fn ascii_conn(c: &mut Conn<'_>, port: &mut CardPort) -> io::Result<Option<
         let events = codec.feed(buf.get(..n).unwrap_or_default());
         let mut out = Vec::new();
         for ev in events {
+            if c.link.armed() {
+                let reply = tokio::task::block_in_place(|| whole_reply(ev, port));
+                c.write_faulted(&mut out, &reply).await?;
+                continue;
+            }
             match ev {
                 // A long reply comes from the card in parts, written as they come.
                 AsciiEvent::Line(l) => {
@@ -429,6 +472,9 @@ async fn eth_conn(c: &mut Conn<'_>, port: &mut CardPort) -> io::Result<Option<En
             tokio::task::block_in_place(|| conn.feed(buf.get(..n).unwrap_or_default(), port));
         for a in actions {
             match a {
+                EthAction::Send(packet) if c.link.armed() => {
+                    c.write_faulted(&mut Vec::new(), &packet).await?;
+                }
                 EthAction::Send(packet) => c.write(&packet).await?,
                 EthAction::Close(reason) => {
                     return Err(io::Error::new(

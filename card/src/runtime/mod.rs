@@ -4,6 +4,7 @@
 
 #![allow(clippy::disallowed_methods, clippy::disallowed_types)] // an I/O edge: threads, clocks, files, sockets
 
+pub(crate) mod app_faults;
 pub(crate) mod bench_servo;
 pub(crate) mod cli;
 pub(crate) mod input_fault;
@@ -80,6 +81,8 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .context("starting the host-port runtime")?;
         let bind: Option<std::net::IpAddr> = cc.bind.as_deref().and_then(|b| b.parse().ok());
         let mut extra = serde_json::Map::new();
+        // The host-link fault every port of the card consults (installed by the ring app).
+        let link = mcc_ring::linkfault::LinkFaultSlot::default();
         // A Power card is reached as Power PMAC users connect (gpascii, SSH); the others
         // have the ASCII and PMAC Ethernet-protocol ports.
         let ports: Box<dyn std::any::Any> = if cc.profile == "power" {
@@ -95,6 +98,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                     max_connections: ctx.config.host.max_connections,
                     // 127.0.0.1 unless the config opens them (`bind`, checked by the config).
                     bind: bind.unwrap_or(PowerPortsConfig::default().bind),
+                    link: link.clone(),
                     ..PowerPortsConfig::default()
                 },
             ))?;
@@ -110,6 +114,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
                     limits: ctx.config.host,
                     name: cc.name.clone(),
                     bind: bind.unwrap_or(PortsConfig::default().bind),
+                    link: link.clone(),
                 },
             ))?;
             extra.insert("ascii".into(), serde_json::json!(ports.ascii.port()));
@@ -150,6 +155,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow!("declare card chain queryable: {e}"))?;
         let app = ring_app::CardRingApp::new(runner, &cc.nodes)
             .with_sync_stall(stall)
+            .with_link_faults(link)
             .with_startup(Box::new(move |card: &mut Card| {
                 if let Err(e) = layer(card) {
                     tracing::warn!("re-applying the start-up settings after a reset: {e:#}");

@@ -15,6 +15,7 @@
 use mcc_ring::aux_channel::AUX_NODE;
 use mcc_ring::check::RingCheck;
 use mcc_ring::core::{RingApp, RingControl};
+use mcc_ring::linkfault::LinkFaultSlot;
 use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 use mcc_ring::settings::RingSettings;
@@ -66,6 +67,8 @@ pub struct CardRingApp {
     ring_vars: Option<RingVars>,
     /// The last ring cycle ticked (application faults start at the next one).
     last_cycle: u64,
+    /// The host-link fault its ports consult (`mcc fault CARD link KIND`).
+    link: LinkFaultSlot,
     /// Host ports, queryables and their runtime: they live as long as the app.
     _resources: Vec<Box<dyn std::any::Any>>,
 }
@@ -139,6 +142,7 @@ impl CardRingApp {
             startup: None,
             resets_seen,
             _resources: Vec::new(),
+            link: LinkFaultSlot::default(),
             nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
             reported: false,
             reset_wanted: false,
@@ -189,6 +193,12 @@ impl CardRingApp {
     /// Keep `r` alive as long as the app (ports, queryables, runtimes).
     pub fn with_resource(mut self, r: Box<dyn std::any::Any>) -> Self {
         self._resources.push(r);
+        self
+    }
+
+    /// The host-link fault slot the card's ports consult (installed by `app_fault`).
+    pub fn with_link_faults(mut self, link: LinkFaultSlot) -> Self {
+        self.link = link;
         self
     }
 
@@ -319,14 +329,19 @@ impl RingApp for CardRingApp {
         std::mem::take(&mut self.reset_wanted)
     }
 
-    /// The card's application faults, by `family`: `input` (`runtime::input_fault`, [`crate::InputFaultRequest`]).
+    /// The card's application faults, by request: `{"family": "input", …}`
+    /// (`runtime::input_fault`, [`crate::InputFaultRequest`]) or `{"link": …}` (host-link
+    /// faults, `runtime::app_faults`).
     fn app_fault(&mut self, fault: &serde_json::Value) -> Result<String, String> {
+        if fault.get("link").is_some() {
+            return super::app_faults::apply(&self.link, fault);
+        }
         match fault.get("family").and_then(|f| f.as_str()) {
             Some(super::input_fault::FAMILY) => {
                 super::input_fault::apply(&mut self.runner.core, fault, self.last_cycle + 1)
             }
             f => Err(format!(
-                "a card has no {f:?} faults (families: {})",
+                "a card has no {f:?} faults (families: {}, link)",
                 super::input_fault::FAMILY
             )),
         }
@@ -334,12 +349,14 @@ impl RingApp for CardRingApp {
 
     fn clear_app_faults(&mut self) {
         self.runner.core.inputs.clear();
+        self.link.clear();
     }
 
-    /// `inputs`: the hardware stop inputs held active ([`crate::CardInputs`]).
+    /// `inputs`: the hardware stop inputs held active ([`crate::CardInputs`]); `link_fault`:
+    /// the host-link fault of its ports.
     fn status_extra(&self) -> serde_json::Map<String, serde_json::Value> {
         let core = &self.runner.core;
-        let mut m = serde_json::Map::new();
+        let mut m = super::app_faults::status(&self.link);
         m.insert("inputs".into(), core.inputs.status(core.card.profile()));
         m
     }

@@ -18,6 +18,7 @@ pub mod failure;
 pub mod fixed_ports;
 pub mod hosts;
 pub mod launch;
+pub mod link_ctl;
 pub mod owner;
 pub mod precheck;
 pub mod ready;

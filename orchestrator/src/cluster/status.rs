@@ -47,6 +47,9 @@ pub struct ClusterStatus {
     pub emcl_bus: Option<String>,
     /// EMCL bus pseudo-terminal path (`mcc up --pty`, `[emcl] pty`), else null.
     pub emcl_bus_pty: Option<String>,
+    /// Host-link faults of the daisy chain and the EMCL bus (`mcc fault chain|bus link`),
+    /// null when the supervisor was not asked or did not answer.
+    pub link_faults: Option<crate::cluster::link_ctl::LinkFaults>,
     /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
     pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
     /// The supervising process (of this machine's share on several hosts).
@@ -196,6 +199,9 @@ pub struct CardRow {
     /// `since`, `until` (cycles) and on PMAC2/Turbo the FPD `select`; a Power card also
     /// reports `abort_all_count` (`Sys.AbortAllCount`). `null` when the card did not answer.
     pub inputs: Option<serde_json::Value>,
+    /// Its host-link fault (`mcc fault CARD link KIND`: kind, probability, seed, replies,
+    /// delay_ms, seen, hits), null when none.
+    pub link_fault: Option<serde_json::Value>,
 }
 
 /// One station.
@@ -462,6 +468,10 @@ pub fn build(
                     .and_then(|v| v.as_str())
                     .map(str::to_string),
                 inputs: s.and_then(|s| s.extra.get("inputs")).cloned(),
+                link_fault: s
+                    .and_then(|s| s.extra.get("link_fault"))
+                    .filter(|v| !v.is_null())
+                    .cloned(),
             }
         })
         .collect();
@@ -507,6 +517,7 @@ pub fn build(
         emcl_bus: info.emcl_bus.clone(),
         emcl_bus_pty: info.emcl_bus_pty.clone(),
         drives: Vec::new(),
+        link_faults: None,
         supervisor: SupervisorRow {
             pid: info.pid,
             endpoint: info.endpoint.clone(),
@@ -725,6 +736,9 @@ pub fn render_table(s: &ClusterStatus) -> String {
         let _ = writeln!(o, "daisy chain {d}  pty {pty}");
     }
     o.push_str(&crate::cluster::emcl::status::render(s));
+    if let Some(t) = link_faults_text(s) {
+        let _ = writeln!(o, "host-link faults: {t}");
+    }
     let _ = writeln!(
         o,
         "zenoh {}  run dir {}  (* = synchronizing master)",
@@ -732,6 +746,30 @@ pub fn render_table(s: &ClusterStatus) -> String {
         s.supervisor.run_dir
     );
     o
+}
+
+/// The active host-link faults, one `target kind (p P, seen/replies, hits)` each; None if none.
+fn link_faults_text(s: &ClusterStatus) -> Option<String> {
+    let one = |target: &str, f: &mcc_ring::linkfault::ActiveLinkFault| {
+        let of = f.spec.replies.map_or(String::new(), |n| format!("/{n}"));
+        format!(
+            "{target} {} (p {}, {}{of} replies seen, {} hit)",
+            f.spec.kind, f.spec.probability, f.seen, f.hits
+        )
+    };
+    let mut all: Vec<String> = s
+        .cards
+        .iter()
+        .filter_map(|c| {
+            let f = serde_json::from_value(c.link_fault.clone()?).ok()?;
+            Some(one(&c.name, &f))
+        })
+        .collect();
+    if let Some(l) = &s.link_faults {
+        all.extend(l.chain.iter().map(|f| one("chain", f)));
+        all.extend(l.bus.iter().map(|f| one("bus", f)));
+    }
+    (!all.is_empty()).then(|| all.join("; "))
 }
 
 #[cfg(test)]

@@ -421,6 +421,46 @@ fn a_link_error_stamp_from_before_a_renumbering_names_nothing() {
 }
 
 #[test]
+fn link_faults_show_in_the_card_entry_the_document_and_the_table() {
+    use mcc_ring::linkfault::{LinkFaultKind, LinkFaultSlot, LinkFaultSpec};
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let mut st = healthy(&cfg, 10);
+    let clean = render_table(&build(&cfg, &info(), "/run/x", &st, &[]));
+    assert!(!clean.contains("host-link"), "{clean}");
+    let slot = LinkFaultSlot::default();
+    slot.set(LinkFaultSpec {
+        kind: LinkFaultKind::Corrupt,
+        probability: 0.5,
+        seed: 3,
+        replies: Some(5),
+        delay_ms: 0,
+    });
+    let card0 = st[0].as_mut().unwrap();
+    card0.extra.insert(
+        "link_fault".into(),
+        serde_json::to_value(slot.active()).unwrap(),
+    );
+    let mut doc = build(&cfg, &info(), "/run/x", &st, &[]);
+    doc.link_faults = Some(crate::cluster::link_ctl::LinkFaults {
+        chain: None,
+        bus: slot.active(),
+    });
+    let json = serde_json::to_value(&doc).unwrap();
+    assert_eq!(json["cards"][0]["link_fault"]["kind"], "corrupt");
+    assert_eq!(json["cards"][1]["link_fault"], serde_json::Value::Null);
+    assert_eq!(json["link_faults"]["bus"]["replies"], 5);
+    assert_eq!(json["link_faults"]["chain"], serde_json::Value::Null);
+    let table = render_table(&doc);
+    assert!(
+        table.contains(
+            "host-link faults: card0 corrupt (p 0.5, 0/5 replies seen, 0 hit); \
+             bus corrupt (p 0.5, 0/5 replies seen, 0 hit)"
+        ),
+        "{table}"
+    );
+}
+
+#[test]
 fn a_station_s_axis_faults_show_in_json_and_table() {
     let cfg = ClusterConfig::default_cluster(1, 2);
     let mut st = healthy(&cfg, 500);

@@ -46,6 +46,9 @@ pub struct Supervisor {
     chain: Option<crate::cluster::chain::server::ChainServer>,
     /// The EMCL bus (TCP port, optional pty) when the cluster has drives.
     emcl: Option<crate::cluster::emcl::server::BusServer>,
+    /// The chain's and bus's host-link faults, and their queryable (`link_ctl`).
+    links: crate::cluster::link_ctl::HostLinks,
+    links_q: Option<zenoh::query::Queryable<()>>,
     /// This host's share on the zenoh network (token, info, down, drills).
     share: Option<Share>,
     /// The host this supervisor runs ([`LOCAL_HOST`] for a cluster on one machine).
@@ -82,6 +85,7 @@ impl Supervisor {
         info.endpoint = Some(endpoint.clone());
         info.host = rd.host.clone();
         rd.write_info(&info)?;
+        let cfg_has_no_drives = cfg.drives.is_empty();
         let mut sup = Supervisor {
             rd,
             cfg,
@@ -92,6 +96,11 @@ impl Supervisor {
             restarts: None,
             chain: None,
             emcl: None,
+            links: crate::cluster::link_ctl::HostLinks {
+                has_bus: !cfg_has_no_drives,
+                ..Default::default()
+            },
+            links_q: None,
             share: Some(share),
             host,
         };
@@ -105,6 +114,7 @@ impl Supervisor {
             .wait()
             .map_err(|e| anyhow!("cannot declare the restart queryable: {e}"))?;
         sup.restarts = Some((q, rrx));
+        sup.links_q = Some(sup.links.declare(&sup.session, &sup.cfg.cluster)?);
         // This host's members (all of them on one machine), then its stand-alone EMCL drives
         // (processes of their own, not on the ring).
         let order = sup.cfg.host_processes(&sup.host);
@@ -134,8 +144,9 @@ impl Supervisor {
                 }
             }
         }
-        let chain = crate::cluster::chain::server::ChainOptions::from_env()
-            .and_then(|o| crate::cluster::chain::server::start(&sup.session, &sup.cfg, &o));
+        let chain = crate::cluster::chain::server::ChainOptions::from_env().and_then(|o| {
+            crate::cluster::chain::server::start(&sup.session, &sup.cfg, &o, &sup.links.chain)
+        });
         match chain {
             Ok(c) => {
                 sup.info.daisy_chain = Some(c.addr().to_string());
@@ -148,8 +159,9 @@ impl Supervisor {
             }
         }
         if !sup.cfg.drives.is_empty() {
-            let bus = crate::cluster::emcl::server::BusOptions::resolve(&sup.cfg)
-                .and_then(|o| crate::cluster::emcl::server::start(&sup.session, &sup.cfg, &o));
+            let bus = crate::cluster::emcl::server::BusOptions::resolve(&sup.cfg).and_then(|o| {
+                crate::cluster::emcl::server::start(&sup.session, &sup.cfg, &o, &sup.links.bus)
+            });
             match bus {
                 Ok(b) => {
                     sup.info.emcl_bus = Some(b.addr().to_string());

@@ -110,6 +110,31 @@ pub fn pre_exec(
     }
 }
 
+/// Set a zero `SO_LINGER` on socket `fd`: its close then resets the connection (RST) at
+/// once (a host-link `reset` fault).
+pub fn zero_linger(fd: std::os::fd::RawFd) -> io::Result<()> {
+    let l = libc::linger {
+        l_onoff: 1,
+        l_linger: 0,
+    };
+    let len = libc::socklen_t::try_from(std::mem::size_of::<libc::linger>()).unwrap_or(8);
+    // SAFETY: setsockopt(2) reads `len` bytes from `&l`, a live local of exactly that size.
+    let rc = unsafe {
+        libc::setsockopt(
+            fd,
+            libc::SOL_SOCKET,
+            libc::SO_LINGER,
+            std::ptr::addr_of!(l).cast(),
+            len,
+        )
+    };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(io::Error::last_os_error())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -25,6 +25,7 @@ pub fn cmd_status(cluster: &str, args: &StatusArgs) -> Result<()> {
     crate::cluster::drills::enrich_status(&a.session, &a.cfg, &mut doc);
     crate::cluster::emcl::status::enrich(&a.session, &a.cfg, &mut doc);
     crate::cluster::hosts::enrich_status(&a.session, &a.cfg, &mut doc);
+    doc.link_faults = crate::cluster::link_ctl::query_status(&a.session, &a.cfg.cluster);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

@@ -37,6 +37,11 @@ FAULT_OPTIONS = ("cycles", "probability", "seed", "delay")
 INPUT_KINDS = ("abort", "feed-hold")
 #: Options of ``mcc fault CARD input KIND`` (``--cs N`` the FPD-selected C.S., ``--cycles N``).
 INPUT_OPTIONS = ("cs", "cycles")
+#: Host-link faults ``mcc fault CARD|chain|bus link KIND`` (``bad-checksum``: the bus only).
+#: Options: ``cycles`` (the next N replies), ``probability`` (per reply), ``seed``,
+#: ``delay`` (ms, ``late`` only).
+LINK_KINDS = ("no-reply", "late", "short", "stray-cr", "stray-lf", "stray-bel", "stray-ctrl",
+              "corrupt", "reset", "bad-checksum")
 
 _LIVE: Dict[int, "Cluster"] = {}
 _LIVE_LOCK = threading.Lock()
@@ -440,13 +445,16 @@ class Cluster:
         self._need_running()
         if kind == "input":
             return self._fault_input(member, words, options)
+        if kind == "link":
+            return self._link_fault(member, words, options)
         self._check_member(member)
         if kind in ("axis", "power-loss"):
             return self._axis_fault(member, kind, words, options)
         if words:
             raise UnknownChoice(f"word after fault kind {kind!r}", words[0], [])
         if kind not in FAULT_KINDS + DRILLS:
-            raise UnknownChoice("fault kind", kind, FAULT_KINDS + DRILLS)
+            raise UnknownChoice("fault kind", kind,
+                                FAULT_KINDS + DRILLS + ("axis", "power-loss", "link", "input"))
         allowed = () if kind in DRILLS else FAULT_OPTIONS
         for k in options:
             if k not in allowed:
@@ -459,6 +467,28 @@ class Cluster:
         if kind == "restart":
             self._remember_later()
         return out
+
+    def _link_fault(self, target: str, words: Sequence[Any], options: Dict[str, Any]) -> str:
+        """``fault(TARGET, "link", KIND, **options)``: a host-link fault on a card's ports,
+        the daisy chain or the EMCL bus (:data:`LINK_KINDS`), checked at once."""
+        assert self.initial_status is not None
+        targets = [c["name"] for c in self.initial_status["cards"]] + ["chain", "bus"]
+        if target not in targets:
+            raise UnknownChoice("link target", target, targets)
+        if len(words) != 1 or words[0] not in LINK_KINDS:
+            raise UnknownChoice("link fault kind", words[0] if words else None, LINK_KINDS)
+        kind = str(words[0])
+        if kind == "bad-checksum" and target != "bus":
+            raise UnknownChoice(f"link fault kind on {target} (bad-checksum: the EMCL bus only)",
+                                kind, [k for k in LINK_KINDS if k != "bad-checksum"])
+        for k in options:
+            if k not in FAULT_OPTIONS:
+                raise UnknownChoice(f"option of link fault {kind!r}", k, FAULT_OPTIONS)
+        args = ["fault", target, "link", kind]
+        for k in FAULT_OPTIONS:
+            if options.get(k) is not None:
+                args += [f"--{k}", str(options[k])]
+        return self._runner.run(args).stdout.strip()
 
     def _axis_fault(self, station: str, kind: str, words: Sequence[Any],
                     options: Mapping[str, Any]) -> str:

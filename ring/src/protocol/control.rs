@@ -7,6 +7,10 @@
 //! - `mcc/<cluster>/ctl/<member>/status`: query → [`MemberStatus`] JSON.
 //! - `mcc/<cluster>/ctl/<member>/fault`: query with a [`FaultRequest`] JSON payload → [`CtlReply`].
 //! - `mcc/<cluster>/ctl/<member>/shutdown`: query → [`CtlReply`], then the member exits.
+//! - `mcc/<cluster>/ctl/orchestrator/restart`: the supervisor restarts a member (drill).
+//! - `mcc/<cluster>/ctl/orchestrator/link`: the supervisor's daisy-chain and EMCL-bus
+//!   host-link faults (JSON `{"op": "set"|"clear"|"status", ...}` → [`CtlReply`];
+//!   `mcc fault chain|bus link KIND`, [`crate::linkfault`]).
 //! - `mcc/<cluster>/card/<n>/cmd`: query with a command line → the card's framed reply bytes.
 //! - `mcc/<cluster>/card/<n>/at`: synchronized start, [`AtRequest`] JSON → [`AtReply`] JSON
 //!   ([`sync_start`]).

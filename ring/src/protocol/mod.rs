@@ -22,6 +22,7 @@ pub mod expect_card;
 pub mod fault;
 pub mod frame;
 pub mod holdover;
+pub mod linkfault;
 pub mod member;
 pub mod packet;
 pub mod settings;

@@ -10,6 +10,7 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use mcc_ring::linkfault::LinkFaultSlot;
 use russh::keys::ssh_key::private::Ed25519Keypair;
 use russh::keys::PrivateKey;
 use russh::server::{Auth, ChannelOpenHandle, Config, Handler, Msg, Session};
@@ -88,6 +89,7 @@ pub(crate) fn spawn_ssh(
     creds: Credentials,
     max_connections: usize,
     delays: Delays,
+    link: LinkFaultSlot,
     mut stop: watch::Receiver<bool>,
 ) -> JoinHandle<()> {
     let config = Arc::new(russh_config());
@@ -98,12 +100,13 @@ pub(crate) fn spawn_ssh(
         while let Some((stream, peer, permit)) =
             accept_limited(&listener, &slots, &mut stop, "ssh").await
         {
-            let conn = Conn::new(
+            let mut conn = Conn::new(
                 card.clone(),
                 Arc::clone(&creds),
                 Arc::clone(&penalties),
                 peer,
             );
+            conn.link = link.clone();
             let (config, mut stop) = (Arc::clone(&config), stop.clone());
             tokio::spawn(async move {
                 match russh::server::run_stream(config, stream, conn).await {
@@ -141,6 +144,8 @@ struct Conn {
     peer: SocketAddr,
     user: String,
     chans: HashMap<ChannelId, Chan>,
+    /// The card's host-link fault: applied to each `gpascii` reply.
+    link: LinkFaultSlot,
 }
 
 impl Conn {
@@ -157,6 +162,7 @@ impl Conn {
             peer,
             user: String::new(),
             chans: HashMap::new(),
+            link: LinkFaultSlot::default(),
         }
     }
 
@@ -194,8 +200,23 @@ impl Conn {
                         Some(p) => tokio::task::block_in_place(|| p.line(&line)),
                         None => Vec::new(),
                     };
-                    if let Some(sh) = &chan.shell {
-                        data.extend_from_slice(&sh.reply(&reply));
+                    let Some(sh) = &chan.shell else { continue };
+                    let bytes = sh.reply(&reply);
+                    if !self.link.armed() {
+                        data.extend_from_slice(&bytes);
+                        continue;
+                    }
+                    // A host-link fault: the reply as it says (a reset drops the session).
+                    flush(session, id, &mut data)?;
+                    let o = self.link.on_reply(&bytes);
+                    if o.delay_ms > 0 {
+                        let d = std::time::Duration::from_millis(o.delay_ms);
+                        tokio::task::block_in_place(|| std::thread::sleep(d));
+                    }
+                    data.extend_from_slice(&o.bytes);
+                    if o.reset {
+                        flush(session, id, &mut data)?;
+                        return Err(russh::Error::IO(crate::host::link_reply::reset_error()));
                     }
                 }
                 ShellOut::End => {

@@ -264,3 +264,48 @@ async fn each_wrong_password_is_answered_until_the_attempts_run_out() {
     let _ = h.disconnect(Disconnect::ByApplication, "", "").await;
     ports.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn gpascii_replies_over_ssh_go_through_the_link_fault() {
+    use mcc_ring::linkfault::{LinkFaultKind, LinkFaultSlot, LinkFaultSpec};
+    let link = LinkFaultSlot::default();
+    let ports = start(PowerPortsConfig {
+        link: link.clone(),
+        ..PowerPortsConfig::default()
+    })
+    .await;
+    let (h, ok) = login(&ports, "root", "deltatau").await;
+    assert!(ok);
+    let mut ch = h.channel_open_session().await.unwrap();
+    ch.request_pty(true, "vt100", 80, 24, 0, 0, &[])
+        .await
+        .unwrap();
+    ch.request_shell(true).await.unwrap();
+    read_until(&mut ch, b"# ").await;
+    ch.data_bytes(&b"gpascii -2\r\n"[..]).await.unwrap();
+    read_until(&mut ch, b"\x06\r\n").await;
+    let one = |kind| LinkFaultSpec {
+        kind,
+        probability: 1.0,
+        seed: 0,
+        replies: Some(1),
+        delay_ms: 0,
+    };
+    // `cid\r\n` is two lines over SSH (`cid` and the empty one, each answered): the first
+    // reply (cid's) is dropped, the empty line's ACK and the second command's come.
+    link.set(one(LinkFaultKind::NoReply));
+    ch.data_bytes(&b"cid\r\n"[..]).await.unwrap();
+    ch.data_bytes(&b"cid\r\n"[..]).await.unwrap();
+    let got = read_until(&mut ch, b"\x06\r\n\x06\r\n").await;
+    assert_eq!(
+        String::from_utf8_lossy(&got),
+        "cid\r\n\r\n\x06\r\ncid\r\n\r\n604020\r\n\x06\r\n\x06\r\n"
+    );
+    // A reset drops the session: no reply, no exit status, the channel ends.
+    link.set(one(LinkFaultKind::Reset));
+    ch.data_bytes(&b"cid\r\n"[..]).await.unwrap();
+    let (out, _, status) = drain(&mut ch).await;
+    assert!(!out.windows(6).any(|w| w == b"604020"), "{out:?}");
+    assert_eq!(status, None);
+    ports.shutdown().await;
+}

@@ -15,7 +15,10 @@ use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::ClusterConfig;
 use mcc_ring::control::chain::MAX_CHUNK;
 
+use mcc_ring::linkfault::LinkFaultSlot;
+
 use super::link::{ChainLink, DEFAULT_TIMEOUT};
+use crate::cluster::link_ctl::write_tcp;
 use crate::cluster::serve::Activity;
 
 /// Environment variable: TCP port of the chain (0 or unset: any free port).
@@ -55,10 +58,12 @@ impl ChainOptions {
 pub type ChainServer = crate::cluster::serve::Endpoints;
 
 /// Listen on `[chain] bind` (default 127.0.0.1), port `opts.port` (and open a pseudo-terminal if asked).
+/// Every reply goes through `link` (`mcc fault chain link KIND`).
 pub fn start(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
     opts: &ChainOptions,
+    link: &LinkFaultSlot,
 ) -> Result<ChainServer> {
     // 127.0.0.1 unless the config opens it (`[chain] bind`, checked by the config).
     let bind = cfg.chain.bind.as_deref().unwrap_or("127.0.0.1");
@@ -71,9 +76,10 @@ pub fn start(
         let limits = cfg.host.with_max(MAX_CONNECTIONS);
         let (session, cfg, stop) = (session.clone(), cfg.clone(), Arc::clone(&stop));
         let stop2 = Arc::clone(&stop);
+        let fault = link.clone();
         let serve = Arc::new(move |stream: TcpStream, activity: Activity| {
             let link = ChainLink::new(session.clone(), &cfg, DEFAULT_TIMEOUT);
-            serve_tcp(stream, &link, &stop2, &activity);
+            serve_tcp(stream, &link, &fault, &stop2, &activity);
             link.close();
         });
 
@@ -92,14 +98,20 @@ pub fn start(
             })?;
     }
     let pty = if opts.pty {
-        Some(pty::start(session.clone(), cfg.clone())?)
+        Some(pty::start(session.clone(), cfg.clone(), link.clone())?)
     } else {
         None
     };
     Ok(crate::cluster::serve::Endpoints::new(addr, pty, stop))
 }
 
-fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool, activity: &Activity) {
+fn serve_tcp(
+    mut stream: TcpStream,
+    link: &ChainLink,
+    fault: &LinkFaultSlot,
+    stop: &AtomicBool,
+    activity: &Activity,
+) {
     let _ = stream.set_nonblocking(false);
     let _ = stream.set_nodelay(true);
     let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
@@ -108,7 +120,7 @@ fn serve_tcp(mut stream: TcpStream, link: &ChainLink, stop: &AtomicBool, activit
     };
     let data = |chunk: &[u8]| {
         let reply = link.send(chunk);
-        reply.bytes.is_empty() || out.write_all(&reply.bytes).is_ok()
+        reply.bytes.is_empty() || write_tcp(fault, &mut out, &reply.bytes)
     };
     let why = crate::cluster::serve::read_loop(&mut stream, stop, MAX_CHUNK, activity, data, || {});
     if let Some(text) = Activity::farewell("daisy chain", why) {
@@ -121,16 +133,23 @@ mod pty {
     //! The pseudo-terminal: raw mode (no echo, no CR/NL translation), the slave kept open by
     //! us so that hosts may come and go.
 
-    use std::io::{Read, Write};
+    use std::io::Read;
 
     use anyhow::Result;
     use mcc_ring::config::ClusterConfig;
     use mcc_ring::control::chain::MAX_CHUNK;
 
+    use mcc_ring::linkfault::LinkFaultSlot;
+
     use super::super::link::{ChainLink, DEFAULT_TIMEOUT};
+    use crate::cluster::link_ctl::write_pty;
 
     /// Open the pty and serve it from a thread; the slave path.
-    pub fn start(session: zenoh::Session, cfg: ClusterConfig) -> Result<String> {
+    pub fn start(
+        session: zenoh::Session,
+        cfg: ClusterConfig,
+        fault: LinkFaultSlot,
+    ) -> Result<String> {
         let (slave, mut master, path) = crate::cluster::serve::open_raw_pty("daisy chain")?;
         std::thread::Builder::new()
             .name("mcc-chain-pty".into())
@@ -144,7 +163,7 @@ mod pty {
                         Ok(0) => break,
                         Ok(n) => {
                             let r = link.send(buf.get(..n).unwrap_or_default());
-                            if !r.bytes.is_empty() && master.write_all(&r.bytes).is_err() {
+                            if !r.bytes.is_empty() && !write_pty(&fault, &mut master, &r.bytes) {
                                 break;
                             }
                         }

@@ -8,7 +8,6 @@
 //! which is how a host that sent garbage or half a frame gets back in step. Options:
 //! `MCC_EMCL_PORT` / `[emcl] port` (TCP port, 0 = any free port), the pty as above.
 
-use std::io::Write;
 use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -18,7 +17,10 @@ use anyhow::{anyhow, Context, Result};
 use mcc_ring::config::ClusterConfig;
 use mcc_station::emcl::codec::FrameAssembler;
 
+use mcc_ring::linkfault::LinkFaultSlot;
+
 use super::bus::Bus;
+use crate::cluster::link_ctl::write_tcp;
 
 /// Environment variable: TCP port of the bus (overrides `[emcl] port`).
 pub const PORT_ENV: &str = "MCC_EMCL_PORT";
@@ -69,10 +71,12 @@ pub fn export_up_options(args: &crate::cli::UpArgs) {
 pub type BusServer = crate::cluster::serve::Endpoints;
 
 /// Listen on `[emcl] bind` (default 127.0.0.1), port `opts.port` (and open a pseudo-terminal if asked).
+/// Every reply goes through `link` (`mcc fault bus link KIND`).
 pub fn start(
     session: &zenoh::Session,
     cfg: &ClusterConfig,
     opts: &BusOptions,
+    link: &LinkFaultSlot,
 ) -> Result<BusServer> {
     let bus = Bus::start(session.clone(), cfg).context("EMCL bus: cannot start the line")?;
     // 127.0.0.1 unless the config opens it (`[emcl] bind`, checked by the config).
@@ -85,9 +89,10 @@ pub fn start(
     {
         let (bus, stop) = (bus.clone(), Arc::clone(&stop));
         let stop2 = Arc::clone(&stop);
+        let fault = link.clone();
         let serve = Arc::new(
             move |stream: TcpStream, activity: crate::cluster::serve::Activity| {
-                serve_tcp(stream, &bus, &stop2, &activity)
+                serve_tcp(stream, &bus, &fault, &stop2, &activity)
             },
         );
         let limits = cfg.host.with_max(MAX_CONNECTIONS);
@@ -106,7 +111,7 @@ pub fn start(
             })?;
     }
     let pty = if opts.pty {
-        Some(pty::start(bus.clone(), Arc::clone(&stop))?)
+        Some(pty::start(bus.clone(), link.clone(), Arc::clone(&stop))?)
     } else {
         None
     };
@@ -117,17 +122,18 @@ fn now_ms(t0: Instant) -> u64 {
     u64::try_from(t0.elapsed().as_millis()).unwrap_or(u64::MAX)
 }
 
-/// Serve frames arriving in `data` at `now`; write each reply. False when the host is gone.
+/// Serve frames arriving in `data` at `now`; `write` each reply (false: the host is gone,
+/// and so is this connection).
 fn serve_bytes(
     asm: &mut FrameAssembler,
     data: &[u8],
     now: u64,
     bus: &Bus,
-    out: &mut impl Write,
+    write: &mut dyn FnMut(&[u8]) -> bool,
 ) -> bool {
     for f in asm.push(data, now) {
         if let Some(r) = bus.transact(f).bytes {
-            if out.write_all(&r).and_then(|()| out.flush()).is_err() {
+            if !write(&r) {
                 return false;
             }
         }
@@ -138,6 +144,7 @@ fn serve_bytes(
 fn serve_tcp(
     mut stream: TcpStream,
     bus: &Bus,
+    fault: &LinkFaultSlot,
     stop: &AtomicBool,
     activity: &crate::cluster::serve::Activity,
 ) {
@@ -150,7 +157,9 @@ fn serve_tcp(
     };
     let t0 = Instant::now();
     let asm = std::cell::RefCell::new(FrameAssembler::new(SILENCE_MS));
-    let data = |chunk: &[u8]| serve_bytes(&mut asm.borrow_mut(), chunk, now_ms(t0), bus, &mut out);
+    let mut write = |r: &[u8]| write_tcp(fault, &mut out, r);
+    let data =
+        |chunk: &[u8]| serve_bytes(&mut asm.borrow_mut(), chunk, now_ms(t0), bus, &mut write);
     let idle = || {
         asm.borrow_mut().expire(now_ms(t0));
     };
@@ -173,11 +182,14 @@ mod pty {
     use anyhow::Result;
     use mcc_station::emcl::codec::FrameAssembler;
 
+    use mcc_ring::linkfault::LinkFaultSlot;
+
     use super::super::bus::Bus;
     use super::{now_ms, serve_bytes, SILENCE_MS};
+    use crate::cluster::link_ctl::write_pty;
 
     /// Open the pty and serve it from a thread; the slave path.
-    pub fn start(bus: Bus, stop: Arc<AtomicBool>) -> Result<String> {
+    pub fn start(bus: Bus, fault: LinkFaultSlot, stop: Arc<AtomicBool>) -> Result<String> {
         let (slave, mut master, path) = crate::cluster::serve::open_raw_pty("EMCL bus")?;
         let mut out = master.try_clone()?;
         std::thread::Builder::new()
@@ -193,7 +205,8 @@ mod pty {
                         Ok(0) => break,
                         Ok(n) => {
                             let data = buf.get(..n).unwrap_or_default();
-                            if !serve_bytes(&mut asm, data, now_ms(t0), &bus, &mut out) {
+                            let mut write = |r: &[u8]| write_pty(&fault, &mut out, r);
+                            if !serve_bytes(&mut asm, data, now_ms(t0), &bus, &mut write) {
                                 break;
                             }
                         }

@@ -114,7 +114,7 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
         bail!("`mcc fault clear` takes no --cycles/--probability/--seed/--delay");
     }
     let a = attach(cluster)?;
-    let members: Vec<String> = match targets {
+    let members: Vec<String> = match targets.clone() {
         Some(m) => {
             if a.cfg.member(&m).is_none() {
                 bail!(
@@ -146,6 +146,9 @@ pub fn cmd_fault(cluster: &str, args: &FaultArgs) -> Result<()> {
                 eprintln!("{m}: {e:#}");
             }
         }
+    }
+    if targets.is_none() && matches!(req, FaultRequest::Clear) {
+        link::clear_host_links(&a);
     }
     if failed > 0 {
         bail!(
