@@ -187,6 +187,11 @@ fn model_slot(k: &Key, d: &Def) -> Option<u32> {
 /// Servo period of the model in ms (model I10 is in 1/8,388,608 ms).
 const I10_UNIT: f64 = 8_388_608.0;
 
+/// The servo period in ms (`Sys.ServoPeriod`, from the model's I10).
+pub(super) fn servo_period_ms(card: &CardModel) -> f64 {
+    card.state.peek_ivar(10).unwrap_or(3_713_707.0) / I10_UNIT
+}
+
 /// Read element `k` for thread `th`.
 pub(crate) fn read(
     card: &mut CardModel,
@@ -224,7 +229,7 @@ pub(crate) fn read(
             .vars
             .q(k.idx as u16 + 1, k.sub[0])
             .map_err(|_| ILLEGAL_PARAMETER)?,
-        (St::Sys, "ServoPeriod") => st.peek_ivar(10).unwrap_or(3_713_707.0) / I10_UNIT,
+        (St::Sys, "ServoPeriod") => servo_period_ms(card),
         (St::Sys, "MaxMotors") => f64::from(st.limits().motors),
         (St::Sys, "Status") => f64::from(super::exec::global_status(card)),
         (St::Motor, "Status") => {

@@ -31,13 +31,7 @@ const MOTOR_BITS: &[(&str, usize, u32)] = &[
     ("BlDir", 1, 28),          // L29487
 ];
 
-/// Model I10 unit: 1/8,388,608 ms.
-const I10_UNIT: f64 = 8_388_608.0;
-
-/// The servo period in ms (`Sys.ServoPeriod`).
-fn servo_period_ms(card: &CardModel) -> f64 {
-    card.state.peek_ivar(10).unwrap_or(3_713_707.0) / I10_UNIT
-}
+use super::elements::servo_period_ms;
 
 /// The value of status element `name` of `k`, when it is one the motion core feeds.
 pub(super) fn read(card: &CardModel, k: &Key, name: &str) -> Option<f64> {
