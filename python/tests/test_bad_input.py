@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pytest_mcc import (DRILLS, FAULT_KINDS, LINK_KINDS, Cluster, ClusterStartError,
+from pytest_mcc import (DRILLS, FAULT_FAMILIES, FAULT_KINDS, LINK_KINDS, Cluster, ClusterStartError,
                         ConfigError, LockTimeout, UnknownChoice)
 from pytest_mcc._procs import start_time
 
@@ -51,8 +51,8 @@ def test_unknown_faults_members_and_options_raise_at_once_with_the_choices(mcc_c
     t = time.monotonic()
     with pytest.raises(UnknownChoice) as e:
         mcc_cluster.fault("station0", "melt")
-    assert e.value.choices == list(FAULT_KINDS + DRILLS)
-    assert "drop-sync" in str(e.value) and "freeze" in str(e.value)
+    assert e.value.choices == list(FAULT_KINDS + DRILLS + FAULT_FAMILIES)
+    assert "drop-sync" in str(e.value) and "freeze" in str(e.value) and "axis" in str(e.value)
     with pytest.raises(UnknownChoice) as e:
         mcc_cluster.fault("nobody", "cut")
     assert e.value.choices == ["card0", "station0"]

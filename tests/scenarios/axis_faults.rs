@@ -490,6 +490,76 @@ fn turbo_power_loss_faults_every_amplifier_ring_stays_up() {
     power_loss_kills_every_motor(Profile::Turbo);
 }
 
+/// A Power card on the same plant: its `Motor[1]` sits on servo node 0. The amplifier fault
+/// kills it (`Motor[1].Status[0]` bit 24 `AmpFault` set, bits 13 `ClosedLoop` and 12 `AmpEna`
+/// clear; `Motor[1].AmpFault` reads 1), the ring stays healthy, and after the clear `#1j/`
+/// closes the loop again with no fault bit left. Power loss does the same to every motor.
+#[test]
+fn power_card_amp_fault_and_power_loss_kill_and_recover_after_clear() {
+    const AMP_FAULT: u64 = 1 << 24;
+    const CLOSED: u64 = (1 << 13) | (1 << 12);
+    let mut cfg = ClusterConfig::default_cluster(1, 1);
+    cfg.cards[0].profile = "power".into();
+    cfg.cards[0].ivars.clear();
+    let cfg = cfg.resolve().expect("config");
+    let mut rig = Rig::with_card(NodePlantConfig::default(), cfg, Profile::Power);
+    rig.run(20);
+    assert_eq!(rig.power("#1j/ #2j/"), "");
+    rig.run(100);
+    let st = |rig: &mut Rig, x: u16| rig.power_value(&format!("Motor[{x}].Status[0]"));
+    assert_eq!(
+        st(&mut rig, 1) & (CLOSED | AMP_FAULT),
+        CLOSED,
+        "Motor[1] closed"
+    );
+    for (inject, motors) in [
+        (
+            json!({"op": "axis", "node": 0, "kind": "amp-fault"}),
+            &[1u16][..],
+        ),
+        (json!({"op": "power-loss"}), &[1u16, 2][..]),
+    ] {
+        let c = rig.sim.cycle() + 1;
+        send(&mut rig, inject.clone()).unwrap();
+        let seen = until(&mut rig, 20, "Motor[1].AmpFault", |r| {
+            st(r, 1) & (CLOSED | AMP_FAULT) == AMP_FAULT
+        });
+        assert!(
+            seen - c <= FLAG_BOUND,
+            "{inject}: seen {} cycles after",
+            seen - c
+        );
+        rig.run(5);
+        for &x in motors {
+            assert_eq!(
+                st(&mut rig, x) & (CLOSED | AMP_FAULT),
+                AMP_FAULT,
+                "{inject}: Motor[{x}] killed by its amplifier fault"
+            );
+            assert_eq!(
+                rig.power_value(&format!("Motor[{x}].AmpFault")),
+                1,
+                "{inject}"
+            );
+        }
+        assert!(
+            !rig.station().ring_fault(),
+            "{inject}: the ring stays healthy"
+        );
+        clear(&mut rig);
+        rig.run(2);
+        assert_eq!(rig.power("#1j/ #2j/"), "");
+        rig.run(50);
+        for &x in motors {
+            assert_eq!(
+                st(&mut rig, x) & (CLOSED | AMP_FAULT),
+                CLOSED,
+                "{inject}: Motor[{x}] closed again, no fault bit"
+            );
+        }
+    }
+}
+
 /// No input panics the station: bad requests are refused naming the choices, nothing changes.
 #[test]
 fn bad_requests_are_refused_and_change_nothing() {

@@ -15,7 +15,7 @@ from importlib import metadata as _metadata
 
 from .axis import AXIS_KINDS, AXIS_VALUE_KINDS
 from .card import Card, Ports
-from .cluster import (DRILLS, FAULT_KINDS, FAULT_OPTIONS, INPUT_KINDS, INPUT_OPTIONS, LINK_KINDS,
+from .cluster import (DRILLS, FAULT_FAMILIES, FAULT_KINDS, FAULT_OPTIONS, INPUT_KINDS, INPUT_OPTIONS, LINK_KINDS,
                       CardStart, Cluster, Recording, SyncStart, stop_all)
 from .errors import (
     CardError,
@@ -33,7 +33,7 @@ from .status import Status
 
 __all__ = [
     "AXIS_KINDS", "AXIS_VALUE_KINDS", "Card", "CardError", "CardStart", "Cluster", "ClusterBusy", "ClusterStartError",
-    "ConfigError", "DRILLS", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "INPUT_KINDS", "INPUT_OPTIONS", "LINK_KINDS", "LockTimeout",
+    "ConfigError", "DRILLS", "FAULT_FAMILIES", "FAULT_KINDS", "FAULT_OPTIONS", "Gathered", "INPUT_KINDS", "INPUT_OPTIONS", "LINK_KINDS", "LockTimeout",
     "MccError", "MccNotFound", "Ports", "Recording", "Status", "SyncStart", "Trace", "UnknownChoice",
     "WaitTimeout", "stop_all",
 ]

@@ -42,6 +42,10 @@ INPUT_OPTIONS = ("cs", "cycles")
 #: ``delay`` (ms, ``late`` only).
 LINK_KINDS = ("no-reply", "late", "short", "stray-cr", "stray-lf", "stray-bel", "stray-ctrl",
               "corrupt", "reset", "bad-checksum")
+#: Fault families with words of their own after the kind: ``fault(station, "axis", node,
+#: kind)``, ``fault(station, "power-loss")``, ``fault(target, "link", kind)``,
+#: ``fault(card, "input", kind)``.
+FAULT_FAMILIES = ("axis", "power-loss", "link", "input")
 
 _LIVE: Dict[int, "Cluster"] = {}
 _LIVE_LOCK = threading.Lock()
@@ -453,8 +457,7 @@ class Cluster:
         if words:
             raise UnknownChoice(f"word after fault kind {kind!r}", words[0], [])
         if kind not in FAULT_KINDS + DRILLS:
-            raise UnknownChoice("fault kind", kind,
-                                FAULT_KINDS + DRILLS + ("axis", "power-loss", "link", "input"))
+            raise UnknownChoice("fault kind", kind, FAULT_KINDS + DRILLS + FAULT_FAMILIES)
         allowed = () if kind in DRILLS else FAULT_OPTIONS
         for k in options:
             if k not in allowed:

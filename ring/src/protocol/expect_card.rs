@@ -10,6 +10,7 @@
 //! | abort input | JPAN STOP/ (I2 = 0), FPD-selected C.S.: `A` | same | global abort (`Sys.pAbortAll` wired), `Coord[x].AbortAllMode` 0: abort |
 //! | motor 1 after the abort input | closed: `#1?` word 1 bit 18 clear | same | closed: `Motor[1].Status[0]` bits 13, 12 set |
 //! | C.S. 1 program | aborted (`??` word 1 bit 0 clear) | same | aborted |
+//! | amplifier fault on motor 1's node | killed: `#1?` word 2 bit 3 (amplifier fault error) set, word 1 bit 18 (open loop) set | same | killed: `Motor[1].Status[0]` bit 24 (`AmpFault`) set, bits 13, 12 clear |
 
 /// A card profile, as the config names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -78,6 +79,62 @@ pub struct AbortInputEffect {
     pub closed_value: u32,
     /// The C.S. program is aborted (its motion stops; no ring fault is latched anywhere).
     pub aborts_program: bool,
+}
+
+/// What a card of one profile shows after the amplifier of motor 1's servo node faulted (an
+/// axis fault at the station: `mcc fault STATION axis NODE amp-fault`): motor 1 killed with
+/// its amplifier-fault bit, and nothing latched on the ring.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AmpFaultEffect {
+    /// The amplifier-fault error bit of motor 1 (set).
+    pub fault_bit: ReadBack,
+    /// Motor 1's loop bits once killed, and their value then.
+    pub killed: ReadBack,
+    /// The value of [`Self::killed`]'s bits for a killed motor.
+    pub killed_value: u32,
+    /// Motor 1 as the card's state report (`killed_motors`) numbers it: the model's motor
+    /// blocks from 1, so a Power card's `Motor[1]` (its second block) is 2.
+    pub reported_as: u16,
+}
+
+/// The amplifier-fault expectation of `p` (seed 004 L6857 and L6791: `?` word 2 bit 3 *Amplifier
+/// Fault Error*, word 1 bit 18 *Open Loop Mode*; seed 000 `Motor[x].AmpFault`,
+/// `ClosedLoop`, `AmpEna` as bits of `Motor[x].Status[0]`).
+pub fn amp_fault_effect(p: CardProfile) -> AmpFaultEffect {
+    match p {
+        CardProfile::Pmac2 | CardProfile::Turbo => AmpFaultEffect {
+            fault_bit: ReadBack {
+                query: "#1?",
+                width: 6,
+                word: 1,
+                mask: 1 << 3,
+            },
+            killed: ReadBack {
+                query: "#1?",
+                width: 6,
+                word: 0,
+                mask: 1 << 18,
+            },
+            killed_value: 1 << 18,
+            reported_as: 1,
+        },
+        CardProfile::Power => AmpFaultEffect {
+            fault_bit: ReadBack {
+                query: "#1?",
+                width: 8,
+                word: 0,
+                mask: 1 << 24,
+            },
+            killed: ReadBack {
+                query: "#1?",
+                width: 8,
+                word: 0,
+                mask: (1 << 13) | (1 << 12),
+            },
+            killed_value: 0,
+            reported_as: 2,
+        },
+    }
 }
 
 /// The ring-fault expectation of `p`.
@@ -156,6 +213,14 @@ mod tests {
         let latch = ring_fault_effect(CardProfile::Turbo).latch.unwrap();
         assert_eq!(latch.bits("000010000800000000"), Some(0x10));
         assert!(ring_fault_effect(CardProfile::Power).latch.is_none());
+        let amp = amp_fault_effect(CardProfile::Pmac2);
+        assert_eq!(amp.fault_bit.bits("850000800008"), Some(8));
+        assert_eq!(amp.killed.bits("850000800008"), Some(amp.killed_value));
+        assert_eq!(amp.fault_bit.bits("830000804000"), Some(0));
+        let amp = amp_fault_effect(CardProfile::Power);
+        assert_eq!(amp.fault_bit.bits("0100000000000000"), Some(1 << 24));
+        assert_eq!(amp.killed.bits("0100000000000000"), Some(amp.killed_value));
+        assert_eq!(amp.killed.bits("0000300000000000"), Some(0x3000));
         assert_eq!(CardProfile::parse("turbo"), Some(CardProfile::Turbo));
         assert_eq!(CardProfile::parse("pmac3"), None);
     }

@@ -14,6 +14,11 @@
 //!   cards) latches nothing on the ring; the card's C.S. 1 program stops and motor 1 stays
 //!   closed as its profile's expectation says ([`mcc_ring::expect_card`]); `mcc status`
 //!   shows the input; after the clear and the usual recovery program 2 ends where it did;
+//! - an amplifier fault on the servo node of a card's motor 1 (`axis`, stations only) latches
+//!   nothing on the ring; that card kills motor 1 with its profile's amplifier-fault bit
+//!   ([`mcc_ring::expect_card::amp_fault_effect`]), no other card loses a motor, `mcc status`
+//!   shows the fault at the station; after the clear and the usual recovery program 2 ends
+//!   where it did;
 //! - a fault below the thresholds (a burst no check can trip on, `delay-us`) latches nothing
 //!   and kills no motor. (A SIGSTOP of any length is no tolerated stall: a stopped process is
 //!   a fact the member downstream sees as loss of light, see the README's Clocks.)
@@ -243,6 +248,11 @@ fn one(
         }
         Action::Input => {
             let r = judge_input(&s, cfg, p, &before, o);
+            recover(sup, cfg, p, reference, &mut o.violations)?;
+            return r;
+        }
+        Action::Axis => {
+            let r = judge_axis(&s, cfg, p, &before, o);
             recover(sup, cfg, p, reference, &mut o.violations)?;
             return r;
         }
@@ -576,6 +586,72 @@ fn judge_input(
         ));
     }
     judge_quiet(s, cfg, p, before, o)
+}
+
+/// An amplifier fault on the station's servo node of its card's motor 1 (its first node):
+/// that card kills motor 1 with the amplifier-fault bit its profile shows
+/// ([`mcc_ring::expect_card::amp_fault_effect`]), `mcc status` shows the fault at the
+/// station, and otherwise the ring stays quiet ([`judge_quiet`], the card's motor 1 excused).
+/// The recovery clears it.
+fn judge_axis(
+    s: &zenoh::Session,
+    cfg: &ClusterConfig,
+    p: &Planned,
+    before: &Snapshot,
+    o: &mut Outcome,
+) -> Result<()> {
+    use mcc_ring::expect_card::{amp_fault_effect, CardProfile};
+    let target = name(cfg, p.target).to_string();
+    let Some(st) = cfg.stations.iter().find(|st| st.name == target) else {
+        bail!("{target} is not a station");
+    };
+    let Some((k, card)) = cfg
+        .cards
+        .iter()
+        .enumerate()
+        .find(|(_, c)| c.master == st.master)
+    else {
+        bail!("{target} serves no card (master {})", st.master);
+    };
+    let Some(&node) = st.nodes.first() else {
+        bail!("{target} has no servo node");
+    };
+    let eff = amp_fault_effect(CardProfile::parse(&card.profile).unwrap_or(CardProfile::Pmac2));
+    let fault = serde_json::json!({"op": "axis", "node": node, "kind": "amp-fault"});
+    fault_request(s, cfg, &target, &FaultRequest::App { fault })?;
+    // The FAULT line reaches the card in the next cycle; a generous bound in ring time.
+    observe::wait_cycles(s, cfg, 200, Duration::from_secs(30))?;
+    let reply = motion::send(s, cfg, card.number, eff.fault_bit.query)?;
+    if eff.fault_bit.bits(&reply) != Some(eff.fault_bit.mask)
+        || eff.killed.bits(&reply) != Some(eff.killed_value)
+    {
+        o.violations.push(format!(
+            "{} ({}): motor 1 not killed by its amplifier fault: {} answered {reply:?}",
+            card.name, card.profile, eff.fault_bit.query
+        ));
+    }
+    let snap = observe::snapshot(s, cfg);
+    let shown = snap
+        .member(p.target)
+        .and_then(|m| m.extra.get("axis_faults"))
+        .and_then(|f| f.as_array().cloned())
+        .unwrap_or_default();
+    if !shown
+        .iter()
+        .any(|f| f["node"] == serde_json::json!(node) && f["kind"] == "amp-fault")
+    {
+        o.violations.push(format!(
+            "{target}: mcc status does not show the amplifier fault on node {node} ({shown:?})"
+        ));
+    }
+    // Motor 1 of that card was killed by the fault: excused from the quiet judgement.
+    let mut excused = before.clone();
+    if let Some(Some(info)) = excused.cards.get_mut(k) {
+        if !info.killed_motors.contains(&eff.reported_as) {
+            info.killed_motors.push(eff.reported_as);
+        }
+    }
+    judge_quiet(s, cfg, p, &excused, o)
 }
 
 /// A fault below the thresholds: once it is over and the ring has run three check periods,

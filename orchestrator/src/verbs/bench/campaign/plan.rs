@@ -39,10 +39,13 @@ pub enum Kind {
     Restart,
     /// A card's abort input (`mcc fault CARD input abort`), on cards only.
     Input,
+    /// An amplifier fault on the servo node of its card's motor 1 (`mcc fault STATION axis
+    /// NODE amp-fault`), on stations only.
+    Axis,
 }
 
 /// Every kind, in report order.
-pub const KINDS: [Kind; 13] = [
+pub const KINDS: [Kind; 14] = [
     Kind::DropSync,
     Kind::DropPackets,
     Kind::Corrupt,
@@ -56,6 +59,7 @@ pub const KINDS: [Kind; 13] = [
     Kind::Kill,
     Kind::Restart,
     Kind::Input,
+    Kind::Axis,
 ];
 
 impl fmt::Display for Kind {
@@ -74,6 +78,7 @@ impl fmt::Display for Kind {
             Kind::Kill => "kill",
             Kind::Restart => "restart",
             Kind::Input => "input",
+            Kind::Axis => "axis",
         })
     }
 }
@@ -99,6 +104,9 @@ pub enum Action {
     Restart,
     /// The card's abort input held active, C.S. 1 selected, until the recovery clears it.
     Input,
+    /// The station's amplifier fault on the servo node of its card's motor 1, held until the
+    /// recovery clears it.
+    Axis,
 }
 
 /// One planned fault.
@@ -136,6 +144,7 @@ impl Planned {
             Action::Kill => format!("kill {who}"),
             Action::Restart => format!("restart {who}"),
             Action::Input => format!("abort input on {who}"),
+            Action::Axis => format!("amplifier fault on {who}"),
         }
     }
 }
@@ -153,17 +162,29 @@ pub struct PlanOptions {
 /// members, waits, durations and amounts.
 pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<Planned> {
     let mut rng = StdRng::seed_from_u64(seed);
+    let of_kind = |k: mcc_ring::control::MemberKind| -> Vec<usize> {
+        (0..model.members.len())
+            .filter(|&i| model.members[i].kind == k)
+            .collect()
+    };
+    let cards = of_kind(mcc_ring::control::MemberKind::Card);
+    let stations = of_kind(mcc_ring::control::MemberKind::Station);
     let kinds: Vec<Kind> = if opts.kinds.is_empty() {
         KINDS.to_vec()
     } else {
         opts.kinds.clone()
     };
+    // A ring without stations has no amplifier to fault.
+    let kinds: Vec<Kind> = kinds
+        .into_iter()
+        .filter(|&k| k != Kind::Axis || !stations.is_empty())
+        .collect();
+    if kinds.is_empty() {
+        return Vec::new();
+    }
     let mut order: Vec<Kind> = (0..n).map(|i| kinds[i % kinds.len()]).collect();
     order.shuffle(&mut rng);
     let members = model.members.len().max(1);
-    let cards: Vec<usize> = (0..model.members.len())
-        .filter(|&i| model.members[i].kind == mcc_ring::control::MemberKind::Card)
-        .collect();
     // Each kind visits the members in a shuffled round: every member (the sync master
     // included) gets every kind once the kind has been drawn as often as there are members.
     let mut rounds: std::collections::HashMap<Kind, (Vec<usize>, usize)> = Default::default();
@@ -187,6 +208,15 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                     .max()
                     .or_else(|| cards.first().copied())
                     .unwrap_or(0);
+            }
+            if kind == Kind::Axis && !stations.contains(&target) {
+                // Axis faults are a station's: the station after the drawn card.
+                target = stations
+                    .iter()
+                    .copied()
+                    .find(|&st| st > target)
+                    .or_else(|| stations.first().copied())
+                    .unwrap_or(target);
             }
             let wait_ms = rng.random_range(0..=300);
             let below = rng.random_bool(opts.below_share.clamp(0.0, 1.0));
@@ -223,6 +253,7 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                 Kind::Kill => Action::Kill,
                 Kind::Restart => Action::Restart,
                 Kind::Input => Action::Input,
+                Kind::Axis => Action::Axis,
             };
             let what = match &action {
                 Action::Frames(s) => Some(Disturbance::Frames {
@@ -230,8 +261,9 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                     cycles: s.cycles,
                 }),
                 Action::Freeze | Action::Kill | Action::Restart => Some(Disturbance::Dark),
-                // The ring does not see a card's input: nobody may latch.
-                Action::Input => None,
+                // The ring sees neither a card's input nor an amplifier's fault line: nobody
+                // may latch.
+                Action::Input | Action::Axis => None,
             };
             Planned {
                 index,
@@ -260,13 +292,15 @@ mod tests {
     #[test]
     fn a_plan_covers_every_kind_and_member_reproducibly() {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
-        let p = plan(&model, 260, 7, &opts());
-        assert_eq!(p, plan(&model, 260, 7, &opts()), "same seed, same plan");
-        assert_ne!(p, plan(&model, 260, 8, &opts()));
+        let p = plan(&model, 280, 7, &opts());
+        assert_eq!(p, plan(&model, 280, 7, &opts()), "same seed, same plan");
+        assert_ne!(p, plan(&model, 280, 8, &opts()));
         for k in KINDS {
             assert_eq!(p.iter().filter(|f| f.kind == k).count(), 20, "{k}");
-            assert!(
+            // Axis faults are the stations': the sync master is a card.
+            assert_eq!(
                 p.iter().any(|f| f.kind == k && f.target == 0),
+                k != Kind::Axis,
                 "{k} on the sync master"
             );
         }
@@ -279,6 +313,9 @@ mod tests {
                 (Action::Kill | Action::Restart | Action::Freeze, _) => assert!(f.sustained()),
                 (Action::Input, _) => {
                     assert!(f.expect.quiet() && [0, 2].contains(&f.target), "{f:?}")
+                }
+                (Action::Axis, _) => {
+                    assert!(f.expect.quiet() && [1, 3].contains(&f.target), "{f:?}")
                 }
                 (Action::Frames(s), Kind::DelayUs) => {
                     assert!(f.expect.quiet() && s.cycles.is_some())
@@ -296,11 +333,11 @@ mod tests {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
         let p = plan(&model, 120, 11, &opts());
         for k in KINDS {
-            // Inputs are the cards' (members 0 and 2).
-            let targets: &[usize] = if k == Kind::Input {
-                &[0, 2]
-            } else {
-                &[0, 1, 2, 3]
+            // Inputs are the cards' (members 0 and 2), axis faults the stations' (1 and 3).
+            let targets: &[usize] = match k {
+                Kind::Input => &[0, 2],
+                Kind::Axis => &[1, 3],
+                _ => &[0, 1, 2, 3],
             };
             for &t in targets {
                 assert!(p.iter().any(|f| f.kind == k && f.target == t), "{k} on {t}");
