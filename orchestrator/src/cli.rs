@@ -470,7 +470,9 @@ pub struct BenchFaultsArgs {
     #[arg(long, value_name = "S", default_value_t = 1)]
     pub seed: u64,
     /// Campaign: only these kinds (comma-separated: drop-sync, drop-packets, corrupt,
-    /// byte-violation, overrun, underrun, delay, delay-us, cut, freeze, kill, restart).
+    /// byte-violation, overrun, underrun, delay, delay-us, cut, freeze, kill, restart, input
+    /// (a card's abort input), axis (an amplifier fault at a station), link (a host-link
+    /// fault on a card's port)).
     #[arg(long, value_name = "LIST")]
     pub kinds: Option<String>,
     /// Campaign: cards (each followed by its stations in the ring).

@@ -42,7 +42,7 @@ fn card_save_survives_sigkill_at_random_moments() {
 
 /// A campaign of 120 faults of every kind (drop-sync, drop-packets, corrupt, byte-violation,
 /// overrun, underrun, delay, delay-us, cut, freeze, kill, restart, a card's abort input, an
-/// amplifier fault at a station) at random members, the sync
+/// amplifier fault at a station, a host-link fault on a card's port) at random members, the sync
 /// master included, on a lockstep cluster of its own while programs run on every card: none
 /// against the ring-check rules (every member the rules name latches within its bound in ring
 /// cycles and nobody else, the broken link named, motors killed and station amplifiers off in
@@ -76,8 +76,10 @@ fn fault_campaign_of_120_faults_keeps_the_ring_check_rules() {
     assert_eq!(r["failed"], 0, "violations: {:#}", r["violations"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let kinds = r["kinds"].as_object().expect("kinds");
-    // The twelve ring kinds and drills, a card's abort input and an amplifier fault.
-    assert_eq!(kinds.len(), 14, "every kind: {r}");
+    // The twelve ring kinds and drills, a card's abort input, an amplifier fault and a
+    // host-link fault.
+    assert_eq!(kinds.len(), 15, "every kind: {r}");
+    assert!(kinds.contains_key("link"), "the host-link fault: {r}");
     assert!(kinds.contains_key("input"), "the abort input: {r}");
     assert!(kinds.contains_key("axis"), "the amplifier fault: {r}");
     let mut detected = 0;

@@ -19,10 +19,16 @@
 //!   ([`mcc_ring::expect_card::amp_fault_effect`]), no other card loses a motor, `mcc status`
 //!   shows the fault at the station; after the clear and the usual recovery program 2 ends
 //!   where it did;
+//! - a host-link fault on a card's text port (`link`, cards only: ASCII, a Power card's
+//!   gpascii; one reply, of every kind a card's ports take) latches nothing on the ring; the
+//!   host reads exactly what the link-fault model ([`mcc_ring::linkfault`]) makes of the
+//!   card's true reply (nothing, late, cut short, with a stray byte, a flipped bit, or the
+//!   connection reset), the next reply is whole, and what the faulted line wrote is stored;
 //! - a fault below the thresholds (a burst no check can trip on, `delay-us`) latches nothing
 //!   and kills no motor. (A SIGSTOP of any length is no tolerated stall: a stopped process is
 //!   a fact the member downstream sees as loss of light, see the README's Clocks.)
 
+pub mod link;
 pub mod motion;
 pub mod observe;
 pub mod plan;
@@ -253,6 +259,12 @@ fn one(
         }
         Action::Axis => {
             let r = judge_axis(&s, cfg, p, &before, o);
+            recover(sup, cfg, p, reference, &mut o.violations)?;
+            return r;
+        }
+        Action::Link(spec) => {
+            let r =
+                link::judge(&s, cfg, p, spec, o).and_then(|()| judge_quiet(&s, cfg, p, &before, o));
             recover(sup, cfg, p, reference, &mut o.violations)?;
             return r;
         }

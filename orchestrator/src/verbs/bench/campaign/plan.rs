@@ -6,6 +6,7 @@ use std::fmt;
 
 use mcc_ring::expect::{Disturbance, Expectation, RingModel};
 use mcc_ring::fault::{FaultKind, FaultSpec};
+use mcc_ring::linkfault::{LinkFaultKind, LinkFaultSpec, LINK_KINDS};
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -42,10 +43,13 @@ pub enum Kind {
     /// An amplifier fault on the servo node of its card's motor 1 (`mcc fault STATION axis
     /// NODE amp-fault`), on stations only.
     Axis,
+    /// A host-link fault on a card's text port (`mcc fault CARD link KIND`, one reply), on
+    /// cards only.
+    Link,
 }
 
 /// Every kind, in report order.
-pub const KINDS: [Kind; 14] = [
+pub const KINDS: [Kind; 15] = [
     Kind::DropSync,
     Kind::DropPackets,
     Kind::Corrupt,
@@ -60,6 +64,7 @@ pub const KINDS: [Kind; 14] = [
     Kind::Restart,
     Kind::Input,
     Kind::Axis,
+    Kind::Link,
 ];
 
 impl fmt::Display for Kind {
@@ -79,6 +84,7 @@ impl fmt::Display for Kind {
             Kind::Restart => "restart",
             Kind::Input => "input",
             Kind::Axis => "axis",
+            Kind::Link => "link",
         })
     }
 }
@@ -89,6 +95,21 @@ impl Kind {
         KINDS.iter().copied().find(|k| k.to_string() == s.trim())
     }
 }
+
+/// The host-link kinds a card's ports take (all but the EMCL bus's `bad-checksum`).
+const LINK_KINDS_ON_CARDS: [LinkFaultKind; 9] = {
+    let mut out = [LinkFaultKind::NoReply; 9];
+    let mut i = 0;
+    let mut j = 0;
+    while i < LINK_KINDS.len() {
+        if !matches!(LINK_KINDS[i], LinkFaultKind::BadChecksum) {
+            out[j] = LINK_KINDS[i];
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+};
 
 /// What is done to the target.
 #[derive(Clone, Debug, PartialEq)]
@@ -107,6 +128,9 @@ pub enum Action {
     /// The station's amplifier fault on the servo node of its card's motor 1, held until the
     /// recovery clears it.
     Axis,
+    /// A host-link fault on the card's text port (ASCII, or a Power card's gpascii) for its
+    /// next reply (`spec.replies` = 1).
+    Link(LinkFaultSpec),
 }
 
 /// One planned fault.
@@ -145,6 +169,10 @@ impl Planned {
             Action::Restart => format!("restart {who}"),
             Action::Input => format!("abort input on {who}"),
             Action::Axis => format!("amplifier fault on {who}"),
+            Action::Link(l) => match l.kind {
+                LinkFaultKind::Late => format!("link {} ({} ms) on {who}", l.kind, l.delay_ms),
+                k => format!("link {k} on {who}"),
+            },
         }
     }
 }
@@ -199,7 +227,7 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
             }
             let mut target = round[*next % members];
             *next += 1;
-            if kind == Kind::Input && !cards.contains(&target) {
+            if matches!(kind, Kind::Input | Kind::Link) && !cards.contains(&target) {
                 // Inputs are a card's: the card upstream of the drawn station.
                 target = cards
                     .iter()
@@ -254,6 +282,20 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                 Kind::Restart => Action::Restart,
                 Kind::Input => Action::Input,
                 Kind::Axis => Action::Axis,
+                Kind::Link => {
+                    let k = LINK_KINDS_ON_CARDS[rng.random_range(0..LINK_KINDS_ON_CARDS.len())];
+                    Action::Link(LinkFaultSpec {
+                        kind: k,
+                        probability: 1.0,
+                        seed,
+                        replies: Some(1),
+                        delay_ms: if k == LinkFaultKind::Late {
+                            rng.random_range(20..=400)
+                        } else {
+                            0
+                        },
+                    })
+                }
             };
             let what = match &action {
                 Action::Frames(s) => Some(Disturbance::Frames {
@@ -261,9 +303,9 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
                     cycles: s.cycles,
                 }),
                 Action::Freeze | Action::Kill | Action::Restart => Some(Disturbance::Dark),
-                // The ring sees neither a card's input nor an amplifier's fault line: nobody
-                // may latch.
-                Action::Input | Action::Axis => None,
+                // The ring sees neither a card's input, an amplifier's fault line nor a host
+                // link: nobody may latch.
+                Action::Input | Action::Axis | Action::Link(_) => None,
             };
             Planned {
                 index,
@@ -292,9 +334,9 @@ mod tests {
     #[test]
     fn a_plan_covers_every_kind_and_member_reproducibly() {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
-        let p = plan(&model, 280, 7, &opts());
-        assert_eq!(p, plan(&model, 280, 7, &opts()), "same seed, same plan");
-        assert_ne!(p, plan(&model, 280, 8, &opts()));
+        let p = plan(&model, 300, 7, &opts());
+        assert_eq!(p, plan(&model, 300, 7, &opts()), "same seed, same plan");
+        assert_ne!(p, plan(&model, 300, 8, &opts()));
         for k in KINDS {
             assert_eq!(p.iter().filter(|f| f.kind == k).count(), 20, "{k}");
             // Axis faults are the stations': the sync master is a card.
@@ -314,6 +356,15 @@ mod tests {
                 (Action::Input, _) => {
                     assert!(f.expect.quiet() && [0, 2].contains(&f.target), "{f:?}")
                 }
+                (Action::Link(l), _) => {
+                    assert!(f.expect.quiet() && [0, 2].contains(&f.target), "{f:?}");
+                    assert_eq!(
+                        l.validate(mcc_ring::linkfault::LinkTarget::CardPorts),
+                        Ok(()),
+                        "{f:?}"
+                    );
+                    assert_eq!(l.replies, Some(1));
+                }
                 (Action::Axis, _) => {
                     assert!(f.expect.quiet() && [1, 3].contains(&f.target), "{f:?}")
                 }
@@ -324,6 +375,14 @@ mod tests {
             }
         }
         assert!(p.iter().filter(|f| !f.sustained()).count() > 40);
+        // Every card-port link kind is drawn.
+        for k in LINK_KINDS_ON_CARDS {
+            assert!(
+                p.iter()
+                    .any(|f| matches!(&f.action, Action::Link(l) if l.kind == k)),
+                "link {k}"
+            );
+        }
     }
 
     /// The plan of the test command's campaign (120 faults, seed 11): every kind reaches
@@ -333,9 +392,10 @@ mod tests {
         let model = RingModel::from_config(&ClusterConfig::default_cluster(2, 2)).unwrap();
         let p = plan(&model, 120, 11, &opts());
         for k in KINDS {
-            // Inputs are the cards' (members 0 and 2), axis faults the stations' (1 and 3).
+            // Inputs and host links are the cards' (members 0 and 2), axis faults the
+            // stations' (1 and 3).
             let targets: &[usize] = match k {
-                Kind::Input => &[0, 2],
+                Kind::Input | Kind::Link => &[0, 2],
                 Kind::Axis => &[1, 3],
                 _ => &[0, 1, 2, 3],
             };
