@@ -339,6 +339,9 @@ impl Ctx<'_> {
     }
 
     fn info(&mut self, w: &str) {
+        /// `date` \[DECISION\]: the modelled firmware (`vers` 2.6.0.0) answers the seed's
+        /// own example date, in the seed's form.
+        const POWER_FIRMWARE_DATE: &str = "Jan 30 2008";
         match w {
             "cid" => {
                 let s = self
@@ -357,7 +360,9 @@ impl Ctx<'_> {
                 let cpu = self.card.model.state.limits().cpu.unwrap_or_default();
                 self.say(cpu);
             }
-            "date" => self.say(env!("CARGO_PKG_VERSION")),
+            // The firmware's issue date in the seed's form (L34183-34199: month's first
+            // three letters, two-digit day, four-digit year).
+            "date" => self.say(POWER_FIRMWARE_DATE),
             "size" | "free" => {
                 let used = self.card.model.bufs.used() * 8;
                 let total = 16_777_216u64;

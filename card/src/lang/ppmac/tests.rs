@@ -94,6 +94,9 @@ fn addressing_and_identity() {
     );
     assert_eq!(t.send("cid"), "604020\r\n");
     assert_eq!(t.send("type"), "PWR PMAC UMAC\r\n");
+    // Seed L33720-33721 (`cpu`), L34183-34199 (`date`: "Mmm dd yyyy").
+    assert_eq!(t.send("cpu"), "Power PC, 460EX\r\n");
+    assert_eq!(t.send("date"), "Jan 30 2008\r\n");
     assert_eq!(t.send("?"), "00000000\r\n");
     assert_eq!(t.send("Sys.MaxMotors"), "Sys.MaxMotors=32\r\n");
     assert_eq!(t.send("Ldata.Motor"), "Ldata.Motor=3\r\n");
