@@ -512,6 +512,25 @@ fn power_card_amp_fault_and_power_loss_kill_and_recover_after_clear() {
         CLOSED,
         "Motor[1] closed"
     );
+    // A load holds Motor[1] off its commanded position: `#1d` is the desired position,
+    // `#1p` the actual, `#1f` their difference (seed 000 L33912-33970).
+    send(
+        &mut rig,
+        json!({"op": "axis", "node": 0, "kind": "load", "value": 0.03}),
+    )
+    .unwrap();
+    rig.run(400);
+    let num = |rig: &mut Rig, l: &str| -> f64 { rig.power(l).parse().unwrap() };
+    let (d, p, f) = (
+        num(&mut rig, "#1d"),
+        num(&mut rig, "#1p"),
+        num(&mut rig, "#1f"),
+    );
+    assert!(f.abs() > 300.0, "the load's following error: {f}");
+    assert!((d - p - f).abs() < 0.5, "d {d} - p {p} = f {f}");
+    assert!(d.abs() < 1.0, "the desired position stays at 0: {d}");
+    clear(&mut rig);
+    rig.run(400);
     for (inject, motors) in [
         (
             json!({"op": "axis", "node": 0, "kind": "amp-fault"}),

@@ -568,7 +568,21 @@ impl Ctx<'_> {
                 MotorCmd::HomeZ => CmdKind::HomeZ,
                 MotorCmd::Enable => CmdKind::MotorInit,
                 MotorCmd::Out(v) => CmdKind::OpenLoop(*v),
-                MotorCmd::Position | MotorCmd::DesPos => CmdKind::Position,
+                MotorCmd::DesPos => {
+                    // Seed L33912-33970: the commanded (desired) position, motor units; the
+                    // model's following error is desired − actual.
+                    let (p, _, fe) = self
+                        .card
+                        .model
+                        .run
+                        .report
+                        .get(usize::from(x))
+                        .copied()
+                        .unwrap_or_default();
+                    report.push(crate::model::format_position(p + fe));
+                    continue;
+                }
+                MotorCmd::Position => CmdKind::Position,
                 MotorCmd::Velocity => CmdKind::Velocity,
                 MotorCmd::FollowingError => CmdKind::FollowingError,
                 MotorCmd::Status => {

@@ -79,6 +79,11 @@ fn motor_and_coord_status_elements_follow_a_move() {
     let des = value(&mut t, "Motor[1].DesPos");
     assert!(act > 10.0 && act < 2000.0, "mid-move ActPos {act}");
     assert!((des - act).abs() < 50.0, "DesPos {des} near ActPos {act}");
+    // `#1d` (seed L33912-33970) is the desired position, `#1f` desired − actual: d − p = f.
+    let num = |t: &mut T, l: &str| -> f64 { t.send(l).trim().parse().unwrap() };
+    let (d, p, f) = (num(&mut t, "#1d"), num(&mut t, "#1p"), num(&mut t, "#1f"));
+    assert!((d - p - f).abs() < 0.2, "d {d} - p {p} = f {f}");
+    assert!((d - des).abs() < 0.2, "#1d {d} is Motor[1].DesPos {des}");
     t.run(1500);
     assert_eq!(
         value(&mut t, "Coord[1].ProgRunning"),
