@@ -34,6 +34,25 @@ mod rotary;
 pub(crate) mod saved;
 mod status_elems;
 
+/// Motion program `n` is running or suspended in some C.S.: that C.S. points at it (or
+/// calculates or executes in it) and is `Coord[x].ProgActive` (running, its moves
+/// executing, a hold, or a stop it can resume from; `a` ends it).
+fn prog_in_use(card: &Card, n: u32) -> bool {
+    let m = &card.model;
+    m.run.cs.iter().enumerate().any(|(k, r)| {
+        let here = r.pointer.is_some_and(|(p, _)| p == n)
+            || r.pc_at.is_some_and(|(p, _)| p == n)
+            || r.pe_at.is_some_and(|(p, _)| p == n);
+        let active = m
+            .state
+            .coords
+            .get(k)
+            .is_some_and(|c| c.running || c.moves_pending)
+            || r.stop_point.is_some();
+        here && active
+    })
+}
+
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -451,15 +470,35 @@ impl Power {
             "prog" | "plc" | "subprog" => return Err(bad(21)),
             _ => return Err(bad(20)),
         };
-        if card.model.state.coords.iter().any(|c| c.running) && matches!(id, BufId::Prog(_)) {
-            return Err(bad(26));
+        // Seed L37656-37661: a PLC is opened only when disabled (not paused, not stepping);
+        // L37737-37741: a motion program only while no C.S. runs it or holds it suspended
+        // (hold, stop, step: `a` ends it); other programs may be opened meanwhile.
+        match id {
+            BufId::Plc(k) => {
+                // Only a PLC that exists can be enabled in fact (the flags of an empty
+                // buffer are the power-on defaults).
+                let r = card.model.run.plc[usize::from(k)];
+                if (r.enabled || r.paused) && card.model.bufs.plcs.contains_key(&k) {
+                    return Err(bad(26));
+                }
+            }
+            BufId::Prog(p) if prog_in_use(card, u32::from(p)) => return Err(bad(26)),
+            _ => {}
         }
         // Seed §2.9: `open` clears the buffer.
         card.model.bufs.remove(id);
         progvars::with(card, |_, pv| pv.sources.remove(&id));
         card.model.bufs.open(id).map_err(|_| bad(21))?;
         match id {
-            BufId::Prog(_) => card.model.run.cs.iter_mut().for_each(|c| c.pointer = None),
+            BufId::Prog(p) => {
+                // The C.S. pointing at it (none runs it) point at nothing any more.
+                for c in card.model.run.cs.iter_mut() {
+                    if c.pointer.is_some_and(|(n, _)| n == u32::from(p)) {
+                        c.pointer = None;
+                    }
+                }
+            }
+            // A new PLC runs once enabled (seed L37630-37634).
             BufId::Plc(k) => card.model.run.plc[usize::from(k)].enabled = false,
             BufId::Rot => {}
         }

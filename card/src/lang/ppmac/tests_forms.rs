@@ -99,3 +99,54 @@ fn f_in_a_program_keeps_its_negative_in_coord_tm_and_tm_its_value() {
     t.run(400);
     assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=150\r\n");
 }
+
+/// Seed L37656-37661 and L37737-37744: `open plc n` only of a disabled PLC, `open prog n`
+/// only of a program no C.S. runs or holds suspended (`a` ends it); another program may be
+/// opened while one runs. Refusals are error 26 and change nothing.
+#[test]
+fn open_refuses_a_running_program_or_an_enabled_plc_only() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&[
+        "open prog 1",
+        "linear inc ta50 ts0 tm200",
+        "while (1 < 2) {",
+        "X1",
+        "X-1",
+        "}",
+        "close",
+        "open plc 3",
+        "P30=P30+1",
+        "close",
+    ]);
+    assert_eq!(t.send("&1 b1 r"), "");
+    t.run(200);
+    assert!(t.send("open prog 1").contains("error #26"), "running");
+    assert!(
+        t.send("list prog 1").contains("X-1"),
+        "kept: {}",
+        t.send("list prog 1")
+    );
+    // Another program: opened, written and closed while program 1 runs on.
+    t.load(&["open prog 2", "X5", "close"]);
+    assert!(t.send("list prog 2").contains("X5"));
+    assert_eq!(t.send("Coord[1].ProgRunning"), "Coord[1].ProgRunning=1\r\n");
+    // Held is still suspended; `a` ends it.
+    assert_eq!(t.send("&1 h"), "");
+    t.run(200);
+    assert!(t.send("open prog 1").contains("error #26"), "held");
+    assert_eq!(t.send("&1 a"), "");
+    t.run(400);
+    t.load(&["open prog 1", "X2", "close"]);
+    assert!(t.send("list prog 1").contains("X2"));
+    // A PLC: refused while enabled (it keeps running), accepted once disabled.
+    assert_eq!(t.send("enable plc 3"), "");
+    t.run(20);
+    assert!(t.send("open plc 3").contains("error #26"), "enabled PLC");
+    let before = t.send("P30");
+    t.run(20);
+    assert_ne!(t.send("P30"), before, "the PLC still runs");
+    assert_eq!(t.send("disable plc 3"), "");
+    t.load(&["open plc 3", "P31=1", "close"]);
+    assert!(t.send("list plc 3").contains("P31=1"));
+}
