@@ -72,7 +72,18 @@ pub(crate) fn run_line(
         return cx.out;
     }
     let lim = cx.card.model.state.limits();
-    let parsed = parse::parse_line(line, lim.motors, lim.coords);
+    let mut parsed = parse::parse_line(line, lim.motors, lim.coords);
+    if no_short_cmds(cx.card, cx.store) {
+        // Seed L19994-20002: a short "action" command is a syntax error (#20); the
+        // commands before it run.
+        if let Some(k) = parsed.items.iter().position(|it| it.short) {
+            let at = parsed.items[k].at;
+            if parsed.error.is_none_or(|e| e.at > at) {
+                parsed.error = Some(parse::SyntaxError { at, code: 20 });
+            }
+            parsed.items.truncate(k);
+        }
+    }
     if let Some(e) = parsed.error {
         // The line is parsed whole first: a syntax error is reported before anything the
         // commands before it print (as gpascii does), and those commands still run.
@@ -81,6 +92,20 @@ pub(crate) fn run_line(
     cx.exec_all(&parsed, line);
     cx.out.extend_from_slice(ACK);
     cx.out
+}
+
+/// `Sys.NoShortCmds` is set: only the long forms of the action commands are accepted.
+fn no_short_cmds(card: &Card, store: &Store) -> bool {
+    let Some(def) = super::catalog::find(super::catalog::St::Sys, "NoShortCmds") else {
+        return false;
+    };
+    let k = Key {
+        st: super::catalog::St::Sys,
+        idx: 0,
+        def,
+        sub: [0, 0],
+    };
+    store.value(&k).is_some_and(|v| v != 0.0)
 }
 
 /// The output of a line that prints nothing: its error (if any) and the ACK.

@@ -254,6 +254,9 @@ pub(crate) struct Item {
     pub cmd: Cmd,
     /// Byte offset.
     pub at: usize,
+    /// Written in a short form `Sys.NoShortCmds = 1` refuses (seed L19994-20022: `a`, `b`,
+    /// `h`, `hm`, `hmz`, `j…`, `k`, `q`, `r`, `s`).
+    pub short: bool,
 }
 
 /// A parsed line: the commands before the first error, the error, and the element table of
@@ -275,6 +278,8 @@ pub(crate) struct Cur<'a> {
     /// Program text: elements go into the card's program element table (`elems`, shared
     /// and interned), named `Ext(EXT_PELEM + k)`.
     prog: bool,
+    /// The last on-line command was written in a short form ([`Item::short`]).
+    short: bool,
 }
 
 fn err<T>(at: usize) -> P<T> {
@@ -288,6 +293,7 @@ impl<'a> Cur<'a> {
             i: 0,
             elems: Vec::new(),
             prog: false,
+            short: false,
         }
     }
 
@@ -299,6 +305,7 @@ impl<'a> Cur<'a> {
             i: 0,
             elems: table,
             prog: true,
+            short: false,
         }
     }
 
@@ -905,7 +912,11 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
                     Cmd::Coords(..) => Some(false),
                     _ => None,
                 };
-                items.push(Item { cmd, at });
+                items.push(Item {
+                    cmd,
+                    at,
+                    short: std::mem::take(&mut c.short),
+                });
                 // Commands are separated by white space, or follow an address directly.
                 let next = c.peek();
                 let glued_start = cmd_is_begin && matches!(next, Some(b'r' | b's'));
@@ -932,6 +943,7 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
         Some(Item {
             cmd: Cmd::Motors(_, true) | Cmd::Coords(_, true),
             at,
+            ..
         }),
     ) = (&error, items.last())
     {
@@ -1024,6 +1036,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     if c.peek() == Some(b'j') && !c.peek_at(1).is_some_and(|d| d.is_ascii_alphabetic()) {
         c.i += 1;
+        c.short = true;
         return jog(c);
     }
     // The long forms `jog+`, `jog-`, `jog/`, `jog=…`, `jog:…`, `jog^…` (seed L565-624,
@@ -1056,6 +1069,10 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     let motor = |m| Ok(Cmd::Motor(m));
     let cs = |m| Ok(Cmd::Cs(m));
+    c.short = matches!(
+        w.as_str(),
+        "k" | "hm" | "hmz" | "r" | "s" | "q" | "a" | "h" | "b"
+    );
     match w.as_str() {
         "k" | "kill" => motor(MotorCmd::Kill),
         "dkill" => motor(MotorCmd::DKill),

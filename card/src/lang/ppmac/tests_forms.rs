@@ -150,3 +150,38 @@ fn open_refuses_a_running_program_or_an_enabled_plc_only() {
     t.load(&["open plc 3", "P31=1", "close"]);
     assert!(t.send("list plc 3").contains("P31=1"));
 }
+
+/// Seed L19985-20024: with `Sys.NoShortCmds = 1` the short action commands (`j+`, `k`, `r`,
+/// `a`, `b`, `hm` …) are error 20 and do nothing, the long forms work, the commands before
+/// the short one on the line still run; back at 0 both forms work.
+#[test]
+fn no_short_cmds_refuses_the_short_action_forms() {
+    let mut t = T::new();
+    t.ready_cs1();
+    assert_eq!(t.send("Sys.NoShortCmds"), "Sys.NoShortCmds=0\r\n");
+    assert_eq!(t.send("Sys.NoShortCmds=1"), "");
+    for short in [
+        "#1j+", "#1k", "&1r", "&1a", "&1b1", "#1hm", "#1j=100", "&1h",
+    ] {
+        let r = t.send(short);
+        assert!(r.contains("error #20: ILLEGAL CMD"), "{short}: {r:?}");
+    }
+    t.run(100);
+    assert_eq!(
+        t.send("Motor[1].DesVelZero"),
+        "Motor[1].DesVelZero=1\r\n",
+        "the refused jog did nothing"
+    );
+    // What comes before the short form on the line runs.
+    let r = t.send("P5=3 #1j+");
+    assert!(r.contains("error #20"), "{r:?}");
+    assert_eq!(t.send("P5"), "P5=3\r\n");
+    // The long forms.
+    assert_eq!(t.send("#1jog+"), "");
+    t.run(100);
+    assert_eq!(t.send("Motor[1].DesVelZero"), "Motor[1].DesVelZero=0\r\n");
+    assert_eq!(t.send("#1jog/"), "");
+    assert_eq!(t.send("#1kill"), "");
+    assert_eq!(t.send("Sys.NoShortCmds=0"), "");
+    assert_eq!(t.send("#1j/"), "", "short forms again");
+}
