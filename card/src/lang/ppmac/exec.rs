@@ -645,6 +645,11 @@ impl Ctx<'_> {
                     }
                     CmdKind::OverrideSet(v.max(0.0))
                 }
+                // Seed L31838-31846: a C.S. with no motor assigned always reports 0.
+                CsCmd::OverrideQuery if self.card.model.run.motors_in(x + 1).is_empty() => {
+                    report.push("0".to_string());
+                    continue;
+                }
                 CsCmd::OverrideQuery => CmdKind::OverrideQuery,
                 CsCmd::Status => {
                     let [a, b] = coord_status(&self.card.model, x);

@@ -185,3 +185,17 @@ fn no_short_cmds_refuses_the_short_action_forms() {
     assert_eq!(t.send("Sys.NoShortCmds=0"), "");
     assert_eq!(t.send("#1j/"), "", "short forms again");
 }
+
+/// Seed L31838-31846: `%` reports the C.S.'s time-base override; a C.S. with no motor
+/// assigned always reports 0.
+#[test]
+fn override_of_a_cs_without_motors_is_0() {
+    let mut t = T::new();
+    t.ready_cs1();
+    assert_eq!(t.send("&2 %"), "0\r\n");
+    assert_eq!(t.send("&2 %50"), "");
+    assert_eq!(t.send("&2 %"), "0\r\n", "still no motor");
+    assert_eq!(t.send("&1 %"), "100\r\n");
+    assert_eq!(t.send("&1 %40"), "");
+    assert_eq!(t.send("&1 %"), "40\r\n");
+}

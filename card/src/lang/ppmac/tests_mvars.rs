@@ -318,6 +318,8 @@ fn ldata_cmd_status_and_count_follow_the_thread_s_cmd_texts() {
 fn cmd_texts_take_printf_arguments() {
     let mut t = T::new();
     t.load(&[
+        // A C.S. with a motor (one without reports % 0, seed L31846).
+        "&1 #1->1000X",
         "P10=8",
         "open plc 5",
         "Ldata.CmdStatus = 1",
