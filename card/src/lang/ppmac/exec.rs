@@ -645,6 +645,19 @@ impl Ctx<'_> {
                     }
                     CmdKind::OverrideSet(v.max(0.0))
                 }
+                CsCmd::Servo(on) => {
+                    // Every motor assigned to an axis of the C.S.: `$` (closed loop at its
+                    // position) or a kill (open loop, amplifier off).
+                    let cmd = if *on {
+                        CmdKind::MotorInit
+                    } else {
+                        CmdKind::Kill
+                    };
+                    for m in self.card.model.run.motors_in(x + 1) {
+                        report.extend(self.pmac(m - 1, x, &cmd)?);
+                    }
+                    continue;
+                }
                 // Seed L31838-31846: a C.S. with no motor assigned always reports 0.
                 CsCmd::OverrideQuery if self.card.model.run.motors_in(x + 1).is_empty() => {
                     report.push("0".to_string());

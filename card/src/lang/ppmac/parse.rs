@@ -193,6 +193,9 @@ pub(crate) enum CsCmd {
     /// `pmatch` (axis positions from motor positions; through the forward kinematic routine
     /// for a C.S. with `#n->I` motors).
     PMatch,
+    /// `enable` / `disable` after `&` (no `plc`): every motor assigned to an axis of the
+    /// C.S. closed-loop enabled / disabled (seed L412-416).
+    Servo(bool),
 }
 
 /// One parsed command.
@@ -1102,9 +1105,12 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
         }
         "enable" | "disable" => {
+            let save = c.i;
             c.ws();
             if !c.eat_word("plc") {
-                return err(c.i);
+                // The C.S. form: `&1 enable`, `&2 disable` (seed L412-416).
+                c.i = save;
+                return cs(CsCmd::Servo(w == "enable"));
             }
             c.ws();
             match c.uint() {

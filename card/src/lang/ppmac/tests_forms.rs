@@ -199,3 +199,30 @@ fn override_of_a_cs_without_motors_is_0() {
     assert_eq!(t.send("&1 %40"), "");
     assert_eq!(t.send("&1 %"), "40\r\n");
 }
+
+/// Seed L412-416: `&x disable` opens the loop and drops the amplifier of every motor
+/// assigned to an axis of C.S. x, `&x enable` closes them again; other motors are left
+/// alone, `enable plc` / `disable plc` keep their meaning.
+#[test]
+fn cs_enable_and_disable_act_on_the_cs_motors() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["Motor[2].ServoCtrl=1", "#2j/"]);
+    t.run(20);
+    let closed = |t: &mut T, x: u16| t.send(&format!("Motor[{x}].ClosedLoop"));
+    assert_eq!(closed(&mut t, 1), "Motor[1].ClosedLoop=1\r\n");
+    assert_eq!(closed(&mut t, 2), "Motor[2].ClosedLoop=1\r\n");
+    assert_eq!(t.send("&1 disable"), "");
+    t.run(5);
+    assert_eq!(closed(&mut t, 1), "Motor[1].ClosedLoop=0\r\n");
+    assert_eq!(t.send("Motor[1].AmpEna"), "Motor[1].AmpEna=0\r\n");
+    assert_eq!(closed(&mut t, 2), "Motor[2].ClosedLoop=1\r\n", "not in &1");
+    assert_eq!(t.send("&1 enable"), "");
+    t.run(5);
+    assert_eq!(closed(&mut t, 1), "Motor[1].ClosedLoop=1\r\n");
+    assert_eq!(t.send("&2 disable"), "", "no motor in &2: nothing to do");
+    assert_eq!(closed(&mut t, 2), "Motor[2].ClosedLoop=1\r\n");
+    t.load(&["open plc 4", "P40=P40+1", "close", "enable plc 4"]);
+    t.run(5);
+    assert_ne!(t.send("P40"), "P40=0\r\n", "enable plc still enables a PLC");
+}
