@@ -94,6 +94,68 @@ pub(crate) fn run_line(
     cx.out
 }
 
+/// `&x p|d|f|v` (seed L33912-33975, L34940-34962): each axis of C.S. x that a motor is
+/// assigned to, in the order X Y Z A B C U V W, as `{letter}{value}` in user units, solved
+/// from its motors' values as reported (PMATCH's solution: the lowest motor of an axis
+/// wins); `No Motors` for a C.S. without motors, `No Solution` where the axes cannot be
+/// computed from the definitions (`#n->I` motors: \[GAP\] the forward routine is not run
+/// for a report).
+fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> String {
+    use crate::coord::axes::{CsAxes, MotorAxisDef, AXES};
+    use parse::AxisReport as R;
+    let motors = m.run.motors_in(x + 1);
+    if motors.is_empty() {
+        return "No Motors".to_string();
+    }
+    let mut defs = Vec::with_capacity(motors.len());
+    for &n in &motors {
+        match m.run.axes.get(usize::from(n) - 1) {
+            Some(Some((_, d))) => match MotorAxisDef::from_ast(d) {
+                Ok(MotorAxisDef::Inverse) | Err(_) => return "No Solution".to_string(),
+                Ok(def) => defs.push((n, def)),
+            },
+            _ => return "No Solution".to_string(),
+        }
+    }
+    let refs: Vec<(u16, &MotorAxisDef)> = defs.iter().map(|(n, d)| (*n, d)).collect();
+    let cs = CsAxes::build(&refs);
+    // The motors' values as `p`/`v`/`f` report them (0.1 count).
+    let rep = |n: u16| -> (f64, f64, f64) {
+        let (p, v, f) = m
+            .run
+            .report
+            .get(usize::from(n) - 1)
+            .copied()
+            .unwrap_or_default();
+        let r = |a: f64| (a * 10.0).round() / 10.0;
+        (r(p), r(v), r(f))
+    };
+    let zero = crate::coord::axes::AxisVec::zeros();
+    let solve = |vals: Vec<f64>| cs.pmatch(&vals, &zero);
+    let pos = || solve(motors.iter().map(|&n| rep(n).0).collect());
+    let des = || solve(motors.iter().map(|&n| rep(n).0 + rep(n).2).collect());
+    let out = match what {
+        R::Pos => pos(),
+        R::Des => des(),
+        R::Fe => des() - pos(),
+        // A velocity has no offset.
+        R::Vel => solve(
+            motors
+                .iter()
+                .enumerate()
+                .map(|(r, &n)| rep(n).1 + cs.offset[r])
+                .collect(),
+        ),
+    };
+    let used = cs.axes_used();
+    AXES.iter()
+        .enumerate()
+        .filter(|(k, _)| used[*k])
+        .map(|(k, a)| format!("{}{}", a.letter(), crate::model::format_value(out[k])))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// `Sys.NoShortCmds` is set: only the long forms of the action commands are accepted.
 fn no_short_cmds(card: &Card, store: &Store) -> bool {
     let Some(def) = super::catalog::find(super::catalog::St::Sys, "NoShortCmds") else {
@@ -669,12 +731,9 @@ impl Ctx<'_> {
                     report.push(format!("{a:08X}{b:08X}"));
                     continue;
                 }
-                CsCmd::Position => {
-                    if self.card.model.run.motors_in(x + 1).is_empty() {
-                        report.push("No Motors".to_string());
-                        continue;
-                    }
-                    CmdKind::Position
+                CsCmd::Axes(what) => {
+                    report.push(axis_report(&self.card.model, x, *what));
+                    continue;
                 }
             };
             let lines = self.pmac(motor, x, &cmd)?;

@@ -188,14 +188,28 @@ pub(crate) enum CsCmd {
     OverrideQuery,
     /// `?` after `&`
     Status,
-    /// `p` after `&`: axis positions.
-    Position,
+    /// `p`, `d`, `f`, `v` after `&`: the C.S.'s axes in user units (seed L33912-33975,
+    /// L34940-34962).
+    Axes(AxisReport),
     /// `pmatch` (axis positions from motor positions; through the forward kinematic routine
     /// for a C.S. with `#n->I` motors).
     PMatch,
     /// `enable` / `disable` after `&` (no `plc`): every motor assigned to an axis of the
     /// C.S. closed-loop enabled / disabled (seed L412-416).
     Servo(bool),
+}
+
+/// What `&x p|d|f|v` reports of each axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum AxisReport {
+    /// `p`: actual position.
+    Pos,
+    /// `d`: desired (commanded) position.
+    Des,
+    /// `f`: following error (desired − actual).
+    Fe,
+    /// `v`: actual velocity.
+    Vel,
 }
 
 /// One parsed command.
@@ -1081,7 +1095,10 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "dkill" => motor(MotorCmd::DKill),
         "hm" | "home" => motor(MotorCmd::Home),
         "hmz" | "homez" => motor(MotorCmd::HomeZ),
-        "p" if last == Some(false) => cs(CsCmd::Position),
+        "p" if last == Some(false) => cs(CsCmd::Axes(AxisReport::Pos)),
+        "d" if last == Some(false) => cs(CsCmd::Axes(AxisReport::Des)),
+        "f" if last == Some(false) => cs(CsCmd::Axes(AxisReport::Fe)),
+        "v" if last == Some(false) => cs(CsCmd::Axes(AxisReport::Vel)),
         "p" => motor(MotorCmd::Position),
         "v" => motor(MotorCmd::Velocity),
         "f" => motor(MotorCmd::FollowingError),

@@ -226,3 +226,41 @@ fn cs_enable_and_disable_act_on_the_cs_motors() {
     t.run(5);
     assert_ne!(t.send("P40"), "P40=0\r\n", "enable plc still enables a PLC");
 }
+
+/// Seed L33912-33975 and L34940-34962: `&x p|d|f|v` report each axis of the C.S. in user
+/// units, `{letter}{value}` in the order X Y Z A B C U V W, solved from the motors' values
+/// (`#1->1000X`: X = counts / 1000; `#2->-250Y+100`: Y = (counts - 100) / -250); a C.S.
+/// without motors answers `No Motors`. A list reports each C.S. in turn.
+#[test]
+fn cs_reports_give_axis_letters_in_user_units() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["Motor[2].ServoCtrl=1", "&1 #2->-250Y+100", "#2j/"]);
+    t.run(20);
+    assert_eq!(t.send("#1j=2000"), "");
+    t.run(3000);
+    assert_eq!(t.send("#1p"), "2000\r\n");
+    assert_eq!(t.send("&1p"), "X2 Y0.4\r\n");
+    assert_eq!(t.send("&1d"), "X2 Y0.4\r\n");
+    assert_eq!(t.send("&1f"), "X0 Y0\r\n");
+    assert_eq!(t.send("&1v"), "X0 Y0\r\n");
+    assert_eq!(t.send("&2p"), "No Motors\r\n");
+    assert_eq!(t.send("&1..2d"), "X2 Y0.4 No Motors\r\n");
+    // Moving: d - p = f per axis, v nonzero on X only.
+    assert_eq!(t.send("#1j=0"), "");
+    t.run(150);
+    let axes = |t: &mut T, l: &str| -> Vec<f64> {
+        t.send(l)
+            .split_whitespace()
+            .map(|w| w[1..].parse().unwrap())
+            .collect()
+    };
+    let (p, d, f) = (
+        axes(&mut t, "&1p"),
+        axes(&mut t, "&1d"),
+        axes(&mut t, "&1f"),
+    );
+    assert!((d[0] - p[0] - f[0]).abs() < 1e-3, "{d:?} - {p:?} = {f:?}");
+    let v = axes(&mut t, "&1v");
+    assert!(v[0] < 0.0 && v[1] == 0.0, "{v:?}");
+}
