@@ -73,7 +73,7 @@ pub(crate) fn run_line(
     }
     let lim = cx.card.model.state.limits();
     let mut parsed = parse::parse_line(line, lim.motors, lim.coords);
-    if no_short_cmds(cx.card, cx.store) {
+    if no_short_cmds(cx.store) {
         // Seed L19994-20002: a short "action" command is a syntax error (#20); the
         // commands before it run.
         if let Some(k) = parsed.items.iter().position(|it| it.short) {
@@ -157,7 +157,7 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> String {
 }
 
 /// `Sys.NoShortCmds` is set: only the long forms of the action commands are accepted.
-fn no_short_cmds(card: &Card, store: &Store) -> bool {
+fn no_short_cmds(store: &Store) -> bool {
     let Some(def) = super::catalog::find(super::catalog::St::Sys, "NoShortCmds") else {
         return false;
     };
