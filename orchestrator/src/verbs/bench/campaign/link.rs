@@ -45,10 +45,7 @@ pub fn judge(
     spec: &LinkFaultSpec,
     o: &mut Outcome,
 ) -> Result<()> {
-    let target = super::name(cfg, p.target).to_string();
-    let Some(card) = cfg.cards.iter().find(|c| c.name == target) else {
-        bail!("{target} is not a card");
-    };
+    let (target, card) = super::target_card(cfg, p)?;
     let power = card.profile == "power";
     let snap = observe::snapshot(s, cfg);
     let port = snap

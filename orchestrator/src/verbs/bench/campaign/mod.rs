@@ -549,6 +549,18 @@ fn judge_detection(
     }
 }
 
+/// The card a planned fault goes to: its name and config.
+fn target_card<'c>(
+    cfg: &'c ClusterConfig,
+    p: &Planned,
+) -> Result<(String, &'c mcc_ring::config::CardConfig)> {
+    let target = name(cfg, p.target).to_string();
+    match cfg.cards.iter().find(|c| c.name == target) {
+        Some(card) => Ok((target, card)),
+        None => bail!("{target} is not a card"),
+    }
+}
+
 /// A card's abort input: the card stops its C.S. 1 program with motor 1 closed as its
 /// profile's [`mcc_ring::expect_card::abort_input_effect`] says, its status shows the input,
 /// and the ring latches nothing ([`judge_quiet`]). The recovery clears the input.
@@ -560,10 +572,7 @@ fn judge_input(
     o: &mut Outcome,
 ) -> Result<()> {
     use mcc_ring::expect_card::{abort_input_effect, CardProfile};
-    let target = name(cfg, p.target).to_string();
-    let Some(card) = cfg.cards.iter().find(|c| c.name == target) else {
-        bail!("{target} is not a card");
-    };
+    let (target, card) = target_card(cfg, p)?;
     let profile = CardProfile::parse(&card.profile).unwrap_or(CardProfile::Pmac2);
     let eff = abort_input_effect(profile);
     for line in eff.wiring {
