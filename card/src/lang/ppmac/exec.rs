@@ -133,7 +133,17 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> String {
     let zero = crate::coord::axes::AxisVec::zeros();
     let solve = |vals: Vec<f64>| cs.pmatch(&vals, &zero);
     let pos = || solve(motors.iter().map(|&n| rep(n).0).collect());
-    let des = || solve(motors.iter().map(|&n| rep(n).0 + rep(n).2).collect());
+    let des = || {
+        solve(
+            motors
+                .iter()
+                .map(|&n| {
+                    let (p, _, f) = rep(n);
+                    p + f
+                })
+                .collect(),
+        )
+    };
     let out = match what {
         R::Pos => pos(),
         R::Des => des(),

@@ -22,14 +22,14 @@ use std::net::{Shutdown, TcpStream};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::config::{CardConfig, ClusterConfig};
-use mcc_ring::control::{card_cmd_key, FaultRequest};
+use mcc_ring::config::ClusterConfig;
+use mcc_ring::control::FaultRequest;
 use mcc_ring::linkfault::{LinkFaultSpec, LinkFaulter};
 
+use super::motion::send_framed;
 use super::observe;
 use super::plan::Planned;
 use super::report::Outcome;
-use crate::cluster::ctl::query_text;
 
 /// What a Power card's gpascii port writes first (not a reply: never faulted).
 const GPASCII_BANNER: &[u8] = b"STDIN Open for ASCII Input\n";
@@ -57,11 +57,13 @@ pub fn judge(
     let v = 1000 + p.index as u64 % 8000;
     let (w, sentinel) = (v + 1, v + 2);
     let w_line = format!("P199={w} P199");
-    let w_reply = raw(s, cfg, card, &w_line)?;
-    raw(s, cfg, card, &format!("P197={sentinel}"))?;
-    let sentinel_reply = raw(s, cfg, card, "P197")?.into_bytes();
+    let raw = |line: &str| send_framed(s, cfg, card.number, line);
+    let w_reply = raw(&w_line)?;
+    raw(&format!("P197={sentinel}"))?;
+    let sentinel_reply = raw("P197")?.into_bytes();
 
-    let mut conn = TcpStream::connect(("127.0.0.1", port as u16))
+    let port = u16::try_from(port).map_err(|_| anyhow!("{target}: text port {port}"))?;
+    let mut conn = TcpStream::connect(("127.0.0.1", port))
         .with_context(|| format!("{target}: connect to its text port {port}"))?;
     conn.set_nodelay(true)?;
     if power {
@@ -128,16 +130,6 @@ pub fn judge(
         ));
     }
     Ok(())
-}
-
-/// The card's reply to `line` through its command queryable, framing and all.
-fn raw(s: &zenoh::Session, cfg: &ClusterConfig, card: &CardConfig, line: &str) -> Result<String> {
-    let key = card_cmd_key(&cfg.cluster, u32::from(card.number));
-    let r = query_text(s, &key, Some(line.to_string()), Duration::from_secs(5))?;
-    if r.contains('\x07') || r.contains(": error #") {
-        bail!("{}: {line:?} answered {r:?}", card.name);
-    }
-    Ok(r)
 }
 
 /// Read until `want.len()` bytes came (or the connection ended, or `due` passed), then a

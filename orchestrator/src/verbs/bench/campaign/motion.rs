@@ -71,15 +71,26 @@ pub const END_TOLERANCE: f64 = 2.0;
 /// One line to card `number` through its command queryable; the reply text without framing.
 /// A BEL (an ERRnnn reply) is an error.
 pub fn send(s: &zenoh::Session, cfg: &ClusterConfig, number: u8, line: &str) -> Result<String> {
+    let r = send_framed(s, cfg, number, line)?;
+    Ok(
+        r.trim_matches(|c: char| c.is_control() || c.is_whitespace())
+            .to_string(),
+    )
+}
+
+/// [`send`] with the reply as the card frames it (what its host ports write).
+pub fn send_framed(
+    s: &zenoh::Session,
+    cfg: &ClusterConfig,
+    number: u8,
+    line: &str,
+) -> Result<String> {
     let key = card_cmd_key(&cfg.cluster, u32::from(number));
     let r = query_text(s, &key, Some(line.to_string()), Duration::from_secs(5))?;
     if r.contains('\x07') || r.contains(": error #") {
         bail!("card {number}: {line:?} answered {r:?}");
     }
-    Ok(
-        r.trim_matches(|c: char| c.is_control() || c.is_whitespace())
-            .to_string(),
-    )
+    Ok(r)
 }
 
 /// A numeric reply.
