@@ -16,6 +16,7 @@ mod macro_station;
 mod manual_cases;
 mod motion;
 mod persistence;
+mod power_program;
 mod power_ring;
 mod private_run_dir;
 mod programs;

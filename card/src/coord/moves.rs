@@ -195,11 +195,11 @@ impl Modal {
             mode: Mode::Linear,
             ta: clean(cfg.ix87, 0.0),
             ts: clean(cfg.ix88, 50.0),
-            // [DECISION] a positive Power Tm stays a feedrate until Power's setup elements
-            // have their own defaults (issue 25: the model's Isx89 default is PMAC2's 1000,
-            // the seed's -1); a negative one is the feedrate F left.
+            // Power `Coord[x].Tm` (seed 000 L5113-5135): negative, a feedrate of its
+            // magnitude (default -1); positive, a move time in ms.
             feed: match cfg.tm {
                 Some(tm) if tm.is_finite() && tm < 0.0 => Feed::Rate(-tm),
+                Some(tm) if tm.is_finite() && tm > 0.0 => Feed::Time(tm),
                 _ => Feed::Rate(if cfg.ix89.is_finite() && cfg.ix89 > 0.0 {
                     cfg.ix89
                 } else {

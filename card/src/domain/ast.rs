@@ -635,6 +635,9 @@ pub enum JogKind {
     VarRelCommanded,
     /// `J^*`
     VarRelActual,
+    /// Power `jog`: an indefinite jog at the motor's present velocity, typically taking an
+    /// open-loop (`out`) motion into closed loop (seed 000 L36069-36083).
+    Present,
 }
 
 /// A MACRO station variable: `MI{n}` (also plain `I{n}` as DLS clients send) or `C{n}`/`MC{n}`.

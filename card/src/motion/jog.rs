@@ -23,6 +23,8 @@ pub enum JogCmd {
     Stop,
     /// Go to an absolute position in counts (`J=`, `J={c}`, `J:{c}`, `J^{c}` once resolved).
     To(f64),
+    /// Jog on indefinitely at this velocity, counts/ms (Power `jog`: the present velocity).
+    Velocity(f64),
 }
 
 /// Latched move parameters for one jog (Ix19-Ix22 when the command was given).
@@ -47,6 +49,7 @@ impl JogCmd {
             JogCmd::Minus => Plan::to_velocity(k.p, k.v, -speed, &jp.ramp),
             JogCmd::Stop => Plan::to_velocity(k.p, k.v, 0.0, &jp.ramp),
             JogCmd::To(target) => Plan::to_position(k.p, k.v, target, speed, &jp.ramp),
+            JogCmd::Velocity(v) => Plan::to_velocity(k.p, k.v, v, &jp.ramp),
         }
     }
 
@@ -56,6 +59,7 @@ impl JogCmd {
             JogCmd::Plus => 1.0,
             JogCmd::Minus => -1.0,
             JogCmd::Stop => 0.0,
+            JogCmd::Velocity(v) => v.signum() * f64::from(u8::from(v != 0.0)),
             JogCmd::To(t) => {
                 if t > cmd {
                     1.0

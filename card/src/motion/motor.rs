@@ -141,6 +141,8 @@ pub struct Motor {
     inpos_scans: u32,
     on_program: bool,
     cmd_vel: f64,
+    /// The last servo cycle's length, ms (turns [`Motor::velocity`] into counts/ms).
+    dt_ms: f64,
     last_out: TickOutput,
     /// Target position register (`J=`, D:$080B): the most recent programmed position, motor
     /// counts.
@@ -189,6 +191,7 @@ impl Motor {
             inpos_scans: 0,
             on_program: false,
             cmd_vel: 0.0,
+            dt_ms: 0.0,
             last_out: TickOutput::default(),
             prejog: 0.0,
             pos_bias: 0.0,
@@ -254,6 +257,8 @@ impl Motor {
             JogKind::VarTo => JogCmd::To(finite(jog_register)?),
             JogKind::VarRelCommanded => JogCmd::To(self.cmd + finite(jog_register)?),
             JogKind::VarRelActual => JogCmd::To(self.actual + finite(jog_register)?),
+            JogKind::Present if self.dt_ms > 0.0 => JogCmd::Velocity(self.velocity() / self.dt_ms),
+            JogKind::Present => JogCmd::Velocity(0.0),
         })
     }
 
@@ -314,6 +319,31 @@ impl Motor {
                 self.kill();
                 self.mode = Mode::Open(pct / 100.0 * p.gains.out_limit.abs());
                 self.flags.amp_enabled = true;
+            }
+            MotorCommand::Jog {
+                cmd: JogCmd::Velocity(v),
+                ..
+            } => {
+                // Power `jog`: no effect on a motor already jogging (or moving in closed
+                // loop); otherwise the loop closes on the move as it is and keeps its velocity.
+                if self.mode == Mode::Closed && !self.traj.finished() {
+                    return;
+                }
+                self.enable();
+                if self.blocked(JogCmd::Velocity(v).direction(0.0)) {
+                    return;
+                }
+                self.trigger = None;
+                self.flags.trigger_move = false;
+                self.flags.home_search = false;
+                self.limit_stop = false;
+                self.flags.abort_decel = false;
+                self.traj.replace(super::profile::Plan::to_velocity(
+                    self.actual,
+                    v,
+                    v,
+                    &p.ramp,
+                ));
             }
             MotorCommand::Jog { cmd, trigger } => {
                 self.enable();
@@ -456,6 +486,9 @@ impl Motor {
         if !p.active {
             // Ix00 = 0: no position, servo or trajectory work; outputs stay as they were.
             return self.last_out;
+        }
+        if inp.dt_ms.is_finite() && inp.dt_ms > 0.0 {
+            self.dt_ms = inp.dt_ms;
         }
         let raw = self.ext.update(inp.feedback & 0xFF_FFFF) as f64 / 32.0 - self.bias;
         self.prev_actual = if self.started { self.actual } else { raw };

@@ -141,6 +141,29 @@ fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
         lines.push(line);
     }
     lines.push("Motor[0].ServoCtrl=0".into());
+    // [DECISION] The simulated drives are built for the PMAC factory gains; the seed's Power
+    // defaults (Kp 4, Kvfb/Kvff 40: eleven times stiffer) make them run away. As a project's
+    // setup tunes its motors, the start-up gives each wired motor still at the seed's
+    // default gains the PMAC factory gains in Power units (Ixx30 = 2000, Ixx31/Ixx32 = 1280,
+    // Ixx33 = 0 through the seed's gain equations); gains a host has set are left alone.
+    for x in 1..=SERVO_NODES {
+        let at_defaults = SEED_GAINS.iter().all(|(name, seed)| {
+            let reply = dialect.line(card, 0, format!("Motor[{x}].{name}").as_bytes());
+            let text = String::from_utf8_lossy(&reply);
+            let v = text
+                .split(['=', '\r'])
+                .nth(1)
+                .and_then(|v| v.parse::<f64>().ok());
+            v == Some(*seed)
+        });
+        if at_defaults {
+            let mut line = String::new();
+            for (name, v) in DRIVE_GAINS {
+                line.push_str(&format!("Motor[{x}].{name}={v} "));
+            }
+            lines.push(line);
+        }
+    }
     for line in lines {
         let line = line.trim_end().to_string();
         let reply = dialect.line(card, 0, line.as_bytes());
@@ -159,6 +182,24 @@ fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
 
 /// Servo nodes of a MACRO IC (0, 1, 4, 5, 8, 9, 12, 13).
 const SERVO_NODES: u16 = 8;
+
+/// The seed's default servo gains of a Power motor (seed 000: `Servo.Kp` 4, `Kvfb`/`Kvff` 40,
+/// `Ki` 0.001).
+const SEED_GAINS: [(&str, f64); 4] = [
+    ("Servo.Kp", 4.0),
+    ("Servo.Kvfb", 40.0),
+    ("Servo.Kvff", 40.0),
+    ("Servo.Ki", 0.001),
+];
+
+/// The PMAC factory gains in Power units: `Kp = Ixx30·Ixx08/2^19` = 2000·96/2^19,
+/// `Kvfb = Ixx31·Ixx09·Ixx30/2^26` = 1280·96·2000/2^26, the same for `Kvff`, `Ki` 0.
+const DRIVE_GAINS: [(&str, f64); 4] = [
+    ("Servo.Kp", 0.366_210_937_5),
+    ("Servo.Kvfb", 3.662_109_375),
+    ("Servo.Kvff", 3.662_109_375),
+    ("Servo.Ki", 0.0),
+];
 
 /// Turbo I20-I23 (read-only to hosts): MACRO IC 0 at $078400 when the card serves ring nodes,
 /// `$0` (absent) otherwise and for ICs 1-3, as a Turbo PMAC2 Ultralite with one MACRO IC.
@@ -268,6 +309,20 @@ mod tests {
             "$0\r\n$1\r\n$1\r\n$0\r\n"
         );
         assert_eq!(ask("Gate3[0].MacroEnableA"), "$8F333300\r\n");
+        // The wired motors get the drive's gains; the others keep the seed's defaults.
+        assert_eq!(
+            ask("Motor[1].Servo.Kp Motor[8].Servo.Kvfb Motor[8].Servo.Ki Motor[9].Servo.Kp"),
+            "0.3662109375\r\n3.662109375\r\n0\r\n4\r\n"
+        );
+        // Gains a host set are not replaced when the wiring is applied again (after `$$$`).
+        assert_eq!(ask("Motor[2].Servo.Kp=1.5"), "");
+        wire_macro_motors(&mut card, &[0, 1, 4, 5, 8, 9, 12, 13]).unwrap();
+        let mut p = crate::lang::ppmac::Power::new();
+        let r = p.line(&mut card, 1, b"echo7 Motor[2].Servo.Kp Motor[3].Servo.Kp");
+        assert_eq!(
+            String::from_utf8(r).unwrap().replace("\x06\r\n", ""),
+            "1.5\r\n0.3662109375\r\n"
+        );
     }
 
     #[test]

@@ -100,6 +100,10 @@ pub(super) struct InterpImageV2 {
         skip_serializing_if = "crate::lang::ppmac::saved::SavedM::is_empty"
     )]
     pub mvars: crate::lang::ppmac::saved::SavedM,
+    /// A Power card's saved setup elements held in Power units (absent in older files and on
+    /// other profiles).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub elems: Vec<crate::lang::ppmac::saved::SavedElem>,
 }
 
 fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
@@ -172,15 +176,17 @@ impl Pmac<'_> {
                 .collect(),
             sources: crate::lang::ppmac::saved::export(self.model),
             mvars: crate::lang::ppmac::saved::export_m(self.model),
+            elems: crate::lang::ppmac::saved::export_elems(self.model),
         };
         serde_json::to_vec(&img).unwrap_or_default()
     }
 
-    /// Restore INTERP's saved part of format 2.
-    fn load_blob_v2(&mut self, blob: &[u8]) {
+    /// Restore INTERP's saved part of format 2; a Power card's saved setup elements are
+    /// returned.
+    fn load_blob_v2(&mut self, blob: &[u8]) -> Vec<crate::lang::ppmac::saved::SavedElem> {
         use crate::lang::ast::{BufferKind, CmdKind};
         let Ok(img) = serde_json::from_slice::<InterpImageV2>(blob) else {
-            return;
+            return Vec::new();
         };
         let lim = self.model.state.limits();
         let b = &mut self.model.bufs;
@@ -236,6 +242,7 @@ impl Pmac<'_> {
         }
         crate::lang::ppmac::saved::restore(self.model, img.sources);
         crate::lang::ppmac::saved::restore_m(self.model, img.mvars);
+        img.elems
     }
 
     /// Restore INTERP's saved part (an undecodable blob leaves empty buffers).
@@ -249,10 +256,13 @@ impl Pmac<'_> {
         crate::lang::ppmac::saved::restore(self.model, Vec::new());
         crate::lang::ppmac::saved::restore_m(self.model, Default::default());
         if blob.is_empty() {
+            // No image: a Power card's setup elements at the seed's defaults.
+            crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), true);
             return;
         }
         if format >= 2 {
-            self.load_blob_v2(blob);
+            let elems = self.load_blob_v2(blob);
+            crate::lang::ppmac::saved::restore_elems(self.model, elems, false);
             return;
         }
         let cfg = bincode::config::standard().with_limit::<{ 64 << 20 }>();
@@ -269,6 +279,7 @@ impl Pmac<'_> {
                 self.model.run.axes[k] = a.filter(|(c, _)| *c >= 1 && *c <= lim.coords);
             }
         }
+        crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), false);
     }
 
     /// The encoded image `SAVE` writes.
@@ -328,6 +339,7 @@ impl Pmac<'_> {
         self.model.state.factory();
         self.model.bufs = Buffers::new(user_memory_words(profile));
         crate::lang::ppmac::saved::restore(self.model, Vec::new());
+        crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), true);
         self.mem.open = None;
         self.mem.pending_table = None;
         let lim = self.model.state.limits();

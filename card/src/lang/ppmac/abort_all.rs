@@ -5,7 +5,6 @@
 //! (`core::inputs`).
 
 use super::catalog::{self, St, DEFS};
-use super::elements::Key;
 use super::progvars::ProgVars;
 use crate::model::CardModel;
 
@@ -23,19 +22,10 @@ pub(crate) struct AbortAllSetup {
 }
 
 fn value(model: &CardModel, st: St, idx: u32, name: &str) -> f64 {
-    let Some(def) = catalog::find(st, name) else {
-        return 0.0;
-    };
-    let k = Key {
-        st,
-        idx,
-        def,
-        sub: [0, 0],
-    };
-    model
-        .ext::<ProgVars>()
-        .and_then(|pv| pv.store.value(&k))
-        .unwrap_or(DEFS[def].default)
+    match model.ext::<ProgVars>() {
+        Some(pv) => super::elements::kept_or_default(&pv.store, st, idx, name),
+        None => catalog::find(st, name).map_or(0.0, |d| DEFS[d].default),
+    }
 }
 
 /// The set-up as the card holds it now.

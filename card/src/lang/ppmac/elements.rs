@@ -124,11 +124,30 @@ pub(crate) fn name(k: &Key, st_name: &str) -> String {
         s.push_str(&format!("[{}]", k.idx));
     }
     s.push('.');
-    s.push_str(d.name);
-    for j in 0..d.dims.len().min(2) {
+    // `Chan[]` holds the first index inside the name (`Gate3[0].Chan[1].EncCtrl`).
+    let mut j = 0;
+    match d.name.split_once("[]") {
+        Some((a, b)) => {
+            s.push_str(&format!("{a}[{}]{b}", k.sub[0]));
+            j = 1;
+        }
+        None => s.push_str(d.name),
+    }
+    for j in j..d.dims.len().min(2) {
         s.push_str(&format!("[{}]", k.sub[j]));
     }
     s
+}
+
+/// The power-on value of element `k` where the seed gives one per index: a Gate3 channel
+/// captures on its own flags (`CaptFlagChan` = j) and compares into its own output
+/// (`EquOutMask` = 1 << j), seed L10913, L11083-11090.
+fn default_of(k: &Key, d: &Def) -> f64 {
+    match (k.st, d.name) {
+        (St::Gate3, "Chan[].CaptFlagChan") => f64::from(k.sub[0]),
+        (St::Gate3, "Chan[].EquOutMask") => f64::from(1u32 << k.sub[0].min(3)),
+        _ => d.default,
+    }
 }
 
 /// The model I-variable a Power I-variable number stands for (`None`: no model equivalent).
@@ -258,10 +277,11 @@ pub(crate) fn read(
             let w = usize::from(nm.ends_with("[1]"));
             f64::from(super::exec::coord_status(card, k.idx as u16)[w])
         }
+        _ if super::units::held(k.st, nm) => store.values.get(k).copied().unwrap_or(d.default),
         _ => match (store.values.get(k), model_slot(k, d)) {
             (Some(v), _) => *v,
             (None, Some(n)) => st.read_ivar(n).map_err(|_| ILLEGAL_PARAMETER)?,
-            (None, None) => d.default,
+            (None, None) => default_of(k, d),
         },
     };
     Ok(v)
@@ -348,19 +368,144 @@ pub(crate) fn write(
             } else {
                 v
             };
-            // The seed's range is the rule; a value the model's (Turbo) variable cannot hold
-            // is kept by the dialect, which then answers with it.
-            match model_slot(k, d).map(|n| st.set_ivar(n, v)) {
-                Some(Ok(_)) => {
-                    store.values.remove(k);
+            if super::units::held(k.st, nm) {
+                store.values.insert(*k, v);
+            } else {
+                // The seed's range is the rule; a value the model's (Turbo) variable cannot
+                // hold is kept by the dialect, which then answers with it.
+                match model_slot(k, d).map(|n| st.set_ivar(n, v)) {
+                    Some(Ok(_)) => {
+                        store.values.remove(k);
+                    }
+                    _ => {
+                        store.values.insert(*k, v);
+                    }
                 }
-                _ => {
-                    store.values.insert(*k, v);
-                }
+            }
+            // Held elements depend on aliases (`JogSpeed`, `MaxSpeed`) and on each other.
+            match k.st {
+                St::Motor => project_motor(card, store, k.idx),
+                St::Coord => project_coord(card, store, k.idx),
+                _ => {}
             }
         }
     }
     Ok(())
+}
+
+/// The value the dialect keeps for element `name` of `st[idx]` (no own indices), or its seed
+/// default; 0 for a name the catalogue lacks.
+pub(crate) fn kept_or_default(store: &Store, st: St, idx: u32, name: &str) -> f64 {
+    let Some(def) = catalog::find(st, name) else {
+        return 0.0;
+    };
+    let k = Key {
+        st,
+        idx,
+        def,
+        sub: [0, 0],
+    };
+    store.values.get(&k).copied().unwrap_or(DEFS[def].default)
+}
+
+/// Assign model I-variable `n`, clamped into its range (a converted value the model cannot
+/// hold exactly is held by the dialect anyway: the host reads the Power value).
+fn set_clamped(st: &mut crate::model::CardState, n: u32, v: f64) {
+    let Ok(s) = st.ivar_spec(n) else { return };
+    let v = if v.is_nan() {
+        s.default
+    } else {
+        v.clamp(s.min, s.max)
+    };
+    let _ = st.set_ivar(n, v);
+}
+
+/// Motor `idx`'s held elements into its model I-variables (`units::motor_model`).
+pub(crate) fn project_motor(card: &mut CardModel, store: &Store, idx: u32) {
+    let base = 100 * (idx + 1);
+    let servo_ms = servo_period_ms(card);
+    let st = &mut card.state;
+    let peek = |n: u32| st.peek_ivar(base + n).unwrap_or(0.0);
+    let ctx = super::units::MotorCtx {
+        i08: peek(8),
+        i09: peek(9),
+        jog_speed: peek(22),
+        max_speed: peek(16),
+        servo_ms,
+    };
+    let get = |name: &str| kept_or_default(store, St::Motor, idx, name);
+    for (n, v) in super::units::motor_model(get, &ctx) {
+        set_clamped(st, base + n, v);
+    }
+}
+
+/// C.S. `idx`'s held elements into its model I-variables (`units::coord_model`).
+pub(crate) fn project_coord(card: &mut CardModel, store: &Store, idx: u32) {
+    let base = 5000 + 100 * (idx + 1);
+    let get = |name: &str| kept_or_default(store, St::Coord, idx, name);
+    for (n, v) in super::units::coord_model(get) {
+        set_clamped(&mut card.state, base + n, v);
+    }
+}
+
+/// Power-on, `$$$` and `$$$***`: the dialect's setup values are `saved` (the image's, none at
+/// factory), the aliased elements of `Motor[x]`/`Coord[x]` take their Power defaults when
+/// `factory` (an image brings the model's own), and every motor's and C.S.'s model
+/// I-variables are computed again from the held elements.
+pub(crate) fn reset_setup(
+    card: &mut CardModel,
+    store: &mut Store,
+    saved: impl IntoIterator<Item = (Key, f64)>,
+    factory: bool,
+) {
+    store
+        .values
+        .retain(|k, _| DEFS[k.def].class == Class::Status);
+    store.values.extend(saved);
+    for st in [St::Motor, St::Coord] {
+        let n = st.count().unwrap_or(0);
+        for (def, d) in DEFS.iter().enumerate() {
+            let alias = d.st == st
+                && d.inum.is_some()
+                && d.class != Class::Status
+                && !matches!(d.ty, Ty::Addr | Ty::Struct)
+                && !super::units::held(st, d.name);
+            if !(factory && alias) {
+                continue;
+            }
+            for idx in 0..n {
+                let k = Key {
+                    st,
+                    idx,
+                    def,
+                    sub: [0, 0],
+                };
+                if let Some(slot) = model_slot(&k, d) {
+                    if card.state.peek_ivar(slot).ok() != Some(d.default) {
+                        set_clamped(&mut card.state, slot, d.default);
+                    }
+                }
+            }
+        }
+        for idx in 0..n {
+            match st {
+                St::Motor => project_motor(card, store, idx),
+                _ => project_coord(card, store, idx),
+            }
+        }
+    }
+}
+
+/// The dialect's values of saved setup elements (`save` writes them).
+pub(crate) fn saved_values(store: &Store) -> Vec<(Key, f64)> {
+    let mut v: Vec<(Key, f64)> = store
+        .values
+        .iter()
+        .filter(|(k, v)| DEFS[k.def].class == Class::Saved && v.is_finite())
+        .map(|(k, v)| (*k, *v))
+        .collect();
+    v.sort_by_key(|(k, _)| (k.def, k.idx, k.sub));
+    v
 }
 
 /// Power I-variable `n`.

@@ -16,6 +16,8 @@ const ACK: &[u8] = b"\x06\r\n";
 /// Most values one line may report (a list query beyond it is refused: a line is served in
 /// one slice, so this bounds the time it takes; about a millisecond).
 const MAX_VALUES: usize = 8192;
+/// Most variables one assignment or M-definition selection covers.
+const MAX_SET: usize = 65_536;
 
 /// Error texts by number ([DECISION]: the seed names only #20; the others are numbered here).
 fn error_text(code: u16) -> &'static str {
@@ -100,21 +102,26 @@ pub(crate) fn run_line(
 /// wins); `No Motors` for a C.S. without motors, `No Solution` where the axes cannot be
 /// computed from the definitions (`#n->I` motors: \[GAP\] the forward routine is not run
 /// for a report).
-fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> String {
+///
+/// Each reported axis value is also left in the thread's `L(256 + Sys.MaxMotors + n)`, n the
+/// axis index (A 0, B 1, C 2, U 3, V 4, W 5, X 6, Y 7, Z 8; seed L33958-33962, L37940-37943):
+/// returned with the text as (n, value).
+fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(u32, f64)>) {
     use crate::coord::axes::{CsAxes, MotorAxisDef, AXES};
     use parse::AxisReport as R;
     let motors = m.run.motors_in(x + 1);
     if motors.is_empty() {
-        return "No Motors".to_string();
+        return ("No Motors".to_string(), Vec::new());
     }
+    let no_solution = || ("No Solution".to_string(), Vec::new());
     let mut defs = Vec::with_capacity(motors.len());
     for &n in &motors {
         match m.run.axes.get(usize::from(n) - 1) {
             Some(Some((_, d))) => match MotorAxisDef::from_ast(d) {
-                Ok(MotorAxisDef::Inverse) | Err(_) => return "No Solution".to_string(),
+                Ok(MotorAxisDef::Inverse) | Err(_) => return no_solution(),
                 Ok(def) => defs.push((n, def)),
             },
-            _ => return "No Solution".to_string(),
+            _ => return no_solution(),
         }
     }
     let refs: Vec<(u16, &MotorAxisDef)> = defs.iter().map(|(n, d)| (*n, d)).collect();
@@ -158,12 +165,20 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> String {
         ),
     };
     let used = cs.axes_used();
-    AXES.iter()
+    let text = AXES
+        .iter()
         .enumerate()
         .filter(|(k, _)| used[*k])
         .map(|(k, a)| format!("{}{}", a.letter(), crate::model::format_value(out[k])))
         .collect::<Vec<_>>()
-        .join(" ")
+        .join(" ");
+    // Power's axis index of X Y Z A B C U V W.
+    const POWER_INDEX: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
+    let locals = (0..AXES.len())
+        .filter(|k| used[*k])
+        .map(|k| (POWER_INDEX[k], out[k]))
+        .collect();
+    (text, locals)
 }
 
 /// `Sys.NoShortCmds` is set: only the long forms of the action commands are accepted.
@@ -288,10 +303,29 @@ impl Ctx<'_> {
             }
             Cmd::Info(w) => self.info(w),
             Cmd::VarQuery(f, sel) => self.var_query(*f, sel, elems)?,
-            Cmd::VarSet(f, ix, e) => {
-                let n = self.index(ix, elems)?;
+            Cmd::VarSet(f, sel, e) => {
+                // The value is computed once, before any variable of the selection is set.
                 let v = self.eval(e, elems)?;
-                self.var_write(*f, n, v).map_err(|e| e.code)?;
+                let numbers = self.set_numbers(sel, elems)?;
+                // A selection reaching past its family sets nothing (checked before any write;
+                // [DECISION] a value one I-variable's element refuses stops the assignment there,
+                // as the commands of a line run in order).
+                if numbers.len() > 1 {
+                    let m_count = self.card.model.state.limits().m_vars;
+                    for &n in &numbers {
+                        let ok = match f {
+                            Fam::M => n < m_count,
+                            Fam::I => n <= 65_535,
+                            _ => self.var_read(*f, n).is_ok(),
+                        };
+                        if !ok {
+                            return Err(21);
+                        }
+                    }
+                }
+                for n in numbers {
+                    self.var_write(*f, n, v).map_err(|e| e.code)?;
+                }
             }
             Cmd::IDef(f, sel) => {
                 if !matches!(f, Fam::I | Fam::M) {
@@ -317,18 +351,24 @@ impl Ctx<'_> {
                     self.say(&s);
                 }
             }
-            Cmd::MDef(ix, src) => {
-                let n = self.index(ix, elems)?;
-                match src {
-                    parse::MDefSrc::Ptr(p) => {
-                        super::mvars::define_ptr(&self.card.model, self.store, n, *p)
-                    }
-                    parse::MDefSrc::Elem(e) => {
-                        let k = self.key(e, elems)?;
-                        super::mvars::define_element(&self.card.model, self.store, n, e, k)
-                    }
+            Cmd::MDef(sel, src) => {
+                let numbers = self.set_numbers(sel, elems)?;
+                let m_count = self.card.model.state.limits().m_vars;
+                if numbers.iter().any(|&n| n >= m_count) {
+                    return Err(21);
                 }
-                .map_err(|e| e.code)?;
+                for n in numbers {
+                    match src {
+                        parse::MDefSrc::Ptr(p) => {
+                            super::mvars::define_ptr(&self.card.model, self.store, n, *p)
+                        }
+                        parse::MDefSrc::Elem(e) => {
+                            let k = self.key(e, elems)?;
+                            super::mvars::define_element(&self.card.model, self.store, n, e, k)
+                        }
+                    }
+                    .map_err(|e| e.code)?;
+                }
             }
             Cmd::ElemQuery(e) => {
                 let k = self.key(e, elems)?;
@@ -483,29 +523,40 @@ impl Ctx<'_> {
 
     // ---- variables -------------------------------------------------------------------------
 
+    /// The variable numbers of a query's selection (at most [`MAX_VALUES`] values a line).
     fn sel_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
-        let v: Vec<u32> = match sel {
+        let v = self.sel_within(sel, elems, MAX_VALUES)?;
+        self.values += v.len();
+        if self.values > MAX_VALUES {
+            return Err(22);
+        }
+        Ok(v)
+    }
+
+    /// The variable numbers of an assignment's or definition's selection: it replies nothing,
+    /// so it may be as long as a variable family (`M0..16383->*`, seed L37466), 65,536 at most.
+    fn set_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
+        self.sel_within(sel, elems, MAX_SET)
+    }
+
+    fn sel_within(&mut self, sel: &Sel, elems: &[ElemRef], max: usize) -> Result<Vec<u32>, u16> {
+        Ok(match sel {
             Sel::One(ix) => vec![self.index(ix, elems)?],
             Sel::Range(a, b, _) => {
-                if (b - a) as usize >= MAX_VALUES {
+                if (b - a) as usize >= max {
                     return Err(22);
                 }
                 (*a..=*b).collect()
             }
             Sel::List(a, n, step) => {
-                if *n as usize > MAX_VALUES || *step == 0 {
+                if *n as usize > max || *step == 0 {
                     return Err(22);
                 }
                 (0..*n)
                     .map(|k| a.saturating_add(k.saturating_mul(*step)))
                     .collect()
             }
-        };
-        self.values += v.len();
-        if self.values > MAX_VALUES {
-            return Err(22);
-        }
-        Ok(v)
+        })
     }
 
     fn var_query(&mut self, f: Fam, sel: &Sel, elems: &[ElemRef]) -> Result<(), u16> {
@@ -742,7 +793,12 @@ impl Ctx<'_> {
                     continue;
                 }
                 CsCmd::Axes(what) => {
-                    report.push(axis_report(&self.card.model, x, *what));
+                    let (text, locals) = axis_report(&self.card.model, x, *what);
+                    let base = 256 + u32::from(self.card.model.state.limits().motors);
+                    for (n, v) in locals {
+                        self.th.set_local(parse::EXT_L, base + n, v);
+                    }
+                    report.push(text);
                     continue;
                 }
             };

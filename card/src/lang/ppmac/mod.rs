@@ -33,6 +33,7 @@ pub(crate) mod progvars;
 mod rotary;
 pub(crate) mod saved;
 mod status_elems;
+mod units;
 
 /// Motion program `n` is running or suspended in some C.S.: that C.S. points at it (or
 /// calculates or executes in it) and is `Coord[x].ProgActive` (running, its moves
@@ -71,6 +72,8 @@ mod tests_programs;
 mod tests_rotary;
 #[cfg(test)]
 mod tests_status;
+#[cfg(test)]
+mod tests_units;
 
 use std::collections::HashMap;
 

@@ -231,12 +231,14 @@ pub(crate) enum Cmd {
     GlobalStatus,
     /// Variable query.
     VarQuery(Fam, Sel),
-    /// Variable assignment.
-    VarSet(Fam, VarIndex, Expr),
+    /// Variable assignment; a selection sets each of its variables to the value (seed
+    /// L34166-34171: `D10..12=P1+5`, `D30,3=-7`, `D30,3,3=sqrt(P25)`).
+    VarSet(Fam, Sel, Expr),
     /// `I{n}->`, `M{n}->`: the definition query.
     IDef(Fam, Sel),
-    /// `M{n}->{definition}`
-    MDef(VarIndex, MDefSrc),
+    /// `M{n}->{definition}`; a selection defines each (`M80..89->*s.16`, `M0..16383->*`,
+    /// seed L37461-37466).
+    MDef(Sel, MDefSrc),
     /// Element query.
     ElemQuery(ElemRef),
     /// Element assignment.
@@ -712,6 +714,9 @@ impl<'a> Cur<'a> {
         };
         let mut name = String::new();
         let mut sub = Vec::new();
+        // A channel index inside the name (`Gate3[i].Chan[j].EncCtrl`, catalogued as
+        // `Chan[].EncCtrl`): the element's first index.
+        let mut mid = Vec::new();
         let mut bits = None;
         while self.peek() == Some(b'.') {
             let dot = self.i;
@@ -745,8 +750,12 @@ impl<'a> Cur<'a> {
                 break;
             }
             if !sub.is_empty() {
-                self.i = save;
-                return err(save);
+                if sub.len() != 1 || !mid.is_empty() {
+                    self.i = save;
+                    return err(save);
+                }
+                mid.append(&mut sub);
+                name.push_str("[]");
             }
             if !name.is_empty() {
                 name.push('.');
@@ -771,7 +780,7 @@ impl<'a> Cur<'a> {
             _ => None,
         };
         let (def, sub) = match catalog::find(st, &name) {
-            Some(d) => (d, sub),
+            Some(d) => (d, mid.into_iter().chain(sub).collect()),
             None => match literal.and_then(|k| catalog::find(st, &format!("{name}[{k}]"))) {
                 Some(d) => (d, Vec::new()),
                 None => return Err(SyntaxError { at, code: 21 }),
@@ -1065,6 +1074,14 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         c.i += 3;
         return jog(c);
     }
+    // `jog` alone: an indefinite jog at the present velocity (seed L598-599, L36069-36083).
+    if c.rest().starts_with(b"jog") && !c.peek_at(3).is_some_and(|d| d.is_ascii_alphanumeric()) {
+        c.i += 3;
+        return Ok(Cmd::Motor(MotorCmd::Jog(
+            crate::domain::ast::JogKind::Present,
+            None,
+        )));
+    }
     let mut w = c.word().unwrap_or_default();
     // Commands that take a number glued on (`echo7`, `b10`, `out5`).
     for kw in ["echo", "out", "begin", "b"] {
@@ -1205,9 +1222,6 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
     if c.eat_str("->") {
         let defines = c.peek().is_some_and(|b| !b.is_ascii_whitespace());
         if f == Fam::M && defines {
-            let Sel::One(ix) = sel else {
-                return err(c.i);
-            };
             let at = c.i;
             return match super::mptr::parse(c.rest()) {
                 Err(e) => Err(SyntaxError {
@@ -1216,9 +1230,9 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
                 }),
                 Ok(Some((p, len))) => {
                     c.i += len;
-                    Ok(Cmd::MDef(ix, MDefSrc::Ptr(p)))
+                    Ok(Cmd::MDef(sel, MDefSrc::Ptr(p)))
                 }
-                Ok(None) => Ok(Cmd::MDef(ix, MDefSrc::Elem(c.element(0)?))),
+                Ok(None) => Ok(Cmd::MDef(sel, MDefSrc::Elem(c.element(0)?))),
             };
         }
         return Ok(Cmd::IDef(f, sel));
@@ -1227,12 +1241,13 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
     c.ws();
     if c.peek() == Some(b'=') && c.peek_at(1) != Some(b'=') {
         c.i += 1;
-        let Sel::One(ix) = sel else {
+        // `a..b:n=` (a per-line count) is a query form only.
+        if matches!(sel, Sel::Range(_, _, n) if n != 1) {
             return err(save);
-        };
+        }
         c.ws();
         let e = c.expr(0)?;
-        return Ok(Cmd::VarSet(f, ix, e));
+        return Ok(Cmd::VarSet(f, sel, e));
     }
     c.i = save;
     Ok(Cmd::VarQuery(f, sel))

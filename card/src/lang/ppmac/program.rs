@@ -53,17 +53,45 @@ pub(crate) fn parse_program_line(
 
 /// The statements up to the end of the line (`body`: or up to a `}` closing an outer block,
 /// which ends a one-line body).
+///
+/// A move's own `F`, `tm`, `ta`, `td` and `ts` written after its axis words in the same
+/// statement (`X25 Y15 F10 ta100 td200 ts50;`, seed L23523; `X100 F20;` "move out" at F20,
+/// L40938) govern that move: they are stored before it. After a `;` they are the next
+/// statement's, as written.
 fn statements_to(c: &mut Cur<'_>, blocks: &mut Blocks, body: bool) -> P<Vec<Stmt>> {
     let mut out = Vec::new();
+    let mut mv: Option<usize> = None;
     loop {
         c.ws();
         while c.eat(b';') {
             c.ws();
+            mv = None;
         }
         if c.at_end() || c.rest().starts_with(b"//") || (body && c.peek() == Some(b'}')) {
             break;
         }
+        let n = out.len();
         statement(c, blocks, &mut out)?;
+        let one = out.len() == n + 1;
+        mv = match (one, mv, out.get(n).map(|s| &s.kind)) {
+            (true, _, Some(StmtKind::Move(_))) => Some(n),
+            (
+                true,
+                Some(i),
+                Some(
+                    StmtKind::F(_)
+                    | StmtKind::Tm(_)
+                    | StmtKind::Ta(_)
+                    | StmtKind::Td(_)
+                    | StmtKind::Ts(_),
+                ),
+            ) => {
+                let s = out.remove(n);
+                out.insert(i, s);
+                Some(i + 1)
+            }
+            _ => None,
+        };
     }
     Ok(out)
 }

@@ -48,7 +48,10 @@ pub(crate) struct ProgVars {
 /// Install the dialect's variables in `card` (a Power card's model), unless already there.
 pub(crate) fn install(card: &mut CardModel) {
     if card.ext::<ProgVars>().is_none() {
-        card.set_ext(Box::new(ProgVars::default()));
+        // Power-on: the setup elements at the seed's defaults, in the model's units too.
+        let mut pv = ProgVars::default();
+        elements::reset_setup(card, &mut pv.store, Vec::new(), true);
+        card.set_ext(Box::new(pv));
     }
 }
 

@@ -14,6 +14,73 @@ use crate::model::{BufId, CardModel, ProgLine};
 
 pub(crate) use super::mvars::SavedM;
 
+/// One saved setup element the dialect holds (Power units; the model's own I-variables are
+/// saved with the model). [DECISION] The schema is the element's name as the seed spells it,
+/// not an internal index: `{"st":"Motor","idx":1,"name":"Servo.Kp","sub":[0,0],"v":2.5}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct SavedElem {
+    /// Structure (`Motor`, `Coord`, `Sys`, `Gate3` …).
+    pub st: String,
+    /// Structure index (0 for `Sys`).
+    pub idx: u32,
+    /// Element name after the structure.
+    pub name: String,
+    /// Its own indices.
+    pub sub: [u32; 2],
+    /// Value.
+    pub v: f64,
+}
+
+/// The saved setup elements the dialect holds on `card` (none unless it is a Power card).
+pub(crate) fn export_elems(card: &CardModel) -> Vec<SavedElem> {
+    let Some(pv) = card.ext::<progvars::ProgVars>() else {
+        return Vec::new();
+    };
+    super::elements::saved_values(&pv.store)
+        .into_iter()
+        .map(|(k, v)| {
+            let d = &super::catalog::DEFS[k.def];
+            SavedElem {
+                st: format!("{:?}", k.st),
+                idx: k.idx,
+                name: d.name.to_string(),
+                sub: k.sub,
+                v,
+            }
+        })
+        .collect()
+}
+
+/// After a load (`factory`: no image, or `$$$***`): the dialect's setup elements are `saved`
+/// (entries naming no element, or out of range, are left out) and the model's I-variables
+/// are computed from them (`elements::reset_setup`). Nothing unless it is a Power card.
+pub(crate) fn restore_elems(card: &mut CardModel, saved: Vec<SavedElem>, factory: bool) {
+    let Some(mut b) = card.take_ext() else {
+        return;
+    };
+    if let Some(pv) = b.as_any_mut().downcast_mut::<progvars::ProgVars>() {
+        let keys = saved.into_iter().filter_map(|e| {
+            let (st, _) = super::catalog::structure(&e.st)?;
+            let def = super::catalog::find(st, &e.name)?;
+            let d = &super::catalog::DEFS[def];
+            let idx_ok = st.count().map_or(e.idx == 0, |n| e.idx < n);
+            let in_range = e.v >= d.min && e.v <= d.max;
+            (idx_ok && in_range && d.class == super::catalog::Class::Saved).then_some((
+                super::elements::Key {
+                    st,
+                    idx: e.idx,
+                    def,
+                    sub: e.sub,
+                },
+                e.v,
+            ))
+        });
+        let keys: Vec<_> = keys.collect();
+        super::elements::reset_setup(card, &mut pv.store, keys, factory);
+    }
+    card.set_ext(b);
+}
+
 /// The M-variable definitions and self-referenced values of `card` (empty unless it is a
 /// Power card with the dialect attached). [DECISION] Saved by `save` and restored at power-up
 /// and `$$$`, like the PMAC dialect's M-definitions and values; an optional field of format 2

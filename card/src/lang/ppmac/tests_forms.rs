@@ -241,6 +241,20 @@ fn cs_reports_give_axis_letters_in_user_units() {
     t.run(3000);
     assert_eq!(t.send("#1p"), "2000\r\n");
     assert_eq!(t.send("&1p"), "X2 Y0.4\r\n");
+    // Seed L33958-33962: the axis values stay in this thread's L(256 + Sys.MaxMotors + n),
+    // n = 6 for X, 7 for Y (A 0, B 1, C 2, U 3, V 4, W 5, X 6 …).
+    let max: u32 = t
+        .send("Sys.MaxMotors")
+        .trim_end()
+        .rsplit('=')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(
+        t.send(&format!("L({}) L({})", 256 + max + 6, 256 + max + 7)),
+        format!("L{}=2\r\nL{}=0.4\r\n", 256 + max + 6, 256 + max + 7)
+    );
     assert_eq!(t.send("&1d"), "X2 Y0.4\r\n");
     assert_eq!(t.send("&1f"), "X0 Y0\r\n");
     assert_eq!(t.send("&1v"), "X0 Y0\r\n");
@@ -263,4 +277,99 @@ fn cs_reports_give_axis_letters_in_user_units() {
     assert!((d[0] - p[0] - f[0]).abs() < 1e-3, "{d:?} - {p:?} = {f:?}");
     let v = axes(&mut t, "&1v");
     assert!(v[0] < 0.0 && v[1] == 0.0, "{v:?}");
+}
+
+/// Seed L23523 (`X25 Y15 F10 ta100 td200 ts50;`) and L40938 (`X100 F20;` "move out" at F20):
+/// a move's own `F`/`tm` written after its axis words govern it; after a `;` they are the next
+/// statement's. With the seed's default `Coord[x].Tm` = -1 (1 unit/s) the difference is
+/// 20 to 1 in time.
+#[test]
+fn a_feedrate_on_the_move_statement_governs_that_move() {
+    let mut t = T::new();
+    t.ready_cs1();
+    // No acceleration limit (the default 10 ms²/count would stretch the ramps to 200 ms).
+    t.load(&["Motor[1].InvAmax=0"]);
+    t.load(&["open prog 8", "linear abs ta10 ts0", "X1 F20", "close"]);
+    assert_eq!(t.send("&1 b8 r"), "");
+    // 1,000 counts at 20 units/s (20 counts/ms): about 60 ms, 140 cycles.
+    t.run(400);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=1000\r\n");
+    assert_eq!(t.send("Coord[1].Tm"), "Coord[1].Tm=-20\r\n");
+    t.load(&["open prog 9", "linear abs ta10 ts0 F1", "X0; F20", "close"]);
+    assert_eq!(t.send("&1 b9 r"), "");
+    // At F1 the way back takes a second: still under way after 400 cycles (177 ms).
+    t.run(400);
+    let r = t.send("Motor[1].DesPos");
+    let p: f64 = r.trim_end().rsplit('=').next().unwrap().parse().unwrap();
+    assert!(p > 700.0 && p < 900.0, "{r:?}");
+}
+
+/// Seed L36069-36083: `jog` starts an indefinite jog at the motor's present velocity, taking a
+/// motor moving in open loop (`out`) into closed loop without a jolt; a motor already jogging
+/// is left alone.
+#[test]
+fn jog_alone_keeps_the_present_velocity_in_closed_loop() {
+    let mut t = T::new();
+    t.ready_cs1();
+    let num = |t: &mut T, q: &str| -> f64 {
+        let r = t.send(q);
+        r.trim_end().rsplit('=').next().unwrap().parse().unwrap()
+    };
+    assert_eq!(t.send("#1out5"), "");
+    t.run(400);
+    let v_open = num(&mut t, "Motor[1].ActVel");
+    assert!(v_open > 0.5, "moving in open loop: {v_open} counts/cycle");
+    assert_eq!(num(&mut t, "Motor[1].ClosedLoop"), 0.0);
+    assert_eq!(t.send("#1jog"), "");
+    t.run(200);
+    assert_eq!(num(&mut t, "Motor[1].ClosedLoop"), 1.0);
+    let v = num(&mut t, "Motor[1].ActVel");
+    assert!((v / v_open - 1.0).abs() < 0.05, "{v} vs {v_open}");
+    // Still going (an indefinite jog), at the same commanded velocity.
+    let p0 = num(&mut t, "Motor[1].DesPos");
+    t.run(100);
+    let p1 = num(&mut t, "Motor[1].DesPos");
+    assert!(((p1 - p0) / 100.0 / v_open - 1.0).abs() < 0.05, "{p0} {p1}");
+    // Already jogging: `jog` changes nothing (a `j+` would go to JogSpeed).
+    assert_eq!(t.send("jog"), "");
+    t.run(100);
+    let p2 = num(&mut t, "Motor[1].DesPos");
+    assert!(((p2 - p1) / (p1 - p0) - 1.0).abs() < 1e-6, "{p1} {p2}");
+    assert_eq!(t.send("#1j/"), "");
+}
+
+/// Seed L34166-34171, L36512-36518, L37461-37466: a variable selection takes one value
+/// (computed once), an M-variable selection one definition; `first..last:n` is a query form
+/// only; a selection past the family is refused and sets nothing.
+#[test]
+fn range_assignments_and_m_definition_ranges() {
+    let mut t = T::new();
+    t.load(&[
+        "P1=2 P25=16",
+        "P10..12=P1+5",
+        "P30,3=-7",
+        "P30,3,3=sqrt(P25)",
+        "Q5..6=P1",
+    ]);
+    assert_eq!(t.send("P10..12"), "P10=7\r\nP11=7\r\nP12=7\r\n");
+    assert_eq!(t.send("P30..36:7"), "P30=4,-7,-7,4,0,0,4\r\n");
+    assert_eq!(t.send("Q5..6"), "Q5=2\r\nQ6=2\r\n");
+    // The value is computed before the first variable is set: `P1..3=P1+1` sets all to 3.
+    t.load(&["P1..3=P1+1"]);
+    assert_eq!(t.send("P1..3"), "P1=3\r\nP2=3\r\nP3=3\r\n");
+    assert!(t.send("P1..10:5=0").contains("error #20"));
+    // Past the P-variables: refused before any is set.
+    t.load(&["P65535=9"]);
+    assert!(t.send("P65534..65536=1").contains("error #21"));
+    assert_eq!(t.send("P65534..65535"), "P65534=0\r\nP65535=9\r\n");
+    assert_eq!(t.send("P1"), "P1=3\r\n");
+    t.load(&["M80..82->*s.16", "M80..82=-3"]);
+    assert_eq!(
+        t.send("M80..82->"),
+        "M80->*s.16\r\nM81->*s.16\r\nM82->*s.16\r\n"
+    );
+    assert_eq!(t.send("M80,3"), "M80=-3\r\nM81=-3\r\nM82=-3\r\n");
+    // The whole family at once (the seed's "clear all M-variable definitions").
+    t.load(&["M0..16383->*"]);
+    assert_eq!(t.send("M81->"), "M81->*\r\n");
 }

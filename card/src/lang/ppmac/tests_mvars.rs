@@ -115,12 +115,13 @@ fn bad_definitions_are_refused_and_keep_the_old_one() {
         ("M1->frob", 20),             // no such form
         ("M1->u.user:", 20),          // no offset
         ("M16384->*", 21),            // no such M-variable
-        ("M0..3->*", 20),             // a definition names one variable
+        ("M16380..16390->*", 21),     // a range past the M-variables defines nothing
     ] {
         let r = t.send(line);
         assert!(r.contains(&format!("error #{code}:")), "{line}: {r}");
     }
     assert_eq!(t.send("M1->"), "M1->s.user:$10\r\n");
+    assert_eq!(t.send("M16380->"), "M16380->*\r\n");
     assert!(t.send("M16384").contains("error #21:"));
     assert!(t.send("M16384->").contains("error #21:"));
 }

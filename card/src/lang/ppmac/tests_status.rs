@@ -6,7 +6,7 @@
 use super::tests_programs::T;
 
 /// The number a query of `name` answers (`name=value`).
-fn value(t: &mut T, name: &str) -> f64 {
+pub(super) fn value(t: &mut T, name: &str) -> f64 {
     let r = t.send(name);
     let v = r
         .trim_end()

@@ -15,6 +15,22 @@ pub(crate) fn spec(n: u16) -> S {
             S::int(f64::from(1000 + n % 100 - 40), 0.0, 32_767.0)
         }
         5100..=6699 if n % 100 < 87 => S::float(0.0, -U24 * 1e6, U24 * 1e6),
+        // `Coord[x].Ta`/`Ts` (a negative value is an inverse rate) and `Tm` (negative: a
+        // feedrate), seed 000 L4974, L5113: Power's values as they are.
+        5100..=6699 if (87..=89).contains(&(n % 100)) => {
+            S::float(turbo::spec(n).default, -U24 * 1e6, U24 * 1e6)
+        }
+        // The servo gains the dialect converts from Power's float elements (Kp, Kvfb, Kvff,
+        // Ki, Kaff, MaxInt): kept exactly, within Turbo's ranges.
+        // `TimeBaseSlew`/`FeedHoldSlew` (×2^23) and `MinArcLen` (/π): exact, in Turbo's range.
+        5100..=6699 if matches!(n % 100, 94 | 95 | 97) => {
+            let t = turbo::spec(n);
+            S::float(t.default, t.min, t.max)
+        }
+        100..=3299 if matches!(n % 100, 30..=33 | 35 | 63) => {
+            let t = turbo::spec(n);
+            S::float(t.default, t.min, t.max)
+        }
         _ => turbo::spec(n),
     }
 }

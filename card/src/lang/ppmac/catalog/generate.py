@@ -248,18 +248,17 @@ for e in entries:
         continue
     ln = e["line"]
     cls = "Saved" if ln < 20359 else ("NonSaved" if ln < 24875 else "Status")
-    if st == "Gate3" and rest.startswith("Chan[j]"):
-        continue
-    if st in ("Gate2",) and rest.startswith("Chan[j]"):
-        continue
     dims = []
-    name = rest
-    for m in re.finditer(r"\[([a-z0-9])\]", rest):
-        pass
     # element name with index placeholders removed
     idx = re.findall(r"\[([a-z])\]", rest)
     base = re.sub(r"\[[a-z]\]", "", rest)
-    if rest in DIMS:
+    if st in ("Gate3", "Gate2") and rest.startswith("Chan[j]."):
+        # `Gate3[i].Chan[j].EncCtrl`: the channel index sits inside the name (`Chan[]` marks
+        # it) and is the element's first index (4 channels), before its own (`Dac[k]`).
+        own = rest[len("Chan[j].") :]
+        base = "Chan[]." + re.sub(r"\[[a-z]\]", "", own)
+        dims = [4] + [None] * len(re.findall(r"\[([a-z])\]", own))
+    elif rest in DIMS:
         dd = DIMS[rest]
         dims = list(dd) if isinstance(dd, tuple) else [dd]
     elif idx:
@@ -317,6 +316,8 @@ rows = out
 FIX = {
     ("Motor", "AbortTs"): dict(inum="None"),  # the heading claims Ixx19 (Turbo maps Ixx19 to JogTa)
     ("Motor", "JogTa"): dict(default="10.0"),
+    # Its entry (L14390) has no description line, so the next entry's fields were read.
+    ("Motor", "ExtraMotors"): dict(inum="None", ty="int", lo="0.0", hi="255.0", default="0", unit="motors", line=14390),
     ("Motor", "IpfGain"): dict(inum="Some(62)"),
     ("Motor", "MinPos"): dict(inum="Some(14)"),
     ("Motor", "CaptureMode"): dict(inum="Some(97)"),
@@ -399,8 +400,12 @@ def rust_f(v):
         return "f64::NEG_INFINITY"
     f = float(v)
     s = repr(f)
-    if "e" in s or "inf" in s:
+    if "inf" in s:
         return f"{f:.1f}"
+    if "e" in s:
+        # 1e-05 (TimeBaseSlew's default) stays what it is; a Rust float literal needs a dot.
+        m, e = s.split("e")
+        return f"{float(m)!r}e{int(e)}"
     return s
 
 
