@@ -389,6 +389,9 @@ pub enum BenchCommand {
     /// One process of `bench ring`'s raw UDP ring (internal).
     #[command(hide = true)]
     UdpMember(BenchUdpMemberArgs),
+    /// One process of `bench ring`'s zenoh floor (internal).
+    #[command(hide = true)]
+    ZenohMember(BenchZenohMemberArgs),
 }
 
 /// `mcc bench save-crash`.
@@ -537,7 +540,7 @@ pub struct BenchRingArgs {
     /// Real-time factor 1: seconds measured per cluster.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub rtf_seconds: f64,
-    /// Only these sections (comma-separated): lockstep, rtf1, realtime, hosts, netns.
+    /// Only these sections (comma-separated): floor, lockstep, rtf1, realtime, hosts, netns.
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,
     /// Hosts and netns sections: the zenoh router to start (default `$MCC_ZENOHD`, else
@@ -554,6 +557,29 @@ pub struct BenchRingArgs {
     /// Realtime section: rate, Hz.
     #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
     pub rate: f64,
+}
+
+/// `mcc bench zenoh-member` (internal: one process of `bench ring`'s zenoh floor).
+#[derive(Debug, Args)]
+pub struct BenchZenohMemberArgs {
+    /// 0 pings, 1 answers.
+    #[arg(long, value_name = "K")]
+    pub index: u32,
+    /// Directory of the two processes' unix sockets.
+    #[arg(long, value_name = "DIR")]
+    pub dir: std::path::PathBuf,
+    /// Process 0: the answering process's pid (its CPU is counted too).
+    #[arg(long, value_name = "PID")]
+    pub peer_pid: Option<u32>,
+    /// Process 0: back-to-back round trips measured.
+    #[arg(long, value_name = "N", default_value_t = 20_000)]
+    pub msgs: u64,
+    /// Process 0: the pace of the paced run, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
+    pub rate: f64,
+    /// Process 0: ms of the paced run.
+    #[arg(long, value_name = "MS", default_value_t = 5000)]
+    pub window_ms: u64,
 }
 
 /// `mcc bench udp-member` (internal: one process of `bench ring`'s raw UDP ring).

@@ -48,6 +48,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Faults(a)) => bench::faults::run(a),
         Command::Bench(BenchCommand::Bringup(a)) => bench::bringup::run(a),
         Command::Bench(BenchCommand::UdpMember(a)) => bench::udp::member(a),
+        Command::Bench(BenchCommand::ZenohMember(a)) => bench::floor::member(a),
         Command::Bench(BenchCommand::Soak(a)) => bench::soak::run(a),
         Command::Bench(BenchCommand::SaveCrash(a)) => bench::crash::run(a),
         Command::Supervise(a) => up::cmd_supervise(&cluster, a),

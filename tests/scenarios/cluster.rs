@@ -93,6 +93,18 @@ fn lockstep_cluster_runs_reports_faults_and_goes_down_clean() {
         cycle2 > cycle1,
         "cycle did not advance: {cycle1} -> {cycle2}"
     );
+    // Issue 27 item 4: each member reports the CPU its process used over the last second
+    // (percent of one core; a lockstep ring runs flat out, so every member uses some).
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    let cpu = wait(&mut c, "every member's cpu_percent", |d| {
+        d["members"]
+            .as_array()
+            .is_some_and(|ms| ms.iter().all(|m| m["cpu_percent"].is_number()))
+    });
+    for m in cpu["members"].as_array().unwrap() {
+        let p = m["cpu_percent"].as_f64().unwrap();
+        assert!(p > 0.0 && p <= 100.0 * cores + 5.0, "{}: {p} %", m["name"]);
+    }
 
     // A second `up` of the same cluster is refused.
     verb_refused(&c, &["up", "--detach"], &["already running"]);

@@ -961,3 +961,46 @@ fn bench_ring_reports_the_ring_across_network_namespaces() {
         .collect();
     assert!(left.is_empty(), "namespaces left behind: {left:?}");
 }
+
+/// Issue 27 item 1: `mcc bench ring --only floor` measures zenoh's own cost between two
+/// processes configured as ring members, back to back and paced at the ring rate: one-way
+/// latency and CPU per message, both positive and finite; it leaves no process and no socket
+/// directory behind.
+#[test]
+fn bench_ring_measures_the_zenoh_floor() {
+    let mut cmd = Command::new(bin_dir().join("mcc"));
+    cmd.args(["bench", "ring", "--only", "floor", "--seconds", "1"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let out = run_bounded(cmd, None, Duration::from_secs(300)).unwrap_or_else(|e| panic!("{e}"));
+    let report = text(&out.stdout);
+    assert!(out.status.success(), "{report}\n{}", text(&out.stderr));
+    assert!(report.contains("(0) the floor"), "{report}");
+    for row in ["back to back", "paced at"] {
+        let line = report
+            .lines()
+            .find(|l| l.trim_start().starts_with(row))
+            .unwrap_or_else(|| panic!("no {row:?} row: {report}"));
+        let num = |label: &str| -> f64 {
+            line.split(label)
+                .nth(1)
+                .and_then(|r| r.split_whitespace().next())
+                .and_then(|v| v.parse().ok())
+                .unwrap_or_else(|| panic!("{label} in {line:?}"))
+        };
+        let p50 = num("one-way p50/p99 ");
+        let cpu = num("CPU ");
+        assert!(p50 > 0.0 && p50 < 100_000.0, "{line}");
+        assert!(cpu > 0.0 && cpu < 100_000.0, "{line}");
+    }
+    let left: Vec<String> = std::fs::read_dir("/proc")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
+        .map(|c| String::from_utf8_lossy(&c).replace('\0', " "))
+        .filter(|c| c.contains("zenoh-member"))
+        .collect();
+    assert!(left.is_empty(), "floor processes left: {left:?}");
+}

@@ -157,6 +157,9 @@ pub struct MemberRow {
     pub faults: Vec<ActiveFault>,
     /// The host it runs on (a cluster on several hosts), else null.
     pub host: Option<String>,
+    /// CPU its process used over the last second, percent of one core (the member's own
+    /// reading of `/proc/self/stat`); null before its first second or when it did not answer.
+    pub cpu_percent: Option<f64>,
 }
 
 /// One card.
@@ -406,6 +409,7 @@ pub fn build(
                 kind: kind.into(),
                 pid: pid_of(name, s),
                 alive: s.is_some(),
+                cpu_percent: v.cpu_percent,
                 slow: s.is_none() && slow.get(i).copied().unwrap_or(false),
                 ring_position: i,
                 sync_master: cfg.ring.sync_master == *name,

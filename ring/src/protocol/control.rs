@@ -155,6 +155,10 @@ pub struct MemberStatus {
     /// The sync master asks for it after a member rejoins (`runtime::links_up`).
     #[serde(default)]
     pub link_matched: Option<bool>,
+    /// CPU its process used over the last second, percent of one core (user + system, from
+    /// `/proc/self/stat`; null before the first second, or where `/proc` cannot be read).
+    #[serde(default)]
+    pub cpu_percent: Option<f64>,
     /// Free-form extras by kind (card ports, station nodes, ...).
     #[serde(default)]
     pub extra: serde_json::Map<String, serde_json::Value>,

@@ -938,6 +938,7 @@ impl MemberCore {
             sched: None,
             host_id: None,
             link_matched: None,
+            cpu_percent: None,
             extra: serde_json::Map::new(),
         }
     }

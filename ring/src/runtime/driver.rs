@@ -499,6 +499,7 @@ impl<A: RingApp> Driver<A> {
         s.sched = self.sched.clone();
         s.host_id = super::light::host_id();
         s.link_matched = self.tx.matched();
+        s.cpu_percent = super::cpu::percent_last_second();
         if let Some(c) = &s.clock {
             s.late_cycles = s.late_cycles.max(c.late_cycles);
         }

@@ -6,6 +6,7 @@
 
 pub mod atomic_file;
 pub mod control_plane;
+pub mod cpu;
 pub mod driver;
 pub mod inline;
 pub mod join;

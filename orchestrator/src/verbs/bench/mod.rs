@@ -7,6 +7,7 @@ pub mod cluster;
 pub mod crash;
 pub mod emcl;
 pub mod faults;
+pub mod floor;
 pub mod host;
 pub mod hosts;
 pub mod inproc;

@@ -21,20 +21,7 @@ impl ProcSample {
     }
 }
 
-/// Clock ticks per second of `/proc/<pid>/stat` times: the kernel reports them in USER_HZ,
-/// which is 100 on every Linux architecture mcc runs on.
-const USER_HZ: f64 = 100.0;
-
-/// CPU seconds from the text of `/proc/<pid>/stat`: utime + stime (fields 14 and 15; the
-/// command name in parentheses may hold spaces, so fields are counted after its `)`).
-pub fn cpu_from_stat(stat: &str, ticks_per_s: f64) -> Option<f64> {
-    let rest = &stat[stat.rfind(')')? + 1..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    // After ")": state is field 3, so utime (14) is index 11 and stime (15) index 12.
-    let ut: f64 = f.get(11)?.parse().ok()?;
-    let st: f64 = f.get(12)?.parse().ok()?;
-    Some((ut + st) / ticks_per_s)
-}
+use mcc_ring::runtime::cpu::{cpu_from_stat, USER_HZ};
 
 /// Context switches from the text of `/proc/<pid>/task/<tid>/status`.
 pub fn switches_from_status(status: &str) -> u64 {
@@ -71,9 +58,6 @@ mod tests {
 
     #[test]
     fn stat_and_status_are_parsed() {
-        let stat = "123 (mcc card (x)) S 1 2 3 4 5 6 7 8 9 10 250 50 0 0 20 0 3 0";
-        assert_eq!(cpu_from_stat(stat, 100.0), Some(3.0));
-        assert_eq!(cpu_from_stat("garbage", 100.0), None);
         let status = "Name:\tx\nvoluntary_ctxt_switches:\t10\nnonvoluntary_ctxt_switches:\t5\n";
         assert_eq!(switches_from_status(status), 15);
         let a = ProcSample {

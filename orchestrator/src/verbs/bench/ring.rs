@@ -1,4 +1,8 @@
 //! `mcc bench ring`:
+//! (0) the floor ([`super::floor`]): two processes configured as ring members bouncing a
+//!     frame over zenoh, back to back and paced at the ring rate — one-way latency and CPU per
+//!     message — measured first in the same run; the cluster figures below are given as ratios
+//!     to it;
 //! (a) lockstep throughput of real multi-process clusters as users run them (`mcc up --clock
 //!     lockstep`, cycles counted from the sync master's status) beside a raw UDP ring of as many
 //!     processes, measured one after the other in the same run: cycles/s, hop latency (each
@@ -20,14 +24,21 @@ use anyhow::{bail, Result};
 use mcc_ring::config::ClockMode;
 
 use super::cluster::{self, ClusterFigures, ClusterSpec};
+use super::floor::{self, FloorFigures};
 use super::stats::{complete_cycles, lateness, percentile, us};
 use super::{hosts, inproc, netns, udp};
 use crate::cli::BenchRingArgs;
 
-/// Lockstep targets (issue 8) on the reference 2-core machine: cycles/s by (cards, stations).
-const TARGETS: [((u8, u8), f64); 2] = [((2, 2), 4500.0), ((4, 8), 2260.0)];
-/// Hop latency target: zenoh hop p50 at most this many times the UDP ring's.
-const HOP_RATIO: f64 = 2.0;
+/// Lockstep targets (issue 27, `ring.in_flight` 1) on the reference 2-core machine: cycles/s by
+/// (cards, stations).
+const TARGETS: [((u8, u8), f64); 2] = [((2, 2), 5000.0), ((4, 8), 1700.0)];
+/// Hop latency target: a cluster's hop p50 at most this many times the floor's one-way p50.
+const FLOOR_HOP_RATIO: f64 = 1.2;
+/// CPU target at real-time factor 1: a member's CPU at most this many times the floor's CPU per
+/// message × the ring rate.
+const FLOOR_CPU_RATIO: f64 = 1.3;
+/// Back-to-back round trips of the floor.
+const FLOOR_MSGS: u64 = 20_000;
 
 fn verdict(ok: bool) -> &'static str {
     if ok {
@@ -66,6 +77,7 @@ pub fn parse_sizes(text: &str) -> Result<Vec<(u8, u8)>> {
 /// Which sections to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct Sections {
+    floor: bool,
     lockstep: bool,
     rtf1: bool,
     realtime: bool,
@@ -77,6 +89,7 @@ struct Sections {
 fn sections(only: Option<&str>) -> Result<Sections> {
     let Some(only) = only else {
         return Ok(Sections {
+            floor: true,
             lockstep: true,
             rtf1: true,
             realtime: true,
@@ -87,12 +100,15 @@ fn sections(only: Option<&str>) -> Result<Sections> {
     let mut s = Sections::default();
     for w in only.split(',').map(str::trim).filter(|w| !w.is_empty()) {
         match w {
+            "floor" => s.floor = true,
             "lockstep" => s.lockstep = true,
             "rtf1" => s.rtf1 = true,
             "realtime" => s.realtime = true,
             "hosts" => s.hosts = true,
             "netns" => s.netns = true,
-            other => bail!("--only {other:?}: expected lockstep, rtf1, realtime, hosts or netns"),
+            other => {
+                bail!("--only {other:?}: expected floor, lockstep, rtf1, realtime, hosts or netns")
+            }
         }
     }
     Ok(s)
@@ -126,11 +142,24 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
         "release build"
     };
     println!("mcc bench ring: {cpus} CPUs, {build}");
+    let floor = if only.floor || only.lockstep || only.rtf1 {
+        Some(run_floor(Duration::from_secs_f64(args.seconds))?)
+    } else {
+        None
+    };
     if only.lockstep {
-        run_lockstep(&sizes, Duration::from_secs_f64(args.seconds))?;
+        run_lockstep(
+            &sizes,
+            Duration::from_secs_f64(args.seconds),
+            floor.as_ref(),
+        )?;
     }
     if only.rtf1 {
-        run_rtf1(&sizes, Duration::from_secs_f64(args.rtf_seconds))?;
+        run_rtf1(
+            &sizes,
+            Duration::from_secs_f64(args.rtf_seconds),
+            floor.as_ref(),
+        )?;
     }
     if only.realtime {
         run_realtime(args)?;
@@ -150,14 +179,40 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
     Ok(())
 }
 
-fn run_lockstep(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
+fn run_floor(window: Duration) -> Result<FloorFigures> {
+    let rate = mcc_ring::config::DEFAULT_RATE_HZ;
+    let f = floor::run(rate, FLOOR_MSGS, window)?;
+    println!(
+        "\n(0) the floor: two processes configured as ring members (peer, no scouting, unix \
+         socket, express, Drop, real-time priority, one zenoh runtime thread) bounce a message \
+         from the receive callback"
+    );
+    for (name, r) in [
+        ("back to back".to_string(), &f.b2b),
+        (format!("paced at {rate} Hz"), &f.paced),
+    ] {
+        println!(
+            "    {name:<22} one-way p50/p99 {:.1} / {:.1} µs, CPU {:.1} µs per message, \
+             {:.0} messages/s",
+            r.p50_us, r.p99_us, r.cpu_us_per_msg, r.msgs_per_s
+        );
+    }
+    println!(
+        "    at the ring rate a member receiving and sending one frame a cycle would use {:.1} % \
+         of a core",
+        f.cpu_pct_at_rate()
+    );
+    Ok(f)
+}
+
+fn run_lockstep(sizes: &[(u8, u8)], window: Duration, floor: Option<&FloorFigures>) -> Result<()> {
     println!(
         "\n(a) lockstep: `mcc up --clock lockstep` clusters (cycles from the sync master's status), \
          then a raw UDP ring of as many processes; {} s each",
         window.as_secs_f64()
     );
     println!(
-        "    {:<22} {:>9} {:>15} {:>9} {:>9}   {:>9} {:>15} {:>9} {:>9}   {:>6}",
+        "    {:<22} {:>9} {:>15} {:>9} {:>9}   {:>9} {:>15} {:>9} {:>9}   {:>6} {:>7}",
         "",
         "cycles/s",
         "hop p50/p99 µs",
@@ -167,8 +222,10 @@ fn run_lockstep(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
         "hop p50/p99 µs",
         "CPU µs/c",
         "switch/c",
-        "p50 ×"
+        "÷UDP",
+        "÷floor"
     );
+    let floor_p50 = floor.map_or(f64::NAN, |f| f.b2b.p50_us);
     let mut verdicts = Vec::new();
     for (i, &(c, s)) in sizes.iter().enumerate() {
         let spec = ClusterSpec {
@@ -182,8 +239,9 @@ fn run_lockstep(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
         let (zh50, zh99) = z.hop_us().unwrap_or((f64::NAN, f64::NAN));
         let (zc, zs) = z.per_cycle();
         let ratio = zh50 / u.hop_us.0;
+        let to_floor = zh50 / floor_p50;
         println!(
-            "    {:<22} {:>9.0} {:>15} {:>9.1} {:>9.1}   {:>9.0} {:>15} {:>9.1} {:>9.1}   {:>6.2}",
+            "    {:<22} {:>9.0} {:>15} {:>9.1} {:>9.1}   {:>9.0} {:>15} {:>9.1} {:>9.1}   {:>6.2} {:>7.2}",
             spec.label(),
             z.cycles_per_s,
             format!("{zh50:.1} / {zh99:.1}"),
@@ -193,12 +251,14 @@ fn run_lockstep(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
             format!("{:.1} / {:.1}", u.hop_us.0, u.hop_us.1),
             u.per_cycle.0,
             u.per_cycle.1,
-            ratio
+            ratio,
+            to_floor
         );
         verdicts.push(format!(
-            "{}: hop p50 {zh50:.1} µs = {ratio:.2}× UDP (target <= {HOP_RATIO}×): {}",
+            "{}: hop p50 {zh50:.1} µs = {to_floor:.2}× the floor's one-way p50 {floor_p50:.1} µs \
+             (target <= {FLOOR_HOP_RATIO}×): {}",
             spec.label(),
-            verdict(ratio <= HOP_RATIO)
+            verdict(to_floor <= FLOOR_HOP_RATIO)
         ));
         if let Some((_, t)) = TARGETS.iter().find(|(k, _)| *k == (c, s)) {
             verdicts.push(format!(
@@ -223,16 +283,24 @@ fn cpu_cell(f: &ClusterFigures, kind: &str) -> String {
         .unwrap_or_else(|| "-".into())
 }
 
-fn run_rtf1(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
+fn run_rtf1(sizes: &[(u8, u8)], window: Duration, floor: Option<&FloorFigures>) -> Result<()> {
     println!(
         "\n(b) real-time factor 1: `mcc up` with the default clock and rate; CPU per member, % of one \
          core, over {} s",
         window.as_secs_f64()
     );
     println!(
-        "    {:<22} {:>9} {:>6} {:>22} {:>22} {:>12}",
-        "", "cycles/s", "rtf", "card % mean / max", "station % mean / max", "supervisor %"
+        "    {:<22} {:>9} {:>6} {:>22} {:>22} {:>12} {:>13}",
+        "",
+        "cycles/s",
+        "rtf",
+        "card % mean / max",
+        "station % mean / max",
+        "supervisor %",
+        "max ÷ floor"
     );
+    let floor_pct = floor.map_or(f64::NAN, FloorFigures::cpu_pct_at_rate);
+    let mut verdicts = Vec::new();
     let nominal = mcc_ring::config::DEFAULT_RATE_HZ;
     for (i, &(c, s)) in sizes.iter().enumerate() {
         let spec = ClusterSpec {
@@ -242,15 +310,30 @@ fn run_rtf1(sizes: &[(u8, u8)], window: Duration) -> Result<()> {
             rate: None,
         };
         let f = cluster::measure(&spec, &format!("p{i}"), Duration::from_secs(2), window)?;
+        let busiest = ["card", "station"]
+            .iter()
+            .filter_map(|k| f.cpu_of(k).map(|(_, x)| x))
+            .fold(0.0, f64::max);
+        let to_floor = busiest / floor_pct;
         println!(
-            "    {:<22} {:>9.0} {:>6.3} {:>22} {:>22} {:>12.1}",
+            "    {:<22} {:>9.0} {:>6.3} {:>22} {:>22} {:>12.1} {:>13.2}",
             spec.label(),
             f.cycles_per_s,
             f.cycles_per_s / nominal,
             cpu_cell(&f, "card"),
             cpu_cell(&f, "station"),
-            f.supervisor_cpu_pct
+            f.supervisor_cpu_pct,
+            to_floor
         );
+        verdicts.push(format!(
+            "{}: busiest member {busiest:.1} % = {to_floor:.2}× the floor's {floor_pct:.1} % at the \
+             ring rate (target <= {FLOOR_CPU_RATIO}×): {}",
+            spec.label(),
+            verdict(to_floor <= FLOOR_CPU_RATIO)
+        ));
+    }
+    for v in verdicts {
+        println!("    {v}");
     }
     Ok(())
 }
