@@ -41,7 +41,6 @@ fn a_fresh_card_reads_the_seed_default_of_every_motor_coord_and_sys_setup_elemen
             _ => continue,
         };
         let skip = d.class == Class::Status
-            || !d.dims.is_empty()
             || matches!(d.ty, Ty::Struct | Ty::Addr)
             || NOT_THE_SEED_DEFAULT
                 .iter()
@@ -49,7 +48,8 @@ fn a_fresh_card_reads_the_seed_default_of_every_motor_coord_and_sys_setup_elemen
         if skip {
             continue;
         }
-        let name = format!("{prefix}{}", d.name);
+        // An element with indices of its own is read at index 0 of each.
+        let name = format!("{prefix}{}{}", d.name, "[0]".repeat(d.dims.len()));
         let r = t.send(&name);
         if r.contains("error") {
             wrong.push(format!("{name} (L{}): {r:?}", d.line));
