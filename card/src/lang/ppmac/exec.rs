@@ -462,12 +462,20 @@ impl Ctx<'_> {
                     self.say(&def);
                 }
             }
-            Cmd::PlcCtl(on, n) => {
-                let line = format!("{} PLC {n}", if *on { "ENABLE" } else { "DISABLE" });
-                let mut s = Session::with_id(0);
-                let r = self.card.command_line(&mut s, line.as_bytes());
-                if String::from_utf8_lossy(&r).contains("ERR") {
-                    return Err(21);
+            Cmd::PlcCtl(verb, list) => {
+                let word = match verb {
+                    parse::PlcCtl::Enable => "ENABLE",
+                    parse::PlcCtl::Disable => "DISABLE",
+                    parse::PlcCtl::Pause => "PAUSE",
+                    parse::PlcCtl::Resume => "RESUME",
+                };
+                for n in list {
+                    let line = format!("{word} PLC {n}");
+                    let mut s = Session::with_id(0);
+                    let r = self.card.command_line(&mut s, line.as_bytes());
+                    if String::from_utf8_lossy(&r).contains("ERR") {
+                        return Err(21);
+                    }
                 }
             }
             Cmd::Motors(..) | Cmd::Coords(..) | Cmd::Motor(_) | Cmd::Cs(_) => {}
@@ -707,10 +715,31 @@ impl Ctx<'_> {
         let mut report = Vec::new();
         for &x in list {
             let cmd = match m {
-                MotorCmd::Jog(kind, trigger) => CmdKind::Jog {
-                    kind: *kind,
-                    trigger: *trigger,
-                },
+                MotorCmd::Jog(kind, trigger) => {
+                    // The `*` forms take Power's elements (seed L36030-36066): the target or
+                    // distance `Motor[x].ProgJogPos`, the post-trigger distance
+                    // `Motor[x].JogOffset`.
+                    use crate::domain::ast::JogKind as J;
+                    let elem = |name: &str| {
+                        elements::kept_or_default(
+                            self.store,
+                            super::catalog::St::Motor,
+                            u32::from(x),
+                            name,
+                        )
+                    };
+                    let kind = match kind {
+                        J::VarTo => J::To(elem("ProgJogPos")),
+                        J::VarRelCommanded => J::RelCommanded(elem("ProgJogPos")),
+                        J::VarRelActual => J::RelActual(elem("ProgJogPos")),
+                        k => *k,
+                    };
+                    let trigger = trigger.map(|t| match t {
+                        parse::JogTrigger::Offset(v) => v,
+                        parse::JogTrigger::JogOffset => elem("JogOffset"),
+                    });
+                    CmdKind::Jog { kind, trigger }
+                }
                 MotorCmd::Kill | MotorCmd::DKill => CmdKind::Kill,
                 MotorCmd::Home => CmdKind::Home,
                 MotorCmd::HomeZ => CmdKind::HomeZ,

@@ -33,7 +33,9 @@ fn routine(code: crate::program::compile::Compiled) -> KinRoutine {
 /// `list forward|inverse [(n)]` (`rest`: after `list`, lower case): the routine's lines, or
 /// the error code; `None`: not such a listing.
 pub(super) fn list(r: &Routines, th: &Thread, rest: &str) -> Option<Result<Vec<String>, u16>> {
-    let key = open_words(&format!("open {rest}"), th)?;
+    // A copy: a listing changes no addressing.
+    let mut th = th.clone();
+    let key = open_words(&format!("open {rest}"), &mut th)?;
     Some(r.get(&key).map(|k| k.text.clone()).ok_or(21))
 }
 
@@ -91,19 +93,52 @@ const MAX_CS: u32 = 127;
 
 /// `open forward|inverse [(n)]` in `text` (lower case): (model C.S., inverse), or `Some` with
 /// C.S. `u16::MAX` for a bad number.
-pub(super) fn open_words(text: &str, th: &Thread) -> Option<(u16, bool)> {
-    let t = text.replace(['(', ')'], " ");
+///
+/// `&n` before it addresses C.S. n first (`&2open forward,64`, seed L37532); after the kind
+/// come the stack offset and the label count (`open forward,512,256`, L37530-37537): the label
+/// count is accepted, a stack offset other than the default 256 is #21 as for programs
+/// ([DECISION]: the engine has one stack offset).
+pub(super) fn open_words(text: &str, th: &mut Thread) -> Option<(u16, bool)> {
+    let mut t = text.trim_start();
+    let mut cs_prefix = None;
+    if let Some(rest) = t.strip_prefix('&') {
+        let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
+        let n: u32 = rest[..digits].parse().ok()?;
+        cs_prefix = Some(n);
+        t = &rest[digits..];
+    }
+    let t = t.replace(['(', ')'], " ");
     let w: Vec<&str> = t.split_whitespace().collect();
     let (kind, n) = match w.as_slice() {
         ["open", k] => (*k, None),
         ["open", k, n] => (*k, Some(*n)),
         _ => return None,
     };
-    let inverse = match kind {
-        "forward" => false,
-        "inverse" => true,
+    let mut args = kind.split(',');
+    let inverse = match args.next() {
+        Some("forward") => false,
+        Some("inverse") => true,
         _ => return None,
     };
+    let opt: Vec<&str> = args.collect();
+    let args_ok = opt.len() <= 2
+        && opt.iter().enumerate().all(|(k, a)| {
+            a.is_empty()
+                || match (k, a.parse::<u32>()) {
+                    (0, Ok(v)) => v == 256,
+                    (_, Ok(v)) => v > 0,
+                    _ => false,
+                }
+        });
+    if let Some(c) = cs_prefix {
+        if c > MAX_CS {
+            return Some((u16::MAX, inverse));
+        }
+        th.coord = c as u16;
+    }
+    if !args_ok {
+        return Some((u16::MAX, inverse));
+    }
     let n = match n {
         None => u32::from(th.coord),
         Some(n) => n

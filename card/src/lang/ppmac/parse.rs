@@ -109,6 +109,19 @@ pub(crate) const EXT_ELEM: u16 = 100;
 pub(crate) const ELEM_ADDRESS: u32 = 1;
 
 /// Which variables a command names.
+/// What `enable|disable|pause|resume plc` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum PlcCtl {
+    /// `enable plc`
+    Enable,
+    /// `disable plc`
+    Disable,
+    /// `pause plc`
+    Pause,
+    /// `resume plc`
+    Resume,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Sel {
     /// One, constant or computed.
@@ -137,10 +150,20 @@ pub(crate) struct ElemRef {
 }
 
 /// A motor command.
+/// The post-trigger distance of a jog until trigger (`^{d}`, or `^*`: `Motor[x].JogOffset`,
+/// seed L36040-36066).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum JogTrigger {
+    /// `^{d}`
+    Offset(f64),
+    /// `^*`
+    JogOffset,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum MotorCmd {
     /// A jog (`j+`, `j=…`, `j:…`, `j^…`, `j=*` …) with an optional trigger offset.
-    Jog(crate::domain::ast::JogKind, Option<f64>),
+    Jog(crate::domain::ast::JogKind, Option<JogTrigger>),
     /// `k` / `kill`
     Kill,
     /// `dkill`
@@ -254,7 +277,7 @@ pub(crate) enum Cmd {
     /// `#{list}->`: report the motors' axis definitions (seed L31655-31690).
     AxisQuery(Vec<u16>),
     /// `enable plc n` / `disable plc n` (`true`: enable)
-    PlcCtl(bool, u32),
+    PlcCtl(PlcCtl, Vec<u32>),
 }
 
 /// What an M-variable definition points at.
@@ -1129,6 +1152,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         }
         "r" | "run" => cs(CsCmd::Run),
         "s" | "step" => cs(CsCmd::Step),
+        "pause" | "resume" if followed_by(c, "plc") => plc_control(c, &w),
         "q" | "pause" => cs(CsCmd::Quit),
         "a" | "abort" => cs(CsCmd::Abort),
         "h" | "hold" => cs(CsCmd::Hold),
@@ -1138,20 +1162,14 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
             c.ws();
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
         }
-        "enable" | "disable" => {
-            let save = c.i;
-            c.ws();
-            if !c.eat_word("plc") {
-                // The C.S. form: `&1 enable`, `&2 disable` (seed L412-416).
-                c.i = save;
-                return cs(CsCmd::Servo(w == "enable"));
-            }
-            c.ws();
-            match c.uint() {
-                Some(n) if n <= 31 => Ok(Cmd::PlcCtl(w == "enable", n)),
-                _ => Err(SyntaxError { at: c.i, code: 21 }),
-            }
+        "enable" | "disable" if followed_by(c, "plc") => plc_control(c, &w),
+        "enable" | "disable" if followed_by(c, "bgcplc") => {
+            // Compiled background C PLCs (seed L34473-34478, L34875-34878): this controller
+            // runs none (27: not supported).
+            Err(SyntaxError { at: c.i, code: 27 })
         }
+        // The C.S. form: `&1 enable`, `&2 disable` (seed L412-416).
+        "enable" | "disable" => cs(CsCmd::Servo(w == "enable")),
         "echo" => {
             let save = c.i;
             c.ws();
@@ -1253,6 +1271,47 @@ fn variable(c: &mut Cur<'_>, f: Fam) -> P<Cmd> {
     Ok(Cmd::VarQuery(f, sel))
 }
 
+/// The next word (after blanks) is `word`; nothing is consumed.
+fn followed_by(c: &mut Cur<'_>, word: &str) -> bool {
+    let save = c.i;
+    c.ws();
+    let yes = c.eat_word(word);
+    c.i = save;
+    yes
+}
+
+/// `enable|disable|pause|resume plc {list}` (seed L34500-34506, L34905-34910, L38175-38178):
+/// a list of PLC numbers, `a`, `a,b`, `a..b` and their mixtures (`11,13..16,20`).
+fn plc_control(c: &mut Cur<'_>, verb: &str) -> P<Cmd> {
+    c.ws();
+    let _ = c.eat_word("plc");
+    c.ws();
+    let mut list = Vec::new();
+    loop {
+        let at = c.i;
+        let a = c.uint().ok_or(SyntaxError { at, code: 20 })?;
+        let b = if c.eat_str("..") {
+            c.uint().ok_or(SyntaxError { at: c.i, code: 20 })?
+        } else {
+            a
+        };
+        if a > 31 || b > 31 || b < a {
+            return Err(SyntaxError { at, code: 21 });
+        }
+        list.extend(a..=b);
+        if !c.eat(b',') {
+            break;
+        }
+    }
+    let verb = match verb {
+        "enable" => PlcCtl::Enable,
+        "disable" => PlcCtl::Disable,
+        "pause" => PlcCtl::Pause,
+        _ => PlcCtl::Resume,
+    };
+    Ok(Cmd::PlcCtl(verb, list))
+}
+
 fn element_cmd(c: &mut Cur<'_>) -> P<Cmd> {
     let e = c.element(0)?;
     if c.eat_str(".a") {
@@ -1327,13 +1386,15 @@ fn jog(c: &mut Cur<'_>) -> P<Cmd> {
         }
         _ => return err(at),
     };
-    let trigger = if c.eat(b'^') {
+    let trigger = if !c.eat(b'^') {
+        None
+    } else if c.eat(b'*') {
+        Some(JogTrigger::JogOffset)
+    } else {
         match signed(c) {
-            Some(v) => Some(v),
+            Some(v) => Some(JogTrigger::Offset(v)),
             None => return err(c.i),
         }
-    } else {
-        None
     };
     Ok(Cmd::Motor(MotorCmd::Jog(kind, trigger)))
 }

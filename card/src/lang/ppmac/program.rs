@@ -188,6 +188,15 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             let save = c.i;
             c.i += 1;
             if let Ok(index) = c.var_index(0) {
+                if let VarIndex::Const(first) = index {
+                    let before = c.i;
+                    if let Some(numbers) = selection(c, first) {
+                        if is_assign(c) {
+                            return range_assignment(c, f, &numbers, at, out);
+                        }
+                    }
+                    c.i = before;
+                }
                 if is_assign(c) {
                     if let VarIndex::Const(n) = index {
                         if !in_range(f, n) {
@@ -434,20 +443,33 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 return err(c.i);
             }
             c.ws();
-            let n = match c.uint() {
-                Some(n) if n <= 31 => n,
-                _ => return Err(SyntaxError { at: c.i, code: 21 }),
-            };
+            // `2,4,6`, `7..10`, `11,13..16,20` (seed L38716-38720, L40797-40801).
+            let mut list = Vec::new();
+            loop {
+                let a = match c.uint() {
+                    Some(n) if n <= 31 => n,
+                    _ => return Err(SyntaxError { at: c.i, code: 21 }),
+                };
+                let b = if c.eat_str("..") {
+                    match c.uint() {
+                        Some(b) if b <= 31 && b >= a => b,
+                        _ => return Err(SyntaxError { at: c.i, code: 21 }),
+                    }
+                } else {
+                    a
+                };
+                list.push(NumRange { first: a, last: b });
+                if !c.eat(b',') {
+                    break;
+                }
+            }
             let verb = match w.as_str() {
                 "enable" => PlcVerb::Enable,
                 "disable" => PlcVerb::Disable,
                 "pause" => PlcVerb::Pause,
                 _ => PlcVerb::Resume,
             };
-            StmtKind::Plc(PlcControl {
-                verb,
-                list: vec![NumRange { first: n, last: n }],
-            })
+            StmtKind::Plc(PlcControl { verb, list })
         }
         // Passing text to the operating system is not something an emulated card does.
         "system" | "sendallsystemcmds" => return Err(SyntaxError { at, code: 27 }),
@@ -510,6 +532,69 @@ fn cond_exec(c: &mut Cur<'_>, w: &str, at: usize, out: &mut Vec<Stmt>) -> P<()> 
         }
     };
     out.push(stmt(kind, at));
+    Ok(())
+}
+
+/// After the first number `first` of a variable: `..last` or `,count[,step]` (seed
+/// L38644-38646, L43085-43086), the variables it names; `None`: no selection here.
+fn selection(c: &mut Cur<'_>, first: u32) -> Option<Vec<u32>> {
+    let digit_after = |c: &Cur<'_>, k: usize| c.peek_at(k).is_some_and(|d| d.is_ascii_digit());
+    if c.rest().starts_with(b"..") && digit_after(c, 2) {
+        c.i += 2;
+        let last = c.uint()?;
+        return (last >= first).then(|| (first..=last).collect());
+    }
+    if c.peek() == Some(b',') && digit_after(c, 1) {
+        c.i += 1;
+        let n = c.uint()?;
+        let step = if c.peek() == Some(b',') && digit_after(c, 1) {
+            c.i += 1;
+            c.uint()?
+        } else {
+            1
+        };
+        if n == 0 || step == 0 {
+            return None;
+        }
+        return (0..n)
+            .map(|k| first.checked_add(k.checked_mul(step)?))
+            .collect();
+    }
+    None
+}
+
+/// Most variables one program assignment may name (each becomes a statement of its own).
+const MAX_RANGE_ASSIGN: usize = 1024;
+
+/// `P10..12 = P1+5`, `C0,64 = 0.0`, `P20,5,10++`: the same assignment to each variable of the
+/// selection, in order, as one stored line. Every one must exist (else 21, nothing stored).
+fn range_assignment(
+    c: &mut Cur<'_>,
+    f: Fam,
+    numbers: &[u32],
+    at: usize,
+    out: &mut Vec<Stmt>,
+) -> P<()> {
+    if numbers.len() > MAX_RANGE_ASSIGN || !numbers.iter().all(|&n| in_range(f, n)) {
+        return Err(SyntaxError { at, code: 21 });
+    }
+    let mut one = Vec::new();
+    let target = |n: u32| VarRef {
+        kind: f.kind(),
+        index: VarIndex::Const(n),
+        pos: Pos(at as u32),
+    };
+    assignment(c, target(numbers[0]), at, &mut one)?;
+    let [first] = one.as_slice() else {
+        return err(at);
+    };
+    for &n in numbers {
+        let mut s = first.clone();
+        if let StmtKind::Assign { target: t, .. } = &mut s.kind {
+            *t = target(n);
+        }
+        out.push(s);
+    }
     Ok(())
 }
 

@@ -39,6 +39,18 @@ pub(super) fn read(card: &CardModel, k: &Key, name: &str) -> Option<f64> {
         St::Sys => sys(card, name),
         St::Motor => motor(card, k.idx as usize, name),
         St::Coord => coord(card, k.idx as usize, name),
+        St::Plc => plc(card, k.idx as usize, name),
+        _ => None,
+    }
+}
+
+/// `Plc[i].Active` (enabled, also while paused) and `Plc[i].Running` (enabled and not paused)
+/// [DECISION: the seed names them without an entry; the Power PMAC meanings].
+fn plc(card: &CardModel, i: usize, name: &str) -> Option<f64> {
+    let p = card.run.plc.get(i)?;
+    match name {
+        "Active" => Some(f64::from(u8::from(p.enabled))),
+        "Running" => Some(f64::from(u8::from(p.enabled && !p.paused))),
         _ => None,
     }
 }

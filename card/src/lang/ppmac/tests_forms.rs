@@ -373,3 +373,117 @@ fn range_assignments_and_m_definition_ranges() {
     t.load(&["M0..16383->*"]);
     assert_eq!(t.send("M81->"), "M81->*\r\n");
 }
+
+/// Seed L34500-34506, L34905-34910, L38175-38178, L38716-38720: `enable|disable|pause|resume
+/// plc` take lists (`2,4,6`, `7..10`, `11,13..16,20`), on-line and in programs; compiled C
+/// PLCs (`enable bgcplc`) are not supported (27).
+#[test]
+fn plc_control_takes_lists_on_line_and_in_programs() {
+    let mut t = T::new();
+    for n in [2, 4, 7, 8, 9, 10] {
+        t.load(&[
+            &format!("open plc {n}"),
+            &format!("P{} = P{} + 1", 100 + n, 100 + n),
+            "close",
+        ]);
+    }
+    t.load(&["enable plc 2,4", "enable plc 7..9"]);
+    t.run(5);
+    let active = |t: &mut T| -> Vec<bool> {
+        [2, 4, 7, 8, 9, 10]
+            .iter()
+            .map(|n| {
+                let r = t.send(&format!("Plc[{n}].Active"));
+                r.trim_end().ends_with("=1")
+            })
+            .collect()
+    };
+    assert_eq!(active(&mut t), [true, true, true, true, true, false]);
+    t.load(&["pause plc 2,7..8"]);
+    let (p2, p4) = (t.send("P102"), t.send("P104"));
+    t.run(5);
+    assert_eq!(t.send("P102"), p2, "PLC 2 paused: P102 still");
+    assert_ne!(t.send("P104"), p4, "PLC 4 runs on");
+    let active_running = |t: &mut T, n: u32| {
+        (
+            t.send(&format!("Plc[{n}].Active")),
+            t.send(&format!("Plc[{n}].Running")),
+        )
+    };
+    assert_eq!(
+        active_running(&mut t, 2),
+        (
+            "Plc[2].Active=1\r\n".to_string(),
+            "Plc[2].Running=0\r\n".to_string()
+        )
+    );
+    t.load(&["resume plc 2", "disable plc 4,7..9"]);
+    assert_eq!(active(&mut t), [true, false, false, false, false, false]);
+    assert!(t.send("enable plc 2..32").contains("error #21"));
+    assert!(t.send("enable bgcplc 0").contains("error #27"));
+    // A program does the same with a list.
+    t.load(&[
+        "open plc 20",
+        "enable plc 4,7..9",
+        "disable plc 20",
+        "close",
+        "enable plc 20",
+    ]);
+    t.run(5);
+    assert_eq!(active(&mut t), [true, true, true, true, true, false]);
+}
+
+/// Seed L38644-38646, L43085-43086: a program assigns a selection of variables
+/// (`P10..12=P1+5`, `P30,3=-7`, `P30,3,3=sqrt(P25)`, `P20,5,10++`), each in turn; one past
+/// the family refuses the line.
+#[test]
+fn programs_assign_variable_selections() {
+    let mut t = T::new();
+    t.load(&[
+        "P1=2 P25=16",
+        "open plc 3",
+        "P10..12=P1+5",
+        "P30,3=-7",
+        "P30,3,3=sqrt(P25)",
+        "P20,3,10++",
+        "disable plc 3",
+        "close",
+        "enable plc 3",
+    ]);
+    t.run(5);
+    assert_eq!(t.send("P10..12"), "P10=7\r\nP11=7\r\nP12=7\r\n");
+    assert_eq!(t.send("P30..36:7"), "P30=5,-7,-7,4,0,0,4\r\n");
+    assert_eq!(t.send("P20,3,10"), "P20=1\r\nP30=5\r\nP40=1\r\n");
+    t.load(&["open plc 4"]);
+    assert!(t.send("P65534..65536=1").contains("error #21"));
+}
+
+/// Seed L36030-36066: `j=*` goes to `Motor[x].ProgJogPos`, `^*` is `Motor[x].JogOffset`.
+#[test]
+fn star_jogs_take_prog_jog_pos() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["Motor[1].ProgJogPos=1500", "Motor[1].InvAmax=0"]);
+    assert_eq!(t.send("#1j=*"), "");
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=1500\r\n");
+    assert_eq!(t.send("#1j:*"), "");
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=3000\r\n");
+    // `^*` parses and takes the jog offset (no trigger here: the move ends at its target).
+    t.load(&["Motor[1].JogOffset=10", "Motor[1].ProgJogPos=-500"]);
+    assert_eq!(t.send("#1j=*^*"), "");
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=-500\r\n");
+}
+
+/// Seed L37530-37537: `&n open forward|inverse[,stack[,labels]]` addresses C.S. n; the
+/// label count is accepted, a stack offset other than 256 is 21 (as for programs).
+#[test]
+fn kinematic_buffers_open_with_a_cs_prefix_and_arguments() {
+    let mut t = T::new();
+    t.load(&["&4open forward,,2048", "close"]);
+    assert_eq!(t.send("&"), "&4\r\n");
+    t.load(&["&2open inverse,256", "close"]);
+    assert!(t.send("&2open forward,64").contains("error #21"));
+}
