@@ -17,6 +17,7 @@
 pub(crate) mod abort_all;
 mod backup;
 mod catalog;
+mod direct;
 mod elements;
 mod exec;
 mod host_effect;
@@ -191,9 +192,22 @@ pub struct CmdQueue {
 }
 
 impl crate::program::Commands for CmdQueue {
-    fn line(&mut self, card: &mut crate::model::CardModel, _: u16, _: u16, line: &[u8]) -> Vec<u8> {
+    fn line(
+        &mut self,
+        card: &mut crate::model::CardModel,
+        motor: u16,
+        coord: u16,
+        line: &[u8],
+    ) -> Vec<u8> {
         if self.lines.len() < 256 {
-            self.lines.push((card.exec.thread, line.to_vec()));
+            // A direct command without a list acts on the issuing thread's addressed motor or
+            // C.S. (its `Ldata`, Power numbers; the engine's are the model's, one more).
+            let t = card.exec.thread;
+            let (m, c) = card
+                .ext::<progvars::ProgVars>()
+                .and_then(|pv| pv.addressing(t))
+                .unwrap_or((motor.saturating_sub(1), coord.saturating_sub(1)));
+            self.lines.push((t, direct::resolve(line, m, c)));
         }
         Vec::new()
     }

@@ -294,9 +294,11 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         return err(at);
     };
     // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
-    const GLUED: [&str; 20] = [
+    const GLUED: [&str; 34] = [
         "f", "tm", "ta", "ts", "td", "pvt", "spline", "send", "dwell", "delay", "goto", "gosub",
-        "callsub", "call", "circle", "cset", "cclr", "cexe", "cexec", "cskip",
+        "callsub", "call", "circle", "cset", "cclr", "cexe", "cexec", "cskip", "abort", "hold",
+        "run", "step", "pause", "resume", "enable", "disable", "kill", "dkill", "home", "homez",
+        "cout", "jog",
     ];
     if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
         if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
@@ -412,36 +414,36 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "cset" | "cclr" | "cexe" | "cexec" | "cskip" => return cond_exec(c, &w, at, out),
         "bstart" => StmtKind::BlockStart,
         "bstop" => StmtKind::BlockStop,
-        "home" | "homez" => {
-            c.ws();
-            let n = match c.uint() {
-                Some(n) if n <= 31 => n + 1,
-                _ => return Err(SyntaxError { at: c.i, code: 21 }),
-            };
-            let list = vec![NumRange { first: n, last: n }];
-            if w == "home" {
-                StmtKind::Home(list)
-            } else {
-                StmtKind::HomeZ(list)
-            }
-        }
+
         "linear" => StmtKind::Mode(MoveMode::Linear),
         "rapid" => StmtKind::Mode(MoveMode::Rapid),
         "circle1" => StmtKind::Mode(MoveMode::Circle1),
         "circle2" => StmtKind::Mode(MoveMode::Circle2),
-        "abs" => StmtKind::Abs(None),
-        "inc" => StmtKind::Inc(None),
+        "abs" => StmtKind::Abs(axis_list(c)?),
+        "inc" => StmtKind::Inc(axis_list(c)?),
+        // `normal K-1` (seed L42969-42975): the plane's normal vector, I/J/K components.
+        "normal" => StmtKind::Normal(letter_words(c, |ch| {
+            circle_of(ch).filter(|a| *a != Axis::R)
+        })?),
+        // `pset X10 Y20` (seed L43310-43311): the axes' present positions redefined.
+        "pset" => StmtKind::Pset(letter_words(c, axis_of)?),
         "f" => StmtKind::F(data(c)?),
         "tm" => StmtKind::Tm(data(c)?),
         "ta" => StmtKind::Ta(data(c)?),
         "ts" => StmtKind::Ts(data(c)?),
         "dwell" => StmtKind::Dwell(data(c)?),
         "delay" => StmtKind::Delay(data(c)?),
-        "enable" | "disable" | "pause" | "resume" => {
+        "enable" | "disable" | "pause" | "resume"
+            if {
+                let save = c.i;
+                c.ws();
+                let plc = c.eat_word("plc");
+                c.i = save;
+                plc
+            } =>
+        {
             c.ws();
-            if !c.eat_word("plc") {
-                return err(c.i);
-            }
+            let _ = c.eat_word("plc");
             c.ws();
             // `2,4,6`, `7..10`, `11,13..16,20` (seed L38716-38720, L40797-40801).
             let mut list = Vec::new();
@@ -473,7 +475,10 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         }
         // Passing text to the operating system is not something an emulated card does.
         "system" | "sendallsystemcmds" => return Err(SyntaxError { at, code: 27 }),
-        _ => return err(at),
+        _ => match super::direct::statement(c, &w) {
+            Some(k) => k?,
+            None => return err(at),
+        },
     };
     out.push(stmt(kind, at));
     Ok(())
@@ -803,6 +808,79 @@ fn axis_of(ch: u8) -> Option<Axis> {
         b'w' => Axis::W,
         _ => return None,
     })
+}
+
+/// `(X,Y)`, `(I..K)` after `abs`/`inc` (seed L39311-39346, L41864-41866): the axes named,
+/// `a..b` within X Y Z A B C U V W or within I J K; `None` without parentheses. Double-letter
+/// axes (`KK`) are not modelled (21).
+fn axis_list(c: &mut Cur<'_>) -> P<Option<Vec<Axis>>> {
+    const GROUPS: [&[u8]; 2] = [b"xyzabcuvw", b"ijk"];
+    let save = c.i;
+    c.ws();
+    if !c.eat(b'(') {
+        c.i = save;
+        return Ok(None);
+    }
+    let letter = |c: &mut Cur<'_>| -> P<(usize, usize)> {
+        c.ws();
+        let at = c.i;
+        let ch = c.peek().ok_or(SyntaxError { at, code: 20 })?;
+        let pos = GROUPS
+            .iter()
+            .enumerate()
+            .find_map(|(g, l)| l.iter().position(|x| *x == ch).map(|k| (g, k)))
+            .ok_or(SyntaxError { at, code: 20 })?;
+        c.i += 1;
+        if c.peek().is_some_and(|d| d.is_ascii_alphabetic()) {
+            return Err(SyntaxError { at, code: 21 });
+        }
+        Ok(pos)
+    };
+    let mut axes = Vec::new();
+    loop {
+        let (g, a) = letter(c)?;
+        let (g2, b) = if c.eat_str("..") { letter(c)? } else { (g, a) };
+        if g2 != g || b < a {
+            return Err(SyntaxError { at: c.i, code: 21 });
+        }
+        for &ch in &GROUPS[g][a..=b] {
+            let axis = axis_of(ch).or_else(|| circle_of(ch));
+            axes.push(axis.ok_or(SyntaxError { at: c.i, code: 20 })?);
+        }
+        c.ws();
+        if c.eat(b')') {
+            return Ok(Some(axes));
+        }
+        if !c.eat(b',') {
+            return err(c.i);
+        }
+    }
+}
+
+/// `{letter}{data}` words after `normal`/`pset`, the letters `of` allows; at least one.
+fn letter_words(c: &mut Cur<'_>, of: fn(u8) -> Option<Axis>) -> P<Vec<AxisWord>> {
+    let mut words = Vec::new();
+    loop {
+        c.ws();
+        let at = c.i;
+        let Some(axis) = c.peek().and_then(of) else {
+            break;
+        };
+        c.i += 1;
+        if c.peek().is_some_and(|d| d.is_ascii_alphabetic()) {
+            return Err(SyntaxError { at, code: 21 });
+        }
+        let value = data(c)?;
+        words.push(AxisWord {
+            axis,
+            value,
+            extra: None,
+        });
+    }
+    if words.is_empty() {
+        return err(c.i);
+    }
+    Ok(words)
 }
 
 /// `( condition )`.

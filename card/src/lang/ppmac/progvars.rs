@@ -96,6 +96,12 @@ impl ProgVars {
         th.cmd_count += 1.0;
     }
 
+    /// The addressed motor and C.S. (`Ldata.Motor`, `Ldata.Coord`) of program thread `t`, once
+    /// it has used its thread data.
+    pub(crate) fn addressing(&self, t: ExecThread) -> Option<(u16, u16)> {
+        self.threads.get(&t).map(|th| (th.motor, th.coord))
+    }
+
     fn thread(&mut self, at: &ExtAt) -> &mut Thread {
         self.parts(at).1
     }

@@ -487,3 +487,102 @@ fn kinematic_buffers_open_with_a_cs_prefix_and_arguments() {
     t.load(&["&2open inverse,256", "close"]);
     assert!(t.send("&2open forward,64").contains("error #21"));
 }
+
+/// Seed L39311-39346, L41864-41866, L42969-42975, L43310-43311: `abs(X,Y)`/`inc(X)` switch
+/// only the axes named, `pset X…` redefines the present axis position, `normal K-1` sets the
+/// plane; double-letter axes are not modelled (21).
+#[test]
+fn axis_lists_pset_and_normal_in_programs() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["Motor[1].InvAmax=0"]);
+    t.load(&[
+        "open prog 11",
+        "normal K-1",
+        "linear abs ta10 ts0 tm100",
+        "inc(X)",
+        "X0.5",
+        "X0.5",
+        "abs(X,Y)",
+        "X0.25",
+        "close",
+    ]);
+    assert_eq!(t.send("&1 b11 r"), "");
+    t.run(1500);
+    // inc: 0.5 + 0.5 = 1 (1000 counts); then abs again: 0.25.
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=250\r\n");
+    t.load(&["open prog 12", "pset X2", "close"]);
+    assert_eq!(t.send("&1 b12 r"), "");
+    t.run(20);
+    assert_eq!(t.send("&1p"), "X2\r\n");
+    t.load(&["open prog 13"]);
+    assert!(t.send("inc(I..KK)").contains("error #21"));
+    t.load(&["open prog 13"]);
+    assert!(t.send("normal KK-1").contains("error #21"));
+}
+
+/// Direct program commands (seed L40897-40900, L41910-42387, L42440-42441, L39280-39282):
+/// a PLC jogs its addressed motor (`Ldata.Motor`) to a computed position, then kills a motor
+/// by its list; each runs as the on-line command after the PLC's pass.
+#[test]
+fn direct_commands_in_a_plc_act_on_listed_or_addressed_motors() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&[
+        "Motor[1].InvAmax=0",
+        "P7=1500",
+        "open plc 6",
+        "Ldata.Motor = 1",
+        "jog=(P7)",
+        "disable plc 6",
+        "close",
+        "enable plc 6",
+    ]);
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=1500\r\n");
+    assert_eq!(t.send("Motor[1].ClosedLoop"), "Motor[1].ClosedLoop=1\r\n");
+    t.load(&[
+        "open plc 7",
+        "kill1",
+        "disable plc 7",
+        "close",
+        "enable plc 7",
+    ]);
+    t.run(5);
+    assert_eq!(t.send("Motor[1].ClosedLoop"), "Motor[1].ClosedLoop=0\r\n");
+    // `abort` of a C.S. list, `run` of a C.S.: the on-line forms.
+    t.load(&["#1j/"]);
+    t.run(5);
+    t.load(&[
+        "open prog 14",
+        "linear abs ta10 ts0 tm3000",
+        "X3",
+        "close",
+        "&1 b14",
+        "open plc 8",
+        "run1",
+        "disable plc 8",
+        "close",
+        "enable plc 8",
+    ]);
+    t.run(300);
+    assert_eq!(t.send("Coord[1].ProgRunning"), "Coord[1].ProgRunning=1\r\n");
+    t.load(&[
+        "open plc 9",
+        "abort1",
+        "disable plc 9",
+        "close",
+        "enable plc 9",
+    ]);
+    t.run(2000);
+    assert_eq!(t.send("Coord[1].ProgRunning"), "Coord[1].ProgRunning=0\r\n");
+    let p: f64 = t
+        .send("Motor[1].DesPos")
+        .trim_end()
+        .rsplit('=')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(p < 2900.0, "aborted before X3: {p}");
+}
