@@ -299,7 +299,9 @@ fn run_rtf1(sizes: &[(u8, u8)], window: Duration, floor: Option<&FloorFigures>) 
         "supervisor %",
         "max ÷ floor"
     );
-    let floor_pct = floor.map_or(f64::NAN, FloorFigures::cpu_pct_at_rate);
+    // The floor's CPU per message at the rate the cluster achieved (a ring below real time
+    // handles fewer frames a second).
+    let floor_us = floor.map_or(f64::NAN, |f| f.paced.cpu_us_per_msg);
     let mut verdicts = Vec::new();
     let nominal = mcc_ring::config::DEFAULT_RATE_HZ;
     for (i, &(c, s)) in sizes.iter().enumerate() {
@@ -314,6 +316,7 @@ fn run_rtf1(sizes: &[(u8, u8)], window: Duration, floor: Option<&FloorFigures>) 
             .iter()
             .filter_map(|k| f.cpu_of(k).map(|(_, x)| x))
             .fold(0.0, f64::max);
+        let floor_pct = floor_us * f.cycles_per_s / 1e4;
         let to_floor = busiest / floor_pct;
         println!(
             "    {:<22} {:>9.0} {:>6.3} {:>22} {:>22} {:>12.1} {:>13.2}",
@@ -326,11 +329,21 @@ fn run_rtf1(sizes: &[(u8, u8)], window: Duration, floor: Option<&FloorFigures>) 
             to_floor
         );
         verdicts.push(format!(
-            "{}: busiest member {busiest:.1} % = {to_floor:.2}× the floor's {floor_pct:.1} % at the \
-             ring rate (target <= {FLOOR_CPU_RATIO}×): {}",
+            "{}: busiest member {busiest:.1} % = {to_floor:.2}× the floor's {floor_pct:.1} % at \
+             {:.0} cycles/s (target <= {FLOOR_CPU_RATIO}×): {}",
             spec.label(),
+            f.cycles_per_s,
             verdict(to_floor <= FLOOR_CPU_RATIO)
         ));
+        if f.cycles_per_s < nominal * 0.99 {
+            verdicts.push(format!(
+                "{}: below real time (rtf {:.3}: {:.0} of {nominal} cycles/s); what would help: \
+                 fewer members, `ring.in_flight` 2, one wake-up per card hop (issue 27)",
+                spec.label(),
+                f.cycles_per_s / nominal,
+                f.cycles_per_s
+            ));
+        }
     }
     for v in verdicts {
         println!("    {v}");
