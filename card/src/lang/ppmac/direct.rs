@@ -139,8 +139,23 @@ pub(super) fn statement(c: &mut Cur<'_>, w: &str) -> Option<P<StmtKind>> {
     match w {
         "cout" => Some(cout(c)),
         "jog" => Some(jog(c)),
+        "jogret" => Some(jogret(c)),
         _ => None,
     }
+}
+
+/// `jogret{list}` (to the pre-jog position), `jogret{list}={data}` (to the position, which
+/// becomes the pre-jog position): the on-line `j=` / `j==` (L42245-42306).
+fn jogret(c: &mut Cur<'_>) -> P<StmtKind> {
+    let l = list(c)?;
+    let mut t = prefix('#', l);
+    t.extend(b"j=");
+    let mut args = Vec::new();
+    if c.eat(b'=') {
+        t.push(b'=');
+        value(c, &mut t, &mut args)?;
+    }
+    Ok(command(t, args))
 }
 
 /// `cout{list}:{data}`: open-loop output, percent (the on-line `out`).
@@ -252,6 +267,8 @@ mod tests {
         assert_eq!(t("jog1..3=*^0"), Some(("#1..3j=*^0".into(), 0)));
         assert_eq!(t("cout1,2,3:-15"), Some(("#1,2,3out-15".into(), 0)));
         assert_eq!(t("homez1,2,3"), Some(("#1,2,3hmz".into(), 0)));
+        assert_eq!(t("jogret1"), Some(("#1j=".into(), 0)));
+        assert_eq!(t("jogret=5000"), Some(("@#j==5000".into(), 0)));
         assert_eq!(t("jog*"), None);
         assert_eq!(t("frob"), None);
     }

@@ -1097,6 +1097,20 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         c.i += 3;
         return jog(c);
     }
+    // `jogret`: back to the pre-jog position; `jogret={data}`: to the position, which becomes
+    // the pre-jog position (seed L912-917).
+    if c.rest().starts_with(b"jogret") && !c.peek_at(6).is_some_and(|d| d.is_ascii_alphanumeric()) {
+        c.i += 6;
+        let kind = if c.eat(b'=') {
+            match signed(c) {
+                Some(v) => crate::domain::ast::JogKind::ToAndSetPreJog(v),
+                None => return err(c.i),
+            }
+        } else {
+            crate::domain::ast::JogKind::PreJog
+        };
+        return Ok(Cmd::Motor(MotorCmd::Jog(kind, None)));
+    }
     // `jog` alone: an indefinite jog at the present velocity (seed L598-599, L36069-36083).
     if c.rest().starts_with(b"jog") && !c.peek_at(3).is_some_and(|d| d.is_ascii_alphanumeric()) {
         c.i += 3;

@@ -294,11 +294,11 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         return err(at);
     };
     // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
-    const GLUED: [&str; 34] = [
+    const GLUED: [&str; 35] = [
         "f", "tm", "ta", "ts", "td", "pvt", "spline", "send", "dwell", "delay", "goto", "gosub",
         "callsub", "call", "circle", "cset", "cclr", "cexe", "cexec", "cskip", "abort", "hold",
         "run", "step", "pause", "resume", "enable", "disable", "kill", "dkill", "home", "homez",
-        "cout", "jog",
+        "cout", "jog", "jogret",
     ];
     if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
         if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
@@ -347,7 +347,7 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "do" => {
             c.ws();
             if !c.eat(b'{') {
-                return err(c.i);
+                return do_line(c, at, out);
             }
             open(blocks, Block::Do, at)?;
             StmtKind::Do
@@ -481,6 +481,38 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         },
     };
     out.push(stmt(kind, at));
+    Ok(())
+}
+
+/// `do {statements} while ({condition})` on one line (seed L40935: `do dwell 50 while (M1 ==
+/// 0);`): the body runs, then again while the condition holds.
+fn do_line(c: &mut Cur<'_>, at: usize, out: &mut Vec<Stmt>) -> P<()> {
+    let mut body = Vec::new();
+    let mut none = Vec::new();
+    loop {
+        c.ws();
+        while c.eat(b';') {
+            c.ws();
+        }
+        let save = c.i;
+        if c.eat_word("while") {
+            if body.is_empty() {
+                return err(save);
+            }
+            break;
+        }
+        if c.at_end() {
+            return err(c.i);
+        }
+        statement(c, &mut none, &mut body)?;
+        if !none.is_empty() {
+            return err(c.i);
+        }
+    }
+    let cond = paren_cond(c)?;
+    out.push(stmt(StmtKind::Do, at));
+    out.extend(body);
+    out.push(stmt(StmtKind::DoWhile(cond), at));
     Ok(())
 }
 

@@ -586,3 +586,39 @@ fn direct_commands_in_a_plc_act_on_listed_or_addressed_motors() {
         .unwrap();
     assert!(p < 2900.0, "aborted before X3: {p}");
 }
+
+/// Seed L912-917: `jogret={data}` jogs to the position and makes it the pre-jog position,
+/// `jogret` returns there.
+#[test]
+fn jogret_returns_to_the_pre_jog_position() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&["Motor[1].InvAmax=0", "#1jogret=800"]);
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=800\r\n");
+    t.load(&["#1j=2000"]);
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=2000\r\n");
+    t.load(&["#1jogret"]);
+    t.run(3000);
+    assert_eq!(t.send("Motor[1].DesPos"), "Motor[1].DesPos=800\r\n");
+}
+
+/// Seed L40935: `do {statement} while ({condition})` on one line.
+#[test]
+fn a_do_while_on_one_line_repeats_its_body() {
+    let mut t = T::new();
+    t.load(&[
+        "open plc 10",
+        "do P60++ while (P60 < 5)",
+        "P61 = P60",
+        "disable plc 10",
+        "close",
+        "enable plc 10",
+    ]);
+    // (A jump back ends a PLC scan, as for the block form: one pass a scan.)
+    t.run(10);
+    assert_eq!(t.send("P60..61"), "P60=5\r\nP61=5\r\n");
+    t.load(&["open plc 11"]);
+    assert!(t.send("do while (P1 < 2)").contains("error #20"));
+}
