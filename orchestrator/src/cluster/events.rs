@@ -149,11 +149,17 @@ impl Watch {
         if let Some(t) = sm {
             if t.below_rtf_ms >= 1000 && !self.below {
                 self.below = true;
+                // Issue 27 item 3: said once, with the rate it reaches and what would help.
                 out.push(format!(
-                    "{PREFIX} clock below the requested real-time factor for {:.1} s: rtf {:.2} of {}",
+                    "{PREFIX} clock below the requested real-time factor for {:.1} s: rtf {:.2} of {} \
+                     ({:.0} of {:.0} cycles/s, {} members); what helps: a less busy machine, fewer \
+                     members, ring.in_flight = 2, real-time priority (chrt -f 10 mcc up)",
                     t.below_rtf_ms as f64 / 1000.0,
                     t.rtf,
-                    t.rtf_requested
+                    t.rtf_requested,
+                    t.rtf * cfg.rate_hz,
+                    cfg.rate_hz * t.rtf_requested,
+                    cfg.ring.order.len()
                 ));
             } else if t.below_rtf_ms == 0 && self.below {
                 self.below = false;
@@ -385,7 +391,9 @@ mod tests {
         assert_eq!(
             w.step(&cfg, &with(1200, false, 0.62)),
             vec![format!(
-                "{PREFIX} clock below the requested real-time factor for 1.2 s: rtf 0.62 of 1"
+                "{PREFIX} clock below the requested real-time factor for 1.2 s: rtf 0.62 of 1 \
+                 (1400 of 2259 cycles/s, 2 members); what helps: a less busy machine, fewer \
+                 members, ring.in_flight = 2, real-time priority (chrt -f 10 mcc up)"
             )]
         );
         assert!(
