@@ -382,11 +382,13 @@ pub(crate) fn write(
                     }
                 }
             }
-            // Held elements depend on aliases (`JogSpeed`, `MaxSpeed`) and on each other.
-            match k.st {
-                St::Motor => project_motor(card, store, k.idx),
-                St::Coord => project_coord(card, store, k.idx),
-                _ => {}
+            // Held elements depend on each other and on two aliases (`JogSpeed`, `MaxSpeed`).
+            if super::units::affects_model(k.st, nm) {
+                match k.st {
+                    St::Motor => project_motor(card, store, k.idx),
+                    St::Coord => project_coord(card, store, k.idx),
+                    _ => {}
+                }
             }
         }
     }

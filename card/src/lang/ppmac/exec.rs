@@ -463,13 +463,14 @@ impl Ctx<'_> {
                 }
             }
             Cmd::PlcCtl(verb, list) => {
+                use crate::domain::ast::PlcVerb;
                 let word = match verb {
-                    parse::PlcCtl::Enable => "ENABLE",
-                    parse::PlcCtl::Disable => "DISABLE",
-                    parse::PlcCtl::Pause => "PAUSE",
-                    parse::PlcCtl::Resume => "RESUME",
+                    PlcVerb::Enable => "ENABLE",
+                    PlcVerb::Disable => "DISABLE",
+                    PlcVerb::Pause => "PAUSE",
+                    _ => "RESUME",
                 };
-                for n in list {
+                for n in list.iter().flat_map(|r| r.first..=r.last) {
                     let line = format!("{word} PLC {n}");
                     let mut s = Session::with_id(0);
                     let r = self.card.command_line(&mut s, line.as_bytes());

@@ -109,18 +109,6 @@ pub(crate) const EXT_ELEM: u16 = 100;
 pub(crate) const ELEM_ADDRESS: u32 = 1;
 
 /// Which variables a command names.
-/// What `enable|disable|pause|resume plc` does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum PlcCtl {
-    /// `enable plc`
-    Enable,
-    /// `disable plc`
-    Disable,
-    /// `pause plc`
-    Pause,
-    /// `resume plc`
-    Resume,
-}
 
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Sel {
@@ -277,7 +265,10 @@ pub(crate) enum Cmd {
     /// `#{list}->`: report the motors' axis definitions (seed L31655-31690).
     AxisQuery(Vec<u16>),
     /// `enable plc n` / `disable plc n` (`true`: enable)
-    PlcCtl(PlcCtl, Vec<u32>),
+    PlcCtl(
+        crate::domain::ast::PlcVerb,
+        Vec<crate::domain::ast::NumRange>,
+    ),
 }
 
 /// What an M-variable definition points at.
@@ -1294,36 +1285,47 @@ fn followed_by(c: &mut Cur<'_>, word: &str) -> bool {
     yes
 }
 
-/// `enable|disable|pause|resume plc {list}` (seed L34500-34506, L34905-34910, L38175-38178):
-/// a list of PLC numbers, `a`, `a,b`, `a..b` and their mixtures (`11,13..16,20`).
+/// `enable|disable|pause|resume plc {list}` (seed L34500-34506, L34905-34910, L38175-38178).
 fn plc_control(c: &mut Cur<'_>, verb: &str) -> P<Cmd> {
     c.ws();
     let _ = c.eat_word("plc");
     c.ws();
+    Ok(Cmd::PlcCtl(plc_verb(verb), plc_list(c)?))
+}
+
+/// The PLC verb of `enable`, `disable`, `pause`, `resume`.
+pub(crate) fn plc_verb(w: &str) -> crate::domain::ast::PlcVerb {
+    use crate::domain::ast::PlcVerb;
+    match w {
+        "enable" => PlcVerb::Enable,
+        "disable" => PlcVerb::Disable,
+        "pause" => PlcVerb::Pause,
+        _ => PlcVerb::Resume,
+    }
+}
+
+/// A list of PLC numbers (0-31), on-line and in programs: `a`, `a,b`, `a..b` and their
+/// mixtures (`11,13..16,20`, seed L34500-34506, L38716-38720); anything else is 21.
+pub(crate) fn plc_list(c: &mut Cur<'_>) -> P<Vec<crate::domain::ast::NumRange>> {
     let mut list = Vec::new();
     loop {
-        let at = c.i;
-        let a = c.uint().ok_or(SyntaxError { at, code: 20 })?;
+        let a = match c.uint() {
+            Some(n) if n <= 31 => n,
+            _ => return Err(SyntaxError { at: c.i, code: 21 }),
+        };
         let b = if c.eat_str("..") {
-            c.uint().ok_or(SyntaxError { at: c.i, code: 20 })?
+            match c.uint() {
+                Some(b) if b <= 31 && b >= a => b,
+                _ => return Err(SyntaxError { at: c.i, code: 21 }),
+            }
         } else {
             a
         };
-        if a > 31 || b > 31 || b < a {
-            return Err(SyntaxError { at, code: 21 });
-        }
-        list.extend(a..=b);
+        list.push(crate::domain::ast::NumRange { first: a, last: b });
         if !c.eat(b',') {
-            break;
+            return Ok(list);
         }
     }
-    let verb = match verb {
-        "enable" => PlcCtl::Enable,
-        "disable" => PlcCtl::Disable,
-        "pause" => PlcCtl::Pause,
-        _ => PlcCtl::Resume,
-    };
-    Ok(Cmd::PlcCtl(verb, list))
 }
 
 fn element_cmd(c: &mut Cur<'_>) -> P<Cmd> {

@@ -8,7 +8,7 @@ use super::catalog;
 use super::parse::{Cur, ElemRef, Fam, SyntaxError, EXT_CFLAGS};
 use crate::domain::ast::{
     AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg,
-    MoveMode, NumRange, PlcControl, PlcVerb, Pos, Stmt, StmtKind, VarIndex, VarKind, VarRef,
+    MoveMode, PlcControl, Pos, Stmt, StmtKind, VarIndex, VarKind, VarRef,
 };
 
 /// Deepest block nesting (seed: conditionals nest 32 levels).
@@ -446,31 +446,8 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             let _ = c.eat_word("plc");
             c.ws();
             // `2,4,6`, `7..10`, `11,13..16,20` (seed L38716-38720, L40797-40801).
-            let mut list = Vec::new();
-            loop {
-                let a = match c.uint() {
-                    Some(n) if n <= 31 => n,
-                    _ => return Err(SyntaxError { at: c.i, code: 21 }),
-                };
-                let b = if c.eat_str("..") {
-                    match c.uint() {
-                        Some(b) if b <= 31 && b >= a => b,
-                        _ => return Err(SyntaxError { at: c.i, code: 21 }),
-                    }
-                } else {
-                    a
-                };
-                list.push(NumRange { first: a, last: b });
-                if !c.eat(b',') {
-                    break;
-                }
-            }
-            let verb = match w.as_str() {
-                "enable" => PlcVerb::Enable,
-                "disable" => PlcVerb::Disable,
-                "pause" => PlcVerb::Pause,
-                _ => PlcVerb::Resume,
-            };
+            let list = super::parse::plc_list(c)?;
+            let verb = super::parse::plc_verb(&w);
             StmtKind::Plc(PlcControl { verb, list })
         }
         // Passing text to the operating system is not something an emulated card does.

@@ -114,6 +114,10 @@ fn setup_elements_read_and_write_in_power_units() {
     assert_eq!(m(&t, 211), 123.25 * 16.0);
     // Kvfb follows Kp: Ixx31 = Kvfb·2^26/(Ixx09·Ixx30).
     assert!((m(&t, 231) / (40.0 * 67_108_864.0 / (96.0 * m(&t, 230))) - 1.0).abs() < 1e-9);
+    // The jog S-curve time follows `JogSpeed` (an alias the conversion reads): 16 units/ms over
+    // JogTa 10 ms at jerk 1/50 is 80 ms (Ixx21 of model motor 2).
+    t.load(&["Motor[1].JogSpeed=16"]);
+    assert_eq!(m(&t, 221), 80.0);
     // A value out of the seed's range is refused and changes nothing.
     assert!(t.send("Motor[1].FatalFeLimit=-1").contains("error #22"));
     assert_eq!(value(&mut t, "Motor[1].FatalFeLimit"), 123.25);

@@ -66,6 +66,12 @@ pub(crate) fn held(st: St, name: &str) -> bool {
     }
 }
 
+/// Whether a write of element `name` of `st` changes the model I-variables computed from the
+/// held elements: a held element, or an alias they are computed from (`JogSpeed`, `MaxSpeed`).
+pub(crate) fn affects_model(st: St, name: &str) -> bool {
+    held(st, name) || (st == St::Motor && matches!(name, "JogSpeed" | "MaxSpeed"))
+}
+
 /// 2^19, 2^23, 2^26 of the gain equations.
 const P19: f64 = 524_288.0;
 const P23: f64 = 8_388_608.0;

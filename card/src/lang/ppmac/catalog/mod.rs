@@ -121,10 +121,21 @@ impl St {
     }
 }
 
-/// The element `name` of structure `st` (case-insensitive): its index in [`DEFS`].
+/// The element `name` of structure `st` (case-insensitive): its index in [`DEFS`]. Looked up
+/// in an index built once (element names are parsed and the held setup elements read on every
+/// write: no scan of the catalogue each time).
 pub(crate) fn find(st: St, name: &str) -> Option<usize> {
-    DEFS.iter()
-        .position(|d| d.st == st && d.name.eq_ignore_ascii_case(name))
+    static INDEX: std::sync::OnceLock<std::collections::HashMap<(St, String), usize>> =
+        std::sync::OnceLock::new();
+    let index = INDEX.get_or_init(|| {
+        let mut m = std::collections::HashMap::with_capacity(DEFS.len());
+        for (k, d) in DEFS.iter().enumerate() {
+            // The first entry of a name wins, as the scan it replaces did.
+            m.entry((d.st, d.name.to_ascii_lowercase())).or_insert(k);
+        }
+        m
+    });
+    index.get(&(st, name.to_ascii_lowercase())).copied()
 }
 
 /// The element of `st` whose legacy I-variable number is `inum`.
