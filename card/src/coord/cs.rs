@@ -536,6 +536,15 @@ impl CoordSystem {
         self.frozen = true;
     }
 
+    /// The abort deceleration ends at once: every motor it was stopping has been killed (no
+    /// motor follows it any more, so the C.S. has no motion pending).
+    pub fn end_abort_of_killed(&mut self) {
+        if self.abort.is_some() {
+            self.abort = None;
+            self.vel.iter_mut().for_each(|v| *v = 0.0);
+        }
+    }
+
     /// `H` feed hold.
     pub fn hold(&mut self) {
         self.tb.hold();

@@ -1,6 +1,6 @@
 //! The card's discrete hardware inputs that stop motion (issue 23 item 3): a typed input of
 //! the card core, pure — the ring application sets and clears it with the ring cycle, the
-//! core looks at it once per servo tick ([`CardInputs::before_tick`], [`CardInputs::after_tick`]).
+//! core looks at it once per servo tick ([`CardInputs::before_tick`]).
 //!
 //! PMAC2 and Turbo (seed 004): the control-panel port (JPAN) inputs, Y:$FFC0 bit 13 STOP/
 //! (Stop/Abort, J2-10, `M25`) and bit 15 HOLD/ (Feed Hold, J2-12, `M27`), active when I2 = 0
@@ -27,7 +27,6 @@
 use crate::domain::Profile;
 use crate::lang::ppmac::abort_all;
 use crate::model::{Action, ActionKind, CardModel};
-use crate::motion::motor::Motor;
 
 /// A hardware input the card has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -86,8 +85,6 @@ pub struct CardInputs {
     abort_count: u32,
     /// Power: the card has acted on the present activation of the global abort input.
     abort_fired: bool,
-    /// Power mode 2: motors (1-based) to kill once their commanded velocity is zero.
-    kill_when_stopped: Vec<u16>,
 }
 
 impl CardInputs {
@@ -219,7 +216,12 @@ impl CardInputs {
                         }
                     }
                     if mode == 2 {
-                        self.kill_when_stopped.extend(&members);
+                        // Killed by the servo loop once their deceleration is over.
+                        for &m in &members {
+                            if let Some(r) = card.run.motors.get_mut(usize::from(m.max(1) - 1)) {
+                                r.disable_at_rest = true;
+                            }
+                        }
                     }
                 }
                 1 => {
@@ -242,28 +244,6 @@ impl CardInputs {
                 _ => {}
             }
         }
-    }
-
-    /// After the servo tick: Power mode 2 kills each aborted motor once its commanded
-    /// deceleration is over (the kill is applied at the next tick).
-    pub fn after_tick(&mut self, card: &mut CardModel, motors: &[Motor]) {
-        self.kill_when_stopped.retain(|&m| {
-            let Some(mo) = motors.get(usize::from(m.max(1) - 1)) else {
-                return false;
-            };
-            if !mo.closed_loop() {
-                return false;
-            }
-            let stopped = !mo.flags.abort_decel && mo.trajectory().finished();
-            if stopped {
-                card.push_action(Action {
-                    motor: m,
-                    coord: 0,
-                    kind: ActionKind::Kill,
-                });
-            }
-            !stopped
-        });
     }
 
     /// The inputs for the card's status entry (`mcc status --json` members[].extra.inputs).

@@ -469,8 +469,6 @@ impl CardCore {
             let (model, mut cmds) = self.card.split();
             self.servo.tick(model, &mut cmds, cycle);
         }
-        self.inputs
-            .after_tick(&mut self.card.model, &self.servo.motors);
         self.collect_detached();
     }
 }

@@ -909,8 +909,8 @@ pub enum StmtKind {
     Return,
     /// `GOTO{data}`
     Goto(Expr),
-    /// `GOSUB{data}`
-    Gosub(Expr),
+    /// `GOSUB{data}`; Power `gosub{data} [args]` (seed 000 L41477).
+    Gosub(Expr, Vec<LetterArg>),
     /// `CALL{data} [args]`
     Call(Expr, Vec<LetterArg>),
     /// `G/M/T/D{data} [args]`
@@ -993,7 +993,7 @@ pub enum StmtKind {
     /// End of a switch block.
     EndSwitch,
     /// `callsub{data}`: a subroutine call in the same program that passes the local stack.
-    CallSub(Expr),
+    CallSub(Expr, Vec<LetterArg>),
     /// `N{n}` without a colon: a synchronous line label (reported, not a jump target).
     SyncLabel(u32),
     /// Power `spline{data}`: SPLINE mode with its own segment time (ms), apart from TA.

@@ -66,14 +66,12 @@ pub(crate) fn word_count(s: &Stmt) -> u32 {
         S::SendFormat { text, args, .. } | S::CommandFormat { text, args } => {
             text_words(text.len()) + args.iter().map(expr_words).sum::<u32>()
         }
-        S::CutterRadius(d) | S::Goto(d) | S::Gosub(d) | S::Spindle(d) | S::CallSub(d) => {
-            1 + expr_words(d)
-        }
+        S::CutterRadius(d) | S::Goto(d) | S::Spindle(d) => 1 + expr_words(d),
         S::Switch(d) => 1 + expr_words(d),
         S::If(c) | S::While(c) | S::AndCond(c) | S::OrCond(c) | S::DoWhile(c) => 1 + cond_words(c),
         S::IfLine(c, b) | S::WhileLine(c, b) => 1 + cond_words(c) + body(b),
         S::Else(b) => 1 + body(b),
-        S::Call(d, a) | S::Code(_, d, a) => {
+        S::Call(d, a) | S::Code(_, d, a) | S::Gosub(d, a) | S::CallSub(d, a) => {
             1 + expr_words(d) + a.iter().map(|x| 1 + expr_words(&x.value)).sum::<u32>()
         }
         S::Command(Message::Text(t)) | S::Send(_, Message::Text(t)) => text_words(t.len()),

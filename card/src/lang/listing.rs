@@ -263,7 +263,7 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         | S::Case(_)
         | S::Default
         | S::EndSwitch
-        | S::CallSub(_)
+        | S::CallSub(..)
         | S::SyncLabel(_) => "?".into(),
         S::Assign { target, op, value } => {
             let o = match op {
@@ -338,7 +338,7 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         S::Stop => "STOP".into(),
         S::Return => kw("RETURN", "RET").into(),
         S::Goto(d) => format!("GOTO{}", data(d)),
-        S::Gosub(d) => format!("GOSUB{}", data(d)),
+        S::Gosub(d, a) => format!("GOSUB{}{}", data(d), args(a)),
         S::Call(d, a) => format!("CALL{}{}", data(d), args(a)),
         S::Code(l, d, a) => format!("{}{}{}", code_letter(*l), data(d), args(a)),
         S::Read(l) => format!(

@@ -464,7 +464,7 @@ fn keyword(c: &mut Cursor, sk: Sk, kind: BufferKind) -> Result<Option<StmtKind>,
         Sk::Stop => StmtKind::Stop,
         Sk::Return => StmtKind::Return,
         Sk::Goto => StmtKind::Goto(data(c)?),
-        Sk::Gosub => StmtKind::Gosub(data(c)?),
+        Sk::Gosub => StmtKind::Gosub(data(c)?, Vec::new()),
         Sk::Call => {
             let target = data(c)?;
             StmtKind::Call(target, letter_args(c)?)
@@ -620,7 +620,7 @@ pub(crate) fn allowed(s: &StmtKind, kind: BufferKind) -> bool {
             }
         }
         S::AndCond(_) | S::OrCond(_) => plc,
-        S::Goto(_) | S::Gosub(_) | S::Read(_) | S::Return | S::Stop => prog,
+        S::Goto(_) | S::Gosub(..) | S::Read(_) | S::Return | S::Stop => prog,
         S::Address { .. } => bg_plc,
         S::MacroAuxRead { .. }
         | S::MacroAuxWrite { .. }

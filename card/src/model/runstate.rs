@@ -38,6 +38,9 @@ pub struct CsRun {
 pub struct MotorRun {
     /// A jog/home move was commanded and not stopped (for ERR011).
     pub moving: bool,
+    /// Disable (kill) the motor once its commanded stop is over (Power `adisable`, the
+    /// global abort input in `Coord[x].AbortAllMode` 2): the servo loop acts on it.
+    pub disable_at_rest: bool,
 }
 
 /// PLC enable/pause flags.
@@ -66,6 +69,8 @@ pub struct RunState {
     /// Per PLC: word offset of the line its next scan executes first (`LIST PLC n,`), as the
     /// PLC runner last left it.
     pub plc_next: Vec<u32>,
+    /// PLCs (bit n = PLC n) asked to run one program line and pause (Power `step plc`).
+    pub plc_step: u32,
 }
 
 impl RunState {
@@ -90,6 +95,7 @@ impl RunState {
             ],
             report: vec![(0.0, 0.0, 0.0); motors as usize],
             plc_next: vec![0; plcs],
+            plc_step: 0,
         }
     }
 

@@ -161,6 +161,16 @@ impl ProgramEngine {
         let mut res = vec![None; motors.len()];
         for x in &mut self.cs {
             x.sync_axes(card, motors);
+            if let Some(c) = &mut x.cs {
+                let killed = |m: &u16| {
+                    motors
+                        .get(usize::from(*m).wrapping_sub(1))
+                        .is_none_or(|mo| !mo.closed_loop())
+                };
+                if !c.motors().is_empty() && c.motors().iter().all(killed) {
+                    c.end_abort_of_killed();
+                }
+            }
             let ticked = x.tick(card);
             // `?` word 1 bit 15 "dwell in progress" on every motor of the C.S. (seed 6820).
             if let Some(c) = &x.cs {

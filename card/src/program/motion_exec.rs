@@ -254,8 +254,8 @@ impl CsExec {
                 }
             }
             S::SyncLabel(_) => Flow::Next,
-            S::Gosub(e) | S::CallSub(e) => {
-                let Ok(v) = env::value(card, num, e) else {
+            S::Gosub(e, args) | S::CallSub(e, args) => {
+                let (Ok(v), Ok(a)) = (env::value(card, num, e), self.args(card, args)) else {
                     self.runtime_error(card, rte::VARIABLE, false);
                     return Flow::Error;
                 };
@@ -273,7 +273,7 @@ impl CsExec {
                         key,
                         code,
                         pc: t,
-                        args: Vec::new(),
+                        args: a,
                         prelude: false,
                     },
                 );

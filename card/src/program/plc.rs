@@ -68,12 +68,19 @@ impl Default for PlcRunner {
     }
 }
 
+/// PLC `n` exists, is enabled and was asked to run one line (`step plc`).
+fn stepping(card: &CardModel, n: u8) -> bool {
+    card.run.plc_step & (1u32 << n) != 0
+        && card.bufs.plcs.contains_key(&n)
+        && card.run.plc.get(usize::from(n)).is_some_and(|p| p.enabled)
+}
+
 impl PlcRunner {
     /// One scan of PLC 0 if I5 bit 0 allows it.
     pub fn foreground(&mut self, card: &mut CardModel, cmd: &mut dyn Commands, out: &mut Vec<u8>) {
         let i5 = env::ivar(card, 5, 0.0) as i64;
         self.track(card, 0);
-        if i5 & 1 != 0 && card.plc_active(0) {
+        if i5 & 1 != 0 && (card.plc_active(0) || stepping(card, 0)) {
             self.scan(card, cmd, 0, out);
         }
     }
@@ -83,7 +90,7 @@ impl PlcRunner {
         let i5 = env::ivar(card, 5, 0.0) as i64;
         for n in 1..32u8 {
             self.track(card, n);
-            if i5 & 2 != 0 && card.plc_active(n) {
+            if i5 & 2 != 0 && (card.plc_active(n) || stepping(card, n)) {
                 self.scan(card, cmd, n, out);
             }
         }
@@ -143,6 +150,10 @@ impl PlcRunner {
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         let mut pc = self.plcs[k].pc;
         let mut ops = 0;
+        // `step plc`: one program line, then the PLC stays paused.
+        let step = stepping(card, n);
+        card.run.plc_step &= !(1u32 << n);
+        let mut step_line = None;
         loop {
             let code = self.plcs[k]
                 .calls
@@ -165,6 +176,13 @@ impl PlcRunner {
             ops += 1;
             if ops > PLC_SCAN_BUDGET {
                 break;
+            }
+            if step {
+                match step_line {
+                    None => step_line = Some((instr.line, Arc::as_ptr(&code))),
+                    Some(l) if l != (instr.line, Arc::as_ptr(&code)) => break,
+                    Some(_) => {}
+                }
             }
             let st = &self.plcs[k];
             let (motor, coord) = (st.motor, st.coord);
@@ -303,11 +321,18 @@ impl PlcRunner {
                 }
                 return CallFlow::Jump(pc + 1);
             }
-            StmtKind::Gosub(e) | StmtKind::CallSub(e) => {
+            StmtKind::Gosub(e, a) | StmtKind::CallSub(e, a) => {
                 let Ok(v) = env::value(card, coord, e) else {
                     return CallFlow::Stop;
                 };
-                (None, (super::motion::label_number(v), Vec::new()))
+                let mut args = Vec::with_capacity(a.len());
+                for x in a {
+                    match env::value(card, coord, &x.value) {
+                        Ok(y) => args.push((x.letter, y)),
+                        Err(_) => return CallFlow::Stop,
+                    }
+                }
+                (None, (super::motion::label_number(v), args))
             }
             StmtKind::Call(e, a) | StmtKind::Code(_, e, a) => {
                 let Ok(v) = env::value(card, coord, e) else {

@@ -88,6 +88,23 @@ pub(super) fn apply_action(
     }
 }
 
+/// Motors marked to be disabled once their commanded stop is over (`MotorRun::
+/// disable_at_rest`): killed in the first tick that finds them stopped; a motor that is no
+/// longer closed-loop (killed, tripped, open loop) drops the mark.
+pub(super) fn disable_at_rest(card: &mut CardModel, motors: &mut [Motor]) {
+    for (run, m) in card.run.motors.iter_mut().zip(motors.iter_mut()) {
+        if !run.disable_at_rest {
+            continue;
+        }
+        if !m.closed_loop() {
+            run.disable_at_rest = false;
+        } else if !m.flags.abort_decel && m.trajectory().finished() {
+            m.kill();
+            run.disable_at_rest = false;
+        }
+    }
+}
+
 /// Apply the program engine's motor changes (target registers, position bias). Targets come
 /// in the axis frame; the register holds motor counts.
 pub(super) fn apply_updates(engine: &mut ProgramEngine, motors: &mut [Motor]) {

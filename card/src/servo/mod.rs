@@ -138,6 +138,7 @@ impl Servo {
             actions::apply_action(card, &mut self.motors, &self.params, &mut self.engine, &a);
         }
         actions::apply_updates(&mut self.engine, &mut self.motors);
+        actions::disable_at_rest(card, &mut self.motors);
         let ring_fault = card.state.global.ring_fault;
         if ring_fault {
             if !self.ring_fault_seen {

@@ -197,7 +197,9 @@ impl Pmac<'_> {
                     return Err(3);
                 }
                 let prog = v.trunc() as u32;
-                let label = ((v - v.trunc()) * 100_000.0).round() as u32;
+                // N(frac × 100,000); Power: × 1,000,000 (seed 000 L39693-39697).
+                let scale = self.model.state.limits().sem.call_label_scale;
+                let label = ((v - v.trunc()) * scale).round() as u32;
                 self.model.run.cs[csk].pointer = Some((prog, label));
                 let r = &mut self.model.run.cs[csk];
                 (r.pc_text, r.pe_text, r.pc_at, r.pe_at) = (None, None, None, None);

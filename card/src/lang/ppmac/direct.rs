@@ -113,6 +113,9 @@ pub(super) fn statement(c: &mut Cur<'_>, w: &str) -> Option<P<StmtKind>> {
         "resume" => Some(" resume"),
         "enable" => Some(" enable"),
         "disable" => Some(" disable"),
+        "adisable" => Some(" adisable"),
+        "ddisable" => Some(" ddisable"),
+        "stop" => Some(" stop"),
         _ => None,
     };
     if let Some(cmd) = cs {
@@ -137,11 +140,49 @@ pub(super) fn statement(c: &mut Cur<'_>, w: &str) -> Option<P<StmtKind>> {
         }));
     }
     match w {
+        "begin" => Some(begin(c, false)),
+        "start" => Some(begin(c, true)),
+        "lh" => Some(look_ahead(c)),
         "cout" => Some(cout(c)),
         "jog" => Some(jog(c)),
         "jogret" => Some(jogret(c)),
         _ => None,
     }
+}
+
+/// `begin{list}:{data}` / `start{list}:{data}` (L39658-39702, L44040-44069): the on-line
+/// `b{data}` (and `r`); without `:{data}` the program the C.S. points at (`start`) or its top.
+fn begin(c: &mut Cur<'_>, run: bool) -> P<StmtKind> {
+    let l = list(c)?;
+    let mut t = prefix('&', l);
+    let mut args = Vec::new();
+    c.ws();
+    if c.eat(b':') {
+        t.push(b'b');
+        value(c, &mut t, &mut args)?;
+        if run {
+            t.push(b'r');
+        }
+    } else if run {
+        t.extend(b" start");
+    } else {
+        return err(c.i);
+    }
+    Ok(command(t, args))
+}
+
+/// `lh\{list}`, `lh<{list}`, `lh>{list}` (L42511-42674): the look-ahead quick stop, backward
+/// and forward.
+fn look_ahead(c: &mut Cur<'_>) -> P<StmtKind> {
+    let Some(k) = c.peek().filter(|k| matches!(k, b'\\' | b'<' | b'>')) else {
+        return err(c.i);
+    };
+    c.i += 1;
+    let l = list(c)?;
+    let mut t = prefix('&', l);
+    t.extend(b" lh");
+    t.push(k);
+    Ok(command(t, Vec::new()))
 }
 
 /// `jogret{list}` (to the pre-jog position), `jogret{list}={data}` (to the position, which
@@ -269,6 +310,16 @@ mod tests {
         assert_eq!(t("homez1,2,3"), Some(("#1,2,3hmz".into(), 0)));
         assert_eq!(t("jogret1"), Some(("#1j=".into(), 0)));
         assert_eq!(t("jogret=5000"), Some(("@#j==5000".into(), 0)));
+        assert_eq!(t("adisable3,5..7"), Some(("&3,5..7 adisable".into(), 0)));
+        assert_eq!(t("ddisable"), Some(("@& ddisable".into(), 0)));
+        assert_eq!(t("stop 1..16"), Some(("&1..16 stop".into(), 0)));
+        assert_eq!(t("begin:2"), Some(("@&b2".into(), 0)));
+        assert_eq!(t("start3:75.001"), Some(("&3b75.001r".into(), 0)));
+        assert_eq!(t("start8:(P1+P2/1000000)"), Some(("&8b%.15gr".into(), 1)));
+        assert_eq!(t("start"), Some(("@& start".into(), 0)));
+        assert_eq!(t("lh\\1"), Some(("&1 lh\\".into(), 0)));
+        assert_eq!(t("lh<"), Some(("@& lh<".into(), 0)));
+        assert_eq!(t("begin"), None, "begin needs a program");
         assert_eq!(t("jog*"), None);
         assert_eq!(t("frob"), None);
     }

@@ -479,6 +479,20 @@ impl Ctx<'_> {
                     }
                 }
             }
+            Cmd::PlcStep(list) => {
+                // A PLC that does not exist is passed over without an error (L39016-39017).
+                for n in list.iter().flat_map(|r| r.first..=r.last) {
+                    let m = &mut self.card.model;
+                    if !m.bufs.plcs.contains_key(&(n as u8)) {
+                        continue;
+                    }
+                    if let Some(p) = m.run.plc.get_mut(n as usize) {
+                        p.enabled = true;
+                        p.paused = true;
+                        m.run.plc_step |= 1 << n;
+                    }
+                }
+            }
             Cmd::Motors(..) | Cmd::Coords(..) | Cmd::Motor(_) | Cmd::Cs(_) => {}
         }
         Ok(())
@@ -798,6 +812,69 @@ impl Ctx<'_> {
                     }
                     CmdKind::OverrideSet(v.max(0.0))
                 }
+                CsCmd::ADisable => {
+                    // The abort, then each motor disabled once its stop is over.
+                    report.extend(self.pmac(motor, x, &CmdKind::Abort)?);
+                    for m in self.card.model.run.motors_in(x + 1) {
+                        if let Some(r) = self.card.model.run.motors.get_mut(usize::from(m - 1)) {
+                            r.disable_at_rest = true;
+                        }
+                    }
+                    continue;
+                }
+                CsCmd::DDisable => {
+                    // [DECISION] no brake output is modelled (`Motor[x].pBrakeOut` 0): the
+                    // delayed disable is immediate, as the seed gives it without a brake.
+                    report.extend(self.pmac(motor, x, &CmdKind::Abort)?);
+                    for m in self.card.model.run.motors_in(x + 1) {
+                        report.extend(self.pmac(m - 1, x, &CmdKind::Kill)?);
+                    }
+                    continue;
+                }
+                CsCmd::Stop => {
+                    // Calculation stops (the moves already calculated finish); the program
+                    // counter goes back to the top of the program.
+                    report.extend(self.pmac(motor, x, &CmdKind::Quit)?);
+                    let prog = self
+                        .card
+                        .model
+                        .run
+                        .cs
+                        .get(usize::from(x))
+                        .and_then(|r| r.pointer)
+                        .map(|(p, _)| p);
+                    if let Some(p) = prog {
+                        let b = CmdKind::Begin(crate::domain::ast::Number::dec(f64::from(p)));
+                        report.extend(self.pmac(motor, x, &b)?);
+                    }
+                    continue;
+                }
+                CsCmd::Start(n) => {
+                    let prog = n.or_else(|| {
+                        self.card
+                            .model
+                            .run
+                            .cs
+                            .get(usize::from(x))
+                            .and_then(|r| r.pointer)
+                            .map(|(p, _)| f64::from(p))
+                    });
+                    let Some(prog) = prog else {
+                        return Err(25);
+                    };
+                    if prog.fract() != 0.0 {
+                        return Err(21);
+                    }
+                    let b = CmdKind::Begin(crate::domain::ast::Number::dec(prog));
+                    report.extend(self.pmac(motor, x, &b)?);
+                    CmdKind::Run
+                }
+                // [DECISION] The engine keeps no look-ahead buffer to plan a minimum-time
+                // stop along the path: `lh\` is a feed hold (`Coord[x].FeedHoldSlew`), after
+                // which jogs and `lh>`/`r` work as after `h`; `lh<` holds as `<` does.
+                CsCmd::LhStop => CmdKind::Hold,
+                CsCmd::LhBack => CmdKind::BackUp,
+                CsCmd::LhForward => CmdKind::Resume,
                 CsCmd::Servo(on) => {
                     // Every motor assigned to an axis of the C.S.: `$` (closed loop at its
                     // position) or a kill (open loop, amplifier off).

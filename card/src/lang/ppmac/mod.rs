@@ -74,6 +74,8 @@ mod tests_rotary;
 #[cfg(test)]
 mod tests_status;
 #[cfg(test)]
+mod tests_stops;
+#[cfg(test)]
 mod tests_units;
 
 use std::collections::HashMap;
@@ -570,7 +572,7 @@ impl Power {
             && p.items.iter().any(|it| {
                 matches!(
                     it.cmd,
-                    parse::Cmd::Cs(parse::CsCmd::Run | parse::CsCmd::Step)
+                    parse::Cmd::Cs(parse::CsCmd::Run | parse::CsCmd::Step | parse::CsCmd::Start(_))
                 )
             })
     }

@@ -96,8 +96,8 @@ fn is_motion(k: &StmtKind) -> bool {
         | StmtKind::HomeZ(_)
         | StmtKind::Code(..)
         | StmtKind::Call(..)
-        | StmtKind::Gosub(_)
-        | StmtKind::CallSub(_)
+        | StmtKind::Gosub(..)
+        | StmtKind::CallSub(..)
         | StmtKind::Goto(_)
         | StmtKind::Read(_) => true,
         StmtKind::IfLine(_, b) | StmtKind::WhileLine(_, b) => b.iter().any(|s| is_motion(&s.kind)),

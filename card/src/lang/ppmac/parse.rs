@@ -208,6 +208,23 @@ pub(crate) enum CsCmd {
     /// `enable` / `disable` after `&` (no `plc`): every motor assigned to an axis of the
     /// C.S. closed-loop enabled / disabled (seed L412-416).
     Servo(bool),
+    /// `adisable`: abort, then each motor disabled once its commanded stop is over (seed
+    /// L33233-33264; the global abort of `Coord[x].AbortAllMode` = 2).
+    ADisable,
+    /// `ddisable`: the program stopped and every motor of the C.S. disabled (a `dkill` of
+    /// each, seed L34204, L40610-40654).
+    DDisable,
+    /// `stop`: calculation stops after the moves already calculated and the program counter
+    /// goes back to the top of the program (seed L445-446, L44192-44205).
+    Stop,
+    /// `start[{n}]`: `b[{n}]r` (seed L448-449, L38930-38948).
+    Start(Option<f64>),
+    /// `lh\`: quick stop in the look-ahead buffer (seed L966-967, L42511-42560).
+    LhStop,
+    /// `lh<`: move backward along the look-ahead buffer's path (seed L969).
+    LhBack,
+    /// `lh>`: move forward along it again (seed L971).
+    LhForward,
 }
 
 /// What `&x p|d|f|v` reports of each axis.
@@ -269,6 +286,9 @@ pub(crate) enum Cmd {
         crate::domain::ast::PlcVerb,
         Vec<crate::domain::ast::NumRange>,
     ),
+    /// `step plc {list}`: each PLC runs one program line, then stays paused (seed
+    /// L38993-39025).
+    PlcStep(Vec<crate::domain::ast::NumRange>),
 }
 
 /// What an M-variable definition points at.
@@ -1110,9 +1130,22 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
             None,
         )));
     }
+    // `lh\`, `lh<`, `lh>`: the look-ahead stop, backward and forward commands.
+    if c.rest().starts_with(b"lh") {
+        let k = match c.peek_at(2) {
+            Some(b'\\') => Some(CsCmd::LhStop),
+            Some(b'<') => Some(CsCmd::LhBack),
+            Some(b'>') => Some(CsCmd::LhForward),
+            _ => None,
+        };
+        if let Some(k) = k {
+            c.i += 3;
+            return Ok(Cmd::Cs(k));
+        }
+    }
     let mut w = c.word().unwrap_or_default();
-    // Commands that take a number glued on (`echo7`, `b10`, `out5`).
-    for kw in ["echo", "out", "begin", "b"] {
+    // Commands that take a number glued on (`echo7`, `b10`, `out5`, `start2`).
+    for kw in ["echo", "out", "begin", "start", "b"] {
         let tail = w.as_bytes().get(kw.len()..).unwrap_or_default();
         // `b1r` / `b1s`: a program start glued on (`&1b1r`).
         let digits = match tail.last() {
@@ -1156,6 +1189,12 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
             }
         }
         "r" | "run" => cs(CsCmd::Run),
+        "step" if followed_by(c, "plc") => {
+            c.ws();
+            let _ = c.eat_word("plc");
+            c.ws();
+            Ok(Cmd::PlcStep(plc_list(c)?))
+        }
         "s" | "step" => cs(CsCmd::Step),
         "pause" | "resume" if followed_by(c, "plc") => plc_control(c, &w),
         "q" | "pause" => cs(CsCmd::Quit),
@@ -1166,6 +1205,18 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "b" | "begin" => {
             c.ws();
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
+        }
+        "adisable" => cs(CsCmd::ADisable),
+        "ddisable" => cs(CsCmd::DDisable),
+        "stop" => cs(CsCmd::Stop),
+        "start" => {
+            let save = c.i;
+            c.ws();
+            let n = c.number();
+            if n.is_none() {
+                c.i = save;
+            }
+            cs(CsCmd::Start(n))
         }
         "enable" | "disable" if followed_by(c, "plc") => plc_control(c, &w),
         "enable" | "disable" if followed_by(c, "bgcplc") => {

@@ -294,11 +294,11 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         return err(at);
     };
     // A number glued to its keyword (`tm200`, `F5`, `dwell50`, `call1000.01`).
-    const GLUED: [&str; 35] = [
+    const GLUED: [&str; 40] = [
         "f", "tm", "ta", "ts", "td", "pvt", "spline", "send", "dwell", "delay", "goto", "gosub",
         "callsub", "call", "circle", "cset", "cclr", "cexe", "cexec", "cskip", "abort", "hold",
         "run", "step", "pause", "resume", "enable", "disable", "kill", "dkill", "home", "homez",
-        "cout", "jog", "jogret",
+        "cout", "jog", "jogret", "adisable", "ddisable", "stop", "begin", "start",
     ];
     if let Some(k) = w.find(|ch: char| ch.is_ascii_digit()) {
         if k > 0 && GLUED.contains(&&w[..k]) && w[k..].bytes().all(|b| b.is_ascii_digit()) {
@@ -391,10 +391,16 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "break" => StmtKind::Break,
         "continue" => StmtKind::Continue,
         "return" => StmtKind::Return,
-        "stop" => StmtKind::Stop,
         "goto" => StmtKind::Goto(data(c)?),
-        "gosub" => StmtKind::Gosub(data(c)?),
-        "callsub" => StmtKind::CallSub(data(c)?),
+        // `gosub 5000 E5`, `callsub 5000 E5` (L39964, L41477): letter arguments for `read`.
+        "gosub" => {
+            let target = data(c)?;
+            StmtKind::Gosub(target, letter_args(c)?)
+        }
+        "callsub" => {
+            let target = data(c)?;
+            StmtKind::CallSub(target, letter_args(c)?)
+        }
         "call" => {
             let target = data(c)?;
             StmtKind::Call(target, letter_args(c)?)
@@ -433,6 +439,29 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "ts" => StmtKind::Ts(data(c)?),
         "dwell" => StmtKind::Dwell(data(c)?),
         "delay" => StmtKind::Delay(data(c)?),
+        // `lhpurge` (seed L42676-42698): the look-ahead buffer emptied, which pauses the
+        // commanded motion as a `dwell 0` does (this engine calculates no further ahead).
+        "lhpurge" => StmtKind::Dwell(Expr::num(0.0)),
+        // `step plc {list}` (seed L38993-39025): run as the on-line command.
+        "step"
+            if {
+                let save = c.i;
+                c.ws();
+                let plc = c.eat_word("plc");
+                c.i = save;
+                plc
+            } =>
+        {
+            c.ws();
+            let _ = c.eat_word("plc");
+            c.ws();
+            let rest = c.rest();
+            let from = c.i;
+            super::parse::plc_list(c)?;
+            let mut text = b"step plc ".to_vec();
+            text.extend_from_slice(&rest[..c.i - from]);
+            StmtKind::Command(crate::domain::ast::Message::Text(text))
+        }
         "enable" | "disable" | "pause" | "resume"
             if {
                 let save = c.i;
