@@ -29,6 +29,7 @@ mod mptr;
 mod mvars;
 mod oneline;
 mod parse;
+mod preproc;
 mod program;
 pub(crate) mod progvars;
 mod rotary;
@@ -67,6 +68,8 @@ mod tests_kin;
 mod tests_moves;
 #[cfg(test)]
 mod tests_mvars;
+#[cfg(test)]
+mod tests_preproc;
 #[cfg(test)]
 mod tests_programs;
 #[cfg(test)]
@@ -241,6 +244,8 @@ pub struct Power {
     host: bool,
     /// The effect of the host line running, for its caller to perform.
     wait: Option<PowerWait>,
+    /// `#define`s and PLC identifiers.
+    pre: preproc::Preproc,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -268,6 +273,27 @@ impl Power {
 
     /// Execute one command line of connection `conn` on `card`: the bytes to send back.
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
+        let plcs = &card.model.bufs.plcs;
+        let expanded;
+        let line = match self.pre.line(line, &|n| plcs.contains_key(&(n as u8))) {
+            preproc::Pre::Same => line,
+            preproc::Pre::Text(t) => {
+                expanded = t;
+                &expanded[..]
+            }
+            done => {
+                // A directive is taken (ACK); a bad one is refused in Power's terms.
+                let mut th = self.take_thread(conn);
+                th.lines += 1;
+                let e = match done {
+                    preproc::Pre::Error(code) => Some(parse::SyntaxError { at: 0, code }),
+                    _ => None,
+                };
+                let out = exec::frame(&th, line, e);
+                self.threads.insert(conn, (th, self.clock));
+                return out;
+            }
+        };
         let mut th = self.take_thread(conn);
         let mut cmds = Vec::new();
         let out = if let Some(out) = self.rotary_command(card, conn, &mut th, line) {
@@ -345,6 +371,9 @@ impl Power {
         line: &[u8],
     ) -> Option<Vec<u8>> {
         let text = String::from_utf8_lossy(line).trim().to_ascii_lowercase();
+        if text == "$$$***" {
+            self.pre.clear();
+        }
         let pmac: &[u8] = match text.as_str() {
             "$$$" => b"$$$",
             "$$$***" => b"$$$***",
