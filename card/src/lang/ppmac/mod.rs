@@ -423,6 +423,22 @@ impl Power {
                 let r = self.open_buffer(card, conn, kind, &n.concat());
                 return Some(exec::frame(th, line, r.err()));
             }
+            // `clear prog|plc|subprog n` (seed L33625-33656): `open … close`, which deletes
+            // the buffer; refused as `open` is (a running program, an enabled PLC: #26).
+            ["clear", kind @ ("prog" | "plc" | "subprog"), n]
+                if n.bytes().all(|b| b.is_ascii_digit()) =>
+            {
+                th.lines += 1;
+                let r = self
+                    .open_buffer(card, conn, kind, n)
+                    .and_then(|()| self.close(card));
+                return Some(exec::frame(th, line, r.err()));
+            }
+            ["clear", "all", "buffers"] => {
+                th.lines += 1;
+                let r = self.clear_all(card);
+                return Some(exec::frame(th, line, r.err()));
+            }
             ["close"] | ["close", "all", "buffers"] => {
                 th.lines += 1;
                 let r = if self.open.is_some() {
@@ -475,6 +491,49 @@ impl Power {
                 exec::frame(th, line, Some(e))
             }
         })
+    }
+
+    /// `clear all buffers` (seed L33605-33623): every motion program, subprogram, PLC and
+    /// kinematic routine deleted and every rotary buffer emptied (its structure kept). Every
+    /// program must be stopped, no buffer open, no PLC enabled (#26 / #21 otherwise).
+    fn clear_all(&mut self, card: &mut Card) -> Result<(), parse::SyntaxError> {
+        let bad = |code| parse::SyntaxError { at: 0, code };
+        if self.open.is_some() || self.rot.is_some() {
+            return Err(bad(21));
+        }
+        let m = &card.model;
+        let busy = m
+            .state
+            .coords
+            .iter()
+            .zip(&m.run.cs)
+            .any(|(c, r)| c.running || c.moves_pending || r.stop_point.is_some());
+        let plc_on = m.bufs.plcs.keys().any(|&k| {
+            m.run
+                .plc
+                .get(usize::from(k))
+                .is_some_and(|r| r.enabled || r.paused)
+        });
+        if busy || plc_on {
+            return Err(bad(26));
+        }
+        let ids: Vec<BufId> = m
+            .bufs
+            .progs
+            .keys()
+            .map(|&n| BufId::Prog(n))
+            .chain(m.bufs.plcs.keys().map(|&n| BufId::Plc(n)))
+            .collect();
+        let rotaries: Vec<u8> = m.bufs.rotary.keys().copied().collect();
+        for id in ids {
+            card.model.bufs.remove(id);
+            progvars::with(card, |_, pv| pv.sources.remove(&id));
+        }
+        for cs in rotaries {
+            card.model.bufs.clear(BufId::Rot, cs);
+        }
+        progvars::with(card, |_, pv| pv.kin.clear());
+        Ok(())
     }
 
     fn open_buffer(

@@ -2,7 +2,7 @@
 //! `ddisable` (L34204, L40610-40659), `stop` (L445-446, L44192-44225), `start`/`begin` with
 //! labels × 1,000,000 (L38930-38948, L39658-39702, L44040-44069), the look-ahead commands
 //! `lh\` `lh<` `lh>` `lhpurge` (L966-971, L42511-42715), `step plc` (L38993-39025) and
-//! `callsub`/`gosub` arguments (L39940-39964, L41477).
+//! `callsub`/`gosub` arguments (L39940-39964, L41477), `clear` of buffers (L33605-33656).
 
 use super::tests_programs::T;
 
@@ -274,4 +274,57 @@ fn callsub_and_gosub_pass_letter_arguments_to_read() {
     t.run(10);
     assert_eq!(value(&mut t, "P8"), 5.0);
     assert_eq!(value(&mut t, "P7"), 7.0);
+}
+
+/// Seed L33605-33656: `clear prog|plc|subprog n` is `open … close` (the buffer deleted), refused
+/// as `open` is; `clear all buffers` deletes every program, PLC and kinematic routine once
+/// nothing runs.
+#[test]
+fn clear_deletes_buffers_and_clear_all_buffers_every_one() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&[
+        "open prog 3",
+        "X1",
+        "close",
+        "open prog 4",
+        "X2",
+        "close",
+        "open subprog 5",
+        "P1=1",
+        "close",
+        "open plc 6",
+        "P2=1",
+        "close",
+        "open forward (1)",
+        "C6=L1/1000",
+        "close",
+    ]);
+    assert_eq!(t.send("clear prog 3"), "");
+    assert!(t.send("list prog 3").contains("error #21"), "deleted");
+    assert_eq!(t.send("list prog 4"), "X2\r\n");
+    assert_eq!(
+        t.send("clear prog 99"),
+        "",
+        "an absent buffer: nothing to clear"
+    );
+    // An enabled PLC, a running program: #26, and the buffer stays.
+    t.load(&["enable plc 6"]);
+    let r = t.send("clear plc 6");
+    assert!(
+        r.ends_with(": error #26: PROGRAM RUNNING: clear plc 6\r\n"),
+        "{r}"
+    );
+    let r = t.send("clear all buffers");
+    assert!(
+        r.ends_with(": error #26: PROGRAM RUNNING: clear all buffers\r\n"),
+        "{r}"
+    );
+    t.load(&["disable plc 6", "clear plc 6"]);
+    assert!(t.send("list plc 6").contains("error #21"));
+    assert_eq!(t.send("clear all buffers"), "");
+    for q in ["list prog 4", "list subprog 5", "list forward (1)"] {
+        assert!(t.send(q).contains("error #21"), "{q}");
+    }
+    assert_eq!(t.send("buffer"), "");
 }
