@@ -111,6 +111,8 @@ fn parse(a: &str) -> Result<Part, usize> {
         "coord" => St::Coord,
         "gate3" | "acc5e3" | "acc24e3" | "acc59e3" | "powerbrick" => St::Gate3,
         "gate2" | "acc5e" => St::Gate2,
+        "gate1" | "acc24e2" | "acc24e2a" | "acc24e2s" | "acc51e" | "acc24c2" | "acc24c2a"
+        | "acc51c" => St::Gate1,
         _ => return Err(0),
     };
     let close = a.find(']').ok_or(open)?;
@@ -120,7 +122,7 @@ fn parse(a: &str) -> Result<Part, usize> {
         return Err(open + 1);
     }
     let tail = &a[close + 1..];
-    let gate = matches!(st, St::Gate3 | St::Gate2);
+    let gate = matches!(st, St::Gate3 | St::Gate2 | St::Gate1);
     Ok(match tail {
         "." => elems(st, idx, idx, false, false),
         ".." => elems(st, idx, n - 1, false, false),
@@ -141,7 +143,7 @@ fn lines(card: &mut CardModel, store: &Store, p: Part) -> Vec<String> {
             .collect(),
         Part::Gates => {
             let mut v = Vec::new();
-            for st in [St::Gate3, St::Gate2] {
+            for st in [St::Gate3, St::Gate2, St::Gate1] {
                 let written = store.indices_of(st);
                 for i in 0..count(st) {
                     if (st == St::Gate3 && i == 0) || written.contains(&i) {
@@ -197,6 +199,7 @@ fn st_name(st: St) -> &'static str {
         St::Sys => "Sys",
         St::Gate3 => "Gate3",
         St::Gate2 => "Gate2",
+        St::Gate1 => "Gate1",
         St::Gather => "Gather",
         St::Ldata => "Ldata",
         St::Macro => "Macro",

@@ -244,3 +244,32 @@ fn gate3_channel_elements_have_the_seed_defaults_ranges_and_names() {
     let mut u = reloaded(&mut t);
     assert_eq!(value(&mut u, "Gate3[1].Chan[2].EncCtrl"), 3.0);
 }
+
+/// `Gate1[i]`, the PMAC2-style DSPGATE1 (seed L7788-9000 saved setup, L21970-22210 non-saved,
+/// L26895-27490 status): multi-channel and `Chan[j]` elements with the seed's defaults, the
+/// board aliases, indices 0-19, `backup`, `save`.
+#[test]
+fn gate1_elements_have_the_seed_defaults_aliases_and_save() {
+    let mut t = T::new();
+    assert_eq!(t.send("Gate1[4].PwmPeriod"), "Gate1[4].PwmPeriod=6527\r\n");
+    assert_eq!(
+        t.send("Acc24E2A[6].ServoClockDiv"),
+        "Acc24E2A[6].ServoClockDiv=3\r\n"
+    );
+    assert_eq!(value(&mut t, "Gate1[4].Chan[0].EncCtrl"), 7.0);
+    assert_eq!(value(&mut t, "Gate1[5].PwmDeadTime"), 15.0);
+    t.load(&["Gate1[4].Chan[2].EncCtrl=3", "Acc51E[12].PwmPeriod=1000"]);
+    assert_eq!(value(&mut t, "Gate1[4].Chan[2].EncCtrl"), 3.0);
+    assert_eq!(value(&mut t, "Gate1[12].PwmPeriod"), 1000.0);
+    assert!(t.send("Gate1[20].PwmPeriod").contains("error #21"));
+    assert!(t.send("Gate1[4].Chan[4].EncCtrl").contains("error #21"));
+    assert!(t.send("Gate1[4].PartNum=1").contains("error #23"));
+    let b = t.send("backup Gate1[4].");
+    assert!(b.contains("Gate1[4].Chan[2].EncCtrl=3\r\n"), "{b}");
+    assert!(t
+        .send("backup Gates")
+        .contains("Gate1[12].PwmPeriod=1000\r\n"));
+    let mut u = reloaded(&mut t);
+    assert_eq!(value(&mut u, "Gate1[4].Chan[2].EncCtrl"), 3.0);
+    assert_eq!(value(&mut u, "Gate1[12].PwmPeriod"), 1000.0);
+}

@@ -63,6 +63,7 @@ STRUCTS = {
     "Sys": "Sys",
     "Gate3[i]": "Gate3",
     "Gate2[i]": "Gate2",
+    "Gate1[i]": "Gate1",
     "Gather": "Gather",
     "Ldata": "Ldata",
 }
@@ -252,7 +253,7 @@ for e in entries:
     # element name with index placeholders removed
     idx = re.findall(r"\[([a-z])\]", rest)
     base = re.sub(r"\[[a-z]\]", "", rest)
-    if st in ("Gate3", "Gate2") and rest.startswith("Chan[j]."):
+    if st in ("Gate3", "Gate2", "Gate1") and rest.startswith("Chan[j]."):
         # `Gate3[i].Chan[j].EncCtrl`: the channel index sits inside the name (`Chan[]` marks
         # it) and is the element's first index (4 channels), before its own (`Dac[k]`).
         own = rest[len("Chan[j].") :]

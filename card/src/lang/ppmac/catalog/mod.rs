@@ -20,6 +20,9 @@ pub(crate) enum St {
     Gate3,
     /// `Gate2[i]` (alias `Acc5E`)
     Gate2,
+    /// `Gate1[i]`, the PMAC2-style DSPGATE1 (aliases `Acc24E2`, `Acc24E2A`, `Acc24E2S`,
+    /// `Acc51E`, `Acc24C2`, `Acc24C2A`, `Acc51C`; seed L7788-7822)
+    Gate1,
     /// `Gather`
     Gather,
     /// `Ldata` (the thread's own local data)
@@ -99,6 +102,14 @@ pub(crate) fn structure(name: &str) -> Option<(St, &'static str)> {
         "powerbrick" => (St::Gate3, "PowerBrick"),
         "gate2" => (St::Gate2, "Gate2"),
         "acc5e" => (St::Gate2, "Acc5E"),
+        "gate1" => (St::Gate1, "Gate1"),
+        "acc24e2" => (St::Gate1, "Acc24E2"),
+        "acc24e2a" => (St::Gate1, "Acc24E2A"),
+        "acc24e2s" => (St::Gate1, "Acc24E2S"),
+        "acc51e" => (St::Gate1, "Acc51E"),
+        "acc24c2" => (St::Gate1, "Acc24C2"),
+        "acc24c2a" => (St::Gate1, "Acc24C2A"),
+        "acc51c" => (St::Gate1, "Acc51C"),
         "gather" => (St::Gather, "Gather"),
         "ldata" => (St::Ldata, "Ldata"),
         "macro" => (St::Macro, "Macro"),
@@ -115,6 +126,8 @@ impl St {
             St::Coord => Some(16),
             St::Gate3 => Some(16),
             St::Gate2 => Some(4),
+            // Indices 4-19 by the boards' address switches (0-3 no hardware uses, L7814-7817).
+            St::Gate1 => Some(20),
             St::Plc => Some(32),
             St::Sys | St::Gather | St::Ldata | St::Macro => None,
         }
