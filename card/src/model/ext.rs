@@ -25,7 +25,7 @@ pub enum Thread {
 }
 
 /// Where an extension variable is read or written from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExtAt {
     /// The evaluating thread.
     pub thread: Thread,
@@ -33,20 +33,49 @@ pub struct ExtAt {
     pub coord: u16,
     /// Its addressed motor (1-based).
     pub motor: u16,
-    /// Subroutine call depth (0: the top program).
-    pub depth: u16,
+    /// Local-variable stack slot of the running subroutine's `L0` (0: the top program).
+    pub base: u32,
+    /// The running program's stack offset: its `R0` is slot `base + offset`, the `L0` of a
+    /// subroutine it calls (Power `open prog n,{offset}`, default [`DEFAULT_STACK_OFFSET`]).
+    pub offset: u32,
+}
+
+/// The stack offset of a program that declares none (seed 000 L39880-39890).
+pub(crate) const DEFAULT_STACK_OFFSET: u32 = 256;
+
+impl Default for ExtAt {
+    fn default() -> Self {
+        ExtAt {
+            thread: Thread::default(),
+            coord: 0,
+            motor: 0,
+            base: 0,
+            offset: DEFAULT_STACK_OFFSET,
+        }
+    }
 }
 
 impl ExtAt {
-    /// A coordinate system's program at call depth `depth`.
-    pub fn cs(cs: u16, depth: u16) -> Self {
+    /// A coordinate system's program whose `L0` is stack slot `base`, with stack offset
+    /// `offset`.
+    pub fn cs(cs: u16, base: u32, offset: u32) -> Self {
         ExtAt {
             thread: Thread::Cs(cs),
             coord: cs,
             motor: 1,
-            depth,
+            base,
+            offset,
         }
     }
+}
+
+/// The code a stack offset belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StackOf {
+    /// Motion program or subprogram buffer `n` (model numbering).
+    Prog(u16),
+    /// PLC program `n`.
+    Plc(u8),
 }
 
 /// Why an extension variable could not be read or written.
@@ -98,6 +127,11 @@ pub trait ExtVars: std::fmt::Debug + Send {
         let _ = (cs, inverse);
         None
     }
+    /// The stack offset the language gave `code` ([`DEFAULT_STACK_OFFSET`] unless it says).
+    fn stack_offset(&self, code: StackOf) -> u32 {
+        let _ = code;
+        DEFAULT_STACK_OFFSET
+    }
     /// The extension as `Any` (its language reaches its own state).
     fn as_any_mut(&mut self) -> &mut dyn Any;
     /// The extension as `Any`.
@@ -129,6 +163,13 @@ impl CardModel {
     /// The language's kinematic routine of C.S. `cs` (see `ExtVars::kinematics`).
     pub fn ext_kinematics(&self, cs: u16, inverse: bool) -> Option<KinRoutine> {
         self.ext.as_ref()?.kinematics(cs, inverse)
+    }
+
+    /// The stack offset of `code` (see `ExtVars::stack_offset`).
+    pub fn stack_offset(&self, code: StackOf) -> u32 {
+        self.ext
+            .as_ref()
+            .map_or(DEFAULT_STACK_OFFSET, |e| e.stack_offset(code))
     }
 
     /// Read `family` number `index` for `at`.

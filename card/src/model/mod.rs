@@ -42,7 +42,7 @@ pub(crate) use card::{user_memory_words, PLCS};
 pub use card_state::CardState;
 pub(crate) use card_state::I995_STATUS_BITS;
 pub(crate) use defines::{CompTable, Defines, Layer, TableKind, TBUF_WORDS};
-pub(crate) use ext::{ExtAt, ExtError, ExtVars, KinRoutine, Thread};
+pub(crate) use ext::{ExtAt, ExtError, ExtVars, KinRoutine, StackOf, Thread, DEFAULT_STACK_OFFSET};
 pub use float48::*;
 pub(crate) use gather::gather_tick;
 pub(crate) use ivars::turbo::MACRO_IC0_BASE;

@@ -61,6 +61,8 @@ pub struct Frame {
     pub args: Vec<(u8, f64)>,
     /// This frame is a PRELUDE call (no prelude fires inside it).
     pub prelude: bool,
+    /// Local-variable stack slot of its `L0` (`ExtAt::base`).
+    pub base: u32,
 }
 
 /// A synchronous assignment waiting for its move.
@@ -300,7 +302,7 @@ impl CsExec {
         if !self.busy() {
             return None;
         }
-        card.exec = crate::model::ExtAt::cs(self.num, 0);
+        card.exec = crate::model::ExtAt::cs(self.num, 0, crate::model::DEFAULT_STACK_OFFSET);
         let c = self.cs.as_mut()?;
         let mut out = c.tick();
         if let Err(e) = super::kin::apply_inverse(card, self.num, c, &mut out.motors) {

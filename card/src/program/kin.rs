@@ -117,7 +117,7 @@ fn call(
         thread: Thread::Kin(cs),
         coord: cs,
         motor: 1,
-        depth: 0,
+        ..ExtAt::default()
     };
     let saved = std::mem::replace(&mut card.exec, at);
     let res = (|| {

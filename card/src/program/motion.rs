@@ -173,7 +173,7 @@ impl CsExec {
             self.report_pc(card);
             return;
         }
-        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
+        card.exec = self.exec_at(card);
         let mut back = 0;
         let mut budget = MAX_OPS_PER_PASS;
         let line_step = self.step && env::ivar(card, 53, 0.0) != 0.0;
@@ -355,7 +355,7 @@ impl CsExec {
 
     pub(super) fn do_return(&mut self, card: &mut CardModel) {
         let Some(f) = self.frames.pop() else { return };
-        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
+        card.exec = self.exec_at(card);
         if self.frames.is_empty() {
             let prog = match f.key {
                 ProgKey::Prog(n) => Some(n),
@@ -375,13 +375,28 @@ impl CsExec {
             return Flow::Error;
         }
         self.frames.push(f);
-        card.exec = crate::model::ExtAt::cs(self.num, self.depth());
+        card.exec = self.exec_at(card);
         Flow::Jumped
     }
 
-    /// Call depth of the running program (0: the top level).
-    pub(super) fn depth(&self) -> u16 {
-        u16::try_from(self.frames.len().saturating_sub(1)).unwrap_or(u16::MAX)
+    /// Where the running program's variables are: its frame's stack base and its buffer's
+    /// stack offset.
+    pub(super) fn exec_at(&self, card: &CardModel) -> crate::model::ExtAt {
+        let (base, offset) = self
+            .frames
+            .last()
+            .map_or((0, crate::model::DEFAULT_STACK_OFFSET), |f| {
+                (f.base, frame_offset(card, f.key))
+            });
+        crate::model::ExtAt::cs(self.num, base, offset)
+    }
+
+    /// The stack base of a subroutine the running program calls with a new frame of locals
+    /// (`call`, `callsub`; `gosub` keeps the caller's).
+    pub(super) fn callee_base(&self, card: &CardModel) -> u32 {
+        self.frames
+            .last()
+            .map_or(0, |f| f.base.saturating_add(frame_offset(card, f.key)))
     }
 
     pub(super) fn args(
@@ -439,6 +454,7 @@ impl CsExec {
                 pc,
                 args,
                 prelude,
+                base: self.callee_base(card),
             },
         )
     }
@@ -525,4 +541,12 @@ pub(crate) fn code_target(l: CodeLetter, c: f64) -> (u32, u32) {
         CodeLetter::D => 3,
     };
     (1000 + 10 * h as u32 + k, (r * 1000.0).round() as u32)
+}
+
+/// The stack offset of the buffer a frame runs.
+fn frame_offset(card: &CardModel, key: ProgKey) -> u32 {
+    match key {
+        ProgKey::Prog(n) => card.stack_offset(crate::model::StackOf::Prog(n)),
+        _ => crate::model::DEFAULT_STACK_OFFSET,
+    }
 }

@@ -274,6 +274,12 @@ impl CsExec {
                         code,
                         pc: t,
                         args: a,
+                        // `gosub` runs on the caller's locals, `callsub` on a new frame.
+                        base: if matches!(s.kind, S::Gosub(..)) {
+                            self.frames.last().map_or(0, |f| f.base)
+                        } else {
+                            self.callee_base(card)
+                        },
                         prelude: false,
                     },
                 );

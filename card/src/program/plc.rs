@@ -10,7 +10,7 @@ use super::env;
 use super::motion_move::read_args;
 use super::stmt::{exec_common, run_cmds, Commands, Common, Ctx, QueuedCmd};
 use crate::domain::ast::{PlcVerb, StmtKind};
-use crate::model::CardModel;
+use crate::model::{CardModel, StackOf};
 
 /// Most instructions one PLC scan executes; a scan that reaches it ends there and the next
 /// scan continues from that point ([DECISION] the runaway guard).
@@ -42,6 +42,10 @@ struct PlcCall {
     code: Arc<Compiled>,
     ret: usize,
     args: Vec<(u8, f64)>,
+    /// The motion-program buffer whose code this is (`None`: the PLC's own).
+    prog: Option<u16>,
+    /// Local-variable stack slot of its `L0`.
+    base: u32,
 }
 
 /// All 32 interpreted PLCs.
@@ -140,13 +144,22 @@ impl PlcRunner {
             return;
         }
         self.scans[k] = self.scans[k].saturating_add(1);
-        let at = |st: &PlcState| crate::model::ExtAt {
-            thread: crate::model::Thread::Plc(n),
-            coord: st.coord,
-            motor: st.motor,
-            depth: u16::try_from(st.calls.len()).unwrap_or(u16::MAX),
+        let at = |card: &CardModel, st: &PlcState| {
+            let (base, offset) = st
+                .calls
+                .last()
+                .map_or((0, card.stack_offset(StackOf::Plc(n))), |c| {
+                    (c.base, code_offset(card, n, c.prog))
+                });
+            crate::model::ExtAt {
+                thread: crate::model::Thread::Plc(n),
+                coord: st.coord,
+                motor: st.motor,
+                base,
+                offset,
+            }
         };
-        card.exec = at(&self.plcs[k]);
+        card.exec = at(card, &self.plcs[k]);
         let mut cmds: Vec<QueuedCmd> = Vec::new();
         let mut pc = self.plcs[k].pc;
         let mut ops = 0;
@@ -164,7 +177,7 @@ impl PlcRunner {
                 match self.plcs[k].calls.pop() {
                     Some(c) => {
                         pc = c.ret;
-                        card.exec = at(&self.plcs[k]);
+                        card.exec = at(card, &self.plcs[k]);
                         continue;
                     }
                     None => {
@@ -212,7 +225,7 @@ impl PlcRunner {
                         CallFlow::NotACall => {}
                         CallFlow::Jump(to) => {
                             pc = to;
-                            card.exec = at(&self.plcs[k]);
+                            card.exec = at(card, &self.plcs[k]);
                             continue;
                         }
                         CallFlow::EndScan => {
@@ -377,13 +390,35 @@ impl PlcRunner {
             Some(to) => to,
             None => return CallFlow::Jump(pc + 1),
         };
+        // `gosub` runs on the caller's locals; `callsub` and `call` on a new frame.
+        let caller = self.plcs[k].calls.last();
+        let caller_prog = caller.and_then(|c| c.prog);
+        let caller_base = caller.map_or(0, |c| c.base);
+        let base = if matches!(s, StmtKind::Gosub(..)) {
+            caller_base
+        } else {
+            caller_base.saturating_add(code_offset(card, k as u8, caller_prog))
+        };
         self.plcs[k].calls.push(PlcCall {
             code: callee,
             ret: pc + 1,
             args,
+            prog: match target {
+                Some(p) => u16::try_from(p).ok(),
+                None => caller_prog,
+            },
+            base,
         });
         CallFlow::Jump(to)
     }
+}
+
+/// The stack offset of the code PLC `n` runs: a called program's, else the PLC's own.
+fn code_offset(card: &CardModel, n: u8, prog: Option<u16>) -> u32 {
+    card.stack_offset(match prog {
+        Some(p) => StackOf::Prog(p),
+        None => StackOf::Plc(n),
+    })
 }
 
 /// What a call statement did to a PLC's flow.

@@ -62,6 +62,7 @@ impl CsExec {
                     pc: 0,
                     args: Vec::new(),
                     prelude: false,
+                    base: 0,
                 });
             } else {
                 let n = u16::try_from(prog).unwrap_or(0);
@@ -79,6 +80,7 @@ impl CsExec {
                     pc,
                     args: Vec::new(),
                     prelude: false,
+                    base: 0,
                 });
             }
             self.prelude = None;

@@ -47,6 +47,7 @@ pub(crate) fn export(r: &Routines) -> Vec<super::saved::SourceText> {
             kind: if inv { "inverse" } else { "forward" }.to_string(),
             n: u32::from(cs - 1),
             lines: k.text.clone(),
+            stack: crate::model::DEFAULT_STACK_OFFSET,
         })
         .collect();
     v.sort_by(|a, b| (&a.kind, a.n).cmp(&(&b.kind, b.n)));
@@ -95,9 +96,9 @@ const MAX_CS: u32 = 127;
 /// C.S. `u16::MAX` for a bad number.
 ///
 /// `&n` before it addresses C.S. n first (`&2open forward,64`, seed L37532); after the kind
-/// come the stack offset and the label count (`open forward,512,256`, L37530-37537): the label
-/// count is accepted, a stack offset other than the default 256 is #21 as for programs
-/// ([DECISION]: the engine has one stack offset).
+/// come the stack offset and the label count (`open forward,512,256`, L37530-37537): both are
+/// accepted in their ranges; neither changes anything, a routine calling no subroutine (its
+/// `L` variables are the motors').
 pub(super) fn open_words(text: &str, th: &mut Thread) -> Option<(u16, bool)> {
     let mut t = text.trim_start();
     let mut cs_prefix = None;
@@ -125,7 +126,7 @@ pub(super) fn open_words(text: &str, th: &mut Thread) -> Option<(u16, bool)> {
         && opt.iter().enumerate().all(|(k, a)| {
             a.is_empty()
                 || match (k, a.parse::<u32>()) {
-                    (0, Ok(v)) => v == 256,
+                    (0, Ok(v)) => (1..super::LOCALS as u32).contains(&v),
                     (_, Ok(v)) => v > 0,
                     _ => false,
                 }
@@ -187,6 +188,7 @@ impl Power {
             stored: Vec::new(),
             kin: Some((cs, inverse)),
             kin_lines: Vec::new(),
+            stack: crate::model::DEFAULT_STACK_OFFSET,
         });
         Ok(())
     }

@@ -3,6 +3,7 @@
 //! size). The dialect keeps each closed buffer's text as it was entered (comments and blank
 //! lines dropped, surrounding white space trimmed): the lines `list` shows and numbers from 0.
 
+use crate::model::DEFAULT_STACK_OFFSET;
 use std::collections::BTreeMap;
 
 use super::{exec, Thread};
@@ -21,6 +22,8 @@ pub(crate) struct Sources(
     /// How many stored lines each text line became (a line with several block statements is
     /// stored as several: see `program::stored_lines`).
     BTreeMap<(u8, u32), Vec<usize>>,
+    /// Stack offsets other than the default (`open prog n,{offset}`).
+    BTreeMap<(u8, u32), u32>,
 );
 
 /// The listing order and number of buffer `id`.
@@ -43,15 +46,30 @@ fn id_of(kind: u8, n: u32) -> Option<BufId> {
 }
 
 impl Sources {
-    /// Buffer `id` closed with `text`, its line `i` stored as `stored[i]` lines.
-    pub(crate) fn insert(&mut self, id: BufId, text: Vec<String>, stored: Vec<usize>) {
+    /// Buffer `id` closed with `text`, its line `i` stored as `stored[i]` lines, its stack
+    /// offset `stack`.
+    pub(crate) fn insert(&mut self, id: BufId, text: Vec<String>, stored: Vec<usize>, stack: u32) {
         self.0.insert(key(id), text);
         self.1.insert(key(id), stored);
+        if stack == DEFAULT_STACK_OFFSET {
+            self.2.remove(&key(id));
+        } else {
+            self.2.insert(key(id), stack);
+        }
     }
 
     pub(crate) fn remove(&mut self, id: &BufId) {
         self.0.remove(&key(*id));
         self.1.remove(&key(*id));
+        self.2.remove(&key(*id));
+    }
+
+    /// The stack offset of buffer `id`.
+    pub(crate) fn stack(&self, id: BufId) -> u32 {
+        self.2
+            .get(&key(id))
+            .copied()
+            .unwrap_or(DEFAULT_STACK_OFFSET)
     }
 
     /// The text line of buffer `id` that stored line `k` came from (`None`: past the text).

@@ -263,6 +263,8 @@ struct OpenBuf {
     kin: Option<(u16, bool)>,
     /// The kinematic routine's stored lines.
     kin_lines: Vec<ProgLine>,
+    /// The stack offset `open` gave (`open prog n,{offset}`).
+    stack: u32,
 }
 
 impl Power {
@@ -547,21 +549,23 @@ impl Power {
         if self.open.is_some() || self.rot.is_some() {
             return Err(bad(21));
         }
-        // `n[,[stack]][,labels]` (seed L37686-37752): the label count is accepted (the engine
-        // has no label table to size); [DECISION] a stack offset other than the default 256
-        // is #21 (the engine uses one stack offset for every program).
+        // `n[,[stack]][,labels]` (seed L37686-37752): the stack offset is where the `R`
+        // variables of the program start (the `L` of a subroutine it calls), 1..8191 of the
+        // thread's 8,192-slot stack; the label count is accepted (the engine has no label
+        // table to size).
         let mut args = n.split(',');
         let n: u32 = args.next().unwrap_or("").parse().map_err(|_| bad(21))?;
         let opt: Vec<&str> = args.collect();
         if opt.len() > 2 {
             return Err(bad(20));
         }
+        let mut stack = crate::model::DEFAULT_STACK_OFFSET;
         for (k, a) in opt.iter().enumerate() {
             if a.is_empty() {
                 continue;
             }
             match a.parse::<u32>() {
-                Ok(v) if k == 0 && v == 256 => {}
+                Ok(v) if k == 0 && (1..LOCALS as u32).contains(&v) => stack = v,
                 Ok(v) if k == 1 && v > 0 => {}
                 Ok(_) => return Err(bad(21)),
                 Err(_) => return Err(bad(20)),
@@ -618,6 +622,7 @@ impl Power {
             stored: Vec::new(),
             kin: None,
             kin_lines: Vec::new(),
+            stack,
         });
         Ok(())
     }
@@ -643,7 +648,9 @@ impl Power {
             .bufs
             .close(o.id)
             .map_err(|_| parse::SyntaxError { at: 0, code: 21 })?;
-        progvars::with(card, |_, pv| pv.sources.insert(o.id, o.text, o.stored));
+        progvars::with(card, |_, pv| {
+            pv.sources.insert(o.id, o.text, o.stored, o.stack);
+        });
         Ok(())
     }
 

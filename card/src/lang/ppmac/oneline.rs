@@ -117,7 +117,7 @@ fn run_now(
         thread: ExecThread::Host(conn),
         coord: th.coord + 1,
         motor: th.motor + 1,
-        depth: 0,
+        ..ExtAt::default()
     };
     progvars::with(card, |_, pv| pv.enter(at.thread, th.clone()));
     let saved = card.model.exec;

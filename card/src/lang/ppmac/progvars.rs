@@ -5,8 +5,9 @@
 //! the model of every Power card ([`install`]); the on-line executor borrows it ([`with`]).
 //!
 //! Locals of a program thread follow the seed's stack (L39883-39890): one stack of 8,192
-//! doubles per thread, a call at depth `d` sees `L(n)` at stack slot `256·d + n` and `R(n)` at
-//! `256·(d+1) + n`, so the caller's `R0` is the callee's `L0` (StackOffset 256). D- and C-
+//! doubles per thread, a frame sees `L(n)` at stack slot `base + n` and `R(n)` at
+//! `base + offset + n` (`ExtAt::base`, its buffer's stack offset, default 256), so the
+//! caller's `R0` is the callee's `L0`. D- and C-
 //! variables are one set per thread (D receives `read()` arguments, seed §2.10).
 
 use std::any::Any;
@@ -20,15 +21,13 @@ use super::{Thread, LOCALS};
 use crate::domain::ast::{Expr, VarKind};
 use crate::domain::eval::{self, Env, EvalError};
 use crate::lang::interp::Card;
-use crate::model::{CardModel, ExtAt, ExtError, ExtVars, Thread as ExecThread};
+use crate::model::{BufId, CardModel, ExtAt, ExtError, ExtVars, Thread as ExecThread};
 
 /// Element `k` of the program element table is `Ext(EXT_PELEM + k)`.
 pub(crate) const EXT_PELEM: u16 = 1000;
 /// Most distinct elements program text may name (the table is never shrunk while the card
 /// runs: entries are shared by every buffer).
 pub(crate) const MAX_PELEMS: usize = (u16::MAX - EXT_PELEM) as usize;
-/// StackOffset: the L-variables one call level uses (seed default).
-const STACK_OFFSET: u32 = 256;
 
 /// The dialect's program-side state, installed in the card model.
 #[derive(Debug, Default)]
@@ -117,10 +116,15 @@ impl ProgVars {
         (&mut self.store, th)
     }
 
-    /// The stack slot of `L(n)` / `R(n)` at the call depth of `at`.
+    /// The stack slot of `L(n)` / `R(n)` for `at`: `L` from its frame's base, `R` past its
+    /// program's stack offset (the `L` of a subroutine it calls).
     fn slot(at: &ExtAt, family: u16, n: u32) -> Option<u32> {
-        let frame = u32::from(at.depth) + u32::from(family == EXT_R);
-        let s = frame.checked_mul(STACK_OFFSET)?.checked_add(n)?;
+        let base = if family == EXT_R {
+            at.base.checked_add(at.offset)?
+        } else {
+            at.base
+        };
+        let s = base.checked_add(n)?;
         (s < LOCALS as u32).then_some(s)
     }
 
@@ -266,6 +270,13 @@ impl ExtVars for ProgVars {
 
     fn kinematics(&self, cs: u16, inverse: bool) -> Option<crate::model::KinRoutine> {
         self.kin.get(&(cs, inverse)).map(|k| k.routine.clone())
+    }
+
+    fn stack_offset(&self, code: crate::model::StackOf) -> u32 {
+        self.sources.stack(match code {
+            crate::model::StackOf::Prog(n) => BufId::Prog(n),
+            crate::model::StackOf::Plc(n) => BufId::Plc(n),
+        })
     }
 
     fn as_any_mut(&mut self) -> &mut dyn Any {

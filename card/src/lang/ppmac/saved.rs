@@ -112,6 +112,17 @@ pub(crate) struct SourceText {
     pub n: u32,
     /// Its lines as `list` shows them.
     pub lines: Vec<String>,
+    /// Its stack offset (`open prog n,{offset}`; absent: the default 256).
+    #[serde(default = "default_stack", skip_serializing_if = "is_default_stack")]
+    pub stack: u32,
+}
+
+fn default_stack() -> u32 {
+    crate::model::DEFAULT_STACK_OFFSET
+}
+
+fn is_default_stack(v: &u32) -> bool {
+    *v == crate::model::DEFAULT_STACK_OFFSET
 }
 
 /// The buffer texts of `card` (none unless it is a Power card with the dialect attached).
@@ -130,6 +141,7 @@ pub(crate) fn export(card: &CardModel) -> Vec<SourceText> {
                 kind: kind.to_string(),
                 n,
                 lines: lines.clone(),
+                stack: pv.sources.stack(id),
             })
         })
         .chain(kin)
@@ -153,11 +165,11 @@ pub(crate) fn restore(card: &mut CardModel, saved: Vec<SourceText>) {
         let Some(id) = listing::id_named(&s.kind, s.n) else {
             continue;
         };
-        let _ = rebuild(card, id, s.lines);
+        let _ = rebuild(card, id, s.lines, s.stack);
     }
 }
 
-fn rebuild(card: &mut CardModel, id: BufId, text: Vec<String>) -> Option<()> {
+fn rebuild(card: &mut CardModel, id: BufId, text: Vec<String>, stack: u32) -> Option<()> {
     let mut blocks = Vec::new();
     let mut lines = Vec::new();
     let mut stored = Vec::new();
@@ -188,6 +200,6 @@ fn rebuild(card: &mut CardModel, id: BufId, text: Vec<String>) -> Option<()> {
     }
     card.ext_mut::<progvars::ProgVars>()?
         .sources
-        .insert(id, text, stored);
+        .insert(id, text, stored, stack);
     Some(())
 }

@@ -230,8 +230,8 @@ fn buffer_rules() {
     // `system` is not offered
     assert_eq!(t.send("open plc 2"), "");
     assert!(t.send("system\"ls\"").contains("error #27"));
-    // Seed L37746-37752: `open prog n[,[stack]][,labels]`; the default stack offset and any
-    // label count are taken, another stack offset is refused (one offset for every program).
+    // Seed L37746-37752: `open prog n[,[stack]][,labels]`; a stack offset and a label count
+    // in range are taken.
     for ok in [
         "open prog 2001,,2048",
         "open prog 5,256,256",
@@ -242,8 +242,17 @@ fn buffer_rules() {
         assert_eq!(t.send("X1"), "");
         assert_eq!(t.send("close"), "");
     }
-    assert!(t.send("open prog 100,64").contains("error #21"));
-    assert!(t.send("open prog 5,512,256").contains("error #21"));
+    // Stack offsets 1..8191 (seed L37748-37752 `open prog 100,64`, `open prog 5,512,256`).
+    for ok in [
+        "open prog 100,64",
+        "open prog 5,512,256",
+        "open subprog 5,8191",
+    ] {
+        assert_eq!(t.send(ok), "", "{ok}");
+        assert_eq!(t.send("close"), "");
+    }
+    assert!(t.send("open prog 100,8192").contains("error #21"));
+    assert!(t.send("open prog 100,0").contains("error #21"));
     assert!(t.send("open prog 5,256,0").contains("error #21"));
     assert!(t.send("open prog 5,x").contains("error #20"));
     assert!(

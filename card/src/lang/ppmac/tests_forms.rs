@@ -478,14 +478,21 @@ fn star_jogs_take_prog_jog_pos() {
 }
 
 /// Seed L37530-37537: `&n open forward|inverse[,stack[,labels]]` addresses C.S. n; the
-/// label count is accepted, a stack offset other than 256 is 21 (as for programs).
+/// label count and a stack offset in range are accepted (a routine calls no subroutine).
 #[test]
 fn kinematic_buffers_open_with_a_cs_prefix_and_arguments() {
     let mut t = T::new();
     t.load(&["&4open forward,,2048", "close"]);
     assert_eq!(t.send("&"), "&4\r\n");
     t.load(&["&2open inverse,256", "close"]);
-    assert!(t.send("&2open forward,64").contains("error #21"));
+    t.load(&[
+        "&2open forward,64",
+        "close",
+        "&12open forward,512,256",
+        "close",
+    ]);
+    assert_eq!(t.send("&"), "&12\r\n");
+    assert!(t.send("&2open forward,0").contains("error #21"));
 }
 
 /// Seed L39311-39346, L41864-41866, L42969-42975, L43310-43311: `abs(X,Y)`/`inc(X)` switch

@@ -429,3 +429,63 @@ fn a_plc_calls_subroutines_and_subprograms() {
         "an untouched PLC stays as it was"
     );
 }
+
+/// Seed L39880-39890, L37686-37752: a program's stack offset (`open prog n,{offset}`) is
+/// where its `R` variables start, the `L` of the subroutine it calls with `callsub` (or of a
+/// subprogram it `call`s); `gosub` runs on the caller's locals. Kept by `save`.
+#[test]
+fn stack_offsets_place_the_callees_locals() {
+    let mut t = T::new();
+    t.load(&[
+        "open subprog 9,32",
+        "L0 = L0 + 1",
+        "P44 = L0",
+        "callsub 100",
+        "P42 = R0",
+        "return",
+        "N100: P41 = L0 L0 = 7 return",
+        "close",
+        "open plc 3,64",
+        "L0 = 5",
+        "R0 = 10",
+        "L64 = 11",
+        "call 9",
+        "gosub 200",
+        "disable plc 3",
+        "return",
+        "N200: P43 = L0",
+        "return",
+        "close",
+        "enable plc 3",
+    ]);
+    t.run(5);
+    // The PLC's R0 is its L64 (offset 64): the subprogram's L0 = 11, +1 → 12 (with the
+    // default 256 it would be the PLC's L256 = R0 = 10, → 11); the subprogram's R0 is its L32
+    // (offset 32), the callsub's L0: 0.
+    assert_eq!(t.send("P44"), "P44=12\r\n");
+    assert_eq!(t.send("P41"), "P41=0\r\n");
+    // The callsub set its L0 (the subprogram's R0) to 7.
+    assert_eq!(t.send("P42"), "P42=7\r\n");
+    // `gosub`: the PLC's own L0.
+    assert_eq!(t.send("P43"), "P43=5\r\n");
+    // A motion program: `open prog 12,16` makes its R0 its L16.
+    t.ready_cs1();
+    t.load(&[
+        "open prog 12,16",
+        "L16 = 3",
+        "callsub 10",
+        "P46 = R0",
+        "return",
+        "N10: P45 = L0 L0 = 8",
+        "return",
+        "close",
+        "&1 b12 r",
+    ]);
+    t.run(20);
+    assert_eq!(t.send("P45 P46"), "P45=3\r\nP46=8\r\n");
+    // After a save and load the offsets hold: the same run gives the same values.
+    let mut u = super::tests_units::reloaded(&mut t);
+    u.load(&["P41=-1", "P42=-1", "P44=-1", "enable plc 3"]);
+    u.run(5);
+    assert_eq!(u.send("P41 P42 P44"), "P41=0\r\nP42=7\r\nP44=12\r\n");
+}

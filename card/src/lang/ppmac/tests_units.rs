@@ -7,7 +7,7 @@ use super::tests_programs::T;
 use super::tests_status::value;
 
 /// A card that loaded `t`'s saved image.
-fn reloaded(t: &mut T) -> T {
+pub(super) fn reloaded(t: &mut T) -> T {
     let image = t.card.save_image();
     let mut u = T::new();
     let loaded = u
