@@ -83,6 +83,13 @@ pub(crate) fn key(e: &ElemRef, idx: Option<f64>, sub: &[f64]) -> Result<Key, Acc
     let idx = match (e.st.count(), idx) {
         (Some(n), Some(i)) => index(i, n)?,
         (None, None) => 0,
+        // Another thread's local data: `Coord[x].Ldata.…`, `Plc[i].Ldata.…`.
+        (None, Some(i)) if e.st == St::Ldata && e.st_name == "Coord" => {
+            LDATA_OF_COORD + index(i, St::Coord.count().unwrap_or(0))?
+        }
+        (None, Some(i)) if e.st == St::Ldata && e.st_name == "Plc" => {
+            LDATA_OF_PLC + index(i, St::Plc.count().unwrap_or(0))?
+        }
         _ => return Err(ILLEGAL_PARAMETER),
     };
     if sub.len() != d.dims.len() && !(d.dims.is_empty() && sub.is_empty()) {
@@ -116,12 +123,54 @@ fn index(v: f64, n: u32) -> Result<u32, AccessError> {
     }
 }
 
+/// `Key::idx` of `Coord[x].Ldata.…` (+ x) and of `Plc[i].Ldata.…` (+ i); 0 is the thread's
+/// own `Ldata`.
+const LDATA_OF_COORD: u32 = 0x100;
+const LDATA_OF_PLC: u32 = 0x200;
+
+/// The program thread whose local data `Ldata` key `k` names (`None`: the thread's own).
+pub(crate) fn ldata_owner(k: &Key) -> Option<crate::model::Thread> {
+    if k.st != St::Ldata {
+        return None;
+    }
+    match k.idx {
+        i if (LDATA_OF_PLC..LDATA_OF_PLC + 32).contains(&i) => {
+            Some(crate::model::Thread::Plc((i - LDATA_OF_PLC) as u8))
+        }
+        // Power C.S. x is the model's x + 1.
+        i if (LDATA_OF_COORD..LDATA_OF_COORD + 32).contains(&i) => {
+            Some(crate::model::Thread::Cs((i - LDATA_OF_COORD) as u16 + 1))
+        }
+        _ => None,
+    }
+}
+
+/// The local data of a program thread that has not run yet: its own C.S. (a motion
+/// program), motor and C.S. 0 (a PLC).
+pub(crate) fn fresh_thread(t: crate::model::Thread) -> Thread {
+    match t {
+        crate::model::Thread::Cs(x) => Thread {
+            coord: x.saturating_sub(1),
+            ..Thread::default()
+        },
+        _ => Thread::default(),
+    }
+}
+
 /// The name of element `k` as replies print it (`Motor[1].JogSpeed`, `Acc5E3[0].MacroInA[2][3]`).
 pub(crate) fn name(k: &Key, st_name: &str) -> String {
     let d = &DEFS[k.def];
     let mut s = String::from(st_name);
     if k.st.count().is_some() {
         s.push_str(&format!("[{}]", k.idx));
+    }
+    if k.st == St::Ldata && k.idx != 0 {
+        let n = if k.idx >= LDATA_OF_PLC {
+            k.idx - LDATA_OF_PLC
+        } else {
+            k.idx - LDATA_OF_COORD
+        };
+        s.push_str(&format!("[{n}].Ldata"));
     }
     s.push('.');
     // `Chan[]` holds the first index inside the name (`Gate3[0].Chan[1].EncCtrl`).

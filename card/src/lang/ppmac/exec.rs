@@ -1,6 +1,8 @@
 //! Executing a parsed line for one thread and framing its output (see the module docs of
 //! `ppmac` for the reply format).
 
+use std::collections::HashMap;
+
 use super::elements::{self, AccessError, Key, Store, ILLEGAL_PARAMETER};
 use super::parse::{self, Cmd, CsCmd, ElemRef, Fam, MotorCmd, Parsed, Sel, EXT_ELEM, EXT_I};
 use super::{Thread, MAX_LINE};
@@ -48,6 +50,8 @@ fn from_pmac(code: u16) -> u16 {
 struct Ctx<'a> {
     card: &'a mut Card,
     store: &'a mut Store,
+    /// The program threads' local data (`Plc[i].Ldata.…`, `Coord[x].Ldata.…`).
+    others: &'a mut HashMap<crate::model::Thread, Thread>,
     th: &'a mut Thread,
     out: Vec<u8>,
     values: usize,
@@ -57,6 +61,7 @@ struct Ctx<'a> {
 pub(crate) fn run_line(
     card: &mut Card,
     store: &mut Store,
+    others: &mut HashMap<crate::model::Thread, Thread>,
     th: &mut Thread,
     line: &[u8],
 ) -> Vec<u8> {
@@ -64,6 +69,7 @@ pub(crate) fn run_line(
     let mut cx = Ctx {
         card,
         store,
+        others,
         th,
         out: Vec::new(),
         values: 0,
@@ -397,8 +403,14 @@ impl Ctx<'_> {
                     }
                     None => v,
                 };
-                elements::write(&mut self.card.model, self.store, self.th, &k, v)
-                    .map_err(|e| e.code)?;
+                let th = match elements::ldata_owner(&k) {
+                    Some(t) => self
+                        .others
+                        .entry(t)
+                        .or_insert_with(|| elements::fresh_thread(t)),
+                    None => &mut *self.th,
+                };
+                elements::write(&mut self.card.model, self.store, th, &k, v).map_err(|e| e.code)?;
             }
             Cmd::ElemAddr(e) => {
                 let k = self.key(e, elems)?;
@@ -666,7 +678,14 @@ impl Ctx<'_> {
     }
 
     fn elem_read(&mut self, e: &ElemRef, k: &Key) -> Result<f64, u16> {
-        let v = elements::read(&mut self.card.model, self.store, self.th, k).map_err(|e| e.code)?;
+        let th = match elements::ldata_owner(k) {
+            Some(t) => self
+                .others
+                .entry(t)
+                .or_insert_with(|| elements::fresh_thread(t)),
+            None => &mut *self.th,
+        };
+        let v = elements::read(&mut self.card.model, self.store, th, k).map_err(|e| e.code)?;
         Ok(match e.bits {
             Some((start, width)) => get_bits(v, start, width),
             None => v,

@@ -316,7 +316,10 @@ impl Power {
                 }
                 match listing::command(card, &pv.sources, &pv.kin, &mut th, line) {
                     Some(out) => out,
-                    None => exec::run_line(card, &mut pv.store, &mut th, line),
+                    None => {
+                        let (store, others) = pv.split_threads();
+                        exec::run_line(card, store, others, &mut th, line)
+                    }
                 }
             })
         };

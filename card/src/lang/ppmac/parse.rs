@@ -813,6 +813,22 @@ impl<'a> Cur<'a> {
             }] if n.value >= 0.0 && n.value.fract() == 0.0 => Some(n.value as u32),
             _ => None,
         };
+        // `Coord[x].Ldata.Motor`, `Plc[i].Ldata.L[2]` (seed L33832, L33907): the local data of
+        // that C.S.'s motion program or of that PLC, an `Ldata` element with its owner's index.
+        if matches!(st, St::Coord | St::Plc)
+            && name.len() > 6
+            && name[..6].eq_ignore_ascii_case("ldata.")
+        {
+            let def = catalog::find(St::Ldata, &name[6..]).ok_or(SyntaxError { at, code: 21 })?;
+            return Ok(ElemRef {
+                st: St::Ldata,
+                st_name,
+                idx,
+                def,
+                sub: mid.into_iter().chain(sub).collect(),
+                bits,
+            });
+        }
         let (def, sub) = match catalog::find(st, &name) {
             Some(d) => (d, mid.into_iter().chain(sub).collect()),
             None => match literal.and_then(|k| catalog::find(st, &format!("{name}[{k}]"))) {

@@ -116,6 +116,26 @@ impl ProgVars {
         (&mut self.store, th)
     }
 
+    /// The element store and the thread whose local data element `k` reads: another program
+    /// thread's for `Coord[x].Ldata.…`/`Plc[i].Ldata.…`, else the thread of `at`.
+    fn parts_for(&mut self, at: &ExtAt, k: &Key) -> (&mut Store, &mut Thread) {
+        match elements::ldata_owner(k) {
+            Some(t) => {
+                let th = self
+                    .threads
+                    .entry(t)
+                    .or_insert_with(|| elements::fresh_thread(t));
+                (&mut self.store, th)
+            }
+            None => self.parts(at),
+        }
+    }
+
+    /// The program threads' local data, for an on-line thread reading `Plc[i].Ldata.…`.
+    pub(crate) fn split_threads(&mut self) -> (&mut Store, &mut HashMap<ExecThread, Thread>) {
+        (&mut self.store, &mut self.threads)
+    }
+
     /// The stack slot of `L(n)` / `R(n)` for `at`: `L` from its frame's base, `R` past its
     /// program's stack offset (the `L` of a subroutine it calls).
     fn slot(at: &ExtAt, family: u16, n: u32) -> Option<u32> {
@@ -206,7 +226,7 @@ impl ExtVars for ProgVars {
                 if index == ELEM_ADDRESS {
                     return Ok(super::exec::element_address(card, &k) as f64);
                 }
-                let (store, th) = self.parts(at);
+                let (store, th) = self.parts_for(at, &k);
                 let v = elements::read(card, store, th, &k).map_err(access)?;
                 Ok(match e.bits {
                     Some((start, width)) => super::exec::get_bits(v, start, width),
@@ -254,7 +274,7 @@ impl ExtVars for ProgVars {
             }
             f if f >= EXT_PELEM && index != ELEM_ADDRESS => {
                 let (e, k) = self.element(card, at, f)?;
-                let (store, th) = self.parts(at);
+                let (store, th) = self.parts_for(at, &k);
                 let v = match e.bits {
                     Some((start, width)) => {
                         let old = elements::read(card, store, th, &k).map_err(access)?;

@@ -489,3 +489,28 @@ fn stack_offsets_place_the_callees_locals() {
     u.run(5);
     assert_eq!(u.send("P41 P42 P44"), "P41=0\r\nP42=7\r\nP44=12\r\n");
 }
+
+/// Seed L33832-33835, L33907: `Plc[i].Ldata.…` and `Coord[x].Ldata.…` reach the local data of
+/// that PLC or of that C.S.'s motion program from any thread.
+#[test]
+fn another_threads_local_data_is_reachable_by_its_owner() {
+    let mut t = T::new();
+    assert_eq!(t.send("Plc[5].Ldata.Motor=7"), "");
+    assert_eq!(t.send("Plc[5].Ldata.Motor"), "Plc[5].Ldata.Motor=7\r\n");
+    // A motion program's thread addresses its own C.S. until told otherwise.
+    assert_eq!(t.send("Coord[3].Ldata.Coord"), "Coord[3].Ldata.Coord=3\r\n");
+    t.load(&[
+        "open plc 5",
+        "P50 = Ldata.Motor",
+        "L3 = 42",
+        "P51 = Coord[3].Ldata.Coord",
+        "disable plc 5",
+        "close",
+        "enable plc 5",
+    ]);
+    t.run(3);
+    assert_eq!(t.send("P50 P51"), "P50=7\r\nP51=3\r\n");
+    assert_eq!(t.send("Plc[5].Ldata.L[3]"), "Plc[5].Ldata.L[3]=42\r\n");
+    assert!(t.send("Plc[32].Ldata.Motor").contains("error #21"));
+    assert!(t.send("Motor[1].Ldata.Motor").contains("error #21"));
+}
