@@ -865,6 +865,9 @@ pub enum StmtKind {
     HomeZ(Vec<NumRange>),
     /// `PSET X.. Y..`
     Pset(Vec<AxisWord>),
+    /// Power `pmatch` in a program: the axis start positions from the motors' present
+    /// positions (seed 000 L545, L705).
+    Pmatch,
     /// `CC0` / `CC1` / `CC2`
     CutterComp(u8),
     /// `CCR{data}`

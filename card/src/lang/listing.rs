@@ -315,6 +315,7 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         S::Home(l) => format!("{}{}", kw("HOME", "HM"), num_list(l)),
         S::HomeZ(l) => format!("{}{}", kw("HOMEZ", "HMZ"), num_list(l)),
         S::Pset(w) => format!("PSET {}", words(w)),
+        S::Pmatch => "PMATCH".into(),
         S::CutterComp(n) => format!("CC{n}"),
         S::CutterRadius(d) => format!("CCR{}", data(d)),
         S::Normal(w) => format!("{} {}", kw("NORMAL", "NRM"), words(w)),

@@ -148,6 +148,21 @@ impl CsExec {
                 flow
             }
             S::Home(list) | S::HomeZ(list) => self.home(card, list, matches!(s.kind, S::Home(_))),
+            S::Pmatch => {
+                // As the on-line `pmatch`, once the moves before it have ended.
+                if self.cs.as_ref().is_some_and(|c| !c.is_idle()) {
+                    return Flow::Wait;
+                }
+                if let Some(c) = &mut self.cs {
+                    let pos = super::csexec::commanded(motors, c.motors());
+                    c.pmatch(&pos);
+                    if super::kin::apply_forward(card, num, c, &pos).is_err() {
+                        self.runtime_error(card, rte::KINEMATICS, false);
+                        return Flow::Error;
+                    }
+                }
+                Flow::Next
+            }
             S::Pset(words) => {
                 // PSET forces a stop (no blending through it), then renames the programmed
                 // position through the motors' position bias (seed 11441-11452).

@@ -4,8 +4,8 @@
 //! or element, `cmd`, PLC control run at once in the command thread's context (its L/D/C
 //! locals, its addressed C.S. for Q-variables). [DECISION] Moves: `cpx` runs them as a
 //! motion program through the C.S.'s rotary buffer (one line, then `stop`; `b0 r` with the
-//! C.S.'s run checks, #25 when it cannot run); `cx` refuses them (#27: the seed runs a `cx`
-//! move in rapid mode as a PLC, which the engine does not model).
+//! C.S.'s run checks, #25 when it cannot run); `cx` the same way in rapid mode (the seed runs
+//! a `cx` move in rapid mode, L33747; `cx pmatch X10 Y20 Z30`, L33797).
 
 use super::parse::SyntaxError;
 use super::{exec, program, progvars, Thread};
@@ -64,7 +64,13 @@ pub(crate) fn command(
         if motion {
             run_motion(card, th, stmts)
         } else {
-            Err(27)
+            // `cx` moves the addressed C.S.'s axes in rapid mode (L33747).
+            let mut all = vec![Stmt {
+                kind: StmtKind::Mode(crate::domain::ast::MoveMode::Rapid),
+                pos: crate::domain::ast::Pos(0),
+            }];
+            all.extend(stmts);
+            run_motion(card, th, all)
         }
     } else {
         run_now(card, conn, th, &stmts, cmds)
@@ -99,7 +105,9 @@ fn is_motion(k: &StmtKind) -> bool {
         | StmtKind::Gosub(..)
         | StmtKind::CallSub(..)
         | StmtKind::Goto(_)
-        | StmtKind::Read(_) => true,
+        | StmtKind::Read(_)
+        | StmtKind::Pset(_)
+        | StmtKind::Pmatch => true,
         StmtKind::IfLine(_, b) | StmtKind::WhileLine(_, b) => b.iter().any(|s| is_motion(&s.kind)),
         _ => false,
     }

@@ -433,6 +433,20 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         })?),
         // `pset X10 Y20` (seed L43310-43311): the axes' present positions redefined.
         "pset" => StmtKind::Pset(letter_words(c, axis_of)?),
+        // `pmatch` (L545): the axes' start positions from the motors'; `pclr` (L704): every
+        // axis's present position 0 (a `pset` of each).
+        "pmatch" => StmtKind::Pmatch,
+        "pclr" => StmtKind::Pset(
+            b"xyzabcuvw"
+                .iter()
+                .filter_map(|&ch| axis_of(ch))
+                .map(|axis| AxisWord {
+                    axis,
+                    value: Expr::num(0.0),
+                    extra: None,
+                })
+                .collect(),
+        ),
         "f" => StmtKind::F(data(c)?),
         "tm" => StmtKind::Tm(data(c)?),
         "ta" => StmtKind::Ta(data(c)?),

@@ -216,7 +216,8 @@ fn cx_runs_one_line_at_once() {
     assert_eq!(t.send("cx L4 = L3 * 2 cmd\"P41=3\""), "");
     assert_eq!(t.send("L4 P41"), "L4=8\r\nP41=3\r\n");
     // Errors in the seed's terms.
-    assert!(t.send("cx X10").contains("error #27:"));
+    // A move in a C.S. that cannot run (no motors here).
+    assert!(t.send("cx X10").contains("error #25:"));
     assert!(t.send("cx P1 = ").contains("error #20:"));
     assert!(t.send("cx Motor[1].Status[0]=1").contains("error #23:"));
     // The status word reads as `#1?` reports it.

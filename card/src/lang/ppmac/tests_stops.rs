@@ -328,3 +328,50 @@ fn clear_deletes_buffers_and_clear_all_buffers_every_one() {
     }
     assert_eq!(t.send("buffer"), "");
 }
+
+/// Seed L545, L704-705, L33797: `pmatch` and `pclr` in programs and after `cx`.
+#[test]
+fn pmatch_and_pclr_in_programs_and_cx() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&[
+        "Motor[1].InvAmax=0",
+        "open prog 16",
+        "linear abs ta10 ts0 tm100",
+        "pclr",
+        "X0.5",
+        "dwell 0",
+        "P60 = Motor[1].DesPos",
+        "close",
+        "&1 b16 r",
+    ]);
+    until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
+    // `pclr` made the present position X0: X0.5 is 500 counts on from where it stood.
+    let start = value(&mut t, "P60") - 500.0;
+    assert!(start.abs() < 1.0, "started at {start}");
+    // The motor jogged away: `pmatch` takes the program's axes to where the motor is.
+    t.load(&["#1j=2000"]);
+    t.run(3000);
+    t.load(&[
+        "open prog 17",
+        "linear inc ta10 ts0 tm100",
+        "pmatch",
+        "X1",
+        "close",
+        "&1 b17 r",
+    ]);
+    until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
+    assert!((value(&mut t, "Motor[1].DesPos") - 3000.0).abs() < 1.0);
+    // `cx pmatch X1`: a rapid move from the matched position (`inc` is still the mode: 1 on
+    // from 500); `abs` then X1 is 1000.
+    t.load(&["#1j=500"]);
+    t.run(3000);
+    assert_eq!(t.send("cx pmatch X1"), "");
+    t.run(5000);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - 1500.0).abs() < 1.0, "{p}");
+    assert_eq!(t.send("cx abs X1"), "");
+    t.run(5000);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - 1000.0).abs() < 1.0, "{p}");
+}
