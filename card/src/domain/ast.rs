@@ -868,6 +868,10 @@ pub enum StmtKind {
     /// Power `pmatch` in a program: the axis start positions from the motors' present
     /// positions (seed 000 L545, L705).
     Pmatch,
+    /// Power `pstore`: keep the C.S. motors' `pset` offsets (seed 000 L43316).
+    Pstore,
+    /// Power `pload`: put back the offsets `pstore` kept (seed 000 L43188).
+    Pload,
     /// `CC0` / `CC1` / `CC2`
     CutterComp(u8),
     /// `CCR{data}`

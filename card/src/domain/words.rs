@@ -59,7 +59,7 @@ pub(crate) fn word_count(s: &Stmt) -> u32 {
         S::Assign { value, .. } => 1 + expr_words(value),
         S::Move(ws) => w(ws),
         S::Pset(ws) | S::Normal(ws) => 1 + w(ws),
-        S::Pmatch => 1,
+        S::Pmatch | S::Pstore | S::Pload => 1,
         S::Pvt(d) | S::Ta(d) | S::Ts(d) | S::Tm(d) | S::F(d) | S::Dwell(d) | S::Delay(d) => {
             1 + expr_words(d)
         }

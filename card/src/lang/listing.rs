@@ -316,6 +316,8 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
         S::HomeZ(l) => format!("{}{}", kw("HOMEZ", "HMZ"), num_list(l)),
         S::Pset(w) => format!("PSET {}", words(w)),
         S::Pmatch => "PMATCH".into(),
+        S::Pstore => "PSTORE".into(),
+        S::Pload => "PLOAD".into(),
         S::CutterComp(n) => format!("CC{n}"),
         S::CutterRadius(d) => format!("CCR{}", data(d)),
         S::Normal(w) => format!("{} {}", kw("NORMAL", "NRM"), words(w)),

@@ -31,6 +31,12 @@ pub struct CsRun {
     /// Where a `/` stop left the motors (motor, commanded position in counts): R/S away from
     /// it is ERR017. Set and cleared by the program engine.
     pub stop_point: Option<Vec<(u16, f64)>>,
+    /// Programmed axis positions (X Y Z A B C U V W) at the end of the move executing, as the
+    /// program engine publishes them (Power `&x g`); `None` when no move executes.
+    pub target: Option<[f64; 9]>,
+    /// The sync line label (`N{n}` without a colon) last passed before the move executing
+    /// (Power `Coord[x].Nsync`).
+    pub nsync: u32,
 }
 
 /// Interpreter-side motor bookkeeping.

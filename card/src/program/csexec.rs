@@ -94,6 +94,8 @@ pub struct MoveAt {
     /// Motor positions (axis frame, C.S. motor order) at the end of the move: the target
     /// position register once the move starts executing.
     pub end: Vec<f64>,
+    /// The sync line label in force when it was calculated.
+    pub nsync: u32,
 }
 
 /// A change the program engine asks of a motor (applied by the servo loop, which owns the
@@ -167,6 +169,13 @@ pub struct CsExec {
     hold_recorded: bool,
     /// Motor changes for the servo loop.
     pub updates: Vec<MotorUpdate>,
+    /// The last sync line label passed (`N{n}` without a colon).
+    pub nsync: u32,
+    /// The motors' position offsets `pstore` kept (or that held before the first `pset`):
+    /// what `pload` puts back.
+    pub stored_offsets: Option<Vec<(u16, f64)>>,
+    /// The move whose target the model's run state shows (`CsRun::target`).
+    published: Option<u64>,
 }
 
 impl CsExec {
@@ -193,6 +202,25 @@ impl CsExec {
             hold_jog: false,
             hold_recorded: false,
             updates: Vec::new(),
+            nsync: 0,
+            published: None,
+            stored_offsets: None,
+        }
+    }
+
+    /// The target and sync label of move `exec` (the one executing) into the model's run
+    /// state, when it changes.
+    fn publish_target(&mut self, card: &mut CardModel, exec: Option<u64>) {
+        if exec == self.published {
+            return;
+        }
+        self.published = exec;
+        let m = exec.and_then(|id| self.move_at.iter().find(|m| m.id == id));
+        if let Some(r) = card.run.cs.get_mut(self.k()) {
+            r.target = m.map(|m| std::array::from_fn(|k| m.axes_end[k]));
+            if let Some(m) = m {
+                r.nsync = m.nsync;
+            }
         }
     }
 
@@ -300,9 +328,12 @@ impl CsExec {
     /// the C.S. is not producing output; applies synchronous assignments of started moves.
     pub fn tick(&mut self, card: &mut CardModel) -> Option<(Vec<u16>, Vec<f64>)> {
         if !self.busy() {
+            self.publish_target(card, None);
             return None;
         }
         card.exec = crate::model::ExtAt::cs(self.num, 0, crate::model::DEFAULT_STACK_OFFSET);
+        let exec = self.cs.as_ref().and_then(CoordSystem::executing);
+        self.publish_target(card, exec);
         let c = self.cs.as_mut()?;
         let mut out = c.tick();
         if let Err(e) = super::kin::apply_inverse(card, self.num, c, &mut out.motors) {

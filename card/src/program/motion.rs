@@ -391,6 +391,23 @@ impl CsExec {
         crate::model::ExtAt::cs(self.num, base, offset)
     }
 
+    /// Motor `m`'s position bias with the changes this C.S. has asked and the servo loop has
+    /// not applied yet.
+    pub(super) fn bias_now(&self, motors: &[Motor], m: u16) -> f64 {
+        let applied = motors
+            .get(usize::from(m).wrapping_sub(1))
+            .map_or(0.0, |x| x.pos_bias);
+        let pending: f64 = self
+            .updates
+            .iter()
+            .filter_map(|u| match u {
+                super::csexec::MotorUpdate::Bias(x, d) if *x == m => Some(*d),
+                _ => None,
+            })
+            .sum();
+        applied + pending
+    }
+
     /// The stack base of a subroutine the running program calls with a new frame of locals
     /// (`call`, `callsub`; `gosub` keeps the caller's).
     pub(super) fn callee_base(&self, card: &CardModel) -> u32 {

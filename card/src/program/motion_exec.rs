@@ -163,6 +163,50 @@ impl CsExec {
                 }
                 Flow::Next
             }
+            S::Pstore | S::Pload => {
+                // As `pset`, once the moves before it have ended.
+                if self.cs.as_ref().is_some_and(|c| !c.is_idle()) {
+                    return Flow::Wait;
+                }
+                let Some(c) = &mut self.cs else {
+                    return Flow::Next;
+                };
+                let list = c.motors().to_vec();
+                let now: Vec<(u16, f64)> = list
+                    .iter()
+                    .map(|&m| (m, self.bias_now(motors, m)))
+                    .collect();
+                if matches!(s.kind, S::Pstore) {
+                    self.stored_offsets = Some(now);
+                } else if let Some(kept) = self.stored_offsets.clone() {
+                    for &(m, b) in &now {
+                        if let Some(&(_, k)) = kept.iter().find(|(x, _)| *x == m) {
+                            self.updates
+                                .push(super::csexec::MotorUpdate::Bias(m, k - b));
+                        }
+                    }
+                    // The axes follow the motors' new zero.
+                    if let Some(c) = &mut self.cs {
+                        let pos = super::csexec::commanded(motors, c.motors());
+                        let shifted: Vec<f64> = c
+                            .motors()
+                            .iter()
+                            .zip(&pos)
+                            .map(|(m, p)| {
+                                // `p` is before the bias changes not yet applied; the motor
+                                // ends at its kept offset: p + (kept − applied).
+                                let applied = motors
+                                    .get(usize::from(*m).wrapping_sub(1))
+                                    .map_or(0.0, |x| x.pos_bias);
+                                let k = kept.iter().find(|(x, _)| x == m).map_or(applied, |e| e.1);
+                                p + (k - applied)
+                            })
+                            .collect();
+                        c.pmatch(&shifted);
+                    }
+                }
+                Flow::Next
+            }
             S::Pset(words) => {
                 // PSET forces a stop (no blending through it), then renames the programmed
                 // position through the motors' position bias (seed 11441-11452).
@@ -181,6 +225,14 @@ impl CsExec {
                     if let Some(k) = axis_index(w.axis) {
                         vals.push((k, v));
                     }
+                }
+                if let (None, Some(c)) = (&self.stored_offsets, &self.cs) {
+                    let list = c.motors().to_vec();
+                    let before = list
+                        .iter()
+                        .map(|&m| (m, self.bias_now(motors, m)))
+                        .collect();
+                    self.stored_offsets = Some(before);
                 }
                 if let Some(c) = &mut self.cs {
                     let delta = c.rename_axes(|p| {
@@ -268,7 +320,10 @@ impl CsExec {
                     }
                 }
             }
-            S::SyncLabel(_) => Flow::Next,
+            S::SyncLabel(n) => {
+                self.nsync = *n;
+                Flow::Next
+            }
             S::Gosub(e, args) | S::CallSub(e, args) => {
                 let (Ok(v), Ok(a)) = (env::value(card, num, e), self.args(card, args)) else {
                     self.runtime_error(card, rte::VARIABLE, false);

@@ -73,6 +73,7 @@ impl CsExec {
                     after,
                     axes_end: c.program_position(),
                     end,
+                    nsync: self.nsync,
                 });
                 if self.move_at.len() > 32 {
                     self.move_at.pop_front();

@@ -112,14 +112,20 @@ pub(crate) fn run_line(
 /// Each reported axis value is also left in the thread's `L(256 + Sys.MaxMotors + n)`, n the
 /// axis index (A 0, B 1, C 2, U 3, V 4, W 5, X 6, Y 7, Z 8; seed L33958-33962, L37940-37943):
 /// returned with the text as (n, value).
-fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(u32, f64)>) {
-    use crate::coord::axes::{CsAxes, MotorAxisDef, AXES};
+/// The C.S.'s axes (X Y Z A B C U V W: used, value) that `what` reports, or the text that
+/// replaces them (`No Motors`, `No Solution`).
+fn axis_values(
+    m: &CardModel,
+    x: u16,
+    what: parse::AxisReport,
+) -> Result<(Vec<bool>, crate::coord::axes::AxisVec), String> {
+    use crate::coord::axes::{CsAxes, MotorAxisDef};
     use parse::AxisReport as R;
     let motors = m.run.motors_in(x + 1);
     if motors.is_empty() {
-        return ("No Motors".to_string(), Vec::new());
+        return Err("No Motors".to_string());
     }
-    let no_solution = || ("No Solution".to_string(), Vec::new());
+    let no_solution = || Err("No Solution".to_string());
     let mut defs = Vec::with_capacity(motors.len());
     for &n in &motors {
         match m.run.axes.get(usize::from(n) - 1) {
@@ -170,7 +176,18 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(
                 .collect(),
         ),
     };
-    let used = cs.axes_used();
+    Ok((cs.axes_used().to_vec(), out))
+}
+
+/// Power's axis index of X Y Z A B C U V W (seed L45470-45480).
+const POWER_INDEX: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
+
+fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(u32, f64)>) {
+    use crate::coord::axes::AXES;
+    let (used, out) = match axis_values(m, x, what) {
+        Ok(v) => v,
+        Err(text) => return (text, Vec::new()),
+    };
     let text = AXES
         .iter()
         .enumerate()
@@ -178,13 +195,50 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(
         .map(|(k, a)| format!("{}{}", a.letter(), crate::model::format_value(out[k])))
         .collect::<Vec<_>>()
         .join(" ");
-    // Power's axis index of X Y Z A B C U V W.
-    const POWER_INDEX: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
     let locals = (0..AXES.len())
         .filter(|k| used[*k])
         .map(|k| (POWER_INDEX[k], out[k]))
         .collect();
     (text, locals)
+}
+
+/// `&x g` (seed L34990-35026): each axis's distance to go in the move executing (its end
+/// less the present commanded position; 0 with no move), in Power's axis order (A B C U V W
+/// X Y Z), after `N{Coord[x].Nsync}` when `Coord[x].Ndisplay` = 1; the values also go into
+/// the thread's D-variables by axis index, as `dtogread` puts them. `No targets defined`
+/// while `Coord[x].TPSize` is 0.
+fn distance_to_go(m: &CardModel, store: &Store, x: u16) -> (String, Vec<(u32, f64)>) {
+    use super::catalog::St;
+    use crate::coord::axes::AXES;
+    let coord = |name: &str| elements::kept_or_default(store, St::Coord, u32::from(x), name);
+    if coord("TPSize") <= 0.0 {
+        return ("No targets defined".to_string(), Vec::new());
+    }
+    let (used, des) = match axis_values(m, x, parse::AxisReport::Des) {
+        Ok(v) => v,
+        Err(text) => return (text, Vec::new()),
+    };
+    let run = m.run.cs.get(usize::from(x));
+    let target = run.and_then(|r| r.target);
+    let mut order: Vec<usize> = (0..AXES.len()).filter(|k| used[*k]).collect();
+    order.sort_by_key(|&k| POWER_INDEX[k]);
+    let mut parts = Vec::new();
+    if coord("Ndisplay") == 1.0 {
+        parts.push(format!("N{}", run.map_or(0, |r| r.nsync)));
+    }
+    let mut locals = Vec::new();
+    for k in order {
+        let d = target.map_or(0.0, |t| t[k] - des[k]);
+        // Rounded as the reports are (0.1 count resolution of the positions it comes from).
+        let d = (d * 1e9).round() / 1e9;
+        parts.push(format!(
+            "{}{}",
+            AXES[k].letter(),
+            crate::model::format_value(d)
+        ));
+        locals.push((POWER_INDEX[k], d));
+    }
+    (parts.join(" "), locals)
 }
 
 /// `Sys.NoShortCmds` is set: only the long forms of the action commands are accepted.
@@ -916,6 +970,14 @@ impl Ctx<'_> {
                 CsCmd::Status => {
                     let [a, b] = coord_status(&self.card.model, x);
                     report.push(format!("{a:08X}{b:08X}"));
+                    continue;
+                }
+                CsCmd::DistanceToGo => {
+                    let (text, locals) = distance_to_go(&self.card.model, self.store, x);
+                    for (n, v) in locals {
+                        self.th.set_local(parse::EXT_D, n, v);
+                    }
+                    report.push(text);
                     continue;
                 }
                 CsCmd::Axes(what) => {

@@ -107,7 +107,9 @@ fn is_motion(k: &StmtKind) -> bool {
         | StmtKind::Goto(_)
         | StmtKind::Read(_)
         | StmtKind::Pset(_)
-        | StmtKind::Pmatch => true,
+        | StmtKind::Pmatch
+        | StmtKind::Pstore
+        | StmtKind::Pload => true,
         StmtKind::IfLine(_, b) | StmtKind::WhileLine(_, b) => b.iter().any(|s| is_motion(&s.kind)),
         _ => false,
     }

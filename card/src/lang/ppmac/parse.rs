@@ -225,6 +225,8 @@ pub(crate) enum CsCmd {
     LhBack,
     /// `lh>`: move forward along it again (seed L971).
     LhForward,
+    /// `g`: each axis's distance to go (seed L34990-35026).
+    DistanceToGo,
 }
 
 /// What `&x p|d|f|v` reports of each axis.
@@ -1222,6 +1224,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
             c.ws();
             cs(CsCmd::Begin(c.number().unwrap_or(0.0)))
         }
+        "g" => cs(CsCmd::DistanceToGo),
         "adisable" => cs(CsCmd::ADisable),
         "ddisable" => cs(CsCmd::DDisable),
         "stop" => cs(CsCmd::Stop),

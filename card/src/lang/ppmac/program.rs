@@ -436,6 +436,8 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         // `pmatch` (L545): the axes' start positions from the motors'; `pclr` (L704): every
         // axis's present position 0 (a `pset` of each).
         "pmatch" => StmtKind::Pmatch,
+        "pstore" => StmtKind::Pstore,
+        "pload" => StmtKind::Pload,
         "pclr" => StmtKind::Pset(
             b"xyzabcuvw"
                 .iter()

@@ -102,6 +102,8 @@ fn coord(card: &CardModel, x: usize, name: &str) -> Option<f64> {
         // `%n` sets DesTimeBase = n % of the servo period (L21533); a hold takes the time
         // base to 0.
         "DesTimeBase" => Some(run.override_pct / 100.0 * servo_period_ms(card)),
+        // The sync label before the move executing (seed L35011-35014).
+        "Nsync" => Some(f64::from(run.nsync)),
         "TimeBase" => Some(if run.held || flags.program_hold {
             0.0
         } else {

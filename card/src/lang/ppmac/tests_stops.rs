@@ -375,3 +375,77 @@ fn pmatch_and_pclr_in_programs_and_cx() {
     let p = value(&mut t, "Motor[1].DesPos");
     assert!((p - 1000.0).abs() < 1.0, "{p}");
 }
+
+/// Seed L34990-35026: `&x g` gives each axis's distance to go in the move executing, after
+/// `N{Nsync}` with `Coord[x].Ndisplay` = 1, and `No targets defined` while `TPSize` is 0.
+#[test]
+fn g_reports_the_distance_to_go() {
+    let mut t = T::new();
+    t.ready_cs1();
+    t.load(&[
+        "Motor[1].InvAmax=0",
+        "open prog 18",
+        "linear abs ta10 ts0 tm3000",
+        "N430 X3",
+        "close",
+    ]);
+    assert_eq!(t.send("&1g"), "No targets defined\r\n");
+    t.load(&["Coord[1].TPSize=8", "&1 b18 r"]);
+    t.run(1000);
+    let r = t.send("&1g");
+    let d: f64 = r.trim_end().strip_prefix('X').unwrap().parse().unwrap();
+    let des = value(&mut t, "Motor[1].DesPos") / 1000.0;
+    assert!((d - (3.0 - des)).abs() < 1e-3, "{r} at {des}");
+    assert!(d > 1.0 && d < 2.9, "{d}");
+    // The value is in the thread's D6 (X's axis index), as `dtogread` puts it.
+    let d6 = value(&mut t, "D6");
+    assert!((d6 - d).abs() < 1e-9);
+    t.load(&["Coord[1].Ndisplay=1"]);
+    assert!(t.send("&1g").starts_with("N430 X"));
+    assert_eq!(t.send("Coord[1].Nsync"), "Coord[1].Nsync=430\r\n");
+    until(&mut t, "Coord[1].ProgRunning", 0.0, 20_000);
+    assert_eq!(t.send("&1g"), "N430 X0\r\n");
+}
+
+/// Seed L43188-43203, L43316-43330: `pstore` keeps the motors' `pset` offsets, `pload` puts
+/// them back (before any `pstore`: the offsets from before the first `pset`).
+#[test]
+fn pload_restores_what_pstore_kept() {
+    let mut t = T::new();
+    t.ready_cs1();
+    let p0 = value(&mut t, "Motor[1].ActPos");
+    t.load(&[
+        "open prog 19",
+        "pset X5",
+        "dwell 0",
+        "P61 = Motor[1].ActPos",
+        "pload",
+        "dwell 0",
+        "P62 = Motor[1].ActPos",
+        "pset X7",
+        "pstore",
+        "pset X2",
+        "pload",
+        "dwell 0",
+        "P63 = Motor[1].ActPos",
+        "close",
+        "&1 b19 r",
+    ]);
+    until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
+    t.run(5);
+    // X = counts / 1000: pset X5 puts the motor at 5000 in its new frame; the first pload
+    // takes it back to where it was; after pstore at X7, pload undoes pset X2.
+    let (p61, p62, p63) = (
+        value(&mut t, "P61"),
+        value(&mut t, "P62"),
+        value(&mut t, "P63"),
+    );
+    assert!((p61 - 5000.0).abs() < 1.0, "{p61}");
+    assert!((p62 - p0).abs() < 1.0, "{p62} {p0}");
+    assert!((p63 - 7000.0).abs() < 1.0, "{p63}");
+    // The axes follow: a move to X7.5 goes 500 counts on.
+    t.load(&["open prog 20", "linear abs tm100 X7.5", "close", "&1 b20 r"]);
+    until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - 7500.0).abs() < 1.0, "{p}");
+}
