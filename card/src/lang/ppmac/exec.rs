@@ -118,6 +118,7 @@ fn axis_values(
     m: &CardModel,
     x: u16,
     what: parse::AxisReport,
+    kin: bool,
 ) -> Result<(Vec<bool>, crate::coord::axes::AxisVec), String> {
     use crate::coord::axes::{CsAxes, MotorAxisDef};
     use parse::AxisReport as R;
@@ -130,6 +131,9 @@ fn axis_values(
     for &n in &motors {
         match m.run.axes.get(usize::from(n) - 1) {
             Some(Some((_, d))) => match MotorAxisDef::from_ast(d) {
+                // `#n->I`: the forward routine computes the axes, with the dialect's variables
+                // in place (a marker the dialect replaces once the line has run).
+                Ok(MotorAxisDef::Inverse) if kin => return Err(kin_marker(x, what)),
                 Ok(MotorAxisDef::Inverse) | Err(_) => return no_solution(),
                 Ok(def) => defs.push((n, def)),
             },
@@ -179,12 +183,57 @@ fn axis_values(
     Ok((cs.axes_used().to_vec(), out))
 }
 
+/// The text standing for a kinematic C.S.'s axis report in a line's output: NUL, `K`, the C.S.,
+/// the report, NUL (no reply text holds a NUL).
+fn kin_marker(x: u16, what: parse::AxisReport) -> String {
+    use parse::AxisReport as R;
+    let w = match what {
+        R::Pos => 'p',
+        R::Des => 'd',
+        R::Fe => 'f',
+        R::Vel => 'v',
+    };
+    format!("\u{0}K{x}{w}\u{0}")
+}
+
+/// The kinematic axis reports a line's output asks for: (byte range of the marker, C.S., what).
+pub(crate) fn kin_markers(out: &[u8]) -> Vec<(std::ops::Range<usize>, u16, parse::AxisReport)> {
+    use parse::AxisReport as R;
+    let mut v = Vec::new();
+    let mut i = 0;
+    while let Some(k) = out[i..].iter().position(|&b| b == 0) {
+        let start = i + k;
+        let Some(len) = out[start + 1..].iter().position(|&b| b == 0) else {
+            break;
+        };
+        let end = start + 1 + len + 1;
+        let body = &out[start + 1..end - 1];
+        if let (Some(b'K'), Some(&w)) = (body.first(), body.last()) {
+            let x = std::str::from_utf8(&body[1..body.len() - 1])
+                .ok()
+                .and_then(|s| s.parse::<u16>().ok());
+            let what = match w {
+                b'p' => Some(R::Pos),
+                b'd' => Some(R::Des),
+                b'f' => Some(R::Fe),
+                b'v' => Some(R::Vel),
+                _ => None,
+            };
+            if let (Some(x), Some(what)) = (x, what) {
+                v.push((start..end, x, what));
+            }
+        }
+        i = end;
+    }
+    v
+}
+
 /// Power's axis index of X Y Z A B C U V W (seed L45470-45480).
 const POWER_INDEX: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
 
 fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(u32, f64)>) {
     use crate::coord::axes::AXES;
-    let (used, out) = match axis_values(m, x, what) {
+    let (used, out) = match axis_values(m, x, what, true) {
         Ok(v) => v,
         Err(text) => return (text, Vec::new()),
     };
@@ -214,7 +263,7 @@ fn distance_to_go(m: &CardModel, store: &Store, x: u16) -> (String, Vec<(u32, f6
     if coord("TPSize") <= 0.0 {
         return ("No targets defined".to_string(), Vec::new());
     }
-    let (used, des) = match axis_values(m, x, parse::AxisReport::Des) {
+    let (used, des) = match axis_values(m, x, parse::AxisReport::Des, false) {
         Ok(v) => v,
         Err(text) => return (text, Vec::new()),
     };

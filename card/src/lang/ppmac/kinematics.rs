@@ -6,11 +6,12 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use super::parse::{SyntaxError, EXT_C, EXT_L};
+use super::parse::{AxisReport, SyntaxError, EXT_C, EXT_D, EXT_L};
 use super::{progvars, OpenBuf, Power, Thread};
 use crate::lang::interp::Card;
 use crate::model::BufId;
 use crate::model::KinRoutine;
+use crate::model::{CardModel, ExtAt};
 
 /// One routine: what the engine runs and the text `list` shows (and the saved image keeps).
 #[derive(Debug, Clone)]
@@ -212,4 +213,102 @@ impl Power {
         progvars::with(card, |_, pv| pv.kin.insert(key, k));
         Ok(())
     }
+}
+
+/// The output of a line with its kinematic axis reports filled in (`exec::kin_markers`): each
+/// `&x p|d|f|v` of a C.S. with `#n->I` motors is the forward routine run on the motors'
+/// reported positions (seed L33955-33967), with the dialect's variables in place.
+pub(super) fn fill_reports(card: &mut CardModel, out: Vec<u8>) -> Vec<u8> {
+    let marks = super::exec::kin_markers(&out);
+    if marks.is_empty() {
+        return out;
+    }
+    let mut v = Vec::with_capacity(out.len());
+    let mut at = 0;
+    for (range, x, what) in marks {
+        v.extend_from_slice(&out[at..range.start]);
+        v.extend_from_slice(axis_report(card, x, what).as_bytes());
+        at = range.end;
+    }
+    v.extend_from_slice(&out[at..]);
+    v
+}
+
+/// `&x p|d|f|v` of a kinematic C.S. (Power C.S. `x`): the axes the forward routine computes
+/// (those it names in `KinAxisUsed`, D0, or else those it sets), in user units; `No Solution`
+/// when it fails or there is none. [DECISION] `v` is the change of the forward solution over
+/// one unit of the motors' reported velocities (the routine's velocity pass is not modelled).
+fn axis_report(card: &mut CardModel, x: u16, what: AxisReport) -> String {
+    use crate::coord::axes::{AxisVec, AXES};
+    let cs = x + 1;
+    let motors = card.run.motors_in(cs);
+    let rep: Vec<(f64, f64, f64)> = motors
+        .iter()
+        .map(|&n| {
+            let (p, v, f) = card
+                .run
+                .report
+                .get(usize::from(n) - 1)
+                .copied()
+                .unwrap_or_default();
+            let r = |a: f64| (a * 10.0).round() / 10.0;
+            (r(p), r(v), r(f))
+        })
+        .collect();
+    let at = ExtAt {
+        thread: crate::model::Thread::Kin(cs),
+        coord: cs,
+        motor: 1,
+        ..ExtAt::default()
+    };
+    // The axes the routine leaves alone keep this value (no routine computes it).
+    const UNSET: f64 = -9.876_543_21e299;
+    let unset = AxisVec::from_element(UNSET);
+    let mut used_bits = 0u64;
+    let mut set = [false; 9];
+    let mut solve = |card: &mut CardModel, pos: Vec<f64>| -> Option<AxisVec> {
+        let _ = card.ext_write(&at, EXT_D, 0, 0.0);
+        let r = crate::program::kin::forward(card, cs, &motors, &pos, &unset)?.ok()?;
+        used_bits = card.ext_read(&at, EXT_D, 0).unwrap_or(0.0).max(0.0) as u64;
+        for (k, s) in set.iter_mut().enumerate() {
+            *s = r[k] != UNSET;
+        }
+        Some(r)
+    };
+    let pos: Vec<f64> = rep.iter().map(|r| r.0).collect();
+    let des: Vec<f64> = rep.iter().map(|r| r.0 + r.2).collect();
+    let out = match what {
+        AxisReport::Pos => solve(card, pos),
+        AxisReport::Des => solve(card, des),
+        AxisReport::Fe => {
+            let p = solve(card, pos);
+            solve(card, des).zip(p).map(|(d, p)| d - p)
+        }
+        AxisReport::Vel => {
+            let moved: Vec<f64> = rep.iter().map(|r| r.0 + r.1).collect();
+            let p = solve(card, pos);
+            solve(card, moved).zip(p).map(|(m, p)| m - p)
+        }
+    };
+    let Some(out) = out else {
+        return "No Solution".to_string();
+    };
+    let text: Vec<String> = (0..AXES.len())
+        .filter(|&k| {
+            let y = crate::program::kin::AXIS_VAR[k];
+            if used_bits != 0 {
+                used_bits & (1 << y) != 0
+            } else {
+                set[k]
+            }
+        })
+        .map(|k| {
+            let v = if set[k] { out[k] } else { 0.0 };
+            format!("{}{}", AXES[k].letter(), crate::model::format_value(v))
+        })
+        .collect();
+    if text.is_empty() {
+        return "No Solution".to_string();
+    }
+    text.join(" ")
 }

@@ -323,6 +323,13 @@ impl Power {
                 }
             })
         };
+        // `&x p|d|f|v` of a kinematic C.S.: the forward routine, now that the dialect's
+        // variables are back in the model.
+        let out = if out.contains(&0) {
+            kinematics::fill_reports(&mut card.model, out)
+        } else {
+            out
+        };
         self.threads.insert(conn, (th, self.clock));
         if conn != CMD_THREAD {
             // `cx cmd"…"`: the text runs on the command thread (a `cmd` text cannot hold

@@ -189,3 +189,52 @@ fn a_runaway_forward_routine_stops_the_program_at_its_start() {
     assert!(f.runtime_error && !f.running);
     assert!(pos(&mut t, 1).abs() < 1.0 && pos(&mut t, 2).abs() < 1.0);
 }
+
+/// Seed L33955-33967: `&x p|d|f|v` of a C.S. with `#n->I` motors report the axes the forward
+/// routine computes from the motors' positions; `No Solution` when it cannot.
+#[test]
+fn axis_reports_go_through_the_forward_routine() {
+    let mut t = kin_card();
+    assert_eq!(t.send("#1j=4000 #2j=5000"), "");
+    t.run(3000);
+    // X = L1/2000 = 2, Y = L2/1000 - X = 3.
+    assert_eq!(t.send("&1p"), "X2 Y3\r\n");
+    assert_eq!(t.send("&1d"), "X2 Y3\r\n");
+    // At rest: velocities and following errors within the plant's 0.1-count noise.
+    for q in ["&1v", "&1f"] {
+        let r = t.send(q);
+        let parts: Vec<&str> = r.trim_end().split(' ').collect();
+        assert_eq!(parts.len(), 2, "{q}: {r}");
+        assert!(
+            parts[0].starts_with('X') && parts[1].starts_with('Y'),
+            "{q}: {r}"
+        );
+        for p in parts {
+            let v: f64 = p[1..].parse().unwrap();
+            assert!(v.abs() < 1e-3, "{q}: {r}");
+        }
+    }
+    // With `KinAxisUsed` (D0) the routine names its axes: only X.
+    t.load(&[
+        "&1",
+        "open forward",
+        "C6 = L1 / 2000",
+        "C7 = L2 / 1000 - C6",
+        "D0 = 64",
+        "close",
+    ]);
+    assert_eq!(t.send("&1p"), "X2\r\n");
+    // A routine that fails: No Solution (and the line goes on).
+    t.load(&[
+        "&1",
+        "open forward",
+        "C6 = L1 / 2000",
+        "C7 = sqrt(-1) + P(1/0)",
+        "close",
+    ]);
+    let r = t.send("&1p P1");
+    assert!(r.starts_with("No Solution\r\n"), "{r}");
+    // No forward routine at all.
+    t.load(&["&1", "open forward", "close"]);
+    assert_eq!(t.send("&1p"), "No Solution\r\n");
+}
