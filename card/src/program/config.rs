@@ -63,7 +63,13 @@ pub(crate) fn cs_config(card: &CardModel, cs: u16, motors: &[u16]) -> CsConfig {
         ix96: c(96, d.ix96),
         ix98: c(98, d.ix98),
         i10: ivar(card, 10, d.i10),
-        i13: ivar(card, 13, d.i13),
+        // Power's `Coord[x].SegMoveTime` (legacy Isx13, seed L4683): 0 makes circles linear
+        // (L39636-39637).
+        i13: if p == crate::domain::Profile::Power {
+            c(13, 0.0)
+        } else {
+            ivar(card, 13, d.i13)
+        },
         i50: ivar(card, 50, 1.0) != 0.0,
         i90: ivar(card, 90, d.i90),
         // Power's `Coord[x].Td` (legacy Isx80, seed L4995-5027); PMAC has no such time.

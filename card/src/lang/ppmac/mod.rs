@@ -465,10 +465,20 @@ impl Power {
         }
         th.lines += 1;
         let o = self.open.as_mut()?;
+        let depth = (o.blocks.len(), o.blocks.last().copied());
         let parsed = progvars::with(card, |_, pv| {
             program::parse_program_line(line, &mut o.blocks, &mut pv.elems)
         });
         let r = match parsed {
+            // A `}` whose `while` is on the next line stores nothing but is listed (its text
+            // is what a saved image rebuilds the buffer from).
+            Ok(stmts)
+                if stmts.is_empty() && (o.blocks.len(), o.blocks.last().copied()) != depth =>
+            {
+                o.text.extend(listing::text_of(line));
+                o.stored.push(0);
+                Ok(())
+            }
             // A line with nothing to store (blank, a comment, `sendall`) is not listed either:
             // the listing has one line per stored line (`list pc` relies on it).
             Ok(stmts) if stmts.is_empty() => Ok(()),

@@ -27,6 +27,9 @@ pub(crate) enum Block {
     Do,
     /// `switch (…) {`
     Switch,
+    /// A `do` body ended (`}` or a one-line `do dwell 0`) without its `while`: the next
+    /// statement must be `while ({condition})` (seed L40925-40942).
+    DoWhile,
 }
 
 /// The blocks open in a buffer being entered.
@@ -136,6 +139,15 @@ fn open(blocks: &mut Blocks, b: Block, at: usize) -> P<()> {
 
 fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()> {
     let at = c.i;
+    if blocks.last() == Some(&Block::DoWhile) {
+        if !c.eat_word("while") {
+            return err(at);
+        }
+        blocks.pop();
+        let cond = paren_cond(c)?;
+        out.push(stmt(StmtKind::DoWhile(cond), at));
+        return Ok(());
+    }
     if c.eat(b'}') {
         c.ws();
         let b = blocks.pop().ok_or(SyntaxError { at, code: 20 })?;
@@ -153,11 +165,17 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             Block::Switch => out.push(stmt(StmtKind::EndSwitch, at)),
             Block::Do => {
                 if !c.eat_word("while") {
+                    // `}` alone: the `while` opens the next line.
+                    if c.at_end() || c.peek() == Some(b';') {
+                        blocks.push(Block::DoWhile);
+                        return Ok(());
+                    }
                     return err(c.i);
                 }
                 let cond = paren_cond(c)?;
                 out.push(stmt(StmtKind::DoWhile(cond), at));
             }
+            Block::DoWhile => return err(at),
         }
         return Ok(());
     }
@@ -255,13 +273,16 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
     }
     // Axis words.
     let starts_value = |d: u8| d.is_ascii_digit() || matches!(d, b'(' | b'-' | b'.' | b'$');
-    if axis_of(ch).is_some() && c.peek_at(1).is_some_and(starts_value) {
+    // A move may also be circle-centre words alone (`J10`: a full circle of radius 10 in the
+    // XY plane, seed L39646).
+    // (An `I…` assignment was taken above as an I-variable's.)
+    let centre_only = matches!(ch, b'i' | b'j' | b'k');
+    if (axis_of(ch).is_some() || centre_only) && c.peek_at(1).is_some_and(starts_value) {
         let mut words = Vec::new();
         // After the first word, circle centre (`I J K`) and radius (`R`) words too.
-        while let Some(a) = c
-            .peek()
-            .and_then(|x| axis_of(x).or_else(|| circle_of(x).filter(|_| !words.is_empty())))
-        {
+        while let Some(a) = c.peek().and_then(|x| {
+            axis_of(x).or_else(|| circle_of(x).filter(|_| !words.is_empty() || centre_only))
+        }) {
             if !c.peek_at(1).is_some_and(starts_value) {
                 break;
             }
@@ -347,7 +368,7 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         "do" => {
             c.ws();
             if !c.eat(b'{') {
-                return do_line(c, at, out);
+                return do_line(c, blocks, at, out);
             }
             open(blocks, Block::Do, at)?;
             StmtKind::Do
@@ -508,7 +529,7 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
 
 /// `do {statements} while ({condition})` on one line (seed L40935: `do dwell 50 while (M1 ==
 /// 0);`): the body runs, then again while the condition holds.
-fn do_line(c: &mut Cur<'_>, at: usize, out: &mut Vec<Stmt>) -> P<()> {
+fn do_line(c: &mut Cur<'_>, blocks: &mut Blocks, at: usize, out: &mut Vec<Stmt>) -> P<()> {
     let mut body = Vec::new();
     let mut none = Vec::new();
     loop {
@@ -524,7 +545,14 @@ fn do_line(c: &mut Cur<'_>, at: usize, out: &mut Vec<Stmt>) -> P<()> {
             break;
         }
         if c.at_end() {
-            return err(c.i);
+            // `do dwell 0` with its `while` on the next line (seed L42702-42703).
+            if body.is_empty() {
+                return err(c.i);
+            }
+            open(blocks, Block::DoWhile, at)?;
+            out.push(stmt(StmtKind::Do, at));
+            out.extend(body);
+            return Ok(());
         }
         statement(c, &mut none, &mut body)?;
         if !none.is_empty() {
@@ -798,7 +826,12 @@ fn assignment(c: &mut Cur<'_>, target: VarRef, at: usize, out: &mut Vec<Stmt>) -
         (">>", Some(BinOp::Shr)),
     ];
     let one = || Expr::num(1.0);
-    let (op, value) = if c.eat_str("++") {
+    // `I388++=`, `M50--=` (seed L41743-41750): incremented or decremented with the next move.
+    let (op, value) = if c.eat_str("++=") {
+        (AssignOp::SyncOp(BinOp::Add), one())
+    } else if c.eat_str("--=") {
+        (AssignOp::SyncOp(BinOp::Sub), one())
+    } else if c.eat_str("++") {
         (AssignOp::Op(BinOp::Add), one())
     } else if c.eat_str("--") {
         (AssignOp::Op(BinOp::Sub), one())

@@ -199,3 +199,80 @@ fn bad_pvt_spline_td_and_send_lines_are_refused() {
     t.run(100);
     assert_eq!(t.send("P6..7"), "P6=1\r\nP7=0\r\n");
 }
+
+/// Seed L39640-39646, L40925-40942, L41743-41750, L42700-42716: a full circle from centre
+/// words alone (`J10`), `do` with its `while` on the next line, and the synchronous `++=`.
+#[test]
+fn full_circles_split_do_while_and_sync_increments() {
+    let mut t = super::tests_programs::T::new();
+    let _ = t.card.model.state.set_ivar(71, 13_107.0);
+    t.ready_cs1();
+    t.load(&["Motor[2].ServoCtrl=1", "&1 #2->1000Y"]);
+    t.run(5);
+    assert_eq!(t.send("#2j/"), "");
+    t.run(20);
+    t.load(&[
+        "Motor[1].InvAmax=0",
+        "Motor[2].InvAmax=0",
+        // Circles need segmentation (0 makes them linear, seed L39636-39637).
+        "Coord[1].SegMoveTime=1",
+        "open prog 21",
+        "abs linear ta10 ts0 tm100 X0 Y0",
+        "circle1 F10",
+        "J1",
+        "dwell 0",
+        "P70 = 1",
+        "P71++=",
+        "X0.5",
+        "do dwell 10",
+        "while (P70 < 1)",
+        "P72 = 3",
+        "do {",
+        "P72 = P72 - 1",
+        "}",
+        "while (P72 > 0)",
+        "close",
+        "&1 b21 r",
+    ]);
+    // Half way round: the far side of the circle (Y = 2 units).
+    let mut top: f64 = 0.0;
+    for _ in 0..2000 {
+        t.run(1);
+        let y: f64 = t
+            .send("Motor[2].DesPos")
+            .trim_end()
+            .rsplit('=')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        top = top.max(y);
+    }
+    assert!((top - 2000.0).abs() < 5.0, "{top}");
+    for _ in 0..10_000 {
+        if t.send("Coord[1].ProgRunning") == "Coord[1].ProgRunning=0\r\n" {
+            break;
+        }
+        t.run(1);
+    }
+    assert_eq!(t.send("P71 P72"), "P71=1\r\nP72=0\r\n");
+    // A `do` body whose `while` never comes: the buffer does not close (#20).
+    t.load(&["open prog 22", "do dwell 10"]);
+    assert!(t.send("close").contains("error #20"));
+    // Only `while` may follow a `}` that closes a `do` (a bad line drops the buffer).
+    t.load(&["open prog 23", "do {", "P1=1", "}"]);
+    assert!(t.send("X1").contains("error #20"));
+    t.load(&[
+        "open prog 24",
+        "do {",
+        "P1=1",
+        "}",
+        "while (P1 == 0)",
+        "close",
+    ]);
+    let listed = "do {\r\nP1=1\r\n}\r\nwhile (P1 == 0)\r\n";
+    assert_eq!(t.send("list prog 24"), listed);
+    // Rebuilt from that text after a save and load.
+    let mut u = super::tests_units::reloaded(&mut t);
+    assert_eq!(u.send("list prog 24"), listed);
+}
