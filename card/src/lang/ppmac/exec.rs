@@ -52,24 +52,29 @@ struct Ctx<'a> {
     store: &'a mut Store,
     /// The program threads' local data (`Plc[i].Ldata.…`, `Coord[x].Ldata.…`).
     others: &'a mut HashMap<crate::model::Thread, Thread>,
+    /// Kinematic axis reports to run once the line has run.
+    kin: &'a mut Vec<KinRequest>,
     th: &'a mut Thread,
     out: Vec<u8>,
     values: usize,
 }
 
-/// Run one line for thread `th`: its framed output.
+/// Run one line for thread `th`: its framed output; `kin` receives the kinematic axis
+/// reports to put into it once the dialect's variables are back in the model.
 pub(crate) fn run_line(
     card: &mut Card,
     store: &mut Store,
     others: &mut HashMap<crate::model::Thread, Thread>,
     th: &mut Thread,
     line: &[u8],
+    kin: &mut Vec<KinRequest>,
 ) -> Vec<u8> {
     th.lines += 1;
     let mut cx = Ctx {
         card,
         store,
         others,
+        kin,
         th,
         out: Vec::new(),
         values: 0,
@@ -119,21 +124,21 @@ fn axis_values(
     x: u16,
     what: parse::AxisReport,
     kin: bool,
-) -> Result<(Vec<bool>, crate::coord::axes::AxisVec), String> {
+) -> Result<(Vec<bool>, crate::coord::axes::AxisVec), AxisFail> {
     use crate::coord::axes::{CsAxes, MotorAxisDef};
     use parse::AxisReport as R;
     let motors = m.run.motors_in(x + 1);
     if motors.is_empty() {
-        return Err("No Motors".to_string());
+        return Err(AxisFail::Text("No Motors".to_string()));
     }
-    let no_solution = || Err("No Solution".to_string());
+    let no_solution = || Err(AxisFail::Text("No Solution".to_string()));
     let mut defs = Vec::with_capacity(motors.len());
     for &n in &motors {
         match m.run.axes.get(usize::from(n) - 1) {
             Some(Some((_, d))) => match MotorAxisDef::from_ast(d) {
                 // `#n->I`: the forward routine computes the axes, with the dialect's variables
-                // in place (a marker the dialect replaces once the line has run).
-                Ok(MotorAxisDef::Inverse) if kin => return Err(kin_marker(x, what)),
+                // in place (once the line has run).
+                Ok(MotorAxisDef::Inverse) if kin => return Err(AxisFail::Kin),
                 Ok(MotorAxisDef::Inverse) | Err(_) => return no_solution(),
                 Ok(def) => defs.push((n, def)),
             },
@@ -183,59 +188,38 @@ fn axis_values(
     Ok((cs.axes_used().to_vec(), out))
 }
 
-/// The text standing for a kinematic C.S.'s axis report in a line's output: NUL, `K`, the C.S.,
-/// the report, NUL (no reply text holds a NUL).
-fn kin_marker(x: u16, what: parse::AxisReport) -> String {
-    use parse::AxisReport as R;
-    let w = match what {
-        R::Pos => 'p',
-        R::Des => 'd',
-        R::Fe => 'f',
-        R::Vel => 'v',
-    };
-    format!("\u{0}K{x}{w}\u{0}")
+/// A kinematic C.S.'s axis report a line asks for: it runs once the line has run, with the
+/// dialect's variables back in the model, and its text goes at byte `at` of the output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct KinRequest {
+    /// Where the text goes in the line's output.
+    pub at: usize,
+    /// Power C.S. number.
+    pub x: u16,
+    /// Which report.
+    pub what: parse::AxisReport,
 }
 
-/// The kinematic axis reports a line's output asks for: (byte range of the marker, C.S., what).
-pub(crate) fn kin_markers(out: &[u8]) -> Vec<(std::ops::Range<usize>, u16, parse::AxisReport)> {
-    use parse::AxisReport as R;
-    let mut v = Vec::new();
-    let mut i = 0;
-    while let Some(k) = out[i..].iter().position(|&b| b == 0) {
-        let start = i + k;
-        let Some(len) = out[start + 1..].iter().position(|&b| b == 0) else {
-            break;
-        };
-        let end = start + 1 + len + 1;
-        let body = &out[start + 1..end - 1];
-        if let (Some(b'K'), Some(&w)) = (body.first(), body.last()) {
-            let x = std::str::from_utf8(&body[1..body.len() - 1])
-                .ok()
-                .and_then(|s| s.parse::<u16>().ok());
-            let what = match w {
-                b'p' => Some(R::Pos),
-                b'd' => Some(R::Des),
-                b'f' => Some(R::Fe),
-                b'v' => Some(R::Vel),
-                _ => None,
-            };
-            if let (Some(x), Some(what)) = (x, what) {
-                v.push((start..end, x, what));
-            }
-        }
-        i = end;
-    }
-    v
+/// Why a C.S.'s axes are not reported here: a text that replaces them, or the forward
+/// routine of a kinematic C.S. (run later: [`KinRequest`]).
+enum AxisFail {
+    Text(String),
+    Kin,
 }
 
 /// Power's axis index of X Y Z A B C U V W (seed L45470-45480).
 const POWER_INDEX: [u32; 9] = [6, 7, 8, 0, 1, 2, 3, 4, 5];
 
-fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(u32, f64)>) {
+fn axis_report(
+    m: &CardModel,
+    x: u16,
+    what: parse::AxisReport,
+) -> Result<(String, Vec<(u32, f64)>), AxisFail> {
     use crate::coord::axes::AXES;
     let (used, out) = match axis_values(m, x, what, true) {
         Ok(v) => v,
-        Err(text) => return (text, Vec::new()),
+        Err(AxisFail::Text(text)) => return Ok((text, Vec::new())),
+        Err(AxisFail::Kin) => return Err(AxisFail::Kin),
     };
     let text = AXES
         .iter()
@@ -248,7 +232,7 @@ fn axis_report(m: &CardModel, x: u16, what: parse::AxisReport) -> (String, Vec<(
         .filter(|k| used[*k])
         .map(|k| (POWER_INDEX[k], out[k]))
         .collect();
-    (text, locals)
+    Ok((text, locals))
 }
 
 /// `&x g` (seed L34990-35026): each axis's distance to go in the move executing (its end
@@ -265,7 +249,8 @@ fn distance_to_go(m: &CardModel, store: &Store, x: u16) -> (String, Vec<(u32, f6
     }
     let (used, des) = match axis_values(m, x, parse::AxisReport::Des, false) {
         Ok(v) => v,
-        Err(text) => return (text, Vec::new()),
+        Err(AxisFail::Text(text)) => return (text, Vec::new()),
+        Err(AxisFail::Kin) => return ("No Solution".to_string(), Vec::new()),
     };
     let run = m.run.cs.get(usize::from(x));
     let target = run.and_then(|r| r.target);
@@ -918,6 +903,8 @@ impl Ctx<'_> {
     fn cs_cmd(&mut self, c: &CsCmd, list: &[u16]) -> Result<(), u16> {
         let motor = self.th.motor;
         let mut report = Vec::new();
+        // Kinematic reports: (index in `report`, C.S., what).
+        let mut kin: Vec<(usize, u16, parse::AxisReport)> = Vec::new();
         for &x in list {
             let cmd = match c {
                 CsCmd::Run => CmdKind::Run,
@@ -1030,12 +1017,19 @@ impl Ctx<'_> {
                     continue;
                 }
                 CsCmd::Axes(what) => {
-                    let (text, locals) = axis_report(&self.card.model, x, *what);
-                    let base = 256 + u32::from(self.card.model.state.limits().motors);
-                    for (n, v) in locals {
-                        self.th.set_local(parse::EXT_L, base + n, v);
+                    match axis_report(&self.card.model, x, *what) {
+                        Ok((text, locals)) => {
+                            let base = 256 + u32::from(self.card.model.state.limits().motors);
+                            for (n, v) in locals {
+                                self.th.set_local(parse::EXT_L, base + n, v);
+                            }
+                            report.push(text);
+                        }
+                        Err(_) => {
+                            kin.push((report.len(), x, *what));
+                            report.push(String::new());
+                        }
                     }
-                    report.push(text);
                     continue;
                 }
             };
@@ -1043,6 +1037,17 @@ impl Ctx<'_> {
             report.extend(lines);
         }
         if !report.is_empty() {
+            // Where each kinematic report's text goes in the output.
+            let mut at = self.out.len();
+            let mut next = kin.into_iter().peekable();
+            for (k, piece) in report.iter().enumerate() {
+                while let Some(&(slot, x, what)) = next.peek().filter(|(slot, ..)| *slot == k) {
+                    let _ = slot;
+                    self.kin.push(KinRequest { at, x, what });
+                    next.next();
+                }
+                at += piece.len() + 1;
+            }
             let s = report.join(" ");
             self.say(&s);
         }

@@ -215,20 +215,21 @@ impl Power {
     }
 }
 
-/// The output of a line with its kinematic axis reports filled in (`exec::kin_markers`): each
-/// `&x p|d|f|v` of a C.S. with `#n->I` motors is the forward routine run on the motors'
-/// reported positions (seed L33955-33967), with the dialect's variables in place.
-pub(super) fn fill_reports(card: &mut CardModel, out: Vec<u8>) -> Vec<u8> {
-    let marks = super::exec::kin_markers(&out);
-    if marks.is_empty() {
-        return out;
-    }
-    let mut v = Vec::with_capacity(out.len());
+/// The output of a line with its kinematic axis reports put in (`exec::KinRequest`, in output
+/// order): each `&x p|d|f|v` of a C.S. with `#n->I` motors is the forward routine run on the
+/// motors' reported positions (seed L33955-33967), with the dialect's variables in place.
+pub(super) fn fill_reports(
+    card: &mut CardModel,
+    out: Vec<u8>,
+    reqs: &[super::exec::KinRequest],
+) -> Vec<u8> {
+    let mut v = Vec::with_capacity(out.len() + 32 * reqs.len());
     let mut at = 0;
-    for (range, x, what) in marks {
-        v.extend_from_slice(&out[at..range.start]);
-        v.extend_from_slice(axis_report(card, x, what).as_bytes());
-        at = range.end;
+    for r in reqs {
+        let cut = r.at.clamp(at, out.len());
+        v.extend_from_slice(&out[at..cut]);
+        v.extend_from_slice(axis_report(card, r.x, r.what).as_bytes());
+        at = cut;
     }
     v.extend_from_slice(&out[at..]);
     v
@@ -240,7 +241,7 @@ pub(super) fn fill_reports(card: &mut CardModel, out: Vec<u8>) -> Vec<u8> {
 /// one unit of the motors' reported velocities (the routine's velocity pass is not modelled).
 fn axis_report(card: &mut CardModel, x: u16, what: AxisReport) -> String {
     use crate::coord::axes::{AxisVec, AXES};
-    let cs = x + 1;
+    let cs = x.saturating_add(1);
     let motors = card.run.motors_in(cs);
     let rep: Vec<(f64, f64, f64)> = motors
         .iter()

@@ -244,8 +244,6 @@ pub struct Power {
     host: bool,
     /// The effect of the host line running, for its caller to perform.
     wait: Option<PowerWait>,
-    /// `#define`s and PLC identifiers.
-    pre: preproc::Preproc,
 }
 
 /// The one buffer open on the card (seed §2.9: one at a time across all threads).
@@ -275,9 +273,12 @@ impl Power {
 
     /// Execute one command line of connection `conn` on `card`: the bytes to send back.
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
-        let plcs = &card.model.bufs.plcs;
         let expanded;
-        let line = match self.pre.line(line, &|n| plcs.contains_key(&(n as u8))) {
+        let pre = progvars::with(card, |card, pv| {
+            let plcs = &card.model.bufs.plcs;
+            pv.pre.line(line, &|n| plcs.contains_key(&(n as u8)))
+        });
+        let line = match pre {
             preproc::Pre::Same => line,
             preproc::Pre::Text(t) => {
                 expanded = t;
@@ -298,6 +299,7 @@ impl Power {
         };
         let mut th = self.take_thread(conn);
         let mut cmds = Vec::new();
+        let mut kin = Vec::new();
         let out = if let Some(out) = self.rotary_command(card, conn, &mut th, line) {
             out
         } else if let Some(out) = self.buffer_command(card, conn, &mut th, line) {
@@ -318,17 +320,17 @@ impl Power {
                     Some(out) => out,
                     None => {
                         let (store, others) = pv.split_threads();
-                        exec::run_line(card, store, others, &mut th, line)
+                        exec::run_line(card, store, others, &mut th, line, &mut kin)
                     }
                 }
             })
         };
         // `&x p|d|f|v` of a kinematic C.S.: the forward routine, now that the dialect's
         // variables are back in the model.
-        let out = if out.contains(&0) {
-            kinematics::fill_reports(&mut card.model, out)
-        } else {
+        let out = if kin.is_empty() {
             out
+        } else {
+            kinematics::fill_reports(&mut card.model, out, &kin)
         };
         self.threads.insert(conn, (th, self.clock));
         if conn != CMD_THREAD {
@@ -383,9 +385,6 @@ impl Power {
         line: &[u8],
     ) -> Option<Vec<u8>> {
         let text = String::from_utf8_lossy(line).trim().to_ascii_lowercase();
-        if text == "$$$***" {
-            self.pre.clear();
-        }
         let pmac: &[u8] = match text.as_str() {
             "$$$" => b"$$$",
             "$$$***" => b"$$$***",

@@ -4,8 +4,9 @@
 //! or element, `cmd`, PLC control run at once in the command thread's context (its L/D/C
 //! locals, its addressed C.S. for Q-variables). [DECISION] Moves: `cpx` runs them as a
 //! motion program through the C.S.'s rotary buffer (one line, then `stop`; `b0 r` with the
-//! C.S.'s run checks, #25 when it cannot run); `cx` the same way in rapid mode (the seed runs
-//! a `cx` move in rapid mode, L33747; `cx pmatch X10 Y20 Z30`, L33797).
+//! C.S.'s run checks, #25 when it cannot run); `cx` the same way in rapid mode (the seed
+//! "forces the C.S. into rapid mode", L33747, so the C.S. stays in it as after a `rapid`;
+//! `cx pmatch X10 Y20 Z30`, L33797).
 
 use super::parse::SyntaxError;
 use super::{exec, program, progvars, Thread};

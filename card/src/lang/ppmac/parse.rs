@@ -398,6 +398,13 @@ impl<'a> Cur<'a> {
         self.s.get(self.i..).unwrap_or_default()
     }
 
+    /// The rest of the line starts with `w` (case ignored).
+    pub(crate) fn rest_starts(&self, w: &[u8]) -> bool {
+        self.rest()
+            .get(..w.len())
+            .is_some_and(|s| s.eq_ignore_ascii_case(w))
+    }
+
     /// `w` as a whole word (case ignored).
     pub(crate) fn eat_word(&mut self, w: &str) -> bool {
         let save = self.i;
@@ -1119,7 +1126,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     // The long forms `jog+`, `jog-`, `jog/`, `jog=…`, `jog:…`, `jog^…` (seed L565-624,
     // L877-908, the short/long table at L20017-20019).
-    if c.rest().starts_with(b"jog")
+    if c.rest_starts(b"jog")
         && c.peek_at(3)
             .is_some_and(|d| matches!(d, b'+' | b'-' | b'/' | b'=' | b':' | b'^'))
     {
@@ -1128,7 +1135,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
     }
     // `jogret`: back to the pre-jog position; `jogret={data}`: to the position, which becomes
     // the pre-jog position (seed L912-917).
-    if c.rest().starts_with(b"jogret") && !c.peek_at(6).is_some_and(|d| d.is_ascii_alphanumeric()) {
+    if c.rest_starts(b"jogret") && !c.peek_at(6).is_some_and(|d| d.is_ascii_alphanumeric()) {
         c.i += 6;
         let kind = if c.eat(b'=') {
             match signed(c) {
@@ -1141,7 +1148,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         return Ok(Cmd::Motor(MotorCmd::Jog(kind, None)));
     }
     // `jog` alone: an indefinite jog at the present velocity (seed L598-599, L36069-36083).
-    if c.rest().starts_with(b"jog") && !c.peek_at(3).is_some_and(|d| d.is_ascii_alphanumeric()) {
+    if c.rest_starts(b"jog") && !c.peek_at(3).is_some_and(|d| d.is_ascii_alphanumeric()) {
         c.i += 3;
         return Ok(Cmd::Motor(MotorCmd::Jog(
             crate::domain::ast::JogKind::Present,
@@ -1149,7 +1156,7 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         )));
     }
     // `lh\`, `lh<`, `lh>`: the look-ahead stop, backward and forward commands.
-    if c.rest().starts_with(b"lh") {
+    if c.rest_starts(b"lh") {
         let k = match c.peek_at(2) {
             Some(b'\\') => Some(CsCmd::LhStop),
             Some(b'<') => Some(CsCmd::LhBack),

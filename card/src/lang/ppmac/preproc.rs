@@ -7,8 +7,9 @@
 //! [DECISION] On a real card the project manager runs the preprocessor before it downloads a
 //! project through gpascii. Here every host line goes through it, so a host can send a
 //! project's files as they are; the definitions are the card's (one table for every
-//! connection, as one project is), kept until `$$$***` and not saved. Identifiers are case
-//! sensitive (L45556) and never replaced inside quoted text.
+//! connection, as one project is), saved with the buffers (a PLC identifier names the same
+//! buffer after a restart) and cleared by `$$$***`. Identifiers are case sensitive (L45556)
+//! and never replaced inside quoted text.
 
 use std::collections::HashMap;
 
@@ -18,6 +19,9 @@ const MAX_EXPANDED: usize = 4096;
 const MAX_DEPTH: u32 = 16;
 /// Most definitions kept.
 const MAX_DEFINES: usize = 4096;
+/// Most substitutions one line may take (macros that expand to nothing never reach
+/// [`MAX_EXPANDED`], but may still multiply).
+const MAX_SUBSTITUTIONS: u32 = 10_000;
 
 /// One `#define`.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,9 +140,30 @@ fn call_args(s: &[u8], at: usize) -> Option<(Vec<String>, usize)> {
 }
 
 impl Preproc {
-    /// Forget every definition (`$$$***`).
-    pub(crate) fn clear(&mut self) {
-        self.defs.clear();
+    /// Every definition as the `#define` line that makes it (the saved image keeps them, so
+    /// a PLC identifier names the same buffer after a restart), in name order.
+    pub(crate) fn export(&self) -> Vec<String> {
+        let mut v: Vec<String> = self
+            .defs
+            .iter()
+            .map(|(name, m)| match &m.params {
+                Some(p) => format!("#define {name}({}) {}", p.join(","), m.body),
+                None => format!("#define {name} {}", m.body),
+            })
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// Definitions from [`Preproc::export`] lines (a line that is not one is passed over).
+    pub(crate) fn import(lines: &[String]) -> Self {
+        let mut p = Preproc::default();
+        for l in lines {
+            if let Some(rest) = l.strip_prefix("#define") {
+                let _ = p.define(rest);
+            }
+        }
+        p
     }
 
     /// The value `name` is defined to as a constant, if it is.
@@ -171,7 +196,8 @@ impl Preproc {
         if self.defs.is_empty() && !t.contains("Kin") {
             return Pre::Same;
         }
-        match self.expand(line, 0) {
+        let mut budget = MAX_SUBSTITUTIONS;
+        match self.expand(line, 0, &mut budget) {
             Ok(Some(v)) => Pre::Text(v),
             Ok(None) => Pre::Same,
             Err(code) => Pre::Error(code),
@@ -256,7 +282,7 @@ impl Preproc {
     }
 
     /// `s` with every defined name replaced; `None` when nothing was.
-    fn expand(&self, s: &[u8], depth: u32) -> Result<Option<Vec<u8>>, u16> {
+    fn expand(&self, s: &[u8], depth: u32, budget: &mut u32) -> Result<Option<Vec<u8>>, u16> {
         if depth > MAX_DEPTH {
             return Err(21);
         }
@@ -301,7 +327,8 @@ impl Preproc {
             }
             match piece {
                 Some((text, next)) => {
-                    let text = self.expand(&text, depth + 1)?.unwrap_or(text);
+                    *budget = budget.checked_sub(1).ok_or(21u16)?;
+                    let text = self.expand(&text, depth + 1, budget)?.unwrap_or(text);
                     out.extend_from_slice(&text);
                     changed = true;
                     i = next;
@@ -322,25 +349,30 @@ impl Preproc {
     fn substitute(&self, body: &str, params: &[String], args: &[String]) -> Option<String> {
         let s = body.as_bytes();
         let mut out = String::new();
+        // Text between names is copied as it stands (names are ASCII, so every cut is at a
+        // character boundary).
+        let mut lit = 0;
         let mut i = 0;
         while i < s.len() {
             if is_ident_start(s[i]) && (i == 0 || !is_ident(s[i - 1])) {
                 let end = i + s[i..].iter().take_while(|&&c| is_ident(c)).count();
+                out.push_str(&body[lit..i]);
                 let name = &body[i..end];
                 match params.iter().position(|p| p == name) {
                     Some(k) => out.push_str(args.get(k)?),
                     None => out.push_str(name),
                 }
                 i = end;
+                lit = end;
+                if out.len() > MAX_EXPANDED {
+                    return None;
+                }
             } else {
-                out.push(s[i] as char);
                 i += 1;
             }
-            if out.len() > MAX_EXPANDED {
-                return None;
-            }
         }
-        Some(out)
+        out.push_str(&body[lit..]);
+        (out.len() <= MAX_EXPANDED).then_some(out)
     }
 }
 
@@ -410,6 +442,51 @@ mod tests {
         // A definition that refers to itself stops at the nesting bound.
         assert_eq!(p.line(b"#define Loop Loop+1", &|_| false), Pre::Directive);
         assert_eq!(run(&mut p, "P1=Loop"), "Error(21)");
+    }
+
+    #[test]
+    fn expansions_are_bounded_and_keep_other_text() {
+        let mut p = Preproc::default();
+        assert_eq!(
+            p.line(b"#define T(a) send1\"\xc2\xb0C\" a", &|_| false),
+            Pre::Directive
+        );
+        assert_eq!(run(&mut p, "T(1)"), "send1\"\u{b0}C\" 1");
+        // Macros that expand to nothing but multiply: stopped by the substitution budget.
+        assert_eq!(p.line(b"#define E()", &|_| false), Pre::Directive);
+        let calls = |name: &str| format!("{name}() ").repeat(40);
+        assert_eq!(
+            p.line(format!("#define A1() {}", calls("E")).as_bytes(), &|_| {
+                false
+            }),
+            Pre::Directive
+        );
+        for k in 2..=6 {
+            let def = format!("#define A{k}() {}", calls(&format!("A{}", k - 1)));
+            assert_eq!(p.line(def.as_bytes(), &|_| false), Pre::Directive);
+        }
+        assert_eq!(run(&mut p, "P1=1 A6()"), "Error(21)");
+        assert_eq!(run(&mut p, "P1=1 A1()").trim_end(), "P1=1");
+    }
+
+    #[test]
+    fn definitions_export_and_import() {
+        let mut p = Preproc::default();
+        let _ = p.line(b"#define Scale(a,b) ((a)*(b))", &|_| false);
+        let _ = p.line(b"#define Gain P100", &|_| false);
+        let _ = run(&mut p, "open plc Lube");
+        let lines = p.export();
+        assert_eq!(
+            lines,
+            [
+                "#define Gain P100",
+                "#define Lube 2",
+                "#define Scale(a,b) ((a)*(b))"
+            ]
+        );
+        let mut q = Preproc::import(&lines);
+        assert_eq!(run(&mut q, "Gain=Scale(2,3)"), "P100=((2)*(3))");
+        assert_eq!(run(&mut q, "enable plc Lube"), "enable plc 2");
     }
 
     #[test]

@@ -42,6 +42,8 @@ pub(crate) struct ProgVars {
     pub(crate) sources: super::listing::Sources,
     /// The kinematic routines (`open forward|inverse`).
     pub(crate) kin: super::kinematics::Routines,
+    /// `#define`s and PLC identifiers (`preproc`).
+    pub(crate) pre: super::preproc::Preproc,
 }
 
 /// Install the dialect's variables in `card` (a Power card's model), unless already there.

@@ -145,8 +145,23 @@ pub(crate) fn export(card: &CardModel) -> Vec<SourceText> {
             })
         })
         .chain(kin)
+        .chain(defines(pv))
         .collect()
 }
+
+/// The preprocessor's definitions as a saved text (none when there are none).
+fn defines(pv: &progvars::ProgVars) -> Option<SourceText> {
+    let lines = pv.pre.export();
+    (!lines.is_empty()).then(|| SourceText {
+        kind: DEFINES.to_string(),
+        n: 0,
+        lines,
+        stack: crate::model::DEFAULT_STACK_OFFSET,
+    })
+}
+
+/// The saved text kind of the preprocessor's definitions.
+const DEFINES: &str = "define";
 
 /// After a load (or a reset that erased the buffers): forget the old texts and rebuild the
 /// buffers of `saved` from theirs. A text that no longer parses leaves its buffer out.
@@ -156,7 +171,14 @@ pub(crate) fn restore(card: &mut CardModel, saved: Vec<SourceText>) {
     };
     pv.sources = Sources::default();
     pv.kin.clear();
+    pv.pre = super::preproc::Preproc::default();
     for s in saved {
+        if s.kind == DEFINES {
+            if let Some(pv) = card.ext_mut::<progvars::ProgVars>() {
+                pv.pre = super::preproc::Preproc::import(&s.lines);
+            }
+            continue;
+        }
         if let Some(pv) = card.ext_mut::<progvars::ProgVars>() {
             if super::kinematics::rebuild(pv, &s.kind, s.n, &s.lines) {
                 continue;

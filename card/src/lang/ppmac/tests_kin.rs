@@ -237,4 +237,15 @@ fn axis_reports_go_through_the_forward_routine() {
     // No forward routine at all.
     t.load(&["&1", "open forward", "close"]);
     assert_eq!(t.send("&1p"), "No Solution\r\n");
+    // Text that looks like anything in a line's output is only text (a NUL from a `cmd`
+    // escape, echoed in an error).
+    for text in [
+        &b"cx cmd\"\\0K\\0\""[..],
+        b"cx cmd\"\\0K1p\\0\"",
+        b"cx cmd\"\\0K65535p\\0\"",
+    ] {
+        let r = t.raw(text);
+        assert!(r.ends_with(b"\x06\r\n"), "{r:?}");
+    }
+    t.load(&["P1=1"]);
 }

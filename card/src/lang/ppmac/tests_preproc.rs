@@ -71,6 +71,10 @@ fn defines_and_plc_identifiers_reach_every_command() {
     assert_eq!(t.send("enable plc 1"), "");
     t.run(3);
     assert_eq!(t.send("Counter"), "P100=6\r\n");
+    // Saved with the buffers: after a restart the identifier names the same PLC.
+    let mut u = super::tests_units::reloaded(&mut t);
+    assert_eq!(u.send("list plc Coolant_Control"), "P101=1\r\n");
+    assert_eq!(u.send("Counter"), "P100=6\r\n");
     // A bad directive is error 20; what was defined stays.
     let r = t.send("#define 9x 1");
     assert!(

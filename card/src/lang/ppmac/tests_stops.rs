@@ -108,7 +108,8 @@ fn stop_ends_the_program_and_rewinds_it_to_its_top() {
     assert_eq!(t.send("&1 stop"), "");
     // The move already calculated finishes; nothing after it runs.
     until(&mut t, "Coord[1].ProgRunning", 0.0, 20_000);
-    assert!((value(&mut t, "Motor[1].DesPos") - 3000.0).abs() < 1.0);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - 3000.0).abs() < 1.0, "{p}");
     assert_eq!(value(&mut t, "P21"), 0.0);
     // `r` starts at the top again (a `q` would resume after the move).
     t.load(&["&1 r"]);
@@ -186,7 +187,8 @@ fn look_ahead_quick_stop_holds_and_forward_resumes() {
     assert!(held < 2900.0, "stopped on the path: {held}");
     assert_eq!(t.send("&1 lh>"), "");
     until(&mut t, "Coord[1].ProgRunning", 0.0, 20_000);
-    assert!((value(&mut t, "Motor[1].DesPos") - 3000.0).abs() < 1.0);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - 3000.0).abs() < 1.0, "{p}");
     assert_eq!(value(&mut t, "P21"), 1.0, "the program ran to its end");
     // `lh<` is accepted on-line and in programs (a hold on this card, see ARCHITECTURE).
     assert_eq!(t.send("&1 lh<"), "");
@@ -334,11 +336,14 @@ fn clear_deletes_buffers_and_clear_all_buffers_every_one() {
 fn pmatch_and_pclr_in_programs_and_cx() {
     let mut t = T::new();
     t.ready_cs1();
+    t.load(&["Motor[1].InvAmax=0", "#1j=700"]);
+    t.run(3000);
     t.load(&[
-        "Motor[1].InvAmax=0",
         "open prog 16",
         "linear abs ta10 ts0 tm100",
         "pclr",
+        "dwell 0",
+        "P59 = Motor[1].DesPos",
         "X0.5",
         "dwell 0",
         "P60 = Motor[1].DesPos",
@@ -346,12 +351,19 @@ fn pmatch_and_pclr_in_programs_and_cx() {
         "&1 b16 r",
     ]);
     until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
-    // `pclr` made the present position X0: X0.5 is 500 counts on from where it stood.
-    let start = value(&mut t, "P60") - 500.0;
-    assert!(start.abs() < 1.0, "started at {start}");
+    // `pclr` made the present position (700 counts) X0, the motor's zero there too (Power's
+    // `pset` moves the motor zero, L43197-43199): it reads 0, then 500 at X0.5.
+    let (p59, p60) = (value(&mut t, "P59"), value(&mut t, "P60"));
+    assert!(p59.abs() < 1.0, "{p59}");
+    assert!((p60 - 500.0).abs() < 1.0, "{p60}");
     // The motor jogged away: `pmatch` takes the program's axes to where the motor is.
     t.load(&["#1j=2000"]);
     t.run(3000);
+    let at = value(&mut t, "Motor[1].DesPos");
+    assert!(
+        (at - 1300.0).abs() < 1.0,
+        "jog targets are raw counts, reports biased: {at}"
+    );
     t.load(&[
         "open prog 17",
         "linear inc ta10 ts0 tm100",
@@ -361,15 +373,17 @@ fn pmatch_and_pclr_in_programs_and_cx() {
         "&1 b17 r",
     ]);
     until(&mut t, "Coord[1].ProgRunning", 0.0, 5000);
-    assert!((value(&mut t, "Motor[1].DesPos") - 3000.0).abs() < 1.0);
+    let p = value(&mut t, "Motor[1].DesPos");
+    assert!((p - (at + 1000.0)).abs() < 1.0, "{p}");
     // `cx pmatch X1`: a rapid move from the matched position (`inc` is still the mode: 1 on
-    // from 500); `abs` then X1 is 1000.
+    // from where the motor is); `abs` then X1 is 1000.
     t.load(&["#1j=500"]);
     t.run(3000);
+    let at = value(&mut t, "Motor[1].DesPos");
     assert_eq!(t.send("cx pmatch X1"), "");
     t.run(5000);
     let p = value(&mut t, "Motor[1].DesPos");
-    assert!((p - 1500.0).abs() < 1.0, "{p}");
+    assert!((p - (at + 1000.0)).abs() < 1.0, "{p}");
     assert_eq!(t.send("cx abs X1"), "");
     t.run(5000);
     let p = value(&mut t, "Motor[1].DesPos");
