@@ -147,17 +147,7 @@ fn axis_values(
     }
     let refs: Vec<(u16, &MotorAxisDef)> = defs.iter().map(|(n, d)| (*n, d)).collect();
     let cs = CsAxes::build(&refs);
-    // The motors' values as `p`/`v`/`f` report them (0.1 count).
-    let rep = |n: u16| -> (f64, f64, f64) {
-        let (p, v, f) = m
-            .run
-            .report
-            .get(usize::from(n) - 1)
-            .copied()
-            .unwrap_or_default();
-        let r = |a: f64| (a * 10.0).round() / 10.0;
-        (r(p), r(v), r(f))
-    };
+    let rep = |n: u16| reported(m, n);
     let zero = crate::coord::axes::AxisVec::zeros();
     let solve = |vals: Vec<f64>| cs.pmatch(&vals, &zero);
     let pos = || solve(motors.iter().map(|&n| rep(n).0).collect());
@@ -205,6 +195,32 @@ pub(crate) struct KinRequest {
 enum AxisFail {
     Text(String),
     Kin,
+}
+
+/// Motor `n`'s (model number) position, velocity and following error as `p`/`v`/`f` report
+/// them (0.1 count).
+pub(crate) fn reported(m: &CardModel, n: u16) -> (f64, f64, f64) {
+    let (p, v, f) = m
+        .run
+        .report
+        .get(usize::from(n).wrapping_sub(1))
+        .copied()
+        .unwrap_or_default();
+    let r = |a: f64| (a * 10.0).round() / 10.0;
+    (r(p), r(v), r(f))
+}
+
+/// The thread whose local data `Ldata` key `k` names: another program thread's (made at its
+/// defaults if it has not run yet) or `own`.
+fn ldata_thread<'t>(
+    others: &'t mut HashMap<crate::model::Thread, Thread>,
+    own: &'t mut Thread,
+    k: &Key,
+) -> &'t mut Thread {
+    match elements::ldata_owner(k) {
+        Some(t) => others.entry(t).or_insert_with(|| elements::fresh_thread(t)),
+        None => own,
+    }
 }
 
 /// Power's axis index of X Y Z A B C U V W (seed L45470-45480).
@@ -491,13 +507,7 @@ impl Ctx<'_> {
                     }
                     None => v,
                 };
-                let th = match elements::ldata_owner(&k) {
-                    Some(t) => self
-                        .others
-                        .entry(t)
-                        .or_insert_with(|| elements::fresh_thread(t)),
-                    None => &mut *self.th,
-                };
+                let th = ldata_thread(self.others, self.th, &k);
                 elements::write(&mut self.card.model, self.store, th, &k, v).map_err(|e| e.code)?;
             }
             Cmd::ElemAddr(e) => {
@@ -766,13 +776,7 @@ impl Ctx<'_> {
     }
 
     fn elem_read(&mut self, e: &ElemRef, k: &Key) -> Result<f64, u16> {
-        let th = match elements::ldata_owner(k) {
-            Some(t) => self
-                .others
-                .entry(t)
-                .or_insert_with(|| elements::fresh_thread(t)),
-            None => &mut *self.th,
-        };
+        let th = ldata_thread(self.others, self.th, k);
         let v = elements::read(&mut self.card.model, self.store, th, k).map_err(|e| e.code)?;
         Ok(match e.bits {
             Some((start, width)) => get_bits(v, start, width),

@@ -245,16 +245,7 @@ fn axis_report(card: &mut CardModel, x: u16, what: AxisReport) -> String {
     let motors = card.run.motors_in(cs);
     let rep: Vec<(f64, f64, f64)> = motors
         .iter()
-        .map(|&n| {
-            let (p, v, f) = card
-                .run
-                .report
-                .get(usize::from(n) - 1)
-                .copied()
-                .unwrap_or_default();
-            let r = |a: f64| (a * 10.0).round() / 10.0;
-            (r(p), r(v), r(f))
-        })
+        .map(|&n| super::exec::reported(card, n))
         .collect();
     let at = ExtAt {
         thread: crate::model::Thread::Kin(cs),
