@@ -435,8 +435,9 @@ fn select<'a>(
 }
 
 /// The embedded default arms the PMAC2 ring check (I1001/I1004/I1005); a Turbo card refuses
-/// those numbers, so a card switched to the Turbo profile starts without them (a Power card
-/// keeps them: they are its ring check, see "Power PMAC" in ARCHITECTURE.md).
+/// those numbers, so a card switched to the Turbo profile starts without them (the config then
+/// fills in its own I80/I81/I82; a Power card keeps them: they are its ring check, see
+/// docs/power-pmac.md, "On the ring").
 fn strip_pmac2_ring_check(card: &mut Table) {
     let default = [("I1001", 16), ("I1004", 2), ("I1005", 4)];
     if let Some(Toml::Table(iv)) = card.get_mut("ivars") {

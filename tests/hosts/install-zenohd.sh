@@ -3,7 +3,7 @@
 # into target/zenohd-<version>/bin (kept between runs: skipped when already there). Prints the
 # binary's path on stdout.
 #
-# Cost (measured on the 2-core machine, see ARCHITECTURE.md "Hosts"): a cold install is about
+# Cost (measured on the 2-core machine, see docs/hosts.md, "The router for tests"): a cold install is about
 # 6 CPU-minutes. To keep it there: only the features our clusters use (TCP links, user/password
 # authentication; not zenohd's default set with QUIC, TLS, WebSocket, UDP, ...), zenohd's own
 # Cargo.lock (--locked: the versions zenoh published it with), optimisation level 1 and no

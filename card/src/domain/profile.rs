@@ -89,7 +89,7 @@ pub(crate) const fn ring_ivars(profile: Profile) -> RingIvars {
             error_limit: 1004,
             sync_min: 1005,
         },
-        // Power PMAC cards run on the Turbo model (see "Power PMAC" in ARCHITECTURE.md).
+        // Power PMAC cards run on the Turbo model (see docs/power-pmac.md).
         Profile::Turbo | Profile::Power => RingIvars {
             cfg: 6840,
             nodes: 6841,

@@ -2,7 +2,7 @@
 //! shared by the card (master side) and the station (slave side), which meet only through
 //! ring packets.
 //!
-//! **Where it travels** [DECISION, see ARCHITECTURE.md "Auxiliary channel"]: every master's
+//! **Where it travels** [DECISION, see docs/stations.md "Station MI-variables and the node-15 auxiliary channel"]: every master's
 //! node-15 packet `(m, 15)` carries, in registers 0 and 1, the ring cycle number (for the
 //! synchronizing master this packet is the sync packet) and, in registers 2 and 3, one
 //! auxiliary word per ring cycle: register 3 = control, register 2 = 16 data bits. A slave

@@ -12,7 +12,7 @@
 //! refuses with the slave error code and changes nothing.
 
 // The station state file is an I/O edge: `MS SAVE` (and a reset's reload) read and write it on
-// the station's tick thread (a few KiB; see ARCHITECTURE.md, station MI-variables).
+// the station's tick thread (a few KiB; see docs/stations.md, "State file").
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)]
 pub mod persist;
 

@@ -190,7 +190,7 @@ fn look_ahead_quick_stop_holds_and_forward_resumes() {
     let p = value(&mut t, "Motor[1].DesPos");
     assert!((p - 3000.0).abs() < 1.0, "{p}");
     assert_eq!(value(&mut t, "P21"), 1.0, "the program ran to its end");
-    // `lh<` is accepted on-line and in programs (a hold on this card, see ARCHITECTURE).
+    // `lh<` is accepted on-line and in programs (a hold on this card, see docs/power-pmac.md "Stop and start forms").
     assert_eq!(t.send("&1 lh<"), "");
     t.load(&[
         "open plc 3",

@@ -18,7 +18,7 @@ pub(super) fn reloaded(t: &mut T) -> T {
 }
 
 /// Elements whose power-on value is not the seed's default on this card, each for a reason
-/// the card itself gives (ARCHITECTURE "Power PMAC", setup elements).
+/// the card itself gives (docs/power-pmac.md, "Setup elements in Power's units").
 const NOT_THE_SEED_DEFAULT: &[(St, &str, &str)] = &[
     // The seed's "automatically configured by the hardware" values: the model's own.
     (St::Sys, "ServoPeriod", "the cluster's servo period (I10)"),

@@ -60,7 +60,7 @@ pub(crate) fn motor(m: u16, nn: u16) -> S {
 }
 
 /// Spec of Turbo global variable `n` (0..=99), as the Turbo SRM's "Turbo PMAC Global
-/// I-Variables" chapter gives them (sources: ARCHITECTURE.md, Turbo profile). Only the
+/// I-Variables" chapter gives them (sources: docs/turbo.md, "Global I-variables I0-I99"). Only the
 /// variables that hold addresses or node bit masks print in hex (`$…` under I9 bit 1): I20-I24
 /// (MACRO IC and DPRAM base addresses), I67/I69 (Modbus buffer addresses), I70-I77 (MACRO node
 /// masks), I83 (parallel ring mask) and I90-I99 (VME address bytes). Every other global
