@@ -459,7 +459,7 @@ impl<A: RingApp> Driver<A> {
                 let due = Instant::now() + Duration::from_micros(u64::from(o.delay_us));
                 self.delayed.push((due, o.frame_bytes));
             } else {
-                self.tx.send(&o.frame_bytes)?;
+                self.tx.send(o.frame_bytes)?;
             }
         }
         Ok(())
@@ -476,7 +476,7 @@ impl<A: RingApp> Driver<A> {
         while i < self.delayed.len() {
             if self.delayed[i].0 <= now {
                 let (_, bytes) = self.delayed.remove(i);
-                self.tx.send(&bytes)?;
+                self.tx.send(bytes)?;
             } else {
                 i += 1;
             }

@@ -37,7 +37,7 @@ use super::stepped::Stepper;
 use crate::config::ClockMode;
 use crate::core::RingApp;
 use crate::member::RingMember;
-use crate::transport::queue::{QueueWaker, Stamped};
+use crate::transport::queue::QueueWaker;
 use crate::transport::{InlineHandler, TransportError};
 
 /// The application of the shared driver while the real one stays on the member's thread.
@@ -72,34 +72,35 @@ struct Handler<B: RingApp> {
 }
 
 impl<B: RingApp + Send> InlineHandler for Handler<B> {
-    fn offer(&self, frame: Vec<u8>, sent_ns: u64) -> Option<Stamped> {
+    fn offer(&self, frame: &[u8], sent_ns: u64) -> bool {
         let Ok(mut g) = self.shared.try_lock() else {
-            return Some((frame, sent_ns));
+            return false;
         };
         let Some(Member { d, st }) = g.as_mut() else {
-            return Some((frame, sent_ns));
+            return false;
         };
         if !d.rx.is_empty() || d.has_pending_tick() {
-            return Some((frame, sent_ns));
+            return false;
         }
         let res = match st {
             None => {
                 d.rx.record_hop(sent_ns);
-                d.follower_frame(&frame, self.defer)
+                d.follower_frame(frame, self.defer).map(|()| true)
             }
             Some(st) => {
                 let now = d.now_ns();
                 if d.step_due(st, now).hold_frames || !d.delayed.is_empty() {
                     // The next cycle starts first (or delayed frames are due): the member's
                     // thread takes it from here.
-                    return Some((frame, sent_ns));
+                    return false;
                 }
                 d.rx.record_hop(sent_ns);
-                step_inline(d, st, &frame, self.defer)
+                step_inline(d, st, frame, self.defer)
             }
         };
-        // A sync master's thread always looks again (a tick, or the next start's deadline).
-        let wake = d.has_pending_tick() || res.is_err() || st.is_some();
+        // The member's thread looks again for a tick left to it, a delayed frame (a delay
+        // fault) and, on the sync master, a next cycle not started here (its deadline).
+        let wake = d.has_pending_tick() || !d.delayed.is_empty() || !matches!(res, Ok(true));
         drop(g);
         if let Err(e) = res {
             *self.failed.lock().unwrap_or_else(|e| e.into_inner()) = Some(e);
@@ -107,24 +108,25 @@ impl<B: RingApp + Send> InlineHandler for Handler<B> {
         if wake {
             self.waker.poke();
         }
-        None
+        true
     }
 }
 
 /// Sync master, on the receive thread: a frame came back; start the next cycle if it may
-/// start now (with `defer`, its tick left for the member's thread).
+/// start now (with `defer`, its tick left for the member's thread). Whether it started.
 fn step_inline<B: RingApp>(
     d: &mut Driver<B>,
     st: &mut Stepper,
     frame: &[u8],
     defer: bool,
-) -> Result<(), TransportError> {
+) -> Result<bool, TransportError> {
     d.step_frame(st, frame)?;
     let now = d.now_ns();
     if d.step_due(st, now).now(now) && !d.done() {
         d.step_start(st, defer)?;
+        return Ok(true);
     }
-    Ok(())
+    Ok(false)
 }
 
 /// Whether `d` runs with inline receive (see the module documentation).

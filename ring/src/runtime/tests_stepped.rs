@@ -118,7 +118,7 @@ fn a_frame_numbered_beyond_the_cycle_in_flight_does_not_let_the_sync_master_run_
         }
         let c = if f.cycle == 50 { 5050 } else { f.cycle };
         seq += 1;
-        tx1.send(&Frame::dark(1, seq, 0, c, 0).encode()).unwrap();
+        tx1.send(Frame::dark(1, seq, 0, c, 0).encode()).unwrap();
     }
     let (exit, app) = master.join().unwrap();
     assert!(matches!(exit, DriverExit::Done), "{exit:?}");
@@ -184,7 +184,7 @@ fn master_against_facts(
             let mut back = sent.get(&c).cloned().unwrap_or_default();
             back.sender = 1;
             back.seq = seq;
-            tx1.send(&back.encode()).unwrap();
+            tx1.send(back.encode()).unwrap();
         }
     }
     let (exit, app) = master.join().unwrap();

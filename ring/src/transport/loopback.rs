@@ -90,11 +90,11 @@ pub struct LoopbackTx {
 }
 
 impl LinkTx for LoopbackTx {
-    fn send(&self, frame: &[u8]) -> Result<(), TransportError> {
+    fn send(&self, frame: Vec<u8>) -> Result<(), TransportError> {
         if self.cut[self.k].load(std::sync::atomic::Ordering::Relaxed) {
             return Ok(());
         }
-        self.tx.push(frame.to_vec(), monotonic_ns());
+        self.tx.push(frame, monotonic_ns());
         Ok(())
     }
 }
@@ -110,9 +110,9 @@ mod tests {
         let (tx0, rx0) = ring.member(0).unwrap();
         let (tx1, rx1) = ring.member(1).unwrap();
         let (tx2, rx2) = ring.member(2).unwrap();
-        tx0.send(b"a").unwrap();
-        tx1.send(b"b").unwrap();
-        tx2.send(b"c").unwrap();
+        tx0.send(b"a".to_vec()).unwrap();
+        tx1.send(b"b".to_vec()).unwrap();
+        tx2.send(b"c".to_vec()).unwrap();
         let t = Duration::from_millis(100);
         assert_eq!(rx1.recv_timeout(t).unwrap().unwrap(), b"a");
         assert_eq!(rx2.recv_timeout(t).unwrap().unwrap(), b"b");
@@ -134,11 +134,11 @@ mod tests {
         let (tx0, _rx0) = ring.member(0).unwrap();
         let (_tx1, rx1) = ring.member(1).unwrap();
         ring.set_cut(0, true);
-        tx0.send(b"x").unwrap();
+        tx0.send(b"x".to_vec()).unwrap();
         assert!(rx1.try_recv().unwrap().is_none());
         ring.set_cut(0, false);
         for _ in 0..RX_QUEUE_FRAMES + 3 {
-            tx0.send(b"y").unwrap();
+            tx0.send(b"y".to_vec()).unwrap();
         }
         assert_eq!(rx1.pending(), RX_QUEUE_FRAMES);
         assert_eq!(rx1.take_dropped(), 3);

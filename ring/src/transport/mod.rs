@@ -36,8 +36,8 @@ pub enum TransportError {
 
 /// Sending half of a member's outgoing link.
 pub trait LinkTx: Send {
-    /// Put one encoded frame on the link.
-    fn send(&self, frame: &[u8]) -> Result<(), TransportError>;
+    /// Put one encoded frame on the link (taken as it is: no copy on the way to zenoh).
+    fn send(&self, frame: Vec<u8>) -> Result<(), TransportError>;
 
     /// Whether the link has a receiver: zenoh's matching status of the link's publisher (a
     /// subscriber of the link is known); None where the transport cannot tell (loopback).
@@ -49,9 +49,10 @@ pub trait LinkTx: Send {
 /// Handles frames on the thread that delivers them (zenoh's receive thread), without a hand-off
 /// to the member's own thread; see [`LinkRx::set_inline`].
 pub trait InlineHandler: Send + Sync {
-    /// A frame stamped `sent_ns` arrived: handle it now, or give it back to be queued (the
-    /// member is busy, or frames are already waiting: order is kept).
-    fn offer(&self, frame: Vec<u8>, sent_ns: u64) -> Option<Stamped>;
+    /// A frame stamped `sent_ns` arrived: handle it now (true), or decline (false) and the
+    /// delivery side queues a copy (the member is busy, or frames are already waiting: order
+    /// is kept). A frame handled here is read in place: nothing is allocated for it.
+    fn offer(&self, frame: &[u8], sent_ns: u64) -> bool;
 }
 
 /// Where a link's delivery side finds its inline handler, once installed.
@@ -59,15 +60,11 @@ pub(crate) type InlineSlot = Arc<OnceLock<Arc<dyn InlineHandler>>>;
 
 /// The delivery side of a link: offer each frame to the inline handler if there is one, else
 /// (or when it declines) queue it.
-pub(crate) fn deliver(slot: &InlineSlot, queue: &QueueSender, frame: Vec<u8>, sent_ns: u64) {
-    let (frame, sent_ns) = match slot.get() {
-        Some(h) => match h.offer(frame, sent_ns) {
-            None => return,
-            Some(back) => back,
-        },
-        None => (frame, sent_ns),
-    };
-    queue.push(frame, sent_ns);
+pub(crate) fn deliver(slot: &InlineSlot, queue: &QueueSender, frame: &[u8], sent_ns: u64) {
+    if slot.get().is_some_and(|h| h.offer(frame, sent_ns)) {
+        return;
+    }
+    queue.push(frame.to_vec(), sent_ns);
 }
 
 /// Receiving half: the frames of the upstream neighbour, in arrival order.

@@ -30,11 +30,11 @@ impl std::fmt::Debug for ZenohTx {
 }
 
 impl LinkTx for ZenohTx {
-    fn send(&self, frame: &[u8]) -> Result<(), TransportError> {
+    fn send(&self, frame: Vec<u8>) -> Result<(), TransportError> {
         // The send stamp travels out of band, as an attachment (hop latency, see `hops`).
         self.publisher
-            .put(frame.to_vec())
-            .attachment(monotonic_ns().to_le_bytes().to_vec())
+            .put(frame)
+            .attachment(monotonic_ns().to_le_bytes())
             .wait()
             .map_err(|e| TransportError::Io(e.to_string()))
     }
@@ -114,12 +114,9 @@ pub fn join(
                 .and_then(|a| <[u8; 8]>::try_from(a.to_bytes().as_ref()).ok())
                 .map(u64::from_le_bytes)
                 .unwrap_or(0);
-            deliver(
-                &slot2,
-                &tx,
-                sample.payload().to_bytes().into_owned(),
-                sent_ns,
-            );
+            // Contiguous payloads (a ring frame is one small message) are borrowed, not
+            // copied: a frame handled inline is never allocated by us.
+            deliver(&slot2, &tx, &sample.payload().to_bytes(), sent_ns);
         })
         .wait()
         .map_err(|e| TransportError::Io(format!("declare subscriber: {e}")))?;
