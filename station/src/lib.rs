@@ -19,6 +19,9 @@ pub mod macro_aux;
 pub mod mi;
 pub mod plant;
 pub mod process;
+pub mod save_effect;
+#[allow(clippy::disallowed_methods, clippy::disallowed_types)] // the save thread's I/O edge
+pub mod save_io;
 pub mod servo_node;
 pub mod station_app;
 pub mod station_mi;

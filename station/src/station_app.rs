@@ -18,6 +18,10 @@
 //! for that cycle, before the plant integrates. `clear_app_faults` removes them all (the
 //! nodes are back to normal in the next tick). Active faults show in the status as
 //! `axis_faults` and `power_loss`.
+//!
+//! **`MS SAVE`** ([`crate::save_effect`]): a station with a state file has an I/O thread
+//! ([`SaveWorker`]). Each tick first feeds the core the results of finished writes, then runs
+//! it, then hands the write it asked for to the thread; the tick never writes or waits.
 
 use std::path::PathBuf;
 
@@ -29,6 +33,8 @@ use serde::Deserialize;
 use crate::config::PlantConfig;
 use crate::faults::{FaultTable, StationFaultRequest};
 use crate::mi::{Globals, Setup};
+use crate::save_effect::{SaveDone, SaveJob};
+use crate::save_io::SaveWorker;
 use crate::servo_node::{ServoNode, MAX_TICK_SECONDS};
 use crate::station_mi::StationMi;
 
@@ -47,7 +53,7 @@ pub enum NodeListError {
 }
 
 /// A MACRO station with simulated servo nodes.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct StationApp {
     servo: Vec<ServoNode>,
     io: Vec<u8>,
@@ -57,6 +63,7 @@ pub struct StationApp {
     shutdown_cycle: Option<u64>,
     mi: StationMi,
     faults: FaultTable,
+    saver: Option<SaveWorker>,
 }
 
 impl StationApp {
@@ -100,17 +107,52 @@ impl StationApp {
             shutdown_cycle: None,
             mi: StationMi::new(setup, None),
             faults: FaultTable::default(),
+            saver: None,
         })
     }
 
     /// Start-up MI values: the config's ring check (MI8 period, MI10 sync packets, MI9
     /// errors) and where `MS SAVE` keeps the setup (a good state file there replaces the
-    /// config values; a corrupt one is reported).
+    /// config values; a corrupt one is reported). With a state file the station gets its
+    /// save thread (if it cannot be started, every `MS SAVE` fails).
     pub fn with_setup(mut self, globals: Globals, state_file: Option<PathBuf>) -> Self {
         let mut factory = self.mi.setup().clone();
         factory.globals = globals;
+        self.saver = match &state_file {
+            Some(_) => SaveWorker::start()
+                .map_err(|e| tracing::error!("cannot start the station's save thread: {e}"))
+                .ok(),
+            None => None,
+        };
         self.mi = StationMi::new(factory, state_file);
         self
+    }
+
+    /// Results of finished writes into the core (before its tick).
+    fn collect_saves(&mut self) {
+        let Some(w) = &self.saver else { return };
+        while let Some(done) = w.poll() {
+            self.mi.save_done(done);
+        }
+    }
+
+    /// The write the core asked for to the save thread (after its tick); one it cannot take
+    /// fails at once (`SAVE_FAILED`, answered from the next tick).
+    fn dispatch_save(&mut self) {
+        let Some(job) = self.mi.take_save_job() else {
+            return;
+        };
+        let refused = match &self.saver {
+            Some(w) => w.submit(job).err(),
+            None => Some(job),
+        };
+        if let Some(SaveJob { token, path, .. }) = refused {
+            tracing::warn!(path = %path.display(), "SAVE failed: the save thread cannot take it");
+            self.mi.save_done(SaveDone {
+                token,
+                result: Err("the save thread cannot take it".into()),
+            });
+        }
     }
 
     /// The station's MI-level state.
@@ -158,7 +200,9 @@ impl StationApp {
 impl RingApp for StationApp {
     fn tick(&mut self, cycle: u64, time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.ticks += 1;
+        self.collect_saves();
         let ring_fault = self.mi.tick(regs, ring_fault, &mut self.servo);
+        self.dispatch_save();
         self.ring_fault = ring_fault;
         self.shutdown_cycle = match (ring_fault, self.shutdown_cycle) {
             (true, None) => Some(cycle),

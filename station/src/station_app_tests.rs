@@ -282,3 +282,55 @@ fn bad_node_lists_are_refused_with_a_message() {
         .node(3)
         .is_some());
 }
+
+/// `MS SAVE` through the whole station: the tick hands the write to the save thread and the
+/// reply comes back (through the master, which keeps waiting) once the file is written.
+#[allow(clippy::disallowed_methods)] // waits for the save thread in wall-clock time
+fn save_through_the_app(path: &std::path::Path) -> mcc_ring::aux_channel::Outcome {
+    use mcc_ring::aux_channel::{AuxMaster, AuxWord, Request, StationCmd, AUX_NODE};
+    let mut app = StationApp::new(&[0], &[], &PlantConfig::default())
+        .unwrap()
+        .with_setup(Globals::from_check(8, 4, 4), Some(path.to_path_buf()));
+    let mut m = member(&[0]);
+    let mut master = AuxMaster::default();
+    assert!(master.start(0, Request::Command(StationCmd::Save), 32));
+    let mut back = AuxWord::IDLE;
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    for k in 0.. {
+        let (out, (r2, r3)) = master.tick(back);
+        if let Some(o) = out {
+            return o;
+        }
+        let regs = NodeRegs {
+            r2,
+            r3,
+            ..NodeRegs::default()
+        };
+        let fwd = m.route(Packet::new(0, AUX_NODE, regs)).forward.unwrap();
+        back = AuxWord::decode(fwd.regs.r2, fwd.regs.r3);
+        app.tick(k, k * PERIOD_NS, &mut m, false);
+        assert!(std::time::Instant::now() < deadline, "no reply");
+        std::thread::sleep(std::time::Duration::from_micros(100));
+    }
+    unreachable!()
+}
+
+#[test]
+#[allow(clippy::disallowed_methods)] // reads the state file back
+fn ms_save_is_written_by_the_save_thread_and_then_answered() {
+    use crate::mi::persist::{self, Loaded};
+    use mcc_ring::aux_channel::{slave_error, Outcome, Reply};
+    let dir = std::env::temp_dir().join(format!("mcc-station-app-save-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let path = dir.join("state").join("station0.state");
+    assert_eq!(save_through_the_app(&path), Outcome::Reply(Reply::Done));
+    assert!(matches!(persist::load(&path), Loaded::Setup(_)));
+    // a state file below a regular file cannot be written: SAVE_FAILED
+    let bad = path.join("station0.state");
+    assert_eq!(
+        save_through_the_app(&bad),
+        Outcome::Reply(Reply::Error(slave_error::SAVE_FAILED))
+    );
+    assert!(matches!(persist::load(&path), Loaded::Setup(_)), "intact");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -9,6 +9,12 @@
 //! violations (what a station with no light at its input sees), the break is directly
 //! upstream (`suspected_break`). Cleared by `MS{node}CLRF`, `MS$$${node}`, `mcc fault reset`,
 //! only once a check period has passed again.
+//!
+//! **`MS SAVE`** is an effect ([`crate::save_effect`]): the tick never writes the state file.
+//! The SAVE's reply is held (the station streams `WORKING`, so its master keeps waiting) until
+//! the runtime hands back the write's result ([`StationMi::save_done`]), then answers Done or
+//! `SAVE_FAILED` as before. While the write is in flight every other request gets
+//! `slave_error::BUSY`.
 
 use std::path::PathBuf;
 
@@ -24,6 +30,7 @@ use tracing::{info, warn};
 use crate::macro_aux::{AuxSlave, Incoming};
 use crate::mi::persist::{self, Loaded};
 use crate::mi::{self, status_bits, Changed, Live, Setup};
+use crate::save_effect::{SaveDone, SaveEffects, SaveJob};
 use crate::servo_node::ServoNode;
 
 const SECOND_NS: u64 = 1_000_000_000;
@@ -48,6 +55,7 @@ pub struct StationMi {
     /// Every servo node needs its parameters (re)applied at the next tick.
     reapply: bool,
     requests: u64,
+    save: SaveEffects,
 }
 
 impl StationMi {
@@ -91,6 +99,36 @@ impl StationMi {
             window_errors: 0,
             reapply: true,
             requests: 0,
+            save: SaveEffects::default(),
+        }
+    }
+
+    /// The write an `MS SAVE` asks for, to perform off the tick (once; answer it with
+    /// [`StationMi::save_done`]).
+    pub fn take_save_job(&mut self) -> Option<SaveJob> {
+        self.save.take_job()
+    }
+
+    /// A save is in flight (the station answers other requests `BUSY`).
+    pub fn saving(&self) -> bool {
+        self.save.busy()
+    }
+
+    /// The runtime's result of a [`SaveJob`]: answer the held SAVE (Done or `SAVE_FAILED`),
+    /// sent from the next [`StationMi::tick`] on. A result nobody waits for is logged.
+    pub fn save_done(&mut self, done: SaveDone) {
+        let Some((tag, reply)) = self.save.finish(&done) else {
+            warn!(
+                token = done.token,
+                "a save result for no save in flight: ignored"
+            );
+            return;
+        };
+        if !self.aux.answer_held(tag, reply) {
+            info!(
+                ok = done.result.is_ok(),
+                "SAVE finished after its master stopped waiting"
+            );
         }
     }
 
@@ -176,8 +214,10 @@ impl StationMi {
         let served: Vec<u8> = nodes.iter().map(ServoNode::node).collect();
         if let Some(inc) = self.aux.on_word(w, |n| served.contains(&n)) {
             self.requests += 1;
-            let reply = self.execute(inc, nodes);
-            self.aux.set_reply(reply);
+            // None: a SAVE, held until its write's result is back.
+            if let Some(reply) = self.execute(inc, nodes) {
+                self.aux.set_reply(reply);
+            }
         }
         regs.set_aux_reply(self.aux.reply_regs());
         if self.reapply {
@@ -217,10 +257,15 @@ impl StationMi {
         }
     }
 
-    fn execute(&mut self, inc: Incoming, nodes: &mut [ServoNode]) -> Reply {
+    /// The reply to a request, or None for a SAVE (held: [`StationMi::save_done`] answers).
+    fn execute(&mut self, inc: Incoming, nodes: &mut [ServoNode]) -> Option<Reply> {
         let node = inc.node;
         info!(node, request = ?inc.request, "auxiliary request");
-        match inc.request {
+        if self.save.busy() {
+            warn!(node, request = ?inc.request, "busy saving the setup: refused");
+            return Some(Reply::Error(slave_error::BUSY));
+        }
+        let reply = match inc.request {
             Request::ReadMi(n) => self.read(node, n),
             Request::ReadParam(p) => match self.read(node, p) {
                 Reply::Value(v, _) => Reply::Value(v, ValueFormat::Decimal),
@@ -230,10 +275,25 @@ impl StationMi {
             Request::WriteParam(p, v) => self.write(node, p, f64::from(v)),
             Request::ConfigWrite(v) => self.write(node, 2, v),
             Request::CCommand(2, _) => self.command(StationCmd::Reset, node, nodes),
-            Request::CCommand(4, _) => self.command(StationCmd::Save, node, nodes),
+            Request::CCommand(4, _) | Request::Command(StationCmd::Save) => return self.save(),
             Request::CCommand(..) => Reply::Error(slave_error::UNKNOWN_VARIABLE),
             Request::Command(c) => self.command(c, node, nodes),
+        };
+        Some(reply)
+    }
+
+    /// `MS SAVE`: hold the reply and hand the setup as it is now to the runtime (None), or
+    /// refuse at once when there is nowhere to save.
+    fn save(&mut self) -> Option<Reply> {
+        let Some(path) = self.state_file.clone() else {
+            warn!("SAVE refused: this station has no state file");
+            return Some(Reply::Error(slave_error::SAVE_FAILED));
+        };
+        let tag = self.aux.hold();
+        if !self.save.start(path, self.setup.clone(), tag) {
+            return Some(Reply::Error(slave_error::BUSY));
         }
+        None
     }
 
     fn read(&self, node: u8, n: u16) -> Reply {
@@ -306,19 +366,8 @@ impl StationMi {
                 }
                 Reply::Done
             }
-            StationCmd::Save => match &self.state_file {
-                Some(p) => match persist::save(p, &self.setup) {
-                    Ok(()) => {
-                        info!(path = %p.display(), "setup saved");
-                        Reply::Done
-                    }
-                    Err(e) => {
-                        warn!(path = %p.display(), "SAVE failed: {e}");
-                        Reply::Error(slave_error::SAVE_FAILED)
-                    }
-                },
-                None => Reply::Error(slave_error::SAVE_FAILED),
-            },
+            // Answered by `execute` (a held reply); never reaches here.
+            StationCmd::Save => Reply::Error(slave_error::BAD_REQUEST),
             StationCmd::Date => Reply::Value(mi::FIRMWARE_DATE, ValueFormat::Date),
             StationCmd::Version => Reply::Value(mi::FIRMWARE_VERSION, ValueFormat::Version),
             StationCmd::ConfigRead => self.read(node, 2),
@@ -346,6 +395,7 @@ impl StationMi {
                 "config_error": self.config_error,
                 "state_file": self.state_file.as_ref().map(|p| p.display().to_string()),
                 "aux_requests": self.requests,
+                "saving": self.save.busy(),
             }),
         );
         m
@@ -360,3 +410,7 @@ fn check_params(s: &Setup) -> CheckParams {
     let g = &s.globals;
     RingCheck::station_params(g.check_period, g.sync_count, g.error_count)
 }
+
+#[cfg(test)]
+#[path = "station_mi_tests.rs"]
+mod tests;

@@ -21,11 +21,23 @@
 //! Lost or late frames only cost cycles. Request words: `w0 = op << 8 | sub`, then operands;
 //! reply words: `w0 = status << 8 | format`, then a value or an error code (see [`Request`],
 //! [`Reply`]).
+//!
+//! **Working** [DECISION, issue 24]: a slave that needs longer than a few cycles for a request
+//! (`SAVE` writes its setup on an I/O thread, as a real station writes its flash) streams the
+//! one-word message [`WORKING`] until its reply is ready. The master restarts its timeout on
+//! every complete [`WORKING`] message and keeps sending its request, for at most
+//! [`MAX_WORKING_CYCLES`] more cycles; a silent slave still times out after the timeout.
 
 /// The node that carries the auxiliary channel (and the sync packet).
 pub const AUX_NODE: u8 = 15;
 /// Longest message, in words.
 pub const MAX_WORDS: usize = 8;
+/// The message a slave streams while it is still working on a request (status 2): not a
+/// [`Reply`]; the master restarts its timeout on it and waits for the real reply.
+pub const WORKING: [u16; 1] = [2 << 8];
+/// Most cycles a master waits beyond its timeout for a slave that keeps reporting
+/// [`WORKING`] (≈ 29 s at the default 442.7 µs ring cycle).
+pub const MAX_WORKING_CYCLES: u32 = 1 << 16;
 
 /// What a word is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -291,6 +303,9 @@ pub mod slave_error {
     pub const SAVE_FAILED: u16 = 0x0005;
     /// A node-specific variable addressed through a node the station does not serve.
     pub const WRONG_NODE: u16 = 0x0006;
+    /// The station is busy: a SAVE is still writing its setup (every request until it is
+    /// done; the SAVE itself answers when the write is).
+    pub const BUSY: u16 = 0x0007;
 }
 
 impl Reply {
@@ -399,7 +414,10 @@ struct Active {
     node: u8,
     msg: Vec<u16>,
     sent: u64,
+    /// Cycles since the start or the latest [`WORKING`] message.
     cycles: u32,
+    /// Cycles since the start.
+    waited: u32,
     timeout: u32,
 }
 
@@ -431,6 +449,7 @@ impl AuxMaster {
             msg: request.words(),
             sent: 0,
             cycles: 0,
+            waited: 0,
             timeout: timeout_cycles.max(1),
         });
         true
@@ -443,20 +462,27 @@ impl AuxMaster {
 
     /// One servo cycle: `returned` is the latest copy of this master's node-15 packet as it
     /// came back around the ring (registers 2 and 3). Returns the outcome when the
-    /// transaction ends, and the registers 2 and 3 to send next.
+    /// transaction ends, and the registers 2 and 3 to send next. A complete [`WORKING`]
+    /// message restarts the timeout (at most [`MAX_WORKING_CYCLES`] beyond it in all).
     pub fn tick(&mut self, returned: AuxWord) -> (Option<Outcome>, (u16, u16)) {
         let Some(a) = self.active.as_mut() else {
             return (None, AuxWord::IDLE.encode());
         };
         if returned.kind == WordKind::Reply && returned.tag == self.tag {
-            if let Some(words) = self.collector.push(&returned) {
-                self.active = None;
-                let r = Reply::from_words(&words).unwrap_or(Reply::Error(slave_error::BAD_REQUEST));
-                return (Some(Outcome::Reply(r)), AuxWord::IDLE.encode());
+            match self.collector.push(&returned) {
+                Some(words) if words == WORKING => a.cycles = 0,
+                Some(words) => {
+                    self.active = None;
+                    let r =
+                        Reply::from_words(&words).unwrap_or(Reply::Error(slave_error::BAD_REQUEST));
+                    return (Some(Outcome::Reply(r)), AuxWord::IDLE.encode());
+                }
+                None => {}
             }
         }
         a.cycles += 1;
-        if a.cycles > a.timeout {
+        a.waited = a.waited.saturating_add(1);
+        if a.cycles > a.timeout || a.waited > a.timeout.saturating_add(MAX_WORKING_CYCLES) {
             self.active = None;
             return (Some(Outcome::Timeout), AuxWord::IDLE.encode());
         }
@@ -566,6 +592,41 @@ mod tests {
             ends,
             vec![None, None, None, None, Some(Outcome::Timeout), None]
         );
+    }
+
+    #[test]
+    fn working_restarts_the_timeout_until_the_reply_or_the_cap() {
+        let working = |tag| stream_word(WordKind::Reply, tag, 0, &WORKING, 0);
+        assert_eq!(Reply::from_words(&WORKING), None, "WORKING is no reply");
+        // the slave works for 10 timeouts, then answers: the master waited and got it
+        let mut m = AuxMaster::default();
+        assert!(m.start(0, Request::Command(StationCmd::Save), 4));
+        for k in 0..40 {
+            let (o, (r2, r3)) = m.tick(working(1));
+            assert_eq!(o, None, "cycle {k}");
+            assert_eq!(
+                AuxWord::decode(r2, r3).kind,
+                WordKind::Request,
+                "still asking"
+            );
+        }
+        let done = stream_word(WordKind::Reply, 1, 0, &Reply::Done.words(), 0);
+        assert_eq!(m.tick(done).0, Some(Outcome::Reply(Reply::Done)));
+        // the slave falls silent: the usual timeout from its last WORKING
+        assert!(m.start(0, Request::Command(StationCmd::Save), 4));
+        assert_eq!(m.tick(working(2)).0, None);
+        let ends: Vec<_> = (0..5).map(|_| m.tick(AuxWord::IDLE).0).collect();
+        assert_eq!(ends, vec![None, None, None, Some(Outcome::Timeout), None]);
+        // WORKING of another tag does not count; a slave working for ever hits the cap
+        assert!(m.start(0, Request::Command(StationCmd::Save), 4));
+        let ends: Vec<_> = (0..5).map(|_| m.tick(working(2)).0).collect();
+        assert_eq!(ends[4], Some(Outcome::Timeout));
+        assert!(m.start(0, Request::Command(StationCmd::Save), 4));
+        let mut cycles = 0u32;
+        while m.tick(working(4)).0.is_none() {
+            cycles += 1;
+        }
+        assert_eq!(cycles, 4 + MAX_WORKING_CYCLES);
     }
 
     #[test]

@@ -7,9 +7,14 @@
 //! stations of the master; each one executes it, and the master keeps the reply of the last
 //! station before it on the ring). Requests for nodes the station does not serve are left
 //! alone: it forwards them unchanged.
+//!
+//! A request the station cannot answer at once (`MS SAVE`, whose write runs off the tick) is
+//! held ([`AuxSlave::hold`]): the station streams [`WORKING`] until the answer is set, so the
+//! master keeps waiting (and, for a node-15 request, the reply of a station further upstream
+//! does not pass as the answer of this one).
 
 use mcc_ring::aux_channel::{
-    slave_error, stream_word, AuxWord, Collector, Reply, Request, WordKind, AUX_NODE,
+    slave_error, stream_word, AuxWord, Collector, Reply, Request, WordKind, AUX_NODE, WORKING,
 };
 
 /// What a complete request asks of the station.
@@ -30,6 +35,7 @@ pub struct AuxSlave {
     executed: bool,
     reply: Option<Vec<u16>>,
     sent: u64,
+    held: bool,
 }
 
 impl AuxSlave {
@@ -73,6 +79,31 @@ impl AuxSlave {
     pub fn set_reply(&mut self, reply: Reply) {
         self.reply = Some(reply.words());
         self.sent = 0;
+        self.held = false;
+    }
+
+    /// The request [`AuxSlave::on_word`] returned is answered later ([`AuxSlave::answer_held`]):
+    /// stream [`WORKING`] meanwhile. Returns the transaction's tag.
+    pub fn hold(&mut self) -> u8 {
+        self.reply = Some(WORKING.to_vec());
+        self.sent = 0;
+        self.held = true;
+        self.tag
+    }
+
+    /// Answer the held request of transaction `tag`. False (nothing changes) if the master
+    /// no longer waits for it: it went idle (gave up) or started another transaction.
+    pub fn answer_held(&mut self, tag: u8, reply: Reply) -> bool {
+        if !self.held || self.tag != tag {
+            return false;
+        }
+        self.set_reply(reply);
+        true
+    }
+
+    /// A request is held (the station streams [`WORKING`]).
+    pub fn holding(&self) -> bool {
+        self.held
     }
 
     /// Registers 2 and 3 to put into the master's node-15 packet next cycle (None = forward
@@ -88,6 +119,7 @@ impl AuxSlave {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mcc_ring::aux_channel::StationCmd;
 
     fn words(req: Request, tag: u8, node: u8) -> impl Iterator<Item = AuxWord> {
         let msg = req.words();
@@ -116,6 +148,46 @@ mod tests {
         assert_eq!((w.kind, w.tag, w.node, w.len), (WordKind::Reply, 3, 1, 1));
         // the master goes idle: the station stops replying
         assert_eq!(s.on_word(AuxWord::IDLE, serves), None);
+        assert_eq!(s.reply_regs(), None);
+    }
+
+    #[test]
+    fn a_held_request_streams_working_until_answered_for_its_own_transaction() {
+        let serves = |n: u8| n == 0;
+        let mut s = AuxSlave::default();
+        let inc = words(Request::Command(StationCmd::Save), 2, 0)
+            .take(3)
+            .find_map(|w| s.on_word(w, serves));
+        assert!(inc.is_some());
+        let tag = s.hold();
+        assert_eq!(tag, 2);
+        assert!(s.holding());
+        for _ in 0..3 {
+            let (r2, r3) = s.reply_regs().unwrap();
+            let w = AuxWord::decode(r2, r3);
+            assert_eq!(
+                (w.kind, w.tag, w.len, w.data),
+                (WordKind::Reply, 2, 1, WORKING[0])
+            );
+        }
+        assert!(
+            !s.answer_held(5, Reply::Done),
+            "another transaction's answer"
+        );
+        assert!(s.answer_held(2, Reply::Done));
+        assert!(!s.holding());
+        let (r2, r3) = s.reply_regs().unwrap();
+        assert_eq!(AuxWord::decode(r2, r3).data, 0, "Done");
+        // the master gave up (idle): a late answer goes nowhere
+        s.on_word(
+            words(Request::Command(StationCmd::Save), 3, 0)
+                .next()
+                .unwrap(),
+            serves,
+        );
+        s.hold();
+        s.on_word(AuxWord::IDLE, serves);
+        assert!(!s.answer_held(3, Reply::Done));
         assert_eq!(s.reply_regs(), None);
     }
 

@@ -11,8 +11,9 @@
 //! A write is checked as a whole node or global setup: out of range, read-only or unknown
 //! refuses with the slave error code and changes nothing.
 
-// The station state file is an I/O edge: `MS SAVE` (and a reset's reload) read and write it on
-// the station's tick thread (a few KiB; see docs/stations.md, "State file").
+// The station state file is an I/O edge: `MS SAVE` writes it on the station's save thread
+// (`crate::save_io`); start-up and a reset's reload read it (a few KiB; see docs/stations.md,
+// "State file").
 #[allow(clippy::disallowed_methods, clippy::disallowed_types)]
 pub mod persist;
 
