@@ -116,6 +116,11 @@ pub struct UpArgs {
     /// Paced clock: real-time factor, ring time per wall time (default 1; overrides the config).
     #[arg(long, value_name = "X")]
     pub rtf: Option<f64>,
+    /// Cycles in flight around the ring, 1-8 (`ring.in_flight`; overrides the config): the
+    /// sync master starts cycle k once k-N came back; each card's servo feedback comes N-1
+    /// cycles later.
+    #[arg(long, value_name = "N")]
+    pub in_flight: Option<u64>,
     /// Cluster config file (TOML).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -540,6 +545,14 @@ pub struct BenchRingArgs {
     /// Real-time factor 1: seconds measured per cluster.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub rtf_seconds: f64,
+    /// Lockstep: `ring.in_flight` settings measured for each size (1-8, comma-separated; the
+    /// UDP ring is run beside the first).
+    #[arg(long, value_name = "LIST", default_value = "1,4")]
+    pub in_flight: String,
+    /// Real-time factor 1: `ring.in_flight` settings measured for each size (1-8,
+    /// comma-separated).
+    #[arg(long, value_name = "LIST", default_value = "1,2")]
+    pub rtf_in_flight: String,
     /// Only these sections (comma-separated): floor, lockstep, rtf1, realtime, hosts, netns.
     #[arg(long, value_name = "LIST")]
     pub only: Option<String>,

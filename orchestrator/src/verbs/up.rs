@@ -48,11 +48,15 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
     if let Some(rtf) = args.rtf {
         cfg.rtf = rtf;
     }
+    if let Some(n) = args.in_flight {
+        cfg.ring.in_flight = n;
+    }
     // A value given on the command line is named as the option that gave it.
     let flag = |key: &str| match key {
         "cluster" => cluster_flag.map(|_| "--cluster"),
         "rtf" => args.rtf.map(|_| "--rtf"),
         "rate_hz" => args.rate.map(|_| "--rate"),
+        "ring.in_flight" => args.in_flight.map(|_| "--in-flight"),
         _ => None,
     };
     let cfg = cfg.resolve().map_err(|e| match e {
@@ -421,6 +425,9 @@ mod tests {
         assert_eq!(c.rtf, 0.5);
         let c = resolve(&["--clock", "lockstep"]).unwrap();
         assert_eq!(c.clock, mcc_ring::config::ClockMode::Lockstep);
+        assert_eq!(c.ring.in_flight, 1);
+        let c = resolve(&["--in-flight", "4"]).unwrap();
+        assert_eq!(c.ring.in_flight, 4);
     }
 
     #[test]
@@ -437,6 +444,9 @@ mod tests {
             ),
             (&["--clock", "sometimes"][..], "sometimes"),
             (&["--rate", "0"][..], "--rate"),
+            (&["--in-flight", "0"][..], "--in-flight"),
+            (&["--in-flight", "9"][..], "--in-flight"),
+            (&["--in-flight", "two"][..], "two"),
         ] {
             let e = format!("{:#}", resolve(args).unwrap_err());
             assert!(e.contains(want), "{args:?}: {e}");

@@ -25,17 +25,23 @@ pub struct ClusterSpec {
     pub clock: Option<String>,
     /// `--rate` (None: the product default).
     pub rate: Option<f64>,
+    /// `--in-flight` (None: the product default).
+    pub in_flight: Option<u64>,
 }
 
 impl ClusterSpec {
     /// `4 cards + 8 stations`.
     pub fn label(&self) -> String {
         let plural = |n: u8, w: &str| format!("{n} {w}{}", if n == 1 { "" } else { "s" });
-        format!(
+        let mut l = format!(
             "{} + {}",
             plural(self.cards, "card"),
             plural(self.stations, "station")
-        )
+        );
+        if let Some(n) = self.in_flight.filter(|n| *n != 1) {
+            l.push_str(&format!(", {n} in flight"));
+        }
+        l
     }
 
     /// Members in the ring.
@@ -158,6 +164,9 @@ pub fn measure(
     }
     if let Some(r) = spec.rate {
         up.args(["--rate", &r.to_string()]);
+    }
+    if let Some(n) = spec.in_flight {
+        up.args(["--in-flight", &n.to_string()]);
     }
     let running = Running { name: name.clone() };
     let (ok, err) = run_bounded(up, Duration::from_secs(90))?;

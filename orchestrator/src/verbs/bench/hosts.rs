@@ -528,6 +528,7 @@ pub fn run(window: Duration, zenohd: Option<&Path>) -> Result<()> {
         stations: 2,
         clock: Some("lockstep".into()),
         rate: None,
+        in_flight: None,
     };
     let one = cluster::measure(&spec, "h0", Duration::from_secs(1), window)?;
     let one = Figures {
