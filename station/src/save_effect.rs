@@ -5,7 +5,7 @@
 //!
 //! One save is in flight at a time [DECISION, issue 24]: until its result is back the station
 //! is busy, and every other auxiliary request (a second SAVE included) is refused with
-//! [`slave_error::BUSY`](mcc_ring::aux_channel::slave_error::BUSY). The master of the SAVE
+//! [`slave_error::BUSY`]. The master of the SAVE
 //! itself is not refused: it keeps waiting (the station streams `WORKING`). A request can only
 //! arrive meanwhile once that master gave up (its card's `$$$`, or a write longer than the
 //! master's wait), so the station never reads or writes its state file while a write is
