@@ -1,6 +1,7 @@
 //! The PMAC error codes a command can be refused with (pmac-commands §7): `ERR001`-`ERR018`.
-//! Every refusal in the card is one of these; the reply framing prints [`ErrCode::code`] as
-//! `ERRnnn` (I6 decides whether the text is sent at all).
+//! Declared, not yet wired: the interpreter still returns bare `u16` error numbers and the
+//! reply framing prints those as `ERRnnn` (I6 decides whether the text is sent at all).
+//! Issue 24 item 2 makes every refusal one of these.
 
 use std::fmt;
 
