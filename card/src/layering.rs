@@ -7,6 +7,10 @@
 //! ```
 //!
 //! Test code may reach upwards (a model test may build its input with the parser).
+//!
+//! A second check holds the typed refusals: outside `domain/error.rs` no production code
+//! writes an error number as a literal (`Err(3)`, `fail(3)`, `code: 21`); a refusal is an
+//! `ErrCode` or a `PowerErr`.
 
 use std::path::Path;
 
@@ -132,4 +136,56 @@ fn test_files_follow_one_convention() {
         odd.is_empty(),
         "test files not named tests_<topic>.rs: {odd:?}"
     );
+}
+
+/// Error numbers written as literals in `text`: `Err(<digits>)`, `fail(<digits>)`,
+/// `code: <digits>`.
+fn bare_error_numbers(text: &str) -> Vec<String> {
+    let mut v = Vec::new();
+    for pat in ["Err(", "fail(", "code: "] {
+        for (i, _) in text.match_indices(pat) {
+            let before = text[..i].chars().next_back();
+            if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+                continue;
+            }
+            let rest = &text[i + pat.len()..];
+            let digits = rest.chars().take_while(char::is_ascii_digit).count();
+            let after = rest[digits..].chars().next();
+            let closes = pat == "code: " || after == Some(')');
+            if digits > 0 && closes && !after.is_some_and(|c| c == '.' || c.is_alphanumeric()) {
+                let close = if pat == "code: " { "" } else { ")" };
+                v.push(format!("{pat}{}{close}", &rest[..digits]));
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn refusals_are_typed_outside_the_error_module() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut violations = Vec::new();
+    let mut checked = 0;
+    for f in rust_files(&src).iter().filter(|f| !is_test_file(f)) {
+        if f.ends_with("domain/error.rs") || f.ends_with("layering.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(f).unwrap_or_default();
+        checked += 1;
+        for n in bare_error_numbers(&production_code(&text)) {
+            violations.push(format!("{}: {n}", f.display()));
+        }
+    }
+    assert!(checked > 100, "only {checked} files checked");
+    assert!(
+        violations.is_empty(),
+        "bare error numbers (use ErrCode / PowerErr):\n{}",
+        violations.join("\n")
+    );
+}
+
+#[test]
+fn the_checker_sees_a_bare_error_number() {
+    let text = "return Err(3);\nrun.fail(17);\nSyntaxError { at, code: 21 }\nErr(ErrCode::Data)\nOk(3)\nmyErr(4)\nErr(3.0)";
+    assert_eq!(bare_error_numbers(text), ["Err(3)", "fail(17)", "code: 21"]);
 }

@@ -42,7 +42,7 @@ mod layering;
 pub use crate::core::inputs::{CardInputs, HeldInput, InputKind};
 pub use crate::core::rig::{self, LoopbackPlant, Rig};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
-pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, Profile};
+pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, PowerErr, Profile, Refusal};
 pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
 pub use lang::interp::{
     Budget, Card, Effect, EffectResult, LineRun, Session, Step, Storage, MAX_LINE,

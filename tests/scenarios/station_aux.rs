@@ -110,7 +110,23 @@ fn ask(
     let c = card(sim, i);
     c.done.clear();
     c.queue = reqs.iter().map(|&(n, r)| (n, r, 32)).collect();
-    for _ in 0..limit {
+    let mut waited = std::time::Duration::ZERO;
+    let mut cycles = 0;
+    while cycles < limit {
+        // A station's `MS SAVE` is written off its tick (a thread, in wall time): the
+        // simulated ring waits for it (a generous wall bound) instead of counting cycles.
+        let saving =
+            (0..sim.len()).any(|k| matches!(sim.app(k), App::Station(s) if s.mi().saving()));
+        if saving {
+            assert!(
+                waited < std::time::Duration::from_secs(60),
+                "the save never ended"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            waited += std::time::Duration::from_millis(1);
+        } else {
+            cycles += 1;
+        }
         sim.step();
         if card(sim, i).done.len() == reqs.len() {
             break;

@@ -29,6 +29,7 @@ mod tests_moves;
 #[cfg(test)]
 mod tests_paths;
 
+use crate::domain::ErrCode;
 use thiserror::Error;
 
 /// A refused coordinate-system operation or move.
@@ -81,12 +82,12 @@ pub enum CoordError {
 
 impl CoordError {
     /// The `ERRnnn` number for refusals of on-line commands; `None` for run-time errors.
-    pub fn err_code(&self) -> Option<u16> {
+    pub fn err_code(&self) -> Option<ErrCode> {
         match self {
             CoordError::MotorInOtherCs(..)
             | CoordError::BadAxisDef(_)
-            | CoordError::NoSuchUnit(_) => Some(3),
-            CoordError::NoMotors => Some(14),
+            | CoordError::NoSuchUnit(_) => Some(ErrCode::Data),
+            CoordError::NoMotors => Some(ErrCode::NoMotors),
             _ => None,
         }
     }

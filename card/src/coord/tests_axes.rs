@@ -4,6 +4,7 @@ use super::axes::{AxisTable, AxisVec, MotorAxisDef};
 use super::transform::TransformBank;
 use super::CoordError;
 use crate::domain::ast::{Axis, AxisDef, AxisTerm};
+use crate::domain::ErrCode;
 
 fn ast(terms: &[(f64, Axis)], offset: f64) -> AxisDef {
     AxisDef {
@@ -34,7 +35,7 @@ fn membership_rules_and_err003() {
     // The same motor in another C.S. is refused with ERR003.
     let e = t.define(2, 4, def(&[(5000.0, Axis::A)], 0.0)).unwrap_err();
     assert_eq!(e, CoordError::MotorInOtherCs(4, 1));
-    assert_eq!(e.err_code(), Some(3));
+    assert_eq!(e.err_code(), Some(ErrCode::Data));
     // `#4->` in &2 answers 0 (None), in &1 the definition.
     assert!(t.query(2, 4).is_none());
     assert_eq!(t.query(1, 4), Some(&def(&[(5000.0, Axis::A)], 0.0)));
@@ -91,7 +92,7 @@ fn malformed_definitions_are_err003() {
     );
     for d in &bad {
         let e = MotorAxisDef::from_ast(d).unwrap_err();
-        assert_eq!(e.err_code(), Some(3), "{d:?}");
+        assert_eq!(e.err_code(), Some(ErrCode::Data), "{d:?}");
     }
 }
 
@@ -153,7 +154,7 @@ fn inverse_kinematics_motor_is_a_member_that_holds() {
         t.define(1, 1, def(&[(1.0, Axis::X)], 0.0))
             .unwrap_err()
             .err_code(),
-        Some(3)
+        Some(ErrCode::Data)
     );
     let m = t.cs_axes(3);
     let p = m.motor_positions(&axes(&[(0, 2.0)]), &[123.0, 0.0]);

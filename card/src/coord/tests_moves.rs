@@ -5,6 +5,7 @@ use super::axes::{AxisTable, MotorAxisDef};
 use super::cs::{CoordSystem, MoveWords};
 use super::moves::{CsConfig, Modal, Mode, MotorLimits};
 use super::CoordError;
+use crate::domain::ErrCode;
 
 pub(super) const SERVO: f64 = 3_713_707.0 / 8_388_608.0; // ms per servo cycle at the default I10
 
@@ -344,7 +345,7 @@ fn refusals_and_absurd_inputs_do_not_panic() {
     let t = AxisTable::new(8, 8);
     let mut c = CoordSystem::new(cfg(), t.cs_axes(1), &[]);
     let e = c.push_move(&words(&[(0, 1.0)])).unwrap_err();
-    assert_eq!(e.err_code(), Some(14));
+    assert_eq!(e.err_code(), Some(ErrCode::NoMotors));
 }
 
 #[test]

@@ -16,7 +16,7 @@ mod tests_servo;
 
 use std::collections::{HashMap, VecDeque};
 
-use crate::domain::Profile;
+use crate::domain::{Profile, Refusal};
 use crate::lang::interp::{Budget, Card, Effect, EffectResult, LineRun, Session, Step};
 use crate::lang::ppmac::Power;
 use crate::servo::Servo;
@@ -56,6 +56,9 @@ pub struct HostReply {
     pub echo: bool,
     /// A part of a streamed line: ask [`HostRequest::More`] for the rest.
     pub more: bool,
+    /// The line's first refusal (`ERRnnn`, `error #n`), whether or not the framing printed
+    /// it (I6): callers match on this, never on the reply bytes. `None` on a streamed part.
+    pub error: Option<Refusal>,
 }
 
 #[derive(Debug)]
@@ -236,6 +239,7 @@ impl CardCore {
             };
             let conn = job.conn;
             let mut s = self.session(conn);
+            let mut error = None;
             let done = match job.req.clone() {
                 HostRequest::End => {
                     if let Some(p) = self.power.as_mut() {
@@ -257,10 +261,11 @@ impl CardCore {
                     if self.power.is_some() =>
                 {
                     budget.spend(1);
-                    let (out, wait) = match self.power.as_mut() {
+                    let (out, refused, wait) = match self.power.as_mut() {
                         Some(p) => p.host_line(&mut self.card, conn, &line),
-                        None => (Vec::new(), None),
+                        None => (Vec::new(), None, None),
                     };
+                    error = refused.map(Refusal::Power);
                     match wait {
                         // Answered once the effect is done ([`CardCore::effect_done`]).
                         Some(wait) => {
@@ -280,7 +285,11 @@ impl CardCore {
                         Some(r) => r,
                         None => self.card.start_line(&mut s, &line, true),
                     };
-                    match self.card.step_line(&mut run, &mut s, budget) {
+                    let step = self.card.step_line(&mut run, &mut s, budget);
+                    if matches!(step, Step::Done(_)) {
+                        error = run.refusal().map(Refusal::Pmac);
+                    }
+                    match step {
                         Step::Done(r) if job.out.is_empty() => Some(r),
                         Step::Done(r) => {
                             let mut all = std::mem::take(&mut job.out);
@@ -305,6 +314,7 @@ impl CardCore {
                                         bytes: part,
                                         echo,
                                         more: true,
+                                        error: None,
                                     },
                                 ));
                                 job.parked = true;
@@ -340,6 +350,7 @@ impl CardCore {
                             bytes,
                             echo,
                             more: false,
+                            error,
                         },
                     ));
                 }
@@ -404,12 +415,12 @@ impl CardCore {
             let Some(wait) = job.power_wait else {
                 return;
             };
-            let bytes = match result {
-                EffectResult::Saved(true) => wait.ok,
-                EffectResult::Saved(false) => wait.failed,
+            let (bytes, error) = match result {
+                EffectResult::Saved(true) => (wait.ok, None),
+                EffectResult::Saved(false) => (wait.failed, wait.refusal.map(Refusal::Power)),
                 loaded @ EffectResult::Loaded(_) => {
                     self.load_error = self.card.apply_loaded(loaded).err();
-                    wait.ok
+                    (wait.ok, None)
                 }
             };
             self.replies.push((
@@ -418,6 +429,7 @@ impl CardCore {
                     bytes,
                     echo: false,
                     more: false,
+                    error,
                 },
             ));
             return;

@@ -1,7 +1,7 @@
 //! Card-core tests: requests, slices, effects.
 
 use super::*;
-use crate::domain::Profile;
+use crate::domain::{ErrCode, PowerErr, Profile};
 
 fn core() -> CardCore {
     CardCore::new(Card::new(Profile::Turbo))
@@ -144,7 +144,8 @@ fn a_new_request_abandons_a_parked_streamed_line() {
             HostReply {
                 bytes: b"5\r\x06".to_vec(),
                 echo: false,
-                more: false
+                more: false,
+                error: None,
             }
         )
     );
@@ -249,6 +250,8 @@ fn a_power_save_is_answered_once_written_and_a_failed_one_is_an_error() {
         }
         let r = c.take_replies();
         assert_eq!(r.len(), 1, "one reply to {line:?}");
+        let want = (!ok).then_some(Refusal::Power(PowerErr::IllegalParameter));
+        assert_eq!(r[0].1.error, want, "the refusal of {line:?}, typed");
         r[0].1.bytes.clone()
     };
     assert_eq!(answer(&mut c, 1, b"echo7 P1=4242", true), b"\x06\r\n");
@@ -258,4 +261,43 @@ fn a_power_save_is_answered_once_written_and_a_failed_one_is_an_error() {
         b"stdin:3:1: error #21: ILLEGAL PARAMETER: save\r\n\x06\r\n"
     );
     assert_eq!(answer(&mut c, 4, b"P1", true), b"4242\r\n\x06\r\n");
+}
+
+/// Every reply carries its line's refusal typed, whatever the framing printed of it: PMAC
+/// under I6 = 3 (`ERR003`), I6 = 2 (a bare BELL) and I6 = 1; Power's `error #n`.
+#[test]
+fn a_reply_carries_its_refusal_typed_whatever_the_framing_printed() {
+    let ask = |c: &mut CardCore, line: &[u8]| -> HostReply {
+        c.submit(9, 1, HostRequest::Line(line.to_vec()));
+        let (_, r) = serve_all(c);
+        assert_eq!(r.len(), 1, "one reply to {line:?}");
+        r[0].1.clone()
+    };
+    let mut c = core();
+    ask(&mut c, b"I3=2");
+    let ok = ask(&mut c, b"P1=5 P1");
+    assert_eq!((ok.bytes.as_slice(), ok.error), (&b"5\r\x06"[..], None));
+    for (i6, bytes) in [
+        (3, &b"\x07\rERR003\r"[..]),
+        (2, &b"\x07"[..]),
+        (1, &b"\x07ERR003\r"[..]),
+    ] {
+        ask(&mut c, format!("I6={i6}").as_bytes());
+        let r = ask(&mut c, b"XYZZY");
+        assert_eq!(r.bytes, bytes, "I6={i6}");
+        assert_eq!(r.error, Some(Refusal::Pmac(ErrCode::Data)), "I6={i6}");
+    }
+    ask(&mut c, b"I6=3");
+    let r = ask(&mut c, b"&1B99R");
+    assert_eq!(r.error, Some(Refusal::Pmac(ErrCode::NoMotors)));
+    let mut p = CardCore::new(Card::new(Profile::Power));
+    let r = ask(&mut p, b"foo");
+    assert_eq!(
+        r.bytes,
+        b"stdin:1:1: error #20: ILLEGAL CMD: foo\r\n\x06\r\n"
+    );
+    assert_eq!(r.error, Some(Refusal::Power(PowerErr::IllegalCmd)));
+    let r = ask(&mut p, b"P1=1 Motor[1].Status[0]=1");
+    assert_eq!(r.error, Some(Refusal::Power(PowerErr::ReadOnly)));
+    assert_eq!(ask(&mut p, b"P1").error, None, "the next line starts clean");
 }

@@ -1,7 +1,10 @@
-//! The PMAC error codes a command can be refused with (pmac-commands §7): `ERR001`-`ERR018`.
-//! Declared, not yet wired: the interpreter still returns bare `u16` error numbers and the
-//! reply framing prints those as `ERRnnn` (I6 decides whether the text is sent at all).
-//! Issue 24 item 2 makes every refusal one of these.
+//! Why a card refuses a command, in its dialect's own terms: [`ErrCode`], the PMAC2/Turbo
+//! `ERRnnn` codes (pmac-commands §7: `ERR001`-`ERR018`), [`PowerErr`], the Power PMAC
+//! `error #n` numbers, and [`Refusal`] over both. Every executor returns one of these; the reply
+//! framing prints it (PMAC: I6 decides whether `ERRnnn` is sent at all; Power:
+//! `stdin:L:C: error #n: TEXT: line`), and a host reply carries it typed
+//! (`HostReply::error`), so no caller reads a refusal back out of reply bytes. This module is
+//! the only place an error number is written as a literal (the layering test holds it).
 
 use std::fmt;
 
@@ -120,6 +123,125 @@ impl From<ErrCode> for u16 {
     }
 }
 
+/// A Power PMAC error (`stdin:L:C: error #n: TEXT: line`). [DECISION] The seed names only
+/// #20 (`ILLEGAL CMD`); the others are numbered here, after it (docs/power-pmac.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum PowerErr {
+    /// #20: a command the language does not have.
+    IllegalCmd = 20,
+    /// #21: an unknown element or variable, an index out of range, a bad parameter.
+    IllegalParameter = 21,
+    /// #22: a number outside what the command or element allows.
+    OutOfRange = 22,
+    /// #23: a write to a read-only (status) element.
+    ReadOnly = 23,
+    /// #24: the motor is not activated.
+    MotorNotActive = 24,
+    /// #25: the coordinate system is not ready to run (no program, limits, open loop…).
+    NotReadyToRun = 25,
+    /// #26: not allowed while a program runs.
+    ProgramRunning = 26,
+    /// #27: the simulated card does not support the function (or the ring refused it).
+    NotSupported = 27,
+}
+
+impl PowerErr {
+    /// Every error, #20 first.
+    pub const ALL: [PowerErr; 8] = [
+        PowerErr::IllegalCmd,
+        PowerErr::IllegalParameter,
+        PowerErr::OutOfRange,
+        PowerErr::ReadOnly,
+        PowerErr::MotorNotActive,
+        PowerErr::NotReadyToRun,
+        PowerErr::ProgramRunning,
+        PowerErr::NotSupported,
+    ];
+
+    /// The number printed after `error #`.
+    pub fn code(self) -> u16 {
+        self as u16
+    }
+
+    /// The error numbered `n` (20-27).
+    pub fn from_code(n: u16) -> Option<PowerErr> {
+        PowerErr::ALL.get(usize::from(n).checked_sub(20)?).copied()
+    }
+
+    /// The text after the number.
+    pub fn text(self) -> &'static str {
+        match self {
+            PowerErr::IllegalCmd => "ILLEGAL CMD",
+            PowerErr::IllegalParameter => "ILLEGAL PARAMETER",
+            PowerErr::OutOfRange => "OUT OF RANGE NUMBER",
+            PowerErr::ReadOnly => "READ ONLY",
+            PowerErr::MotorNotActive => "MOTOR NOT ACTIVE",
+            PowerErr::NotReadyToRun => "NOT READY TO RUN",
+            PowerErr::ProgramRunning => "PROGRAM RUNNING",
+            PowerErr::NotSupported => "FUNCTION NOT SUPPORTED",
+        }
+    }
+
+    /// The Power error a PMAC executor's refusal stands for, where a Power command reuses the
+    /// PMAC one (a motor or C.S. command, SAVE).
+    pub fn from_pmac(e: ErrCode) -> PowerErr {
+        match e {
+            ErrCode::Running => PowerErr::ProgramRunning,
+            ErrCode::NotActivated => PowerErr::MotorNotActive,
+            ErrCode::BothLimits
+            | ErrCode::MoveNotDone
+            | ErrCode::OpenLoop
+            | ErrCode::NoMotors
+            | ErrCode::NoProgram
+            | ErrCode::BadProgram
+            | ErrCode::AwayFromStop => PowerErr::NotReadyToRun,
+            _ => PowerErr::IllegalParameter,
+        }
+    }
+}
+
+impl fmt::Display for PowerErr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "error #{}", self.code())
+    }
+}
+
+impl std::error::Error for PowerErr {}
+
+/// Why a card refused a host line: the first refusal of the line, in the card's dialect.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Refusal {
+    /// A PMAC2 or Turbo card's `ERRnnn` (sent as such, or as a bare `<BELL>` under I6 = 2, or
+    /// not at all under I6 = 1: the refusal is the same).
+    Pmac(ErrCode),
+    /// A Power card's `error #n`.
+    Power(PowerErr),
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::Pmac(e) => e.fmt(f),
+            Refusal::Power(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for Refusal {}
+
+impl From<ErrCode> for Refusal {
+    fn from(e: ErrCode) -> Refusal {
+        Refusal::Pmac(e)
+    }
+}
+
+impl From<PowerErr> for Refusal {
+    fn from(e: PowerErr) -> Refusal {
+        Refusal::Power(e)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -134,5 +256,27 @@ mod tests {
         }
         assert_eq!(ErrCode::from_code(0), None);
         assert_eq!(ErrCode::from_code(19), None);
+    }
+
+    #[test]
+    fn power_errors_print_as_the_dialect_does() {
+        assert_eq!(PowerErr::IllegalCmd.to_string(), "error #20");
+        assert_eq!(PowerErr::IllegalCmd.text(), "ILLEGAL CMD");
+        for (k, e) in PowerErr::ALL.iter().enumerate() {
+            assert_eq!(usize::from(e.code()), k + 20);
+            assert_eq!(PowerErr::from_code(e.code()), Some(*e));
+        }
+        assert_eq!(PowerErr::from_code(19), None);
+        assert_eq!(PowerErr::from_code(28), None);
+        assert_eq!(
+            PowerErr::from_pmac(ErrCode::Running),
+            PowerErr::ProgramRunning
+        );
+        assert_eq!(
+            PowerErr::from_pmac(ErrCode::Data),
+            PowerErr::IllegalParameter
+        );
+        assert_eq!(Refusal::from(ErrCode::Data).to_string(), "ERR003");
+        assert_eq!(Refusal::from(PowerErr::ReadOnly).to_string(), "error #23");
     }
 }

@@ -5,12 +5,13 @@
 //! fractional bits, trigonometry in degrees or radians per I15, no domain errors.
 
 use super::ast::{BinOp, CmpOp, Cond, Expr, ExprKind, Func, MathFn, VarIndex, VarKind, VarRef};
+use super::ErrCode;
 
 /// A variable could not be read (or a computed index is invalid).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct EvalError {
-    /// PMAC error number (ERR003 for a bad variable number).
-    pub code: u8,
+    /// The PMAC refusal (ERR003 for a bad variable number).
+    pub code: ErrCode,
     /// Reason.
     pub msg: &'static str,
 }
@@ -18,7 +19,7 @@ pub(crate) struct EvalError {
 impl EvalError {
     /// No such variable (a bad number or family).
     pub(crate) const NO_VARIABLE: EvalError = EvalError {
-        code: 3,
+        code: ErrCode::Data,
         msg: "no such variable",
     };
 }
@@ -50,7 +51,7 @@ pub(crate) trait Env {
     fn store(&mut self, kind: VarKind, index: u32, v: f64) -> Result<(), EvalError> {
         let _ = (kind, index, v);
         Err(EvalError {
-            code: 3,
+            code: ErrCode::Data,
             msg: "variable cannot be written here",
         })
     }
@@ -77,7 +78,7 @@ pub(crate) fn index<E: Env + ?Sized>(i: &VarIndex, env: &mut E) -> Result<u32, E
                 Ok(v as u32)
             } else {
                 Err(EvalError {
-                    code: 3,
+                    code: ErrCode::Data,
                     msg: "computed variable number out of range",
                 })
             }
@@ -94,7 +95,7 @@ pub(crate) fn read_var<E: Env + ?Sized>(v: &VarRef, env: &mut E) -> Result<f64, 
 fn eval_d<E: Env + ?Sized>(e: &Expr, env: &mut E, depth: u32) -> Result<f64, EvalError> {
     if depth > MAX_EVAL_DEPTH {
         return Err(EvalError {
-            code: 3,
+            code: ErrCode::Data,
             msg: "expression too deep",
         });
     }
@@ -375,7 +376,7 @@ pub(crate) fn eval_cond<E: Env + ?Sized>(c: &Cond, env: &mut E) -> Result<bool, 
 fn eval_cond_d<E: Env + ?Sized>(c: &Cond, env: &mut E, depth: u32) -> Result<bool, EvalError> {
     if depth > MAX_EVAL_DEPTH {
         return Err(EvalError {
-            code: 3,
+            code: ErrCode::Data,
             msg: "condition too deep",
         });
     }

@@ -12,6 +12,6 @@ mod ids;
 pub(crate) mod profile;
 pub(crate) mod words;
 
-pub use error::ErrCode;
+pub use error::{ErrCode, PowerErr, Refusal};
 pub use ids::{CsNum, MotorNum, NodeNum};
 pub use profile::{Limits, Profile};

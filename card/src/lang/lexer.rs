@@ -5,6 +5,7 @@
 
 use super::ast::{Number, Pos};
 use super::{ParseError, ERR_SYNTAX};
+use crate::domain::ErrCode;
 
 /// Maximum nesting depth of parentheses / functions / conditions in one line.
 pub(super) const MAX_DEPTH: u32 = 32;
@@ -148,7 +149,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Error at the current offset.
-    pub(super) fn err(&self, code: u8, msg: &'static str) -> ParseError {
+    pub(super) fn err(&self, code: ErrCode, msg: &'static str) -> ParseError {
         ParseError {
             pos: self.i,
             code,

@@ -30,15 +30,16 @@ mod tests_program;
 
 pub(crate) use parse_program::allowed;
 
+use crate::domain::ErrCode;
 use ast::{BufferKind, Command, Item, Stmt};
 use lexer::Cursor;
 
 /// ERR003: data error or unrecognised command (any syntax error).
-pub(crate) const ERR_SYNTAX: u8 = 3;
+pub(crate) const ERR_SYNTAX: ErrCode = ErrCode::Data;
 /// ERR004: illegal character (byte > 127, or a control byte inside a line).
-pub(crate) const ERR_ILLEGAL_CHAR: u8 = 4;
+pub(crate) const ERR_ILLEGAL_CHAR: ErrCode = ErrCode::IllegalChar;
 /// ERR005: the statement needs an open buffer.
-pub(crate) const ERR_NEEDS_BUFFER: u8 = 5;
+pub(crate) const ERR_NEEDS_BUFFER: ErrCode = ErrCode::NeedsBuffer;
 
 /// Longest accepted command line (bytes, without the CR). Longer lines → ERR003.
 pub(crate) const MAX_LINE_LEN: usize = 1024;
@@ -48,8 +49,8 @@ pub(crate) const MAX_LINE_LEN: usize = 1024;
 pub(crate) struct ParseError {
     /// Byte offset in the line where the problem was found.
     pub pos: usize,
-    /// PMAC error number (2, 3, 4, 5 ...), printed as `ERR%03d`.
-    pub code: u8,
+    /// The PMAC refusal (ERR003, ERR004, ERR005 ...).
+    pub code: ErrCode,
     /// Human-readable reason (for logs; never sent to the host).
     pub msg: &'static str,
 }

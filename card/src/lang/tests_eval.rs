@@ -2,6 +2,7 @@
 
 use crate::domain::ast::*;
 use crate::domain::eval::*;
+use crate::domain::ErrCode;
 use crate::lang::ast::Item;
 use crate::lang::{LineParser, Mode};
 use std::collections::HashMap;
@@ -15,7 +16,7 @@ impl Env for TestEnv {
     fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, EvalError> {
         if index > 1023 {
             return Err(EvalError {
-                code: 3,
+                code: ErrCode::Data,
                 msg: "no such variable",
             });
         }
@@ -131,7 +132,7 @@ fn variable_errors_propagate() {
     let crate::lang::ast::CmdKind::VarAssign(_, x) = c.kind else {
         panic!()
     };
-    assert_eq!(eval(&x, &mut e).unwrap_err().code, 3);
+    assert_eq!(eval(&x, &mut e).unwrap_err().code, ErrCode::Data);
 }
 
 #[test]

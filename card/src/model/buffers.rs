@@ -5,6 +5,7 @@
 //! The stored line type is generic ([`StoredLine`]) so this module does not depend on the
 //! parser's AST layout; `exec_buffers` implements the trait for the parser's line type.
 
+use crate::domain::ErrCode;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -85,7 +86,7 @@ impl<L> Default for Program<L> {
 
 /// A buffer-level error, reported as `ERRnnn`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BufErr(pub u16);
+pub struct BufErr(pub ErrCode);
 
 /// Where a nesting check stands after some lines: open blocks, and whether the last line was
 /// a one-line `IF` (an `ELSE` may follow it).
@@ -257,7 +258,7 @@ impl<L: StoredLine> Buffers<L> {
         match id {
             BufId::Prog(n) => {
                 if !self.progs.contains_key(&n) && self.progs.len() >= MAX_PROGRAMS {
-                    return Err(BufErr(6));
+                    return Err(BufErr(ErrCode::NoRoom));
                 }
                 strip_return(self.progs.entry(n).or_default());
             }
@@ -275,12 +276,12 @@ impl<L: StoredLine> Buffers<L> {
             + self.rotary.values().map(|r| u64::from(r.size)).sum::<u64>()
             + self.defines.words();
         if words > u64::from(self.capacity).saturating_sub(used) {
-            return Err(BufErr(6));
+            return Err(BufErr(ErrCode::NoRoom));
         }
         let cached = self.caches.nest.take();
         let prog = match self.program_mut(id) {
             Some(p) => p,
-            None => return Err(BufErr(5)),
+            None => return Err(BufErr(ErrCode::NeedsBuffer)),
         };
         // The nesting state at the end of the program: carried over from the last append to
         // the same program, rebuilt from its lines otherwise (a closer without an opener
@@ -301,7 +302,7 @@ impl<L: StoredLine> Buffers<L> {
         if !nest.step(line.structure()) {
             let len = prog.lines.len();
             self.caches.nest = Some((id, len, before));
-            return Err(BufErr(9));
+            return Err(BufErr(ErrCode::Structure));
         }
         prog.lines.push(line);
         let len = prog.lines.len();
@@ -315,10 +316,13 @@ impl<L: StoredLine> Buffers<L> {
     /// Append a line to the rotary buffer of C.S. `cs` (ERR006 when that buffer is full,
     /// ERR005 when the C.S. has none).
     pub fn append_rotary(&mut self, cs: u8, line: L) -> Result<(), BufErr> {
-        let r = self.rotary.get_mut(&cs).ok_or(BufErr(5))?;
+        let r = self
+            .rotary
+            .get_mut(&cs)
+            .ok_or(BufErr(ErrCode::NeedsBuffer))?;
         let used: u64 = r.lines.iter().map(|l| u64::from(l.words())).sum();
         if used + u64::from(line.words()) > u64::from(r.size) {
-            return Err(BufErr(6));
+            return Err(BufErr(ErrCode::NoRoom));
         }
         r.lines.push(line);
         Ok(())
@@ -339,7 +343,7 @@ impl<L: StoredLine> Buffers<L> {
         if all_ok {
             Ok(())
         } else {
-            Err(BufErr(3))
+            Err(BufErr(ErrCode::Data))
         }
     }
 

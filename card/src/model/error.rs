@@ -1,5 +1,6 @@
 //! Errors raised by the card state, each mapped to the PMAC error code it is reported as.
 
+use crate::domain::ErrCode;
 use thiserror::Error;
 
 /// A rejected state operation. [`StateError::err_code`] gives the `ERRnnn` number to report.
@@ -25,7 +26,7 @@ pub enum StateError {
 impl StateError {
     /// The PMAC error number (`ERRnnn`) this rejection is reported as. All of these are
     /// "data error or unrecognised command" on a PMAC: ERR003.
-    pub fn err_code(&self) -> u16 {
-        3
+    pub fn err_code(&self) -> ErrCode {
+        ErrCode::Data
     }
 }

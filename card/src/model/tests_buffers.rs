@@ -86,30 +86,30 @@ fn structural_errors() {
     b.open(BufId::Plc(1)).unwrap();
     assert_eq!(
         b.append(BufId::Plc(1), T("ENDIF", 1, Structure::EndIf)),
-        Err(BufErr(9))
+        Err(BufErr(ErrCode::Structure))
     );
     assert_eq!(
         b.append(BufId::Plc(1), T("ENDW", 1, Structure::EndWhile)),
-        Err(BufErr(9))
+        Err(BufErr(ErrCode::Structure))
     );
     assert_eq!(
         b.append(BufId::Plc(1), T("ELSE", 1, Structure::Else)),
-        Err(BufErr(9))
+        Err(BufErr(ErrCode::Structure))
     );
     b.append(BufId::Plc(1), T("IF(P1=1)", 2, Structure::If))
         .unwrap();
     assert_eq!(
         b.append(BufId::Plc(1), T("ENDW", 1, Structure::EndWhile)),
-        Err(BufErr(9))
+        Err(BufErr(ErrCode::Structure))
     );
     b.append(BufId::Plc(1), T("ELSE", 1, Structure::Else))
         .unwrap();
     assert_eq!(
         b.append(BufId::Plc(1), T("ELSE", 1, Structure::Else)),
-        Err(BufErr(9))
+        Err(BufErr(ErrCode::Structure))
     );
     // Unclosed IF: CLOSE reports ERR003 and marks the program invalid.
-    assert_eq!(b.close(BufId::Plc(1)), Err(BufErr(3)));
+    assert_eq!(b.close(BufId::Plc(1)), Err(BufErr(ErrCode::Data)));
     assert!(!b.program(BufId::Plc(1)).unwrap().valid);
     // Fix it: re-open, add ENDIF, close.
     b.open(BufId::Plc(1)).unwrap();
@@ -133,9 +133,15 @@ fn buffer_space_exhaustion_keeps_stored_lines() {
     for _ in 0..9 {
         b.append(BufId::Prog(1), plain("X1", 1)).unwrap();
     }
-    assert_eq!(b.append(BufId::Prog(1), plain("X1Y1", 2)), Err(BufErr(6)));
+    assert_eq!(
+        b.append(BufId::Prog(1), plain("X1Y1", 2)),
+        Err(BufErr(ErrCode::NoRoom))
+    );
     b.append(BufId::Prog(1), plain("X1", 1)).unwrap();
-    assert_eq!(b.append(BufId::Prog(1), plain("X1", 1)), Err(BufErr(6)));
+    assert_eq!(
+        b.append(BufId::Prog(1), plain("X1", 1)),
+        Err(BufErr(ErrCode::NoRoom))
+    );
     assert_eq!(b.program(BufId::Prog(1)).unwrap().lines.len(), 10);
     assert_eq!(b.free(), 0);
 }
@@ -143,7 +149,10 @@ fn buffer_space_exhaustion_keeps_stored_lines() {
 #[test]
 fn rotary_buffer_fills_up() {
     let mut b: Buffers<T> = Buffers::new(1000);
-    assert_eq!(b.append_rotary(1, plain("X1", 1)), Err(BufErr(5)));
+    assert_eq!(
+        b.append_rotary(1, plain("X1", 1)),
+        Err(BufErr(ErrCode::NeedsBuffer))
+    );
     b.rotary.insert(
         1,
         Rotary {
@@ -152,7 +161,10 @@ fn rotary_buffer_fills_up() {
         },
     );
     b.append_rotary(1, plain("X1Y1", 2)).unwrap();
-    assert_eq!(b.append_rotary(1, plain("X1Y1", 2)), Err(BufErr(6)));
+    assert_eq!(
+        b.append_rotary(1, plain("X1Y1", 2)),
+        Err(BufErr(ErrCode::NoRoom))
+    );
     b.append_rotary(1, plain("X1", 1)).unwrap();
     assert_eq!(b.used(), 3);
     b.clear(BufId::Rot, 1);

@@ -6,6 +6,7 @@ use super::persist::PersistError;
 use super::status::{MotorFlags, MoveMode};
 use super::*;
 use crate::domain::ast::{MDef, MFormat, XySpace};
+use crate::domain::ErrCode;
 use crate::domain::Profile;
 
 fn card() -> CardState {
@@ -41,7 +42,7 @@ fn ivar_text_follows_i9() {
 fn ivar_range_errors_are_err003() {
     let mut c = card();
     let e = c.set_ivar(6, 4.0).unwrap_err();
-    assert_eq!(e.err_code(), 3);
+    assert_eq!(e.err_code(), ErrCode::Data);
     assert_eq!(c.read_ivar(6), Ok(3.0));
     c.set_ivar(6, 1.0).unwrap();
     assert_eq!(c.default_ivar(6), Ok(3.0));

@@ -4,6 +4,7 @@
 
 use crate::domain::ast::{AssignOp, BinOp, Cond, Expr, VarKind, VarRef};
 use crate::domain::eval::{self, Env, EvalError};
+use crate::domain::ErrCode;
 use crate::domain::Profile;
 use crate::model::CardModel;
 
@@ -17,7 +18,7 @@ pub(crate) struct ProgEnv<'a> {
 
 fn no_var() -> EvalError {
     EvalError {
-        code: 3,
+        code: ErrCode::Data,
         msg: "no such variable",
     }
 }

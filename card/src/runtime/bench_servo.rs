@@ -268,7 +268,7 @@ pub fn run_servo_load_bench() -> std::io::Result<ServoLoadReport> {
                 replies.fetch_add(1, Ordering::Relaxed);
                 if kind == 0 {
                     heavy.fetch_add(1, Ordering::Relaxed);
-                } else if !r.bytes.contains(&0x07) {
+                } else if r.error.is_none() {
                     saves.fetch_add(1, Ordering::Relaxed);
                 }
             }

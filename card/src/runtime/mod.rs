@@ -257,14 +257,15 @@ fn apply_ivars(
                 }
                 continue;
             }
-            let reply = dialect.line(card, 0, line.as_bytes());
-            let text = String::from_utf8_lossy(&reply).into_owned();
-            text.contains(": error #").then_some(text)
+            let (reply, refused) = dialect.line_refused(card, 0, line.as_bytes());
+            refused.map(|_| String::from_utf8_lossy(&reply).into_owned())
         } else {
-            let reply = card.command_line(&mut s, line.as_bytes());
-            reply
-                .contains(&0x07)
-                .then(|| String::from_utf8_lossy(&reply).into_owned())
+            let (reply, refused) = card.command_line_refused(&mut s, line.as_bytes());
+            refused.map(|e| match String::from_utf8_lossy(&reply).trim() {
+                // I6 = 1 or 2: the card printed no code; the refusal names it.
+                t if !t.contains("ERR") => e.to_string(),
+                t => t.to_string(),
+            })
         };
         if let Some(text) = refused {
             anyhow::bail!(

@@ -30,20 +30,20 @@ impl std::fmt::Display for StartupError {
 
 impl std::error::Error for StartupError {}
 
-/// Send `line`; an error reply (it carries a BEL whatever I6 says) is a [`StartupError`].
+/// Send `line`; a refusal (whatever I6 prints of it) is a [`StartupError`].
 pub(crate) fn send(card: &mut Card, line: &str) -> Result<(), StartupError> {
     let mut s = Session::default();
-    let reply = card.command_line(&mut s, line.as_bytes());
-    if reply.contains(&0x07) {
+    let (reply, refused) = card.command_line_refused(&mut s, line.as_bytes());
+    if let Some(e) = refused {
         let text = String::from_utf8_lossy(&reply)
             .trim_matches(|c: char| c.is_control() || c.is_whitespace())
             .to_string();
         return Err(StartupError {
             line: line.to_string(),
-            reply: if text.is_empty() {
-                "<BELL>".into()
-            } else {
+            reply: if text.contains("ERR") {
                 text
+            } else {
+                e.to_string()
             },
         });
     }
@@ -166,9 +166,9 @@ fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
     }
     for line in lines {
         let line = line.trim_end().to_string();
-        let reply = dialect.line(card, 0, line.as_bytes());
+        let (reply, refused) = dialect.line_refused(card, 0, line.as_bytes());
         let text = String::from_utf8_lossy(&reply);
-        if text.contains(": error #") {
+        if refused.is_some() {
             return Err(StartupError {
                 reply: text
                     .trim_matches(|c: char| c.is_control() || c.is_whitespace())

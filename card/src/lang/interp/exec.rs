@@ -2,10 +2,11 @@
 //! lines into `out` and returns `Err(code)` for `ERRnnn`.
 
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::CmdKind;
 
 /// Result of one command: `Err(n)` = report `ERRnnn`.
-pub(crate) type Exec = Result<(), u16>;
+pub(crate) type Exec = Result<(), ErrCode>;
 
 /// What the line loop must do after a command.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]

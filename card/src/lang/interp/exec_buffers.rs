@@ -2,6 +2,7 @@
 //! GATHER, ENABLE/DISABLE/PAUSE/RESUME PLC, storing program lines (DEFINE/DELETE: exec_defines),
 //! SETPHASE.
 
+use crate::domain::ErrCode;
 use crate::model::{list_lines, BufErr, BufId, ProgLine};
 
 /// The listing renderer of a stored line (`long` keywords with I9 = 1 or 3).
@@ -21,7 +22,7 @@ const GATHER_ON: u32 = 1 << 19;
 /// `???` word 1 bit 17: gathering armed to start on the rising edge of MI2.
 const GATHER_ON_TRIGGER: u32 = 1 << 17;
 
-fn to_err(e: BufErr) -> u16 {
+fn to_err(e: BufErr) -> ErrCode {
     e.0
 }
 
@@ -38,10 +39,10 @@ fn is_block(s: &Stmt) -> bool {
     ) || matches!(&s.kind, StmtKind::Else(b) if b.is_empty())
 }
 
-fn plc_list(list: &[NumRange]) -> Result<Vec<u8>, u16> {
+fn plc_list(list: &[NumRange]) -> Result<Vec<u8>, ErrCode> {
     let v = NumRange::expand(list);
     if v.iter().any(|&n| n > 31) || list.iter().any(|r| r.last < r.first) {
-        return Err(3);
+        return Err(ErrCode::Data);
     }
     Ok(v.into_iter().map(|n| n as u8).collect())
 }
@@ -59,7 +60,7 @@ impl Pmac<'_> {
     /// Store the statements typed on one line into the open buffer, one stored line per
     /// block-structural statement and one for the rest.
     pub(crate) fn store_line(&mut self, s: &Session, stmts: Vec<Stmt>) -> Exec {
-        let open = self.open_for(s).ok_or(5u16)?;
+        let open = self.open_for(s).ok_or(ErrCode::NeedsBuffer)?;
         let mut group: Vec<Stmt> = Vec::new();
         let mut lines: Vec<Vec<Stmt>> = Vec::new();
         for st in stmts {
@@ -106,7 +107,7 @@ impl Pmac<'_> {
             // left open by a vanished connection can always be released.
             CmdKind::Close => self.close_buffer()?,
             CmdKind::Clear => {
-                let o = self.open_for(s).ok_or(5u16)?;
+                let o = self.open_for(s).ok_or(ErrCode::NeedsBuffer)?;
                 self.model.bufs.clear(o.id, s.coord as u8);
             }
             CmdKind::List(t) => self.list(s, t, out)?,
@@ -144,11 +145,11 @@ impl Pmac<'_> {
             CmdKind::SetPhase(list) => {
                 let max = u32::from(self.model.state.limits().motors);
                 if NumRange::expand(list).iter().any(|&m| m == 0 || m > max) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 // Phasing is not modelled (no commutation): checked, then nothing to do.
             }
-            _ => return Err(3),
+            _ => return Err(ErrCode::Data),
         }
         self.sync_global_flags();
         Ok(())
@@ -156,28 +157,33 @@ impl Pmac<'_> {
 
     fn open_buffer(&mut self, s: &Session, t: OpenTarget) -> Exec {
         if self.mem.open.is_some() {
-            return Err(7);
+            return Err(ErrCode::BufferInUse);
         }
         let (id, binary) = match t {
             OpenTarget::Prog(n) => {
                 let n = u16::try_from(n)
                     .ok()
                     .filter(|n| (1..=32_767).contains(n))
-                    .ok_or(3u16)?;
+                    .ok_or(ErrCode::Data)?;
                 if self.model.state.coords.iter().any(|c| c.running) {
-                    return Err(1);
+                    return Err(ErrCode::Running);
                 }
                 (BufId::Prog(n), false)
             }
             OpenTarget::Plc(n) => (
-                BufId::Plc(u8::try_from(n).ok().filter(|n| *n <= 31).ok_or(3u16)?),
+                BufId::Plc(
+                    u8::try_from(n)
+                        .ok()
+                        .filter(|n| *n <= 31)
+                        .ok_or(ErrCode::Data)?,
+                ),
                 false,
             ),
             OpenTarget::Rotary => (BufId::Rot, false),
             OpenTarget::BinRotary => (BufId::Rot, true),
         };
         if id.protected() && !self.password_ok() {
-            return Err(2);
+            return Err(ErrCode::Password);
         }
         self.model.bufs.open(id).map_err(to_err)?;
         match id {
@@ -197,11 +203,16 @@ impl Pmac<'_> {
         let long = self.model.state.i9() & 1 == 1;
         let lines: Vec<String> = match t {
             ListTarget::Open => {
-                let o = self.open_for(s).ok_or(5u16)?;
+                let o = self.open_for(s).ok_or(ErrCode::NeedsBuffer)?;
                 match o.id {
                     BufId::Rot => self.rotary_lines(s.coord, long, None),
                     id => list_lines(
-                        &self.model.bufs.program(id).ok_or(5u16)?.lines,
+                        &self
+                            .model
+                            .bufs
+                            .program(id)
+                            .ok_or(ErrCode::NeedsBuffer)?
+                            .lines,
                         render(long),
                         None,
                     ),
@@ -209,12 +220,14 @@ impl Pmac<'_> {
             }
             ListTarget::Prog(n, span) | ListTarget::Plc(n, span) => {
                 let id = match t {
-                    ListTarget::Prog(..) => BufId::Prog(u16::try_from(*n).map_err(|_| 3u16)?),
-                    _ => BufId::Plc(u8::try_from(*n).map_err(|_| 3u16)?),
+                    ListTarget::Prog(..) => {
+                        BufId::Prog(u16::try_from(*n).map_err(|_| ErrCode::Data)?)
+                    }
+                    _ => BufId::Plc(u8::try_from(*n).map_err(|_| ErrCode::Data)?),
                 };
-                let p = self.model.bufs.program(id).ok_or(3u16)?;
+                let p = self.model.bufs.program(id).ok_or(ErrCode::Data)?;
                 if id.protected() && !self.password_ok() {
-                    return Err(2);
+                    return Err(ErrCode::Password);
                 }
                 // LIST PLC n, with no start: from the line the PLC's next scan executes
                 // first (seed 8785-8791); LIST PROG's start defaults to 0.
@@ -240,7 +253,7 @@ impl Pmac<'_> {
                     ListTarget::BlComp(_) => &self.model.bufs.defines.blcomp,
                     _ => &self.model.bufs.defines.tcomp,
                 };
-                let tab = tables.get(&(s.motor as u8)).ok_or(3u16)?;
+                let tab = tables.get(&(s.motor as u8)).ok_or(ErrCode::Data)?;
                 if *def {
                     vec![tab.def.clone()]
                 } else {
@@ -273,9 +286,15 @@ impl Pmac<'_> {
     /// `LIST PC` / `LIST PE` (seed 8720-8770): from the next line to be calculated (PC) or
     /// the line of the move executing (PE) while a program is under way, otherwise from the
     /// line the C.S. points at; first line `P{n}:{off}:text`.
-    fn list_pc(&self, cs: u16, span: &ListSpan, long: bool, pe: bool) -> Result<Vec<String>, u16> {
+    fn list_pc(
+        &self,
+        cs: u16,
+        span: &ListSpan,
+        long: bool,
+        pe: bool,
+    ) -> Result<Vec<String>, ErrCode> {
         let r = &self.model.run.cs[cs as usize - 1];
-        let (pointed, label) = r.pointer.ok_or(3u16)?;
+        let (pointed, label) = r.pointer.ok_or(ErrCode::Data)?;
         let (prog, start) = match if pe { r.pe_at } else { r.pc_at } {
             Some((p, off)) if p > 0 => (p, off),
             _ => (pointed, self.label_offset(pointed, label)),
@@ -283,7 +302,7 @@ impl Pmac<'_> {
         let p = u16::try_from(prog)
             .ok()
             .and_then(|n| self.model.bufs.progs.get(&n))
-            .ok_or(3u16)?;
+            .ok_or(ErrCode::Data)?;
         let len = if span.offsets { span.len } else { Some(1) };
         let mut v = list_lines(&p.lines, render(long), Some((start, len)));
         if let Some(first) = v.first_mut() {

@@ -4,6 +4,7 @@
 
 use super::exec::Exec;
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::{DefineTarget, DeleteTarget};
 use crate::model::{BufId, Rotary};
 use crate::model::{CompTable, Layer, TableKind, TBUF_WORDS};
@@ -19,10 +20,10 @@ impl Pmac<'_> {
             .defines
             .something_above(l, self.rot_keys().into_iter())
         {
-            return Err(3);
+            return Err(ErrCode::Data);
         }
         if extra_words > self.model.bufs.free() {
-            return Err(6);
+            return Err(ErrCode::NoRoom);
         }
         Ok(())
     }
@@ -34,7 +35,7 @@ impl Pmac<'_> {
             DefineTarget::Rotary(n) => {
                 let old = self.model.bufs.rotary.get(&cs).map_or(0, |r| r.size);
                 if self.mem.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 self.check_define(Layer::Rot(cs), u64::from(n.saturating_sub(old)))?;
                 self.model.bufs.rotary.insert(
@@ -47,13 +48,13 @@ impl Pmac<'_> {
             }
             DefineTarget::Gather(n) => {
                 if self.gathering() {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let old = u64::from(self.model.bufs.defines.gather.unwrap_or(0));
                 let avail = self.model.bufs.free() + old;
                 let want = n.map_or(avail, u64::from);
                 if want > avail {
-                    return Err(6);
+                    return Err(ErrCode::NoRoom);
                 }
                 self.model.bufs.defines.gather = Some(want as u32);
                 self.model.gather.reset();
@@ -67,11 +68,11 @@ impl Pmac<'_> {
             DefineTarget::Ubuffer(n) => {
                 let others = self.model.bufs.defines.layers(self.rot_keys().into_iter());
                 if others.iter().any(|l| *l != Layer::UBuffer) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let old = self.model.bufs.defines.ubuffer;
                 if u64::from(n.saturating_sub(old)) > self.model.bufs.free() {
-                    return Err(6);
+                    return Err(ErrCode::NoRoom);
                 }
                 self.model.bufs.defines.ubuffer = *n;
                 self.model.state.ubuffer_words = *n;
@@ -88,11 +89,11 @@ impl Pmac<'_> {
                 };
                 let max = u32::from(self.model.state.limits().motors);
                 if entries == 0 || motors.iter().any(|cm| cm.motor == 0 || cm.motor > max) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let need_spans = if cols.is_some() { 2 } else { 1 };
                 if spans.len() != need_spans {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 self.check_define(Layer::Comp(m), u64::from(entries))?;
                 let def = comp_def_text(*rows, *cols, motors, spans, m);
@@ -114,7 +115,7 @@ impl Pmac<'_> {
                     Layer::TComp(m)
                 };
                 if *n == 0 {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 self.check_define(layer, u64::from(*n))?;
                 let def = format!("{n},{}", crate::model::format_value(span.value));
@@ -131,7 +132,7 @@ impl Pmac<'_> {
                 self.model.bufs.defines.tables_mut(kind).insert(m, tab);
                 self.mem.pending_table = Some((kind, m));
             }
-            DefineTarget::Lookahead(..) => return Err(3),
+            DefineTarget::Lookahead(..) => return Err(ErrCode::Data),
         }
         Ok(())
     }
@@ -153,20 +154,20 @@ impl Pmac<'_> {
                 let busy =
                     self.mem.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord);
                 if busy || above(self, Layer::Rot(cs)) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 self.model.bufs.rotary.remove(&cs);
             }
             DeleteTarget::Gather => {
                 if self.gathering() {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 self.model.bufs.defines.gather = None;
                 self.model.gather.reset();
             }
             DeleteTarget::Tbuf => {
                 if above(self, Layer::TBuf) {
-                    return Err(7);
+                    return Err(ErrCode::BufferInUse);
                 }
                 self.model.bufs.defines.tbuf = 0;
             }
@@ -177,7 +178,7 @@ impl Pmac<'_> {
                     _ => Layer::TComp(m),
                 };
                 if above(self, layer) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let d = &mut self.model.bufs.defines;
                 match t {
@@ -186,8 +187,8 @@ impl Pmac<'_> {
                     _ => d.tcomp.remove(&m),
                 };
             }
-            DeleteTarget::Lookahead => return Err(3),
-            DeleteTarget::Plcc(n) if n > 31 => return Err(3),
+            DeleteTarget::Lookahead => return Err(ErrCode::Data),
+            DeleteTarget::Plcc(n) if n > 31 => return Err(ErrCode::Data),
             DeleteTarget::Plcc(_) | DeleteTarget::Trace => {}
         }
         Ok(())

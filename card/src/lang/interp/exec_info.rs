@@ -4,6 +4,7 @@
 use super::exec::{Exec, Flow, Out};
 use super::image::Effect;
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::CmdKind;
 
 /// `VERSION` reply. [DECISION] `1.17` rather than the digest's `1.17C`: host software requires
@@ -54,11 +55,11 @@ impl Pmac<'_> {
             }
             CmdKind::Cid => match self.model.state.limits().cid {
                 Some(v) => out.line(v.to_string()),
-                None => return Err(3),
+                None => return Err(ErrCode::Data),
             },
             CmdKind::Cpu => match self.model.state.limits().cpu {
                 Some(v) => out.line(v),
-                None => return Err(3),
+                None => return Err(ErrCode::Data),
             },
             CmdKind::GlobalStatus => {
                 self.sync_global_flags();
@@ -74,7 +75,7 @@ impl Pmac<'_> {
                     out.line(format!("{:X}", self.card_number()));
                 }
             }
-            _ => return Err(3),
+            _ => return Err(ErrCode::Data),
         }
         Ok(())
     }
@@ -90,7 +91,7 @@ impl Pmac<'_> {
             self.model.state.password_matched = true;
             Ok(())
         } else {
-            Err(2)
+            Err(ErrCode::Password)
         }
     }
 
@@ -104,7 +105,7 @@ impl Pmac<'_> {
         if self.software_addressing() {
             Ok(())
         } else {
-            Err(3)
+            Err(ErrCode::Data)
         }
     }
 
@@ -121,7 +122,11 @@ impl Pmac<'_> {
 
     /// `@n` (`Some(n)`) or `@@` (`None`) received on `s`'s connection: update its addressing
     /// and the `???` word-1 chain bits. ERR003 without software addressing (I1 bit 1).
-    pub(crate) fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), u16> {
+    pub(crate) fn chain_select(
+        &mut self,
+        s: &mut Session,
+        card: Option<u8>,
+    ) -> Result<(), ErrCode> {
         self.chain_allowed()?;
         match card {
             Some(n) => {

@@ -10,6 +10,7 @@
 use super::exec::{Exec, Out};
 use super::line::LineRun;
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::{CmdKind, SlaveCmd, SlaveVar, VarIndex, VarRef};
 use crate::model::format_value as number;
 use crate::model::macro_aux::{
@@ -50,14 +51,17 @@ pub(crate) enum AuxStep {
     Done,
 }
 
-fn node_ok(node: u32) -> Result<u8, u16> {
-    u8::try_from(node).ok().filter(|n| *n <= 15).ok_or(3)
+fn node_ok(node: u32) -> Result<u8, ErrCode> {
+    u8::try_from(node)
+        .ok()
+        .filter(|n| *n <= 15)
+        .ok_or(ErrCode::Data)
 }
 
 fn var_ok(card: &Pmac<'_>, v: &VarRef) -> Exec {
     match &v.index {
         VarIndex::Const(n) if *n < u32::from(card.state.limits().vars) => Ok(()),
-        VarIndex::Const(_) => Err(3),
+        VarIndex::Const(_) => Err(ErrCode::Data),
         VarIndex::Expr(_) => Ok(()),
     }
 }
@@ -65,7 +69,7 @@ fn var_ok(card: &Pmac<'_>, v: &VarRef) -> Exec {
 fn slave_var_ok(v: &SlaveVar) -> Exec {
     match v {
         SlaveVar::Mi(n) | SlaveVar::Mc(n) if *n <= 1023 => Ok(()),
-        _ => Err(3),
+        _ => Err(ErrCode::Data),
     }
 }
 
@@ -95,13 +99,13 @@ impl Pmac<'_> {
         let job = match cmd {
             CmdKind::MacroAux { node, param, value } => {
                 let node = node_ok(*node)?;
-                let param = u16::try_from(*param).map_err(|_| 3u16)?;
+                let param = u16::try_from(*param).map_err(|_| ErrCode::Data)?;
                 let req = match value {
                     None => Request::ReadParam(param),
                     Some(v) => {
                         if !(2..=254).contains(&param) || !(-32_768.0..=32_767.0).contains(&v.value)
                         {
-                            return Err(3);
+                            return Err(ErrCode::Data);
                         }
                         Request::WriteParam(param, v.value as i16)
                     }
@@ -110,7 +114,7 @@ impl Pmac<'_> {
             }
             CmdKind::MacroAuxRead { node, param, var } => {
                 let node = node_ok(*node)?;
-                let param = u16::try_from(*param).map_err(|_| 3u16)?;
+                let param = u16::try_from(*param).map_err(|_| ErrCode::Data)?;
                 var_ok(self, var)?;
                 let then = AuxThen::Store(var.clone(), s.coord);
                 one(Protocol::Type0, node, Request::ReadParam(param), then)
@@ -120,7 +124,7 @@ impl Pmac<'_> {
                 var_ok(self, var)?;
                 let v = env::read(self.model, s.coord, var).map_err(|e| e.code)?;
                 if !(2..=253).contains(param) || !(-32_768.0..=32_767.0).contains(&v) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let req = Request::WriteParam(*param as u16, v as i16);
                 one(Protocol::Type0, node, req, AuxThen::Print)
@@ -132,13 +136,13 @@ impl Pmac<'_> {
             CmdKind::MacroSlaveVar { node, var, value } => {
                 let node = node_ok(*node)?;
                 slave_var_ok(var)?;
-                let req = slave_request(*var, value.map(|v| v.value)).ok_or(3u16)?;
+                let req = slave_request(*var, value.map(|v| v.value)).ok_or(ErrCode::Data)?;
                 one(Protocol::Type1, node, req, AuxThen::Print)
             }
             CmdKind::MacroSlaveRange { node, first, last } => {
                 let node = node_ok(*node)?;
                 if first > last || *last > 1023 || last - first >= MAX_RANGE {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 AuxJob {
                     reqs: (*first..=*last)
@@ -151,7 +155,7 @@ impl Pmac<'_> {
                 let node = node_ok(*node)?;
                 slave_var_ok(var)?;
                 var_ok(self, dest)?;
-                let req = slave_request(*var, None).ok_or(3u16)?;
+                let req = slave_request(*var, None).ok_or(ErrCode::Data)?;
                 one(
                     Protocol::Type1,
                     node,
@@ -164,10 +168,10 @@ impl Pmac<'_> {
                 slave_var_ok(var)?;
                 var_ok(self, src)?;
                 let v = env::read(self.model, s.coord, src).map_err(|e| e.code)?;
-                let req = slave_request(*var, Some(v)).ok_or(3u16)?;
+                let req = slave_request(*var, Some(v)).ok_or(ErrCode::Data)?;
                 one(Protocol::Type1, node, req, AuxThen::Print)
             }
-            _ => return Err(3),
+            _ => return Err(ErrCode::Data),
         };
         // The error bit is cleared at the start of each auxiliary command (one that passed its
         // argument checks: an ERR003 leaves it as it was).
@@ -223,7 +227,7 @@ impl Pmac<'_> {
                                     .is_some_and(|n| env::write(self.model, cs, var.kind, n, v));
                                 if !stored {
                                     run.aux = None;
-                                    run.fail(3);
+                                    run.fail(ErrCode::Data);
                                     return AuxStep::Done;
                                 }
                             }
@@ -268,6 +272,6 @@ impl Pmac<'_> {
     fn aux_fail(&mut self, run: &mut LineRun, f: AuxFailure) {
         run.aux = None;
         self.model.aux_failed(f);
-        run.fail(8);
+        run.fail(ErrCode::MacroAux);
     }
 }

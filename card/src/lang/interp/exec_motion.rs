@@ -5,6 +5,7 @@
 use super::exec::{Exec, Out};
 use super::{Pmac, Session};
 use crate::coord::axes::AXES;
+use crate::domain::ErrCode;
 use crate::lang::ast::{Axis, CmdKind, JogKind};
 use crate::model::{axis_def_legal, axis_def_text};
 use crate::model::{format_position, format_value};
@@ -66,12 +67,12 @@ impl Pmac<'_> {
         });
     }
 
-    fn motor_ok(&self, n: u32) -> Result<u16, u16> {
+    fn motor_ok(&self, n: u32) -> Result<u16, ErrCode> {
         let max = u32::from(self.model.state.limits().motors);
         if (1..=max).contains(&n) {
             Ok(n as u16)
         } else {
-            Err(3)
+            Err(ErrCode::Data)
         }
     }
 
@@ -116,7 +117,7 @@ impl Pmac<'_> {
             K::AddrCoord(n) => {
                 let max = u32::from(self.model.state.limits().coords);
                 if !(1..=max).contains(n) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 s.coord = *n as u16;
             }
@@ -132,14 +133,14 @@ impl Pmac<'_> {
             K::AxisDefine(n, def) => {
                 let m = self.motor_ok(*n)?;
                 if !axis_def_legal(def) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 match self.model.run.cs_of(m) {
-                    Some(c) if c != cs => return Err(3),
+                    Some(c) if c != cs => return Err(ErrCode::Data),
                     _ => {}
                 }
                 if self.cs_running(cs) {
-                    return Err(1);
+                    return Err(ErrCode::Running);
                 }
                 self.model.run.axes[m as usize - 1] = Some((cs, def.clone()));
                 self.sync_motor_coords();
@@ -170,7 +171,7 @@ impl Pmac<'_> {
             }
             K::OverrideSet(v) => {
                 if *v < 0.0 || !v.is_finite() {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let i10 = self
                     .model
@@ -187,14 +188,14 @@ impl Pmac<'_> {
             }
             K::Begin(num) => {
                 if self.cs_running(cs) {
-                    return Err(1);
+                    return Err(ErrCode::Running);
                 }
                 // A new program pointer drops the `/` stop point at once, so `B..R` on the
                 // same line is not refused with ERR017 (seed 6749).
                 self.model.run.cs[csk].stop_point = None;
                 let v = num.value;
                 if !(0.0..32_768.0).contains(&v) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 let prog = v.trunc() as u32;
                 // N(frac × 100,000); Power: × 1,000,000 (seed 000 L39693-39697).
@@ -237,7 +238,7 @@ impl Pmac<'_> {
             K::StopAtEnd | K::MFlush | K::PMatch => self.action(s, cmd),
             K::AxisRename(..) | K::ZeroAxes => {
                 if self.cs_running(cs) {
-                    return Err(1);
+                    return Err(ErrCode::Running);
                 }
                 self.action(s, cmd)
             }
@@ -281,7 +282,7 @@ impl Pmac<'_> {
                     out.line(t.clone());
                     return Ok(());
                 }
-                let (prog, label) = self.model.run.cs[csk].pointer.ok_or(3u16)?;
+                let (prog, label) = self.model.run.cs[csk].pointer.ok_or(ErrCode::Data)?;
                 out.line(format!("P{prog}:{}", self.label_offset(prog, label)));
             }
             K::RotaryRemaining => {
@@ -317,7 +318,7 @@ impl Pmac<'_> {
             | K::Jog { .. } => {
                 let m = s.motor;
                 if self.motor_busy(m) {
-                    return Err(1);
+                    return Err(ErrCode::Running);
                 }
                 match cmd {
                     K::MotorInit => self.servo(m, Some(true), Some(true), Some(false)),
@@ -335,7 +336,7 @@ impl Pmac<'_> {
                 }
                 self.action(s, cmd);
             }
-            _ => return Err(3),
+            _ => return Err(ErrCode::Data),
         }
         Ok(())
     }
@@ -355,7 +356,7 @@ impl Pmac<'_> {
             .iter()
             .any(|&m| flags(m).is_some_and(|f| f.neg_limit && f.pos_limit))
         {
-            return Err(10);
+            return Err(ErrCode::BothLimits);
         }
         let moving = |m: u16| {
             self.model
@@ -368,39 +369,41 @@ impl Pmac<'_> {
             .iter()
             .any(|&m| moving(m) || flags(m).is_some_and(|f| f.home_search))
         {
-            return Err(11);
+            return Err(ErrCode::MoveNotDone);
         }
         if motors
             .iter()
             .any(|&m| ivar(m) && flags(m).is_some_and(|f| f.open_loop))
         {
-            return Err(12);
+            return Err(ErrCode::OpenLoop);
         }
         if motors.iter().any(|&m| !ivar(m)) {
-            return Err(13);
+            return Err(ErrCode::NotActivated);
         }
         if motors.is_empty() {
-            return Err(14);
+            return Err(ErrCode::NoMotors);
         }
         if matches!(
             self.mem.open.map(|o| o.id),
             Some(crate::model::BufId::Prog(_))
         ) {
-            return Err(15);
+            return Err(ErrCode::NoProgram);
         }
-        let (prog, _) = self.model.run.cs[cs as usize - 1].pointer.ok_or(15u16)?;
+        let (prog, _) = self.model.run.cs[cs as usize - 1]
+            .pointer
+            .ok_or(ErrCode::NoProgram)?;
         if prog == 0 {
             if !self.model.bufs.rotary.contains_key(&(cs as u8)) {
-                return Err(15);
+                return Err(ErrCode::NoProgram);
             }
             return self.stop_point_check(cs);
         }
         let p = u16::try_from(prog)
             .ok()
             .and_then(|n| self.model.bufs.progs.get(&n))
-            .ok_or(15u16)?;
+            .ok_or(ErrCode::NoProgram)?;
         if !p.valid {
-            return Err(16);
+            return Err(ErrCode::BadProgram);
         }
         self.stop_point_check(cs)
     }
@@ -420,7 +423,7 @@ impl Pmac<'_> {
                 .max(0.5);
             let at = self.model.run.report.get(m as usize - 1).map_or(p, |r| r.0);
             if (at - p).abs() > band {
-                return Err(17);
+                return Err(ErrCode::AwayFromStop);
             }
         }
         Ok(())
@@ -453,9 +456,13 @@ impl Pmac<'_> {
     /// `LEARN[(axes)]`: append the present commanded axis positions to the open motion buffer.
     fn learn(&mut self, s: &Session, list: Option<&[Axis]>) -> Exec {
         use crate::lang::ast::{AxisWord, Expr, Pos, Stmt, StmtKind};
-        let open = self.mem.open.filter(|o| o.session == s.id).ok_or(5u16)?;
+        let open = self
+            .mem
+            .open
+            .filter(|o| o.session == s.id)
+            .ok_or(ErrCode::NeedsBuffer)?;
         if matches!(open.id, crate::model::BufId::Plc(_)) {
-            return Err(5);
+            return Err(ErrCode::NeedsBuffer);
         }
         let axes: Vec<Axis> = list.map(<[Axis]>::to_vec).unwrap_or_else(|| AXES.to_vec());
         let words = axes

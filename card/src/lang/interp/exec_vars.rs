@@ -3,6 +3,7 @@
 
 use super::exec::{Exec, Out};
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::{CmdKind, Expr, MemSpace, VarIndex, VarKind, VarList, VarSel};
 use crate::model::format_value;
 use crate::model::CardState;
@@ -39,7 +40,7 @@ impl VarEnv<'_> {
             VarKind::P => self.state.vars.set_p(n, v).map(|_| ()),
             VarKind::Q => self.state.vars.set_q(self.cs, n, v).map(|_| ()),
             VarKind::M => self.state.write_m(n, v),
-            VarKind::Ext(_) => return Err(3),
+            VarKind::Ext(_) => return Err(ErrCode::Data),
         };
         r.map_err(|e| e.err_code())
     }
@@ -48,7 +49,7 @@ impl VarEnv<'_> {
 impl crate::domain::eval::Env for VarEnv<'_> {
     fn var(&mut self, kind: VarKind, index: u32) -> Result<f64, crate::domain::eval::EvalError> {
         self.get(kind, index).ok_or(crate::domain::eval::EvalError {
-            code: 3,
+            code: ErrCode::Data,
             msg: "no such variable",
         })
     }
@@ -60,35 +61,37 @@ impl crate::domain::eval::Env for VarEnv<'_> {
 
 impl Pmac<'_> {
     /// Evaluate an expression in the context of C.S. `cs`.
-    pub(crate) fn eval(&mut self, cs: u16, e: &Expr) -> Result<f64, u16> {
+    pub(crate) fn eval(&mut self, cs: u16, e: &Expr) -> Result<f64, ErrCode> {
         let mut env = VarEnv {
             state: &mut self.model.state,
             cs,
         };
-        crate::domain::eval::eval(e, &mut env).map_err(|e| u16::from(e.code))
+        crate::domain::eval::eval(e, &mut env).map_err(|e| e.code)
     }
 
     /// The variable numbers of a selection (computed indices evaluated and rounded).
-    pub(crate) fn indices(&mut self, cs: u16, v: &VarList) -> Result<Vec<u32>, u16> {
+    pub(crate) fn indices(&mut self, cs: u16, v: &VarList) -> Result<Vec<u32>, ErrCode> {
         let list = match &v.sel {
             VarSel::One(VarIndex::Expr(e)) => {
                 let x = self.eval(cs, e)?.round();
                 if !(0.0..=f64::from(u32::MAX)).contains(&x) {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 vec![x as u32]
             }
-            VarSel::Strided { count, .. } if *count as usize > MAX_SELECTION => return Err(3),
+            VarSel::Strided { count, .. } if *count as usize > MAX_SELECTION => {
+                return Err(ErrCode::Data)
+            }
             VarSel::Range { first, last }
                 if (last.saturating_sub(*first) as usize) >= MAX_SELECTION =>
             {
-                return Err(3)
+                return Err(ErrCode::Data)
             }
             _ => v.constant_indices().unwrap_or_default(),
         };
         let n = u32::from(self.model.state.limits().vars);
         if list.is_empty() || list.iter().any(|&k| k >= n) {
-            return Err(3);
+            return Err(ErrCode::Data);
         }
         Ok(list)
     }
@@ -117,7 +120,7 @@ impl Pmac<'_> {
             }
             CmdKind::VarDefault(v) => {
                 if v.kind != VarKind::I {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 for n in self.indices(cs, v)? {
                     self.model.state.default_ivar(n).map_err(|e| e.err_code())?;
@@ -127,7 +130,7 @@ impl Pmac<'_> {
             }
             CmdKind::MDefQuery(v) => {
                 if v.kind != VarKind::M {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 for n in self.indices(cs, v)? {
                     out.line(self.model.state.mdef_text(n).map_err(|e| e.err_code())?);
@@ -136,7 +139,7 @@ impl Pmac<'_> {
             }
             CmdKind::MDefine(v, def) => {
                 if v.kind != VarKind::M {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 for n in self.indices(cs, v)? {
                     self.model
@@ -180,7 +183,7 @@ impl Pmac<'_> {
             } => {
                 let a = self.mem_addr(*addr)?;
                 if values.is_empty() || values.len() > 16 {
-                    return Err(3);
+                    return Err(ErrCode::Data);
                 }
                 for (k, v) in values.iter().enumerate() {
                     let at = (a + k as u32) & self.model.state.map().max_addr;
@@ -196,12 +199,12 @@ impl Pmac<'_> {
                 }
                 Ok(())
             }
-            _ => Err(3),
+            _ => Err(ErrCode::Data),
         }
     }
 
     /// The reply text of one variable query (`In` per I9, `Pn`, `Qn` of C.S. `cs`, `Mn`).
-    pub(crate) fn query_var(&mut self, kind: VarKind, cs: u16, n: u32) -> Result<String, u16> {
+    pub(crate) fn query_var(&mut self, kind: VarKind, cs: u16, n: u32) -> Result<String, ErrCode> {
         Ok(match kind {
             VarKind::I => self.model.state.ivar_text(n).map_err(|e| e.err_code())?,
             k => {
@@ -209,16 +212,16 @@ impl Pmac<'_> {
                     state: &mut self.model.state,
                     cs,
                 };
-                format_value(env.get(k, n).ok_or(3u16)?)
+                format_value(env.get(k, n).ok_or(ErrCode::Data)?)
             }
         })
     }
 
     /// Writes to I-variables may change what the interpreter caches (I18 buffer warning).
     /// A `R`/`W` address inside the profile's map (PMAC2 $FFFF, Turbo $7FFFF), else ERR003.
-    fn mem_addr(&self, addr: u32) -> Result<u32, u16> {
+    fn mem_addr(&self, addr: u32) -> Result<u32, ErrCode> {
         if addr > self.model.state.map().max_addr {
-            return Err(3);
+            return Err(ErrCode::Data);
         }
         Ok(addr)
     }
@@ -239,7 +242,7 @@ impl Pmac<'_> {
     ) -> Exec {
         let a = self.mem_addr(addr)?;
         if !(1..=16).contains(&count) {
-            return Err(3);
+            return Err(ErrCode::Data);
         }
         let mut words = Vec::with_capacity(count as usize);
         for k in 0..count {

@@ -13,6 +13,7 @@ use super::exec_macro::{AuxJob, AuxStep};
 use super::image::{Effect, EffectResult};
 use super::reply::{Framing, Outcome, Reply};
 use super::{Pmac, Session};
+use crate::domain::ErrCode;
 use crate::lang::ast::{BufferKind, CmdKind, Item, Stmt, VarKind, VarList};
 use crate::lang::{LineParser, Mode, ParserState};
 use crate::model::BufId;
@@ -108,7 +109,15 @@ impl LineRun {
         self.lines.push((f, text));
     }
 
-    pub(super) fn fail(&mut self, code: u16) {
+    /// The line's refusal, once it is done (`None` while it runs or when it succeeded).
+    pub fn refusal(&self) -> Option<ErrCode> {
+        match self.outcome {
+            Some(Outcome::Err(e)) => Some(e),
+            _ => None,
+        }
+    }
+
+    pub(super) fn fail(&mut self, code: ErrCode) {
         self.outcome = Some(Outcome::Err(code));
     }
 }
@@ -163,7 +172,7 @@ impl Pmac<'_> {
     fn run_for(&mut self, clean: Vec<u8>, reply: Reply, program: bool) -> LineRun {
         let (parser, outcome) = match LineParser::new(&clean) {
             Ok(p) => (Some(p.state()), None),
-            Err(e) => (None, Some(Outcome::Err(u16::from(e.code)))),
+            Err(e) => (None, Some(Outcome::Err(e.code))),
         };
         LineRun {
             clean,
@@ -225,7 +234,7 @@ impl Pmac<'_> {
                     continue;
                 }
                 Some(Err(e)) => {
-                    run.outcome = Some(Outcome::Err(u16::from(e.code)));
+                    run.outcome = Some(Outcome::Err(e.code));
                     continue;
                 }
                 Some(Ok(Item::Stmt(st))) => {
@@ -265,7 +274,7 @@ impl Pmac<'_> {
                 && cmd != CmdKind::ReportCard
             {
                 out.lines.clear();
-                Err(3)
+                Err(ErrCode::Data)
             } else {
                 r
             };
@@ -299,7 +308,7 @@ impl Pmac<'_> {
         match (e, result) {
             (Effect::Save(_), EffectResult::Saved(ok)) => {
                 if !ok {
-                    run.outcome = Some(Outcome::Err(3));
+                    run.outcome = Some(Outcome::Err(ErrCode::Data));
                 }
             }
             (Effect::Load, loaded @ EffectResult::Loaded(_)) => {
@@ -315,7 +324,7 @@ impl Pmac<'_> {
                 run.outcome = Some(Outcome::Silent);
             }
             // A result of the wrong kind: the command failed.
-            _ => run.outcome = Some(Outcome::Err(3)),
+            _ => run.outcome = Some(Outcome::Err(ErrCode::Data)),
         }
     }
 
@@ -348,7 +357,7 @@ impl Pmac<'_> {
     }
 
     /// A selection query big enough to be answered in slices: its indices (or the error).
-    fn split_for(&mut self, s: &Session, cmd: &CmdKind) -> Option<Result<Split, u16>> {
+    fn split_for(&mut self, s: &Session, cmd: &CmdKind) -> Option<Result<Split, ErrCode>> {
         let (v, mdef): (&VarList, bool) = match cmd {
             CmdKind::VarQuery(v) => (v, false),
             CmdKind::MDefQuery(v) if v.kind == VarKind::M => (v, true),

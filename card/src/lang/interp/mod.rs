@@ -27,6 +27,7 @@ pub(crate) use control::ctrl_n;
 pub use image::{Effect, EffectResult, Storage};
 pub use line::{Budget, LineRun, Step};
 
+use crate::domain::ErrCode;
 use std::ops::{Deref, DerefMut};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -224,10 +225,19 @@ impl Card {
     /// Execute one complete command line (without its CR terminator), performing any effect
     /// with this card's storage. Returns the whole reply, framed per I3/I4/I6/I9.
     pub fn command_line(&mut self, session: &mut Session, line: &[u8]) -> Vec<u8> {
+        self.command_line_refused(session, line).0
+    }
+
+    /// [`Card::command_line`], with the line's refusal (whether or not I6 printed it).
+    pub fn command_line_refused(
+        &mut self,
+        session: &mut Session,
+        line: &[u8],
+    ) -> (Vec<u8>, Option<ErrCode>) {
         let mut run = self.start_line(session, line, true);
         loop {
             match self.step_line(&mut run, session, &mut Budget::unlimited()) {
-                Step::Done(r) => return r,
+                Step::Done(r) => return (r, run.refusal()),
                 Step::Yield => {}
                 // No servo loop turns meanwhile: the access fails as a timeout.
                 Step::Wait => self.view().abandon_aux(&mut run),
@@ -322,7 +332,7 @@ impl Card {
         &mut self,
         s: &mut Session,
         cmd: &crate::lang::ast::CmdKind,
-    ) -> Result<Vec<String>, u16> {
+    ) -> Result<Vec<String>, ErrCode> {
         let mut out = exec::Out::default();
         self.view().exec_cmd(s, cmd, &mut out)?;
         Ok(out.lines)
@@ -363,7 +373,7 @@ impl Card {
     }
 
     /// Chain addressing: `@n` (`Some(n)`) or `@@` (`None`) for session `s`.
-    pub fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), u16> {
+    pub fn chain_select(&mut self, s: &mut Session, card: Option<u8>) -> Result<(), ErrCode> {
         self.view().chain_select(s, card)
     }
 

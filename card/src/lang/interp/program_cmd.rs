@@ -42,7 +42,7 @@ impl Pmac<'_> {
             if i6 != 2 {
                 out.push(if tag { STX } else { BELL });
                 if i6 == 1 || i6 == 3 {
-                    out.extend_from_slice(format!("ERR{:03}", code.min(999)).as_bytes());
+                    out.extend_from_slice(code.to_string().as_bytes());
                     out.push(CR);
                 }
             }

@@ -14,6 +14,8 @@ pub(super) const ACK: u8 = 0x06;
 /// Bell (error indicator).
 pub(super) const BELL: u8 = 0x07;
 
+use crate::domain::ErrCode;
+
 /// The communication I-variables that shape a reply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Framing {
@@ -73,7 +75,7 @@ pub(crate) enum Outcome {
     /// Every command succeeded: send the acknowledge (and command checksum).
     Ok,
     /// A command failed with `ERRnnn` (1..=17): data already produced stays, then the error.
-    Err(u16),
+    Err(ErrCode),
     /// No acknowledge at all (`$$$`).
     Silent,
 }
@@ -125,7 +127,7 @@ impl Reply {
     }
 
     /// Append an error report per I6 (and I3 for the `<LF>` before `ERR`).
-    pub(super) fn error(&mut self, f: Framing, code: u16) {
+    pub(super) fn error(&mut self, f: Framing, code: ErrCode) {
         self.out.push(BELL);
         if f.i6 == 3 {
             self.out.push(CR);
@@ -134,8 +136,7 @@ impl Reply {
             if f.lf_prefix() {
                 self.out.push(LF);
             }
-            self.out
-                .extend_from_slice(format!("ERR{:03}", code.min(999)).as_bytes());
+            self.out.extend_from_slice(code.to_string().as_bytes());
             self.out.push(CR);
         }
     }
@@ -220,7 +221,7 @@ mod tests {
         ];
         for i3 in 0..4u8 {
             for i6 in 0..4u8 {
-                let got = run(fr(i3, i6), &[], Outcome::Err(3));
+                let got = run(fr(i3, i6), &[], Outcome::Err(ErrCode::Data));
                 assert_eq!(got, expect[i3 as usize][i6 as usize], "I3={i3} I6={i6}");
             }
         }
@@ -228,9 +229,12 @@ mod tests {
 
     #[test]
     fn data_before_error_is_kept_and_no_ack_follows() {
-        assert_eq!(run(fr(2, 1), &["25"], Outcome::Err(3)), b"25\r\x07ERR003\r");
         assert_eq!(
-            run(fr(1, 3), &["25"], Outcome::Err(15)),
+            run(fr(2, 1), &["25"], Outcome::Err(ErrCode::Data)),
+            b"25\r\x07ERR003\r"
+        );
+        assert_eq!(
+            run(fr(1, 3), &["25"], Outcome::Err(ErrCode::NoProgram)),
             b"\n25\r\x07\r\nERR015\r"
         );
     }
@@ -263,7 +267,7 @@ mod tests {
         r.data_line(f1, b"25");
         assert_eq!(r.as_bytes(), b"\n25\r\x7e");
         // No checksum after BELL.
-        assert_eq!(run(f, &[], Outcome::Err(3)), b"\x07ERR003\r");
+        assert_eq!(run(f, &[], Outcome::Err(ErrCode::Data)), b"\x07ERR003\r");
         // Sum wraps modulo 256.
         assert_eq!(checksum(&[0xFF, 0x02]), 1);
     }

@@ -16,6 +16,7 @@
 use super::catalog::{Class, St, Ty, DEFS};
 use super::elements::{self, Key, Store};
 use super::{exec, mvars, Thread};
+use crate::domain::PowerErr;
 use crate::model::CardModel;
 
 /// What one `backup` argument names.
@@ -67,7 +68,10 @@ pub(crate) fn command(
             return Some(exec::frame(
                 th,
                 line,
-                Some(super::parse::SyntaxError { at, code: 21 }),
+                Some(super::parse::SyntaxError {
+                    at,
+                    code: PowerErr::IllegalParameter,
+                }),
             ));
         }
     };
@@ -105,7 +109,8 @@ fn parse(a: &str) -> Result<Part, usize> {
         "sys.status" => return Ok(elems(St::Sys, 0, 0, false, true)),
         _ => {}
     }
-    let open = a.find('[').ok_or(0usize)?;
+    const START: usize = 0;
+    let open = a.find('[').ok_or(START)?;
     let st = match &a[..open] {
         "motor" => St::Motor,
         "coord" => St::Coord,
@@ -113,7 +118,7 @@ fn parse(a: &str) -> Result<Part, usize> {
         "gate2" | "acc5e" => St::Gate2,
         "gate1" | "acc24e2" | "acc24e2a" | "acc24e2s" | "acc51e" | "acc24c2" | "acc24c2a"
         | "acc51c" => St::Gate1,
-        _ => return Err(0),
+        _ => return Err(START),
     };
     let close = a.find(']').ok_or(open)?;
     let idx: u32 = a[open + 1..close].trim().parse().map_err(|_| open + 1)?;

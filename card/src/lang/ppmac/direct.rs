@@ -13,6 +13,7 @@
 
 use super::parse::{Cur, SyntaxError};
 use crate::domain::ast::{Expr, Message, StmtKind};
+use crate::domain::PowerErr;
 
 type P<T> = Result<T, SyntaxError>;
 
@@ -24,7 +25,10 @@ pub(crate) const ADDRESSED: u8 = 0x01;
 const VALUE: &str = "%.15g";
 
 fn err<T>(at: usize) -> P<T> {
-    Err(SyntaxError { at, code: 20 })
+    Err(SyntaxError {
+        at,
+        code: PowerErr::IllegalCmd,
+    })
 }
 
 /// A list `n`, `a,b`, `a..b` and their mixtures (`1..3,5..7`), after optional blanks; `None`
@@ -39,15 +43,27 @@ fn list(c: &mut Cur<'_>) -> P<Option<String>> {
     let mut text = String::new();
     loop {
         let at = c.i;
-        let a = c.uint().ok_or(SyntaxError { at, code: 20 })?;
+        let a = c.uint().ok_or(SyntaxError {
+            at,
+            code: PowerErr::IllegalCmd,
+        })?;
         if a > 9999 {
-            return Err(SyntaxError { at, code: 21 });
+            return Err(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            });
         }
         text.push_str(&a.to_string());
         if c.eat_str("..") {
-            let b = c.uint().ok_or(SyntaxError { at: c.i, code: 20 })?;
+            let b = c.uint().ok_or(SyntaxError {
+                at: c.i,
+                code: PowerErr::IllegalCmd,
+            })?;
             if b < a || b > 9999 {
-                return Err(SyntaxError { at, code: 21 });
+                return Err(SyntaxError {
+                    at,
+                    code: PowerErr::IllegalParameter,
+                });
             }
             text.push_str(&format!("..{b}"));
         }

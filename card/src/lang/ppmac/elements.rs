@@ -2,6 +2,7 @@
 //! the model keeps one (I-variable aliases, P/Q/M arrays, thread data, status words), the
 //! dialect's store for the rest.
 
+use crate::domain::PowerErr;
 use std::collections::HashMap;
 
 use super::catalog::{self, Class, Def, St, Ty, DEFS};
@@ -12,16 +13,22 @@ use crate::model::CardModel;
 /// Why an element or variable access failed (the error number and text of the reply).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct AccessError {
-    /// Error number.
-    pub code: u16,
+    /// The refusal.
+    pub code: PowerErr,
 }
 
 /// Error 21: unknown element, index out of range.
-pub(crate) const ILLEGAL_PARAMETER: AccessError = AccessError { code: 21 };
+pub(crate) const ILLEGAL_PARAMETER: AccessError = AccessError {
+    code: PowerErr::IllegalParameter,
+};
 /// Error 22: the value is outside the element's range.
-pub(crate) const OUT_OF_RANGE: AccessError = AccessError { code: 22 };
+pub(crate) const OUT_OF_RANGE: AccessError = AccessError {
+    code: PowerErr::OutOfRange,
+};
 /// Error 23: a write to a read-only (status) element.
-pub(crate) const READ_ONLY: AccessError = AccessError { code: 23 };
+pub(crate) const READ_ONLY: AccessError = AccessError {
+    code: PowerErr::ReadOnly,
+};
 
 /// An element with every index evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -1,6 +1,7 @@
 //! Executing a parsed line for one thread and framing its output (see the module docs of
 //! `ppmac` for the reply format).
 
+use crate::domain::{ErrCode, PowerErr};
 use std::collections::HashMap;
 
 use super::elements::{self, AccessError, Key, Store, ILLEGAL_PARAMETER};
@@ -20,32 +21,6 @@ const ACK: &[u8] = b"\x06\r\n";
 const MAX_VALUES: usize = 8192;
 /// Most variables one assignment or M-definition selection covers.
 const MAX_SET: usize = 65_536;
-
-/// Error texts by number ([DECISION]: the seed names only #20; the others are numbered here).
-fn error_text(code: u16) -> &'static str {
-    match code {
-        20 => "ILLEGAL CMD",
-        21 => "ILLEGAL PARAMETER",
-        22 => "OUT OF RANGE NUMBER",
-        23 => "READ ONLY",
-        24 => "MOTOR NOT ACTIVE",
-        25 => "NOT READY TO RUN",
-        26 => "PROGRAM RUNNING",
-        27 => "FUNCTION NOT SUPPORTED",
-        _ => "ERROR",
-    }
-}
-
-/// The Power error a PMAC executor's `ERRnnn` stands for.
-fn from_pmac(code: u16) -> u16 {
-    match code {
-        1 => 26,
-        3 | 4 => 21,
-        13 => 24,
-        10..=17 => 25,
-        _ => 21,
-    }
-}
 
 struct Ctx<'a> {
     card: &'a mut Card,
@@ -80,7 +55,7 @@ pub(crate) fn run_line(
         values: 0,
     };
     if line.len() > MAX_LINE {
-        cx.error(line, 0, 20);
+        cx.error(line, 0, PowerErr::IllegalCmd);
         cx.out.extend_from_slice(ACK);
         return cx.out;
     }
@@ -92,7 +67,10 @@ pub(crate) fn run_line(
         if let Some(k) = parsed.items.iter().position(|it| it.short) {
             let at = parsed.items[k].at;
             if parsed.error.is_none_or(|e| e.at > at) {
-                parsed.error = Some(parse::SyntaxError { at, code: 20 });
+                parsed.error = Some(parse::SyntaxError {
+                    at,
+                    code: PowerErr::IllegalCmd,
+                });
             }
             parsed.items.truncate(k);
         }
@@ -305,16 +283,26 @@ fn no_short_cmds(store: &Store) -> bool {
     store.value(&k).is_some_and(|v| v != 0.0)
 }
 
-/// The output of a line that prints nothing: its error (if any) and the ACK.
+/// The output of a line that prints nothing: its error (if any) and the ACK. The error is
+/// the line's refusal ([`Thread::refuse`]).
 pub(crate) fn frame(th: &Thread, line: &[u8], e: Option<parse::SyntaxError>) -> Vec<u8> {
+    if let Some(e) = e {
+        th.refuse(e.code);
+    }
+    render(th, line, e)
+}
+
+/// [`frame`]'s bytes, without recording a refusal (a reply prepared for an outcome not known
+/// yet).
+pub(crate) fn render(th: &Thread, line: &[u8], e: Option<parse::SyntaxError>) -> Vec<u8> {
     let mut out = Vec::new();
     if let Some(e) = e {
         let s = format!(
             "stdin:{}:{}: error #{}: {}: {}\r\n",
             th.lines,
             e.at + 1,
-            e.code,
-            error_text(e.code),
+            e.code.code(),
+            e.code.text(),
             String::from_utf8_lossy(line).trim_end()
         );
         out.extend_from_slice(s.as_bytes());
@@ -324,14 +312,15 @@ pub(crate) fn frame(th: &Thread, line: &[u8], e: Option<parse::SyntaxError>) -> 
 }
 
 impl Ctx<'_> {
-    fn error(&mut self, line: &[u8], at: usize, code: u16) {
+    fn error(&mut self, line: &[u8], at: usize, code: PowerErr) {
+        self.th.refuse(code);
         let text = String::from_utf8_lossy(line);
         let s = format!(
             "stdin:{}:{}: error #{}: {}: {}\r\n",
             self.th.lines,
             at + 1,
-            code,
-            error_text(code),
+            code.code(),
+            code.text(),
             text.trim_end()
         );
         self.out.extend_from_slice(s.as_bytes());
@@ -387,7 +376,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn exec(&mut self, cmd: &Cmd, elems: &[ElemRef]) -> Result<(), u16> {
+    fn exec(&mut self, cmd: &Cmd, elems: &[ElemRef]) -> Result<(), PowerErr> {
         match cmd {
             Cmd::MotorQuery => {
                 let s = format!("#{}", self.th.motor);
@@ -407,7 +396,7 @@ impl Ctx<'_> {
             }
             Cmd::Echo(Some(n)) => {
                 if *n > 127 {
-                    return Err(22);
+                    return Err(PowerErr::OutOfRange);
                 }
                 self.th.echo = *n;
             }
@@ -429,7 +418,7 @@ impl Ctx<'_> {
                             _ => self.var_read(*f, n).is_ok(),
                         };
                         if !ok {
-                            return Err(21);
+                            return Err(PowerErr::IllegalParameter);
                         }
                     }
                 }
@@ -439,13 +428,13 @@ impl Ctx<'_> {
             }
             Cmd::IDef(f, sel) => {
                 if !matches!(f, Fam::I | Fam::M) {
-                    return Err(20);
+                    return Err(PowerErr::IllegalCmd);
                 }
                 let m_count = self.card.model.state.limits().m_vars;
                 for n in self.sel_numbers(sel, elems)? {
                     let def = if *f == Fam::M {
                         if n >= m_count {
-                            return Err(21);
+                            return Err(PowerErr::IllegalParameter);
                         }
                         super::mvars::def_text(self.store, n)
                     } else {
@@ -465,7 +454,7 @@ impl Ctx<'_> {
                 let numbers = self.set_numbers(sel, elems)?;
                 let m_count = self.card.model.state.limits().m_vars;
                 if numbers.iter().any(|&n| n >= m_count) {
-                    return Err(21);
+                    return Err(PowerErr::IllegalParameter);
                 }
                 for n in numbers {
                     match src {
@@ -503,7 +492,7 @@ impl Ctx<'_> {
                             },
                             &k,
                         )?;
-                        set_bits(old, start, width, v).ok_or(22u16)?
+                        set_bits(old, start, width, v).ok_or(PowerErr::OutOfRange)?
                     }
                     None => v,
                 };
@@ -560,7 +549,7 @@ impl Ctx<'_> {
                 let r = self.card.command_line(&mut s, line.as_bytes());
                 let r = String::from_utf8_lossy(&r).into_owned();
                 if r.contains("ERR") {
-                    return Err(21);
+                    return Err(PowerErr::IllegalParameter);
                 }
                 if text.is_empty() {
                     let def: String = r
@@ -585,7 +574,7 @@ impl Ctx<'_> {
                     let mut s = Session::with_id(0);
                     let r = self.card.command_line(&mut s, line.as_bytes());
                     if String::from_utf8_lossy(&r).contains("ERR") {
-                        return Err(21);
+                        return Err(PowerErr::IllegalParameter);
                     }
                 }
             }
@@ -657,33 +646,38 @@ impl Ctx<'_> {
     // ---- variables -------------------------------------------------------------------------
 
     /// The variable numbers of a query's selection (at most [`MAX_VALUES`] values a line).
-    fn sel_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
+    fn sel_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, PowerErr> {
         let v = self.sel_within(sel, elems, MAX_VALUES)?;
         self.values += v.len();
         if self.values > MAX_VALUES {
-            return Err(22);
+            return Err(PowerErr::OutOfRange);
         }
         Ok(v)
     }
 
     /// The variable numbers of an assignment's or definition's selection: it replies nothing,
     /// so it may be as long as a variable family (`M0..16383->*`, seed L37466), 65,536 at most.
-    fn set_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, u16> {
+    fn set_numbers(&mut self, sel: &Sel, elems: &[ElemRef]) -> Result<Vec<u32>, PowerErr> {
         self.sel_within(sel, elems, MAX_SET)
     }
 
-    fn sel_within(&mut self, sel: &Sel, elems: &[ElemRef], max: usize) -> Result<Vec<u32>, u16> {
+    fn sel_within(
+        &mut self,
+        sel: &Sel,
+        elems: &[ElemRef],
+        max: usize,
+    ) -> Result<Vec<u32>, PowerErr> {
         Ok(match sel {
             Sel::One(ix) => vec![self.index(ix, elems)?],
             Sel::Range(a, b, _) => {
                 if (b - a) as usize >= max {
-                    return Err(22);
+                    return Err(PowerErr::OutOfRange);
                 }
                 (*a..=*b).collect()
             }
             Sel::List(a, n, step) => {
                 if *n as usize > max || *step == 0 {
-                    return Err(22);
+                    return Err(PowerErr::OutOfRange);
                 }
                 (0..*n)
                     .map(|k| a.saturating_add(k.saturating_mul(*step)))
@@ -692,7 +686,7 @@ impl Ctx<'_> {
         })
     }
 
-    fn var_query(&mut self, f: Fam, sel: &Sel, elems: &[ElemRef]) -> Result<(), u16> {
+    fn var_query(&mut self, f: Fam, sel: &Sel, elems: &[ElemRef]) -> Result<(), PowerErr> {
         let per_line = match sel {
             Sel::Range(_, _, n) => (*n as usize).max(1),
             _ => 1,
@@ -763,7 +757,7 @@ impl Ctx<'_> {
 
     // ---- elements --------------------------------------------------------------------------
 
-    fn key(&mut self, e: &ElemRef, elems: &[ElemRef]) -> Result<Key, u16> {
+    fn key(&mut self, e: &ElemRef, elems: &[ElemRef]) -> Result<Key, PowerErr> {
         let idx = match &e.idx {
             Some(x) => Some(self.eval(x, elems)?),
             None => None,
@@ -775,7 +769,7 @@ impl Ctx<'_> {
         elements::key(e, idx, &sub).map_err(|e| e.code)
     }
 
-    fn elem_read(&mut self, e: &ElemRef, k: &Key) -> Result<f64, u16> {
+    fn elem_read(&mut self, e: &ElemRef, k: &Key) -> Result<f64, PowerErr> {
         let th = ldata_thread(self.others, self.th, k);
         let v = elements::read(&mut self.card.model, self.store, th, k).map_err(|e| e.code)?;
         Ok(match e.bits {
@@ -806,12 +800,18 @@ impl Ctx<'_> {
 
     // ---- expressions -----------------------------------------------------------------------
 
-    fn eval(&mut self, e: &Expr, elems: &[ElemRef]) -> Result<f64, u16> {
+    fn eval(&mut self, e: &Expr, elems: &[ElemRef]) -> Result<f64, PowerErr> {
         let mut env = PowerEnv { cx: self, elems };
-        eval::eval(e, &mut env).map_err(|e| if e.code == 3 { 21 } else { 20 })
+        eval::eval(e, &mut env).map_err(|e| {
+            if e.code == ErrCode::Data {
+                PowerErr::IllegalParameter
+            } else {
+                PowerErr::IllegalCmd
+            }
+        })
     }
 
-    fn index(&mut self, ix: &VarIndex, elems: &[ElemRef]) -> Result<u32, u16> {
+    fn index(&mut self, ix: &VarIndex, elems: &[ElemRef]) -> Result<u32, PowerErr> {
         match ix {
             VarIndex::Const(n) => Ok(*n),
             VarIndex::Expr(e) => {
@@ -819,7 +819,7 @@ impl Ctx<'_> {
                 if v.is_finite() && (0.0..=f64::from(u32::MAX)).contains(&v) {
                     Ok(v as u32)
                 } else {
-                    Err(21)
+                    Err(PowerErr::IllegalParameter)
                 }
             }
         }
@@ -827,16 +827,18 @@ impl Ctx<'_> {
 
     // ---- motors and coordinate systems -----------------------------------------------------
 
-    fn pmac(&mut self, motor: u16, coord: u16, cmd: &CmdKind) -> Result<Vec<String>, u16> {
+    fn pmac(&mut self, motor: u16, coord: u16, cmd: &CmdKind) -> Result<Vec<String>, PowerErr> {
         let mut s = Session {
             motor: motor + 1,
             coord: coord + 1,
             ..Session::with_id(0)
         };
-        self.card.exec_pmac(&mut s, cmd).map_err(from_pmac)
+        self.card
+            .exec_pmac(&mut s, cmd)
+            .map_err(PowerErr::from_pmac)
     }
 
-    fn motor_cmd(&mut self, m: &MotorCmd, list: &[u16]) -> Result<(), u16> {
+    fn motor_cmd(&mut self, m: &MotorCmd, list: &[u16]) -> Result<(), PowerErr> {
         let coord = self.th.coord;
         let mut report = Vec::new();
         for &x in list {
@@ -904,7 +906,7 @@ impl Ctx<'_> {
         Ok(())
     }
 
-    fn cs_cmd(&mut self, c: &CsCmd, list: &[u16]) -> Result<(), u16> {
+    fn cs_cmd(&mut self, c: &CsCmd, list: &[u16]) -> Result<(), PowerErr> {
         let motor = self.th.motor;
         let mut report = Vec::new();
         // Kinematic reports: (index in `report`, C.S., what).
@@ -921,7 +923,7 @@ impl Ctx<'_> {
                 CsCmd::Begin(v) => CmdKind::Begin(crate::domain::ast::Number::dec(*v)),
                 CsCmd::Override(v) => {
                     if !(-200.0..=200.0).contains(v) {
-                        return Err(22);
+                        return Err(PowerErr::OutOfRange);
                     }
                     CmdKind::OverrideSet(v.max(0.0))
                 }
@@ -973,10 +975,10 @@ impl Ctx<'_> {
                             .map(|(p, _)| f64::from(p))
                     });
                     let Some(prog) = prog else {
-                        return Err(25);
+                        return Err(PowerErr::NotReadyToRun);
                     };
                     if prog.fract() != 0.0 {
-                        return Err(21);
+                        return Err(PowerErr::IllegalParameter);
                     }
                     let b = CmdKind::Begin(crate::domain::ast::Number::dec(prog));
                     report.extend(self.pmac(motor, x, &b)?);
@@ -1068,7 +1070,7 @@ struct PowerEnv<'c, 'a> {
 
 fn no_var() -> EvalError {
     EvalError {
-        code: 3,
+        code: ErrCode::Data,
         msg: "no such variable",
     }
 }

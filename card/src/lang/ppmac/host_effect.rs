@@ -2,15 +2,16 @@
 //! to load) and the thread's replies, chosen once the card's runtime has performed it off the
 //! servo thread. The host's next line runs after it (a `$$$` then `P1` reads the saved P1).
 
-use super::exec::frame;
+use super::exec::{frame, render};
 use super::parse::SyntaxError;
 use super::{Power, Thread};
+use crate::domain::PowerErr;
 use crate::lang::interp::{Card, Effect};
 
 /// \[DECISION\] The error a `save` that could not be written answers: the Power number of
 /// the PMAC dialect's failed SAVE (ERR003 → error #21, as `exec::from_pmac` maps it; the
 /// seed has no error for a failed flash write). The reason is in the card's log.
-pub(crate) const SAVE_FAILED: u16 = 21;
+pub(crate) const SAVE_FAILED: PowerErr = PowerErr::IllegalParameter;
 
 /// An effect a host line waits for.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -21,6 +22,8 @@ pub(crate) struct PowerWait {
     pub(crate) ok: Vec<u8>,
     /// The thread's reply when it failed (a `save` not written).
     pub(crate) failed: Vec<u8>,
+    /// The refusal `failed` reports.
+    pub(crate) refusal: Option<PowerErr>,
 }
 
 impl PowerWait {
@@ -33,7 +36,8 @@ impl PowerWait {
         PowerWait {
             effect: Effect::Save(card.view().save_image()),
             ok: frame(th, line, None),
-            failed: frame(th, line, Some(e)),
+            failed: render(th, line, Some(e)),
+            refusal: Some(SAVE_FAILED),
         }
     }
 
@@ -44,6 +48,7 @@ impl PowerWait {
             effect: Effect::Load,
             ok: Vec::new(),
             failed: Vec::new(),
+            refusal: None,
         }
     }
 }
@@ -57,11 +62,11 @@ impl Power {
         card: &mut Card,
         conn: u64,
         line: &[u8],
-    ) -> (Vec<u8>, Option<PowerWait>) {
+    ) -> (Vec<u8>, Option<PowerErr>, Option<PowerWait>) {
         self.host = true;
         self.wait = None;
-        let out = self.line(card, conn, line);
+        let (out, refusal) = self.line_refused(card, conn, line);
         self.host = false;
-        (out, self.wait.take())
+        (out, refusal, self.wait.take())
     }
 }

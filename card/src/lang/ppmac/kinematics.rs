@@ -3,6 +3,7 @@
 //! program-side state and run by the engine (`program::kin`) with KinPosMotor n = `L n` and
 //! KinPosAxis = `C` (A0 B1 C2 U3 V4 W5 X6 Y7 Z8).
 
+use crate::domain::PowerErr;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -33,11 +34,15 @@ fn routine(code: crate::program::compile::Compiled) -> KinRoutine {
 
 /// `list forward|inverse [(n)]` (`rest`: after `list`, lower case): the routine's lines, or
 /// the error code; `None`: not such a listing.
-pub(super) fn list(r: &Routines, th: &Thread, rest: &str) -> Option<Result<Vec<String>, u16>> {
+pub(super) fn list(r: &Routines, th: &Thread, rest: &str) -> Option<Result<Vec<String>, PowerErr>> {
     // A copy: a listing changes no addressing.
     let mut th = th.clone();
     let key = open_words(&format!("open {rest}"), &mut th)?;
-    Some(r.get(&key).map(|k| k.text.clone()).ok_or(21))
+    Some(
+        r.get(&key)
+            .map(|k| k.text.clone())
+            .ok_or(PowerErr::IllegalParameter),
+    )
 }
 
 /// The routines' texts for the saved image (`forward`/`inverse`, Power C.S. number).
@@ -164,10 +169,10 @@ impl Power {
     ) -> Result<(), SyntaxError> {
         let bad = |code| SyntaxError { at: 0, code };
         if self.open.is_some() || self.rot.is_some() {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
         if cs == u16::MAX {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
         if card
             .model
@@ -176,7 +181,7 @@ impl Power {
             .get(usize::from(cs - 1))
             .is_some_and(|c| c.running)
         {
-            return Err(bad(26));
+            return Err(bad(PowerErr::ProgramRunning));
         }
         // Seed §2.9: `open` clears the buffer.
         progvars::with(card, |_, pv| pv.kin.remove(&(cs, inverse)));
@@ -201,7 +206,10 @@ impl Power {
         if o.lines == 0 {
             return Ok(());
         }
-        let bad = SyntaxError { at: 0, code: 20 };
+        let bad = SyntaxError {
+            at: 0,
+            code: PowerErr::IllegalCmd,
+        };
         if !o.blocks.is_empty() {
             return Err(bad);
         }

@@ -3,6 +3,7 @@
 //! size). The dialect keeps each closed buffer's text as it was entered (comments and blank
 //! lines dropped, surrounding white space trimmed): the lines `list` shows and numbers from 0.
 
+use crate::domain::PowerErr;
 use crate::model::DEFAULT_STACK_OFFSET;
 use std::collections::BTreeMap;
 
@@ -250,13 +251,17 @@ pub(crate) fn command(
             .split([' ', ','])
             .next()
             .unwrap_or_default();
-        return bad(if other.contains(&w) { 27 } else { 20 });
+        return bad(if other.contains(&w) {
+            PowerErr::NotSupported
+        } else {
+            PowerErr::IllegalCmd
+        });
     };
     let Some(id) = id_of(kind, n) else {
-        return bad(21);
+        return bad(PowerErr::IllegalParameter);
     };
     if card.model.bufs.program(id).is_none() {
-        return bad(21);
+        return bad(PowerErr::IllegalParameter);
     }
     let empty = Vec::new();
     let lines = sources.0.get(&(kind, n)).unwrap_or(&empty);
@@ -281,7 +286,7 @@ fn list_pc(
     sources: &Sources,
     th: &Thread,
     rest: &str,
-) -> Option<Result<Vec<String>, u16>> {
+) -> Option<Result<Vec<String>, PowerErr>> {
     let rest = rest.trim();
     let (abort, after) = if let Some(a) = rest.strip_prefix("apc") {
         (true, a)
@@ -297,7 +302,7 @@ fn list_pc(
         Some("") => (true, None),
         Some(c) => match c.parse::<usize>() {
             Ok(c) => (true, Some(c)),
-            Err(_) => return Some(Err(20)),
+            Err(_) => return Some(Err(PowerErr::IllegalCmd)),
         },
     };
     let run = card.model.run.cs.get(usize::from(th.coord))?;
@@ -310,11 +315,11 @@ fn list_pc(
         return Some(Ok(Vec::new()));
     };
     let id = match u16::try_from(prog) {
-        Ok(0) | Err(_) => return Some(Err(27)),
+        Ok(0) | Err(_) => return Some(Err(PowerErr::NotSupported)),
         Ok(n) => BufId::Prog(n),
     };
     let Some(p) = card.model.bufs.program(id) else {
-        return Some(Err(21));
+        return Some(Err(PowerErr::IllegalParameter));
     };
     // The stored line holding the word offset, and the text line it came from (past the
     // text: the `return` close appended, listed as `end`).

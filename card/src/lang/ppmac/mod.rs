@@ -81,6 +81,7 @@ mod tests_stops;
 #[cfg(test)]
 mod tests_units;
 
+use crate::domain::PowerErr;
 use std::collections::HashMap;
 
 use crate::lang::interp::Card;
@@ -116,6 +117,8 @@ pub struct Thread {
     pub(crate) cmd_status: f64,
     /// `Ldata.CmdCount`: `cmd` texts of this thread run so far (the thread may reset it).
     pub(crate) cmd_count: f64,
+    /// The first refusal framed for the line running now (see [`exec::frame`]).
+    pub(crate) refusal: std::cell::Cell<Option<PowerErr>>,
     l: Vec<f64>,
     r: Vec<f64>,
     d: [f64; DVARS],
@@ -131,6 +134,7 @@ impl Default for Thread {
             lines: 0,
             cmd_status: 0.0,
             cmd_count: 0.0,
+            refusal: std::cell::Cell::new(None),
             l: Vec::new(),
             r: Vec::new(),
             d: [0.0; DVARS],
@@ -140,6 +144,13 @@ impl Default for Thread {
 }
 
 impl Thread {
+    /// Record `e` as the line's refusal unless an earlier one is recorded.
+    pub(crate) fn refuse(&self, e: PowerErr) {
+        if self.refusal.get().is_none() {
+            self.refusal.set(Some(e));
+        }
+    }
+
     /// Thread-local variable `n` of family `f` (`None`: out of range).
     pub(crate) fn local(&self, f: u16, n: u32) -> Option<f64> {
         let n = n as usize;
@@ -222,14 +233,6 @@ impl crate::program::Commands for CmdQueue {
     }
 }
 
-/// The error number of the first `error #n:` report in `out`.
-fn first_error(out: &[u8]) -> Option<u16> {
-    let s = String::from_utf8_lossy(out);
-    let k = s.find("error #")? + 7;
-    let digits: String = s[k..].chars().take_while(char::is_ascii_digit).collect();
-    digits.parse().ok()
-}
-
 /// The dialect's state on one card: the communication threads and the values of elements the
 /// model does not keep.
 #[derive(Debug, Default)]
@@ -273,6 +276,16 @@ impl Power {
 
     /// Execute one command line of connection `conn` on `card`: the bytes to send back.
     pub fn line(&mut self, card: &mut Card, conn: u64, line: &[u8]) -> Vec<u8> {
+        self.line_refused(card, conn, line).0
+    }
+
+    /// [`Power::line`], with the line's first refusal (the `error #n` it reported first).
+    pub(crate) fn line_refused(
+        &mut self,
+        card: &mut Card,
+        conn: u64,
+        line: &[u8],
+    ) -> (Vec<u8>, Option<PowerErr>) {
         let expanded;
         let pre = progvars::with(card, |card, pv| {
             let plcs = &card.model.bufs.plcs;
@@ -288,16 +301,20 @@ impl Power {
                 // A directive is taken (ACK); a bad one is refused in Power's terms.
                 let mut th = self.take_thread(conn);
                 th.lines += 1;
-                let e = match done {
-                    preproc::Pre::Error(code) => Some(parse::SyntaxError { at: 0, code }),
-                    _ => None,
+                let (e, refusal) = match done {
+                    preproc::Pre::Error(code) => {
+                        (Some(parse::SyntaxError { at: 0, code }), Some(code))
+                    }
+                    _ => (None, None),
                 };
                 let out = exec::frame(&th, line, e);
+                th.refusal.set(None);
                 self.threads.insert(conn, (th, self.clock));
-                return out;
+                return (out, refusal);
             }
         };
         let mut th = self.take_thread(conn);
+        th.refusal.set(None);
         let mut cmds = Vec::new();
         let mut kin = Vec::new();
         let out = if let Some(out) = self.rotary_command(card, conn, &mut th, line) {
@@ -332,6 +349,7 @@ impl Power {
         } else {
             kinematics::fill_reports(&mut card.model, out, &kin)
         };
+        let refusal = th.refusal.take();
         self.threads.insert(conn, (th, self.clock));
         if conn != CMD_THREAD {
             // `cx cmd"…"`: the text runs on the command thread (a `cmd` text cannot hold
@@ -340,14 +358,14 @@ impl Power {
                 let _ = self.line(card, CMD_THREAD, &c);
             }
         }
-        out
+        (out, refusal)
     }
 
     /// Run the `cmd"…"` lines programs issued during a servo tick (see [`CmdQueue`]).
     pub fn program_commands(&mut self, card: &mut Card, q: CmdQueue) {
         for (t, l) in q.lines {
-            let out = self.line(card, CMD_THREAD, &l);
-            let status = first_error(&out).map_or(0.0, |e| -f64::from(e));
+            let (_, refusal) = self.line_refused(card, CMD_THREAD, &l);
+            let status = refusal.map_or(0.0, |e| -f64::from(e.code()));
             progvars::with(card, |_, pv| pv.command_done(t, status));
         }
     }
@@ -494,7 +512,10 @@ impl Power {
                     card.model
                         .bufs
                         .append(o.id, ProgLine::new(p))
-                        .map_err(|_| parse::SyntaxError { at: 0, code: 21 })
+                        .map_err(|_| parse::SyntaxError {
+                            at: 0,
+                            code: PowerErr::IllegalParameter,
+                        })
                 })
             }
             Err(e) => Err(e),
@@ -520,7 +541,7 @@ impl Power {
     fn clear_all(&mut self, card: &mut Card) -> Result<(), parse::SyntaxError> {
         let bad = |code| parse::SyntaxError { at: 0, code };
         if self.open.is_some() || self.rot.is_some() {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
         let m = &card.model;
         let busy = m
@@ -536,7 +557,7 @@ impl Power {
                 .is_some_and(|r| r.enabled || r.paused)
         });
         if busy || plc_on {
-            return Err(bad(26));
+            return Err(bad(PowerErr::ProgramRunning));
         }
         let ids: Vec<BufId> = m
             .bufs
@@ -566,17 +587,21 @@ impl Power {
     ) -> Result<(), parse::SyntaxError> {
         let bad = |code| parse::SyntaxError { at: 0, code };
         if self.open.is_some() || self.rot.is_some() {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
         // `n[,[stack]][,labels]` (seed L37686-37752): the stack offset is where the `R`
         // variables of the program start (the `L` of a subroutine it calls), 1..8191 of the
         // thread's 8,192-slot stack; the label count is accepted (the engine has no label
         // table to size).
         let mut args = n.split(',');
-        let n: u32 = args.next().unwrap_or("").parse().map_err(|_| bad(21))?;
+        let n: u32 = args
+            .next()
+            .unwrap_or("")
+            .parse()
+            .map_err(|_| bad(PowerErr::IllegalParameter))?;
         let opt: Vec<&str> = args.collect();
         if opt.len() > 2 {
-            return Err(bad(20));
+            return Err(bad(PowerErr::IllegalCmd));
         }
         let mut stack = crate::model::DEFAULT_STACK_OFFSET;
         for (k, a) in opt.iter().enumerate() {
@@ -586,8 +611,8 @@ impl Power {
             match a.parse::<u32>() {
                 Ok(v) if k == 0 && (1..LOCALS as u32).contains(&v) => stack = v,
                 Ok(v) if k == 1 && v > 0 => {}
-                Ok(_) => return Err(bad(21)),
-                Err(_) => return Err(bad(20)),
+                Ok(_) => return Err(bad(PowerErr::IllegalParameter)),
+                Err(_) => return Err(bad(PowerErr::IllegalCmd)),
             }
         }
         let id = match kind {
@@ -597,8 +622,8 @@ impl Power {
             "subprog" if n <= 32_767 => {
                 BufId::Prog(crate::domain::profile::POWER_SUBPROG_BASE + n as u16)
             }
-            "prog" | "plc" | "subprog" => return Err(bad(21)),
-            _ => return Err(bad(20)),
+            "prog" | "plc" | "subprog" => return Err(bad(PowerErr::IllegalParameter)),
+            _ => return Err(bad(PowerErr::IllegalCmd)),
         };
         // Seed L37656-37661: a PLC is opened only when disabled (not paused, not stepping);
         // L37737-37741: a motion program only while no C.S. runs it or holds it suspended
@@ -609,16 +634,21 @@ impl Power {
                 // buffer are the power-on defaults).
                 let r = card.model.run.plc[usize::from(k)];
                 if (r.enabled || r.paused) && card.model.bufs.plcs.contains_key(&k) {
-                    return Err(bad(26));
+                    return Err(bad(PowerErr::ProgramRunning));
                 }
             }
-            BufId::Prog(p) if prog_in_use(card, u32::from(p)) => return Err(bad(26)),
+            BufId::Prog(p) if prog_in_use(card, u32::from(p)) => {
+                return Err(bad(PowerErr::ProgramRunning))
+            }
             _ => {}
         }
         // Seed §2.9: `open` clears the buffer.
         card.model.bufs.remove(id);
         progvars::with(card, |_, pv| pv.sources.remove(&id));
-        card.model.bufs.open(id).map_err(|_| bad(21))?;
+        card.model
+            .bufs
+            .open(id)
+            .map_err(|_| bad(PowerErr::IllegalParameter))?;
         match id {
             BufId::Prog(p) => {
                 // The C.S. pointing at it (none runs it) point at nothing any more.
@@ -661,12 +691,18 @@ impl Power {
         }
         if !o.blocks.is_empty() {
             card.model.bufs.remove(o.id);
-            return Err(parse::SyntaxError { at: 0, code: 20 });
+            return Err(parse::SyntaxError {
+                at: 0,
+                code: PowerErr::IllegalCmd,
+            });
         }
         card.model
             .bufs
             .close(o.id)
-            .map_err(|_| parse::SyntaxError { at: 0, code: 21 })?;
+            .map_err(|_| parse::SyntaxError {
+                at: 0,
+                code: PowerErr::IllegalParameter,
+            })?;
         progvars::with(card, |_, pv| {
             pv.sources.insert(o.id, o.text, o.stored, o.stack);
         });

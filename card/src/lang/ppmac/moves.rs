@@ -19,6 +19,7 @@
 
 use super::parse::{Cur, SyntaxError};
 use crate::domain::ast::{Expr, ExprKind, Message, SendPort, StmtKind};
+use crate::domain::PowerErr;
 use crate::program::printf;
 
 type P<T> = Result<T, SyntaxError>;
@@ -26,7 +27,7 @@ type P<T> = Result<T, SyntaxError>;
 /// Longest time a mode statement may give (ms), as the core's other times.
 const MAX_TIME: f64 = 8_388_607.0;
 
-fn err<T>(at: usize, code: u16) -> P<T> {
+fn err<T>(at: usize, code: PowerErr) -> P<T> {
     Err(SyntaxError { at, code })
 }
 
@@ -45,7 +46,7 @@ fn time(c: &mut Cur<'_>, ok: impl Fn(f64) -> bool) -> P<Expr> {
     };
     if let Some(v) = literal {
         if !(v.is_finite() && ok(v) && v <= MAX_TIME) {
-            return err(at, 21);
+            return err(at, PowerErr::IllegalParameter);
         }
     }
     Ok(e)
@@ -67,7 +68,7 @@ pub(super) fn spline(c: &mut Cur<'_>) -> P<StmtKind> {
     let save = c.i;
     c.ws();
     if c.peek() == Some(b',') || c.eat_word("spline") {
-        return err(c.i, 21);
+        return err(c.i, PowerErr::IllegalParameter);
     }
     c.i = save;
     Ok(StmtKind::Spline(e))
@@ -78,14 +79,14 @@ pub(super) fn send(c: &mut Cur<'_>) -> P<StmtKind> {
     c.ws();
     let port = match c.uint() {
         Some(n) if n <= 4 => n as u8,
-        _ => return err(c.i, 21),
+        _ => return err(c.i, PowerErr::IllegalParameter),
     };
     c.ws();
     c.eat(b',');
     c.ws();
     let at = c.i;
     let text = escaped(c)?;
-    let pieces = printf::parse(&text).or(err(at, 20))?;
+    let pieces = printf::parse(&text).or(err(at, PowerErr::IllegalCmd))?;
     let args = printf_args(c, &pieces)?;
     if args.is_empty() {
         // Only literal text (`%%` made `%`): sent as it stands.
@@ -109,13 +110,13 @@ fn printf_args(c: &mut Cur<'_>, pieces: &[printf::Piece]) -> P<Vec<Expr>> {
             break;
         }
         if args.len() >= printf::MAX_ARGS {
-            return err(c.i, 20);
+            return err(c.i, PowerErr::IllegalCmd);
         }
         c.ws();
         args.push(c.expr(0)?);
     }
     if args.len() != printf::conversions(pieces) {
-        return err(c.i, 20);
+        return err(c.i, PowerErr::IllegalCmd);
     }
     Ok(args)
 }
@@ -131,7 +132,7 @@ pub(super) fn cmd(c: &mut Cur<'_>, text: Vec<u8>) -> P<StmtKind> {
     if !more {
         return Ok(StmtKind::Command(Message::Text(text)));
     }
-    let pieces = printf::parse(&text).or(err(c.i, 20))?;
+    let pieces = printf::parse(&text).or(err(c.i, PowerErr::IllegalCmd))?;
     let args = printf_args(c, &pieces)?;
     Ok(StmtKind::CommandFormat { text, args })
 }
@@ -140,21 +141,21 @@ pub(super) fn cmd(c: &mut Cur<'_>, text: Vec<u8>) -> P<StmtKind> {
 /// `\ooo`, `\xhh`); an unterminated string or an unknown escape is error 20.
 fn escaped(c: &mut Cur<'_>) -> P<Vec<u8>> {
     if !c.eat(b'"') {
-        return err(c.i, 20);
+        return err(c.i, PowerErr::IllegalCmd);
     }
     let r = c.rest();
     let mut out = Vec::new();
     let mut k = 0;
     loop {
         let Some(&b) = r.get(k) else {
-            return err(c.i + k, 20);
+            return err(c.i + k, PowerErr::IllegalCmd);
         };
         k += 1;
         match b {
             b'"' => break,
             b'\\' => {
                 let Some(&e) = r.get(k) else {
-                    return err(c.i + k, 20);
+                    return err(c.i + k, PowerErr::IllegalCmd);
                 };
                 k += 1;
                 let v = match e {
@@ -177,7 +178,7 @@ fn escaped(c: &mut Cur<'_>) -> P<Vec<u8>> {
                                 _ => break,
                             }
                         }
-                        u8::try_from(v).or(err(c.i + k, 20))?
+                        u8::try_from(v).or(err(c.i + k, PowerErr::IllegalCmd))?
                     }
                     b'x' => {
                         let mut v = 0u8;
@@ -191,11 +192,11 @@ fn escaped(c: &mut Cur<'_>) -> P<Vec<u8>> {
                             n += 1;
                         }
                         if n == 0 {
-                            return err(c.i + k, 20);
+                            return err(c.i + k, PowerErr::IllegalCmd);
                         }
                         v
                     }
-                    _ => return err(c.i + k - 1, 20),
+                    _ => return err(c.i + k - 1, PowerErr::IllegalCmd),
                 };
                 out.push(v);
             }

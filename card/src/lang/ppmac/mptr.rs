@@ -20,6 +20,7 @@
 //! self-referenced `d` (`*`), value 0. Values written to integer formats are rounded to the
 //! nearest integer first.
 
+use crate::domain::PowerErr;
 use std::collections::HashMap;
 
 /// Bytes in the user shared-memory buffer (the seed's default size, as `size` reports).
@@ -111,11 +112,11 @@ pub(crate) enum Ptr {
 pub(crate) struct DefError {
     /// Byte offset in the text.
     pub at: usize,
-    /// Error number.
-    pub code: u16,
+    /// The refusal.
+    pub code: PowerErr,
 }
 
-fn bad<T>(at: usize, code: u16) -> Result<T, DefError> {
+fn bad<T>(at: usize, code: PowerErr) -> Result<T, DefError> {
     Err(DefError { at, code })
 }
 
@@ -161,20 +162,23 @@ pub(crate) fn parse(s: &[u8]) -> Result<Option<(Ptr, usize)>, DefError> {
                     i,
                 )))
             }
-            _ => return bad(i, 20),
+            _ => return bad(i, PowerErr::IllegalCmd),
         };
         let mut width = 32;
         if s.get(i) == Some(&b'.') {
             let at = i;
             i += 1;
-            let w = num(&mut i).ok_or(DefError { at: i, code: 20 })?;
+            let w = num(&mut i).ok_or(DefError {
+                at: i,
+                code: PowerErr::IllegalCmd,
+            })?;
             if !fmt.integer() || !(1..=32).contains(&w) {
-                return bad(at, 21);
+                return bad(at, PowerErr::IllegalParameter);
             }
             width = w as u8;
         }
         if !ends(i) {
-            return bad(i, 20);
+            return bad(i, PowerErr::IllegalCmd);
         }
         return Ok(Some((Ptr::SelfRef { fmt, width }, i)));
     }
@@ -195,31 +199,40 @@ pub(crate) fn parse(s: &[u8]) -> Result<Option<(Ptr, usize)>, DefError> {
     };
     i = 2 + blen;
     let at_off = i;
-    let offset = num(&mut i).ok_or(DefError { at: i, code: 20 })?;
+    let offset = num(&mut i).ok_or(DefError {
+        at: i,
+        code: PowerErr::IllegalCmd,
+    })?;
     let size = match bank {
         Bank::User => USER_BYTES,
         Bank::Io => IO_BYTES,
     };
     let bytes = if fmt == Fmt::D { 8 } else { 4 };
     if offset % bytes != 0 || offset + bytes > u64::from(size) {
-        return bad(at_off, 21);
+        return bad(at_off, PowerErr::IllegalParameter);
     }
     let (mut bit, mut width) = (0u64, 32u64);
     if s.get(i) == Some(&b'.') {
         let at = i;
         i += 1;
-        bit = num(&mut i).ok_or(DefError { at: i, code: 20 })?;
+        bit = num(&mut i).ok_or(DefError {
+            at: i,
+            code: PowerErr::IllegalCmd,
+        })?;
         width = 1;
         if s.get(i) == Some(&b'.') {
             i += 1;
-            width = num(&mut i).ok_or(DefError { at: i, code: 20 })?;
+            width = num(&mut i).ok_or(DefError {
+                at: i,
+                code: PowerErr::IllegalCmd,
+            })?;
         }
         if !fmt.integer() || bit > 31 || !(1..=32).contains(&width) || bit + width > 32 {
-            return bad(at, 21);
+            return bad(at, PowerErr::IllegalParameter);
         }
     }
     if !ends(i) {
-        return bad(i, 20);
+        return bad(i, PowerErr::IllegalCmd);
     }
     Ok(Some((
         Ptr::Addr {
@@ -573,7 +586,7 @@ mod tests {
             ("u.user:99999999999999", 20), // absurd
         ] {
             assert_eq!(
-                parse(def.as_bytes()).map(|_| ()).unwrap_err().code,
+                parse(def.as_bytes()).map(|_| ()).unwrap_err().code.code(),
                 code,
                 "{def}"
             );

@@ -11,6 +11,7 @@
 use super::parse::SyntaxError;
 use super::{exec, program, progvars, Thread};
 use crate::domain::ast::{Message, Stmt, StmtKind};
+use crate::domain::PowerErr;
 use crate::lang::interp::Card;
 use crate::model::{CardModel, ExtAt, ProgLine, Thread as ExecThread};
 use crate::program::env;
@@ -46,13 +47,25 @@ pub(crate) fn command(
         let mut blocks = Vec::new();
         let r = program::parse_program_line(body, &mut blocks, &mut pv.elems);
         match r {
-            Ok(_) if !blocks.is_empty() => Err(SyntaxError { at: 0, code: 20 }),
+            Ok(_) if !blocks.is_empty() => Err(SyntaxError {
+                at: 0,
+                code: PowerErr::IllegalCmd,
+            }),
             other => other,
         }
     });
     let stmts = match parsed {
         Ok(s) if !s.is_empty() => s,
-        Ok(_) => return Some(exec::frame(th, line, Some(SyntaxError { at: 0, code: 20 }))),
+        Ok(_) => {
+            return Some(exec::frame(
+                th,
+                line,
+                Some(SyntaxError {
+                    at: 0,
+                    code: PowerErr::IllegalCmd,
+                }),
+            ))
+        }
         Err(e) => {
             let e = SyntaxError {
                 at: e.at + at0,
@@ -123,7 +136,7 @@ fn run_now(
     th: &mut Thread,
     stmts: &[Stmt],
     cmds: &mut Vec<Vec<u8>>,
-) -> Result<(), u16> {
+) -> Result<(), PowerErr> {
     let at = ExtAt {
         thread: ExecThread::Host(conn),
         coord: th.coord + 1,
@@ -164,16 +177,16 @@ fn run(
     queued: &mut Vec<QueuedCmd>,
     out: &mut Vec<u8>,
     budget: &mut u32,
-) -> Result<(), u16> {
+) -> Result<(), PowerErr> {
     for s in stmts {
         match &s.kind {
             StmtKind::IfLine(c, body) => {
-                if env::test(card, at.coord, c).map_err(|_| 21u16)? {
+                if env::test(card, at.coord, c).map_err(|_| PowerErr::IllegalParameter)? {
                     run(card, at, body, queued, out, budget)?;
                 }
             }
             StmtKind::WhileLine(c, body) => {
-                while env::test(card, at.coord, c).map_err(|_| 21u16)? {
+                while env::test(card, at.coord, c).map_err(|_| PowerErr::IllegalParameter)? {
                     if *budget == 0 {
                         return Ok(());
                     }
@@ -193,8 +206,10 @@ fn run(
                     plc: None,
                 };
                 match exec_common(card, &mut ctx, k) {
-                    Common::BadVariable => return Err(21),
-                    Common::NotMine | Common::MacroRefused | Common::AuxWait => return Err(27),
+                    Common::BadVariable => return Err(PowerErr::IllegalParameter),
+                    Common::NotMine | Common::MacroRefused | Common::AuxWait => {
+                        return Err(PowerErr::NotSupported)
+                    }
                     _ => {}
                 }
             }
@@ -205,13 +220,13 @@ fn run(
 
 /// `cpx` with moves: the line (then `stop`) into the addressed C.S.'s rotary buffer, run
 /// from its start.
-fn run_motion(card: &mut Card, th: &Thread, mut stmts: Vec<Stmt>) -> Result<(), u16> {
+fn run_motion(card: &mut Card, th: &Thread, mut stmts: Vec<Stmt>) -> Result<(), PowerErr> {
     let cs = th.coord + 1;
     let Ok(k) = u8::try_from(cs) else {
-        return Err(21);
+        return Err(PowerErr::IllegalParameter);
     };
     if card.model.cs_running(cs) {
-        return Err(26);
+        return Err(PowerErr::ProgramRunning);
     }
     stmts.push(Stmt {
         kind: StmtKind::Stop,
@@ -242,7 +257,7 @@ fn run_motion(card: &mut Card, th: &Thread, mut stmts: Vec<Stmt>) -> Result<(), 
     ] {
         if card.exec_pmac(&mut s, &cmd).is_err() {
             card.model.bufs.rotary.remove(&k);
-            return Err(25);
+            return Err(PowerErr::NotReadyToRun);
         }
     }
     Ok(())

@@ -5,6 +5,7 @@
 
 use super::catalog::{self, St};
 use crate::domain::ast::{BinOp, Expr, ExprKind, MathFn, Number, Pos, VarIndex, VarKind, VarRef};
+use crate::domain::PowerErr;
 
 /// Deepest expression nesting the parser accepts.
 const MAX_DEPTH: u32 = 64;
@@ -14,8 +15,8 @@ const MAX_DEPTH: u32 = 64;
 pub(crate) struct SyntaxError {
     /// Byte offset.
     pub at: usize,
-    /// Error number.
-    pub code: u16,
+    /// The refusal.
+    pub code: PowerErr,
 }
 
 type P<T> = Result<T, SyntaxError>;
@@ -338,7 +339,10 @@ pub(crate) struct Cur<'a> {
 }
 
 fn err<T>(at: usize) -> P<T> {
-    Err(SyntaxError { at, code: 20 })
+    Err(SyntaxError {
+        at,
+        code: PowerErr::IllegalCmd,
+    })
 }
 
 impl<'a> Cur<'a> {
@@ -699,7 +703,11 @@ impl<'a> Cur<'a> {
             if !address {
                 self.i = save;
             }
-            let code = if self.prog { 21 } else { 20 };
+            let code = if self.prog {
+                PowerErr::IllegalParameter
+            } else {
+                PowerErr::IllegalCmd
+            };
             let fam = self.add_elem(e).ok_or(SyntaxError { at, code })?;
             return Ok(Expr {
                 kind: ExprKind::Var(VarRef {
@@ -778,7 +786,10 @@ impl<'a> Cur<'a> {
                     1
                 };
                 if start > 63 || width == 0 || width > 64 || start + width > 64 {
-                    return Err(SyntaxError { at: dot, code: 21 });
+                    return Err(SyntaxError {
+                        at: dot,
+                        code: PowerErr::IllegalParameter,
+                    });
                 }
                 bits = Some((start, width));
                 break;
@@ -828,7 +839,10 @@ impl<'a> Cur<'a> {
             && name.len() > 6
             && name[..6].eq_ignore_ascii_case("ldata.")
         {
-            let def = catalog::find(St::Ldata, &name[6..]).ok_or(SyntaxError { at, code: 21 })?;
+            let def = catalog::find(St::Ldata, &name[6..]).ok_or(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            })?;
             return Ok(ElemRef {
                 st: St::Ldata,
                 st_name,
@@ -842,7 +856,12 @@ impl<'a> Cur<'a> {
             Some(d) => (d, mid.into_iter().chain(sub).collect()),
             None => match literal.and_then(|k| catalog::find(st, &format!("{name}[{k}]"))) {
                 Some(d) => (d, Vec::new()),
-                None => return Err(SyntaxError { at, code: 21 }),
+                None => {
+                    return Err(SyntaxError {
+                        at,
+                        code: PowerErr::IllegalParameter,
+                    })
+                }
             },
         };
         Ok(ElemRef {
@@ -876,7 +895,7 @@ impl<'a> Cur<'a> {
                 if last < cur || last >= u32::from(all) {
                     return Err(SyntaxError {
                         at: self.i,
-                        code: 21,
+                        code: PowerErr::IllegalParameter,
                     });
                 }
                 v.extend((cur..=last).map(|n| n as u16));
@@ -885,7 +904,7 @@ impl<'a> Cur<'a> {
                 if cur >= u32::from(all) {
                     return Err(SyntaxError {
                         at: self.i,
-                        code: 21,
+                        code: PowerErr::IllegalParameter,
                     });
                 }
                 v.push(cur as u16);
@@ -1011,7 +1030,10 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
                     || (last_addr.is_some())
                     || c.s[c.i..].starts_with(b"//"))
                 {
-                    error = Some(SyntaxError { at: c.i, code: 20 });
+                    error = Some(SyntaxError {
+                        at: c.i,
+                        code: PowerErr::IllegalCmd,
+                    });
                     break;
                 }
             }
@@ -1032,7 +1054,10 @@ pub(crate) fn parse_line(line: &[u8], motors: u16, coords: u16) -> Parsed {
         }),
     ) = (&error, items.last())
     {
-        error = Some(SyntaxError { at: *at, code: 20 });
+        error = Some(SyntaxError {
+            at: *at,
+            code: PowerErr::IllegalCmd,
+        });
         items.pop();
     }
     Parsed {
@@ -1248,7 +1273,10 @@ fn command(c: &mut Cur<'_>, motors: u16, coords: u16, last: Option<bool>) -> P<C
         "enable" | "disable" if followed_by(c, "bgcplc") => {
             // Compiled background C PLCs (seed L34473-34478, L34875-34878): this controller
             // runs none (27: not supported).
-            Err(SyntaxError { at: c.i, code: 27 })
+            Err(SyntaxError {
+                at: c.i,
+                code: PowerErr::NotSupported,
+            })
         }
         // The C.S. form: `&1 enable`, `&2 disable` (seed L412-416).
         "enable" | "disable" => cs(CsCmd::Servo(w == "enable")),
@@ -1388,12 +1416,22 @@ pub(crate) fn plc_list(c: &mut Cur<'_>) -> P<Vec<crate::domain::ast::NumRange>> 
     loop {
         let a = match c.uint() {
             Some(n) if n <= 31 => n,
-            _ => return Err(SyntaxError { at: c.i, code: 21 }),
+            _ => {
+                return Err(SyntaxError {
+                    at: c.i,
+                    code: PowerErr::IllegalParameter,
+                })
+            }
         };
         let b = if c.eat_str("..") {
             match c.uint() {
                 Some(b) if b <= 31 && b >= a => b,
-                _ => return Err(SyntaxError { at: c.i, code: 21 }),
+                _ => {
+                    return Err(SyntaxError {
+                        at: c.i,
+                        code: PowerErr::IllegalParameter,
+                    })
+                }
             }
         } else {
             a

@@ -11,6 +11,7 @@
 //! buffer after a restart) and cleared by `$$$***`. Identifiers are case sensitive (L45556)
 //! and never replaced inside quoted text.
 
+use crate::domain::PowerErr;
 use std::collections::HashMap;
 
 /// Longest text a line may grow to by substitution.
@@ -42,7 +43,7 @@ pub(crate) enum Pre {
     /// The line runs with these substitutions.
     Text(Vec<u8>),
     /// A directive or an expansion that cannot be taken: the error number.
-    Error(u16),
+    Error(PowerErr),
 }
 
 /// The card's preprocessor table.
@@ -185,7 +186,7 @@ impl Preproc {
         if let Some(rest) = t.strip_prefix("#undef") {
             let name = rest.trim();
             if name.is_empty() || !name.bytes().all(is_ident) {
-                return Pre::Error(20);
+                return Pre::Error(PowerErr::IllegalCmd);
             }
             self.defs.remove(name);
             return Pre::Directive;
@@ -207,19 +208,19 @@ impl Preproc {
     /// `#define NAME text` / `#define NAME(a,b) text`.
     fn define(&mut self, rest: &str) -> Pre {
         if !rest.starts_with([' ', '\t']) {
-            return Pre::Error(20);
+            return Pre::Error(PowerErr::IllegalCmd);
         }
         let rest = rest.trim_start();
         let end = rest.bytes().take_while(|&b| is_ident(b)).count();
         let name = &rest[..end];
         if name.is_empty() || !is_ident_start(name.as_bytes()[0]) {
-            return Pre::Error(20);
+            return Pre::Error(PowerErr::IllegalCmd);
         }
         let mut after = &rest[end..];
         let mut params = None;
         if let Some(p) = after.strip_prefix('(') {
             let Some(close) = p.find(')') else {
-                return Pre::Error(20);
+                return Pre::Error(PowerErr::IllegalCmd);
             };
             let list: Vec<String> = p[..close]
                 .split(',')
@@ -230,7 +231,7 @@ impl Preproc {
                 .iter()
                 .any(|s| !s.bytes().all(is_ident) || !is_ident_start(s.as_bytes()[0]))
             {
-                return Pre::Error(20);
+                return Pre::Error(PowerErr::IllegalCmd);
             }
             params = Some(list);
             after = &p[close + 1..];
@@ -238,7 +239,7 @@ impl Preproc {
         // A `//` comment after the text is not part of it.
         let body = after.split("//").next().unwrap_or("").trim().to_string();
         if !self.defs.contains_key(name) && self.defs.len() >= MAX_DEFINES {
-            return Pre::Error(21);
+            return Pre::Error(PowerErr::IllegalParameter);
         }
         self.defs.insert(name.to_string(), Macro { params, body });
         Pre::Directive
@@ -268,7 +269,7 @@ impl Preproc {
         } else {
             match (1..32).find(|n| !plc_used(*n) && !taken.contains(n)) {
                 Some(n) => n,
-                None => return Some(Pre::Error(21)),
+                None => return Some(Pre::Error(PowerErr::IllegalParameter)),
             }
         };
         self.defs.insert(
@@ -282,9 +283,9 @@ impl Preproc {
     }
 
     /// `s` with every defined name replaced; `None` when nothing was.
-    fn expand(&self, s: &[u8], depth: u32, budget: &mut u32) -> Result<Option<Vec<u8>>, u16> {
+    fn expand(&self, s: &[u8], depth: u32, budget: &mut u32) -> Result<Option<Vec<u8>>, PowerErr> {
         if depth > MAX_DEPTH {
-            return Err(21);
+            return Err(PowerErr::IllegalParameter);
         }
         let mut out = Vec::with_capacity(s.len());
         let mut changed = false;
@@ -309,11 +310,13 @@ impl Preproc {
                 match &m.params {
                     None => piece = Some((m.body.clone().into_bytes(), end)),
                     Some(params) if call => {
-                        let (args, after) = call_args(s, end).ok_or(20u16)?;
+                        let (args, after) = call_args(s, end).ok_or(PowerErr::IllegalCmd)?;
                         if args.len() != params.len() && !(params.is_empty() && args == [""]) {
-                            return Err(20);
+                            return Err(PowerErr::IllegalCmd);
                         }
-                        let body = self.substitute(&m.body, params, &args).ok_or(21u16)?;
+                        let body = self
+                            .substitute(&m.body, params, &args)
+                            .ok_or(PowerErr::IllegalParameter)?;
                         piece = Some((body.into_bytes(), after));
                     }
                     Some(_) => {}
@@ -327,7 +330,7 @@ impl Preproc {
             }
             match piece {
                 Some((text, next)) => {
-                    *budget = budget.checked_sub(1).ok_or(21u16)?;
+                    *budget = budget.checked_sub(1).ok_or(PowerErr::IllegalParameter)?;
                     let text = self.expand(&text, depth + 1, budget)?.unwrap_or(text);
                     out.extend_from_slice(&text);
                     changed = true;
@@ -339,7 +342,7 @@ impl Preproc {
                 }
             }
             if out.len() > MAX_EXPANDED {
-                return Err(21);
+                return Err(PowerErr::IllegalParameter);
             }
         }
         Ok(changed.then_some(out))
@@ -434,14 +437,20 @@ mod tests {
             "Gains=1 send1\"Gain\""
         );
         assert_eq!(run(&mut p, "gain=1"), "gain=1", "case sensitive");
-        assert_eq!(run(&mut p, "Scale(1)"), "Error(20)");
-        assert_eq!(p.line(b"#define 5x 1", &|_| false), Pre::Error(20));
-        assert_eq!(p.line(b"#defineX 1", &|_| false), Pre::Error(20));
+        assert_eq!(run(&mut p, "Scale(1)"), "Error(IllegalCmd)");
+        assert_eq!(
+            p.line(b"#define 5x 1", &|_| false),
+            Pre::Error(PowerErr::IllegalCmd)
+        );
+        assert_eq!(
+            p.line(b"#defineX 1", &|_| false),
+            Pre::Error(PowerErr::IllegalCmd)
+        );
         assert_eq!(p.line(b"#undef Gain", &|_| false), Pre::Directive);
         assert_eq!(run(&mut p, "Gain=1"), "Gain=1");
         // A definition that refers to itself stops at the nesting bound.
         assert_eq!(p.line(b"#define Loop Loop+1", &|_| false), Pre::Directive);
-        assert_eq!(run(&mut p, "P1=Loop"), "Error(21)");
+        assert_eq!(run(&mut p, "P1=Loop"), "Error(IllegalParameter)");
     }
 
     #[test]
@@ -465,7 +474,7 @@ mod tests {
             let def = format!("#define A{k}() {}", calls(&format!("A{}", k - 1)));
             assert_eq!(p.line(def.as_bytes(), &|_| false), Pre::Directive);
         }
-        assert_eq!(run(&mut p, "P1=1 A6()"), "Error(21)");
+        assert_eq!(run(&mut p, "P1=1 A6()"), "Error(IllegalParameter)");
         assert_eq!(run(&mut p, "P1=1 A1()").trim_end(), "P1=1");
     }
 

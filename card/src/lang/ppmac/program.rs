@@ -10,6 +10,7 @@ use crate::domain::ast::{
     AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Expr, ExprKind, LetterArg,
     MoveMode, PlcControl, Pos, Stmt, StmtKind, VarIndex, VarKind, VarRef,
 };
+use crate::domain::PowerErr;
 
 /// Deepest block nesting (seed: conditionals nest 32 levels).
 pub(crate) const MAX_BLOCKS: usize = 32;
@@ -38,7 +39,10 @@ pub(crate) type Blocks = Vec<Block>;
 type P<T> = Result<T, SyntaxError>;
 
 fn err<T>(at: usize) -> P<T> {
-    Err(SyntaxError { at, code: 20 })
+    Err(SyntaxError {
+        at,
+        code: PowerErr::IllegalCmd,
+    })
 }
 
 /// Parse one program line; `blocks` follows the braces, `table` is the card's program
@@ -131,7 +135,10 @@ fn stmt(kind: StmtKind, at: usize) -> Stmt {
 
 fn open(blocks: &mut Blocks, b: Block, at: usize) -> P<()> {
     if blocks.len() >= MAX_BLOCKS {
-        return Err(SyntaxError { at, code: 21 });
+        return Err(SyntaxError {
+            at,
+            code: PowerErr::IllegalParameter,
+        });
     }
     blocks.push(b);
     Ok(())
@@ -150,7 +157,10 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
     }
     if c.eat(b'}') {
         c.ws();
-        let b = blocks.pop().ok_or(SyntaxError { at, code: 20 })?;
+        let b = blocks.pop().ok_or(SyntaxError {
+            at,
+            code: PowerErr::IllegalCmd,
+        })?;
         match b {
             Block::If if c.eat_word("else") => {
                 c.ws();
@@ -187,7 +197,10 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         c.i += 1;
         let n = c.uint().unwrap_or(u32::MAX);
         if n > 999_999_999 {
-            return Err(SyntaxError { at, code: 21 });
+            return Err(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            });
         }
         let kind = if c.eat(b':') {
             StmtKind::Label(n)
@@ -218,7 +231,10 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
                 if is_assign(c) {
                     if let VarIndex::Const(n) = index {
                         if !in_range(f, n) {
-                            return Err(SyntaxError { at, code: 21 });
+                            return Err(SyntaxError {
+                                at,
+                                code: PowerErr::IllegalParameter,
+                            });
                         }
                     }
                     let target = VarRef {
@@ -257,12 +273,18 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             let d = &catalog::DEFS[e.def];
             let watch = e.st == catalog::St::Ldata && matches!(d.name, "CmdStatus" | "CmdCount");
             if d.class == catalog::Class::Status && !watch {
-                return Err(SyntaxError { at, code: 23 });
+                return Err(SyntaxError {
+                    at,
+                    code: PowerErr::ReadOnly,
+                });
             }
             if !is_assign(c) {
                 return err(c.i);
             }
-            let fam = c.add_elem(e).ok_or(SyntaxError { at, code: 21 })?;
+            let fam = c.add_elem(e).ok_or(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            })?;
             let target = VarRef {
                 kind: VarKind::Ext(fam),
                 index: VarIndex::Const(0),
@@ -392,7 +414,10 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
         }
         "case" => {
             c.ws();
-            let v = c.signed_number().ok_or(SyntaxError { at: c.i, code: 20 })?;
+            let v = c.signed_number().ok_or(SyntaxError {
+                at: c.i,
+                code: PowerErr::IllegalCmd,
+            })?;
             c.ws();
             if !c.eat(b':') {
                 return err(c.i);
@@ -517,7 +542,12 @@ fn statement(c: &mut Cur<'_>, blocks: &mut Blocks, out: &mut Vec<Stmt>) -> P<()>
             StmtKind::Plc(PlcControl { verb, list })
         }
         // Passing text to the operating system is not something an emulated card does.
-        "system" | "sendallsystemcmds" => return Err(SyntaxError { at, code: 27 }),
+        "system" | "sendallsystemcmds" => {
+            return Err(SyntaxError {
+                at,
+                code: PowerErr::NotSupported,
+            })
+        }
         _ => match super::direct::statement(c, &w) {
             Some(k) => k?,
             None => return err(at),
@@ -573,7 +603,12 @@ fn cond_exec(c: &mut Cur<'_>, w: &str, at: usize, out: &mut Vec<Stmt>) -> P<()> 
     c.ws();
     let n = match c.uint() {
         Some(n) if n <= 31 => n,
-        _ => return Err(SyntaxError { at: c.i, code: 21 }),
+        _ => {
+            return Err(SyntaxError {
+                at: c.i,
+                code: PowerErr::IllegalParameter,
+            })
+        }
     };
     let flags = || Expr {
         kind: ExprKind::Var(VarRef {
@@ -663,7 +698,10 @@ fn range_assignment(
     out: &mut Vec<Stmt>,
 ) -> P<()> {
     if numbers.len() > MAX_RANGE_ASSIGN || !numbers.iter().all(|&n| in_range(f, n)) {
-        return Err(SyntaxError { at, code: 21 });
+        return Err(SyntaxError {
+            at,
+            code: PowerErr::IllegalParameter,
+        });
     }
     let mut one = Vec::new();
     let target = |n: u32| VarRef {
@@ -911,15 +949,24 @@ fn axis_list(c: &mut Cur<'_>) -> P<Option<Vec<Axis>>> {
     let letter = |c: &mut Cur<'_>| -> P<(usize, usize)> {
         c.ws();
         let at = c.i;
-        let ch = c.peek().ok_or(SyntaxError { at, code: 20 })?;
+        let ch = c.peek().ok_or(SyntaxError {
+            at,
+            code: PowerErr::IllegalCmd,
+        })?;
         let pos = GROUPS
             .iter()
             .enumerate()
             .find_map(|(g, l)| l.iter().position(|x| *x == ch).map(|k| (g, k)))
-            .ok_or(SyntaxError { at, code: 20 })?;
+            .ok_or(SyntaxError {
+                at,
+                code: PowerErr::IllegalCmd,
+            })?;
         c.i += 1;
         if c.peek().is_some_and(|d| d.is_ascii_alphabetic()) {
-            return Err(SyntaxError { at, code: 21 });
+            return Err(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            });
         }
         Ok(pos)
     };
@@ -928,11 +975,17 @@ fn axis_list(c: &mut Cur<'_>) -> P<Option<Vec<Axis>>> {
         let (g, a) = letter(c)?;
         let (g2, b) = if c.eat_str("..") { letter(c)? } else { (g, a) };
         if g2 != g || b < a {
-            return Err(SyntaxError { at: c.i, code: 21 });
+            return Err(SyntaxError {
+                at: c.i,
+                code: PowerErr::IllegalParameter,
+            });
         }
         for &ch in &GROUPS[g][a..=b] {
             let axis = axis_of(ch).or_else(|| circle_of(ch));
-            axes.push(axis.ok_or(SyntaxError { at: c.i, code: 20 })?);
+            axes.push(axis.ok_or(SyntaxError {
+                at: c.i,
+                code: PowerErr::IllegalCmd,
+            })?);
         }
         c.ws();
         if c.eat(b')') {
@@ -955,7 +1008,10 @@ fn letter_words(c: &mut Cur<'_>, of: fn(u8) -> Option<Axis>) -> P<Vec<AxisWord>>
         };
         c.i += 1;
         if c.peek().is_some_and(|d| d.is_ascii_alphabetic()) {
-            return Err(SyntaxError { at, code: 21 });
+            return Err(SyntaxError {
+                at,
+                code: PowerErr::IllegalParameter,
+            });
         }
         let value = data(c)?;
         words.push(AxisWord {

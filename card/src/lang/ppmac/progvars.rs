@@ -10,6 +10,7 @@
 //! caller's `R0` is the callee's `L0`. D- and C-
 //! variables are one set per thread (D receives `read()` arguments, seed §2.10).
 
+use crate::domain::PowerErr;
 use std::any::Any;
 use std::collections::HashMap;
 
@@ -197,8 +198,8 @@ fn cflags(at: &ExtAt) -> Result<Key, ExtError> {
 
 fn access(e: elements::AccessError) -> ExtError {
     match e.code {
-        23 => ExtError::ReadOnly,
-        22 => ExtError::Range,
+        PowerErr::ReadOnly => ExtError::ReadOnly,
+        PowerErr::OutOfRange => ExtError::Range,
         _ => ExtError::NoSuch,
     }
 }

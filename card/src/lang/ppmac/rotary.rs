@@ -13,6 +13,7 @@
 
 use super::parse::SyntaxError;
 use super::{exec, listing, program, progvars, Power, Thread};
+use crate::domain::PowerErr;
 use crate::lang::interp::Card;
 use crate::model::{ProgLine, Rotary};
 
@@ -25,7 +26,7 @@ pub(crate) struct RotOpen {
     pub cs: u8,
 }
 
-fn bad(code: u16) -> SyntaxError {
+fn bad(code: PowerErr) -> SyntaxError {
     SyntaxError { at: 0, code }
 }
 
@@ -70,7 +71,7 @@ impl Power {
             ["delete", "rotary"] => delete(card, th, self.rot),
             ["open", "rotary" | "rot"] | ["open", "prog", "0"] => self.open_rotary(card, conn, th),
             // Another buffer cannot be opened while this one is (the rotary stays open).
-            ["open", ..] if mine => Err(bad(21)),
+            ["open", ..] if mine => Err(bad(PowerErr::IllegalParameter)),
             ["close"] | ["close", "all", "buffers"] if mine => {
                 self.rot = None;
                 Ok(())
@@ -84,11 +85,11 @@ impl Power {
 
     fn open_rotary(&mut self, card: &mut Card, conn: u64, th: &Thread) -> Result<(), SyntaxError> {
         if self.rot.is_some() || self.open.is_some() {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
-        let cs = u8::try_from(th.coord + 1).map_err(|_| bad(21))?;
+        let cs = u8::try_from(th.coord + 1).map_err(|_| bad(PowerErr::IllegalParameter))?;
         if !card.model.bufs.rotary.contains_key(&cs) {
-            return Err(bad(21));
+            return Err(bad(PowerErr::IllegalParameter));
         }
         self.rot = Some(RotOpen { conn, cs });
         Ok(())
@@ -108,7 +109,7 @@ impl Power {
             if blocks.is_empty() {
                 Ok(s)
             } else {
-                Err(bad(20))
+                Err(bad(PowerErr::IllegalCmd))
             }
         });
         let stored = parsed.and_then(|stmts| {
@@ -116,7 +117,7 @@ impl Power {
                 card.model
                     .bufs
                     .append_rotary(r.cs, ProgLine::new(p))
-                    .map_err(|_| bad(21))
+                    .map_err(|_| bad(PowerErr::IllegalParameter))
             })
         });
         if stored.is_err() {
@@ -131,13 +132,13 @@ impl Power {
 fn define(card: &mut Card, th: &Thread, args: &str) -> Result<(), SyntaxError> {
     let parts: Vec<&str> = args.split(',').collect();
     if parts.is_empty() || parts.len() > 3 {
-        return Err(bad(20));
+        return Err(bad(PowerErr::IllegalCmd));
     }
     let num = |s: &str, dflt: u64| -> Result<u64, SyntaxError> {
         if s.is_empty() {
             return Ok(dflt);
         }
-        s.parse::<u64>().map_err(|_| bad(20))
+        s.parse::<u64>().map_err(|_| bad(PowerErr::IllegalCmd))
     };
     let bytes = num(parts[0], 0)?;
     let look = num(parts.get(1).copied().unwrap_or(""), 1024)?;
@@ -147,11 +148,11 @@ fn define(card: &mut Card, th: &Thread, args: &str) -> Result<(), SyntaxError> {
         || look > bytes / 2
         || stack != 256
     {
-        return Err(bad(21));
+        return Err(bad(PowerErr::IllegalParameter));
     }
-    let cs = u8::try_from(th.coord + 1).map_err(|_| bad(21))?;
+    let cs = u8::try_from(th.coord + 1).map_err(|_| bad(PowerErr::IllegalParameter))?;
     if card.model.cs_running(u16::from(cs)) {
-        return Err(bad(26));
+        return Err(bad(PowerErr::ProgramRunning));
     }
     card.model.bufs.rotary.insert(
         cs,
@@ -165,12 +166,12 @@ fn define(card: &mut Card, th: &Thread, args: &str) -> Result<(), SyntaxError> {
 
 /// `delete rotary`: the addressed C.S.'s buffer is gone (not while it runs or is open).
 fn delete(card: &mut Card, th: &Thread, open: Option<RotOpen>) -> Result<(), SyntaxError> {
-    let cs = u8::try_from(th.coord + 1).map_err(|_| bad(21))?;
+    let cs = u8::try_from(th.coord + 1).map_err(|_| bad(PowerErr::IllegalParameter))?;
     if card.model.cs_running(u16::from(cs)) {
-        return Err(bad(26));
+        return Err(bad(PowerErr::ProgramRunning));
     }
     if open.is_some_and(|r| r.cs == cs) {
-        return Err(bad(21));
+        return Err(bad(PowerErr::IllegalParameter));
     }
     card.model.bufs.rotary.remove(&cs);
     Ok(())

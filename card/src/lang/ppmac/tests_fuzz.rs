@@ -4,6 +4,7 @@
 //! them. Every line is answered (an ACK, or nothing for `$$$`) within a bound, nothing panics,
 //! and the card still answers afterwards. The M-pointer codec round-trips whatever it accepts.
 
+use crate::domain::PowerErr;
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
@@ -166,7 +167,7 @@ proptest! {
                 prop_assert_eq!(len, s.len());
                 prop_assert_eq!(mptr::parse(mptr::text(&p).as_bytes()), Ok(Some((p, mptr::text(&p).len()))));
             }
-            Err(e) => prop_assert!(e.code == 21, "{s}: {e:?}"),
+            Err(e) => prop_assert!(e.code == PowerErr::IllegalParameter, "{s}: {e:?}"),
             Ok(None) => prop_assert!(false, "{s}: not a definition"),
         }
     }
