@@ -57,8 +57,8 @@ impl Rig {
                 .eng
                 .handle_action(&mut self.card.model, &self.motors, &a);
             if let ActionKind::Jog { .. } = a.kind {
-                let p = MotorParams::from_state(&self.card.state, a.motor);
-                self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);
+                let p = MotorParams::from_state(&self.card.state, a.motor.get());
+                self.motors[a.motor.index()].command(MotorCommand::Enable, &p);
             }
         }
         let (model, mut cmds) = self.card.split();

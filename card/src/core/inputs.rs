@@ -25,6 +25,7 @@
 //! back to 0. The injected input is wired to the bit the card watches.
 
 use crate::domain::Profile;
+use crate::domain::{CsNum, MotorNum};
 use crate::lang::ppmac::abort_all;
 use crate::model::{Action, ActionKind, CardModel};
 
@@ -166,8 +167,8 @@ impl CardInputs {
                 InputKind::FeedHold => ActionKind::Hold,
             };
             card.push_action(Action {
-                motor: 1,
-                coord: h.select,
+                motor: MotorNum::of(1),
+                coord: CsNum::of(h.select),
                 kind,
             });
         }
@@ -202,15 +203,15 @@ impl CardInputs {
                 0 | 2 => {
                     if x > 0 && x <= card.state.limits().coords {
                         card.push_action(Action {
-                            motor: 1,
-                            coord: x,
+                            motor: MotorNum::of(1),
+                            coord: CsNum::of(x),
                             kind: ActionKind::Abort,
                         });
                     } else {
                         for &m in &members {
                             card.push_action(Action {
-                                motor: m,
-                                coord: 0,
+                                motor: MotorNum::of(m),
+                                coord: CsNum::of(0),
                                 kind: ActionKind::AbortMotor,
                             });
                         }
@@ -228,15 +229,15 @@ impl CardInputs {
                     if x > 0 && x <= card.state.limits().coords {
                         // The program stops with its motors (the kills follow at once).
                         card.push_action(Action {
-                            motor: 1,
-                            coord: x,
+                            motor: MotorNum::of(1),
+                            coord: CsNum::of(x),
                             kind: ActionKind::Abort,
                         });
                     }
                     for &m in &members {
                         card.push_action(Action {
-                            motor: m,
-                            coord: x,
+                            motor: MotorNum::of(m),
+                            coord: CsNum::of(x),
                             kind: ActionKind::Kill,
                         });
                     }

@@ -123,7 +123,7 @@ impl From<ErrCode> for u16 {
     }
 }
 
-/// A Power PMAC error (`stdin:L:C: error #n: TEXT: line`). [DECISION] The seed names only
+/// A Power PMAC error (`stdin:L:C: error #n: TEXT: line`). \[DECISION\] The seed names only
 /// #20 (`ILLEGAL CMD`); the others are numbered here, after it (docs/power-pmac.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[repr(u8)]

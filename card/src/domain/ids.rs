@@ -25,6 +25,20 @@ macro_rules! card_number {
                 $name(u16::try_from(k + 1).unwrap_or(u16::MAX))
             }
 
+            /// Number `n` without a profile check (0 becomes 1; the range is checked where
+            /// the number is used, [`Self::clamp`]).
+            pub fn of(n: u16) -> Self {
+                $name(n.max(1))
+            }
+
+            /// Number 1 (the power-up addressing).
+            pub const FIRST: Self = $name(1);
+
+            /// This number kept inside the profile's range.
+            pub fn clamp(self, limits: &Limits) -> Self {
+                $name(self.0.clamp(1, u16::from(limits.$field).max(1)))
+            }
+
             /// The 1-based number.
             pub fn get(self) -> u16 {
                 self.0

@@ -5,6 +5,7 @@
 //! its own syntax onto these.
 
 use crate::domain::ast::JogKind;
+use crate::domain::{CsNum, MotorNum};
 
 /// Most actions kept for the motion code before the oldest are dropped.
 pub(crate) const MAX_ACTIONS: usize = 4096;
@@ -12,10 +13,10 @@ pub(crate) const MAX_ACTIONS: usize = 4096;
 /// A motion request with the addressing in force when it was given.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Action {
-    /// Motor addressed when the command was given (1-based).
-    pub motor: u16,
-    /// Coordinate system addressed when the command was given (1-based).
-    pub coord: u16,
+    /// Motor addressed when the command was given.
+    pub motor: MotorNum,
+    /// Coordinate system addressed when the command was given.
+    pub coord: CsNum,
     /// What was asked.
     pub kind: ActionKind,
 }

@@ -136,7 +136,7 @@ impl ProgramEngine {
                 true
             }
             kind => {
-                let Some(x) = self.cs_mut(card, action.coord) else {
+                let Some(x) = self.cs_mut(card, action.coord.get()) else {
                     return false;
                 };
                 self::run_control(x, card, motors, kind)

@@ -9,6 +9,7 @@ use crate::coord::cs::{CoordSystem, MoveWords};
 use crate::coord::moves::Mode;
 use crate::coord::CoordError;
 use crate::domain::ast::{Axis, AxisExtra, AxisWord, JogKind, NumRange};
+use crate::domain::{CsNum, MotorNum};
 use crate::model::{Action, ActionKind, CardModel};
 use crate::motion::motor::Motor;
 
@@ -166,8 +167,8 @@ impl CsExec {
         for (m, to, dist) in plan {
             let bias = motors.get(usize::from(m) - 1).map_or(0.0, |x| x.pos_bias);
             card.push_action(Action {
-                motor: m,
-                coord: self.num,
+                motor: MotorNum::of(m),
+                coord: CsNum::of(self.num),
                 kind: ActionKind::Jog {
                     kind: JogKind::To(to - bias),
                     trigger: dist,
@@ -225,8 +226,8 @@ impl CsExec {
         }
         for &m in &mine {
             card.push_action(Action {
-                motor: m,
-                coord: self.num,
+                motor: MotorNum::of(m),
+                coord: CsNum::of(self.num),
                 kind: if search {
                     ActionKind::Home
                 } else {

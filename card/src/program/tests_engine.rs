@@ -60,8 +60,8 @@ impl Rig {
                 .handle_action(&mut self.card.model, &self.motors, &a)
             {
                 if let crate::model::ActionKind::Jog { .. } = a.kind {
-                    let p = MotorParams::from_state(&self.card.state, a.motor);
-                    self.motors[a.motor as usize - 1].command(MotorCommand::Enable, &p);
+                    let p = MotorParams::from_state(&self.card.state, a.motor.get());
+                    self.motors[a.motor.index()].command(MotorCommand::Enable, &p);
                 }
             }
         }
@@ -341,7 +341,7 @@ fn home_in_a_program_waits_for_the_motors() {
     let homes: Vec<_> = r.card.take_actions();
     assert!(homes
         .iter()
-        .any(|a| a.motor == 1 && a.kind == crate::model::ActionKind::Home));
+        .any(|a| a.motor.get() == 1 && a.kind == crate::model::ActionKind::Home));
     assert_eq!(r.cmd("P9"), "0");
     // The (perfect) motors have no home search to run: the program continues after it.
     r.ticks(5);

@@ -27,6 +27,7 @@
 //! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
 //! when the collected line does not start a program.
 
+use crate::domain::{CsNum, MotorNum};
 use std::collections::HashMap;
 
 use mcc_ring::control::chain::{
@@ -229,12 +230,18 @@ impl ChainPort {
             p.adopt_addressing(card, key, &line);
             return out;
         }
-        out.extend_from_slice(format!("#{}&{}", c.session.motor, c.session.coord).as_bytes());
+        out.extend_from_slice(
+            format!("#{}&{}", c.session.motor.get(), c.session.coord.get()).as_bytes(),
+        );
         out.extend_from_slice(&line);
         for cmd in crate::lang::parse_line(&line).unwrap_or_default() {
             match cmd.kind {
-                CmdKind::AddrMotor(n) => c.session.motor = u16::try_from(n).unwrap_or(1),
-                CmdKind::AddrCoord(n) => c.session.coord = u16::try_from(n).unwrap_or(1),
+                CmdKind::AddrMotor(n) => {
+                    c.session.motor = MotorNum::of(u16::try_from(n).unwrap_or(1));
+                }
+                CmdKind::AddrCoord(n) => {
+                    c.session.coord = CsNum::of(u16::try_from(n).unwrap_or(1));
+                }
                 _ => {}
             }
         }

@@ -39,29 +39,29 @@ pub(super) fn apply_action(
         ActionKind::AbortAll => (all, Some(MotorCommand::Abort)),
         ActionKind::KillAll => (all, Some(MotorCommand::Kill)),
         c => match c {
-            ActionKind::Abort => (card.run.motors_in(a.coord), Some(MotorCommand::Abort)),
-            ActionKind::AbortMotor => (vec![a.motor], Some(MotorCommand::Abort)),
-            ActionKind::Kill => (vec![a.motor], Some(MotorCommand::Kill)),
-            ActionKind::Enable => (vec![a.motor], Some(MotorCommand::Enable)),
-            ActionKind::OpenLoop(v) => (vec![a.motor], Some(MotorCommand::OpenLoop(*v))),
-            ActionKind::Home => (vec![a.motor], Some(MotorCommand::Home)),
-            ActionKind::HomeZero => (vec![a.motor], Some(MotorCommand::HomeZero)),
-            ActionKind::AbsRead => (vec![a.motor], Some(MotorCommand::AbsRead)),
+            ActionKind::Abort => (card.run.motors_in(a.coord.get()), Some(MotorCommand::Abort)),
+            ActionKind::AbortMotor => (vec![a.motor.get()], Some(MotorCommand::Abort)),
+            ActionKind::Kill => (vec![a.motor.get()], Some(MotorCommand::Kill)),
+            ActionKind::Enable => (vec![a.motor.get()], Some(MotorCommand::Enable)),
+            ActionKind::OpenLoop(v) => (vec![a.motor.get()], Some(MotorCommand::OpenLoop(*v))),
+            ActionKind::Home => (vec![a.motor.get()], Some(MotorCommand::Home)),
+            ActionKind::HomeZero => (vec![a.motor.get()], Some(MotorCommand::HomeZero)),
+            ActionKind::AbsRead => (vec![a.motor.get()], Some(MotorCommand::AbsRead)),
             ActionKind::Jog { kind, trigger } => {
-                let k = usize::from(a.motor.max(1) - 1);
+                let k = a.motor.index();
                 let Some(m) = motors.get_mut(k) else {
                     return;
                 };
                 let cmd = if *kind == JogKind::Round {
                     Some(MotorCommand::Round)
                 } else {
-                    let reg = jog_register(&mut card.state, a.motor);
+                    let reg = jog_register(&mut card.state, a.motor.get());
                     m.resolve_jog(*kind, reg).map(|cmd| MotorCommand::Jog {
                         cmd,
                         trigger: trigger.filter(|d| d.is_finite()),
                     })
                 };
-                (vec![a.motor], cmd)
+                (vec![a.motor.get()], cmd)
             }
             _ => return,
         },

@@ -26,6 +26,7 @@ mod aux_copy;
 mod ect_pass;
 mod registers;
 
+use crate::domain::{CsNum, MotorNum};
 use crate::model::CardModel;
 use crate::model::Space;
 use crate::model::{gather_tick, CardState};
@@ -78,8 +79,8 @@ fn feed_registers(card: &mut CardModel) {
                 r.override_pct = pct;
             }
             card.push_action(crate::model::Action {
-                motor: 1,
-                coord: cs,
+                motor: MotorNum::of(1),
+                coord: CsNum::of(cs),
                 kind: crate::model::ActionKind::Override(pct),
             });
         }

@@ -4,6 +4,7 @@
 use super::exec::Out;
 use super::reply::{command_checksum, control_line};
 use super::{Pmac, Session};
+use crate::domain::CsNum;
 use crate::lang::ast::CmdKind;
 use crate::model::format_position;
 use crate::model::{Action, ActionKind};
@@ -40,7 +41,7 @@ impl Pmac<'_> {
                 continue;
             }
             let mut t = Session {
-                coord: cs,
+                coord: CsNum::from_index(usize::from(cs) - 1),
                 ..s.clone()
             };
             let c = if matches!(cmd, CmdKind::Step) && self.cs_running(cs) {

@@ -37,7 +37,8 @@ impl Out {
 }
 
 impl Pmac<'_> {
-    /// Execute one on-line command.
+    /// Execute one on-line command. Every command kind is listed in exactly one group (no
+    /// catch-all arm): a new kind does not compile until it has an executor.
     pub(crate) fn exec_cmd(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
         use CmdKind as K;
         match cmd {
@@ -88,7 +89,50 @@ impl Pmac<'_> {
             | K::MacroSlaveRead { .. }
             | K::MacroSlaveWrite { .. } => self.exec_macro(s, cmd, out),
 
-            _ => self.exec_motion(s, cmd, out),
+            K::AddrMotor { .. }
+            | K::ReportMotor
+            | K::AddrCoord { .. }
+            | K::ReportCoord
+            | K::UndefineAll
+            | K::AxisDefQuery { .. }
+            | K::AxisDefine { .. }
+            | K::AxisUndefine { .. }
+            | K::Undefine
+            | K::CsStatus
+            | K::OverrideQuery
+            | K::OverrideSet { .. }
+            | K::Begin { .. }
+            | K::Run
+            | K::Step
+            | K::Quit
+            | K::Abort
+            | K::Hold
+            | K::StopAtEnd
+            | K::HoldJog
+            | K::BackUp
+            | K::Resume
+            | K::MFlush
+            | K::PMatch
+            | K::AxisRename { .. }
+            | K::ZeroAxes
+            | K::Abs { .. }
+            | K::Inc { .. }
+            | K::Frax { .. }
+            | K::ProgCounter
+            | K::ExecPointer
+            | K::RotaryRemaining
+            | K::Learn { .. }
+            | K::MotorInit
+            | K::MotorAbsRead
+            | K::Home
+            | K::HomeZ
+            | K::Kill
+            | K::OpenLoop { .. }
+            | K::Jog { .. }
+            | K::Position
+            | K::Velocity
+            | K::FollowingError
+            | K::MotorStatus => self.exec_motion(s, cmd, out),
         }
     }
 }

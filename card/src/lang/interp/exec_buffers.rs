@@ -81,7 +81,7 @@ impl Pmac<'_> {
             match open.id {
                 BufId::Rot => self
                     .bufs
-                    .append_rotary(s.coord as u8, line)
+                    .append_rotary(s.coord.get() as u8, line)
                     .map_err(to_err)?,
                 id => self.model.bufs.append(id, line).map_err(to_err)?,
             }
@@ -108,7 +108,7 @@ impl Pmac<'_> {
             CmdKind::Close => self.close_buffer()?,
             CmdKind::Clear => {
                 let o = self.open_for(s).ok_or(ErrCode::NeedsBuffer)?;
-                self.model.bufs.clear(o.id, s.coord as u8);
+                self.model.bufs.clear(o.id, s.coord.get() as u8);
             }
             CmdKind::List(t) => self.list(s, t, out)?,
             CmdKind::Define(t) => self.define(s, t)?,
@@ -205,7 +205,7 @@ impl Pmac<'_> {
             ListTarget::Open => {
                 let o = self.open_for(s).ok_or(ErrCode::NeedsBuffer)?;
                 match o.id {
-                    BufId::Rot => self.rotary_lines(s.coord, long, None),
+                    BufId::Rot => self.rotary_lines(s.coord.get(), long, None),
                     id => list_lines(
                         &self
                             .model
@@ -240,20 +240,20 @@ impl Pmac<'_> {
                 let offs = offsets(span).map(|(s, l)| (at.unwrap_or(s), l));
                 list_lines(&p.lines, render(long), offs)
             }
-            ListTarget::Rotary(span) => self.rotary_lines(s.coord, long, offsets(span)),
+            ListTarget::Rotary(span) => self.rotary_lines(s.coord.get(), long, offsets(span)),
             ListTarget::Gather(span) => {
                 let (start, len) = (span.start, span.len);
                 self.model.gather.list_lines(start, len)
             }
-            ListTarget::Pc(span) => self.list_pc(s.coord, span, long, false)?,
-            ListTarget::Pe(span) => self.list_pc(s.coord, span, long, true)?,
+            ListTarget::Pc(span) => self.list_pc(s.coord.get(), span, long, false)?,
+            ListTarget::Pe(span) => self.list_pc(s.coord.get(), span, long, true)?,
             ListTarget::Comp(def) | ListTarget::BlComp(def) | ListTarget::TComp(def) => {
                 let tables = match t {
                     ListTarget::Comp(_) => &self.model.bufs.defines.comp,
                     ListTarget::BlComp(_) => &self.model.bufs.defines.blcomp,
                     _ => &self.model.bufs.defines.tcomp,
                 };
-                let tab = tables.get(&(s.motor as u8)).ok_or(ErrCode::Data)?;
+                let tab = tables.get(&(s.motor.get() as u8)).ok_or(ErrCode::Data)?;
                 if *def {
                     vec![tab.def.clone()]
                 } else {

@@ -29,12 +29,14 @@ impl Pmac<'_> {
     }
 
     pub(crate) fn define(&mut self, s: &Session, t: &DefineTarget) -> Exec {
-        let cs = s.coord as u8;
-        let m = s.motor as u8;
+        let cs = s.coord.get() as u8;
+        let m = s.motor.get() as u8;
         match t {
             DefineTarget::Rotary(n) => {
                 let old = self.model.bufs.rotary.get(&cs).map_or(0, |r| r.size);
-                if self.mem.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord) {
+                if self.mem.open.is_some_and(|o| o.id == BufId::Rot)
+                    || self.cs_running(s.coord.get())
+                {
                     return Err(ErrCode::Data);
                 }
                 self.check_define(Layer::Rot(cs), u64::from(n.saturating_sub(old)))?;
@@ -138,8 +140,8 @@ impl Pmac<'_> {
     }
 
     pub(crate) fn delete(&mut self, s: &Session, t: DeleteTarget) -> Exec {
-        let cs = s.coord as u8;
-        let m = s.motor as u8;
+        let cs = s.coord.get() as u8;
+        let m = s.motor.get() as u8;
         let above = |c: &Pmac<'_>, l: Layer| {
             c.model
                 .bufs
@@ -151,8 +153,8 @@ impl Pmac<'_> {
                 if !self.model.bufs.rotary.contains_key(&cs) {
                     return Ok(());
                 }
-                let busy =
-                    self.mem.open.is_some_and(|o| o.id == BufId::Rot) || self.cs_running(s.coord);
+                let busy = self.mem.open.is_some_and(|o| o.id == BufId::Rot)
+                    || self.cs_running(s.coord.get());
                 if busy || above(self, Layer::Rot(cs)) {
                     return Err(ErrCode::Data);
                 }

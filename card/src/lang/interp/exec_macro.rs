@@ -10,7 +10,7 @@
 use super::exec::{Exec, Out};
 use super::line::LineRun;
 use super::{Pmac, Session};
-use crate::domain::ErrCode;
+use crate::domain::{ErrCode, NodeNum};
 use crate::lang::ast::{CmdKind, SlaveCmd, SlaveVar, VarIndex, VarRef};
 use crate::model::format_value as number;
 use crate::model::macro_aux::{
@@ -35,7 +35,7 @@ pub(crate) enum AuxThen {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct AuxJob {
     proto: Protocol,
-    node: u8,
+    node: NodeNum,
     reqs: Vec<Request>,
     next: usize,
     then: AuxThen,
@@ -51,11 +51,8 @@ pub(crate) enum AuxStep {
     Done,
 }
 
-fn node_ok(node: u32) -> Result<u8, ErrCode> {
-    u8::try_from(node)
-        .ok()
-        .filter(|n| *n <= 15)
-        .ok_or(ErrCode::Data)
+fn node_ok(node: u32) -> Result<NodeNum, ErrCode> {
+    NodeNum::new(node).ok_or(ErrCode::Data)
 }
 
 fn var_ok(card: &Pmac<'_>, v: &VarRef) -> Exec {
@@ -116,13 +113,13 @@ impl Pmac<'_> {
                 let node = node_ok(*node)?;
                 let param = u16::try_from(*param).map_err(|_| ErrCode::Data)?;
                 var_ok(self, var)?;
-                let then = AuxThen::Store(var.clone(), s.coord);
+                let then = AuxThen::Store(var.clone(), s.coord.get());
                 one(Protocol::Type0, node, Request::ReadParam(param), then)
             }
             CmdKind::MacroAuxWrite { node, param, var } => {
                 let node = node_ok(*node)?;
                 var_ok(self, var)?;
-                let v = env::read(self.model, s.coord, var).map_err(|e| e.code)?;
+                let v = env::read(self.model, s.coord.get(), var).map_err(|e| e.code)?;
                 if !(2..=253).contains(param) || !(-32_768.0..=32_767.0).contains(&v) {
                     return Err(ErrCode::Data);
                 }
@@ -160,14 +157,14 @@ impl Pmac<'_> {
                     Protocol::Type1,
                     node,
                     req,
-                    AuxThen::Store(dest.clone(), s.coord),
+                    AuxThen::Store(dest.clone(), s.coord.get()),
                 )
             }
             CmdKind::MacroSlaveWrite { node, var, src } => {
                 let node = node_ok(*node)?;
                 slave_var_ok(var)?;
                 var_ok(self, src)?;
-                let v = env::read(self.model, s.coord, src).map_err(|e| e.code)?;
+                let v = env::read(self.model, s.coord.get(), src).map_err(|e| e.code)?;
                 let req = slave_request(*var, Some(v)).ok_or(ErrCode::Data)?;
                 one(Protocol::Type1, node, req, AuxThen::Print)
             }
@@ -199,7 +196,7 @@ impl Pmac<'_> {
                 match self
                     .model
                     .aux
-                    .begin(owner, job.proto, job.node, req, settings)
+                    .begin(owner, job.proto, job.node.get(), req, settings)
                 {
                     Ok(Begin::Started) => job.owner = Some(owner),
                     Ok(Begin::Busy) => {}

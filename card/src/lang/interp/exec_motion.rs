@@ -5,7 +5,7 @@
 use super::exec::{Exec, Out};
 use super::{Pmac, Session};
 use crate::coord::axes::AXES;
-use crate::domain::ErrCode;
+use crate::domain::{CsNum, ErrCode, MotorNum};
 use crate::lang::ast::{Axis, CmdKind, JogKind};
 use crate::model::{axis_def_legal, axis_def_text};
 use crate::model::{format_position, format_value};
@@ -67,13 +67,8 @@ impl Pmac<'_> {
         });
     }
 
-    fn motor_ok(&self, n: u32) -> Result<u16, ErrCode> {
-        let max = u32::from(self.model.state.limits().motors);
-        if (1..=max).contains(&n) {
-            Ok(n as u16)
-        } else {
-            Err(ErrCode::Data)
-        }
+    fn motor_ok(&self, n: u32) -> Result<MotorNum, ErrCode> {
+        MotorNum::new(n, &self.model.state.limits()).ok_or(ErrCode::Data)
     }
 
     /// Whether C.S. `cs` is running a motion program.
@@ -109,22 +104,18 @@ impl Pmac<'_> {
 
     pub(crate) fn exec_motion(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
         use CmdKind as K;
-        let cs = s.coord;
+        let cs = s.coord.get();
         let csk = cs as usize - 1;
         match cmd {
             K::AddrMotor(n) => s.motor = self.motor_ok(*n)?,
-            K::ReportMotor => out.line(s.motor.to_string()),
+            K::ReportMotor => out.line(s.motor.get().to_string()),
             K::AddrCoord(n) => {
-                let max = u32::from(self.model.state.limits().coords);
-                if !(1..=max).contains(n) {
-                    return Err(ErrCode::Data);
-                }
-                s.coord = *n as u16;
+                s.coord = CsNum::new(*n, &self.model.state.limits()).ok_or(ErrCode::Data)?;
             }
             K::ReportCoord => out.line(cs.to_string()),
             K::AxisDefQuery(n) => {
                 let m = self.motor_ok(*n)?;
-                let text = match &self.model.run.axes[m as usize - 1] {
+                let text = match &self.model.run.axes[m.index()] {
                     Some((c, d)) if *c == cs => axis_def_text(d),
                     _ => "0".to_string(),
                 };
@@ -135,20 +126,20 @@ impl Pmac<'_> {
                 if !axis_def_legal(def) {
                     return Err(ErrCode::Data);
                 }
-                match self.model.run.cs_of(m) {
+                match self.model.run.cs_of(m.get()) {
                     Some(c) if c != cs => return Err(ErrCode::Data),
                     _ => {}
                 }
                 if self.cs_running(cs) {
                     return Err(ErrCode::Running);
                 }
-                self.model.run.axes[m as usize - 1] = Some((cs, def.clone()));
+                self.model.run.axes[m.index()] = Some((cs, def.clone()));
                 self.sync_motor_coords();
             }
             K::AxisUndefine(n) => {
                 let m = self.motor_ok(*n)?;
-                if self.model.run.cs_of(m) == Some(cs) {
-                    self.model.run.axes[m as usize - 1] = None;
+                if self.model.run.cs_of(m.get()) == Some(cs) {
+                    self.model.run.axes[m.index()] = None;
                     self.sync_motor_coords();
                 }
             }
@@ -298,7 +289,7 @@ impl Pmac<'_> {
                 let r = self
                     .run
                     .report
-                    .get(s.motor as usize - 1)
+                    .get(s.motor.get() as usize - 1)
                     .copied()
                     .unwrap_or_default();
                 let v = match cmd {
@@ -308,7 +299,7 @@ impl Pmac<'_> {
                 };
                 out.line(format_position(v));
             }
-            K::MotorStatus => out.line(self.model.state.motor_status_text(s.motor)),
+            K::MotorStatus => out.line(self.model.state.motor_status_text(s.motor.get())),
             K::MotorInit
             | K::MotorAbsRead
             | K::Home
@@ -316,7 +307,7 @@ impl Pmac<'_> {
             | K::Kill
             | K::OpenLoop(_)
             | K::Jog { .. } => {
-                let m = s.motor;
+                let m = s.motor.get();
                 if self.motor_busy(m) {
                     return Err(ErrCode::Running);
                 }

@@ -97,7 +97,7 @@ impl Pmac<'_> {
     }
 
     pub(crate) fn exec_vars(&mut self, s: &mut Session, cmd: &CmdKind, out: &mut Out) -> Exec {
-        let cs = s.coord;
+        let cs = s.coord.get();
         match cmd {
             CmdKind::VarQuery(v) => {
                 for n in self.indices(cs, v)? {

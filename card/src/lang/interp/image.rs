@@ -4,6 +4,7 @@
 //! saved image with [`Effect::Load`]. The interpreter never touches a file: whoever runs the
 //! line performs the effect (off the servo thread) and hands back an [`EffectResult`].
 
+use crate::domain::{CsNum, MotorNum};
 use serde::{Deserialize, Serialize};
 
 use super::Pmac;
@@ -347,8 +348,8 @@ impl Pmac<'_> {
         self.model.run = RunState::new(lim.motors, lim.coords, PLCS);
         self.model.run.axes = axes;
         self.model.push_action(crate::model::Action {
-            motor: 1,
-            coord: 1,
+            motor: MotorNum::of(1),
+            coord: CsNum::of(1),
             kind: crate::model::ActionKind::KillAll,
         });
         self.model.note_reset();

@@ -132,8 +132,8 @@ impl Pmac<'_> {
     /// Keep a session's addressing inside the profile (sessions are built by host code).
     pub(crate) fn clamp_session(&self, s: &mut Session) {
         let lim = self.model.state.limits();
-        s.motor = s.motor.clamp(1, lim.motors);
-        s.coord = s.coord.clamp(1, lim.coords);
+        s.motor = s.motor.clamp(&lim);
+        s.coord = s.coord.clamp(&lim);
     }
 
     fn parse_mode(&self, s: &Session) -> Mode {
@@ -366,10 +366,10 @@ impl Pmac<'_> {
         if v.constant_indices().is_none_or(|l| l.len() <= SPLIT_ABOVE) {
             return None;
         }
-        Some(self.indices(s.coord, v).map(|rest| Split {
+        Some(self.indices(s.coord.get(), v).map(|rest| Split {
             kind: v.kind,
             mdef,
-            cs: s.coord,
+            cs: s.coord.get(),
             rest,
             next: 0,
         }))

@@ -27,7 +27,7 @@ pub(crate) use control::ctrl_n;
 pub use image::{Effect, EffectResult, Storage};
 pub use line::{Budget, LineRun, Step};
 
-use crate::domain::ErrCode;
+use crate::domain::{CsNum, ErrCode, MotorNum};
 use std::ops::{Deref, DerefMut};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -51,10 +51,10 @@ static NEXT_SESSION: AtomicU64 = AtomicU64::new(1);
 /// Per-connection interpreter state (addressed motor / coordinate system, ...).
 #[derive(Debug, Clone)]
 pub struct Session {
-    /// Addressed motor (`#n`), 1-based.
-    pub motor: u16,
-    /// Addressed coordinate system (`&n`), 1-based.
-    pub coord: u16,
+    /// Addressed motor (`#n`).
+    pub motor: MotorNum,
+    /// Addressed coordinate system (`&n`).
+    pub coord: CsNum,
     /// Identity of the connection (distinguishes who opened a program buffer).
     pub id: u64,
     /// Serial-chain addressing of this connection: this card is addressed (`@n` = I0, or
@@ -72,8 +72,8 @@ impl Session {
     /// A fresh addressing state (#1, &1, this card addressed) keeping the connection `id`.
     pub fn with_id(id: u64) -> Self {
         Session {
-            motor: 1,
-            coord: 1,
+            motor: MotorNum::FIRST,
+            coord: CsNum::FIRST,
             id,
             chain_addressed: true,
             chain_all: false,
@@ -173,8 +173,8 @@ impl Commands for ProgramCommands<'_> {
 
     fn control(&mut self, card: &mut CardModel, motor: u16, coord: u16, c: u8) -> Vec<u8> {
         let mut s = Session {
-            motor,
-            coord,
+            motor: MotorNum::of(motor),
+            coord: CsNum::of(coord),
             ..Session::with_id(0)
         };
         Pmac {

@@ -4,6 +4,7 @@
 
 use super::reply::{Outcome, BELL, CR};
 use super::{Pmac, Session};
+use crate::domain::{CsNum, MotorNum};
 
 /// `<CTRL-B>`: tag of unsolicited lines with I64=1.
 const STX: u8 = 0x02;
@@ -15,8 +16,8 @@ impl Pmac<'_> {
     pub(crate) fn program_command(&mut self, motor: u16, coord: u16, line: &[u8]) -> Vec<u8> {
         let i = |c: &Pmac<'_>, n: u32| c.model.state.peek_ivar(n).unwrap_or(0.0) != 0.0;
         let mut s = Session {
-            motor: motor.max(1),
-            coord: coord.max(1),
+            motor: MotorNum::of(motor),
+            coord: CsNum::of(coord),
             ..Session::with_id(0)
         };
         let clean: Vec<u8> = line.iter().copied().filter(|b| *b >= 0x20).collect();

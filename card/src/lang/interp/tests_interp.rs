@@ -1,6 +1,7 @@
 //! Facade tests: byte-exact replies through `Card::command_line` / `Card::control_char`.
 
 use super::*;
+use crate::domain::{CsNum, MotorNum};
 use crate::model::ActionKind;
 
 fn card() -> (Card, Session) {
@@ -87,7 +88,7 @@ fn motion_commands_are_queued_as_actions() {
     assert_eq!(send(&mut c, &mut s, "#2J+#3K"), b"\x06");
     let a = c.take_actions();
     assert_eq!(a.len(), 2);
-    assert_eq!(a[0].motor, 2);
+    assert_eq!(a[0].motor.get(), 2);
     assert!(matches!(a[1].kind, ActionKind::Kill));
     assert!(c.take_actions().is_empty());
 }
@@ -162,8 +163,8 @@ fn any_connection_can_close_a_buffer_left_open() {
 fn out_of_range_session_addressing_is_clamped_not_a_panic() {
     let (mut c, _) = card();
     let mut s = Session {
-        motor: 0,
-        coord: 0,
+        motor: MotorNum::of(0),
+        coord: CsNum::of(0),
         ..Session::with_id(999)
     };
     assert_eq!(
@@ -171,16 +172,16 @@ fn out_of_range_session_addressing_is_clamped_not_a_panic() {
         b"1\r1\rA80020020000\r0\r\x06"
     );
     let mut s = Session {
-        motor: 200,
-        coord: 200,
+        motor: MotorNum::of(200),
+        coord: CsNum::of(200),
         ..Session::with_id(998)
     };
     assert_eq!(send(&mut c, &mut s, "# &"), b"8\r8\r\x06");
     assert_eq!(
         c.control_char(
             &mut Session {
-                motor: 0,
-                coord: 0,
+                motor: MotorNum::of(0),
+                coord: CsNum::of(0),
                 ..Session::with_id(1)
             },
             0x10

@@ -1,7 +1,7 @@
 //! Executing a parsed line for one thread and framing its output (see the module docs of
 //! `ppmac` for the reply format).
 
-use crate::domain::{ErrCode, PowerErr};
+use crate::domain::{CsNum, ErrCode, MotorNum, PowerErr};
 use std::collections::HashMap;
 
 use super::elements::{self, AccessError, Key, Store, ILLEGAL_PARAMETER};
@@ -829,8 +829,8 @@ impl Ctx<'_> {
 
     fn pmac(&mut self, motor: u16, coord: u16, cmd: &CmdKind) -> Result<Vec<String>, PowerErr> {
         let mut s = Session {
-            motor: motor + 1,
-            coord: coord + 1,
+            motor: MotorNum::of(motor + 1),
+            coord: CsNum::of(coord + 1),
             ..Session::with_id(0)
         };
         self.card

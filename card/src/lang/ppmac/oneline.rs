@@ -11,7 +11,7 @@
 use super::parse::SyntaxError;
 use super::{exec, program, progvars, Thread};
 use crate::domain::ast::{Message, Stmt, StmtKind};
-use crate::domain::PowerErr;
+use crate::domain::{CsNum, MotorNum, PowerErr};
 use crate::lang::interp::Card;
 use crate::model::{CardModel, ExtAt, ProgLine, Thread as ExecThread};
 use crate::program::env;
@@ -246,8 +246,8 @@ fn run_motion(card: &mut Card, th: &Thread, mut stmts: Vec<Stmt>) -> Result<(), 
         },
     );
     let mut s = crate::lang::interp::Session {
-        motor: th.motor + 1,
-        coord: cs,
+        motor: MotorNum::of(th.motor + 1),
+        coord: CsNum::of(cs),
         ..crate::lang::interp::Session::with_id(0)
     };
     use crate::lang::ast::CmdKind;

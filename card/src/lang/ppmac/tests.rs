@@ -140,7 +140,7 @@ fn jog_reaches_the_model_as_an_action() {
     t.send("#1j+");
     let a = t.card.model.take_actions();
     assert_eq!(a.len(), 1, "{a:?}");
-    assert_eq!(a[0].motor, 2, "Power motor 1 is model motor 2");
+    assert_eq!(a[0].motor.get(), 2, "Power motor 1 is model motor 2");
 }
 
 impl T {
