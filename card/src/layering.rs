@@ -8,7 +8,12 @@
 //!
 //! Test code may reach upwards (a model test may build its input with the parser).
 //!
-//! A second check holds the typed refusals: outside `domain/error.rs` no production code
+//! Inside `lang`, the two dialects are siblings: `lang/pmac` never names `lang/power` and
+//! `lang/power` never names `lang/pmac` (both reach the shared executor API through
+//! `crate::lang::…`); outside `lang`, no production code names either dialect (a core
+//! holds a `lang::Dialect`).
+//!
+//! A third check holds the typed refusals: outside `domain/error.rs` no production code
 //! writes an error number as a literal (`Err(3)`, `fail(3)`, `code: 21`); a refusal is an
 //! `ErrCode` or a `PowerErr`.
 
@@ -116,8 +121,7 @@ fn modules_only_use_lower_layers() {
 
 #[test]
 fn the_checker_sees_an_upward_use() {
-    let text =
-        "use crate::lang::interp::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
+    let text = "use crate::lang::Card;\n#[cfg(test)]\nmod tests {\n use crate::runtime::x;\n}";
     assert_eq!(used_modules(&production_code(text)), ["lang"]);
 }
 
@@ -188,4 +192,66 @@ fn refusals_are_typed_outside_the_error_module() {
 fn the_checker_sees_a_bare_error_number() {
     let text = "return Err(3);\nrun.fail(17);\nSyntaxError { at, code: 21 }\nErr(ErrCode::Data)\nOk(3)\nmyErr(4)\nErr(3.0)";
     assert_eq!(bare_error_numbers(text), ["Err(3)", "fail(17)", "code: 21"]);
+}
+
+/// Dialect names a file's production code uses that its place forbids.
+fn dialect_violations(place: &str, text: &str) -> Vec<&'static str> {
+    let forbidden: &[&'static str] = match place {
+        "pmac" => &["lang::power", "super::power", "super::super::power"],
+        "power" => &["lang::pmac", "super::pmac", "super::super::pmac"],
+        "lang" => &[],
+        _ => &["lang::power", "lang::pmac", "Power::", "Dialect::Power"],
+    };
+    forbidden
+        .iter()
+        .copied()
+        .filter(|f| text.contains(f))
+        .collect()
+}
+
+#[test]
+fn dialects_are_siblings_and_named_only_inside_lang() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut violations = Vec::new();
+    let mut seen = [0usize; 3];
+    for f in rust_files(&src).iter().filter(|f| !is_test_file(f)) {
+        let rel = f.strip_prefix(&src).unwrap_or(f).to_string_lossy().replace('\\', "/");
+        let place = if rel.starts_with("lang/pmac/") {
+            seen[0] += 1;
+            "pmac"
+        } else if rel.starts_with("lang/power/") {
+            seen[1] += 1;
+            "power"
+        } else if rel.starts_with("lang/") || rel == "layering.rs" {
+            "lang"
+        } else {
+            seen[2] += 1;
+            "outside"
+        };
+        let text = std::fs::read_to_string(f).unwrap_or_default();
+        for v in dialect_violations(place, &production_code(&text)) {
+            violations.push(format!("{rel} names {v}"));
+        }
+    }
+    assert!(
+        seen.iter().all(|&n| n > 10),
+        "files seen (pmac, power, outside): {seen:?}"
+    );
+    assert!(
+        violations.is_empty(),
+        "dialect seam violations:\n{}",
+        violations.join("\n")
+    );
+}
+
+#[test]
+fn the_checker_sees_a_dialect_named_across_the_seam() {
+    assert_eq!(dialect_violations("pmac", "use crate::lang::power::x;"), ["lang::power"]);
+    assert_eq!(dialect_violations("power", "use crate::lang::pmac::ast;"), ["lang::pmac"]);
+    assert_eq!(
+        dialect_violations("outside", "let p = Power::new();"),
+        ["Power::"]
+    );
+    assert!(dialect_violations("outside", "use crate::lang::Dialect;").is_empty());
+    assert!(dialect_violations("lang", "use power::Power;").is_empty());
 }

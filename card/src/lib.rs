@@ -44,8 +44,9 @@ pub use crate::core::rig::{self, LoopbackPlant, Rig};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, PowerErr, Profile, Refusal};
 pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
-pub use lang::interp::{
-    Budget, Card, Effect, EffectResult, LineRun, Session, Step, Storage, MAX_LINE,
+pub use lang::{
+    Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Step, Storage,
+    WholeLine, MAX_LINE,
 };
 pub use model::{decode_fixed, Action, ActionKind, CardModel, CardState, Space};
 pub use motion::flags::FlagInputs;

@@ -97,8 +97,10 @@ impl Rig {
             panic!("member 0 is the card")
         };
         let core = a.core();
-        let p = core.power.as_mut().expect("a Power card");
-        let r = p.line(&mut core.card, 7, line.as_bytes());
+        let r = core
+            .dialect
+            .script_line(&mut core.card, 7, line.as_bytes())
+            .expect("a Power card");
         String::from_utf8_lossy(&r)
             .trim_matches(|c: char| c.is_control() || c.is_whitespace())
             .to_string()

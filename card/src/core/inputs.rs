@@ -26,7 +26,7 @@
 
 use crate::domain::Profile;
 use crate::domain::{CsNum, MotorNum};
-use crate::lang::ppmac::abort_all;
+use crate::lang::abort_all;
 use crate::model::{Action, ActionKind, CardModel};
 
 /// A hardware input the card has.

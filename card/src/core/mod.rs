@@ -16,9 +16,8 @@ mod tests_servo;
 
 use std::collections::{HashMap, VecDeque};
 
-use crate::domain::{Profile, Refusal};
-use crate::lang::interp::{Budget, Card, Effect, EffectResult, LineRun, Session, Step};
-use crate::lang::ppmac::Power;
+use crate::domain::Refusal;
+use crate::lang::{Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Step};
 use crate::servo::Servo;
 
 /// Work units one slice of host service may use between two servo ticks (about 50-100 µs of
@@ -76,8 +75,8 @@ struct Job {
     aux_wait: bool,
     /// A streamed line's reply framed so far and not yet handed out.
     out: Vec<u8>,
-    /// A Power card's `save` or `$$$` waiting for its effect (the replies for either outcome).
-    power_wait: Option<crate::lang::ppmac::PowerWait>,
+    /// A whole line's reply held for its effect (a Power card's `save` or `$$$`).
+    held: Option<HeldReply>,
 }
 
 /// The card core (see the module docs).
@@ -95,8 +94,8 @@ pub struct CardCore {
     clock: u64,
     /// Why the last image load failed (`None`: it loaded or there was none).
     pub load_error: Option<String>,
-    /// The Power PMAC dialect (a `power` card): it answers every host line.
-    pub power: Option<Power>,
+    /// The card's command language ([`Dialect`]): every host line goes through it.
+    pub dialect: Dialect,
     /// The hardware stop inputs (abort, feed hold) held active.
     pub inputs: inputs::CardInputs,
 }
@@ -119,12 +118,9 @@ impl CardCore {
     /// A core for `card`.
     pub fn new(mut card: Card) -> Self {
         let servo = Servo::new(&card.model);
-        let power = (card.profile() == Profile::Power).then(Power::new);
-        if power.is_some() {
-            Power::attach(&mut card);
-        }
+        let dialect = Dialect::for_card(&mut card);
         CardCore {
-            power,
+            dialect,
             card,
             servo,
             sessions: HashMap::new(),
@@ -178,7 +174,7 @@ impl CardCore {
             parked: false,
             aux_wait: false,
             out: Vec::new(),
-            power_wait: None,
+            held: None,
         });
     }
 
@@ -242,38 +238,30 @@ impl CardCore {
             let mut error = None;
             let done = match job.req.clone() {
                 HostRequest::End => {
-                    if let Some(p) = self.power.as_mut() {
-                        p.end(&mut self.card, conn);
-                    }
-                    self.card.end_session(&s);
+                    self.dialect.end(&mut self.card, &s, conn);
                     self.sessions.remove(&conn);
                     Some(Vec::new())
                 }
                 HostRequest::Control(c) => {
                     budget.spend(1);
-                    match self.power.as_mut() {
-                        // A gpascii thread has no control-character commands.
-                        Some(_) => Some(Vec::new()),
-                        None => Some(self.card.control_char(&mut s, c)),
-                    }
+                    Some(self.dialect.control(&mut self.card, &mut s, c))
                 }
                 HostRequest::Line(line) | HostRequest::LineStreamed(line)
-                    if self.power.is_some() =>
+                    if self.dialect.answers_whole_lines() =>
                 {
                     budget.spend(1);
-                    let (out, refused, wait) = match self.power.as_mut() {
-                        Some(p) => p.host_line(&mut self.card, conn, &line),
-                        None => (Vec::new(), None, None),
-                    };
-                    error = refused.map(Refusal::Power);
-                    match wait {
+                    let w = self.dialect.whole_line(&mut self.card, conn, &line);
+                    let (out, refused, held) =
+                        w.map_or((Vec::new(), None, None), |w| (w.bytes, w.error, w.held));
+                    error = refused;
+                    match held {
                         // Answered once the effect is done ([`CardCore::effect_done`]).
-                        Some(wait) => {
+                        Some(held) => {
                             let t = self.next_effect;
                             self.next_effect += 1;
-                            self.effects.push((t, wait.effect.clone()));
+                            self.effects.push((t, held.effect().clone()));
                             job.waiting = Some(t);
-                            job.power_wait = Some(wait);
+                            job.held = Some(held);
                             None
                         }
                         None => Some(out),
@@ -408,19 +396,18 @@ impl CardCore {
         let Some(i) = self.jobs.iter().position(|j| j.waiting == Some(token)) else {
             return;
         };
-        if self.jobs.get(i).is_some_and(|j| j.power_wait.is_some()) {
+        if self.jobs.get(i).is_some_and(|j| j.held.is_some()) {
             let Some(job) = self.jobs.remove(i) else {
                 return;
             };
-            let Some(wait) = job.power_wait else {
+            let Some(held) = job.held else {
                 return;
             };
             let (bytes, error) = match result {
-                EffectResult::Saved(true) => (wait.ok, None),
-                EffectResult::Saved(false) => (wait.failed, wait.refusal.map(Refusal::Power)),
+                EffectResult::Saved(ok) => held.answer(ok),
                 loaded @ EffectResult::Loaded(_) => {
                     self.load_error = self.card.apply_loaded(loaded).err();
-                    (wait.ok, None)
+                    held.answer(true)
                 }
             };
             self.replies.push((
@@ -472,15 +459,10 @@ impl CardCore {
     /// One servo cycle at ring cycle `cycle` (program `CMD`s run through the card's language).
     pub fn tick(&mut self, cycle: u64) {
         self.inputs.before_tick(&mut self.card.model, cycle);
-        if let Some(p) = self.power.as_mut() {
-            // A Power card's programs issue `cmd"…"` in Power syntax: its dialect runs them.
-            let mut q = crate::lang::ppmac::CmdQueue::default();
-            self.servo.tick(&mut self.card.model, &mut q, cycle);
-            p.program_commands(&mut self.card, q);
-        } else {
-            let (model, mut cmds) = self.card.split();
-            self.servo.tick(model, &mut cmds, cycle);
-        }
+        // Program `CMD`s run through the card's own language.
+        let servo = &mut self.servo;
+        self.dialect
+            .tick(&mut self.card, |model, cmds| servo.tick(model, cmds, cycle));
         self.collect_detached();
     }
 }

@@ -4,7 +4,7 @@
 //! every test builds its card the same way. Pure.
 
 use crate::domain::Profile;
-use crate::lang::interp::{Card, Session};
+use crate::lang::{Card, Session};
 use crate::model::CardModel;
 use crate::program::Commands;
 use crate::servo::Servo;

@@ -1,7 +1,7 @@
 //! Servo-loop unit tests: a card, its servo loop and the loopback plant, no ring.
 
 use super::rig::{bench_card, LoopbackPlant, NODES};
-use crate::lang::interp::{Card, Session};
+use crate::lang::{Card, Session};
 use crate::servo::Servo;
 
 fn run(card: &mut Card, servo: &mut Servo, plant: &mut LoopbackPlant, n: u64) {

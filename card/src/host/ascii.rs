@@ -11,7 +11,7 @@
 //!   ERR003 ([`AsciiEvent::Overlong`]) and reading resumes with the next line.
 
 /// Longest command line accepted (bytes, without the `<CR>`): the interpreter's limit.
-pub(crate) const MAX_LINE: usize = crate::lang::interp::MAX_LINE;
+pub(crate) const MAX_LINE: usize = crate::lang::MAX_LINE;
 
 /// Control characters handled by the port itself rather than by the interpreter.
 const CTRL_H: u8 = 0x08;

@@ -12,7 +12,8 @@ use std::time::{Duration, Instant};
 
 use super::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_GETBUFFER, VR_PMAC_GETRESPONSE, VR_UPLOAD};
 use super::server::{serve, PortsConfig};
-use crate::lang::interp::{Card, Profile, Session};
+use crate::domain::Profile;
+use crate::lang::{Card, Session};
 
 /// The mixed command mix: one command per line, as a host program would send them.
 pub(crate) const COMMAND_MIX: &[&[u8]] = &[

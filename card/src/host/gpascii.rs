@@ -17,7 +17,7 @@ pub(crate) const BANNER: &[u8] = b"STDIN Open for ASCII Input\n";
 
 /// Longest command line the dialect accepts (bytes, without its end). A longer line is kept
 /// to one byte more (the dialect refuses it with its error #20 and runs nothing).
-pub(crate) const MAX_LINE: usize = crate::lang::ppmac::MAX_LINE;
+pub(crate) const MAX_LINE: usize = crate::lang::SCRIPT_MAX_LINE;
 
 const CR: u8 = b'\r';
 const LF: u8 = b'\n';

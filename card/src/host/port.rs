@@ -38,7 +38,7 @@ pub(crate) trait Interpreter {
     fn overlong(&mut self) -> Vec<u8>;
 }
 
-pub(crate) use crate::lang::interp::overlong_probe;
+pub(crate) use crate::lang::overlong_probe;
 
 /// One connection's view of the card: its connection id on the card and the last echo state.
 /// Each call blocks until the card's servo thread has served it (between ticks, in slices).
@@ -263,9 +263,8 @@ mod tests {
 
     #[test]
     fn card_port_uses_the_card() {
-        let core = crate::core::CardCore::new(crate::lang::interp::Card::new(
-            crate::domain::Profile::Pmac2,
-        ));
+        let core =
+            crate::core::CardCore::new(crate::lang::Card::new(crate::domain::Profile::Pmac2));
         let (mut runner, handle) = crate::service::handle::channel(core, None);
         let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let st = std::sync::Arc::clone(&stop);

@@ -16,7 +16,7 @@ use super::eth_codec::{
 use super::port::{run_events, Interpreter};
 use crate::core::{CardCore, HostRequest, SLICE_UNITS};
 use crate::domain::Profile;
-use crate::lang::interp::{Budget, Card, Effect, EffectResult};
+use crate::lang::{Budget, Card, Effect, EffectResult};
 use crate::model::persist;
 
 /// Most servo-thread slices one request may take (the heaviest legal line, 1 KB of
@@ -402,15 +402,15 @@ proptest! {
         let mut port = crate::service::chain::ChainPort::new();
         for (id, data) in &chunks {
             // A line waiting for the ring (`MS…` on a card without one) parks: no reply yet.
-            for (pos, reply) in port.feed(&mut card, None, *id, data).into_iter().flatten() {
+            for (pos, reply) in port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data).into_iter().flatten() {
                 prop_assert!((pos as usize) < data.len());
                 prop_assert!(reply.len() <= MAX_REPLY);
             }
         }
         for id in 0..3 {
-            port.close(&mut card, None, id);
+            port.close(&mut card, &mut crate::lang::Dialect::Pmac, id);
         }
-        let mut s = crate::lang::interp::Session::with_id(9);
+        let mut s = crate::lang::Session::with_id(9);
         let _ = card.command_line(&mut s, b"CLOSE");
         let r = card.command_line(&mut s, b"P1=7 P1");
         prop_assert!(r.windows(2).any(|w| w == b"7\r"), "{:?}", String::from_utf8_lossy(&r));
@@ -475,7 +475,7 @@ proptest! {
         password in "[A-Z0-9]{0,8}",
     ) {
         let mut card = Card::new(Profile::Pmac2);
-        let mut s = crate::lang::interp::Session::with_id(1);
+        let mut s = crate::lang::Session::with_id(1);
         let _ = card.command_line(&mut s, format!("PASSWORD={password}").as_bytes());
         for (k, v) in pvals.iter().enumerate() {
             let _ = card.command_line(&mut s, format!("P{k}={v}").as_bytes());
@@ -579,7 +579,7 @@ fn chain_bytes() -> impl Strategy<Value = Vec<u8>> {
 /// A save file of a card with programs, PLCs, M-definitions and variables.
 fn saved_file() -> Vec<u8> {
     let mut card = Card::new(Profile::Pmac2);
-    let mut s = crate::lang::interp::Session::with_id(1);
+    let mut s = crate::lang::Session::with_id(1);
     for l in [
         "P1=3 P2=4.5 Q1=2 I130=3000 M1->X:$C000,0,24,S M2->Y:$0720,0,16",
         "OPEN PROG 1 CLEAR LINEAR TA20 X(P1) DWELL 10 X0 CLOSE",

@@ -13,7 +13,7 @@ use crate::domain::Profile;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_GETRESPONSE};
 use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
-use crate::lang::interp::{Card, Session};
+use crate::lang::{Card, Session};
 use crate::service::handle::spawn_card_thread;
 
 const WAIT: Duration = Duration::from_secs(10);

@@ -3,7 +3,7 @@
 use super::*;
 use crate::domain::Profile;
 use crate::host::gpascii::MAX_LINE;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::service::handle::spawn_card_thread;
 
 const WAIT: Duration = Duration::from_secs(10);

@@ -5,7 +5,7 @@ use crate::domain::Profile;
 use crate::host::ascii::MAX_LINE;
 use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRESPONSE};
 use crate::host::port::overlong_probe;
-use crate::lang::interp::{Card, Session};
+use crate::lang::{Card, Session};
 use crate::service::handle::{spawn_card_thread, CardHandle};
 use mcc_ring::hostport::HostLimits;
 

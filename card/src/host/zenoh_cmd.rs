@@ -56,7 +56,8 @@ pub(crate) async fn declare_cmd_queryable(
 mod tests {
     use super::*;
     use crate::core::CardCore;
-    use crate::lang::interp::{Card, Profile, Session};
+    use crate::domain::Profile;
+    use crate::lang::{Card, Session};
     use crate::service::handle::channel;
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;

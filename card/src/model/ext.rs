@@ -132,6 +132,10 @@ pub trait ExtVars: std::fmt::Debug + Send {
         let _ = code;
         DEFAULT_STACK_OFFSET
     }
+    /// The language's save hooks, if it adds a part to the saved image.
+    fn image_hooks(&self) -> Option<super::ImageHooks> {
+        None
+    }
     /// The extension as `Any` (its language reaches its own state).
     fn as_any_mut(&mut self) -> &mut dyn Any;
     /// The extension as `Any`.

@@ -2,8 +2,8 @@
 
 use super::compile::{compile, Op, Unlinked};
 use crate::domain::ast::StmtKind;
-use crate::lang::ast::BufferKind;
-use crate::lang::parse_program_line;
+use crate::lang::pmac::ast::BufferKind;
+use crate::lang::pmac::parse_program_line;
 use crate::model::ProgLine;
 
 fn lines(text: &str, kind: BufferKind) -> Vec<ProgLine> {

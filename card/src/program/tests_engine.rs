@@ -2,7 +2,8 @@
 //! semantics, refusals. A "perfect motor" rig: each motor's feedback equals its setpoint.
 
 use super::ProgramEngine;
-use crate::lang::interp::{Card, Profile, Session};
+use crate::domain::Profile;
+use crate::lang::{Card, Session};
 use crate::motion::flags::FlagInputs;
 use crate::motion::motor::{Motor, MotorCommand, TickInput};
 use crate::motion::params::MotorParams;

@@ -7,7 +7,7 @@ use std::fmt;
 use std::time::Instant;
 
 use crate::core::rig::{bench_card, LoopbackPlant, MOTORS, NODES};
-use crate::lang::interp::Session;
+use crate::lang::Session;
 use crate::servo::Servo;
 
 /// Servo rate the share of a core is computed for, Hz.
@@ -158,8 +158,8 @@ impl fmt::Display for ServoLoadReport {
 }
 
 /// A Turbo card with motors 1-8 on their MACRO nodes (the rig's wiring on the Turbo tables).
-fn turbo_card() -> crate::lang::interp::Card {
-    let mut card = crate::lang::interp::Card::new(crate::domain::Profile::Turbo);
+fn turbo_card() -> crate::lang::Card {
+    let mut card = crate::lang::Card::new(crate::domain::Profile::Turbo);
     let mut s = Session::default();
     let _ = card.command_line(&mut s, b"I1000=$3333 I1002=$3333");
     for m in 1..=MOTORS {
@@ -174,7 +174,7 @@ fn phase(
     cycle0: u64,
     replies: &std::sync::atomic::AtomicU64,
 ) -> PhaseTiming {
-    use crate::lang::interp::Budget;
+    use crate::lang::Budget;
     let period = std::time::Duration::from_secs_f64(1.0 / RATE_HZ);
     let (mut tick, mut busy, mut late) = (Vec::new(), Vec::new(), Vec::new());
     let r0 = replies.load(std::sync::atomic::Ordering::Relaxed);
@@ -279,9 +279,7 @@ pub fn run_servo_load_bench() -> std::io::Result<ServoLoadReport> {
     // Let the hosts' last requests finish.
     let deadline = Instant::now() + std::time::Duration::from_secs(30);
     while hosts.iter().any(|h| !h.is_finished()) && Instant::now() < deadline {
-        runner.pump(&mut crate::lang::interp::Budget::new(
-            crate::core::SLICE_UNITS * 8,
-        ));
+        runner.pump(&mut crate::lang::Budget::new(crate::core::SLICE_UNITS * 8));
         std::thread::sleep(std::time::Duration::from_micros(200));
     }
     for h in hosts {

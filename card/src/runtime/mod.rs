@@ -20,11 +20,12 @@ use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
 use crate::core::CardCore;
+use crate::domain::Profile;
 use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
 use crate::host::ssh::server::Credentials;
 use crate::host::zenoh_cmd::declare_cmd_queryable;
-use crate::lang::interp::{Card, Profile};
+use crate::lang::Card;
 use crate::service::storage::{self, FileStorage};
 use crate::service::{chain, handle, sync_start};
 
@@ -185,7 +186,7 @@ pub(crate) fn startup_card(
     };
     storage::remove_stale_temporaries(st.path());
     let bytes = storage::read(st.path());
-    let result = card.apply_loaded(crate::lang::interp::EffectResult::Loaded(bytes));
+    let result = card.apply_loaded(crate::lang::EffectResult::Loaded(bytes));
     let err = result.err();
     if let Some(e) = &err {
         let aside = storage::keep_aside(st.path());
@@ -235,8 +236,8 @@ fn apply_ivars(
     ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
 ) -> anyhow::Result<()> {
     let power = card.profile() == Profile::Power;
-    let mut dialect = crate::lang::ppmac::Power::new();
-    let mut s = crate::lang::interp::Session::default();
+    let mut dialect = crate::lang::Dialect::for_card(card);
+    let mut s = crate::lang::Session::default();
     for (k, v) in ivars {
         let line = format!("{k}={}", v.as_f64());
         let refused = if power {
@@ -257,10 +258,10 @@ fn apply_ivars(
                 }
                 continue;
             }
-            let (reply, refused) = dialect.line_refused(card, 0, line.as_bytes());
+            let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
             refused.map(|_| String::from_utf8_lossy(&reply).into_owned())
         } else {
-            let (reply, refused) = card.command_line_refused(&mut s, line.as_bytes());
+            let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
             refused.map(|e| match String::from_utf8_lossy(&reply).trim() {
                 // I6 = 1 or 2: the card printed no code; the refusal names it.
                 t if !t.contains("ERR") => e.to_string(),

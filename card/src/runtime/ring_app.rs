@@ -23,7 +23,7 @@ use mcc_ring::settings::RingSettings;
 use super::handle::{Runner, StartupLayer};
 use super::startup::wire_macro_motors;
 use crate::core::{CardCore, SLICE_UNITS};
-use crate::lang::interp::{Budget, Card};
+use crate::lang::{Budget, Card};
 use crate::model::I995_STATUS_BITS;
 
 /// Convert latched node registers to the card's 24-bit register words (16-bit registers sit in
@@ -375,14 +375,14 @@ mod tests {
     }
 
     fn ask(app: &mut CardRingApp, line: &[u8]) -> Vec<u8> {
-        let mut s = crate::lang::interp::Session::with_id(999);
+        let mut s = crate::lang::Session::with_id(999);
         app.core().card.command_line(&mut s, line)
     }
 
     #[test]
     fn the_startup_layer_is_applied_again_after_every_reset() {
         let layer = |card: &mut Card| {
-            let mut s = crate::lang::interp::Session::default();
+            let mut s = crate::lang::Session::default();
             let _ = card.command_line(&mut s, b"I0=3 I1001=16");
         };
         let mut card = Card::new(Profile::Pmac2);
@@ -526,7 +526,7 @@ mod tests {
     }
 
     fn ask_card(card: &mut Card, line: &[u8]) {
-        let r = card.command_line(&mut crate::lang::interp::Session::default(), line);
+        let r = card.command_line(&mut crate::lang::Session::default(), line);
         assert!(!r.contains(&7), "{:?}", String::from_utf8_lossy(&r));
     }
 }

@@ -9,10 +9,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::core::CardCore;
+use crate::domain::Profile;
 use crate::host::power_ports::{serve_power, PowerPortsConfig};
 use crate::host::server::{serve, PortsConfig};
 use crate::host::ssh::server::Credentials;
-use crate::lang::interp::Profile;
 use crate::runtime::startup_card;
 use crate::service::handle::channel;
 use crate::service::storage::FileStorage;

@@ -6,7 +6,7 @@
 //! and the card's `ERRnnn`, so a card never runs half set up.
 
 use crate::domain::Profile;
-use crate::lang::interp::{Card, Session};
+use crate::lang::{Card, Session};
 use crate::model::Space;
 
 /// A start-up line the card refused.
@@ -123,7 +123,8 @@ const POWER_POINTERS: [(&str, u32); 5] = [
 /// entry), `pEncStatus` its flag register, `pPhaseEnc` its phase position — and `Motor[0]`
 /// none. Sent in Power syntax through the dialect, every reply checked.
 fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
-    let mut dialect = crate::lang::ppmac::Power::new();
+    let mut dialect = crate::lang::Dialect::for_card(card);
+    let mut s = Session::default();
     // The model's factory addresses of motor k (Turbo numbering: motor k on the k-th servo
     // node), read before any is moved.
     let factory = |card: &Card, k: u16, n: u32| -> u32 {
@@ -148,7 +149,8 @@ fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
     // Ixx33 = 0 through the seed's gain equations); gains a host has set are left alone.
     for x in 1..=SERVO_NODES {
         let at_defaults = SEED_GAINS.iter().all(|(name, seed)| {
-            let reply = dialect.line(card, 0, format!("Motor[{x}].{name}").as_bytes());
+            let q = format!("Motor[{x}].{name}");
+            let (reply, _) = dialect.detached_line(card, &mut s, 0, q.as_bytes());
             let text = String::from_utf8_lossy(&reply);
             let v = text
                 .split(['=', '\r'])
@@ -166,7 +168,7 @@ fn power_motor_pointers(card: &mut Card) -> Result<(), StartupError> {
     }
     for line in lines {
         let line = line.trim_end().to_string();
-        let (reply, refused) = dialect.line_refused(card, 0, line.as_bytes());
+        let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
         let text = String::from_utf8_lossy(&reply);
         if refused.is_some() {
             return Err(StartupError {
@@ -290,9 +292,11 @@ mod tests {
         .unwrap();
         // Model motors (Power x + 1).
         assert_eq!(motors, [2, 3, 4, 5, 6, 7, 8, 9]);
-        let mut p = crate::lang::ppmac::Power::new();
+        let mut p = crate::lang::Dialect::for_card(&mut card);
         let mut ask = |line: &str| {
-            let r = p.line(&mut card, 1, format!("echo7 {line}").as_bytes());
+            let r = p
+                .script_line(&mut card, 1, format!("echo7 {line}").as_bytes())
+                .unwrap_or_default();
             String::from_utf8(r).unwrap().replace("\x06\r\n", "")
         };
         assert_eq!(
@@ -317,8 +321,10 @@ mod tests {
         // Gains a host set are not replaced when the wiring is applied again (after `$$$`).
         assert_eq!(ask("Motor[2].Servo.Kp=1.5"), "");
         wire_macro_motors(&mut card, &[0, 1, 4, 5, 8, 9, 12, 13]).unwrap();
-        let mut p = crate::lang::ppmac::Power::new();
-        let r = p.line(&mut card, 1, b"echo7 Motor[2].Servo.Kp Motor[3].Servo.Kp");
+        let mut p = crate::lang::Dialect::for_card(&mut card);
+        let r = p
+            .script_line(&mut card, 1, b"echo7 Motor[2].Servo.Kp Motor[3].Servo.Kp")
+            .unwrap_or_default();
         assert_eq!(
             String::from_utf8(r).unwrap().replace("\x06\r\n", ""),
             "1.5\r\n0.3662109375\r\n"

@@ -27,7 +27,6 @@
 //! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
 //! when the collected line does not start a program.
 
-use crate::domain::{CsNum, MotorNum};
 use std::collections::HashMap;
 
 use mcc_ring::control::chain::{
@@ -37,14 +36,7 @@ use mcc_ring::control::chain::{
 use zenoh::Wait;
 
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
-use crate::lang::ast::CmdKind;
-use crate::lang::interp::overlong_probe;
-use crate::lang::interp::{ctrl_n, Card, LineRun, Session, MAX_LINE};
-use crate::lang::ppmac::Power;
-
-/// A Power card's dialect threads of chain connections are kept under the connection id with
-/// this bit set (host-port connections count up from 0 and never reach it).
-pub(crate) const POWER_CHAIN_CONN: u64 = 1 << 63;
+use crate::lang::{ctrl_n, overlong_probe, Card, Dialect, LineRun, Session, MAX_LINE};
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
 pub(crate) const MAX_CONNECTIONS: usize = 64;
@@ -125,13 +117,10 @@ impl ChainPort {
 
     /// Connection `id` is gone: close the buffer it left open, forget its state (a line
     /// waiting for the ring is dropped; its access expires unclaimed).
-    pub(crate) fn close(&mut self, card: &mut Card, power: Option<&mut Power>, id: u64) {
+    pub(crate) fn close(&mut self, card: &mut Card, dialect: &mut Dialect, id: u64) {
         self.parked.remove(&id);
         if let Some(c) = self.conns.remove(&id) {
-            card.end_session(&c.session);
-            if let Some(p) = power {
-                p.end(card, POWER_CHAIN_CONN | id);
-            }
+            dialect.end_chain(card, &c.session);
         }
     }
 
@@ -151,17 +140,17 @@ impl ChainPort {
     pub(crate) fn handle(
         &mut self,
         card: &mut Card,
-        power: Option<&mut Power>,
+        dialect: &mut Dialect,
         req: &Request<'_>,
     ) -> Option<Vec<u8>> {
         Some(match req.op {
             OP_CLOSE => {
-                self.close(card, power, req.conn);
+                self.close(card, dialect, req.conn);
                 Vec::new()
             }
-            OP_QUERY_START => vec![self.start_flags(card, power.as_deref(), req.conn)],
-            OP_TAKE_START => self.take_start(card, power, req.conn),
-            _ => encode_reply(&self.feed(card, power, req.conn, req.data)?),
+            OP_QUERY_START => vec![self.start_flags(card, &*dialect, req.conn)],
+            OP_TAKE_START => self.take_start(card, dialect, req.conn),
+            _ => encode_reply(&self.feed(card, dialect, req.conn, req.data)?),
         })
     }
 
@@ -170,7 +159,7 @@ impl ChainPort {
     pub(crate) fn resume(
         &mut self,
         card: &mut Card,
-        power: Option<&mut Power>,
+        dialect: &mut Dialect,
         id: u64,
     ) -> Option<Vec<u8>> {
         let mut p = self.parked.remove(&id)?;
@@ -186,14 +175,14 @@ impl ChainPort {
             p.out.push((p.at, r));
         }
         let rest = std::mem::take(&mut p.rest);
-        let out = self.feed_from(card, power, id, &rest, p.base, p.out)?;
+        let out = self.feed_from(card, dialect, id, &rest, p.base, p.out)?;
         Some(encode_reply(&out))
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
-    pub(crate) fn start_flags(&self, card: &mut Card, power: Option<&Power>, id: u64) -> u8 {
+    pub(crate) fn start_flags(&self, card: &mut Card, dialect: &Dialect, id: u64) -> u8 {
         match self.conns.get(&id) {
-            Some(c) if starts_program(card, power, c) => {
+            Some(c) if starts_program(card, dialect, c) => {
                 FLAG_STARTS | (u8::from(card.chain_talking(&c.session)) * FLAG_TALKS)
             }
             _ => 0,
@@ -208,10 +197,10 @@ impl ChainPort {
     pub(crate) fn take_start(
         &mut self,
         card: &mut Card,
-        power: Option<&mut Power>,
+        dialect: &mut Dialect,
         id: u64,
     ) -> Vec<u8> {
-        let flags = self.start_flags(card, power.as_deref(), id);
+        let flags = self.start_flags(card, &*dialect, id);
         let Some(c) = self.conns.get_mut(&id) else {
             return Vec::new();
         };
@@ -221,30 +210,7 @@ impl ChainPort {
         let line = std::mem::take(&mut c.buf);
         c.synced = true;
         let mut out = vec![flags];
-        if let Some(p) = power {
-            // A Power card: the thread's `Ldata.Motor`/`Ldata.Coord` in Power numbering.
-            let key = POWER_CHAIN_CONN | id;
-            let (m, cs) = p.addressing(key);
-            out.extend_from_slice(format!("#{m}&{cs} ").as_bytes());
-            out.extend_from_slice(&line);
-            p.adopt_addressing(card, key, &line);
-            return out;
-        }
-        out.extend_from_slice(
-            format!("#{}&{}", c.session.motor.get(), c.session.coord.get()).as_bytes(),
-        );
-        out.extend_from_slice(&line);
-        for cmd in crate::lang::parse_line(&line).unwrap_or_default() {
-            match cmd.kind {
-                CmdKind::AddrMotor(n) => {
-                    c.session.motor = MotorNum::of(u16::try_from(n).unwrap_or(1));
-                }
-                CmdKind::AddrCoord(n) => {
-                    c.session.coord = CsNum::of(u16::try_from(n).unwrap_or(1));
-                }
-                _ => {}
-            }
-        }
+        out.extend_from_slice(&dialect.take_line(card, &mut c.session, &line));
         out
     }
 
@@ -253,7 +219,7 @@ impl ChainPort {
     pub(crate) fn feed(
         &mut self,
         card: &mut Card,
-        mut power: Option<&mut Power>,
+        dialect: &mut Dialect,
         id: u64,
         data: &[u8],
     ) -> Option<Vec<(u32, Vec<u8>)>> {
@@ -261,16 +227,16 @@ impl ChainPort {
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
             let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
             if let Some(&old) = oldest.map(|(k, _)| k) {
-                self.close(card, power.as_deref_mut(), old);
+                self.close(card, &mut *dialect, old);
             }
         }
-        self.feed_from(card, power, id, data, 0, Vec::new())
+        self.feed_from(card, dialect, id, data, 0, Vec::new())
     }
 
     fn feed_from(
         &mut self,
         card: &mut Card,
-        mut power: Option<&mut Power>,
+        dialect: &mut Dialect,
         id: u64,
         data: &[u8],
         base: u32,
@@ -281,7 +247,7 @@ impl ChainPort {
         conn.last_used = clock;
         for (i, &b) in data.iter().enumerate() {
             let at = base + i as u32;
-            match byte(card, power.as_deref_mut(), conn, b) {
+            match byte(card, &mut *dialect, conn, b) {
                 Exec::Reply(r) if !r.is_empty() => out.push((at, r)),
                 Exec::Reply(_) => {}
                 Exec::Wait(run, session, talking) => {
@@ -309,37 +275,28 @@ impl ChainPort {
 const PREFIX_ROOM: usize = 16;
 
 /// The collected line would start a program (`R`/`S`) if executed now.
-fn starts_program(card: &Card, power: Option<&Power>, c: &Conn) -> bool {
+fn starts_program(card: &Card, dialect: &Dialect, c: &Conn) -> bool {
     if c.overflow || c.buf.is_empty() || c.buf.len() + PREFIX_ROOM > MAX_LINE {
         return false;
     }
-    if let Some(p) = power {
-        return p.starts_program(card, POWER_CHAIN_CONN | c.session.id, &c.buf);
-    }
-    if card.open_session() == Some(c.session.id) {
-        return false;
-    }
-    crate::lang::parse_line(&c.buf).is_ok_and(|cmds| {
-        cmds.iter()
-            .any(|k| matches!(k.kind, CmdKind::Run | CmdKind::Step))
-    })
+    dialect.starts_program(card, &c.session, &c.buf)
 }
 
 /// Process one received byte; the reply this card sends because of it.
-fn byte(card: &mut Card, power: Option<&mut Power>, c: &mut Conn, b: u8) -> Exec {
+fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8) -> Exec {
     if b == b'\r' {
         let sa = card.software_addressing();
         if std::mem::take(&mut c.at_pending) && sa {
             // `@` then <CR>: the report-card command.
             collect(card, c, b'@');
         }
-        return match power {
-            Some(p) => execute_power(card, p, c),
+        return match execute_whole(card, dialect, c) {
+            Some(r) => r,
             None => execute(card, c),
         };
     }
-    if power.is_some() && b < 0x20 {
-        return Exec::Reply(power_control(card, c, b));
+    if !dialect.has_control_commands() && b < 0x20 {
+        return Exec::Reply(line_edit_control(card, c, b));
     }
     Exec::Reply(byte_other(card, c, b))
 }
@@ -350,7 +307,7 @@ fn byte(card: &mut Card, power: Option<&mut Power>, c: &mut Conn, b: u8) -> Exec
 /// them. Only line editing, as the controller's terminal does it: `<BS>` erases the last
 /// character collected, `<CTRL-U>` and `<CTRL-X>` the whole line (for this card when it
 /// listens). A broadcast CTRL-A/K on a mixed chain therefore stops the PMAC cards only.
-fn power_control(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
+fn line_edit_control(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
     if std::mem::take(&mut c.at_pending) && card.software_addressing() {
         // A lone `@` before it: the report-card command, collected like any line character.
         collect(card, c, b'@');
@@ -495,24 +452,26 @@ fn execute(card: &mut Card, c: &mut Conn) -> Exec {
     Exec::Reply(if talking { r } else { Vec::new() })
 }
 
-/// `<CR>` on a Power card: the collected line runs through its Power dialect on the
-/// connection's own communication thread, and the reply is what `gpascii` writes (each line
-/// ended by CR LF, then ACK CR LF; errors as `stdin:L:C: error #n: …`).
-fn execute_power(card: &mut Card, p: &mut Power, c: &mut Conn) -> Exec {
+/// `<CR>` on a card whose language answers lines whole (Power): the collected line runs on
+/// the connection's own communication thread, and the reply is what `gpascii` writes (each
+/// line ended by CR LF, then ACK CR LF; errors as `stdin:L:C: error #n: …`). `None`: the
+/// PMAC chain runs it ([`execute`]).
+fn execute_whole(card: &mut Card, dialect: &mut Dialect, c: &mut Conn) -> Option<Exec> {
+    if !dialect.answers_whole_lines() {
+        return None;
+    }
     let talking = card.chain_talking(&c.session);
     if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
-        return Exec::Reply(Vec::new());
+        return Some(Exec::Reply(Vec::new()));
     }
-    let mut line = std::mem::take(&mut c.buf);
-    if std::mem::take(&mut c.overflow) {
-        // Longer than the dialect takes: it answers its own #20 for it.
-        line = vec![b' '; crate::lang::ppmac::MAX_LINE + 1];
+    let line = std::mem::take(&mut c.buf);
+    // Longer than the dialect takes: it answers its own error for it.
+    let overflow = std::mem::take(&mut c.overflow);
+    if line.is_empty() && !overflow && !talking {
+        return Some(Exec::Reply(Vec::new()));
     }
-    if line.is_empty() && !talking {
-        return Exec::Reply(Vec::new());
-    }
-    let r = p.line(card, POWER_CHAIN_CONN | c.session.id, &line);
-    Exec::Reply(if talking { r } else { Vec::new() })
+    let r = dialect.chain_line(card, &c.session, &line, overflow)?;
+    Some(Exec::Reply(if talking { r } else { Vec::new() }))
 }
 
 /// Start-up: the card's chain number (I0) from the config and software addressing on (I1 bit

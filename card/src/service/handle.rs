@@ -19,7 +19,7 @@ use super::chain::ChainPort;
 use super::storage::FileStorage;
 use super::sync_start::SyncShared;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
-use crate::lang::interp::{Budget, Effect, EffectResult, Session, Storage};
+use crate::lang::{Budget, Effect, EffectResult, Session, Storage};
 use crate::model::Unsolicited;
 
 /// Requests waiting for the servo thread at most.
@@ -29,9 +29,9 @@ pub(crate) const REPLY_TIMEOUT: Duration = Duration::from_secs(120);
 /// Requests taken from the channel per pump (the rest wait for the next one).
 const DRAIN_PER_PUMP: usize = 256;
 
-/// The Power dialect thread synchronized starts run on (beside the chain's threads, see
-/// `chain::POWER_CHAIN_CONN`).
-const SYNC_POWER_CONN: u64 = super::chain::POWER_CHAIN_CONN - 1;
+/// The dialect thread synchronized starts run on (beside the chain's threads, see
+/// `lang::CHAIN_THREAD`).
+const SYNC_THREAD: u64 = crate::lang::CHAIN_THREAD - 1;
 
 /// What reaches the servo thread.
 #[derive(Debug)]
@@ -196,7 +196,7 @@ impl IoWorker {
 
 /// What the card's start-up applies on top of its saved (or factory) image, and re-applies
 /// after every reset: the cluster config is the card's hardware setup.
-pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::interp::Card)>;
+pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::Card)>;
 
 /// Chain requests (payload, reply channel) of one connection, waiting in order.
 type ChainQueue = VecDeque<(Vec<u8>, Sender<Response>)>;
@@ -278,7 +278,7 @@ impl Runner {
                 let closing = req.op == OP_CLOSE;
                 match self
                     .chain
-                    .handle(&mut self.core.card, self.core.power.as_mut(), &req)
+                    .handle(&mut self.core.card, &mut self.core.dialect, &req)
                 {
                     Some(r) => {
                         let _ = env.reply.send(Response::Chain(Ok(r)));
@@ -324,9 +324,9 @@ impl Runner {
     /// connections sent meanwhile (in order, until one waits again).
     fn resume_chain(&mut self) {
         for conn in self.chain.parked() {
-            let Some(reply) =
-                self.chain
-                    .resume(&mut self.core.card, self.core.power.as_mut(), conn)
+            let Some(reply) = self
+                .chain
+                .resume(&mut self.core.card, &mut self.core.dialect, conn)
             else {
                 continue;
             };
@@ -340,7 +340,7 @@ impl Runner {
                 let r = match mcc_ring::control::chain::decode_request(payload) {
                     Ok(req) => self
                         .chain
-                        .handle(&mut self.core.card, self.core.power.as_mut(), &req)
+                        .handle(&mut self.core.card, &mut self.core.dialect, &req)
                         .map(Ok),
                     Err(e) => Some(Err(e.to_string())),
                 };
@@ -420,10 +420,12 @@ impl Runner {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 // A Power card runs the line in its own dialect, on the synchronized-start
                 // thread (its `Ldata` persists from start to start, as a session does).
-                let reply = match self.core.power.as_mut() {
-                    Some(p) => p.line(card, SYNC_POWER_CONN, &line),
-                    None => card.run_detached(&mut self.sync_session, &line),
-                };
+                let reply = self.core.dialect.started_line(
+                    card,
+                    &mut self.sync_session,
+                    SYNC_THREAD,
+                    &line,
+                );
                 done.push((id, ns, reply));
             }
             let fresh = card.model.take_actions();
@@ -476,7 +478,7 @@ fn t_e(t: u64, e: Effect) -> (u64, Effect) {
 
 /// A card on a thread of its own (no ring, no servo loop: the standalone card, tests); the
 /// thread ends when every handle is dropped.
-pub fn spawn_card_thread(card: crate::lang::interp::Card) -> CardHandle {
+pub fn spawn_card_thread(card: crate::lang::Card) -> CardHandle {
     let (mut runner, handle) = channel(CardCore::new(card), None);
     let never = std::sync::atomic::AtomicBool::new(false);
     let spawned = std::thread::Builder::new()

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::lang::interp::Storage;
+use crate::lang::Storage;
 #[cfg(test)]
 use crate::model::persist::{decode, encode, PersistError, PersistImage};
 
@@ -107,7 +107,7 @@ impl Storage for FileStorage {
 mod tests {
     use super::*;
     use crate::domain::Profile;
-    use crate::lang::interp::{Card, Session};
+    use crate::lang::{Card, Session};
     use crate::model::CardState;
 
     fn tmpdir(name: &str) -> std::path::PathBuf {
@@ -327,7 +327,7 @@ mod tests {
             "{e}"
         );
         let mut c = Card::new(Profile::Pmac2);
-        let r = c.apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(Some(bytes))));
+        let r = c.apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(bytes))));
         assert_eq!(r.unwrap_err(), e);
     }
 }

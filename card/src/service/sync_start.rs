@@ -25,7 +25,7 @@ use std::time::Duration;
 use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
-use crate::lang::interp::{Card, MAX_LINE};
+use crate::lang::{Card, MAX_LINE};
 use crate::model::Action;
 
 /// Most armed (pending) lines at once.

@@ -8,8 +8,8 @@ use mcc_ring::control::chain::{decode_request, encode_request};
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
     cards: Vec<(Card, ChainPort)>,
-    /// The Power dialect of a `power` card (its lines run there).
-    power: Vec<Option<Power>>,
+    /// The language of each card (a `power` card's lines run in its dialect).
+    power: Vec<Dialect>,
 }
 
 impl Cable {
@@ -23,7 +23,7 @@ impl Cable {
                 (c, ChainPort::new())
             })
             .collect();
-        let power = (0..n).map(|_| None).collect();
+        let power = (0..n).map(|_| Dialect::Pmac).collect();
         Cable { cards, power }
     }
 
@@ -33,7 +33,7 @@ impl Cable {
         let mut p = Card::new(Profile::Power);
         apply_chain_defaults(&mut p, 0);
         c.cards[0].0 = p;
-        c.power[0] = Some(Power::new());
+        c.power[0] = Dialect::for_card(&mut c.cards[0].0);
         c
     }
 
@@ -42,10 +42,7 @@ impl Cable {
         let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
         let cards = self.cards.iter_mut().zip(self.power.iter_mut());
         for (k, ((card, port), power)) in cards.enumerate() {
-            for (p, b) in port
-                .feed(card, power.as_mut(), conn, data)
-                .unwrap_or_default()
-            {
+            for (p, b) in port.feed(card, power, conn, data).unwrap_or_default() {
                 segs.push((p, k, b));
             }
         }
@@ -183,18 +180,18 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     let mut c = Cable::new(1);
     let (card, port) = &mut c.cards[0];
     for id in 0..(MAX_CONNECTIONS as u64 + 10) {
-        let _ = port.feed(card, None, id, b"P1\r");
+        let _ = port.feed(card, &mut Dialect::Pmac, id, b"P1\r");
     }
     assert_eq!(port.connections(), MAX_CONNECTIONS);
     assert_eq!(
-        port.feed(card, None, 500, b"OPEN PROG 1 CLEAR\r")
+        port.feed(card, &mut Dialect::Pmac, 500, b"OPEN PROG 1 CLEAR\r")
             .unwrap_or_default(),
         vec![(17, vec![6])]
     );
-    port.close(card, None, 500);
+    port.close(card, &mut Dialect::Pmac, 500);
     // The buffer is closed again: another connection may open one.
     assert_eq!(
-        port.feed(card, None, 501, b"OPEN PROG 2\r"),
+        port.feed(card, &mut Dialect::Pmac, 501, b"OPEN PROG 2\r"),
         Some(vec![(11, vec![6])])
     );
 }
@@ -205,7 +202,7 @@ impl Cable {
         let (card, port) = &mut self.cards[k];
         port.handle(
             card,
-            self.power[k].as_mut(),
+            &mut self.power[k],
             &Request {
                 op,
                 conn,
@@ -265,7 +262,10 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     assert_eq!(c.ask(1, "I995=$30 I1003=32 I1000=0"), b"\x06");
     assert_eq!(c.send(1, b"@1\r"), b"\x06");
     let (card, port) = &mut c.cards[1];
-    assert_eq!(port.feed(card, None, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"), None);
+    assert_eq!(
+        port.feed(card, &mut Dialect::Pmac, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"),
+        None
+    );
     assert!(port.is_parked(1));
     // the servo tick streams the request; the station's reply comes back around the ring
     let first = card.model.aux.servo_tick((0, 0));
@@ -275,7 +275,7 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     for k in 0..reply.len() as u64 {
         let (r2, r3) = stream_word(WordKind::Reply, tag, 0, &reply, k).encode();
         card.model.aux.servo_tick((r2, r3));
-        done = port.resume(card, None, 1);
+        done = port.resume(card, &mut Dialect::Pmac, 1);
         if done.is_some() {
             break;
         }
@@ -291,7 +291,7 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     // a line whose card is not a master gets ERR008 at once (never parked)
     let (card0, port0) = &mut c.cards[0];
     assert_eq!(
-        port0.feed(card0, None, 2, b"MS0,MI8\r"),
+        port0.feed(card0, &mut Dialect::Pmac, 2, b"MS0,MI8\r"),
         Some(vec![(7, b"\x07ERR008\r".to_vec())])
     );
 }

@@ -10,7 +10,7 @@ use super::handle::{channel, CardHandle};
 use super::storage::FileStorage;
 use crate::core::{CardCore, HostRequest};
 use crate::domain::Profile;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 
 /// A fresh directory of this test process.
 fn tmpdir(tag: &str) -> PathBuf {

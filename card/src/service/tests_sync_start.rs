@@ -11,7 +11,7 @@ fn arm(id: u64, cycle: u64, line: &str) -> AtRequest {
 
 use super::super::handle::{channel, Runner};
 use crate::core::CardCore;
-use crate::lang::interp::Session;
+use crate::lang::Session;
 
 /// A card with PROG 1 (a dwell), motor 1 in C.S. 1 with its loop closed: `&1B1R` starts it;
 /// owned by its runner as on the servo thread.

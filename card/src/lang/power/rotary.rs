@@ -14,7 +14,7 @@
 use super::parse::SyntaxError;
 use super::{exec, listing, program, progvars, Power, Thread};
 use crate::domain::PowerErr;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::{ProgLine, Rotary};
 
 /// The rotary buffer a thread has open.

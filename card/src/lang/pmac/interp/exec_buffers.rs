@@ -7,13 +7,13 @@ use crate::model::{list_lines, BufErr, BufId, ProgLine};
 
 /// The listing renderer of a stored line (`long` keywords with I9 = 1 or 3).
 fn render(long: bool) -> impl Fn(&ProgLine) -> String {
-    move |l| crate::lang::listing::line(&l.stmts, long)
+    move |l| crate::lang::pmac::listing::line(&l.stmts, long)
 }
 use super::exec::{Exec, Out};
 use super::exec_info::LIST_LINK;
 
 use super::{OpenBuf, Pmac, Session};
-use crate::lang::ast::{
+use crate::lang::pmac::ast::{
     CmdKind, ListSpan, ListTarget, NumRange, OpenTarget, PlcVerb, Stmt, StmtKind,
 };
 

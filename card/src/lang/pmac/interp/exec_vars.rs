@@ -4,7 +4,7 @@
 use super::exec::{Exec, Out};
 use super::{Pmac, Session};
 use crate::domain::ErrCode;
-use crate::lang::ast::{CmdKind, Expr, MemSpace, VarIndex, VarKind, VarList, VarSel};
+use crate::lang::pmac::ast::{CmdKind, Expr, MemSpace, VarIndex, VarKind, VarList, VarSel};
 use crate::model::format_value;
 use crate::model::CardState;
 use crate::model::Space;

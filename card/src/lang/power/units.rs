@@ -207,7 +207,7 @@ pub(crate) fn coord_model(get: impl Fn(&str) -> f64) -> Vec<(u32, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lang::ppmac::catalog::{find, DEFS};
+    use crate::lang::power::catalog::{find, DEFS};
 
     fn default_of(st: St, name: &str) -> f64 {
         DEFS[find(st, name).unwrap_or_else(|| panic!("{name}"))].default

@@ -14,8 +14,8 @@ use super::image::{Effect, EffectResult};
 use super::reply::{Framing, Outcome, Reply};
 use super::{Pmac, Session};
 use crate::domain::ErrCode;
-use crate::lang::ast::{BufferKind, CmdKind, Item, Stmt, VarKind, VarList};
-use crate::lang::{LineParser, Mode, ParserState};
+use crate::lang::pmac::ast::{BufferKind, CmdKind, Item, Stmt, VarKind, VarList};
+use crate::lang::pmac::{LineParser, Mode, ParserState};
 use crate::model::BufId;
 
 /// Work a slice may do: one unit per command and per variable a selection touches.

@@ -12,7 +12,7 @@ use super::parse::SyntaxError;
 use super::{exec, program, progvars, Thread};
 use crate::domain::ast::{Message, Stmt, StmtKind};
 use crate::domain::{CsNum, MotorNum, PowerErr};
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::{CardModel, ExtAt, ProgLine, Thread as ExecThread};
 use crate::program::env;
 use crate::program::stmt::{exec_common, Common, Ctx, QueuedCmd};
@@ -245,12 +245,12 @@ fn run_motion(card: &mut Card, th: &Thread, mut stmts: Vec<Stmt>) -> Result<(), 
             lines: vec![ProgLine::new(stmts)],
         },
     );
-    let mut s = crate::lang::interp::Session {
+    let mut s = crate::lang::Session {
         motor: MotorNum::of(th.motor + 1),
         coord: CsNum::of(cs),
-        ..crate::lang::interp::Session::with_id(0)
+        ..crate::lang::Session::with_id(0)
     };
-    use crate::lang::ast::CmdKind;
+    use crate::lang::CmdKind;
     for cmd in [
         CmdKind::Begin(crate::domain::ast::Number::dec(0.0)),
         CmdKind::Run,

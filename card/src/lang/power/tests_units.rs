@@ -12,7 +12,9 @@ pub(super) fn reloaded(t: &mut T) -> T {
     let mut u = T::new();
     let loaded = u
         .card
-        .apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(Some(image))));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(
+            image,
+        ))));
     assert_eq!(loaded, Ok(()));
     u
 }
@@ -191,7 +193,7 @@ fn save_keeps_power_values_and_factory_reset_restores_the_seed_defaults() {
     // No image (`$$$` without a saved file): the seed's defaults, converted.
     let _ = u
         .card
-        .apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(None)));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(None)));
     assert_eq!(value(&mut u, "Motor[1].Servo.Kp"), 4.0);
     assert_eq!(value(&mut u, "Motor[1].HomeVel"), 10.0);
     assert!((m(&u, 230) / (4.0 * 524_288.0 / 96.0) - 1.0).abs() < 1e-9);

@@ -5,7 +5,7 @@ use super::exec::{Exec, Flow, Out};
 use super::image::Effect;
 use super::{Pmac, Session};
 use crate::domain::ErrCode;
-use crate::lang::ast::CmdKind;
+use crate::lang::pmac::ast::CmdKind;
 
 /// `VERSION` reply. [DECISION] `1.17` rather than the digest's `1.17C`: host software requires
 /// `^\d+\.\d+$` (host-protocols §0 item 2).

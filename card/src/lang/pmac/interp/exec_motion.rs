@@ -6,7 +6,7 @@ use super::exec::{Exec, Out};
 use super::{Pmac, Session};
 use crate::coord::axes::AXES;
 use crate::domain::{CsNum, ErrCode, MotorNum};
-use crate::lang::ast::{Axis, CmdKind, JogKind};
+use crate::lang::pmac::ast::{Axis, CmdKind, JogKind};
 use crate::model::{axis_def_legal, axis_def_text};
 use crate::model::{format_position, format_value};
 use crate::model::{Action, ActionKind};
@@ -422,7 +422,7 @@ impl Pmac<'_> {
 
     /// Word offset of label N`label` in PROG `prog` (0 for N0 or when absent).
     pub(crate) fn label_offset(&self, prog: u32, label: u32) -> u32 {
-        use crate::lang::ast::StmtKind;
+        use crate::lang::pmac::ast::StmtKind;
         use crate::model::StoredLine;
         let Some(p) = u16::try_from(prog)
             .ok()
@@ -446,7 +446,7 @@ impl Pmac<'_> {
 
     /// `LEARN[(axes)]`: append the present commanded axis positions to the open motion buffer.
     fn learn(&mut self, s: &Session, list: Option<&[Axis]>) -> Exec {
-        use crate::lang::ast::{AxisWord, Expr, Pos, Stmt, StmtKind};
+        use crate::lang::pmac::ast::{AxisWord, Expr, Pos, Stmt, StmtKind};
         let open = self
             .mem
             .open

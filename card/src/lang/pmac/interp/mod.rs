@@ -331,7 +331,7 @@ impl Card {
     pub(crate) fn exec_pmac(
         &mut self,
         s: &mut Session,
-        cmd: &crate::lang::ast::CmdKind,
+        cmd: &crate::lang::pmac::ast::CmdKind,
     ) -> Result<Vec<String>, ErrCode> {
         let mut out = exec::Out::default();
         self.view().exec_cmd(s, cmd, &mut out)?;

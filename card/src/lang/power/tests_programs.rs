@@ -7,7 +7,7 @@
 use super::{CmdQueue, Power};
 use crate::core::rig::{LoopbackPlant, NODES};
 use crate::domain::Profile;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::servo::Servo;
 
 pub(super) struct T {
@@ -270,7 +270,9 @@ fn saved_buffers_list_and_run_after_a_load() {
     let mut u = T::new();
     let loaded = u
         .card
-        .apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(Some(image))));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(
+            image,
+        ))));
     assert_eq!(loaded, Ok(()));
     assert_eq!(u.send("list prog 12"), listing);
     assert_eq!(u.send("list plc 4"), "P62 = P62 + 1\r\n");
@@ -286,7 +288,7 @@ fn saved_buffers_list_and_run_after_a_load() {
     // A reset without an image erases buffers and their text.
     let _ = u
         .card
-        .apply_loaded(crate::lang::interp::EffectResult::Loaded(Ok(None)));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(None)));
     assert!(u.send("list prog 12").contains("error #21:"));
     assert_eq!(u.send("buffer"), "");
 }

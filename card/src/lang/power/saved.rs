@@ -7,10 +7,11 @@
 //! format 2 that does not know the field ignores it — so the format number stays 2.
 
 use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
 use super::listing::{self, Sources};
 use super::{program, progvars};
-use crate::model::{BufId, CardModel, ProgLine};
+use crate::model::{BufId, CardModel, ImageHooks, ImagePart, PartLoad, ProgLine};
 
 pub(crate) use super::mvars::SavedM;
 
@@ -224,4 +225,59 @@ fn rebuild(card: &mut CardModel, id: BufId, text: Vec<String>, stack: u32) -> Op
         .sources
         .insert(id, text, stored, stack);
     Some(())
+}
+
+/// The dialect's part of the saved image: `sources`, `mvars`, `elems` (each only when it
+/// holds something, in that order: a PMAC2/Turbo card's image has none of them).
+pub(crate) const HOOKS: ImageHooks = ImageHooks {
+    export: export_part,
+    load: load_part,
+};
+
+fn export_part(card: &CardModel) -> ImagePart {
+    let mut part = Vec::new();
+    let mut add = |name: &str, v: Result<Value, serde_json::Error>| {
+        if let Ok(v) = v {
+            part.push((name.to_string(), v));
+        }
+    };
+    let sources = export(card);
+    if !sources.is_empty() {
+        add("sources", serde_json::to_value(sources));
+    }
+    let m = export_m(card);
+    if !m.is_empty() {
+        add("mvars", serde_json::to_value(m));
+    }
+    let elems = export_elems(card);
+    if !elems.is_empty() {
+        add("elems", serde_json::to_value(elems));
+    }
+    ImagePart(part)
+}
+
+/// Field `name` of `part` as a `T` (absent or unreadable: `T`'s default).
+fn field<T: for<'de> Deserialize<'de> + Default>(part: &ImagePart, name: &str) -> T {
+    part.get(name)
+        .and_then(|v| T::deserialize(v).ok())
+        .unwrap_or_default()
+}
+
+fn load_part(card: &mut CardModel, how: PartLoad) {
+    match how {
+        PartLoad::Factory => {
+            restore(card, Vec::new());
+            restore_m(card, SavedM::default());
+            restore_elems(card, Vec::new(), true);
+        }
+        PartLoad::Reinit => {
+            restore(card, Vec::new());
+            restore_elems(card, Vec::new(), true);
+        }
+        PartLoad::Image(part) => {
+            restore(card, field(&part, "sources"));
+            restore_m(card, field(&part, "mvars"));
+            restore_elems(card, field(&part, "elems"), false);
+        }
+    }
 }

@@ -3,8 +3,8 @@
 use crate::domain::ast::*;
 use crate::domain::eval::*;
 use crate::domain::ErrCode;
-use crate::lang::ast::Item;
-use crate::lang::{LineParser, Mode};
+use crate::lang::pmac::ast::Item;
+use crate::lang::pmac::{LineParser, Mode};
 use std::collections::HashMap;
 
 struct TestEnv {
@@ -45,7 +45,7 @@ fn ev(text: &str, env: &mut TestEnv) -> f64 {
     let mut p = LineParser::new(line.as_bytes()).unwrap();
     match p.next_item(Mode::Online).unwrap().unwrap() {
         Item::Cmd(c) => match c.kind {
-            crate::lang::ast::CmdKind::VarAssign(_, e) => eval(&e, env).unwrap(),
+            crate::lang::pmac::ast::CmdKind::VarAssign(_, e) => eval(&e, env).unwrap(),
             k => panic!("{k:?}"),
         },
         i => panic!("{i:?}"),
@@ -129,7 +129,7 @@ fn variable_errors_propagate() {
     let Some(Ok(Item::Cmd(c))) = p.next_item(Mode::Online) else {
         panic!()
     };
-    let crate::lang::ast::CmdKind::VarAssign(_, x) = c.kind else {
+    let crate::lang::pmac::ast::CmdKind::VarAssign(_, x) = c.kind else {
         panic!()
     };
     assert_eq!(eval(&x, &mut e).unwrap_err().code, ErrCode::Data);
@@ -150,14 +150,18 @@ fn pmac48_rounding() {
 fn conditions_and_binds_tighter_than_or() {
     let mut e = env();
     let line = b"IF (P1=25 OR P2=0 AND P5=0)";
-    let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
-    let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
+    let stmts =
+        crate::lang::pmac::parse_program_line(line, crate::lang::pmac::ast::BufferKind::Prog)
+            .unwrap();
+    let crate::lang::pmac::ast::StmtKind::If(c) = &stmts[0].kind else {
         panic!()
     };
     assert!(eval_cond(c, &mut e).unwrap());
     let line = b"IF ((P1=25 OR P2=0) AND P5=0)";
-    let stmts = crate::lang::parse_program_line(line, crate::lang::ast::BufferKind::Prog).unwrap();
-    let crate::lang::ast::StmtKind::If(c) = &stmts[0].kind else {
+    let stmts =
+        crate::lang::pmac::parse_program_line(line, crate::lang::pmac::ast::BufferKind::Prog)
+            .unwrap();
+    let crate::lang::pmac::ast::StmtKind::If(c) = &stmts[0].kind else {
         panic!()
     };
     assert!(!eval_cond(c, &mut e).unwrap());

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use super::{exec, Thread};
 use crate::domain::profile::POWER_SUBPROG_BASE;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::BufId;
 
 /// Longest listing one command sends (lines), as for other list replies.

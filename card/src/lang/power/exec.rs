@@ -9,8 +9,8 @@ use super::parse::{self, Cmd, CsCmd, ElemRef, Fam, MotorCmd, Parsed, Sel, EXT_EL
 use super::{Thread, MAX_LINE};
 use crate::domain::ast::{Expr, VarIndex, VarKind};
 use crate::domain::eval::{self, Env, EvalError};
-use crate::lang::ast::CmdKind;
-use crate::lang::interp::{Card, Session};
+use crate::lang::CmdKind;
+use crate::lang::{Card, Session};
 use crate::model::CardModel;
 
 /// The acknowledge ending every line's output.

@@ -21,7 +21,7 @@ use super::parse::{
 use super::{Thread, LOCALS};
 use crate::domain::ast::{Expr, VarKind};
 use crate::domain::eval::{self, Env, EvalError};
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::{BufId, CardModel, ExtAt, ExtError, ExtVars, Thread as ExecThread};
 
 /// Element `k` of the program element table is `Ext(EXT_PELEM + k)`.
@@ -308,6 +308,10 @@ impl ExtVars for ProgVars {
 
     fn as_any(&self) -> &dyn Any {
         self
+    }
+
+    fn image_hooks(&self) -> Option<crate::model::ImageHooks> {
+        Some(super::saved::HOOKS)
     }
 }
 

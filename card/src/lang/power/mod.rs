@@ -84,7 +84,7 @@ mod tests_units;
 use crate::domain::PowerErr;
 use std::collections::HashMap;
 
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::{BufId, ProgLine};
 pub(crate) use host_effect::PowerWait;
 
@@ -419,7 +419,7 @@ impl Power {
             self.wait = Some(wait);
             return Some(out);
         }
-        let mut s = crate::lang::interp::Session::with_id(0);
+        let mut s = crate::lang::Session::with_id(0);
         let _ = card.run_detached(&mut s, pmac);
         Some(if text == "save" {
             exec::frame(th, line, None)

@@ -11,7 +11,7 @@ use super::exec::{Exec, Out};
 use super::line::LineRun;
 use super::{Pmac, Session};
 use crate::domain::{ErrCode, NodeNum};
-use crate::lang::ast::{CmdKind, SlaveCmd, SlaveVar, VarIndex, VarRef};
+use crate::lang::pmac::ast::{CmdKind, SlaveCmd, SlaveVar, VarIndex, VarRef};
 use crate::model::format_value as number;
 use crate::model::macro_aux::{
     format_value, slave_request, AuxFailure, AuxOwner, Begin, Protocol, X0798_TIMEOUT,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Pmac;
 use crate::domain::ast::AxisDef;
-use crate::model::{persist, user_memory_words, Buffers, ProgLine, RunState, PLCS};
+use crate::model::{persist, user_memory_words, Buffers, PartLoad, ProgLine, RunState, PLCS};
 
 /// PMAC2 register holding the end of unreserved memory (X:$0F3F).
 const UNRESERVED_END_REG: u32 = 0x0F3F;
@@ -90,21 +90,11 @@ pub(super) struct InterpImageV2 {
     pub defines: crate::model::Defines,
     /// Axis definitions: (motor, C.S., definition text such as `1000X+500`).
     pub axes: Vec<(u16, u16, String)>,
-    /// A Power card's buffers as entered (`lang::ppmac::saved`; absent in older files and on
-    /// other profiles). They replace the buffers `progs`/`plcs` rebuild.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub sources: Vec<crate::lang::ppmac::saved::SourceText>,
-    /// A Power card's M-variable definitions and self-referenced values (absent in older
-    /// files and on other profiles).
-    #[serde(
-        default,
-        skip_serializing_if = "crate::lang::ppmac::saved::SavedM::is_empty"
-    )]
-    pub mvars: crate::lang::ppmac::saved::SavedM,
-    /// A Power card's saved setup elements held in Power units (absent in older files and on
-    /// other profiles).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub elems: Vec<crate::lang::ppmac::saved::SavedElem>,
+    /// The installed language's own fields (a Power card's `sources`, `mvars`, `elems`;
+    /// none on PMAC2/Turbo and in older files), written after these and read back whole
+    /// (`model::ImagePart`). They replace the buffers `progs`/`plcs` rebuild.
+    #[serde(flatten)]
+    pub dialect: crate::model::ImagePart,
 }
 
 fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
@@ -113,7 +103,7 @@ fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
         lines: p
             .lines
             .iter()
-            .map(|l| crate::lang::listing::line(&l.stmts, false))
+            .map(|l| crate::lang::pmac::listing::line(&l.stmts, false))
             .collect(),
         valid: p.valid,
     }
@@ -121,7 +111,10 @@ fn prog_text(n: u16, p: &crate::model::Program<ProgLine>) -> ProgText {
 
 /// Parse listing lines back into stored lines (a line that no longer parses is dropped and
 /// the program marked invalid: it cannot run until fixed).
-fn parse_lines(lines: &[String], kind: crate::lang::ast::BufferKind) -> (Vec<ProgLine>, bool) {
+fn parse_lines(
+    lines: &[String],
+    kind: crate::lang::pmac::ast::BufferKind,
+) -> (Vec<ProgLine>, bool) {
     let mut ok = true;
     let mut out = Vec::with_capacity(lines.len());
     for l in lines {
@@ -131,7 +124,7 @@ fn parse_lines(lines: &[String], kind: crate::lang::ast::BufferKind) -> (Vec<Pro
             out.push(<ProgLine as crate::model::StoredLine>::return_line());
             continue;
         }
-        match crate::lang::parse_program_line(l.as_bytes(), kind) {
+        match crate::lang::pmac::parse_program_line(l.as_bytes(), kind) {
             Ok(stmts) if !stmts.is_empty() => out.push(ProgLine::new(stmts)),
             _ => ok = false,
         }
@@ -159,7 +152,7 @@ impl Pmac<'_> {
                     lines: r
                         .lines
                         .iter()
-                        .map(|l| crate::lang::listing::line(&l.stmts, false))
+                        .map(|l| crate::lang::pmac::listing::line(&l.stmts, false))
                         .collect(),
                 })
                 .collect(),
@@ -175,19 +168,16 @@ impl Pmac<'_> {
                         .map(|(cs, d)| (k as u16 + 1, *cs, crate::model::axis_def_text(d)))
                 })
                 .collect(),
-            sources: crate::lang::ppmac::saved::export(self.model),
-            mvars: crate::lang::ppmac::saved::export_m(self.model),
-            elems: crate::lang::ppmac::saved::export_elems(self.model),
+            dialect: self.model.export_image_part(),
         };
         serde_json::to_vec(&img).unwrap_or_default()
     }
 
-    /// Restore INTERP's saved part of format 2; a Power card's saved setup elements are
-    /// returned.
-    fn load_blob_v2(&mut self, blob: &[u8]) -> Vec<crate::lang::ppmac::saved::SavedElem> {
-        use crate::lang::ast::{BufferKind, CmdKind};
+    /// Restore INTERP's saved part of format 2; the installed language's part is returned.
+    fn load_blob_v2(&mut self, blob: &[u8]) -> crate::model::ImagePart {
+        use crate::lang::pmac::ast::{BufferKind, CmdKind};
         let Ok(img) = serde_json::from_slice::<InterpImageV2>(blob) else {
-            return Vec::new();
+            return crate::model::ImagePart::default();
         };
         let lim = self.model.state.limits();
         let b = &mut self.model.bufs;
@@ -225,7 +215,7 @@ impl Pmac<'_> {
         b.defines = img.defines;
         for (m, cs, text) in img.axes {
             let line = format!("#{m}->{text}");
-            let def = crate::lang::parse_line(line.as_bytes())
+            let def = crate::lang::pmac::parse_line(line.as_bytes())
                 .ok()
                 .and_then(|cmds| cmds.into_iter().last())
                 .and_then(|c| match c.kind {
@@ -241,9 +231,7 @@ impl Pmac<'_> {
                 }
             }
         }
-        crate::lang::ppmac::saved::restore(self.model, img.sources);
-        crate::lang::ppmac::saved::restore_m(self.model, img.mvars);
-        img.elems
+        img.dialect
     }
 
     /// Restore INTERP's saved part (an undecodable blob leaves empty buffers).
@@ -252,18 +240,14 @@ impl Pmac<'_> {
         let profile = self.model.profile();
         self.model.run = RunState::new(lim.motors, lim.coords, PLCS);
         self.model.bufs = Buffers::new(user_memory_words(profile));
-        // The buffers are gone: so are a Power card's buffer texts and M-variables (the image
-        // brings its own).
-        crate::lang::ppmac::saved::restore(self.model, Vec::new());
-        crate::lang::ppmac::saved::restore_m(self.model, Default::default());
+        // The buffers are gone: so is the language's part (the image brings its own).
         if blob.is_empty() {
-            // No image: a Power card's setup elements at the seed's defaults.
-            crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), true);
+            self.model.load_image_part(PartLoad::Factory);
             return;
         }
         if format >= 2 {
-            let elems = self.load_blob_v2(blob);
-            crate::lang::ppmac::saved::restore_elems(self.model, elems, false);
+            let part = self.load_blob_v2(blob);
+            self.model.load_image_part(PartLoad::Image(part));
             return;
         }
         let cfg = bincode::config::standard().with_limit::<{ 64 << 20 }>();
@@ -280,7 +264,8 @@ impl Pmac<'_> {
                 self.model.run.axes[k] = a.filter(|(c, _)| *c >= 1 && *c <= lim.coords);
             }
         }
-        crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), false);
+        self.model
+            .load_image_part(PartLoad::Image(crate::model::ImagePart::default()));
     }
 
     /// The encoded image `SAVE` writes.
@@ -339,8 +324,7 @@ impl Pmac<'_> {
         let profile = self.model.profile();
         self.model.state.factory();
         self.model.bufs = Buffers::new(user_memory_words(profile));
-        crate::lang::ppmac::saved::restore(self.model, Vec::new());
-        crate::lang::ppmac::saved::restore_elems(self.model, Vec::new(), true);
+        self.model.load_image_part(PartLoad::Reinit);
         self.mem.open = None;
         self.mem.pending_table = None;
         let lim = self.model.state.limits();

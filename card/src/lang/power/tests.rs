@@ -2,7 +2,7 @@
 
 use super::Power;
 use crate::domain::Profile;
-use crate::lang::interp::Card;
+use crate::lang::Card;
 
 struct T {
     card: Card,

@@ -3,7 +3,7 @@
 //! and writing through them, the saved image, bad input.
 
 use super::tests_programs::T;
-use crate::lang::interp::EffectResult;
+use crate::lang::EffectResult;
 
 /// The seed's examples of `Mn->` queries (L36855-36866) and definitions (L36975-36980,
 /// L37010-37019, L37066-37072).

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use super::parse::{AxisReport, SyntaxError, EXT_C, EXT_D, EXT_L};
 use super::{progvars, OpenBuf, Power, Thread};
-use crate::lang::interp::Card;
+use crate::lang::Card;
 use crate::model::BufId;
 use crate::model::KinRoutine;
 use crate::model::{CardModel, ExtAt};

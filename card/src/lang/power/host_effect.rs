@@ -6,7 +6,7 @@ use super::exec::{frame, render};
 use super::parse::SyntaxError;
 use super::{Power, Thread};
 use crate::domain::PowerErr;
-use crate::lang::interp::{Card, Effect};
+use crate::lang::{Card, Effect};
 
 /// \[DECISION\] The error a `save` that could not be written answers: the Power number of
 /// the PMAC dialect's failed SAVE (ERR003 → error #21, as `exec::from_pmac` maps it; the

@@ -5,7 +5,7 @@ use super::exec::Out;
 use super::reply::{command_checksum, control_line};
 use super::{Pmac, Session};
 use crate::domain::CsNum;
-use crate::lang::ast::CmdKind;
+use crate::lang::pmac::ast::CmdKind;
 use crate::model::format_position;
 use crate::model::{Action, ActionKind};
 
@@ -180,7 +180,7 @@ impl Pmac<'_> {
                 if self.mem.open.is_none() {
                     let _ = self.exec_buffers(
                         s,
-                        &CmdKind::Open(crate::lang::ast::OpenTarget::Rotary),
+                        &CmdKind::Open(crate::lang::pmac::ast::OpenTarget::Rotary),
                         &mut Out::default(),
                     );
                 }

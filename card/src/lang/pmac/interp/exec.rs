@@ -3,7 +3,7 @@
 
 use super::{Pmac, Session};
 use crate::domain::ErrCode;
-use crate::lang::ast::CmdKind;
+use crate::lang::pmac::ast::CmdKind;
 
 /// Result of one command: `Err(n)` = report `ERRnnn`.
 pub(crate) type Exec = Result<(), ErrCode>;

@@ -5,7 +5,7 @@
 use super::exec::Exec;
 use super::{Pmac, Session};
 use crate::domain::ErrCode;
-use crate::lang::ast::{DefineTarget, DeleteTarget};
+use crate::lang::pmac::ast::{DefineTarget, DeleteTarget};
 use crate::model::{BufId, Rotary};
 use crate::model::{CompTable, Layer, TableKind, TBUF_WORDS};
 
@@ -201,8 +201,8 @@ impl Pmac<'_> {
 fn comp_def_text(
     rows: u32,
     cols: Option<u32>,
-    motors: &[crate::lang::ast::CompMotor],
-    spans: &[crate::lang::ast::Number],
+    motors: &[crate::lang::pmac::ast::CompMotor],
+    spans: &[crate::lang::pmac::ast::Number],
     owner: u8,
 ) -> String {
     use crate::model::format_value;
