@@ -5,7 +5,7 @@
 //! with its own addressed motor/C.S., echo mode, L/R stack and open buffer (power-pmac.md
 //! §2.13). It prints [`BANNER`] when it starts, then reads one command line at a time; the
 //! reply to each line (its output, then `ACK CR LF`, also for an empty line: hosts wait for
-//! the `ACK`) is the Power dialect's (`lang::ppmac::Power::line`), sent as it is.
+//! the `ACK`) is the Power dialect's (`lang::Dialect::whole_line`), sent as it is.
 //!
 //! [`LineSplitter`] reads the raw TCP ("Telnet") port: `CR`, `LF` and `CR LF` each end one line,
 //! Telnet `IAC` negotiation is dropped, `<CTRL-C>` / `<CTRL-D>` end the session (as they end

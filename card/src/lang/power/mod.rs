@@ -6,7 +6,7 @@
 //! ends with CR LF, errors read `stdin:{line}:{col}: error #{n}: {TEXT}: {the line}`, and
 //! every line is acknowledged with ACK CR LF (host tools wait for it).
 //!
-//! The dialect runs against the same card as the PMAC dialect (`lang::interp::Card`): the
+//! The dialect runs against the same card as the PMAC dialect (`lang::Card`): the
 //! model's P/Q/M variables, its I-variables (Power numbering mapped onto the model's Turbo
 //! numbering: Power motor `x` is model motor `x+1`, C.S. `x` model C.S. `x+1`, `I8000+n` the
 //! model's global `In`), and the PMAC executors for motor and C.S. commands (jogs, homing,
