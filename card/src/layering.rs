@@ -215,7 +215,11 @@ fn dialects_are_siblings_and_named_only_inside_lang() {
     let mut violations = Vec::new();
     let mut seen = [0usize; 3];
     for f in rust_files(&src).iter().filter(|f| !is_test_file(f)) {
-        let rel = f.strip_prefix(&src).unwrap_or(f).to_string_lossy().replace('\\', "/");
+        let rel = f
+            .strip_prefix(&src)
+            .unwrap_or(f)
+            .to_string_lossy()
+            .replace('\\', "/");
         let place = if rel.starts_with("lang/pmac/") {
             seen[0] += 1;
             "pmac"
@@ -246,8 +250,14 @@ fn dialects_are_siblings_and_named_only_inside_lang() {
 
 #[test]
 fn the_checker_sees_a_dialect_named_across_the_seam() {
-    assert_eq!(dialect_violations("pmac", "use crate::lang::power::x;"), ["lang::power"]);
-    assert_eq!(dialect_violations("power", "use crate::lang::pmac::ast;"), ["lang::pmac"]);
+    assert_eq!(
+        dialect_violations("pmac", "use crate::lang::power::x;"),
+        ["lang::power"]
+    );
+    assert_eq!(
+        dialect_violations("power", "use crate::lang::pmac::ast;"),
+        ["lang::pmac"]
+    );
     assert_eq!(
         dialect_violations("outside", "let p = Power::new();"),
         ["Power::"]

@@ -9,6 +9,7 @@ pub mod ast;
 mod error;
 pub(crate) mod eval;
 mod ids;
+mod mdef_text;
 pub(crate) mod profile;
 pub(crate) mod words;
 

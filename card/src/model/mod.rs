@@ -27,6 +27,7 @@ mod memory;
 mod mvar;
 mod number;
 pub(crate) mod persist;
+mod persist_v3;
 mod progline;
 mod regmap;
 mod runstate;

@@ -9,11 +9,14 @@
 //! File format (little endian): magic `MCCSAVE\0` (8 bytes), format version u32, payload
 //! length u64, payload, FNV-1a 64 of the payload (u64).
 //!
-//! Format versions: 2 (written now): the payload is a JSON document of [`PersistImage`], and
-//! its `programs` part is the interpreter's JSON with programs and PLCs as their canonical
-//! listing text, so adding a statement kind never breaks an old file. 1 (read only): bincode.
-//! A version above [`VERSION`] is refused naming both versions. `tests/golden/` holds a file
-//! of every version that later versions must load (a test).
+//! Format versions: 3 (written now): the payload is the JSON schema of `persist_v3`, the
+//! product's own (M-definitions as text, regions naming their space, the interpreter's part
+//! embedded as JSON with programs and PLCs as their canonical listing text), so neither a new
+//! statement kind nor a renamed internal type breaks an old file. 2 (read only, a converter):
+//! the internal [`PersistImage`] as JSON, the interpreter's part as a byte array. 1 (read
+//! only, a converter): bincode. A version above [`VERSION`] is refused naming both versions.
+//! `tests/golden/` holds a file of every version and profile that later versions must load
+//! (tests in `service::storage`).
 //! Pure: the file itself is written by the runtime (`service::storage`: temporary file, fsync,
 //! rename, fsync the directory, so a crash leaves either the old or the new file).
 
@@ -24,7 +27,7 @@ use serde::{Deserialize, Serialize};
 /// File magic.
 pub(crate) const MAGIC: &[u8; 8] = b"MCCSAVE\0";
 /// Format version written.
-pub(crate) const VERSION: u32 = 2;
+pub(crate) const VERSION: u32 = 3;
 /// Oldest format version read.
 pub(crate) const OLDEST: u32 = 1;
 /// Largest payload accepted when loading (bytes).
@@ -105,7 +108,8 @@ pub(crate) fn fnv1a64(data: &[u8]) -> u64 {
 pub(crate) fn encode(image: &PersistImage) -> Vec<u8> {
     // Encoding plain data into a Vec cannot fail (every stored number is finite); an empty
     // payload is still a valid frame.
-    let payload = serde_json::to_vec(image).unwrap_or_default();
+    let payload =
+        serde_json::to_vec(&super::persist_v3::ImageV3::from_image(image)).unwrap_or_default();
     let mut out = Vec::with_capacity(HEADER + payload.len() + 8);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
@@ -169,8 +173,12 @@ pub(crate) fn decode(bytes: &[u8]) -> Result<PersistImage, PersistError> {
             return Err(PersistError::Decode("trailing bytes in payload".into()));
         }
         image
-    } else {
+    } else if version == 2 {
         serde_json::from_slice(payload).map_err(|e| PersistError::Decode(e.to_string()))?
+    } else {
+        serde_json::from_slice::<super::persist_v3::ImageV3>(payload)
+            .map_err(|e| PersistError::Decode(e.to_string()))?
+            .into_image()?
     };
     image.format = version;
     Ok(image)

@@ -12,4 +12,6 @@ pub(crate) mod storage;
 pub(crate) mod sync_start;
 
 #[cfg(test)]
+mod tests_golden;
+#[cfg(test)]
 mod tests_save;

@@ -318,12 +318,12 @@ mod tests {
     #[test]
     fn a_save_file_of_a_newer_format_is_refused_with_a_clear_message() {
         let mut bytes = Card::new(Profile::Pmac2).save_image();
-        bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+        bytes[8..12].copy_from_slice(&4u32.to_le_bytes());
         let e = crate::model::persist::decode(&bytes)
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("format version 3") && e.contains("reads versions 1 to 2"),
+            e.contains("format version 4") && e.contains("reads versions 1 to 3"),
             "{e}"
         );
         let mut c = Card::new(Profile::Pmac2);

@@ -5,15 +5,15 @@
 //!
 //! The word-count model of stored statements is the domain's (`crate::domain::words`).
 
-use std::fmt::{self, Write};
+use std::fmt::Write;
 
 #[cfg(test)]
 use super::ast::AxisDef;
 
 use super::ast::{
     AssignOp, Axis, AxisExtra, AxisWord, BinOp, CmpOp, CodeLetter, Cond, Display, Expr, ExprKind,
-    Func, LetterArg, MDef, MFormat, Message, MoveMode, NumRange, Number, PlcVerb, PreludeCall,
-    SendPort, SlaveVar, Stmt, StmtKind, VarIndex, VarKind, VarRef, XySpace,
+    Func, LetterArg, Message, MoveMode, NumRange, Number, PlcVerb, PreludeCall, SendPort, SlaveVar,
+    Stmt, StmtKind, VarIndex, VarKind, VarRef,
 };
 
 /// A literal as written: `$hex` kept, decimals in shortest round-trip form, never exponent.
@@ -450,70 +450,6 @@ pub(crate) fn stmt(s: &Stmt, long: bool) -> String {
                 slave_var(sv),
                 var(src)
             )
-        }
-    }
-}
-
-fn fmt_letter(f: MFormat) -> char {
-    match f {
-        MFormat::U => 'U',
-        MFormat::S => 'S',
-        MFormat::D => 'D',
-        MFormat::C => 'C',
-    }
-}
-
-/// `X:$C001,24,S`, `Y:$FFC2,8`, `Y:$C003,8,16,S`, `D:$002C`, `*` (the `Mn->` reply body).
-impl fmt::Display for MDef {
-    /// `X:$C001,24,S`; the alternate form (`{:#}`) prints six address digits as a Turbo card
-    /// does (`D:$00008B`).
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let w = if f.alternate() { 6 } else { 4 };
-        match *self {
-            MDef::SelfRef => write!(f, "*"),
-            MDef::Bits {
-                space,
-                addr,
-                offset,
-                width,
-                format,
-            } => {
-                let sp = if space == XySpace::X { 'X' } else { 'Y' };
-                match width {
-                    1 => write!(f, "{sp}:${addr:0w$X},{offset}"),
-                    24 => write!(f, "{sp}:${addr:0w$X},24,{}", fmt_letter(format)),
-                    _ => write!(
-                        f,
-                        "{sp}:${addr:0w$X},{offset},{width},{}",
-                        fmt_letter(format)
-                    ),
-                }
-            }
-            MDef::D(a) => write!(f, "D:${a:0w$X}"),
-            MDef::L(a) => write!(f, "L:${a:0w$X}"),
-            MDef::F(a) => write!(f, "F:${a:0w$X}"),
-            MDef::Dp(a) => write!(f, "DP:${a:0w$X}"),
-            MDef::Twb {
-                mux,
-                offset,
-                size,
-                format,
-            } => write!(f, "TWB:{mux},{offset},{size},{}", fmt_letter(format)),
-            MDef::Twd {
-                mux,
-                offset,
-                digits,
-                decimals,
-                format,
-            } => {
-                write!(
-                    f,
-                    "TWD:{mux},{offset},{digits}.{decimals},{}",
-                    fmt_letter(format)
-                )
-            }
-            MDef::Twr { mux, offset } => write!(f, "TWR:{mux},{offset}"),
-            MDef::Tws { mux } => write!(f, "TWS:{mux}"),
         }
     }
 }

@@ -166,8 +166,8 @@ pub(crate) fn register_name(card: &CardModel, a: f64, out: bool) -> Option<Strin
 mod tests {
     use super::*;
     use crate::domain::Profile;
-    use crate::lang::Card;
     use crate::lang::power::Power;
+    use crate::lang::Card;
 
     fn send(card: &mut Card, p: &mut Power, line: &str) -> String {
         let r = String::from_utf8(p.line(card, 1, line.as_bytes())).unwrap();

@@ -270,9 +270,7 @@ fn saved_buffers_list_and_run_after_a_load() {
     let mut u = T::new();
     let loaded = u
         .card
-        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(
-            image,
-        ))));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(image))));
     assert_eq!(loaded, Ok(()));
     assert_eq!(u.send("list prog 12"), listing);
     assert_eq!(u.send("list plc 4"), "P62 = P62 + 1\r\n");

@@ -12,9 +12,7 @@ pub(super) fn reloaded(t: &mut T) -> T {
     let mut u = T::new();
     let loaded = u
         .card
-        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(
-            image,
-        ))));
+        .apply_loaded(crate::lang::EffectResult::Loaded(Ok(Some(image))));
     assert_eq!(loaded, Ok(()));
     u
 }

@@ -76,6 +76,83 @@ pub(super) struct RotaryText {
     pub lines: Vec<String>,
 }
 
+/// One compensation table as saved (the schema's own form of `model::CompTable`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(super) struct TableText {
+    /// The definition as `LIST COMP DEF` lists it (`100,#2,#2,100000`).
+    pub def: String,
+    /// Entries expected.
+    pub entries: u32,
+    /// Entries received (1/16 count units).
+    pub data: Vec<i64>,
+}
+
+/// The DEFINE'd buffers as saved (the schema's own form of `model::Defines`; the field names
+/// are the saved format's, whatever the model calls them).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub(super) struct DefinesText {
+    /// `DEFINE UBUFFER n` (0: none).
+    pub ubuffer: u32,
+    /// Leadscrew tables by motor.
+    pub comp: std::collections::BTreeMap<u8, TableText>,
+    /// Torque tables by motor.
+    pub tcomp: std::collections::BTreeMap<u8, TableText>,
+    /// Backlash tables by motor.
+    pub blcomp: std::collections::BTreeMap<u8, TableText>,
+    /// Transformation matrices (`DEFINE TBUF n`).
+    pub tbuf: u32,
+    /// Gather buffer words (`DEFINE GATHER n`).
+    pub gather: Option<u32>,
+}
+
+impl DefinesText {
+    fn of(d: &crate::model::Defines) -> Self {
+        let tables = |m: &std::collections::BTreeMap<u8, crate::model::CompTable>| {
+            m.iter()
+                .map(|(k, t)| {
+                    let t = TableText {
+                        def: t.def.clone(),
+                        entries: t.entries,
+                        data: t.data.clone(),
+                    };
+                    (*k, t)
+                })
+                .collect()
+        };
+        DefinesText {
+            ubuffer: d.ubuffer,
+            comp: tables(&d.comp),
+            tcomp: tables(&d.tcomp),
+            blcomp: tables(&d.blcomp),
+            tbuf: d.tbuf,
+            gather: d.gather,
+        }
+    }
+
+    fn into_defines(self) -> crate::model::Defines {
+        let tables = |m: std::collections::BTreeMap<u8, TableText>| {
+            m.into_iter()
+                .map(|(k, t)| {
+                    let t = crate::model::CompTable {
+                        def: t.def,
+                        entries: t.entries,
+                        data: t.data,
+                    };
+                    (k, t)
+                })
+                .collect()
+        };
+        crate::model::Defines {
+            ubuffer: self.ubuffer,
+            comp: tables(self.comp),
+            tcomp: tables(self.tcomp),
+            blcomp: tables(self.blcomp),
+            tbuf: self.tbuf,
+            gather: self.gather,
+        }
+    }
+}
+
 /// INTERP's part of the saved image, format 2: programs as text, so an old file still reads
 /// when the statement forms grow (JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -87,7 +164,7 @@ pub(super) struct InterpImageV2 {
     /// Rotary buffers.
     pub rotary: Vec<RotaryText>,
     /// DEFINE'd buffers (gather size, TBUF, compensation tables, UBUFFER).
-    pub defines: crate::model::Defines,
+    pub defines: DefinesText,
     /// Axis definitions: (motor, C.S., definition text such as `1000X+500`).
     pub axes: Vec<(u16, u16, String)>,
     /// The installed language's own fields (a Power card's `sources`, `mvars`, `elems`;
@@ -156,7 +233,7 @@ impl Pmac<'_> {
                         .collect(),
                 })
                 .collect(),
-            defines: b.defines.clone(),
+            defines: DefinesText::of(&b.defines),
             axes: self
                 .model
                 .run
@@ -212,7 +289,7 @@ impl Pmac<'_> {
                 },
             );
         }
-        b.defines = img.defines;
+        b.defines = img.defines.into_defines();
         for (m, cs, text) in img.axes {
             let line = format!("#{m}->{text}");
             let def = crate::lang::pmac::parse_line(line.as_bytes())
