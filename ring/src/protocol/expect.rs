@@ -33,9 +33,9 @@
 //! synchronizing master judges its own frame one cycle later (it comes back during the next).
 
 use crate::check::CheckParams;
-use crate::config::{ClusterConfig, MemberRef};
 use crate::control::MemberKind;
 use crate::fault::FaultKind;
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 
 /// One member as the rules see it.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -6,11 +6,11 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::config::IVarValue;
 use crate::core::RingApp;
 use crate::fault::FaultSpec;
 use crate::member::RingMember;
 use crate::sim::RingSim;
+use mcc_contracts::config::IVarValue;
 
 /// Writes something new into every node register each cycle (so packets change).
 struct Busy;
@@ -293,4 +293,70 @@ fn default_cluster_bounds() {
     );
     assert_eq!(m.safe_burst(1, FaultKind::DropSync), 4);
     assert_eq!(m.safe_burst(1, FaultKind::DropPackets), 2);
+}
+
+mod fuzz {
+    //! The ring's model of any config the config accepts: real configs with a key's value
+    //! replaced, a line dropped or lines swapped (the config's own fuzzing is mcc-contracts'
+    //! `config::tests::fuzz`) either fail to parse or give a model without a panic.
+    use super::*;
+
+    const VALUES: &[&str] = &[
+        "0",
+        "1",
+        "-1",
+        "2",
+        "255",
+        "65536",
+        "4294967296",
+        "\"\"",
+        "\"card0\"",
+        "\"station0\"",
+        "\"lockstep\"",
+        "true",
+        "[]",
+        "[\"card0\"]",
+        "{}",
+    ];
+
+    fn sample() -> String {
+        let mut d = ClusterConfig::default_cluster(2, 2);
+        d.cards[0].ivars.insert("I1001".into(), IVarValue::Int(8));
+        d.to_toml_string().unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn any_valid_config_has_a_model(
+            edits in proptest::collection::vec(
+                (any::<prop::sample::Index>(), 0u8..4, proptest::sample::select(VALUES)), 1..6),
+        ) {
+            let mut lines: Vec<String> = sample().lines().map(String::from).collect();
+            for (at, what, value) in edits {
+                let i = at.index(lines.len());
+                match what {
+                    0 | 1 => {
+                        if let Some((k, _)) = lines[i].split_once(" = ") {
+                            lines[i] = format!("{k} = {value}");
+                        }
+                    }
+                    2 => {
+                        lines.remove(i);
+                        if lines.is_empty() {
+                            break;
+                        }
+                    }
+                    _ => {
+                        let j = (i + 1) % lines.len();
+                        lines.swap(i, j);
+                    }
+                }
+            }
+            if let Ok(c) = ClusterConfig::from_toml_str(&lines.join("\n")) {
+                let _ = RingModel::from_config(&c);
+            }
+        }
+    }
 }

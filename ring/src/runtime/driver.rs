@@ -19,11 +19,11 @@ use crossbeam_channel::{Receiver, Sender};
 use tracing::{info, trace, warn};
 
 use super::pacer::Pacer;
-use crate::config::ClockMode;
 use crate::control::{CtlReply, FaultRequest, MemberStatus};
 use crate::core::{MemberCore, RingApp};
 use crate::fault::Outgoing;
 use crate::transport::{LinkRx, LinkTx, TransportError};
+use mcc_contracts::config::ClockMode;
 
 /// How a member's loop is clocked.
 #[derive(Debug, Clone)]
