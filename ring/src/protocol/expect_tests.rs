@@ -91,6 +91,7 @@ fn case() -> impl Strategy<Value = Case> {
                     Just(FaultKind::Overrun),
                     Just(FaultKind::Underrun),
                     (1u32..=6).prop_map(FaultKind::DelayCycles),
+                    (1u32..=20_000).prop_map(FaultKind::DelayMicros),
                     Just(FaultKind::Cut),
                 ],
                 prop_oneof![Just(None), (0u64..=2).prop_map(Some)],
@@ -205,6 +206,70 @@ proptest! {
     #[test]
     fn the_in_process_ring_keeps_the_rules(c in case()) {
         check(&c)?;
+    }
+}
+
+/// `delay-us=N` has one meaning (`docs/ring.md`, Faults): each frame goes on the link N µs
+/// late, and in the paced and lockstep clocks the ring waits for it — the same frames in the
+/// same cycles, only later on the wall clock. The deterministic simulator is the lockstep
+/// ring: with a delay below a period, of a period, of several and beyond the ring check's
+/// whole period, on every member, every member ticks in every cycle exactly as in the same ring
+/// without the fault (so no frame lands in another cycle), nobody counts an error or latches,
+/// and the rules ([`RingModel::expect`]) agree: quiet, whatever the burst.
+#[test]
+fn delay_us_means_the_ring_waits() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let model = RingModel::from_config(&cfg).unwrap();
+    let period_us = cfg.period_ns() / 1000;
+    let delays = [
+        50,
+        period_us as u32 - 1,
+        period_us as u32,
+        3 * period_us as u32 + 7,
+        40 * period_us as u32,
+    ];
+    for target in 0..model.members.len() {
+        assert_eq!(
+            model.safe_burst(target, FaultKind::DelayMicros(1)),
+            u64::MAX
+        );
+        for us in delays {
+            let kind = FaultKind::DelayMicros(us);
+            let what = Disturbance::Frames { kind, cycles: None };
+            assert!(model.expect(target, what).quiet(), "{kind} at {target}");
+            let (mut faulty, mut clean) = (sim(&cfg), sim(&cfg));
+            for s in [&mut faulty, &mut clean] {
+                s.run(60);
+                for i in 0..s.len() {
+                    s.member_mut(i).reset();
+                }
+            }
+            faulty.inject(target, FaultSpec::always(kind)).unwrap();
+            for _ in 0..300 {
+                let (f, c) = (faulty.step(), clean.step());
+                assert_eq!(
+                    (&f.ticks, f.completed, &f.faults),
+                    (&c.ticks, c.completed, &c.faults),
+                    "{kind} at member {target}, cycle {}",
+                    f.cycle
+                );
+            }
+            for i in 0..faulty.len() {
+                let st = faulty.member(i).status();
+                assert_eq!(
+                    st.errors,
+                    clean.member(i).status().errors,
+                    "{kind}: member {i}"
+                );
+                assert!(!st.ring_fault, "{kind} at {target}: member {i} latched");
+                assert_eq!(st.holdover_cycles, 0, "{kind} at {target}: member {i}");
+            }
+            assert_eq!(
+                faulty.member(target).status().faults.len(),
+                1,
+                "{kind} is active"
+            );
+        }
     }
 }
 

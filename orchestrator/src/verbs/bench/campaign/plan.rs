@@ -28,7 +28,7 @@ pub enum Kind {
     Underrun,
     /// `delay=N` (ring cycles).
     Delay,
-    /// `delay-us=N` (the transport holds each frame).
+    /// `delay-us=N` (the transport holds each frame N µs; the ring waits for it).
     DelayUs,
     /// `cut`.
     Cut,
