@@ -4,7 +4,7 @@ use std::ffi::OsString;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
-use mcc_ring::config::ClockMode;
+use mcc_contracts::config::ClockMode;
 
 use crate::cluster::launch;
 
@@ -568,7 +568,7 @@ pub struct BenchRingArgs {
     #[arg(long, value_name = "S", default_value_t = 5.0)]
     pub duration: f64,
     /// Realtime section: rate, Hz.
-    #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
+    #[arg(long, value_name = "HZ", default_value_t = mcc_contracts::config::DEFAULT_RATE_HZ)]
     pub rate: f64,
 }
 
@@ -588,7 +588,7 @@ pub struct BenchZenohMemberArgs {
     #[arg(long, value_name = "N", default_value_t = 20_000)]
     pub msgs: u64,
     /// Process 0: the pace of the paced run, Hz.
-    #[arg(long, value_name = "HZ", default_value_t = mcc_ring::config::DEFAULT_RATE_HZ)]
+    #[arg(long, value_name = "HZ", default_value_t = mcc_contracts::config::DEFAULT_RATE_HZ)]
     pub rate: f64,
     /// Process 0: ms of the paced run.
     #[arg(long, value_name = "MS", default_value_t = 5000)]
@@ -611,7 +611,7 @@ pub struct BenchUdpMemberArgs {
 
 fn parse_clock(s: &str) -> Result<ClockMode, String> {
     s.parse()
-        .map_err(|e: mcc_ring::config::UnknownClockMode| e.to_string())
+        .map_err(|e: mcc_contracts::config::UnknownClockMode| e.to_string())
 }
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 //! `Result<_, String>`; public errors are enums that say what went wrong (issue 10 item 3).
 //!
 //! One file, compiled into the tests of each crate that keeps the rule (mcc-ring, and
-//! mcc-station through `#[path]`); each copy scans its own crate's `src/`. Test files
-//! (`tests*.rs`, `*_tests.rs`, compiled only under `#[cfg(test)]`) and inline
+//! mcc-contracts and mcc-station through `#[path]`); each copy scans its own crate's `src/`.
+//! Test files (`tests*.rs`, `*_tests.rs`, compiled only under `#[cfg(test)]`) and inline
 //! `#[cfg(test)] mod … {` blocks are skipped (`mcc_testing::source`).
 
 use std::path::Path;

@@ -5,7 +5,7 @@ use std::ffi::OsString;
 use std::path::PathBuf;
 
 use clap::Parser;
-use mcc_ring::config::MemberRef;
+use mcc_contracts::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 

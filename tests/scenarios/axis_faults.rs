@@ -6,7 +6,7 @@
 //! FE kill (Ix11), what `#1P`/`#1F` read, the cycle the card reacts in, and the PMAC recovery.
 
 use mcc_card::Profile;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::core::RingApp;
 use mcc_station::config::NodePlantConfig;
 use serde_json::{json, Value};

@@ -7,7 +7,7 @@
 //! 12 amplifier enabled).
 
 use mcc_card::Profile;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::core::RingApp;
 use mcc_station::config::NodePlantConfig;
 

@@ -8,7 +8,7 @@
 use std::sync::{Arc, Mutex};
 
 use mcc_card::{Card, CardRingApp, Profile, Session};
-use mcc_ring::config::{ClusterConfig, DriveConfig};
+use mcc_contracts::config::{ClusterConfig, DriveConfig};
 use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::member::RingMember;
 use mcc_ring::sim::RingSim;

@@ -7,7 +7,7 @@
 use std::sync::mpsc;
 
 use mcc_card::{Card, CardHandle, CardRingApp, HostRequest, Profile, Request, Response};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;

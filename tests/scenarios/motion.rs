@@ -4,7 +4,7 @@
 //! through `Card::command_line`; commands and feedback travel over the ring only.
 
 use mcc_card::{decode_fixed, Card, CardRingApp, Profile, Session};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::core::{RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;

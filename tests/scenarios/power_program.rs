@@ -6,7 +6,7 @@
 //! number of ring cycles (`Sys.ServoCount` counts the card's servo cycles, one per ring cycle).
 
 use mcc_card::Profile;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_station::config::NodePlantConfig;
 
 use crate::motion::Rig;

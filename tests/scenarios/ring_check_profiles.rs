@@ -13,7 +13,7 @@
 //! the PMAC path's `#1J/` would address `Motor[0]`.
 
 use mcc_card::Profile;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_station::config::NodePlantConfig;
 

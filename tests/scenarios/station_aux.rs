@@ -3,11 +3,11 @@
 //! the replies come back in ring packets cycles later. Also the station ring check (MI8-MI10,
 //! break localisation, CLRF) and station SAVE.
 
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 use mcc_ring::aux_channel::{
     slave_error, AuxMaster, AuxWord, Outcome, Reply, Request, StationCmd, ValueFormat, AUX_NODE,
 };
 use mcc_ring::builder;
-use mcc_ring::config::{ClusterConfig, MemberRef};
 use mcc_ring::core::{CheckReport, RingApp, RingControl};
 use mcc_ring::fault::{FaultKind, FaultSpec};
 use mcc_ring::member::RingMember;

@@ -5,7 +5,7 @@
 //! PMAC2 and Turbo ring cards with a station plant on the lockstep ring.
 
 use mcc_card::Profile;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_station::config::NodePlantConfig;
 
 use crate::motion::Rig;

@@ -3,7 +3,7 @@
 //! (`ring_startup`, Turbo numbering, every reply checked). Commands and feedback travel over
 //! the ring only.
 
-use mcc_ring::config::{ClusterConfig, IVarValue};
+use mcc_contracts::config::{ClusterConfig, IVarValue};
 use mcc_station::config::NodePlantConfig;
 
 use crate::motion::Rig;

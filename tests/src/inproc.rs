@@ -6,8 +6,8 @@
 //! through the app between ring cycles.
 
 use mcc_card::{ring_startup, Card, CardHandle, CardRingApp, Session};
+use mcc_contracts::config::{ClusterConfig, MemberRef, StationConfig};
 use mcc_ring::builder;
-use mcc_ring::config::{ClusterConfig, MemberRef, StationConfig};
 use mcc_ring::core::RingApp;
 use mcc_ring::sim::RingSim;
 use mcc_station::config::PlantConfig;

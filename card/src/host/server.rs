@@ -17,7 +17,9 @@ use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use mcc_ring::hostport::{eviction_message, refusal_message, Admission, ConnTable, HostLimits};
+use mcc_contracts::hostport::{
+    eviction_message, refusal_message, Admission, ConnTable, HostLimits,
+};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{watch, Notify};

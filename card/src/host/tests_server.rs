@@ -7,7 +7,7 @@ use crate::host::eth_codec::{request, VR_DOWNLOAD, VR_PMAC_FLUSH, VR_PMAC_GETRES
 use crate::host::port::overlong_probe;
 use crate::lang::{Card, Session};
 use crate::service::handle::{spawn_card_thread, CardHandle};
-use mcc_ring::hostport::HostLimits;
+use mcc_contracts::hostport::HostLimits;
 
 const WAIT: Duration = Duration::from_secs(5);
 

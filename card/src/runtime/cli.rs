@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use mcc_ring::hostport::HostLimits;
+use mcc_contracts::hostport::HostLimits;
 
 use crate::domain::Profile;
 use crate::runtime::standalone::{run_standalone, PowerHostOpts, StandaloneOpts};

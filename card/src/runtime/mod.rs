@@ -15,7 +15,7 @@ pub(crate) mod startup;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, Context};
-use mcc_ring::config::MemberRef;
+use mcc_contracts::config::MemberRef;
 use mcc_ring::control::MemberKind;
 use mcc_ring::runtime::process::{run_member, MemberArgs};
 
@@ -32,7 +32,10 @@ use crate::service::{chain, handle, sync_start};
 /// Where a card of a cluster keeps what SAVE writes: its `state_file`, else
 /// `<run dir>/state/<name>.state` (the run directory is the folder of the resolved config;
 /// `mcc down` leaves `state/` alone, as for stations).
-pub(crate) fn state_file(cc: &mcc_ring::config::CardConfig, run_dir: &std::path::Path) -> PathBuf {
+pub(crate) fn state_file(
+    cc: &mcc_contracts::config::CardConfig,
+    run_dir: &std::path::Path,
+) -> PathBuf {
     cc.state_file
         .clone()
         .unwrap_or_else(|| run_dir.join("state").join(format!("{}.state", cc.name)))
@@ -199,14 +202,14 @@ pub(crate) fn startup_card(
     (card, err)
 }
 
-fn profile_of(cc: &mcc_ring::config::CardConfig) -> Profile {
+fn profile_of(cc: &mcc_contracts::config::CardConfig) -> Profile {
     Profile::from_name(&cc.profile).unwrap_or(Profile::Pmac2)
 }
 
 /// Check a card's config before anything starts (`mcc up`): its `ivars` applied as the card
 /// applies them at start-up, on a card of its profile; the first refused one is named with the
 /// card's error.
-pub fn check_card_config(cc: &mcc_ring::config::CardConfig) -> anyhow::Result<()> {
+pub fn check_card_config(cc: &mcc_contracts::config::CardConfig) -> anyhow::Result<()> {
     let mut card = Card::new(profile_of(cc));
     chain::apply_chain_defaults(&mut card, cc.number);
     apply_ivars(&mut card, &cc.ivars)
@@ -224,7 +227,7 @@ const RING_CHECK_KEYS: [&str; 4] = ["I1001", "I1004", "I1005", "I8"];
 /// for in-process harnesses that build the card as the process does.
 pub fn apply_config_ivars(
     card: &mut Card,
-    ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
+    ivars: &std::collections::BTreeMap<String, mcc_contracts::config::IVarValue>,
 ) -> anyhow::Result<()> {
     apply_ivars(card, ivars)
 }
@@ -233,7 +236,7 @@ pub fn apply_config_ivars(
 /// the card's own language (a Power card: its dialect, Power numbering).
 fn apply_ivars(
     card: &mut Card,
-    ivars: &std::collections::BTreeMap<String, mcc_ring::config::IVarValue>,
+    ivars: &std::collections::BTreeMap<String, mcc_contracts::config::IVarValue>,
 ) -> anyhow::Result<()> {
     let power = card.profile() == Profile::Power;
     let mut dialect = crate::lang::Dialect::for_card(card);

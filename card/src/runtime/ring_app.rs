@@ -537,7 +537,7 @@ mod tests {
 mod power_sync_master_tests {
     use super::*;
     use crate::domain::Profile;
-    use mcc_ring::config::IVarValue;
+    use mcc_contracts::config::IVarValue;
     use mcc_ring::control::MemberKind;
     use mcc_ring::core::{CoreConfig, MemberCore};
 

@@ -33,7 +33,7 @@ pub struct StandaloneOpts {
     /// Exit when stdin reaches end of file (for supervisors and tests).
     pub exit_on_stdin_eof: bool,
     /// Host-port limits.
-    pub limits: mcc_ring::hostport::HostLimits,
+    pub limits: mcc_contracts::hostport::HostLimits,
     /// The card's host ports are a Power PMAC's (`gpascii` and SSH) instead of the ASCII and
     /// Ethernet-protocol ports.
     pub power_host: Option<PowerHostOpts>,

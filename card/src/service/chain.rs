@@ -22,14 +22,14 @@
 //! arm/commit synchronized start (sync_start.rs), so they execute in the servo tick of one
 //! ring cycle; a line that starts a program on one card only runs at the `<CR>` as usual.
 //!
-//! Wire format: `mcc_ring::control::chain` (op byte, connection id, data; replies as
+//! Wire format: `mcc_contracts::control::chain` (op byte, connection id, data; replies as
 //! position-tagged segments the orchestrator merges in input order). `T` is answered with the
 //! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
 //! when the collected line does not start a program.
 
 use std::collections::HashMap;
 
-use mcc_ring::control::chain::{
+use mcc_contracts::control::chain::{
     chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE, OP_QUERY_START,
     OP_TAKE_START,
 };

@@ -12,8 +12,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendError};
-use mcc_ring::control::chain::OP_CLOSE;
-use mcc_ring::control::sync_start::{AtReply, AtRequest};
+use mcc_contracts::control::chain::OP_CLOSE;
+use mcc_contracts::control::sync_start::{AtReply, AtRequest};
 
 use super::chain::ChainPort;
 use super::storage::FileStorage;
@@ -43,7 +43,7 @@ pub enum Request {
         /// What it asks.
         req: HostRequest,
     },
-    /// A daisy-chain request (`mcc_ring::control::chain` wire format).
+    /// A daisy-chain request (`mcc_contracts::control::chain` wire format).
     Chain(Vec<u8>),
     /// A synchronized-start request.
     At(AtRequest),
@@ -259,7 +259,7 @@ impl Runner {
                 self.core.submit(t, conn, req);
             }
             Request::Chain(payload) => {
-                let req = match mcc_ring::control::chain::decode_request(&payload) {
+                let req = match mcc_contracts::control::chain::decode_request(&payload) {
                     Ok(req) => req,
                     Err(e) => {
                         let _ = env.reply.send(Response::Chain(Err(e.to_string())));
@@ -337,7 +337,7 @@ impl Runner {
                 let _ = tx.send(Response::Chain(Ok(reply)));
             }
             while let Some((payload, _)) = queue.front() {
-                let r = match mcc_ring::control::chain::decode_request(payload) {
+                let r = match mcc_contracts::control::chain::decode_request(payload) {
                     Ok(req) => self
                         .chain
                         .handle(&mut self.core.card, &mut self.core.dialect, &req)

@@ -9,15 +9,15 @@ use crate::lang::Storage;
 use crate::model::persist::{decode, encode, PersistError, PersistImage};
 
 /// Temporary file name used while writing `path` (the one atomic write of every SAVE-like
-/// writer: `mcc_ring::runtime::atomic_file`).
+/// writer: `mcc_contracts::atomic_file`).
 #[cfg(test)]
-use mcc_ring::runtime::atomic_file::temp_path;
+use mcc_contracts::atomic_file::temp_path;
 
 /// Write `bytes` to `path` atomically: temp file in the same directory (created when
 /// missing: the run directory's `state/` of a cluster card), write, fsync, rename, fsync the
 /// directory.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    use mcc_contracts::atomic_file::{write_atomic_with, AtomicWrite};
     let how = AtomicWrite {
         create_dir: true,
         ..AtomicWrite::default()
@@ -52,7 +52,7 @@ pub(crate) fn read(path: &Path) -> Result<Option<Vec<u8>>, String> {
 /// Remove temporaries a SAVE cut short left beside `path` (`<name>.tmp<pid>`: the process was
 /// killed between writing and renaming). Returns how many were removed.
 pub(crate) fn remove_stale_temporaries(path: &Path) -> usize {
-    let removed = mcc_ring::runtime::atomic_file::remove_temporaries(path);
+    let removed = mcc_contracts::atomic_file::remove_temporaries(path);
     for f in &removed {
         tracing::warn!(file = %f.display(), "removed a SAVE temporary left by a killed process");
     }

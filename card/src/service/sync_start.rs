@@ -2,7 +2,7 @@
 //! chosen ring cycle T, with a two-phase arm/commit protocol so a multi-card start never splits.
 //!
 //! Protocol (JSON over the zenoh queryable `mcc/<cluster>/card/<n>/at`; the wire types
-//! [`AtRequest`]/[`AtReply`] live in `mcc_ring::control::sync_start`):
+//! [`AtRequest`]/[`AtReply`] live in `mcc_contracts::control::sync_start`):
 //! 1. `arm {id, cycle: T, line}`: the card keeps the line, undecided. It refuses (`late`) when
 //!    the tick of cycle T has already started (or the ring has not ticked yet).
 //! 2. `commit {id}` once every card has armed, or `abort {id}` when one refused.
@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
-use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
+use mcc_contracts::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
 use crate::lang::{Card, MAX_LINE};

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::domain::Profile;
-use mcc_ring::control::chain::{decode_request, encode_request};
+use mcc_contracts::control::chain::{decode_request, encode_request};
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
@@ -281,7 +281,7 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
         }
     }
     let done = done.expect("the line finished");
-    let segs = mcc_ring::control::chain::decode_reply(&done).expect("segments");
+    let segs = mcc_contracts::control::chain::decode_reply(&done).expect("segments");
     // the parked line's reply at its <CR> (position 17), then the next line's at 20
     assert_eq!(
         segs,

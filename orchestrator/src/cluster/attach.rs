@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 
 use crate::cluster::ctl;
 use crate::cluster::rundir::{RunDir, SupervisorInfo};

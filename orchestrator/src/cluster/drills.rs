@@ -5,8 +5,9 @@
 use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::{ctl_key, AtReply, AtRequest, CtlReply};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::{AtReply, AtRequest};
+use mcc_ring::control::{ctl_key, CtlReply};
 
 use crate::cluster::attach::Attached;
 use crate::cluster::ctl;

@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::{alive_key, ErrorCounters, MemberStatus};
 use zenoh::sample::SampleKind;
 use zenoh::Wait;

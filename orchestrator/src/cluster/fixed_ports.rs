@@ -7,7 +7,7 @@
 use std::net::TcpListener;
 
 use anyhow::{bail, Result};
-use mcc_ring::config::{ClusterConfig, LOCAL_HOST};
+use mcc_contracts::config::{ClusterConfig, LOCAL_HOST};
 
 /// One fixed port: the key that sets it, the address it binds.
 #[derive(Debug, Clone, PartialEq, Eq)]

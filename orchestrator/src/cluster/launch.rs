@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
 use anyhow::{Context, Result};
-use mcc_ring::config::{ClusterConfig, MemberRef};
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 use mcc_ring::transport::session;
 
 use crate::cluster::rundir::RunDir;
@@ -105,7 +105,7 @@ fn log_stdio(rd: &RunDir, who: &str) -> Result<(Stdio, Stdio)> {
     // The logs are the user's only, as the rest of the run directory.
     let f = std::os::unix::fs::OpenOptionsExt::mode(
         OpenOptions::new().create(true).append(true),
-        mcc_ring::runtime::atomic_file::PRIVATE_MODE,
+        mcc_contracts::atomic_file::PRIVATE_MODE,
     )
     .open(&path)
     .with_context(|| format!("cannot open log {}", path.display()))?;

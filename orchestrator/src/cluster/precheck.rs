@@ -4,7 +4,7 @@
 //! rather than with a member that exits during start-up.
 
 use anyhow::{anyhow, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_station::config::PlantConfig;
 use mcc_station::station_app::StationApp;
 
@@ -50,11 +50,11 @@ mod tests {
         let mut bad = ClusterConfig::default_cluster(2, 0);
         bad.cards[1]
             .ivars
-            .insert("I130".into(), mcc_ring::config::IVarValue::Float(2.5));
+            .insert("I130".into(), mcc_contracts::config::IVarValue::Float(2.5));
         check_members(&bad).unwrap();
         bad.cards[1]
             .ivars
-            .insert("I8".into(), mcc_ring::config::IVarValue::Int(1000));
+            .insert("I8".into(), mcc_contracts::config::IVarValue::Int(1000));
         let e = check_members(&bad).unwrap_err().to_string();
         assert!(
             e.starts_with("config: cards.card1.ivars: I8 = 1000: the card refuses it: "),

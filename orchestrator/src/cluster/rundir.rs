@@ -18,7 +18,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::cluster::sys;
-use mcc_ring::runtime::atomic_file::PRIVATE_MODE;
+use mcc_contracts::atomic_file::PRIVATE_MODE;
 
 /// Resolved config file name.
 pub const CONFIG_FILE: &str = "cluster.toml";
@@ -133,8 +133,8 @@ pub fn base_dir() -> PathBuf {
 impl RunDir {
     /// The run directory of `cluster` (the name is checked: it becomes a path component).
     pub fn for_cluster(cluster: &str) -> Result<Self> {
-        if let Err(mcc_ring::config::ConfigError::Invalid { key, problem }) =
-            mcc_ring::config::check_name("--cluster", cluster)
+        if let Err(mcc_contracts::config::ConfigError::Invalid { key, problem }) =
+            mcc_contracts::config::check_name("--cluster", cluster)
         {
             bail!("{key}: {problem}");
         }
@@ -150,8 +150,8 @@ impl RunDir {
     pub fn for_share(cluster: &str, host: Option<&str>) -> Result<Self> {
         let mut rd = Self::for_cluster(cluster)?;
         if let Some(h) = host {
-            if let Err(mcc_ring::config::ConfigError::Invalid { key, problem }) =
-                mcc_ring::config::check_name("--host", h)
+            if let Err(mcc_contracts::config::ConfigError::Invalid { key, problem }) =
+                mcc_contracts::config::check_name("--host", h)
             {
                 bail!("{key}: {problem}");
             }
@@ -292,7 +292,7 @@ impl RunDir {
     pub fn cleanup(&self) -> Result<()> {
         // (Plus the temporaries of `write_atomic`, left by a process killed while writing.)
         for f in [self.config_path(), self.info_path()] {
-            mcc_ring::runtime::atomic_file::remove_temporaries(&f);
+            mcc_contracts::atomic_file::remove_temporaries(&f);
             remove_if_exists(&f)?;
         }
         let logs = self.dir.join(LOG_DIR);
@@ -368,10 +368,10 @@ fn remove_if_exists(p: &Path) -> Result<()> {
     }
 }
 
-/// Write atomically (`mcc_ring::runtime::atomic_file`: temporary sibling, fsync, rename,
+/// Write atomically (`mcc_contracts::atomic_file`: temporary sibling, fsync, rename,
 /// fsync the directory), the file 0600 (the run directory's files may hold secrets).
 pub fn write_private(path: &Path, bytes: &[u8]) -> Result<()> {
-    mcc_ring::runtime::atomic_file::write_private(path, bytes)
+    mcc_contracts::atomic_file::write_private(path, bytes)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -448,13 +448,9 @@ mod tests {
         fs::write(format!("{path}.lock"), "").unwrap();
         fs::write(rd.dir.join(LINK_DIR).join("notes.txt"), "mine").unwrap();
         // A temporary left by a supervisor killed while writing its record is ours.
-        fs::write(
-            mcc_ring::runtime::atomic_file::temp_path(&rd.info_path()),
-            "{",
-        )
-        .unwrap();
+        fs::write(mcc_contracts::atomic_file::temp_path(&rd.info_path()), "{").unwrap();
         rd.cleanup().unwrap();
-        assert!(!mcc_ring::runtime::atomic_file::temp_path(&rd.info_path()).exists());
+        assert!(!mcc_contracts::atomic_file::temp_path(&rd.info_path()).exists());
         assert!(!std::path::Path::new(path).exists());
         assert!(rd.dir.join(LINK_DIR).join("notes.txt").exists());
         assert!(rd.dir.join("card0.state").exists());

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use mcc_ring::hostport::{refusal_message, Admission, ConnTable, HostLimits};
+use mcc_contracts::hostport::{refusal_message, Admission, ConnTable, HostLimits};
 
 type Table = Arc<Mutex<(ConnTable, HashMap<u64, TcpStream>)>>;
 
@@ -64,7 +64,7 @@ impl Activity {
     pub fn farewell(what: &str, why: Ended) -> Option<String> {
         match why {
             Ended::Closed => None,
-            Ended::Evicted(idle) => Some(mcc_ring::hostport::eviction_message(what, idle)),
+            Ended::Evicted(idle) => Some(mcc_contracts::hostport::eviction_message(what, idle)),
             Ended::Idle(t) => Some(format!(
                 "\r\nmcc: {what}: connection closed after {} s idle (host.idle_timeout_s)\r\n",
                 t.as_secs()

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use mcc_ring::config::{ClusterConfig, MemberRef};
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 use mcc_ring::control::{ClockReport, ErrorCounters, MemberStatus};
 use mcc_ring::fault::ActiveFault;
 use serde::Serialize;
@@ -51,7 +51,7 @@ pub struct ClusterStatus {
     /// null when the supervisor was not asked or did not answer.
     pub link_faults: Option<crate::cluster::link_ctl::LinkFaults>,
     /// EDB drives on the EMCL bus (address, mode, position, velocity, program, flags).
-    pub drives: Vec<mcc_ring::control::emcl::DriveStatus>,
+    pub drives: Vec<mcc_contracts::control::emcl::DriveStatus>,
     /// The supervising process (of this machine's share on several hosts).
     pub supervisor: SupervisorRow,
     /// A cluster on several hosts: each host's share as it answers (empty on one machine).
@@ -505,7 +505,7 @@ pub fn build(
         clock: cfg.clock.as_str().into(),
         rate: cfg.rate_hz,
         rtf_requested: match cfg.clock {
-            mcc_ring::config::ClockMode::Paced => cfg.rtf,
+            mcc_contracts::config::ClockMode::Paced => cfg.rtf,
             _ => 1.0,
         },
         rtf: timing.as_ref().map(|t| t.rtf),

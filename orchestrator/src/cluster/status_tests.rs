@@ -167,7 +167,7 @@ fn lag_threshold_uses_the_smallest_check_period() {
     assert_eq!(lag_threshold(&cfg), 64);
     cfg.cards[0]
         .ivars
-        .insert("I1001".into(), mcc_ring::config::IVarValue::Int(10));
+        .insert("I1001".into(), mcc_contracts::config::IVarValue::Int(10));
     assert_eq!(lag_threshold(&cfg), 40);
 }
 

@@ -7,9 +7,9 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context, Result};
-use mcc_ring::config::{ClusterConfig, MemberRef};
-use mcc_ring::config::{Topology, LOCAL_HOST};
-use mcc_ring::control::hosts::{DrillRequest, HostProc};
+use mcc_contracts::config::{ClusterConfig, MemberRef};
+use mcc_contracts::config::{Topology, LOCAL_HOST};
+use mcc_contracts::control::hosts::{DrillRequest, HostProc};
 use mcc_ring::control::{alive_key, ctl_key, CtlReply};
 use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{free_loopback_endpoint, SessionOptions};

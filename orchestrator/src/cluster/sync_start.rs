@@ -1,6 +1,6 @@
 //! Synchronized multi-card start (the verb is `mcc start-sync`), orchestrator side of the two-phase
 //! protocol the cards serve on `mcc/<cluster>/card/<n>/at` (card/src/runtime/sync_start.rs;
-//! the wire types are `mcc_ring::control::sync_start`):
+//! the wire types are `mcc_contracts::control::sync_start`):
 //!
 //! 1. probe: every card's current ring cycle, twice, to measure the ring rate and the query
 //!    round trip; T = latest cycle + lead, the lead covering two round trips (arm, commit) at
@@ -15,7 +15,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::control::sync_start::{at_key, AtReply, AtRequest};
+use mcc_contracts::control::sync_start::{at_key, AtReply, AtRequest};
 use serde::Serialize;
 use zenoh::Wait;
 

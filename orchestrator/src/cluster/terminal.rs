@@ -220,7 +220,7 @@ pub fn one_line(doc: &ClusterStatus) -> String {
 /// A closure producing the one-line status of an attached cluster.
 pub fn status_line(
     session: zenoh::Session,
-    cfg: mcc_ring::config::ClusterConfig,
+    cfg: mcc_contracts::config::ClusterConfig,
     info: crate::cluster::rundir::SupervisorInfo,
     run_dir: String,
 ) -> impl Fn() -> String {
@@ -241,7 +241,7 @@ pub fn status_line(
 /// the receiver gets a message when the user leaves it (the cluster then goes down).
 pub fn spawn_foreground(
     session: zenoh::Session,
-    cfg: mcc_ring::config::ClusterConfig,
+    cfg: mcc_contracts::config::ClusterConfig,
     info: crate::cluster::rundir::SupervisorInfo,
     run_dir: String,
     show_framing: bool,

@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use anyhow::Result;
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 
 use crate::cli::DownArgs;
 use crate::cluster::rundir::RunDir;

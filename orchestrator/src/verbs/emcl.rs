@@ -6,7 +6,7 @@ use std::net::TcpStream;
 use std::time::Duration;
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::control::emcl::{io_key, IoRequest};
+use mcc_contracts::control::emcl::{io_key, IoRequest};
 use mcc_ring::control::CtlReply;
 use mcc_station::emcl::codec::{Instr, Reply, Request, FRAME_LEN};
 

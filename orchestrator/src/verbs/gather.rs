@@ -200,7 +200,7 @@ fn value(session: &zenoh::Session, key: &str, line: &str) -> Result<f64> {
 
 /// The card's latest ring cycle (its `at` queryable).
 fn card_cycle(session: &zenoh::Session, cluster: &str, n: u32) -> Result<u64> {
-    let body = mcc_ring::control::AtRequest::Info.to_json();
+    let body = mcc_contracts::control::AtRequest::Info.to_json();
     let (r, _) = crate::cluster::sync_start::query_all(
         session,
         cluster,

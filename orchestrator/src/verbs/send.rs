@@ -109,7 +109,7 @@ impl Addressed {
 
     /// The card that answers is in the cluster and answered in time (its reply, even
     /// empty, is the reply).
-    fn reached(self, cfg: &mcc_ring::config::ClusterConfig, silent: &[u32]) -> bool {
+    fn reached(self, cfg: &mcc_contracts::config::ClusterConfig, silent: &[u32]) -> bool {
         let n = match self {
             Addressed::Card(n) => n,
             Addressed::All => 0,
@@ -152,7 +152,7 @@ mod tests {
 
     #[test]
     fn the_answering_card_follows_the_addressing() {
-        let cfg = mcc_ring::config::ClusterConfig::default_cluster(2, 0);
+        let cfg = mcc_contracts::config::ClusterConfig::default_cluster(2, 0);
         let a = Addressed::default();
         assert_eq!(a, Addressed::Card(0));
         assert_eq!(a.after(b"@1$$$\r"), Addressed::Card(1));

@@ -4,7 +4,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::MemberStatus;
 
 use crate::cli::{UpArgs, DEFAULT_CLUSTER};
@@ -60,10 +60,10 @@ pub fn resolve_config(cluster_flag: Option<&str>, args: &UpArgs) -> Result<Clust
         _ => None,
     };
     let cfg = cfg.resolve().map_err(|e| match e {
-        mcc_ring::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
+        mcc_contracts::config::ConfigError::Invalid { key, problem } if flag(&key).is_some() => {
             anyhow!("{}: {problem}", flag(&key).unwrap_or_default())
         }
-        mcc_ring::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
+        mcc_contracts::config::ConfigError::Invalid { key, problem } if key == "cluster" => {
             anyhow!("--cluster: {problem}")
         }
         other => anyhow!(other),
@@ -80,7 +80,7 @@ fn print_ready(
 ) {
     let doc = status::build(cfg, info, &rd.dir.display().to_string(), st, &[]);
     let clock = match cfg.clock {
-        mcc_ring::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
+        mcc_contracts::config::ClockMode::Paced => format!("paced at rtf {}", cfg.rtf),
         other => other.as_str().to_string(),
     };
     println!(
@@ -133,7 +133,7 @@ fn print_ready(
             None => println!("  daisy chain {d}"),
         }
     }
-    if cfg.clock == mcc_ring::config::ClockMode::Realtime {
+    if cfg.clock == mcc_contracts::config::ClockMode::Realtime {
         // What the realtime cycle threads got (SCHED_FIFO and locked memory when permitted).
         let mut got: Vec<(String, Vec<&str>)> = Vec::new();
         for m in &doc.members {
@@ -419,12 +419,12 @@ mod tests {
     #[test]
     fn the_default_clock_is_paced_at_real_time() {
         let c = resolve(&[]).unwrap();
-        assert_eq!(c.clock, mcc_ring::config::ClockMode::Paced);
+        assert_eq!(c.clock, mcc_contracts::config::ClockMode::Paced);
         assert_eq!(c.rtf, 1.0);
         let c = resolve(&["--rtf", "0.5"]).unwrap();
         assert_eq!(c.rtf, 0.5);
         let c = resolve(&["--clock", "lockstep"]).unwrap();
-        assert_eq!(c.clock, mcc_ring::config::ClockMode::Lockstep);
+        assert_eq!(c.clock, mcc_contracts::config::ClockMode::Lockstep);
         assert_eq!(c.ring.in_flight, 1);
         let c = resolve(&["--in-flight", "4"]).unwrap();
         assert_eq!(c.ring.in_flight, 4);

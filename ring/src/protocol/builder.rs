@@ -11,11 +11,11 @@
 //! knows neither crate.
 
 use crate::check::{card_config_check, RingCheck};
-use crate::config::{ClusterConfig, MemberRef};
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::settings::RingSettings;
 use crate::sim::RingSim;
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 
 /// A member the config does not describe.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -98,7 +98,7 @@ pub fn sim<A: RingApp>(
 mod tests {
     use super::*;
     use crate::check::STATION_DEFAULTS;
-    use crate::config::IVarValue;
+    use mcc_contracts::config::IVarValue;
 
     #[test]
     fn each_member_is_set_up_from_its_config_section() {

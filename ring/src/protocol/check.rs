@@ -279,9 +279,9 @@ impl RingCheck {
 }
 
 /// Ring-check parameters of a card from its config: its profile's ring-check keys
-/// ([`crate::config::ring_check_keys`]: PMAC2/Power I1001/I1004/I1005, Turbo I80/I81/I82)
+/// ([`mcc_contracts::config::ring_check_keys`]: PMAC2/Power I1001/I1004/I1005, Turbo I80/I81/I82)
 /// and I8; unset keys as in [`card_check`].
-pub fn card_config_check(c: &crate::config::CardConfig) -> RingCheck {
+pub fn card_config_check(c: &mcc_contracts::config::CardConfig) -> RingCheck {
     let get = |v: Option<f64>, d: u32| v.map_or(d, |v| v.clamp(0.0, 65_535.0) as u32);
     let [period, errors, syncs] = c.ring_check();
     RingCheck::card(
@@ -295,7 +295,7 @@ pub fn card_config_check(c: &crate::config::CardConfig) -> RingCheck {
 /// Ring-check parameters of a card from its I-variable overrides in PMAC2 numbering (I1001,
 /// I1004, I1005, I8).
 pub fn card_check(
-    ivars: &std::collections::BTreeMap<String, crate::config::IVarValue>,
+    ivars: &std::collections::BTreeMap<String, mcc_contracts::config::IVarValue>,
 ) -> RingCheck {
     let get = |k: &str, d: u32| {
         ivars

@@ -1,6 +1,8 @@
-//! Control plane: the messages the orchestrator and the members exchange over zenoh queries
-//! (JSON payloads), and the key expressions they use. Contract between `runtime` (member side)
-//! and the orchestrator.
+//! Control plane of the ring: the messages the orchestrator and the ring members exchange over
+//! zenoh queries (JSON payloads), and the key expressions they use. Contract between `runtime`
+//! (member side) and the orchestrator. The cluster's other control-plane messages (the EMCL
+//! bus, the daisy chain, hosts' shares, the synchronized start) are
+//! [`mcc_contracts::control`].
 //!
 //! Key expressions (architecture §3.1, §7):
 //! - `mcc/<cluster>/ring/<ring>/link/<k>`: ring link published by member k (frames, bincode).
@@ -12,23 +14,13 @@
 //!   host-link faults (JSON `{"op": "set"|"clear"|"status", ...}` → [`CtlReply`];
 //!   `mcc fault chain|bus link KIND`, [`crate::linkfault`]).
 //! - `mcc/<cluster>/card/<n>/cmd`: query with a command line → the card's framed reply bytes.
-//! - `mcc/<cluster>/card/<n>/at`: synchronized start, [`AtRequest`] JSON → [`AtReply`] JSON
-//!   ([`sync_start`]).
-//! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
-//! - `mcc/<cluster>/emcl/<host>/{frame,status,io}`: the EMCL bus to drive hosts ([`emcl`]).
 //! - `mcc/<cluster>/alive/<member>`: liveliness token of each member and of `orchestrator`.
-//! - `mcc/<cluster>/hosts/<host>/{alive,info,down,drill}`: each host's share ([`hosts`]).
+//! - `mcc/<cluster>/card/<n>/{at,chain}`, `mcc/<cluster>/emcl/<host>/…`,
+//!   `mcc/<cluster>/hosts/<host>/…`: [`mcc_contracts::control`].
 
 use serde::{Deserialize, Serialize};
 
 use crate::fault::{ActiveFault, FaultSpec};
-
-pub mod chain;
-pub mod emcl;
-pub mod hosts;
-pub mod sync_start;
-
-pub use sync_start::{at_key, AtReply, AtRequest};
 
 /// Key of the ring link published by member `k` of ring `ring`.
 pub fn link_key(cluster: &str, ring: &str, k: usize) -> String {

@@ -22,7 +22,9 @@
 //! - `delay=N`: empty frames for N cycles (no sync downstream), then every cycle the frame
 //!   held from N cycles ago arrives before the cycle's own: an overrun at every member of
 //!   D..SM. The cards of U may or may not see their own packets late enough to count.
-//! - `delay-us` and a stall shorter than the frozen-member wait: the ring waits; no error.
+//! - `delay-us` and a stall shorter than the frozen-member wait: the ring waits; no error (a
+//!   held frame lands in the cycle it was sent in, later on the wall clock; the simulator holds
+//!   to this, `expect_tests.rs`, `delay_us_means_the_ring_waits`).
 //!
 //! The check itself (§6.8, [`crate::check`]): errors are counted per period and fire on the
 //! check where the count reaches the limit; sync packets are judged at the end of a period.
@@ -33,9 +35,9 @@
 //! synchronizing master judges its own frame one cycle later (it comes back during the next).
 
 use crate::check::CheckParams;
-use crate::config::{ClusterConfig, MemberRef};
 use crate::control::MemberKind;
 use crate::fault::FaultKind;
+use mcc_contracts::config::{ClusterConfig, MemberRef};
 
 /// One member as the rules see it.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -6,11 +6,11 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::config::IVarValue;
 use crate::core::RingApp;
 use crate::fault::FaultSpec;
 use crate::member::RingMember;
 use crate::sim::RingSim;
+use mcc_contracts::config::IVarValue;
 
 /// Writes something new into every node register each cycle (so packets change).
 struct Busy;
@@ -91,6 +91,7 @@ fn case() -> impl Strategy<Value = Case> {
                     Just(FaultKind::Overrun),
                     Just(FaultKind::Underrun),
                     (1u32..=6).prop_map(FaultKind::DelayCycles),
+                    (1u32..=20_000).prop_map(FaultKind::DelayMicros),
                     Just(FaultKind::Cut),
                 ],
                 prop_oneof![Just(None), (0u64..=2).prop_map(Some)],
@@ -208,6 +209,70 @@ proptest! {
     }
 }
 
+/// `delay-us=N` has one meaning (`docs/ring.md`, Faults): each frame goes on the link N µs
+/// late, and in the paced and lockstep clocks the ring waits for it — the same frames in the
+/// same cycles, only later on the wall clock. The deterministic simulator is the lockstep
+/// ring: with a delay below a period, of a period, of several and beyond the ring check's
+/// whole period, on every member, every member ticks in every cycle exactly as in the same ring
+/// without the fault (so no frame lands in another cycle), nobody counts an error or latches,
+/// and the rules ([`RingModel::expect`]) agree: quiet, whatever the burst.
+#[test]
+fn delay_us_means_the_ring_waits() {
+    let cfg = ClusterConfig::default_cluster(2, 2);
+    let model = RingModel::from_config(&cfg).unwrap();
+    let period_us = cfg.period_ns() / 1000;
+    let delays = [
+        50,
+        period_us as u32 - 1,
+        period_us as u32,
+        3 * period_us as u32 + 7,
+        40 * period_us as u32,
+    ];
+    for target in 0..model.members.len() {
+        assert_eq!(
+            model.safe_burst(target, FaultKind::DelayMicros(1)),
+            u64::MAX
+        );
+        for us in delays {
+            let kind = FaultKind::DelayMicros(us);
+            let what = Disturbance::Frames { kind, cycles: None };
+            assert!(model.expect(target, what).quiet(), "{kind} at {target}");
+            let (mut faulty, mut clean) = (sim(&cfg), sim(&cfg));
+            for s in [&mut faulty, &mut clean] {
+                s.run(60);
+                for i in 0..s.len() {
+                    s.member_mut(i).reset();
+                }
+            }
+            faulty.inject(target, FaultSpec::always(kind)).unwrap();
+            for _ in 0..300 {
+                let (f, c) = (faulty.step(), clean.step());
+                assert_eq!(
+                    (&f.ticks, f.completed, &f.faults),
+                    (&c.ticks, c.completed, &c.faults),
+                    "{kind} at member {target}, cycle {}",
+                    f.cycle
+                );
+            }
+            for i in 0..faulty.len() {
+                let st = faulty.member(i).status();
+                assert_eq!(
+                    st.errors,
+                    clean.member(i).status().errors,
+                    "{kind}: member {i}"
+                );
+                assert!(!st.ring_fault, "{kind} at {target}: member {i} latched");
+                assert_eq!(st.holdover_cycles, 0, "{kind} at {target}: member {i}");
+            }
+            assert_eq!(
+                faulty.member(target).status().faults.len(),
+                1,
+                "{kind} is active"
+            );
+        }
+    }
+}
+
 /// The bounds of the default cluster (cards I1001 = 16, I1004 = 2, I1005 = 4, I8 = 2;
 /// stations 8/4/4), as README states them.
 #[test]
@@ -293,4 +358,70 @@ fn default_cluster_bounds() {
     );
     assert_eq!(m.safe_burst(1, FaultKind::DropSync), 4);
     assert_eq!(m.safe_burst(1, FaultKind::DropPackets), 2);
+}
+
+mod fuzz {
+    //! The ring's model of any config the config accepts: real configs with a key's value
+    //! replaced, a line dropped or lines swapped (the config's own fuzzing is mcc-contracts'
+    //! `config::tests::fuzz`) either fail to parse or give a model without a panic.
+    use super::*;
+
+    const VALUES: &[&str] = &[
+        "0",
+        "1",
+        "-1",
+        "2",
+        "255",
+        "65536",
+        "4294967296",
+        "\"\"",
+        "\"card0\"",
+        "\"station0\"",
+        "\"lockstep\"",
+        "true",
+        "[]",
+        "[\"card0\"]",
+        "{}",
+    ];
+
+    fn sample() -> String {
+        let mut d = ClusterConfig::default_cluster(2, 2);
+        d.cards[0].ivars.insert("I1001".into(), IVarValue::Int(8));
+        d.to_toml_string().unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn any_valid_config_has_a_model(
+            edits in proptest::collection::vec(
+                (any::<prop::sample::Index>(), 0u8..4, proptest::sample::select(VALUES)), 1..6),
+        ) {
+            let mut lines: Vec<String> = sample().lines().map(String::from).collect();
+            for (at, what, value) in edits {
+                let i = at.index(lines.len());
+                match what {
+                    0 | 1 => {
+                        if let Some((k, _)) = lines[i].split_once(" = ") {
+                            lines[i] = format!("{k} = {value}");
+                        }
+                    }
+                    2 => {
+                        lines.remove(i);
+                        if lines.is_empty() {
+                            break;
+                        }
+                    }
+                    _ => {
+                        let j = (i + 1) % lines.len();
+                        lines.swap(i, j);
+                    }
+                }
+            }
+            if let Ok(c) = ClusterConfig::from_toml_str(&lines.join("\n")) {
+                let _ = RingModel::from_config(&c);
+            }
+        }
+    }
 }

@@ -9,7 +9,8 @@
 //! cycle), `cut` replaces the frame with a dark frame (loss of light: the receiver reads a byte
 //! violation every cycle; frames held by `delay` stay held), `delay` holds frames for N cycles
 //! (an empty frame goes in their place), `delay-us` asks the transport to hold each frame N µs
-//! before sending.
+//! before sending: a wall-clock delay that never moves a frame to another ring cycle (the
+//! paced and lockstep rings, and the simulator, wait for it; `docs/ring.md`, Faults).
 
 use std::collections::VecDeque;
 use std::fmt;

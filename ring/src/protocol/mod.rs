@@ -4,7 +4,7 @@
 //! ([`core`]: I995/I996 routing, error classes, holdover), the ring check ([`check`]), the
 //! fault layer ([`fault`]), the holdover clock ([`holdover`]), the member interface
 //! ([`member`]), the ring settings ([`settings`]), status bits ([`status`]), the auxiliary
-//! channel ([`aux_channel`]), the control-plane messages ([`control`]), the expected verdict
+//! channel ([`aux_channel`]), the ring members' control-plane messages ([`control`]), the expected verdict
 //! of a fault ([`expect`]), the deterministic in-process simulator ([`sim`]) and the one
 //! builder of a config's ring of member cores ([`builder`]).
 //!

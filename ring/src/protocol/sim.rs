@@ -1,14 +1,15 @@
 //! A deterministic in-process lockstep ring: N [`MemberCore`]s and their [`RingApp`]s, frames
 //! delivered hop by hop in one thread (architecture §3.3, `lockstep` clock).
 //!
-//! [`RingSim::step`] runs one ring cycle k at simulated time k × period: frames delayed into
-//! this cycle land first, then the synchronizing master starts cycle k (sends, then ticks) and
-//! the frame travels member to member (each forwards, then ticks on the sync packet, or unlocked
+//! [`RingSim::step`] runs one ring cycle k at simulated time k × period: the synchronizing
+//! master starts cycle k (sends, then ticks) and the frame travels member to member (each forwards, then ticks on the sync packet, or unlocked
 //! on a frame without one: a dropped sync packet, a dark frame downstream of a cut) until it
 //! returns. Members that got no frame at all run cycle k on their holdover clock three quarters
 //! of a period later. Every tick runs the member's ring check, then its app.
-//! Frames a `delay-us` fault holds for a period or more land in a later cycle. Same faults
-//! and seeds → same run.
+//! A frame a `delay-us` fault holds lands in the cycle it was sent in, however long the hold:
+//! the lockstep ring waits for it as the member processes' paced and lockstep clocks do, and
+//! the simulator has no wall clock to lose (`docs/ring.md`, Faults). Same faults and seeds →
+//! same run.
 
 use std::collections::VecDeque;
 
@@ -54,7 +55,6 @@ pub struct RingSim<A: RingApp> {
     period_ns: u64,
     next_cycle: u64,
     sync_master: Option<usize>,
-    pending: Vec<(u64, usize, Vec<u8>)>,
 }
 
 impl<A: RingApp> RingSim<A> {
@@ -69,7 +69,6 @@ impl<A: RingApp> RingSim<A> {
             period_ns: period_ns.max(1),
             next_cycle: 1,
             sync_master,
-            pending: Vec::new(),
         }
     }
 
@@ -151,15 +150,9 @@ impl<A: RingApp> RingSim<A> {
             ..Default::default()
         };
         let mut queue = VecDeque::new();
-        let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending)
-            .into_iter()
-            .partition(|p| p.0 <= k);
-        self.pending = later;
-        queue.extend(due.into_iter().map(|(_, to, bytes)| (to, bytes)));
-        self.run_hops(&mut queue, k, t, &mut rep);
         if let Some(sm) = self.sync_master {
             let outs = self.members[sm].start_cycle(k, t);
-            self.deliver(sm, outs, k, &mut queue);
+            self.deliver(sm, outs, &mut queue);
             self.tick(sm, k, TickKind::Start, &mut rep);
             self.run_hops(&mut queue, k, t, &mut rep);
         }
@@ -180,22 +173,16 @@ impl<A: RingApp> RingSim<A> {
         rep.ticks[i] = Some((c, kind));
     }
 
+    /// Put `from`'s frames on its link. A `delay-us` hold (`o.delay_us`) changes nothing here:
+    /// the lockstep ring waits for the frame, which lands in this cycle in its order.
     fn deliver(
         &mut self,
         from: usize,
         outs: Vec<Outgoing>,
-        k: u64,
         queue: &mut VecDeque<(usize, Vec<u8>)>,
     ) {
         let to = (from + 1) % self.members.len();
-        for o in outs {
-            let cycles = u64::from(o.delay_us) * 1000 / self.period_ns;
-            if cycles == 0 {
-                queue.push_back((to, o.frame_bytes));
-            } else {
-                self.pending.push((k + cycles, to, o.frame_bytes));
-            }
-        }
+        queue.extend(outs.into_iter().map(|o| (to, o.frame_bytes)));
     }
 
     fn run_hops(
@@ -213,7 +200,7 @@ impl<A: RingApp> RingSim<A> {
             }
             rep.hops += 1;
             let ev = self.members[to].on_frame(&bytes, t);
-            self.deliver(to, ev.outgoing, k, queue);
+            self.deliver(to, ev.outgoing, queue);
             if ev.cycle_complete == Some(k) {
                 rep.completed = true;
             }

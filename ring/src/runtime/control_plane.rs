@@ -110,14 +110,17 @@ pub fn start(
 /// `mcc/<cluster>/hosts/<host>/alive`) on one machine. On several hosts None: the token
 /// travels through the network (a router), and a cut network must not stop a host's members
 /// (they still leave when their supervisor dies: the parent-death signal).
-pub fn orchestrator_key(config: &crate::config::ClusterConfig, member: &str) -> Option<String> {
+pub fn orchestrator_key(
+    config: &mcc_contracts::config::ClusterConfig,
+    member: &str,
+) -> Option<String> {
     if config.is_multi_host() {
         return None;
     }
     let host = config
         .member_host(member)
-        .unwrap_or(crate::config::LOCAL_HOST);
-    Some(crate::control::hosts::host_key(
+        .unwrap_or(mcc_contracts::config::LOCAL_HOST);
+    Some(mcc_contracts::control::hosts::host_key(
         &config.cluster,
         host,
         "alive",

@@ -19,11 +19,11 @@ use crossbeam_channel::{Receiver, Sender};
 use tracing::{info, trace, warn};
 
 use super::pacer::Pacer;
-use crate::config::ClockMode;
 use crate::control::{CtlReply, FaultRequest, MemberStatus};
 use crate::core::{MemberCore, RingApp};
 use crate::fault::Outgoing;
 use crate::transport::{LinkRx, LinkTx, TransportError};
+use mcc_contracts::config::ClockMode;
 
 /// How a member's loop is clocked.
 #[derive(Debug, Clone)]
@@ -126,7 +126,8 @@ pub struct Driver<A: RingApp> {
     pub(super) rx: LinkRx,
     cmds: Receiver<DriverCmd>,
     stop: Arc<AtomicBool>,
-    /// Frames held back by a `delay-us` fault: (due time, bytes).
+    /// Frames held back by a `delay-us` fault: (due time, bytes). Held on the wall clock only:
+    /// the frame still belongs to the cycle it was sent in (`docs/ring.md`, Faults).
     pub(super) delayed: Vec<(Instant, Vec<u8>)>,
     cycles_run: u64,
     records: Vec<(u64, u64)>,

@@ -34,11 +34,11 @@ use tracing::{info, warn};
 
 use super::driver::{Driver, DriverExit};
 use super::stepped::Stepper;
-use crate::config::ClockMode;
 use crate::core::RingApp;
 use crate::member::RingMember;
 use crate::transport::queue::QueueWaker;
 use crate::transport::{InlineHandler, TransportError};
+use mcc_contracts::config::ClockMode;
 
 /// The application of the shared driver while the real one stays on the member's thread.
 #[derive(Debug)]

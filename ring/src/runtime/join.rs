@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use zenoh::Wait;
 
-use crate::config::ClusterConfig;
-use crate::control::hosts::{host_key, HostInfo};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::hosts::{host_key, HostInfo};
 
 /// How long the shares have to answer.
 const ASK: Duration = Duration::from_millis(1500);

@@ -4,7 +4,6 @@
 //! the common process `main` ([`process`])
 //! and its logging set-up ([`logging`]).
 
-pub mod atomic_file;
 pub mod control_plane;
 pub mod cpu;
 pub mod driver;

@@ -7,7 +7,7 @@ use std::time::Duration;
 use super::driver::DriverExit;
 use super::local::{LocalRing, LocalTransport};
 use super::tests::{ring, App};
-use crate::config::ClockMode;
+use mcc_contracts::config::ClockMode;
 
 /// Run the 3-member test ring with `in_flight` cycles in flight; the sync master's
 /// (cycle, feedback) record.

@@ -14,12 +14,12 @@ use tracing::{info, info_span};
 use super::control_plane;
 use super::driver::{Driver, DriverConfig, DriverExit};
 pub use crate::check::{card_check, card_config_check};
-use crate::config::ClusterConfig;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::transport::cluster::{self, Role};
 use crate::transport::session::{open_session, SessionOptions};
 use crate::transport::zenoh_link;
+use mcc_contracts::config::ClusterConfig;
 
 /// Realtime: consecutive silent or packet-less cycles tolerated before a data underrun.
 pub const REALTIME_TIMING_SLACK: u32 = 8;

@@ -54,15 +54,15 @@ use tracing::{info, trace, warn};
 use super::driver::{Driver, DriverExit};
 use super::links_up::{LinkFacts, LinksUp, CLEAN_REVOLUTIONS};
 use super::timing::{PaceGrid, PACED_BACKLOG_NS};
-use crate::config::ClockMode;
 use crate::core::RingApp;
 use crate::transport::TransportError;
+use mcc_contracts::config::ClockMode;
 
 /// Bring-up: until the first frame has come back (links still opening), the sync master
 /// starts a new cycle this often rather than waiting.
 pub const BRINGUP_RETRY_NS: u64 = 20_000_000;
 
-pub use crate::config::MAX_IN_FLIGHT;
+pub use mcc_contracts::config::MAX_IN_FLIGHT;
 
 /// The stepped sync master's state between cycles.
 #[derive(Debug, Clone)]

@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use super::driver::{DriverConfig, DriverExit};
 use super::local::{LocalRing, LocalTransport};
-use crate::config::ClockMode;
 use crate::control::{MemberKind, MemberStatus};
 use crate::core::{CoreConfig, RingApp};
 use crate::member::RingMember;
 use crate::settings::RingSettings;
+use mcc_contracts::config::ClockMode;
 
 /// Sync master commanding node 0 with the cycle number; records what comes back.
 #[derive(Debug, Default)]

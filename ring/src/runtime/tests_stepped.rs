@@ -5,7 +5,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::Stepper;
-use crate::config::ClockMode;
 use crate::control::MemberKind;
 use crate::core::{CoreConfig, MemberCore, RingApp};
 use crate::frame::Frame;
@@ -14,6 +13,7 @@ use crate::runtime::driver::{Driver, DriverConfig, DriverExit};
 use crate::settings::RingSettings;
 use crate::transport::loopback::LoopbackRing;
 use crate::transport::LinkTx;
+use mcc_contracts::config::ClockMode;
 
 #[derive(Debug, Default)]
 struct Cycles(Vec<u64>);

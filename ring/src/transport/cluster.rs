@@ -12,7 +12,7 @@
 
 use super::session::{SessionAuth, SessionOptions};
 use super::TransportError;
-use crate::config::{ClusterConfig, Topology};
+use mcc_contracts::config::{ClusterConfig, Topology};
 
 /// Who opens the session.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

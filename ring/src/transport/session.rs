@@ -24,10 +24,10 @@ pub const MEMBER_RUNTIME: &str =
 /// lockstep ring one link carries at most `ring.in_flight` frames at a time (a member forwards
 /// cycle k+N only after the master saw cycle k come back, i.e. after this link's frame of cycle k
 /// was written and read), and `ring.in_flight` is at most
-/// [`crate::config::MAX_IN_FLIGHT`].
+/// [`mcc_contracts::config::MAX_IN_FLIGHT`].
 pub const RING_TX_QUEUE_BATCHES: usize = 16;
 
-const _: () = assert!(crate::config::MAX_IN_FLIGHT as usize * 2 <= RING_TX_QUEUE_BATCHES);
+const _: () = assert!(mcc_contracts::config::MAX_IN_FLIGHT as usize * 2 <= RING_TX_QUEUE_BATCHES);
 
 /// Where a process listens and whom it connects to.
 #[derive(Debug, Clone, Default)]

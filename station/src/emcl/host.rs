@@ -2,7 +2,7 @@
 //! bus go to every drive (each filters by its address, as on a multi-drop RS485 line), and
 //! ring time drives their 1 ms ticks. Pure: time and frames are arguments.
 
-use mcc_ring::control::emcl::{DriveErrors, DriveStatus};
+use mcc_contracts::control::emcl::{DriveErrors, DriveStatus};
 use mcc_ring::member::RingMember;
 
 use super::codec::FRAME_LEN;

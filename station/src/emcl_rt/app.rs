@@ -70,7 +70,7 @@ impl<A: RingApp> RingApp for DriveStationApp<A> {
 }
 
 /// Nodes of station `station` that drives are bound to (the station app must not serve them).
-pub fn bound_nodes(cfg: &mcc_ring::config::ClusterConfig, station: &str) -> Vec<u8> {
+pub fn bound_nodes(cfg: &mcc_contracts::config::ClusterConfig, station: &str) -> Vec<u8> {
     cfg.drives
         .iter()
         .filter(|d| d.station.as_deref() == Some(station))

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use mcc_ring::config::{ClusterConfig, DriveConfig, ParamNumberError};
+use mcc_contracts::config::{ClusterConfig, DriveConfig, ParamNumberError};
 
 use crate::emcl::spec::{DriveSpec, SpecError, SwitchKind};
 use crate::emcl::{Drive, DriveHost, HostedDrive};

@@ -29,7 +29,7 @@ pub fn load(path: &Path) -> std::io::Result<Option<Vec<u8>>> {
 /// Write `bytes` to `path` atomically; `durable` adds the fsyncs (a download in progress
 /// writes without them: the page cache survives a killed process).
 pub fn write_atomic(path: &Path, bytes: &[u8], durable: bool) -> std::io::Result<()> {
-    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    use mcc_contracts::atomic_file::{write_atomic_with, AtomicWrite};
     let how = AtomicWrite {
         durable,
         create_dir: true,
@@ -59,7 +59,7 @@ mod tests {
         write_atomic(&p, b"one", true).unwrap();
         write_atomic(&p, b"two", false).unwrap();
         assert_eq!(load(&p).unwrap().as_deref(), Some(&b"two"[..]));
-        assert!(!mcc_ring::runtime::atomic_file::temp_path(&p).exists());
+        assert!(!mcc_contracts::atomic_file::temp_path(&p).exists());
         let kept = keep_corrupt(&p).unwrap();
         assert_eq!(fs::read(&kept).unwrap(), b"two");
         assert_eq!(load(&p).unwrap(), None);

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use mcc_ring::control::emcl::{
+use mcc_contracts::control::emcl::{
     encode_answers, frame_key, io_key, status_key, BusAnswer, DriveStatus, IoRequest, FRAME_LEN,
 };
 use mcc_ring::control::CtlReply;

@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::{alive_key, ctl_key, CtlReply};
 use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};

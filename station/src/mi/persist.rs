@@ -88,7 +88,7 @@ pub fn decode(bytes: &[u8]) -> Result<Setup, StateFileError> {
 /// Write `setup` to `path` atomically: a temporary file beside it, fsync, rename over the old
 /// one, fsync the directory. The old file stays intact if anything fails.
 pub fn save(path: &Path, setup: &Setup) -> std::io::Result<()> {
-    use mcc_ring::runtime::atomic_file::{write_atomic_with, AtomicWrite};
+    use mcc_contracts::atomic_file::{write_atomic_with, AtomicWrite};
     let how = AtomicWrite {
         durable: true,
         create_dir: true,

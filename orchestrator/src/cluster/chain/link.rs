@@ -1,5 +1,5 @@
 //! One host connection on the daisy chain. Each chunk of input goes to every card's
-//! `mcc/<cluster>/card/<n>/chain` queryable at once (wire format: `mcc_ring::control::chain`);
+//! `mcc/<cluster>/card/<n>/chain` queryable at once (wire format: `mcc_contracts::control::chain`);
 //! each card answers with position-tagged segments and the segments of all cards are merged
 //! by input position, so replies come out in the order the host's characters caused them. A
 //! card that does not answer within the timeout contributes nothing — as a silent card on a
@@ -17,8 +17,8 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::chain::{
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::chain::{
     chain_key, decode_reply, encode_request, FLAG_STARTS, FLAG_TALKS, MAX_CHUNK, MAX_REPLY,
     OP_CLOSE, OP_DATA, OP_QUERY_START, OP_TAKE_START,
 };

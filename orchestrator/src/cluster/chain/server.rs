@@ -12,8 +12,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{anyhow, Context, Result};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::chain::MAX_CHUNK;
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::chain::MAX_CHUNK;
 
 use mcc_ring::linkfault::LinkFaultSlot;
 
@@ -136,8 +136,8 @@ mod pty {
     use std::io::Read;
 
     use anyhow::Result;
-    use mcc_ring::config::ClusterConfig;
-    use mcc_ring::control::chain::MAX_CHUNK;
+    use mcc_contracts::config::ClusterConfig;
+    use mcc_contracts::control::chain::MAX_CHUNK;
 
     use mcc_ring::linkfault::LinkFaultSlot;
 

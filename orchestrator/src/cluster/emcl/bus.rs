@@ -13,8 +13,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use crossbeam_channel::{bounded, Receiver, Sender};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::emcl::{decode_answers, frame_key_all, FRAME_LEN};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::emcl::{decode_answers, frame_key_all, FRAME_LEN};
 use zenoh::query::{ConsolidationMode, QueryTarget};
 use zenoh::Wait;
 
@@ -126,7 +126,7 @@ fn put_on_line(session: &zenoh::Session, key: &str, frame: &[u8; FRAME_LEN]) -> 
 }
 
 /// The line's content for a set of answers, and the pause before it.
-pub fn merge(answers: &[mcc_ring::control::emcl::BusAnswer]) -> (Outcome, u8) {
+pub fn merge(answers: &[mcc_contracts::control::emcl::BusAnswer]) -> (Outcome, u8) {
     let replies: Vec<&[u8; FRAME_LEN]> = answers.iter().filter_map(|a| a.bytes.as_ref()).collect();
     let pause = answers.iter().map(|a| a.pause_ms).max().unwrap_or(0);
     let bytes = match replies.as_slice() {
@@ -154,7 +154,7 @@ pub fn merge(answers: &[mcc_ring::control::emcl::BusAnswer]) -> (Outcome, u8) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mcc_ring::control::emcl::BusAnswer;
+    use mcc_contracts::control::emcl::BusAnswer;
 
     #[test]
     fn silence_one_answer_and_collisions() {

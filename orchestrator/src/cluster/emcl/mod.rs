@@ -9,7 +9,7 @@ pub mod server;
 pub mod status;
 
 use anyhow::{anyhow, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 
 /// Check the drives of a config against the drive model before anything starts.
 pub fn validate(cfg: &ClusterConfig) -> Result<()> {

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_station::emcl::codec::FrameAssembler;
 
 use mcc_ring::linkfault::LinkFaultSlot;

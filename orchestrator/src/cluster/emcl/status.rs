@@ -4,8 +4,8 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::emcl::{status_key, DriveStatus};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::emcl::{status_key, DriveStatus};
 use zenoh::Wait;
 
 use crate::cluster::status::ClusterStatus;

@@ -6,9 +6,9 @@
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::hosts::HostInfo;
 use mcc_ring::control::alive_key;
-use mcc_ring::control::hosts::HostInfo;
 use mcc_ring::runtime::join::{shares, short};
 use zenoh::Wait;
 

@@ -11,7 +11,7 @@ pub mod share;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
-use mcc_ring::config::{ClusterConfig, Topology};
+use mcc_contracts::config::{ClusterConfig, Topology};
 use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};
 use zenoh::Wait;

@@ -5,8 +5,8 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::hosts::{host_key, DrillRequest};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::hosts::{host_key, DrillRequest};
 use mcc_ring::control::CtlReply;
 use mcc_ring::runtime::join::shares;
 use zenoh::Wait;

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 
 use anyhow::{anyhow, Result};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::hosts::{host_key, HostInfo};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::hosts::{host_key, HostInfo};
 use mcc_ring::control::CtlReply;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::query::{Query, Queryable};

@@ -6,7 +6,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 
 use crate::cli::BenchChainArgs;
 use crate::cluster::chain::link::{ChainLink, DEFAULT_TIMEOUT};

@@ -181,7 +181,7 @@ pub fn measure(
         .endpoint
         .clone()
         .ok_or_else(|| anyhow!("{name}: no zenoh endpoint"))?;
-    let cfg = mcc_ring::config::ClusterConfig::from_file(&rd.config_path())?;
+    let cfg = mcc_contracts::config::ClusterConfig::from_file(&rd.config_path())?;
     let session = ctl::connect(
         &cfg,
         info.host.as_deref(),

@@ -9,7 +9,7 @@ use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_contracts::config::{ClockMode, ClusterConfig};
 use mcc_station::emcl::codec::{Instr, Reply, Request, FRAME_LEN};
 use mcc_station::emcl::{Drive, DriveSpec};
 

@@ -16,7 +16,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_contracts::config::{ClockMode, ClusterConfig};
 use mcc_ring::control::{ctl_key, FaultRequest, MemberStatus};
 use mcc_ring::fault::FaultSpec;
 

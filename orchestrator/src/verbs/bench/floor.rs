@@ -315,7 +315,7 @@ pub fn member(args: &BenchZenohMemberArgs) -> Result<()> {
     let rate = if args.rate.is_finite() && args.rate > 0.0 {
         args.rate
     } else {
-        mcc_ring::config::DEFAULT_RATE_HZ
+        mcc_contracts::config::DEFAULT_RATE_HZ
     };
     let period = Duration::from_secs_f64(1.0 / rate);
     let window = Duration::from_millis(args.window_ms.max(100));

@@ -24,8 +24,8 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
+use mcc_contracts::config::ClusterConfig;
 use mcc_netns::{AB, RA, RB};
-use mcc_ring::config::ClusterConfig;
 use mcc_ring::transport::cluster::Role;
 
 use super::bringup::{mcc, run_bounded};

@@ -8,8 +8,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
+use mcc_contracts::config::{ClockMode, ClusterConfig};
 use mcc_ring::builder;
-use mcc_ring::config::{ClockMode, ClusterConfig};
 use mcc_ring::core::RingApp;
 use mcc_ring::member::RingMember;
 use mcc_ring::runtime::driver::DriverConfig;

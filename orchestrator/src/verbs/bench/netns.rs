@@ -148,12 +148,12 @@ mod tests {
         let sec = cluster_security(dir, "bench-x");
         for (path, peers) in hosts::lab_paths() {
             let text = hosts::config_text("bench-x", &path, peers.clone(), &sec);
-            let cfg = mcc_ring::config::ClusterConfig::from_toml_str(&text)
+            let cfg = mcc_contracts::config::ClusterConfig::from_toml_str(&text)
                 .unwrap_or_else(|e| panic!("{e}\n{text}"));
             assert!(cfg.is_multi_host(), "{text}");
             // Without the tables the same config is refused, naming the key.
             let bare = hosts::config_text("bench-x", &path, peers, "");
-            let e = mcc_ring::config::ClusterConfig::from_toml_str(&bare)
+            let e = mcc_contracts::config::ClusterConfig::from_toml_str(&bare)
                 .unwrap_err()
                 .to_string();
             assert!(e.contains("zenoh.auth"), "{e}");

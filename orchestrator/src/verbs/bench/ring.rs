@@ -21,7 +21,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use mcc_ring::config::ClockMode;
+use mcc_contracts::config::ClockMode;
 
 use super::cluster::{self, ClusterFigures, ClusterSpec};
 use super::floor::{self, FloorFigures};
@@ -89,7 +89,7 @@ pub fn parse_in_flight(name: &str, text: &str) -> Result<Vec<u64>> {
         let n: u64 = item
             .parse()
             .map_err(|_| anyhow::anyhow!("{name} {item:?}: expected a number of cycles, 1-8"))?;
-        if !(1..=mcc_ring::config::MAX_IN_FLIGHT).contains(&n) {
+        if !(1..=mcc_contracts::config::MAX_IN_FLIGHT).contains(&n) {
             bail!("{name} {item:?}: 1-8 cycles in flight");
         }
         if !v.contains(&n) {
@@ -212,7 +212,7 @@ pub fn run(args: &BenchRingArgs) -> Result<()> {
 }
 
 fn run_floor(window: Duration) -> Result<FloorFigures> {
-    let rate = mcc_ring::config::DEFAULT_RATE_HZ;
+    let rate = mcc_contracts::config::DEFAULT_RATE_HZ;
     let f = floor::run(rate, FLOOR_MSGS, window)?;
     println!(
         "\n(0) the floor: two processes configured as ring members (peer, no scouting, unix \
@@ -360,7 +360,7 @@ fn run_rtf1(
     // handles fewer frames a second).
     let floor_us = floor.map_or(f64::NAN, |f| f.paced.cpu_us_per_msg);
     let mut verdicts = Vec::new();
-    let nominal = mcc_ring::config::DEFAULT_RATE_HZ;
+    let nominal = mcc_contracts::config::DEFAULT_RATE_HZ;
     let runs = sizes
         .iter()
         .flat_map(|&cs| in_flight.iter().map(move |&n| (cs, n)));

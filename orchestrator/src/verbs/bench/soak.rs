@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_contracts::config::{ClockMode, ClusterConfig};
 use mcc_ring::control::{ClockReport, MemberStatus};
 use mcc_ring::runtime::timing::LagHistogram;
 

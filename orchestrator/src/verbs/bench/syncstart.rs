@@ -8,7 +8,7 @@
 use std::time::Duration;
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig};
+use mcc_contracts::config::{ClockMode, ClusterConfig};
 
 use mcc_ring::control::{card_cmd_key, ctl_key};
 

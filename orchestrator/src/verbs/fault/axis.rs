@@ -4,7 +4,7 @@
 //! station), then the station checks the same request again and answers.
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_station::faults::{AxisFaultKind, StationFaultRequest, AXIS_KINDS};
 
 use super::app::send_app_fault;

@@ -5,7 +5,7 @@
 
 use anyhow::{bail, Result};
 use mcc_card::{InputFaultRequest, InputKind};
-use mcc_ring::config::MemberRef;
+use mcc_contracts::config::MemberRef;
 
 use super::app::send_app_fault;
 use crate::cli::FaultArgs;

@@ -22,7 +22,7 @@ use std::net::{Shutdown, TcpStream};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::FaultRequest;
 use mcc_ring::linkfault::{LinkFaultSpec, LinkFaulter};
 

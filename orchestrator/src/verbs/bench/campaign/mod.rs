@@ -37,7 +37,7 @@ pub mod report;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use mcc_ring::config::{ClockMode, ClusterConfig, MemberRef};
+use mcc_contracts::config::{ClockMode, ClusterConfig, MemberRef};
 use mcc_ring::control::{ctl_key, FaultRequest};
 use mcc_ring::expect::RingModel;
 
@@ -553,7 +553,7 @@ fn judge_detection(
 fn target_card<'c>(
     cfg: &'c ClusterConfig,
     p: &Planned,
-) -> Result<(String, &'c mcc_ring::config::CardConfig)> {
+) -> Result<(String, &'c mcc_contracts::config::CardConfig)> {
     let target = name(cfg, p.target).to_string();
     match cfg.cards.iter().find(|c| c.name == target) {
         Some(card) => Ok((target, card)),

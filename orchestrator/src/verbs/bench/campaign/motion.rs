@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use mcc_ring::config::ClusterConfig;
+use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::card_cmd_key;
 
 use crate::cluster::ctl::query_text;

@@ -4,8 +4,9 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
-use mcc_ring::config::ClusterConfig;
-use mcc_ring::control::{AtReply, MemberStatus};
+use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::AtReply;
+use mcc_ring::control::MemberStatus;
 
 use crate::cluster::ctl::query_statuses;
 use crate::cluster::drills::{card_infos, card_infos_within};

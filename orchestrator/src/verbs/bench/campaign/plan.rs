@@ -28,7 +28,7 @@ pub enum Kind {
     Underrun,
     /// `delay=N` (ring cycles).
     Delay,
-    /// `delay-us=N` (the transport holds each frame).
+    /// `delay-us=N` (the transport holds each frame N µs; the ring waits for it).
     DelayUs,
     /// `cut`.
     Cut,
@@ -322,7 +322,7 @@ pub fn plan(model: &RingModel, n: usize, seed: u64, opts: &PlanOptions) -> Vec<P
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mcc_ring::config::ClusterConfig;
+    use mcc_contracts::config::ClusterConfig;
 
     fn opts() -> PlanOptions {
         PlanOptions {

@@ -656,7 +656,7 @@ impl ClusterConfig {
     }
 
     /// Master number of the synchronizing master (the only master whose node-15 packet is the
-    /// ring's sync packet; see [`crate::core::CoreConfig::sync_source`]).
+    /// ring's sync packet; see `mcc_ring::core::CoreConfig::sync_source`).
     pub fn sync_source(&self) -> Option<u8> {
         self.card(&self.ring.sync_master).map(|c| c.master & 0x0F)
     }

@@ -6,7 +6,7 @@
 //!   `pause_ms u8, length u8, bytes` (length 9, or 0 for an executed frame that sends no
 //!   reply, e.g. the factory reset). An empty reply = no drive there answers (RS485 silence).
 //! - `mcc/<cluster>/emcl/<host>/status`: query → JSON array of [`DriveStatus`].
-//! - `mcc/<cluster>/emcl/<host>/io`: query with an [`IoRequest`] JSON → [`crate::control::CtlReply`]
+//! - `mcc/<cluster>/emcl/<host>/io`: query with an [`IoRequest`] JSON → `mcc_ring::control::CtlReply`
 //!   (set a drive's input lines, inject a driver fault: the test bench's hands).
 
 use serde::{Deserialize, Serialize};
