@@ -391,3 +391,6 @@ impl Card {
 #[cfg(test)]
 #[path = "tests_interp.rs"]
 mod tests;
+
+#[cfg(test)]
+mod tests_format1;
