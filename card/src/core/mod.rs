@@ -249,8 +249,8 @@ impl CardCore {
                 HostRequest::Line(line) | HostRequest::LineStreamed(line)
                     if self.dialect.answers_whole_lines() =>
                 {
-                    budget.spend(1);
                     let w = self.dialect.whole_line(&mut self.card, conn, &line);
+                    budget.spend(w.as_ref().map_or(1, |w| w.units));
                     let (out, refused, held) =
                         w.map_or((Vec::new(), None, None), |w| (w.bytes, w.error, w.held));
                     error = refused;

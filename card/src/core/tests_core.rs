@@ -301,3 +301,28 @@ fn a_reply_carries_its_refusal_typed_whatever_the_framing_printed() {
     assert_eq!(r.error, Some(Refusal::Power(PowerErr::ReadOnly)));
     assert_eq!(ask(&mut p, b"P1").error, None, "the next line starts clean");
 }
+
+/// A Power line runs whole but costs its data lines in the slice's budget, as a PMAC line
+/// does: after a line answering 1,000 values, another connection's line waits for the next
+/// slice; short lines share one.
+#[test]
+fn a_power_line_costs_its_data_lines_in_the_slice_budget() {
+    let mut c = CardCore::new(Card::new(Profile::Power));
+    c.submit(1, 1, HostRequest::Line(b"P0..999".to_vec()));
+    c.submit(2, 2, HostRequest::Line(b"P1".to_vec()));
+    c.serve(&mut Budget::new(SLICE_UNITS));
+    let r = c.take_replies();
+    assert_eq!(r.len(), 1, "the long line used the slice");
+    assert_eq!(r[0].1.bytes.iter().filter(|&&b| b == b'\n').count(), 1001);
+    c.serve(&mut Budget::new(SLICE_UNITS));
+    assert_eq!(
+        c.take_replies().len(),
+        1,
+        "the short line in the next slice"
+    );
+    for t in 3..6 {
+        c.submit(t, 3, HostRequest::Line(b"P1".to_vec()));
+    }
+    c.serve(&mut Budget::new(SLICE_UNITS));
+    assert_eq!(c.take_replies().len(), 3, "short lines share one slice");
+}

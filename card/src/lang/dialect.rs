@@ -31,6 +31,10 @@ pub struct WholeLine {
     pub error: Option<Refusal>,
     /// The reply waits for an effect (`save`, `$$$`): answer with [`HeldReply`] once done.
     pub held: Option<HeldReply>,
+    /// Its cost in budget units, counted as a PMAC line's are (one per line, one per data
+    /// line it answers). A Power line runs whole: its executor bounds one line's values
+    /// (`MAX_VALUES`), so a slice overruns by at most that.
+    pub units: u64,
 }
 
 /// A reply held until its effect is done.
@@ -80,7 +84,9 @@ impl Dialect {
             return None;
         };
         let (bytes, refused, wait) = p.host_line(card, conn, line);
+        let units = 1 + bytes.iter().filter(|&&b| b == b'\n').count() as u64;
         Some(WholeLine {
+            units,
             bytes,
             error: refused.map(Refusal::Power),
             held: wait.map(HeldReply),
