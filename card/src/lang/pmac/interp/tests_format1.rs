@@ -49,6 +49,7 @@ fn ask(c: &mut Card, s: &mut Session, line: &str) -> String {
 }
 
 #[test]
+#[allow(clippy::disallowed_methods)] // a test reading (and regenerating) its golden file
 fn golden_save_file_of_format_1_converts_and_loads() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../tests/golden/card-pmac2-format1.sav");
