@@ -243,39 +243,29 @@ fn apply_ivars(
     let mut s = crate::lang::Session::default();
     for (k, v) in ivars {
         let line = format!("{k}={}", v.as_f64());
-        let refused = if power {
-            if RING_CHECK_KEYS.iter().any(|r| r.eq_ignore_ascii_case(k)) {
-                // The card's own ring check (Macro.TestPeriod/TestMaxErrors/TestReqdSynchs)
-                // is kept in the model's ring I-variables.
-                let rv = card.state.ring_ivars();
-                let slot = match k.to_ascii_uppercase().as_str() {
-                    "I1001" => Some(rv.check_period),
-                    "I1004" => Some(rv.error_limit),
-                    "I1005" => Some(rv.sync_min),
-                    _ => None,
-                };
-                if let Some(n) = slot {
-                    if card.state.set_ivar(n, v.as_f64()).is_err() {
-                        anyhow::bail!("cards.ivars: '{line}' is out of range for the ring check");
-                    }
+        if power && RING_CHECK_KEYS.iter().any(|r| r.eq_ignore_ascii_case(k)) {
+            // The card's own ring check (Macro.TestPeriod/TestMaxErrors/TestReqdSynchs)
+            // is kept in the model's ring I-variables.
+            let rv = card.state.ring_ivars();
+            let slot = match k.to_ascii_uppercase().as_str() {
+                "I1001" => Some(rv.check_period),
+                "I1004" => Some(rv.error_limit),
+                "I1005" => Some(rv.sync_min),
+                _ => None,
+            };
+            if let Some(n) = slot {
+                if card.state.set_ivar(n, v.as_f64()).is_err() {
+                    anyhow::bail!("cards.ivars: '{line}' is out of range for the ring check");
                 }
-                continue;
             }
-            let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
-            refused.map(|_| String::from_utf8_lossy(&reply).into_owned())
-        } else {
-            let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
-            refused.map(|e| match String::from_utf8_lossy(&reply).trim() {
-                // I6 = 1 or 2: the card printed no code; the refusal names it.
-                t if !t.contains("ERR") => e.to_string(),
-                t => t.to_string(),
-            })
-        };
-        if let Some(text) = refused {
+            continue;
+        }
+        let (reply, refused) = dialect.detached_line(card, &mut s, 0, line.as_bytes());
+        if let Some(e) = refused {
             anyhow::bail!(
                 "ivars: {k} = {}: the card refuses it: {}",
                 v.as_f64(),
-                text.trim_matches(|c: char| c.is_control() || c.is_whitespace())
+                startup::refusal_text(&reply, e)
             );
         }
     }

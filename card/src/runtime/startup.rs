@@ -30,24 +30,29 @@ impl std::fmt::Display for StartupError {
 
 impl std::error::Error for StartupError {}
 
+/// What to say of refusal `e` with its reply: the reply's own text when it names the refusal
+/// (`ERR003`, `stdin:1:1: error #21: …`), else the refusal (I6 = 1 or 2 printed no code).
+pub(crate) fn refusal_text(reply: &[u8], e: crate::domain::Refusal) -> String {
+    let text = String::from_utf8_lossy(reply);
+    let text = text.trim_matches(|c: char| c.is_control() || c.is_whitespace());
+    if text.contains(&e.to_string()) {
+        text.to_string()
+    } else {
+        e.to_string()
+    }
+}
+
 /// Send `line`; a refusal (whatever I6 prints of it) is a [`StartupError`].
 pub(crate) fn send(card: &mut Card, line: &str) -> Result<(), StartupError> {
     let mut s = Session::default();
     let (reply, refused) = card.command_line_refused(&mut s, line.as_bytes());
-    if let Some(e) = refused {
-        let text = String::from_utf8_lossy(&reply)
-            .trim_matches(|c: char| c.is_control() || c.is_whitespace())
-            .to_string();
-        return Err(StartupError {
+    match refused {
+        Some(e) => Err(StartupError {
             line: line.to_string(),
-            reply: if text.contains("ERR") {
-                text
-            } else {
-                e.to_string()
-            },
-        });
+            reply: refusal_text(&reply, e.into()),
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The ring settings (I995/I996 on PMAC2, I6840/I6841 on Turbo) the config derives.
@@ -246,6 +251,20 @@ mod tests {
         String::from_utf8_lossy(&card.command_line(&mut s, line.as_bytes()))
             .trim_matches(|c: char| c.is_control() || c.is_whitespace())
             .to_string()
+    }
+
+    #[test]
+    fn a_refusal_is_said_with_the_reply_that_names_it_or_by_itself() {
+        use crate::domain::{ErrCode, PowerErr, Refusal};
+        let pmac = Refusal::Pmac(ErrCode::Data);
+        assert_eq!(refusal_text(b"\x07\rERR003\r", pmac), "ERR003");
+        assert_eq!(refusal_text(b"\x07", pmac), "ERR003", "I6 = 2: a bare BELL");
+        let power = Refusal::Power(PowerErr::IllegalParameter);
+        let line = b"stdin:1:1: error #21: ILLEGAL PARAMETER: I9999=1\r\n\x06\r\n";
+        assert_eq!(
+            refusal_text(line, power),
+            "stdin:1:1: error #21: ILLEGAL PARAMETER: I9999=1"
+        );
     }
 
     #[test]
