@@ -265,3 +265,36 @@ fn the_checker_sees_a_dialect_named_across_the_seam() {
     assert!(dialect_violations("outside", "use crate::lang::Dialect;").is_empty());
     assert!(dialect_violations("lang", "use power::Power;").is_empty());
 }
+
+/// Card-state accesses (`.state`) in a file's production code.
+fn state_accesses(text: &str) -> usize {
+    text.match_indices(".state")
+        .filter(|(i, _)| {
+            let next = text[i + ".state".len()..].chars().next();
+            !next.is_some_and(|c| c.is_alphanumeric() || c == '_')
+        })
+        .count()
+}
+
+/// One way into the card: the ring app only copies values between the ring core and the card
+/// core's typed ring input and output (`core::ring_io`); it never touches the card's state.
+#[test]
+fn the_ring_app_never_touches_card_state() {
+    let f = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/runtime/ring_app.rs");
+    let text = std::fs::read_to_string(&f).unwrap_or_default();
+    assert!(
+        text.contains("impl RingApp for CardRingApp"),
+        "{}",
+        f.display()
+    );
+    assert_eq!(
+        state_accesses(&production_code(&text)),
+        0,
+        "{}",
+        f.display()
+    );
+    assert_eq!(
+        state_accesses("card.state.global.ring_fault = true; x.state_of()"),
+        1
+    );
+}

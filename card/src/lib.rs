@@ -41,12 +41,13 @@ mod layering;
 
 pub use crate::core::inputs::{CardInputs, HeldInput, InputKind};
 pub use crate::core::rig::{self, LoopbackPlant, Rig};
+pub use crate::core::ring_io::{ResetLayer, RingIn, RingOut, RingVars, RingWanted};
 pub use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
 pub use domain::{ast, CsNum, ErrCode, Limits, MotorNum, NodeNum, PowerErr, Profile, Refusal};
 pub use host::bench::{run_host_bench, HostBenchOpts, HostBenchReport};
 pub use lang::{
-    Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Step, Storage,
-    WholeLine, MAX_LINE,
+    Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Started, Step,
+    Storage, WholeLine, MAX_LINE,
 };
 pub use model::{decode_fixed, Action, ActionKind, CardModel, CardState, Space};
 pub use motion::flags::FlagInputs;

@@ -7,6 +7,7 @@
 
 pub(crate) mod inputs;
 pub mod rig;
+pub(crate) mod ring_io;
 
 #[cfg(test)]
 #[path = "tests_core.rs"]
@@ -98,6 +99,8 @@ pub struct CardCore {
     pub dialect: Dialect,
     /// The hardware stop inputs (abort, feed hold) held active.
     pub inputs: inputs::CardInputs,
+    /// The card's side of its ring link (`ring_io`).
+    ring: ring_io::RingLink,
 }
 
 /// Why a loaded image is refused (`None`: it is good, or there is none).
@@ -111,6 +114,9 @@ fn load_error_of(r: &EffectResult) -> Option<String> {
     }
 }
 
+/// CTRL-I: execute the last command line again.
+const CTRL_I: u8 = 0x09;
+
 /// Effect tokens of detached effects (no job waits) have this bit set.
 const DETACHED: u64 = 1 << 63;
 
@@ -119,7 +125,9 @@ impl CardCore {
     pub fn new(mut card: Card) -> Self {
         let servo = Servo::new(&card.model);
         let dialect = Dialect::for_card(&mut card);
+        let ring = ring_io::RingLink::new(card.resets());
         CardCore {
+            ring,
             dialect,
             card,
             servo,
@@ -236,6 +244,12 @@ impl CardCore {
             let conn = job.conn;
             let mut s = self.session(conn);
             let mut error = None;
+            if job.req == HostRequest::Control(CTRL_I) && self.dialect.has_control_commands() {
+                // CTRL-I runs the last line again (not remembered anew), sliced as a line.
+                let last = self.card.last_line().to_vec();
+                job.run = Some(self.card.start_line(&mut s, &last, false));
+                job.req = HostRequest::Line(last);
+            }
             let done = match job.req.clone() {
                 HostRequest::End => {
                     self.dialect.end(&mut self.card, &s, conn);

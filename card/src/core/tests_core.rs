@@ -326,3 +326,90 @@ fn a_power_line_costs_its_data_lines_in_the_slice_budget() {
     c.serve(&mut Budget::new(SLICE_UNITS));
     assert_eq!(c.take_replies().len(), 3, "short lines share one slice");
 }
+
+/// Issue 24 item 3: CTRL-I runs the last line again as a line job, in bounded slices, with
+/// the same reply as the line had; the line is not remembered anew.
+#[test]
+fn ctrl_i_repeats_the_last_line_in_bounded_slices() {
+    let mut c = core();
+    c.submit(1, 7, HostRequest::Line(b"P0..8191".to_vec()));
+    let (_, first) = serve_all(&mut c);
+    c.submit(2, 7, HostRequest::Control(0x09));
+    let (slices, again) = serve_all(&mut c);
+    assert_eq!(again.len(), 1);
+    assert_eq!(again[0].1.bytes, first[0].1.bytes);
+    assert!(
+        slices as u64 >= 8192 / SLICE_UNITS,
+        "{slices} slices for 8192 values"
+    );
+    c.submit(3, 7, HostRequest::Control(0x19));
+    let (_, y) = serve_all(&mut c);
+    assert_eq!(y[0].1.bytes, b"P0..8191");
+}
+
+/// Issue 24 item 3: the ring reaches the card only as typed input to the core's tick
+/// (`core::ring_io`): feedback of the activated nodes latched, their commands read back,
+/// zero commands and the global ring-fault bit from a ring fault until `$$$` clears it; the
+/// ring I-variables go both ways.
+#[test]
+fn the_ring_is_a_typed_input_and_output_of_the_tick() {
+    use crate::core::ring_io::{RingIn, RingVars};
+    let mut c = CardCore::new(Card::new(Profile::Pmac2));
+    c.set_ring_nodes(&[0, 1, 20]);
+    assert_eq!(c.ring_nodes(), [0, 1]);
+    let mut s = Session::with_id(1);
+    let _ = c.card.command_line(&mut s, b"I100=0 I3=2");
+    c.card
+        .state
+        .write(crate::model::Space::Y, 0xC0A0, 0x00_1234);
+    let mut input = RingIn {
+        cycle: 1,
+        fault: false,
+        feedback: [[0; 4]; 16],
+        aux_back: (0, 0),
+    };
+    input.feedback[1] = [0x11, 0x2200, 0x3300, 0x4400];
+    input.feedback[2] = [0x99, 0, 0, 0];
+    let out = c.ring_tick(&input);
+    assert_eq!(out.commands[0][0], 0x1234);
+    assert_eq!(out.commands[2], [0; 4], "not an activated node");
+    assert_eq!(
+        c.card.state.node_feedback(1),
+        [0x11, 0x2200, 0x3300, 0x4400]
+    );
+    input.cycle = 2;
+    input.fault = true;
+    assert_eq!(c.ring_tick(&input).commands, [[0; 4]; 16]);
+    assert!(c.card.state.global.ring_fault);
+    input.cycle = 3;
+    input.fault = false;
+    assert_eq!(c.ring_tick(&input).commands[0][0], 0, "latched until $$$");
+    assert!(!c.take_ring_reset());
+    c.card.state.global.ring_fault = false;
+    input.cycle = 4;
+    assert_eq!(c.ring_tick(&input).commands[0][0], 0x1234);
+    assert!(
+        c.take_ring_reset(),
+        "the ring core is asked to reset its latch"
+    );
+    assert!(!c.take_ring_reset());
+    // Ring I-variables: the ring core's values at the start, then the card's changes win.
+    let ring = RingVars {
+        i995: 0x30,
+        i996: 0xF_0003,
+        i1001: 16,
+        i1004: 2,
+        i1005: 4,
+    };
+    let want = c.ring_settings(ring, true);
+    assert_eq!((want.vars.i995, want.vars.i996), (0x30, 0xF_0003));
+    c.ring_mirror(ring, 0);
+    assert_eq!(
+        c.card.command_line(&mut s, b"I996 I1001"),
+        b"$F0003\r16\r\x06"
+    );
+    let _ = c.card.command_line(&mut s, b"I1001=32");
+    let want = c.ring_settings(ring, true);
+    assert_eq!(want.vars.i1001, 32);
+    assert_eq!(want.rearm, None);
+}

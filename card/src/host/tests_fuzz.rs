@@ -402,7 +402,7 @@ proptest! {
         let mut port = crate::service::chain::ChainPort::new();
         for (id, data) in &chunks {
             // A line waiting for the ring (`MS…` on a card without one) parks: no reply yet.
-            for (pos, reply) in port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data).into_iter().flatten() {
+            for (pos, reply) in port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data, &mut crate::lang::Budget::unlimited()).into_iter().flatten() {
                 prop_assert!((pos as usize) < data.len());
                 prop_assert!(reply.len() <= MAX_REPLY);
             }

@@ -7,7 +7,7 @@
 
 use super::pmac::ast::CmdKind;
 use super::power::{self, Power, PowerWait};
-use super::{Card, Session};
+use super::{Budget, Card, LineRun, Session};
 use crate::domain::{CsNum, MotorNum, Profile, Refusal};
 use crate::model::CardModel;
 use crate::program::Commands;
@@ -60,6 +60,15 @@ impl HeldReply {
 /// Threads of a Power card's daisy-chain connections are kept under the connection id with
 /// this bit set (host connections never have it).
 pub(crate) const CHAIN_THREAD: u64 = 1 << 63;
+
+/// A synchronized start's line after its slice ([`Dialect::started_line`]).
+#[derive(Debug)]
+pub enum Started {
+    /// Done: its whole reply.
+    Done(Vec<u8>),
+    /// Its budget ran out: go on with [`Dialect::step_started`].
+    Running(Box<LineRun>),
+}
 
 impl Dialect {
     /// The language of `card`'s profile, installed in its model.
@@ -115,18 +124,37 @@ impl Dialect {
         }
     }
 
-    /// Like [`Dialect::detached_line`] without remembering the line for CTRL-I/CTRL-Y (a
-    /// synchronized start's line).
+    /// A synchronized start's line, run within `budget` (the tick of its ring cycle gives it
+    /// a slice): done, or a run to go on with ([`Dialect::step_started`]) between later ticks.
+    /// A PMAC line runs as a `<CR>` would (it becomes the last line of CTRL-I/CTRL-Y); a Power
+    /// line runs whole on thread `conn`.
     pub fn started_line(
         &mut self,
         card: &mut Card,
         session: &mut Session,
         conn: u64,
         line: &[u8],
-    ) -> Vec<u8> {
+        budget: &mut Budget,
+    ) -> Started {
         match self {
-            Dialect::Pmac => card.run_detached(session, line),
-            Dialect::Power(p) => p.line(card, conn, line),
+            Dialect::Pmac => {
+                let run = card.start_line(session, line, true);
+                Self::step_started(card, session, Box::new(run), budget)
+            }
+            Dialect::Power(p) => Started::Done(p.line(card, conn, line)),
+        }
+    }
+
+    /// Go on with a synchronized start's line within `budget`.
+    pub fn step_started(
+        card: &mut Card,
+        session: &mut Session,
+        mut run: Box<LineRun>,
+        budget: &mut Budget,
+    ) -> Started {
+        match card.step_started(&mut run, session, budget) {
+            Some(r) => Started::Done(r),
+            None => Started::Running(run),
         }
     }
 

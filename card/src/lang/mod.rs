@@ -15,7 +15,7 @@ pub(crate) mod pmac;
 pub(crate) mod power;
 
 pub(crate) use dialect::CHAIN_THREAD;
-pub use dialect::{Dialect, HeldReply, WholeLine};
+pub use dialect::{Dialect, HeldReply, Started, WholeLine};
 pub(crate) use pmac::ast::CmdKind;
 pub(crate) use pmac::interp::{ctrl_n, overlong_probe};
 pub(crate) use power::abort_all;

@@ -20,11 +20,16 @@ use mcc_ring::member::RingMember;
 use mcc_ring::packet::NodeRegs;
 use mcc_ring::settings::RingSettings;
 
-use super::handle::{Runner, StartupLayer};
+use super::handle::Runner;
 use super::startup::wire_macro_motors;
+use crate::core::ring_io::{ResetLayer, RingIn, RingVars, NODES};
 use crate::core::{CardCore, SLICE_UNITS};
 use crate::lang::{Budget, Card};
 use crate::model::I995_STATUS_BITS;
+
+/// What the card's start-up applies on top of its saved (or factory) image, and re-applies
+/// after every reset: the cluster config is the card's hardware setup.
+pub(crate) type StartupLayer = ResetLayer;
 
 /// Convert latched node registers to the card's 24-bit register words (16-bit registers sit in
 /// bits 8-23, spec §6.5).
@@ -48,23 +53,13 @@ pub(crate) fn words_to_regs(w: [u32; 4]) -> NodeRegs {
 }
 
 /// The card's ring application: owns the card (through its `Runner`) on the ring driver's
-/// thread. Each tick runs synchronized starts due now, the servo cycle, then a bounded slice
-/// of host work.
+/// thread. It only copies values between the ring core and the card core's typed ring input
+/// and output (`core::ring_io`); the card core alone writes the card's state. Each tick runs
+/// synchronized starts due now, the servo cycle, then a bounded slice of host work.
 pub struct CardRingApp {
     runner: Runner,
-    nodes: Vec<u8>,
-    /// The ring fault has been reported into the card's status word.
-    reported: bool,
-    /// The card's `$$$` cleared the reported bit: ask the ring core to reset its latch.
-    reset_wanted: bool,
     /// How long a tick waits for a synchronized start's decision.
     stall: std::time::Duration,
-    /// The start-up layer (config settings, motor wiring), applied again after every `$$$` /
-    /// `$$$***` (the process start-up applied it the first time).
-    startup: Option<StartupLayer>,
-    resets_seen: u64,
-    /// The ring settings the card and its ring core last agreed on (`None`: not yet).
-    ring_vars: Option<RingVars>,
     /// The last ring cycle ticked (application faults start at the next one).
     last_cycle: u64,
     /// The host-link fault its ports consult (`mcc fault CARD link KIND`).
@@ -73,81 +68,37 @@ pub struct CardRingApp {
     _resources: Vec<Box<dyn std::any::Any>>,
 }
 
-/// The card's ring I-variables: I995 (configuration bits), I996, I1001, I1004, I1005 (Turbo:
-/// I6840, I6841, I80, I81, I82). They live in the ring core (`RingSettings`, `RingCheck`);
-/// the card's I-variables mirror them, synchronised before every tick in both directions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-struct RingVars {
-    i995: u32,
-    i996: u32,
-    i1001: u32,
-    i1004: u32,
-    i1005: u32,
-}
-
-impl RingVars {
-    fn of_card(card: &Card) -> Self {
-        let i = |n: u32| card.state.peek_ivar(n).unwrap_or(0.0).max(0.0) as u32;
-        let rv = card.state.ring_ivars();
-        RingVars {
-            i995: i(rv.cfg) & !I995_STATUS_BITS,
-            i996: i(rv.nodes),
-            i1001: i(rv.check_period),
-            i1004: i(rv.error_limit),
-            i1005: i(rv.sync_min),
-        }
-    }
-
-    fn of_ring(ring: &RingControl<'_>) -> Self {
-        let s = ring.settings();
-        let p = ring.check().params();
-        RingVars {
-            i995: s.i995 & !I995_STATUS_BITS,
-            i996: s.i996,
-            i1001: p.period,
-            i1004: p.error_limit,
-            i1005: p.sync_min,
-        }
-    }
-
-    /// Field by field: a value the card changed since `last` wins, otherwise the ring core's.
-    fn merge(card: RingVars, ring: RingVars, last: RingVars) -> RingVars {
-        let pick = |c: u32, r: u32, l: u32| if c != l { c } else { r };
-        RingVars {
-            i995: pick(card.i995, ring.i995, last.i995),
-            i996: pick(card.i996, ring.i996, last.i996),
-            i1001: pick(card.i1001, ring.i1001, last.i1001),
-            i1004: pick(card.i1004, ring.i1004, last.i1004),
-            i1005: pick(card.i1005, ring.i1005, last.i1005),
-        }
+/// What the ring core holds of the card's ring I-variables (I995 without status bits).
+fn ring_vars(ring: &RingControl<'_>) -> RingVars {
+    let s = ring.settings();
+    let p = ring.check().params();
+    RingVars {
+        i995: s.i995 & !I995_STATUS_BITS,
+        i996: s.i996,
+        i1001: p.period,
+        i1004: p.error_limit,
+        i1005: p.sync_min,
     }
 }
 
 impl std::fmt::Debug for CardRingApp {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CardRingApp")
-            .field("nodes", &self.nodes)
-            .field("reported", &self.reported)
-            .field("resets_seen", &self.resets_seen)
+            .field("nodes", &self.runner.core.ring_nodes())
+            .field("last_cycle", &self.last_cycle)
             .finish_non_exhaustive()
     }
 }
 
 impl CardRingApp {
     /// A ring app for the card `runner` owns, serving `nodes` (its activated MACRO nodes).
-    pub fn new(runner: Runner, nodes: &[u8]) -> Self {
-        let resets_seen = runner.core.card.model.resets();
+    pub fn new(mut runner: Runner, nodes: &[u8]) -> Self {
+        runner.core.set_ring_nodes(nodes);
         CardRingApp {
             runner,
-            startup: None,
-            resets_seen,
             _resources: Vec::new(),
             link: LinkFaultSlot::default(),
-            nodes: nodes.iter().copied().filter(|&n| n < 16).collect(),
-            reported: false,
-            reset_wanted: false,
             stall: std::time::Duration::from_millis(25),
-            ring_vars: None,
             last_cycle: 0,
         }
     }
@@ -176,7 +127,7 @@ impl CardRingApp {
         if !on {
             return self;
         }
-        let nodes = self.nodes.clone();
+        let nodes = self.runner.core.ring_nodes().to_vec();
         self.with_startup(Box::new(move |card: &mut Card| {
             if let Err(e) = wire_macro_motors(card, &nodes) {
                 tracing::error!("re-applying the motor wiring after a reset: {e}");
@@ -186,7 +137,7 @@ impl CardRingApp {
 
     /// Re-apply `layer` after every `$$$` / `$$$***` (replaces [`Self::with_wiring`]).
     pub fn with_startup(mut self, layer: StartupLayer) -> Self {
-        self.startup = Some(layer);
+        self.runner.core.set_reset_layer(layer);
         self
     }
 
@@ -210,115 +161,64 @@ impl CardRingApp {
 }
 
 impl RingApp for CardRingApp {
-    /// The ring I-variables, both ways: after a reset (and at start-up) the start-up layer is
-    /// applied first, I995/I996 stay as the ring core has them, and the check is re-armed from
-    /// I1001 > 0 as the card's reset does; otherwise a
-    /// value the card changed since the last tick (a host `I1001=32`) goes to the ring core,
-    /// otherwise the core's value is mirrored. I995's status bits latched by the ring are ORed
-    /// into the card's I995 (cleared when a host reads it; the ring check reads its own).
+    /// The ring I-variables, both ways ([`CardCore::ring_settings`], then
+    /// [`CardCore::ring_mirror`]): the ring core takes what the card asks, the card mirrors
+    /// what the ring core holds then. I995's status bits latched by the ring are ORed into the
+    /// card's I995 (cleared when a host reads it; the ring check reads its own).
     fn sync_ring(&mut self, ring: &mut RingControl<'_>) {
-        let card = &mut self.runner.core.card;
-        let reset = self.ring_vars.is_none() || card.resets() != self.resets_seen;
-        if card.resets() != self.resets_seen {
-            self.resets_seen = card.resets();
-            if let Some(layer) = &self.startup {
-                layer(card);
-            }
-        }
-        let (c, r) = (RingVars::of_card(card), RingVars::of_ring(ring));
-        let new = match self.ring_vars {
-            Some(last) if !reset => RingVars::merge(c, r, last),
-            // A reset (and the start): the ring settings stay as the ring core holds them (the
-            // cluster config is the card's jumpers: a reset does not take the card off the
-            // ring); the check parameters are the card's start-up values.
-            _ => RingVars {
-                i995: r.i995,
-                i996: r.i996,
-                ..c
-            },
-        };
-        if (new.i995, new.i996) != (r.i995, r.i996) {
+        let core = &mut self.runner.core;
+        let held = ring_vars(ring);
+        let want = core.ring_settings(held, ring.check().armed());
+        let new = want.vars;
+        if (new.i995, new.i996) != (held.i995, held.i996) {
             let status = ring.settings().i995 & I995_STATUS_BITS;
             ring.set_settings(RingSettings::new(new.i995 | status, new.i996));
         }
-        let armed = ring.check().armed();
-        if reset && armed != (new.i1001 > 0) {
-            // I1001 going from 0 to > 0 (or back) takes effect at a reset only.
-            let i8 = card.state.peek_ivar(8).unwrap_or(2.0).max(0.0) as u32;
+        if let Some(i8) = want.rearm {
             *ring.check_mut() = RingCheck::card(new.i1001, new.i1004, new.i1005, i8);
         } else {
             let check = ring.check_mut();
-            if new.i1001 != r.i1001 {
+            if new.i1001 != held.i1001 {
                 check.set_period(new.i1001);
             }
-            if new.i1004 != r.i1004 {
+            if new.i1004 != held.i1004 {
                 check.set_error_limit(new.i1004);
             }
-            if new.i1005 != r.i1005 {
+            if new.i1005 != held.i1005 {
                 check.set_sync_min(new.i1005);
             }
         }
-        // The card mirrors what the ring core holds now.
-        let held = RingVars::of_ring(ring);
-        let rv = card.state.ring_ivars();
-        let status = card.state.peek_ivar(rv.cfg).unwrap_or(0.0) as u32 & I995_STATUS_BITS;
-        for (n, v, now) in [
-            (rv.cfg, held.i995 | status, c.i995 | status),
-            (rv.nodes, held.i996, c.i996),
-            (rv.check_period, held.i1001, c.i1001),
-            (rv.error_limit, held.i1004, c.i1004),
-            (rv.sync_min, held.i1005, c.i1005),
-        ] {
-            if v != now {
-                let _ = card.state.set_ivar(n, f64::from(v));
-            }
-        }
-        card.state.latch_ring_status(ring.status_bits());
-        self.ring_vars = Some(held);
+        core.ring_mirror(ring_vars(ring), ring.status_bits());
     }
 
     fn tick(&mut self, cycle: u64, _time_ns: u64, regs: &mut RingMember, ring_fault: bool) {
         self.last_cycle = cycle;
         self.runner.sync_tick_start(cycle, self.stall);
-        let card = &mut self.runner.core.card;
-        if self.reported && !card.state.global.ring_fault {
-            // `$$$` cleared the bit: the ring core's latch follows if the ring is healthy,
-            // otherwise the next tick reports the fault again.
-            self.reported = false;
-            self.reset_wanted = true;
-        } else if ring_fault {
-            card.state.global.ring_fault = true;
-            self.reported = true;
-        }
-        if card.resets() != self.resets_seen {
-            // (Without a ring core calling `sync_ring`, e.g. a bare tick in a test.)
-            self.resets_seen = card.resets();
-            if let Some(layer) = &self.startup {
-                layer(card);
-            }
-        }
-        for &n in &self.nodes {
-            card.state
-                .set_node_feedback(usize::from(n), regs_to_words(regs.read_regs(n)));
-        }
-        self.runner.core.tick(cycle);
         // The MACRO auxiliary channel (MS/MX, PLC MSR/MSW): registers 2-3 of this card's
         // node-15 packet, read from its copy as it came back around the ring.
         let me = regs.settings().master_number();
-        let back = regs
+        let aux_back = regs
             .latched_copy(me, AUX_NODE)
             .map_or((0, 0), |r| (r.r2, r.r3));
-        let (r2, r3) = self.runner.core.aux_tick(back);
+        let mut input = RingIn {
+            cycle,
+            fault: ring_fault,
+            feedback: [[0; 4]; NODES],
+            aux_back,
+        };
+        let core = &mut self.runner.core;
+        for &n in core.ring_nodes() {
+            if let Some(slot) = input.feedback.get_mut(usize::from(n)) {
+                *slot = regs_to_words(regs.read_regs(n));
+            }
+        }
+        let out = core.ring_tick(&input);
         let w = regs.write_regs_mut(AUX_NODE);
-        (w.r2, w.r3) = (r2, r3);
-        let card = &mut self.runner.core.card;
-        let latched = card.state.global.ring_fault;
-        for &n in &self.nodes {
-            *regs.write_regs_mut(n) = if latched {
-                NodeRegs::default()
-            } else {
-                words_to_regs(card.state.node_command(usize::from(n)))
-            };
+        (w.r2, w.r3) = out.aux;
+        for &n in core.ring_nodes() {
+            if let Some(words) = out.commands.get(usize::from(n)) {
+                *regs.write_regs_mut(n) = words_to_regs(*words);
+            }
         }
         self.runner.sync_tick_end();
         // Host work after the tick, in a bounded slice: it never delays the next one.
@@ -326,7 +226,7 @@ impl RingApp for CardRingApp {
     }
 
     fn take_ring_reset(&mut self) -> bool {
-        std::mem::take(&mut self.reset_wanted)
+        self.runner.core.take_ring_reset()
     }
 
     /// The card's application faults, by request: `{"family": "input", …}`

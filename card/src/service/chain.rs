@@ -36,7 +36,9 @@ use mcc_contracts::control::chain::{
 use zenoh::Wait;
 
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
-use crate::lang::{ctrl_n, overlong_probe, Card, Dialect, LineRun, Session, MAX_LINE};
+use crate::lang::{
+    ctrl_n, overlong_probe, Budget, Card, Dialect, LineRun, Session, Step, MAX_LINE,
+};
 
 /// Chain connections remembered per card; the least recently used is forgotten beyond this.
 pub(crate) const MAX_CONNECTIONS: usize = 64;
@@ -71,8 +73,9 @@ impl Conn {
     }
 }
 
-/// A chain line waiting for the ring (a MACRO auxiliary command, `@n MS0,MI910`): the rest
-/// of its request is fed once it is done.
+/// A chain line not done yet: it waits for the ring (a MACRO auxiliary command, `@n
+/// MS0,MI910`) or for its next slice of work (a long reply, `@n P0..8191`); the rest of its
+/// request is fed once it is done.
 #[derive(Debug)]
 struct Parked {
     run: Box<LineRun>,
@@ -124,7 +127,8 @@ impl ChainPort {
         }
     }
 
-    /// A line of connection `id` waits for the ring: its request is answered by
+    /// A line of connection `id` is not done (it waits for the ring or for its next slice):
+    /// its request is answered by
     /// [`ChainPort::resume`], and later data of the connection must wait for that.
     pub(crate) fn is_parked(&self, id: u64) -> bool {
         self.parked.contains_key(&id)
@@ -135,13 +139,14 @@ impl ChainPort {
         self.parked.keys().copied().collect()
     }
 
-    /// Run one request against the card; the encoded reply (`None`: a line waits for the
-    /// ring, the reply comes from [`ChainPort::resume`]).
+    /// Run one request against the card, its lines within `budget`; the encoded reply
+    /// (`None`: a line is not done, the reply comes from [`ChainPort::resume`]).
     pub(crate) fn handle(
         &mut self,
         card: &mut Card,
         dialect: &mut Dialect,
         req: &Request<'_>,
+        budget: &mut Budget,
     ) -> Option<Vec<u8>> {
         Some(match req.op {
             OP_CLOSE => {
@@ -150,20 +155,21 @@ impl ChainPort {
             }
             OP_QUERY_START => vec![self.start_flags(card, &*dialect, req.conn)],
             OP_TAKE_START => self.take_start(card, dialect, req.conn),
-            _ => encode_reply(&self.feed(card, dialect, req.conn, req.data)?),
+            _ => encode_reply(&self.feed(card, dialect, req.conn, req.data, budget)?),
         })
     }
 
-    /// Go on with the parked line of connection `id`: the encoded reply of its request once
-    /// the line (and the rest of the request) is done.
+    /// Go on with the parked line of connection `id` within `budget`: the encoded reply of
+    /// its request once the line (and the rest of the request) is done.
     pub(crate) fn resume(
         &mut self,
         card: &mut Card,
         dialect: &mut Dialect,
         id: u64,
+        budget: &mut Budget,
     ) -> Option<Vec<u8>> {
         let mut p = self.parked.remove(&id)?;
-        let Some(r) = card.step_detached(&mut p.run, &mut p.session) else {
+        let Step::Done(r) = card.step_detached(&mut p.run, &mut p.session, budget) else {
             self.parked.insert(id, p);
             return None;
         };
@@ -175,7 +181,7 @@ impl ChainPort {
             p.out.push((p.at, r));
         }
         let rest = std::mem::take(&mut p.rest);
-        let out = self.feed_from(card, dialect, id, &rest, p.base, p.out)?;
+        let out = self.feed_from(card, dialect, id, &rest, (p.base, p.out), budget)?;
         Some(encode_reply(&out))
     }
 
@@ -214,14 +220,15 @@ impl ChainPort {
         out
     }
 
-    /// Feed chain input of connection `id`; returns (position, reply bytes) segments (`None`:
-    /// a line waits for the ring, see [`ChainPort::resume`]).
+    /// Feed chain input of connection `id`, its lines within `budget`; returns (position,
+    /// reply bytes) segments (`None`: a line is not done, see [`ChainPort::resume`]).
     pub(crate) fn feed(
         &mut self,
         card: &mut Card,
         dialect: &mut Dialect,
         id: u64,
         data: &[u8],
+        budget: &mut Budget,
     ) -> Option<Vec<(u32, Vec<u8>)>> {
         self.clock += 1;
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
@@ -230,7 +237,7 @@ impl ChainPort {
                 self.close(card, &mut *dialect, old);
             }
         }
-        self.feed_from(card, dialect, id, data, 0, Vec::new())
+        self.feed_from(card, dialect, id, data, (0, Vec::new()), budget)
     }
 
     fn feed_from(
@@ -239,15 +246,15 @@ impl ChainPort {
         dialect: &mut Dialect,
         id: u64,
         data: &[u8],
-        base: u32,
-        mut out: Vec<(u32, Vec<u8>)>,
+        (base, mut out): (u32, Vec<(u32, Vec<u8>)>),
+        budget: &mut Budget,
     ) -> Option<Vec<(u32, Vec<u8>)>> {
         let clock = self.clock;
         let conn = self.conns.entry(id).or_insert_with(|| Conn::new(card, id));
         conn.last_used = clock;
         for (i, &b) in data.iter().enumerate() {
             let at = base + i as u32;
-            match byte(card, &mut *dialect, conn, b) {
+            match byte(card, &mut *dialect, conn, b, budget) {
                 Exec::Reply(r) if !r.is_empty() => out.push((at, r)),
                 Exec::Reply(_) => {}
                 Exec::Wait(run, session, talking) => {
@@ -282,8 +289,9 @@ fn starts_program(card: &Card, dialect: &Dialect, c: &Conn) -> bool {
     dialect.starts_program(card, &c.session, &c.buf)
 }
 
-/// Process one received byte; the reply this card sends because of it.
-fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8) -> Exec {
+/// Process one received byte (a line it executes runs within `budget`); the reply this card
+/// sends because of it.
+fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8, budget: &mut Budget) -> Exec {
     if b == b'\r' {
         let sa = card.software_addressing();
         if std::mem::take(&mut c.at_pending) && sa {
@@ -292,8 +300,11 @@ fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8) -> Exec {
         }
         return match execute_whole(card, dialect, c) {
             Some(r) => r,
-            None => execute(card, c),
+            None => execute(card, c, budget),
         };
+    }
+    if b == 0x09 && dialect.has_control_commands() {
+        return repeat_last(card, c, budget);
     }
     if !dialect.has_control_commands() && b < 0x20 {
         return Exec::Reply(line_edit_control(card, c, b));
@@ -377,15 +388,6 @@ fn byte_other(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
             }
             Vec::new()
         }
-        0x09 if listening => {
-            let mut s = Session {
-                chain_addressed: true,
-                ..c.session.clone()
-            };
-            let r = card.control_char(&mut s, b);
-            restore(c, &s);
-            said(r)
-        }
         0x0E => said(ctrl_n(&c.buf)),
         0x19 if listening => {
             c.overflow = false;
@@ -421,9 +423,47 @@ fn restore(c: &mut Conn, s: &Session) {
     c.session.coord = s.coord;
 }
 
-/// `<CR>`: execute the collected line (every card that has one), reply if talking. A line
-/// whose MACRO auxiliary command waits for the ring is handed back to be parked.
-fn execute(card: &mut Card, c: &mut Conn) -> Exec {
+/// CTRL-I: the card(s) receiving execute the last line again (not remembered anew), within
+/// `budget` as a `<CR>` does.
+fn repeat_last(card: &mut Card, c: &mut Conn, budget: &mut Budget) -> Exec {
+    if std::mem::take(&mut c.at_pending) && card.software_addressing() {
+        // A lone `@` before it: the report-card command, collected like any line character.
+        collect(card, c, b'@');
+    }
+    if !card.chain_listening(&c.session) {
+        return Exec::Reply(Vec::new());
+    }
+    let talking = card.chain_talking(&c.session);
+    let line = card.last_line().to_vec();
+    let mut s = Session {
+        chain_addressed: true,
+        ..c.session.clone()
+    };
+    let run = card.start_line(&mut s, &line, false);
+    step(card, c, run, s, talking, budget)
+}
+
+/// Run `run` within `budget`: its reply when done (if talking), else handed back to be
+/// parked.
+fn step(
+    card: &mut Card,
+    c: &mut Conn,
+    mut run: LineRun,
+    mut s: Session,
+    talking: bool,
+    budget: &mut Budget,
+) -> Exec {
+    let Step::Done(r) = card.step_detached(&mut run, &mut s, budget) else {
+        return Exec::Wait(Box::new(run), s, talking);
+    };
+    restore(c, &s);
+    Exec::Reply(if talking { r } else { Vec::new() })
+}
+
+/// `<CR>`: execute the collected line (every card that has one) within `budget`, reply if
+/// talking. A line not done (its MACRO auxiliary command waits for the ring, or its slice is
+/// used) is handed back to be parked.
+fn execute(card: &mut Card, c: &mut Conn, budget: &mut Budget) -> Exec {
     let talking = card.chain_talking(&c.session);
     if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
         // The line was taken for a synchronized start: it runs (and answers) there.
@@ -444,12 +484,8 @@ fn execute(card: &mut Card, c: &mut Conn) -> Exec {
         chain_addressed: true,
         ..c.session.clone()
     };
-    let mut run = card.start_detached(&mut s, &line);
-    let Some(r) = card.step_detached(&mut run, &mut s) else {
-        return Exec::Wait(Box::new(run), s, talking);
-    };
-    restore(c, &s);
-    Exec::Reply(if talking { r } else { Vec::new() })
+    let run = card.start_detached(&mut s, &line);
+    step(card, c, run, s, talking, budget)
 }
 
 /// `<CR>` on a card whose language answers lines whole (Power): the collected line runs on

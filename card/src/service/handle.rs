@@ -19,7 +19,7 @@ use super::chain::ChainPort;
 use super::storage::FileStorage;
 use super::sync_start::SyncShared;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
-use crate::lang::{Budget, Effect, EffectResult, Session, Storage};
+use crate::lang::{Budget, Dialect, Effect, EffectResult, LineRun, Session, Started, Storage};
 use crate::model::Unsolicited;
 
 /// Requests waiting for the servo thread at most.
@@ -194,12 +194,19 @@ impl IoWorker {
     }
 }
 
-/// What the card's start-up applies on top of its saved (or factory) image, and re-applies
-/// after every reset: the cluster config is the card's hardware setup.
-pub(crate) type StartupLayer = Box<dyn Fn(&mut crate::lang::Card)>;
-
 /// Chain requests (payload, reply channel) of one connection, waiting in order.
 type ChainQueue = VecDeque<(Vec<u8>, Sender<Response>)>;
+
+/// A synchronized start's line still running after its tick.
+#[derive(Debug)]
+struct StartedRun {
+    id: u64,
+    /// The ring cycle it started in.
+    cycle: u64,
+    ns: u64,
+    run: Box<LineRun>,
+    session: Session,
+}
 
 /// The servo thread's side: owns the [`CardCore`].
 pub struct Runner {
@@ -214,6 +221,10 @@ pub struct Runner {
     /// Daisy-chain requests waiting behind a line that waits for the ring, per connection
     /// (the first is the parked line's own request).
     chain_wait: HashMap<u64, ChainQueue>,
+    /// What chain lines may still do in this pump (its share of the pump's budget).
+    chain_budget: Budget,
+    /// Synchronized starts' lines not done in their tick (a long reply).
+    started: Vec<StartedRun>,
     /// Synchronized start (shared with the `at` queryable).
     pub sync: Arc<SyncShared>,
     sync_session: Session,
@@ -242,6 +253,8 @@ pub(crate) fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, 
         shared: Arc::clone(&shared),
         chain: ChainPort::new(),
         chain_wait: HashMap::new(),
+        chain_budget: Budget::new(0),
+        started: Vec::new(),
         sync: Arc::new(SyncShared::default()),
         sync_session: Session::default(),
         orphaned: false,
@@ -276,10 +289,12 @@ impl Runner {
                     return;
                 }
                 let closing = req.op == OP_CLOSE;
-                match self
-                    .chain
-                    .handle(&mut self.core.card, &mut self.core.dialect, &req)
-                {
+                match self.chain.handle(
+                    &mut self.core.card,
+                    &mut self.core.dialect,
+                    &req,
+                    &mut self.chain_budget,
+                ) {
                     Some(r) => {
                         let _ = env.reply.send(Response::Chain(Ok(r)));
                     }
@@ -304,8 +319,14 @@ impl Runner {
     }
 
     /// Take what arrived (bounded), serve host work within `budget`, dispatch replies and
-    /// effects, publish program output.
+    /// effects, publish program output. \[DECISION\] The daisy chain is one more host port:
+    /// its lines (parked ones first, then what arrived) run within half of `budget`, and what
+    /// they leave goes to the host ports' requests, so neither a chain flood nor a host flood
+    /// holds the other back by more than a share of a slice.
     pub fn pump(&mut self, budget: &mut Budget) {
+        let share = (budget.left() / 2).max(1);
+        self.chain_budget = Budget::new(share);
+        self.resume_chain();
         for _ in 0..DRAIN_PER_PUMP {
             match self.rx.try_recv() {
                 Ok(env) => self.accept(env),
@@ -315,19 +336,23 @@ impl Runner {
         while let Ok((t, r)) = self.io.rx.try_recv() {
             self.core.effect_done(t, r);
         }
+        budget.spend(share - self.chain_budget.left());
+        self.resume_started(budget);
         self.core.serve(budget);
-        self.resume_chain();
         self.dispatch();
     }
 
-    /// Daisy-chain lines waiting for the ring: answer those that are done, then run what their
-    /// connections sent meanwhile (in order, until one waits again).
+    /// Daisy-chain lines not done (waiting for the ring or for their next slice): answer
+    /// those that are done, then run what their connections sent meanwhile (in order, until
+    /// one waits again).
     fn resume_chain(&mut self) {
         for conn in self.chain.parked() {
-            let Some(reply) = self
-                .chain
-                .resume(&mut self.core.card, &mut self.core.dialect, conn)
-            else {
+            let Some(reply) = self.chain.resume(
+                &mut self.core.card,
+                &mut self.core.dialect,
+                conn,
+                &mut self.chain_budget,
+            ) else {
                 continue;
             };
             let Some(queue) = self.chain_wait.get_mut(&conn) else {
@@ -340,7 +365,12 @@ impl Runner {
                 let r = match mcc_contracts::control::chain::decode_request(payload) {
                     Ok(req) => self
                         .chain
-                        .handle(&mut self.core.card, &mut self.core.dialect, &req)
+                        .handle(
+                            &mut self.core.card,
+                            &mut self.core.dialect,
+                            &req,
+                            &mut self.chain_budget,
+                        )
                         .map(Ok),
                     Err(e) => Some(Err(e.to_string())),
                 };
@@ -419,14 +449,29 @@ impl Runner {
             for (id, line) in due {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 // A Power card runs the line in its own dialect, on the synchronized-start
-                // thread (its `Ldata` persists from start to start, as a session does).
-                let reply = self.core.dialect.started_line(
+                // thread (its `Ldata` persists from start to start, as a session does). Each
+                // line has a slice of its own in this tick; what is left of a long one runs
+                // in the slices after it (its commands in order, its reply when done).
+                let mut session = self.sync_session.clone();
+                match self.core.dialect.started_line(
                     card,
-                    &mut self.sync_session,
+                    &mut session,
                     SYNC_THREAD,
                     &line,
-                );
-                done.push((id, ns, reply));
+                    &mut Budget::new(SLICE_UNITS),
+                ) {
+                    Started::Done(reply) => {
+                        self.sync_session = session;
+                        done.push((id, ns, reply));
+                    }
+                    Started::Running(run) => self.started.push(StartedRun {
+                        id,
+                        cycle,
+                        ns,
+                        run,
+                        session,
+                    }),
+                }
             }
             let fresh = card.model.take_actions();
             scheduled_start = fresh.iter().any(|a| a.kind.starts_program());
@@ -441,7 +486,29 @@ impl Runner {
         for (id, ns, reply) in done {
             core.executed(id, cycle, ns, reply);
         }
+        for r in self.started.iter().filter(|r| r.cycle == cycle) {
+            core.running(r.id, cycle);
+        }
         core.note_starts(card.model.actions(), cycle, now, scheduled_start);
+    }
+
+    /// Synchronized starts' lines left over from their tick go on within `budget`; a line
+    /// done is reported executed in the cycle it started in.
+    fn resume_started(&mut self, budget: &mut Budget) {
+        for mut r in std::mem::take(&mut self.started) {
+            if budget.exhausted() {
+                self.started.push(r);
+                continue;
+            }
+            let card = &mut self.core.card;
+            match Dialect::step_started(card, &mut r.session, r.run, budget) {
+                Started::Done(reply) => {
+                    self.sync_session = r.session;
+                    self.sync.lock().executed(r.id, r.cycle, r.ns, reply);
+                }
+                Started::Running(run) => self.started.push(StartedRun { run, ..r }),
+            }
+        }
     }
 
     /// Publish the card's state `info` reports (done at every tick end).

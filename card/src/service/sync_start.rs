@@ -62,6 +62,8 @@ struct Done {
 pub(crate) struct SyncCore {
     last_tick: Option<u64>,
     pending: Vec<Pending>,
+    /// Lines that started in their tick and are not done yet (id, cycle): a long reply.
+    running: Vec<(u64, u64)>,
     done: VecDeque<Done>,
     program_start_cycle: Option<u64>,
     program_start_ns: Option<u64>,
@@ -208,6 +210,13 @@ impl SyncCore {
                 ..AtReply::default()
             };
         }
+        if let Some((_, cycle)) = self.running.iter().find(|r| r.0 == id) {
+            return AtReply {
+                ok: true,
+                message: format!("running since cycle {cycle}"),
+                ..AtReply::default()
+            };
+        }
         match self.pending.iter().find(|p| p.id == id) {
             Some(p) => AtReply {
                 ok: true,
@@ -260,8 +269,14 @@ impl SyncCore {
         due.into_iter().map(|p| (p.id, p.line)).collect()
     }
 
+    /// Line `id` started in the tick of `cycle` and goes on in the slices after it.
+    pub(crate) fn running(&mut self, id: u64, cycle: u64) {
+        self.running.push((id, cycle));
+    }
+
     /// Record a line's execution.
     pub(crate) fn executed(&mut self, id: u64, cycle: u64, ns: u64, reply: Vec<u8>) {
+        self.running.retain(|r| r.0 != id);
         self.push_done(Done {
             id,
             cycle,

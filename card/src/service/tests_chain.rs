@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::domain::Profile;
-use mcc_contracts::control::chain::{decode_request, encode_request};
+use mcc_contracts::control::chain::{decode_reply, decode_request, encode_request};
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
@@ -42,7 +42,16 @@ impl Cable {
         let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
         let cards = self.cards.iter_mut().zip(self.power.iter_mut());
         for (k, ((card, port), power)) in cards.enumerate() {
-            for (p, b) in port.feed(card, power, conn, data).unwrap_or_default() {
+            for (p, b) in port
+                .feed(
+                    card,
+                    power,
+                    conn,
+                    data,
+                    &mut crate::lang::Budget::unlimited(),
+                )
+                .unwrap_or_default()
+            {
                 segs.push((p, k, b));
             }
         }
@@ -180,18 +189,36 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     let mut c = Cable::new(1);
     let (card, port) = &mut c.cards[0];
     for id in 0..(MAX_CONNECTIONS as u64 + 10) {
-        let _ = port.feed(card, &mut Dialect::Pmac, id, b"P1\r");
+        let _ = port.feed(
+            card,
+            &mut Dialect::Pmac,
+            id,
+            b"P1\r",
+            &mut crate::lang::Budget::unlimited(),
+        );
     }
     assert_eq!(port.connections(), MAX_CONNECTIONS);
     assert_eq!(
-        port.feed(card, &mut Dialect::Pmac, 500, b"OPEN PROG 1 CLEAR\r")
-            .unwrap_or_default(),
+        port.feed(
+            card,
+            &mut Dialect::Pmac,
+            500,
+            b"OPEN PROG 1 CLEAR\r",
+            &mut crate::lang::Budget::unlimited()
+        )
+        .unwrap_or_default(),
         vec![(17, vec![6])]
     );
     port.close(card, &mut Dialect::Pmac, 500);
     // The buffer is closed again: another connection may open one.
     assert_eq!(
-        port.feed(card, &mut Dialect::Pmac, 501, b"OPEN PROG 2\r"),
+        port.feed(
+            card,
+            &mut Dialect::Pmac,
+            501,
+            b"OPEN PROG 2\r",
+            &mut crate::lang::Budget::unlimited()
+        ),
         Some(vec![(11, vec![6])])
     );
 }
@@ -208,6 +235,7 @@ impl Cable {
                 conn,
                 data: &[],
             },
+            &mut crate::lang::Budget::unlimited(),
         )
         .unwrap_or_default()
     }
@@ -263,7 +291,13 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     assert_eq!(c.send(1, b"@1\r"), b"\x06");
     let (card, port) = &mut c.cards[1];
     assert_eq!(
-        port.feed(card, &mut Dialect::Pmac, 1, b"P1=1 MS0,MI8 P1=2\rP1\r"),
+        port.feed(
+            card,
+            &mut Dialect::Pmac,
+            1,
+            b"P1=1 MS0,MI8 P1=2\rP1\r",
+            &mut crate::lang::Budget::unlimited()
+        ),
         None
     );
     assert!(port.is_parked(1));
@@ -275,7 +309,12 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     for k in 0..reply.len() as u64 {
         let (r2, r3) = stream_word(WordKind::Reply, tag, 0, &reply, k).encode();
         card.model.aux.servo_tick((r2, r3));
-        done = port.resume(card, &mut Dialect::Pmac, 1);
+        done = port.resume(
+            card,
+            &mut Dialect::Pmac,
+            1,
+            &mut crate::lang::Budget::unlimited(),
+        );
         if done.is_some() {
             break;
         }
@@ -291,7 +330,13 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     // a line whose card is not a master gets ERR008 at once (never parked)
     let (card0, port0) = &mut c.cards[0];
     assert_eq!(
-        port0.feed(card0, &mut Dialect::Pmac, 2, b"MS0,MI8\r"),
+        port0.feed(
+            card0,
+            &mut Dialect::Pmac,
+            2,
+            b"MS0,MI8\r",
+            &mut crate::lang::Budget::unlimited()
+        ),
         Some(vec![(7, b"\x07ERR008\r".to_vec())])
     );
 }
@@ -371,4 +416,77 @@ fn control_characters_do_not_act_on_a_power_card() {
         "850000000000 050000000000 050000000000 050000000000 050000000000 050000000000 \
          050000000000 050000000000\r"
     );
+}
+
+/// Issue 24 item 3: a chain line runs within the slice budget it is given; a long reply
+/// (`P0..1023`) parks the line, and the rest of its request follows once it is done: the
+/// reply is the same as in one go, in the same order.
+#[test]
+fn a_long_chain_line_runs_in_slices_and_the_rest_of_its_request_follows() {
+    use crate::lang::Budget;
+    let mut whole = Cable::new(1);
+    let expected = whole.send(1, b"P0..1023\rP1=5 P1\r");
+    assert!(expected.len() > 1024 * 2, "{}", expected.len());
+    let mut c = Cable::new(1);
+    let (card, port) = &mut c.cards[0];
+    let mut budget = Budget::new(100);
+    assert_eq!(
+        port.feed(
+            card,
+            &mut Dialect::Pmac,
+            1,
+            b"P0..1023\rP1=5 P1\r",
+            &mut budget
+        ),
+        None,
+        "1024 variables do not fit a slice of 100 units"
+    );
+    assert!(budget.exhausted());
+    assert!(port.is_parked(1));
+    let mut slices = 1;
+    let reply = loop {
+        let mut budget = Budget::new(100);
+        if let Some(r) = port.resume(card, &mut Dialect::Pmac, 1, &mut budget) {
+            break r;
+        }
+        assert!(budget.exhausted(), "a parked line used its whole slice");
+        slices += 1;
+        assert!(slices < 1000, "no end");
+    };
+    assert!(
+        slices >= 10,
+        "{slices} slices of 100 units for 1024 variables"
+    );
+    let merged: Vec<u8> = decode_reply(&reply)
+        .unwrap()
+        .into_iter()
+        .flat_map(|s| s.1)
+        .collect();
+    assert_eq!(merged, expected);
+}
+
+/// CTRL-I on the chain re-runs the last line within the budget too (parked, then resumed).
+#[test]
+fn ctrl_i_on_the_chain_is_sliced_like_a_line() {
+    use crate::lang::Budget;
+    let mut c = Cable::new(1);
+    let first = c.send(1, b"P0..999\r");
+    let (card, port) = &mut c.cards[0];
+    assert_eq!(
+        port.feed(card, &mut Dialect::Pmac, 1, b"\x09", &mut Budget::new(50)),
+        None
+    );
+    let reply = loop {
+        if let Some(r) = port.resume(card, &mut Dialect::Pmac, 1, &mut Budget::new(50)) {
+            break r;
+        }
+    };
+    let merged: Vec<u8> = decode_reply(&reply)
+        .unwrap()
+        .into_iter()
+        .flat_map(|s| s.1)
+        .collect();
+    assert_eq!(merged, first);
+    // Not remembered anew: CTRL-Y still gives the line typed.
+    assert_eq!(c.send(1, b"\x19"), b"P0..999");
 }

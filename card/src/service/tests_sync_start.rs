@@ -208,3 +208,40 @@ fn info_reports_ring_fault_and_killed_motors() {
     assert!(r.ring_fault && r.motors_killed, "{r:?}");
     assert_eq!(r.killed_motors, vec![1]);
 }
+
+/// Issue 24 item 3: a synchronized start's line has one slice in the tick of its cycle: the
+/// program starts in that cycle, and what is left of a long line (`P0..1023`) runs in the
+/// pumps after it; its reply, the same as in one go, is reported executed in the cycle it
+/// started in.
+#[test]
+fn a_long_started_line_starts_in_its_cycle_and_finishes_in_later_slices() {
+    let mut t = ready_card(Duration::from_millis(50));
+    t.tick(10, true);
+    let line = "&1B1R P0..1023";
+    assert!(t.handle(&arm(7, 12, line)).ok);
+    assert!(t.handle(&AtRequest::Commit { id: 7 }).ok);
+    t.tick(11, true);
+    t.tick(12, false);
+    assert_eq!(t.program_start().0, Some(12), "started in its cycle");
+    let r = t.handle(&AtRequest::Result { id: 7 });
+    assert_eq!(r.executed_cycle, None, "1024 values do not fit one slice");
+    assert!(r.ok, "{r:?}");
+    assert_eq!(r.message, "running since cycle 12");
+    let mut pumps = 0;
+    let done = loop {
+        t.runner
+            .pump(&mut crate::lang::Budget::new(crate::core::SLICE_UNITS));
+        pumps += 1;
+        let r = t.handle(&AtRequest::Result { id: 7 });
+        if r.executed_cycle.is_some() {
+            break r;
+        }
+        assert!(pumps < 1000, "never done");
+    };
+    assert!(pumps >= 2, "{pumps} pumps");
+    assert_eq!(done.executed_cycle, Some(12));
+    let want = ready_card(Duration::from_millis(5))
+        .card()
+        .command_line(&mut Session::default(), line.as_bytes());
+    assert_eq!(done.reply.as_deref().map(str::as_bytes), Some(&want[..]));
+}

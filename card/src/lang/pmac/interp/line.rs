@@ -402,7 +402,7 @@ impl Pmac<'_> {
         }
     }
 
-    /// Run `line` to its end for a program (`CMD"…"`, CTRL-I): the outcome and the data lines
+    /// Run `line` to its end for a program (`CMD"…"`): the outcome and the data lines
     /// with their framing. Effects go to the detached list (performed by the caller; the
     /// command does not wait: SAVE is acknowledged, `$$$` resets once the image is loaded).
     pub(crate) fn execute_line(
@@ -412,44 +412,41 @@ impl Pmac<'_> {
     ) -> (Outcome, Vec<(Framing, String)>) {
         let mut run = self.run_for(line.to_vec(), Reply::new(), true);
         loop {
-            match self.step_line(&mut run, s, &mut Budget::unlimited()) {
+            match self.step_detached(&mut run, s, &mut Budget::unlimited()) {
                 Step::Done(_) => {
                     let outcome = run.outcome.unwrap_or(Outcome::Ok);
                     return (outcome, std::mem::take(&mut run.lines));
                 }
-                Step::Yield => {}
                 Step::Wait => self.abandon_aux(&mut run),
-                Step::Effect(e) => {
-                    run.waiting = None;
-                    if e == Effect::Load {
-                        run.outcome = Some(Outcome::Silent);
-                    }
-                    self.mem.detached.push(e);
-                }
+                Step::Yield | Step::Effect(_) => {}
             }
         }
     }
 
-    /// Execute one line completely (CTRL-I re-executes the last line this way); effects are
-    /// detached as for program commands.
+    /// Execute one line completely (start-up and configuration lines); effects are detached
+    /// as for program commands.
     pub(crate) fn run_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> Vec<u8> {
         let mut run = self.start_line(s, line, remember);
         loop {
-            match self.step_detached(&mut run, s) {
-                Some(r) => return r,
-                None => self.abandon_aux(&mut run),
+            match self.step_detached(&mut run, s, &mut Budget::unlimited()) {
+                Step::Done(r) => return r,
+                Step::Wait => self.abandon_aux(&mut run),
+                Step::Yield | Step::Effect(_) => {}
             }
         }
     }
 
-    /// Run `run` as far as it goes with effects detached: its reply, or `None` while a MACRO
-    /// auxiliary command waits for the ring (call again after a servo tick).
-    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
+    /// Run `run` within `budget` with effects detached: [`Step::Done`] with its reply,
+    /// [`Step::Yield`] when the budget ran out, [`Step::Wait`] while a MACRO auxiliary
+    /// command waits for the ring (call again after a servo tick); never [`Step::Effect`].
+    pub(crate) fn step_detached(
+        &mut self,
+        run: &mut LineRun,
+        s: &mut Session,
+        budget: &mut Budget,
+    ) -> Step {
         loop {
-            match self.step_line(run, s, &mut Budget::unlimited()) {
-                Step::Done(r) => return Some(r),
-                Step::Yield => {}
-                Step::Wait => return None,
+            match self.step_line(run, s, budget) {
                 Step::Effect(e) => {
                     run.waiting = None;
                     if e == Effect::Load {
@@ -457,6 +454,7 @@ impl Pmac<'_> {
                     }
                     self.mem.detached.push(e);
                 }
+                other => return other,
             }
         }
     }

@@ -306,10 +306,34 @@ impl Card {
         self.view().start_line(session, line, true)
     }
 
-    /// Advance a detached line run: its reply, or `None` while a MACRO auxiliary command
-    /// waits for the ring (call again after a servo tick).
-    pub(crate) fn step_detached(&mut self, run: &mut LineRun, s: &mut Session) -> Option<Vec<u8>> {
-        self.view().step_detached(run, s)
+    /// Advance a detached line run within `budget`: [`Step::Done`] with its reply,
+    /// [`Step::Yield`] (budget used) or [`Step::Wait`] (a MACRO auxiliary command waits for
+    /// the ring): call again later. Never [`Step::Effect`]: effects are detached.
+    pub(crate) fn step_detached(
+        &mut self,
+        run: &mut LineRun,
+        s: &mut Session,
+        budget: &mut Budget,
+    ) -> Step {
+        self.view().step_detached(run, s, budget)
+    }
+
+    /// Advance a synchronized start's line within `budget`, effects detached: its reply when
+    /// done, `None` when the budget ran out (call again with the next slice). A MACRO
+    /// auxiliary access cannot wait for the ring here: it fails as a timeout at once.
+    pub(crate) fn step_started(
+        &mut self,
+        run: &mut LineRun,
+        s: &mut Session,
+        budget: &mut Budget,
+    ) -> Option<Vec<u8>> {
+        loop {
+            match self.view().step_detached(run, s, budget) {
+                Step::Done(r) => return Some(r),
+                Step::Wait => self.view().abandon_aux(run),
+                Step::Yield | Step::Effect(_) => return None,
+            }
+        }
     }
 
     /// Execute one control-character command (0x01..=0x1A other than CR, LF, TAB/CTRL-I, BS).
