@@ -115,18 +115,24 @@ impl Dialect {
         }
     }
 
-    /// Like [`Dialect::detached_line`] without remembering the line for CTRL-I/CTRL-Y (a
-    /// synchronized start's line).
+    /// Like [`Dialect::detached_line`] with effects detached (a synchronized start's line):
+    /// the reply and its refusal.
     pub fn started_line(
         &mut self,
         card: &mut Card,
         session: &mut Session,
         conn: u64,
         line: &[u8],
-    ) -> Vec<u8> {
+    ) -> (Vec<u8>, Option<Refusal>) {
         match self {
-            Dialect::Pmac => card.run_detached(session, line),
-            Dialect::Power(p) => p.line(card, conn, line),
+            Dialect::Pmac => {
+                let (bytes, e) = card.run_detached_refused(session, line);
+                (bytes, e.map(Refusal::Pmac))
+            }
+            Dialect::Power(p) => {
+                let (bytes, e) = p.line_refused(card, conn, line);
+                (bytes, e.map(Refusal::Power))
+            }
         }
     }
 
@@ -139,11 +145,20 @@ impl Dialect {
     }
 
     /// Control character `c` from a host port: PMAC's control-character commands; a Power
-    /// `gpascii` thread has none (nothing, no reply).
-    pub fn control(&mut self, card: &mut Card, session: &mut Session, c: u8) -> Vec<u8> {
+    /// `gpascii` thread has none (nothing, no reply). With the refusal of the line CTRL-I
+    /// re-executes.
+    pub fn control(
+        &mut self,
+        card: &mut Card,
+        session: &mut Session,
+        c: u8,
+    ) -> (Vec<u8>, Option<Refusal>) {
         match self {
-            Dialect::Pmac => card.control_char(session, c),
-            Dialect::Power(_) => Vec::new(),
+            Dialect::Pmac => {
+                let (bytes, e) = card.control_char_refused(session, c);
+                (bytes, e.map(Refusal::Pmac))
+            }
+            Dialect::Power(_) => (Vec::new(), None),
         }
     }
 
@@ -202,16 +217,17 @@ impl Dialect {
         out
     }
 
-    /// A chain line at `<CR>` in a whole-line dialect: its reply, on the connection's own
-    /// thread (`None`: the PMAC chain runs it with the connection's session). `overflow`: the
-    /// line was longer than the dialect takes (it answers its own error for it).
+    /// A chain line at `<CR>` in a whole-line dialect: its reply and refusal, on the
+    /// connection's own thread (`None`: the PMAC chain runs it with the connection's
+    /// session). `overflow`: the line was longer than the dialect takes (it answers its own
+    /// error for it).
     pub fn chain_line(
         &mut self,
         card: &mut Card,
         session: &Session,
         line: &[u8],
         overflow: bool,
-    ) -> Option<Vec<u8>> {
+    ) -> Option<(Vec<u8>, Option<Refusal>)> {
         let Dialect::Power(p) = self else {
             return None;
         };
@@ -222,7 +238,8 @@ impl Dialect {
         } else {
             line
         };
-        Some(p.line(card, CHAIN_THREAD | session.id, line))
+        let (bytes, e) = p.line_refused(card, CHAIN_THREAD | session.id, line);
+        Some((bytes, e.map(Refusal::Power)))
     }
 
     /// Connection `session` of the daisy chain is gone.

@@ -15,7 +15,7 @@ use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendErro
 use mcc_contracts::control::chain::OP_CLOSE;
 use mcc_contracts::control::sync_start::{AtReply, AtRequest};
 
-use super::chain::ChainPort;
+use super::chain::{ChainPort, Encoded};
 use super::storage::FileStorage;
 use super::sync_start::SyncShared;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
@@ -54,8 +54,9 @@ pub enum Request {
 pub enum Response {
     /// To a host request.
     Host(HostReply),
-    /// To a chain request: the encoded reply, or the wire error.
-    Chain(Result<Vec<u8>, String>),
+    /// To a chain request: the encoded reply (payload and refusal attachment), or the wire
+    /// error.
+    Chain(Result<Encoded, String>),
     /// To a synchronized-start request.
     At(AtReply),
 }
@@ -293,7 +294,7 @@ impl Runner {
                 if closing {
                     // whatever waited behind a dropped line is answered empty
                     for (_, tx) in self.chain_wait.remove(&conn).unwrap_or_default() {
-                        let _ = tx.send(Response::Chain(Ok(Vec::new())));
+                        let _ = tx.send(Response::Chain(Ok(Encoded::default())));
                     }
                 }
             }
@@ -420,13 +421,13 @@ impl Runner {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 // A Power card runs the line in its own dialect, on the synchronized-start
                 // thread (its `Ldata` persists from start to start, as a session does).
-                let reply = self.core.dialect.started_line(
+                let (reply, refusal) = self.core.dialect.started_line(
                     card,
                     &mut self.sync_session,
                     SYNC_THREAD,
                     &line,
                 );
-                done.push((id, ns, reply));
+                done.push((id, ns, reply, refusal));
             }
             let fresh = card.model.take_actions();
             scheduled_start = fresh.iter().any(|a| a.kind.starts_program());
@@ -438,8 +439,8 @@ impl Runner {
         // Results and the program start are published together: a query never sees a line
         // executed without the start it made.
         let mut core = sync.lock();
-        for (id, ns, reply) in done {
-            core.executed(id, cycle, ns, reply);
+        for (id, ns, reply, refusal) in done {
+            core.executed(id, cycle, ns, reply, refusal);
         }
         core.note_starts(card.model.actions(), cycle, now, scheduled_start);
     }

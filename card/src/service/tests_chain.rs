@@ -2,8 +2,9 @@
 //! input order as the orchestrator does. Cards run with I3=2 I6=1 (compact framing).
 
 use super::*;
-use crate::domain::Profile;
+use crate::domain::{ErrCode, PowerErr, Profile, Refusal};
 use mcc_contracts::control::chain::{decode_request, encode_request};
+use mcc_contracts::control::CardRefusal;
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
@@ -42,7 +43,11 @@ impl Cable {
         let mut segs: Vec<(u32, usize, Vec<u8>)> = Vec::new();
         let cards = self.cards.iter_mut().zip(self.power.iter_mut());
         for (k, ((card, port), power)) in cards.enumerate() {
-            for (p, b) in port.feed(card, power, conn, data).unwrap_or_default() {
+            for (p, b) in port
+                .feed(card, power, conn, data)
+                .unwrap_or_default()
+                .segments
+            {
                 segs.push((p, k, b));
             }
         }
@@ -185,13 +190,15 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
     assert_eq!(port.connections(), MAX_CONNECTIONS);
     assert_eq!(
         port.feed(card, &mut Dialect::Pmac, 500, b"OPEN PROG 1 CLEAR\r")
-            .unwrap_or_default(),
+            .unwrap_or_default()
+            .segments,
         vec![(17, vec![6])]
     );
     port.close(card, &mut Dialect::Pmac, 500);
     // The buffer is closed again: another connection may open one.
     assert_eq!(
-        port.feed(card, &mut Dialect::Pmac, 501, b"OPEN PROG 2\r"),
+        port.feed(card, &mut Dialect::Pmac, 501, b"OPEN PROG 2\r")
+            .map(|a| a.segments),
         Some(vec![(11, vec![6])])
     );
 }
@@ -210,6 +217,7 @@ impl Cable {
             },
         )
         .unwrap_or_default()
+        .payload
     }
 }
 
@@ -281,7 +289,8 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
         }
     }
     let done = done.expect("the line finished");
-    let segs = mcc_contracts::control::chain::decode_reply(&done).expect("segments");
+    let segs = mcc_contracts::control::chain::decode_reply(&done.payload).expect("segments");
+    assert!(done.refusals.is_empty(), "no line refused");
     // the parked line's reply at its <CR> (position 17), then the next line's at 20
     assert_eq!(
         segs,
@@ -292,7 +301,10 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
     let (card0, port0) = &mut c.cards[0];
     assert_eq!(
         port0.feed(card0, &mut Dialect::Pmac, 2, b"MS0,MI8\r"),
-        Some(vec![(7, b"\x07ERR008\r".to_vec())])
+        Some(Answer {
+            segments: vec![(7, b"\x07ERR008\r".to_vec())],
+            refusals: vec![(7, Refusal::Pmac(ErrCode::MacroAux))],
+        })
     );
 }
 
@@ -371,4 +383,106 @@ fn control_characters_do_not_act_on_a_power_card() {
         "850000000000 050000000000 050000000000 050000000000 050000000000 050000000000 \
          050000000000 050000000000\r"
     );
+}
+
+impl Cable {
+    /// Broadcast `data` on connection `conn`; the refusals every card reported, as
+    /// `(card, position, refusal)`.
+    fn refusals(&mut self, conn: u64, data: &[u8]) -> Vec<(usize, u32, Refusal)> {
+        let cards = self.cards.iter_mut().zip(self.power.iter_mut());
+        let mut out = Vec::new();
+        for (k, ((card, port), power)) in cards.enumerate() {
+            let a = port.feed(card, power, conn, data).unwrap_or_default();
+            out.extend(a.refusals.into_iter().map(|(p, r)| (k, p, r)));
+        }
+        out
+    }
+}
+
+#[test]
+fn the_answering_card_reports_its_refusals_whatever_i6_prints() {
+    let mut c = Cable::new(2);
+    // I6 = 2 on card 1: a refused line answers a bare <BELL>, no ERRnnn in the bytes.
+    assert_eq!(c.ask(1, "I6=2"), b"\x06");
+    assert_eq!(c.send(1, b"@1UUU\r"), b"\x07");
+    // Only card 1 collected the lines: it alone reports their refusals, at the position of
+    // each line's <CR>.
+    let data = b"UUU\rP1\rUUU\r";
+    assert_eq!(
+        c.refusals(1, data),
+        vec![
+            (1, 3, Refusal::Pmac(ErrCode::Data)),
+            (1, 10, Refusal::Pmac(ErrCode::Data)),
+        ]
+    );
+    // Under `@@` every card runs the line, card 0 answers: only card 0 reports.
+    assert_eq!(
+        c.refusals(1, b"@@UUU\r"),
+        vec![(0, 5, Refusal::Pmac(ErrCode::Data))]
+    );
+    // The encoded reply carries the refusal in its attachment, the payload is the bytes.
+    let (card, port) = &mut c.cards[1];
+    let e = port
+        .handle(
+            card,
+            &mut Dialect::Pmac,
+            &Request {
+                op: mcc_contracts::control::chain::OP_DATA,
+                conn: 7,
+                data: b"@1UUU\r",
+            },
+        )
+        .expect("answered");
+    assert_eq!(
+        e.payload,
+        mcc_contracts::control::chain::encode_reply(&[(5, b"\x07".to_vec())])
+    );
+    assert_eq!(
+        mcc_contracts::control::chain::decode_refusals(&e.refusals),
+        Ok(vec![(5, CardRefusal::Pmac(3))])
+    );
+    // A good line: no attachment.
+    let e = port
+        .handle(
+            card,
+            &mut Dialect::Pmac,
+            &Request {
+                op: mcc_contracts::control::chain::OP_DATA,
+                conn: 7,
+                data: b"P1\r",
+            },
+        )
+        .expect("answered");
+    assert!(e.refusals.is_empty());
+}
+
+#[test]
+fn ctrl_i_and_overlong_lines_report_their_refusal() {
+    let mut c = Cable::new(1);
+    assert_eq!(c.ask(0, "I6=0"), b"\x06");
+    assert_eq!(
+        c.refusals(1, b"UUU\r"),
+        vec![(0, 3, Refusal::Pmac(ErrCode::Data))]
+    );
+    // CTRL-I runs `UUU` again.
+    assert_eq!(
+        c.refusals(1, b"\x09"),
+        vec![(0, 0, Refusal::Pmac(ErrCode::Data))]
+    );
+    let mut long = vec![b'P'; MAX_LINE + 10];
+    long.push(b'\r');
+    assert_eq!(
+        c.refusals(1, &long),
+        vec![(0, MAX_LINE as u32 + 10, Refusal::Pmac(ErrCode::Data))]
+    );
+}
+
+#[test]
+fn a_power_card_reports_its_refusal() {
+    let mut c = Cable::mixed();
+    assert_eq!(
+        c.refusals(1, b"@0OPEN PROG 1 CLEAR\r"),
+        vec![(0, 19, Refusal::Power(PowerErr::IllegalCmd))]
+    );
+    assert_eq!(c.refusals(1, b"Motor[2].JogSpeed\r"), vec![]);
 }

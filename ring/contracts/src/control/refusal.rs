@@ -65,9 +65,7 @@ impl FromStr for CardRefusal {
         let parsed = if s == "BELL" {
             Some(CardRefusal::Bell)
         } else if let Some(d) = s.strip_prefix("ERR") {
-            number(d, 3..=3)
-                .filter(|&n| n > 0)
-                .map(CardRefusal::Pmac)
+            number(d, 3..=3).filter(|&n| n > 0).map(CardRefusal::Pmac)
         } else if let Some(d) = s.strip_prefix("error #") {
             // One spelling per number (no leading zero), so the text round-trips.
             number(d, 1..=5)
@@ -138,7 +136,16 @@ mod tests {
     #[test]
     fn malformed_text_is_named() {
         for bad in [
-            "", "ERR", "ERR3", "ERR0003", "ERR000", "ERRabc", "error #", "error #x", "error #020", "bell",
+            "",
+            "ERR",
+            "ERR3",
+            "ERR0003",
+            "ERR000",
+            "ERRabc",
+            "error #",
+            "error #x",
+            "error #020",
+            "bell",
             "ERR003\r",
         ] {
             assert_eq!(
