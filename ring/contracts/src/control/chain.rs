@@ -15,7 +15,7 @@
 //! `<BELL>` or nothing, per I6). The attachment is a list of `position u32 LE, length u8,
 //! text` ([`encode_refusals`]), `position` being that of the `<CR>` that ran the line (the
 //! position of its reply segment) and `text` the refusal's text form
-//! ([`CardRefusal`](super::refusal::CardRefusal): `ERR003`, `error #20`). No attachment, or
+//! ([`CardRefusal`]: `ERR003`, `error #20`). No attachment, or
 //! an empty one, means no line was refused; a reader that ignores attachments sees the
 //! same segments as before.
 

@@ -1,7 +1,7 @@
 //! A card's refusal of a host line as it travels between processes ([`CardRefusal`]), beside
 //! the reply bytes and never inside them: the card's command queryable
 //! `mcc/<cluster>/card/<n>/cmd` puts it in the zenoh reply **attachment** (its text form,
-//! [`CardRefusal::to_string`]; no attachment: the line was not refused), the daisy chain in
+//! its `Display`; no attachment: the line was not refused), the daisy chain in
 //! its reply attachment ([`super::chain::encode_refusals`]) and a synchronized start in
 //! [`super::AtReply::refusal`]. The reply bytes stay what the card's framing made of the
 //! line (I6 may print `ERRnnn`, a bare `<BELL>` or nothing), so callers match on the refusal,
