@@ -258,7 +258,9 @@ impl CardCore {
                 }
                 HostRequest::Control(c) => {
                     budget.spend(1);
-                    Some(self.dialect.control(&mut self.card, &mut s, c))
+                    let (out, refused) = self.dialect.control(&mut self.card, &mut s, c);
+                    error = refused;
+                    Some(out)
                 }
                 HostRequest::Line(line) | HostRequest::LineStreamed(line)
                     if self.dialect.answers_whole_lines() =>

@@ -242,6 +242,17 @@ impl From<PowerErr> for Refusal {
     }
 }
 
+/// The refusal as it travels to other processes (the `cmd`, `chain` and `at` endpoints:
+/// `mcc_contracts::control::refusal`): the same text form, `ERR003` / `error #20`.
+impl From<Refusal> for mcc_contracts::control::CardRefusal {
+    fn from(r: Refusal) -> Self {
+        match r {
+            Refusal::Pmac(e) => Self::Pmac(e.code()),
+            Refusal::Power(e) => Self::Power(e.code()),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -278,5 +289,19 @@ mod tests {
         );
         assert_eq!(Refusal::from(ErrCode::Data).to_string(), "ERR003");
         assert_eq!(Refusal::from(PowerErr::ReadOnly).to_string(), "error #23");
+    }
+
+    #[test]
+    fn the_wire_form_is_the_display_form() {
+        use mcc_contracts::control::CardRefusal;
+        for r in ErrCode::ALL
+            .map(Refusal::Pmac)
+            .into_iter()
+            .chain(PowerErr::ALL.map(Refusal::Power))
+        {
+            let wire = CardRefusal::from(r);
+            assert_eq!(wire.to_string(), r.to_string());
+            assert_eq!(r.to_string().parse::<CardRefusal>(), Ok(wire));
+        }
     }
 }

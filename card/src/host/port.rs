@@ -5,6 +5,7 @@
 
 use super::ascii::AsciiEvent;
 use crate::core::HostRequest;
+use crate::domain::Refusal;
 use crate::service::handle::CardHandle;
 
 /// A part of a reply.
@@ -36,6 +37,12 @@ pub(crate) trait Interpreter {
     fn control(&mut self, c: u8) -> Vec<u8>;
     /// The reply to a line that exceeded the port's maximum length (the card's ERR003).
     fn overlong(&mut self) -> Vec<u8>;
+    /// The first refusal among the replies since the last call (`HostReply::error`), taken:
+    /// a port that reports refusals beside the bytes (the zenoh cmd queryable) asks this
+    /// after [`run_events`].
+    fn take_refusal(&mut self) -> Option<Refusal> {
+        None
+    }
 }
 
 pub(crate) use crate::lang::overlong_probe;
@@ -47,6 +54,8 @@ pub(crate) struct CardPort {
     card: CardHandle,
     conn: u64,
     echo: bool,
+    /// The first refusal since [`Interpreter::take_refusal`].
+    refused: Option<Refusal>,
 }
 
 impl CardPort {
@@ -57,6 +66,7 @@ impl CardPort {
             card,
             conn,
             echo: false,
+            refused: None,
         }
     }
 
@@ -77,6 +87,7 @@ impl CardPort {
     fn ask_part(&mut self, req: HostRequest) -> Part {
         let r = self.card.host(self.conn, req);
         self.echo = r.echo;
+        self.refused = self.refused.or(r.error);
         Part {
             bytes: r.bytes,
             more: r.more,
@@ -109,6 +120,10 @@ impl Interpreter for CardPort {
     fn overlong(&mut self) -> Vec<u8> {
         self.ask(HostRequest::Line(overlong_probe()))
     }
+
+    fn take_refusal(&mut self) -> Option<Refusal> {
+        self.refused.take()
+    }
 }
 
 /// Apply terminal events to the interpreter, appending replies to `out` in order.
@@ -134,7 +149,9 @@ pub(crate) fn run_event<I: Interpreter + ?Sized>(
         AsciiEvent::Control(c) => out.extend_from_slice(&interp.control(c)),
         AsciiEvent::Reply(r) => out.extend_from_slice(&r),
         AsciiEvent::Cancel => {
+            // The refusals of the dropped replies go with them.
             out.clear();
+            let _ = interp.take_refusal();
             out.extend_from_slice(&interp.control(0x18));
         }
         AsciiEvent::Overlong => out.extend_from_slice(&interp.overlong()),

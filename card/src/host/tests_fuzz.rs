@@ -402,9 +402,13 @@ proptest! {
         let mut port = crate::service::chain::ChainPort::new();
         for (id, data) in &chunks {
             // A line waiting for the ring (`MS…` on a card without one) parks: no reply yet.
-            for (pos, reply) in port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data, &mut crate::lang::Budget::unlimited()).into_iter().flatten() {
+            let answer = port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data, &mut crate::lang::Budget::unlimited()).unwrap_or_default();
+            for (pos, reply) in answer.segments {
                 prop_assert!((pos as usize) < data.len());
                 prop_assert!(reply.len() <= MAX_REPLY);
+            }
+            for (pos, _) in answer.refusals {
+                prop_assert!((pos as usize) < data.len());
             }
         }
         for id in 0..3 {

@@ -3,11 +3,18 @@
 //! it, control characters act at once), the reply payload is the card's framed reply bytes.
 //! All queries share one session on the card, like one terminal: `#2` in one query addresses
 //! motor 2 for the next.
+//!
+//! The first refusal of the payload's lines (`HostReply::error`, whether or not I6 printed
+//! it) travels in the reply's **attachment** as its text form (`ERR003`, `error #20`:
+//! `mcc_contracts::control::refusal`); no attachment when nothing was refused. The payload
+//! bytes are unchanged by it.
 
+use mcc_contracts::control::CardRefusal;
 use zenoh::Wait;
 
 use super::ascii::AsciiCodec;
-use super::port::{run_events, CardPort};
+use super::port::{run_events, CardPort, Interpreter};
+use crate::domain::Refusal;
 use crate::service::handle::CardHandle;
 
 /// `mcc/<cluster>/card/<n>/cmd` (architecture §4).
@@ -15,17 +22,19 @@ pub(crate) fn cmd_key(cluster: &str, n: u32) -> String {
     mcc_ring::control::card_cmd_key(cluster, n)
 }
 
-/// Run one query payload against the card (blocks until the card answers).
+/// Run one query payload against the card (blocks until the card answers): the reply bytes
+/// and the first refusal among its lines.
 pub(crate) fn execute_payload(
     port: &mut CardPort,
     codec: &mut AsciiCodec,
     payload: &[u8],
-) -> Vec<u8> {
+) -> (Vec<u8>, Option<Refusal>) {
     let mut events = codec.feed(payload);
     codec.finish_line(&mut events);
     let mut out = Vec::new();
+    let _ = port.take_refusal();
     run_events(events, port, &mut out);
-    out
+    (out, port.take_refusal())
 }
 
 /// Declare the queryable for card `n` of `cluster`. Keep the returned value alive: dropping it
@@ -44,8 +53,12 @@ pub(crate) async fn declare_cmd_queryable(
             .map(|p| p.to_bytes().into_owned())
             .unwrap_or_default();
         let (port, codec) = &mut state;
-        let reply = execute_payload(port, codec, &payload);
-        if let Err(e) = query.reply(query.key_expr().clone(), reply).wait() {
+        let (reply, refusal) = execute_payload(port, codec, &payload);
+        let mut answer = query.reply(query.key_expr().clone(), reply);
+        if let Some(r) = refusal {
+            answer = answer.attachment(CardRefusal::from(r).to_string());
+        }
+        if let Err(e) = answer.wait() {
             tracing::warn!("card cmd reply failed: {e}");
         }
     });
@@ -56,7 +69,7 @@ pub(crate) async fn declare_cmd_queryable(
 mod tests {
     use super::*;
     use crate::core::CardCore;
-    use crate::domain::Profile;
+    use crate::domain::{ErrCode, Profile};
     use crate::lang::{Card, Session};
     use crate::service::handle::channel;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -80,10 +93,45 @@ mod tests {
         let mut p = CardPort::new(h);
         let mut c = AsciiCodec::new();
         let want = Card::new(Profile::Pmac2).command_line(&mut Session::default(), b"UUU");
-        assert_eq!(execute_payload(&mut p, &mut c, b"UUU"), want);
+        // `UUU` is no command (ERR003): its refusal comes with the bytes.
+        let refused = Some(Refusal::Pmac(ErrCode::Data));
+        assert_eq!(
+            execute_payload(&mut p, &mut c, b"UUU"),
+            (want.clone(), refused)
+        );
         // An explicit CR (or CR LF) does not add a second, empty command.
-        assert_eq!(execute_payload(&mut p, &mut c, b"UUU\r\n"), want);
+        assert_eq!(execute_payload(&mut p, &mut c, b"UUU\r\n"), (want, refused));
         assert!(c.partial().is_empty());
+        stop.store(true, Ordering::Relaxed);
+        t.join().unwrap();
+    }
+
+    #[test]
+    fn a_refusal_is_reported_whatever_i6_prints() {
+        let (h, stop, t) = card_thread();
+        let mut p = CardPort::new(h);
+        let mut c = AsciiCodec::new();
+        // I6 = 2: a refused line answers a bare <BELL>, no code in the bytes.
+        assert_eq!(execute_payload(&mut p, &mut c, b"I6=2").1, None);
+        let (bytes, refusal) = execute_payload(&mut p, &mut c, b"UUU");
+        assert!(!bytes.windows(3).any(|w| w == b"ERR"), "{bytes:?}");
+        assert_eq!(refusal, Some(Refusal::Pmac(ErrCode::Data)));
+        // The first refusal of the payload; a later good line does not clear it.
+        let (_, refusal) = execute_payload(&mut p, &mut c, b"UUU\rP1");
+        assert_eq!(refusal, Some(Refusal::Pmac(ErrCode::Data)));
+        assert_eq!(execute_payload(&mut p, &mut c, b"P1").1, None);
+        // CTRL-I re-executes the last line (`UUU`): its refusal too.
+        execute_payload(&mut p, &mut c, b"UUU");
+        assert_eq!(
+            execute_payload(&mut p, &mut c, b"\x09").1,
+            Some(Refusal::Pmac(ErrCode::Data))
+        );
+        // An over-long line is the card's ERR003.
+        let long = vec![b'P'; 4000];
+        assert_eq!(
+            execute_payload(&mut p, &mut c, &long).1,
+            Some(Refusal::Pmac(ErrCode::Data))
+        );
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap();
     }
@@ -115,6 +163,28 @@ mod tests {
             .to_bytes()
             .into_owned();
         assert_eq!(got, want);
+        let a = r
+            .result()
+            .unwrap()
+            .attachment()
+            .map(|a| a.to_bytes().into_owned());
+        assert_eq!(a.as_deref(), Some(&b"ERR003"[..]), "UUU is refused");
+        // I6 = 2 prints a bare <BELL>: the refusal is in the attachment only.
+        for (line, attach) in [("I6=2", None), ("UUU", Some("ERR003")), ("P1", None)] {
+            let replies = z.get(cmd_key("hosttest", 7)).payload(line).await.unwrap();
+            let r = tokio::time::timeout(std::time::Duration::from_secs(10), replies.recv_async())
+                .await
+                .expect("reply in time")
+                .unwrap();
+            let s = r.result().expect("ok reply");
+            let a = s.attachment().map(|a| a.to_bytes().into_owned());
+            assert_eq!(a.as_deref(), attach.map(str::as_bytes), "{line}");
+            if line == "UUU" {
+                assert_eq!(s.payload().to_bytes().as_ref(), b"\x07");
+                let parsed = CardRefusal::from_bytes(a.as_deref().unwrap_or_default());
+                assert_eq!(parsed, Ok(CardRefusal::Pmac(ErrCode::Data.code())));
+            }
+        }
         z.close().await.unwrap();
         stop.store(true, Ordering::Relaxed);
         t.join().unwrap();

@@ -64,8 +64,8 @@ pub(crate) const CHAIN_THREAD: u64 = 1 << 63;
 /// A synchronized start's line after its slice ([`Dialect::started_line`]).
 #[derive(Debug)]
 pub enum Started {
-    /// Done: its whole reply.
-    Done(Vec<u8>),
+    /// Done: its whole reply and its refusal.
+    Done(Vec<u8>, Option<Refusal>),
     /// Its budget ran out: go on with [`Dialect::step_started`].
     Running(Box<LineRun>),
 }
@@ -125,9 +125,9 @@ impl Dialect {
     }
 
     /// A synchronized start's line, run within `budget` (the tick of its ring cycle gives it
-    /// a slice): done, or a run to go on with ([`Dialect::step_started`]) between later ticks.
-    /// A PMAC line runs as a `<CR>` would (it becomes the last line of CTRL-I/CTRL-Y); a Power
-    /// line runs whole on thread `conn`.
+    /// a slice): done (with its refusal), or a run to go on with ([`Dialect::step_started`])
+    /// between later ticks. A PMAC line runs as a `<CR>` would (it becomes the last line of
+    /// CTRL-I/CTRL-Y); a Power line runs whole on thread `conn`.
     pub fn started_line(
         &mut self,
         card: &mut Card,
@@ -141,7 +141,10 @@ impl Dialect {
                 let run = card.start_line(session, line, true);
                 Self::step_started(card, session, Box::new(run), budget)
             }
-            Dialect::Power(p) => Started::Done(p.line(card, conn, line)),
+            Dialect::Power(p) => {
+                let (bytes, e) = p.line_refused(card, conn, line);
+                Started::Done(bytes, e.map(Refusal::Power))
+            }
         }
     }
 
@@ -153,7 +156,7 @@ impl Dialect {
         budget: &mut Budget,
     ) -> Started {
         match card.step_started(&mut run, session, budget) {
-            Some(r) => Started::Done(r),
+            Some(r) => Started::Done(r, run.refusal().map(Refusal::Pmac)),
             None => Started::Running(run),
         }
     }
@@ -167,11 +170,20 @@ impl Dialect {
     }
 
     /// Control character `c` from a host port: PMAC's control-character commands; a Power
-    /// `gpascii` thread has none (nothing, no reply).
-    pub fn control(&mut self, card: &mut Card, session: &mut Session, c: u8) -> Vec<u8> {
+    /// `gpascii` thread has none (nothing, no reply). With the refusal of the line CTRL-I
+    /// re-executes.
+    pub fn control(
+        &mut self,
+        card: &mut Card,
+        session: &mut Session,
+        c: u8,
+    ) -> (Vec<u8>, Option<Refusal>) {
         match self {
-            Dialect::Pmac => card.control_char(session, c),
-            Dialect::Power(_) => Vec::new(),
+            Dialect::Pmac => {
+                let (bytes, e) = card.control_char_refused(session, c);
+                (bytes, e.map(Refusal::Pmac))
+            }
+            Dialect::Power(_) => (Vec::new(), None),
         }
     }
 
@@ -230,16 +242,17 @@ impl Dialect {
         out
     }
 
-    /// A chain line at `<CR>` in a whole-line dialect: its reply, on the connection's own
-    /// thread (`None`: the PMAC chain runs it with the connection's session). `overflow`: the
-    /// line was longer than the dialect takes (it answers its own error for it).
+    /// A chain line at `<CR>` in a whole-line dialect: its reply and refusal, on the
+    /// connection's own thread (`None`: the PMAC chain runs it with the connection's
+    /// session). `overflow`: the line was longer than the dialect takes (it answers its own
+    /// error for it).
     pub fn chain_line(
         &mut self,
         card: &mut Card,
         session: &Session,
         line: &[u8],
         overflow: bool,
-    ) -> Option<Vec<u8>> {
+    ) -> Option<(Vec<u8>, Option<Refusal>)> {
         let Dialect::Power(p) = self else {
             return None;
         };
@@ -250,7 +263,8 @@ impl Dialect {
         } else {
             line
         };
-        Some(p.line(card, CHAIN_THREAD | session.id, line))
+        let (bytes, e) = p.line_refused(card, CHAIN_THREAD | session.id, line);
+        Some((bytes, e.map(Refusal::Power)))
     }
 
     /// Connection `session` of the daisy chain is gone.

@@ -26,16 +26,23 @@
 //! position-tagged segments the orchestrator merges in input order). `T` is answered with the
 //! flags byte then the line to run (addressing prefix `#m&c` + the collected line), or nothing
 //! when the collected line does not start a program.
+//!
+//! Refusals: the card that answers a line it refused (the talking card only) lists the
+//! refusal at the line's `<CR>` position in the reply's attachment
+//! (`mcc_contracts::control::chain::encode_refusals`), whatever I6 made of it in the bytes;
+//! the other cards that ran the line stay silent about it, as they do about its reply.
 
 use std::collections::HashMap;
 
 use mcc_contracts::control::chain::{
-    chain_key, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE, OP_QUERY_START,
-    OP_TAKE_START,
+    chain_key, encode_refusals, encode_reply, Request, FLAG_STARTS, FLAG_TALKS, OP_CLOSE,
+    OP_QUERY_START, OP_TAKE_START,
 };
+use mcc_contracts::control::CardRefusal;
 use zenoh::Wait;
 
 use super::handle::{self, CardHandle, Response, REPLY_TIMEOUT};
+use crate::domain::Refusal;
 use crate::lang::{
     ctrl_n, overlong_probe, Budget, Card, Dialect, LineRun, Session, Step, MAX_LINE,
 };
@@ -83,15 +90,74 @@ struct Parked {
     talking: bool,
     /// Position of the line's `<CR>` in the request.
     at: u32,
-    out: Vec<(u32, Vec<u8>)>,
+    out: Answer,
     rest: Vec<u8>,
     base: u32,
 }
 
 /// What executing a `<CR>` gave.
 enum Exec {
-    Reply(Vec<u8>),
+    /// The reply this card sends (empty when silent) and the refusal it reports.
+    Reply(Vec<u8>, Option<Refusal>),
     Wait(Box<LineRun>, Session, bool),
+}
+
+impl Exec {
+    /// A reply without a refusal.
+    fn said(r: Vec<u8>) -> Exec {
+        Exec::Reply(r, None)
+    }
+}
+
+/// This card's answer to a data request: reply segments `(position, bytes)` and the
+/// refusals `(position, refusal)` of the lines it answered.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub(crate) struct Answer {
+    /// Reply bytes by input position.
+    pub segments: Vec<(u32, Vec<u8>)>,
+    /// Refusals by the position of the `<CR>` that ran the line.
+    pub refusals: Vec<(u32, Refusal)>,
+}
+
+/// An encoded chain reply: the payload and the refusal attachment (empty: none).
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Encoded {
+    /// Reply payload.
+    pub payload: Vec<u8>,
+    /// Refusals attachment (`encode_refusals`).
+    pub refusals: Vec<u8>,
+}
+
+impl From<Vec<u8>> for Encoded {
+    fn from(payload: Vec<u8>) -> Self {
+        Encoded {
+            payload,
+            refusals: Vec::new(),
+        }
+    }
+}
+
+impl Answer {
+    fn encode(&self) -> Encoded {
+        let refusals: Vec<(u32, CardRefusal)> = self
+            .refusals
+            .iter()
+            .map(|&(p, r)| (p, CardRefusal::from(r)))
+            .collect();
+        Encoded {
+            payload: encode_reply(&self.segments),
+            refusals: encode_refusals(&refusals),
+        }
+    }
+
+    fn push(&mut self, at: u32, bytes: Vec<u8>, refusal: Option<Refusal>) {
+        if !bytes.is_empty() {
+            self.segments.push((at, bytes));
+        }
+        if let Some(r) = refusal {
+            self.refusals.push((at, r));
+        }
+    }
 }
 
 /// This card's receivers, one per chain connection (pure: bytes in, reply segments out).
@@ -139,50 +205,53 @@ impl ChainPort {
         self.parked.keys().copied().collect()
     }
 
-    /// Run one request against the card, its lines within `budget`; the encoded reply
-    /// (`None`: a line is not done, the reply comes from [`ChainPort::resume`]).
+    /// Run one request against the card; the encoded reply (`None`: a line waits for the
+    /// ring, the reply comes from [`ChainPort::resume`]).
     pub(crate) fn handle(
         &mut self,
         card: &mut Card,
         dialect: &mut Dialect,
         req: &Request<'_>,
         budget: &mut Budget,
-    ) -> Option<Vec<u8>> {
+    ) -> Option<Encoded> {
         Some(match req.op {
             OP_CLOSE => {
                 self.close(card, dialect, req.conn);
-                Vec::new()
+                Encoded::default()
             }
-            OP_QUERY_START => vec![self.start_flags(card, &*dialect, req.conn)],
-            OP_TAKE_START => self.take_start(card, dialect, req.conn),
-            _ => encode_reply(&self.feed(card, dialect, req.conn, req.data, budget)?),
+            OP_QUERY_START => vec![self.start_flags(card, &*dialect, req.conn)].into(),
+            OP_TAKE_START => self.take_start(card, dialect, req.conn).into(),
+            _ => self
+                .feed(card, dialect, req.conn, req.data, budget)?
+                .encode(),
         })
     }
 
-    /// Go on with the parked line of connection `id` within `budget`: the encoded reply of
-    /// its request once the line (and the rest of the request) is done.
+    /// Go on with the parked line of connection `id`: the encoded reply of its request once
+    /// the line (and the rest of the request) is done.
     pub(crate) fn resume(
         &mut self,
         card: &mut Card,
         dialect: &mut Dialect,
         id: u64,
         budget: &mut Budget,
-    ) -> Option<Vec<u8>> {
+    ) -> Option<Encoded> {
         let mut p = self.parked.remove(&id)?;
         let Step::Done(r) = card.step_detached(&mut p.run, &mut p.session, budget) else {
             self.parked.insert(id, p);
             return None;
         };
         let Some(conn) = self.conns.get_mut(&id) else {
-            return Some(Vec::new());
+            return Some(Encoded::default());
         };
         restore(conn, &p.session);
-        if p.talking && !r.is_empty() {
-            p.out.push((p.at, r));
+        if p.talking {
+            let refusal = p.run.refusal().map(Refusal::Pmac);
+            p.out.push(p.at, r, refusal);
         }
         let rest = std::mem::take(&mut p.rest);
         let out = self.feed_from(card, dialect, id, &rest, (p.base, p.out), budget)?;
-        Some(encode_reply(&out))
+        Some(out.encode())
     }
 
     /// [`FLAG_STARTS`]/[`FLAG_TALKS`] of the line connection `id` has collected (0: none).
@@ -220,8 +289,8 @@ impl ChainPort {
         out
     }
 
-    /// Feed chain input of connection `id`, its lines within `budget`; returns (position,
-    /// reply bytes) segments (`None`: a line is not done, see [`ChainPort::resume`]).
+    /// Feed chain input of connection `id`; returns the reply segments and refusals (`None`:
+    /// a line waits for the ring, see [`ChainPort::resume`]).
     pub(crate) fn feed(
         &mut self,
         card: &mut Card,
@@ -229,7 +298,7 @@ impl ChainPort {
         id: u64,
         data: &[u8],
         budget: &mut Budget,
-    ) -> Option<Vec<(u32, Vec<u8>)>> {
+    ) -> Option<Answer> {
         self.clock += 1;
         if !self.conns.contains_key(&id) && self.conns.len() >= MAX_CONNECTIONS {
             let oldest = self.conns.iter().min_by_key(|(_, c)| c.last_used);
@@ -237,7 +306,7 @@ impl ChainPort {
                 self.close(card, &mut *dialect, old);
             }
         }
-        self.feed_from(card, dialect, id, data, (0, Vec::new()), budget)
+        self.feed_from(card, dialect, id, data, (0, Answer::default()), budget)
     }
 
     fn feed_from(
@@ -246,17 +315,16 @@ impl ChainPort {
         dialect: &mut Dialect,
         id: u64,
         data: &[u8],
-        (base, mut out): (u32, Vec<(u32, Vec<u8>)>),
+        (base, mut out): (u32, Answer),
         budget: &mut Budget,
-    ) -> Option<Vec<(u32, Vec<u8>)>> {
+    ) -> Option<Answer> {
         let clock = self.clock;
         let conn = self.conns.entry(id).or_insert_with(|| Conn::new(card, id));
         conn.last_used = clock;
         for (i, &b) in data.iter().enumerate() {
             let at = base + i as u32;
             match byte(card, &mut *dialect, conn, b, budget) {
-                Exec::Reply(r) if !r.is_empty() => out.push((at, r)),
-                Exec::Reply(_) => {}
+                Exec::Reply(r, refusal) => out.push(at, r, refusal),
                 Exec::Wait(run, session, talking) => {
                     self.parked.insert(
                         id,
@@ -289,8 +357,7 @@ fn starts_program(card: &Card, dialect: &Dialect, c: &Conn) -> bool {
     dialect.starts_program(card, &c.session, &c.buf)
 }
 
-/// Process one received byte (a line it executes runs within `budget`); the reply this card
-/// sends because of it.
+/// Process one received byte; the reply this card sends because of it.
 fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8, budget: &mut Budget) -> Exec {
     if b == b'\r' {
         let sa = card.software_addressing();
@@ -307,9 +374,9 @@ fn byte(card: &mut Card, dialect: &mut Dialect, c: &mut Conn, b: u8, budget: &mu
         return repeat_last(card, c, budget);
     }
     if !dialect.has_control_commands() && b < 0x20 {
-        return Exec::Reply(line_edit_control(card, c, b));
+        return Exec::said(line_edit_control(card, c, b));
     }
-    Exec::Reply(byte_other(card, c, b))
+    byte_other(card, c, b)
 }
 
 /// [DECISION] A control character on a Power card: a `gpascii` thread has no PMAC
@@ -339,29 +406,29 @@ fn line_edit_control(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
 }
 
 /// A received byte other than `<CR>`.
-fn byte_other(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
+fn byte_other(card: &mut Card, c: &mut Conn, b: u8) -> Exec {
     let sa = card.software_addressing();
     if std::mem::take(&mut c.at_pending) && sa {
         if let Some(n) = hex_digit(b) {
             let _ = card.chain_select(&mut c.session, Some(n));
-            return Vec::new();
+            return Exec::said(Vec::new());
         }
         if b == b'@' {
             let _ = card.chain_select(&mut c.session, None);
-            return Vec::new();
+            return Exec::said(Vec::new());
         }
         // A lone `@`: the report-card command, collected like any line character.
         collect(card, c, b'@');
     }
     if b == b'@' && sa {
         c.at_pending = true;
-        return Vec::new();
+        return Exec::said(Vec::new());
     }
     let listening = card.chain_listening(&c.session);
     let talking = card.chain_talking(&c.session);
     let all = sa && c.session.chain_all;
     let said = |r: Vec<u8>| if talking { r } else { Vec::new() };
-    match b {
+    Exec::said(match b {
         // CTRL-A/D/K/O/Q/R/S: every card, whatever the addressing.
         0x01 | 0x04 | 0x0B | 0x0F | 0x11 | 0x12 | 0x13 => {
             let r = card.control_char(&mut c.session, b);
@@ -399,7 +466,7 @@ fn byte_other(card: &mut Card, c: &mut Conn, b: u8) -> Vec<u8> {
             collect(card, c, b);
             Vec::new()
         }
-    }
+    })
 }
 
 /// A line character: into the buffer while this card is receiving; over-long lines are
@@ -424,14 +491,14 @@ fn restore(c: &mut Conn, s: &Session) {
 }
 
 /// CTRL-I: the card(s) receiving execute the last line again (not remembered anew), within
-/// `budget` as a `<CR>` does.
+/// `budget` as a `<CR>` does; the talking card reports its refusal.
 fn repeat_last(card: &mut Card, c: &mut Conn, budget: &mut Budget) -> Exec {
     if std::mem::take(&mut c.at_pending) && card.software_addressing() {
         // A lone `@` before it: the report-card command, collected like any line character.
         collect(card, c, b'@');
     }
     if !card.chain_listening(&c.session) {
-        return Exec::Reply(Vec::new());
+        return Exec::said(Vec::new());
     }
     let talking = card.chain_talking(&c.session);
     let line = card.last_line().to_vec();
@@ -443,8 +510,8 @@ fn repeat_last(card: &mut Card, c: &mut Conn, budget: &mut Budget) -> Exec {
     step(card, c, run, s, talking, budget)
 }
 
-/// Run `run` within `budget`: its reply when done (if talking), else handed back to be
-/// parked.
+/// Run `run` within `budget`: its reply and refusal when done (if talking), else handed
+/// back to be parked.
 fn step(
     card: &mut Card,
     c: &mut Conn,
@@ -457,7 +524,10 @@ fn step(
         return Exec::Wait(Box::new(run), s, talking);
     };
     restore(c, &s);
-    Exec::Reply(if talking { r } else { Vec::new() })
+    if !talking {
+        return Exec::said(Vec::new());
+    }
+    Exec::Reply(r, run.refusal().map(Refusal::Pmac))
 }
 
 /// `<CR>`: execute the collected line (every card that has one) within `budget`, reply if
@@ -467,17 +537,18 @@ fn execute(card: &mut Card, c: &mut Conn, budget: &mut Budget) -> Exec {
     let talking = card.chain_talking(&c.session);
     if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
         // The line was taken for a synchronized start: it runs (and answers) there.
-        return Exec::Reply(Vec::new());
+        return Exec::said(Vec::new());
     }
     let line = std::mem::take(&mut c.buf);
     if std::mem::take(&mut c.overflow) {
         if !talking {
-            return Exec::Reply(Vec::new());
+            return Exec::said(Vec::new());
         }
-        return Exec::Reply(card.run_detached(&mut c.session.clone(), &overlong_probe()));
+        let (r, e) = card.run_detached_refused(&mut c.session.clone(), &overlong_probe());
+        return Exec::Reply(r, e.map(Refusal::Pmac));
     }
     if line.is_empty() && !talking {
-        return Exec::Reply(Vec::new());
+        return Exec::said(Vec::new());
     }
     // The line was collected while addressed: it runs even if another card is addressed now.
     let mut s = Session {
@@ -498,16 +569,19 @@ fn execute_whole(card: &mut Card, dialect: &mut Dialect, c: &mut Conn) -> Option
     }
     let talking = card.chain_talking(&c.session);
     if std::mem::take(&mut c.synced) && c.buf.is_empty() && !c.overflow {
-        return Some(Exec::Reply(Vec::new()));
+        return Some(Exec::said(Vec::new()));
     }
     let line = std::mem::take(&mut c.buf);
     // Longer than the dialect takes: it answers its own error for it.
     let overflow = std::mem::take(&mut c.overflow);
     if line.is_empty() && !overflow && !talking {
-        return Some(Exec::Reply(Vec::new()));
+        return Some(Exec::said(Vec::new()));
     }
-    let r = dialect.chain_line(card, &c.session, &line, overflow)?;
-    Some(Exec::Reply(if talking { r } else { Vec::new() }))
+    let (r, e) = dialect.chain_line(card, &c.session, &line, overflow)?;
+    if !talking {
+        return Some(Exec::said(Vec::new()));
+    }
+    Some(Exec::Reply(r, e))
 }
 
 /// Start-up: the card's chain number (I0) from the config and software addressing on (I1 bit
@@ -536,7 +610,13 @@ pub(crate) async fn declare_chain_queryable(
             _ => Err("the card did not answer".to_string()),
         };
         let sent = match res {
-            Ok(r) => query.reply(query.key_expr().clone(), r).wait(),
+            Ok(r) if r.refusals.is_empty() => {
+                query.reply(query.key_expr().clone(), r.payload).wait()
+            }
+            Ok(r) => query
+                .reply(query.key_expr().clone(), r.payload)
+                .attachment(r.refusals)
+                .wait(),
             Err(e) => query.reply_err(e).wait(),
         };
         if let Err(e) = sent {

@@ -15,7 +15,7 @@ use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendErro
 use mcc_contracts::control::chain::OP_CLOSE;
 use mcc_contracts::control::sync_start::{AtReply, AtRequest};
 
-use super::chain::ChainPort;
+use super::chain::{ChainPort, Encoded};
 use super::storage::FileStorage;
 use super::sync_start::SyncShared;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
@@ -54,8 +54,9 @@ pub enum Request {
 pub enum Response {
     /// To a host request.
     Host(HostReply),
-    /// To a chain request: the encoded reply, or the wire error.
-    Chain(Result<Vec<u8>, String>),
+    /// To a chain request: the encoded reply (payload and refusal attachment), or the wire
+    /// error.
+    Chain(Result<Encoded, String>),
     /// To a synchronized-start request.
     At(AtReply),
 }
@@ -308,7 +309,7 @@ impl Runner {
                 if closing {
                     // whatever waited behind a dropped line is answered empty
                     for (_, tx) in self.chain_wait.remove(&conn).unwrap_or_default() {
-                        let _ = tx.send(Response::Chain(Ok(Vec::new())));
+                        let _ = tx.send(Response::Chain(Ok(Encoded::default())));
                     }
                 }
             }
@@ -460,9 +461,9 @@ impl Runner {
                     &line,
                     &mut Budget::new(SLICE_UNITS),
                 ) {
-                    Started::Done(reply) => {
+                    Started::Done(reply, refusal) => {
                         self.sync_session = session;
-                        done.push((id, ns, reply));
+                        done.push((id, ns, reply, refusal));
                     }
                     Started::Running(run) => self.started.push(StartedRun {
                         id,
@@ -483,8 +484,8 @@ impl Runner {
         // Results and the program start are published together: a query never sees a line
         // executed without the start it made.
         let mut core = sync.lock();
-        for (id, ns, reply) in done {
-            core.executed(id, cycle, ns, reply);
+        for (id, ns, reply, refusal) in done {
+            core.executed(id, cycle, ns, reply, refusal);
         }
         for r in self.started.iter().filter(|r| r.cycle == cycle) {
             core.running(r.id, cycle);
@@ -502,9 +503,11 @@ impl Runner {
             }
             let card = &mut self.core.card;
             match Dialect::step_started(card, &mut r.session, r.run, budget) {
-                Started::Done(reply) => {
+                Started::Done(reply, refusal) => {
                     self.sync_session = r.session;
-                    self.sync.lock().executed(r.id, r.cycle, r.ns, reply);
+                    self.sync
+                        .lock()
+                        .executed(r.id, r.cycle, r.ns, reply, refusal);
                 }
                 Started::Running(run) => self.started.push(StartedRun { run, ..r }),
             }

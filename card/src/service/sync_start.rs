@@ -25,6 +25,7 @@ use std::time::Duration;
 use mcc_contracts::control::sync_start::{at_key, AtReply, AtRequest};
 use zenoh::Wait;
 
+use crate::domain::Refusal;
 use crate::lang::{Card, MAX_LINE};
 use crate::model::Action;
 
@@ -55,6 +56,8 @@ struct Done {
     cycle: u64,
     ns: u64,
     reply: Option<Vec<u8>>,
+    /// The line's refusal (whether or not the reply shows it).
+    refusal: Option<Refusal>,
 }
 
 /// The pure bookkeeping of scheduled lines (no clock, no locks).
@@ -206,6 +209,7 @@ impl SyncCore {
                     .reply
                     .as_ref()
                     .map(|r| String::from_utf8_lossy(r).into_owned()),
+                refusal: d.refusal.map(Into::into),
                 abandoned: d.reply.is_none(),
                 ..AtReply::default()
             };
@@ -256,6 +260,7 @@ impl SyncCore {
                 cycle,
                 ns: 0,
                 reply: None,
+                refusal: None,
             });
         }
     }
@@ -275,13 +280,21 @@ impl SyncCore {
     }
 
     /// Record a line's execution.
-    pub(crate) fn executed(&mut self, id: u64, cycle: u64, ns: u64, reply: Vec<u8>) {
+    pub(crate) fn executed(
+        &mut self,
+        id: u64,
+        cycle: u64,
+        ns: u64,
+        reply: Vec<u8>,
+        refusal: Option<Refusal>,
+    ) {
         self.running.retain(|r| r.0 != id);
         self.push_done(Done {
             id,
             cycle,
             ns,
             reply: Some(reply),
+            refusal,
         });
     }
 

@@ -2,8 +2,9 @@
 //! input order as the orchestrator does. Cards run with I3=2 I6=1 (compact framing).
 
 use super::*;
-use crate::domain::Profile;
+use crate::domain::{ErrCode, PowerErr, Profile, Refusal};
 use mcc_contracts::control::chain::{decode_reply, decode_request, encode_request};
+use mcc_contracts::control::CardRefusal;
 
 /// A simulated cable: cards with their chain receivers.
 struct Cable {
@@ -51,6 +52,7 @@ impl Cable {
                     &mut crate::lang::Budget::unlimited(),
                 )
                 .unwrap_or_default()
+                .segments
             {
                 segs.push((p, k, b));
             }
@@ -206,7 +208,8 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
             b"OPEN PROG 1 CLEAR\r",
             &mut crate::lang::Budget::unlimited()
         )
-        .unwrap_or_default(),
+        .unwrap_or_default()
+        .segments,
         vec![(17, vec![6])]
     );
     port.close(card, &mut Dialect::Pmac, 500);
@@ -218,7 +221,8 @@ fn connections_are_bounded_and_closing_frees_the_buffer() {
             501,
             b"OPEN PROG 2\r",
             &mut crate::lang::Budget::unlimited()
-        ),
+        )
+        .map(|a| a.segments),
         Some(vec![(11, vec![6])])
     );
 }
@@ -238,6 +242,7 @@ impl Cable {
             &mut crate::lang::Budget::unlimited(),
         )
         .unwrap_or_default()
+        .payload
     }
 }
 
@@ -320,7 +325,8 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
         }
     }
     let done = done.expect("the line finished");
-    let segs = mcc_contracts::control::chain::decode_reply(&done).expect("segments");
+    let segs = mcc_contracts::control::chain::decode_reply(&done.payload).expect("segments");
+    assert!(done.refusals.is_empty(), "no line refused");
     // the parked line's reply at its <CR> (position 17), then the next line's at 20
     assert_eq!(
         segs,
@@ -337,7 +343,10 @@ fn a_chain_line_waits_for_the_ring_and_the_rest_of_its_request_follows() {
             b"MS0,MI8\r",
             &mut crate::lang::Budget::unlimited()
         ),
-        Some(vec![(7, b"\x07ERR008\r".to_vec())])
+        Some(Answer {
+            segments: vec![(7, b"\x07ERR008\r".to_vec())],
+            refusals: vec![(7, Refusal::Pmac(ErrCode::MacroAux))],
+        })
     );
 }
 
@@ -418,6 +427,118 @@ fn control_characters_do_not_act_on_a_power_card() {
     );
 }
 
+impl Cable {
+    /// Broadcast `data` on connection `conn`; the refusals every card reported, as
+    /// `(card, position, refusal)`.
+    fn refusals(&mut self, conn: u64, data: &[u8]) -> Vec<(usize, u32, Refusal)> {
+        let cards = self.cards.iter_mut().zip(self.power.iter_mut());
+        let mut out = Vec::new();
+        for (k, ((card, port), power)) in cards.enumerate() {
+            let a = port
+                .feed(
+                    card,
+                    power,
+                    conn,
+                    data,
+                    &mut crate::lang::Budget::unlimited(),
+                )
+                .unwrap_or_default();
+            out.extend(a.refusals.into_iter().map(|(p, r)| (k, p, r)));
+        }
+        out
+    }
+}
+
+#[test]
+fn the_answering_card_reports_its_refusals_whatever_i6_prints() {
+    let mut c = Cable::new(2);
+    // I6 = 2 on card 1: a refused line answers a bare <BELL>, no ERRnnn in the bytes.
+    assert_eq!(c.ask(1, "I6=2"), b"\x06");
+    assert_eq!(c.send(1, b"@1UUU\r"), b"\x07");
+    // Only card 1 collected the lines: it alone reports their refusals, at the position of
+    // each line's <CR>.
+    let data = b"UUU\rP1\rUUU\r";
+    assert_eq!(
+        c.refusals(1, data),
+        vec![
+            (1, 3, Refusal::Pmac(ErrCode::Data)),
+            (1, 10, Refusal::Pmac(ErrCode::Data)),
+        ]
+    );
+    // Under `@@` every card runs the line, card 0 answers: only card 0 reports.
+    assert_eq!(
+        c.refusals(1, b"@@UUU\r"),
+        vec![(0, 5, Refusal::Pmac(ErrCode::Data))]
+    );
+    // The encoded reply carries the refusal in its attachment, the payload is the bytes.
+    let (card, port) = &mut c.cards[1];
+    let e = port
+        .handle(
+            card,
+            &mut Dialect::Pmac,
+            &Request {
+                op: mcc_contracts::control::chain::OP_DATA,
+                conn: 7,
+                data: b"@1UUU\r",
+            },
+            &mut crate::lang::Budget::unlimited(),
+        )
+        .expect("answered");
+    assert_eq!(
+        e.payload,
+        mcc_contracts::control::chain::encode_reply(&[(5, b"\x07".to_vec())])
+    );
+    assert_eq!(
+        mcc_contracts::control::chain::decode_refusals(&e.refusals),
+        Ok(vec![(5, CardRefusal::Pmac(3))])
+    );
+    // A good line: no attachment.
+    let e = port
+        .handle(
+            card,
+            &mut Dialect::Pmac,
+            &Request {
+                op: mcc_contracts::control::chain::OP_DATA,
+                conn: 7,
+                data: b"P1\r",
+            },
+            &mut crate::lang::Budget::unlimited(),
+        )
+        .expect("answered");
+    assert!(e.refusals.is_empty());
+}
+
+#[test]
+fn ctrl_i_and_overlong_lines_report_their_refusal() {
+    let mut c = Cable::new(1);
+    assert_eq!(c.ask(0, "I6=0"), b"\x06");
+    assert_eq!(
+        c.refusals(1, b"UUU\r"),
+        vec![(0, 3, Refusal::Pmac(ErrCode::Data))]
+    );
+    // CTRL-I runs `UUU` again.
+    assert_eq!(
+        c.refusals(1, b"\x09"),
+        vec![(0, 0, Refusal::Pmac(ErrCode::Data))]
+    );
+    let mut long = vec![b'P'; MAX_LINE + 10];
+    long.push(b'\r');
+    assert_eq!(
+        c.refusals(1, &long),
+        vec![(0, MAX_LINE as u32 + 10, Refusal::Pmac(ErrCode::Data))]
+    );
+}
+
+#[test]
+fn a_power_card_reports_its_refusal() {
+    let mut c = Cable::mixed();
+    assert_eq!(
+        c.refusals(1, b"@0OPEN PROG 1 CLEAR\r"),
+        vec![(0, 19, Refusal::Power(PowerErr::IllegalCmd))]
+    );
+    assert_eq!(c.refusals(1, b"Motor[2].JogSpeed\r"), vec![]);
+}
+
 /// Issue 24 item 3: a chain line runs within the slice budget it is given; a long reply
 /// (`P0..1023`) parks the line, and the rest of its request follows once it is done: the
 /// reply is the same as in one go, in the same order.
@@ -457,7 +578,7 @@ fn a_long_chain_line_runs_in_slices_and_the_rest_of_its_request_follows() {
         slices >= 10,
         "{slices} slices of 100 units for 1024 variables"
     );
-    let merged: Vec<u8> = decode_reply(&reply)
+    let merged: Vec<u8> = decode_reply(&reply.payload)
         .unwrap()
         .into_iter()
         .flat_map(|s| s.1)
@@ -474,14 +595,14 @@ fn ctrl_i_on_the_chain_is_sliced_like_a_line() {
     let (card, port) = &mut c.cards[0];
     assert_eq!(
         port.feed(card, &mut Dialect::Pmac, 1, b"\x09", &mut Budget::new(50)),
-        None
+        None::<Answer>
     );
     let reply = loop {
         if let Some(r) = port.resume(card, &mut Dialect::Pmac, 1, &mut Budget::new(50)) {
             break r;
         }
     };
-    let merged: Vec<u8> = decode_reply(&reply)
+    let merged: Vec<u8> = decode_reply(&reply.payload)
         .unwrap()
         .into_iter()
         .flat_map(|s| s.1)

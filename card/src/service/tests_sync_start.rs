@@ -245,3 +245,30 @@ fn a_long_started_line_starts_in_its_cycle_and_finishes_in_later_slices() {
         .command_line(&mut Session::default(), line.as_bytes());
     assert_eq!(done.reply.as_deref().map(str::as_bytes), Some(&want[..]));
 }
+
+#[test]
+fn a_refused_line_reports_its_refusal_whatever_i6_prints() {
+    let mut t = ready_card(Duration::from_millis(50));
+    // I6 = 0: a refusal answers a bare <BELL>.
+    let _ = t.card().command_line(&mut Session::default(), b"I6=0");
+    t.tick(10, true);
+    assert!(t.handle(&arm(3, 12, "UUU")).ok);
+    assert!(t.handle(&AtRequest::Commit { id: 3 }).ok);
+    t.tick(11, true);
+    t.tick(12, true);
+    let done = t.handle(&AtRequest::Result { id: 3 });
+    assert_eq!(done.executed_cycle, Some(12));
+    assert!(!done.reply.as_deref().unwrap_or_default().contains("ERR"));
+    assert_eq!(
+        done.refusal,
+        Some(mcc_contracts::control::CardRefusal::Pmac(3))
+    );
+    // A good line: none.
+    assert!(t.handle(&arm(4, 14, "P1")).ok);
+    assert!(t.handle(&AtRequest::Commit { id: 4 }).ok);
+    t.tick(13, true);
+    t.tick(14, true);
+    let done = t.handle(&AtRequest::Result { id: 4 });
+    assert_eq!(done.executed_cycle, Some(14));
+    assert_eq!(done.refusal, None);
+}

@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
 use mcc_contracts::config::ClusterConfig;
+use mcc_contracts::control::CardRefusal;
 use mcc_ring::control::{alive_key, ctl_key, CtlReply, MemberStatus};
 use mcc_ring::transport::cluster::{self, Role};
 use mcc_ring::transport::session::{open_session, SessionOptions};
@@ -90,6 +91,56 @@ pub fn query_text(
             timeout.as_millis()
         )),
     }
+}
+
+/// A card's answer on its command queryable `mcc/<cluster>/card/<n>/cmd`: the reply bytes as
+/// its framing made them and the refusal of its line, from the reply attachment
+/// (`mcc_contracts::control::refusal`) — set whether or not I6 printed it in the bytes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CardAnswer {
+    /// The framed reply.
+    pub bytes: Vec<u8>,
+    /// The line's first refusal (`None`: not refused).
+    pub refusal: Option<CardRefusal>,
+}
+
+/// Send `line` to a card's command queryable `key`; its [`CardAnswer`], or an error naming
+/// the problem (no reply within `timeout`, error reply, a reply over `max_reply` bytes, an
+/// attachment that is not a refusal).
+pub fn query_card(
+    session: &zenoh::Session,
+    key: &str,
+    line: &str,
+    timeout: Duration,
+    max_reply: usize,
+) -> Result<CardAnswer> {
+    let replies = session
+        .get(key)
+        .payload(line.as_bytes().to_vec())
+        .timeout(timeout)
+        .wait()
+        .map_err(|e| anyhow!("query {key}: {e}"))?;
+    let reply = replies.recv().map_err(|_| {
+        anyhow!(
+            "query {key}: no answer to {line:?} within {} ms",
+            timeout.as_millis()
+        )
+    })?;
+    let sample = reply
+        .result()
+        .map_err(|_| anyhow!("query {key}: {line:?} answered with an error reply"))?;
+    if sample.payload().len() > max_reply {
+        return Err(anyhow!("query {key}: the reply to {line:?} is too large"));
+    }
+    let refusal = sample
+        .attachment()
+        .map(|a| CardRefusal::from_bytes(&a.to_bytes()))
+        .transpose()
+        .map_err(|e| anyhow!("query {key}: {e}"))?;
+    Ok(CardAnswer {
+        bytes: sample.payload().to_bytes().into_owned(),
+        refusal,
+    })
 }
 
 /// Query a [`CtlReply`] endpoint (`fault`, `shutdown`).

@@ -16,6 +16,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
 use mcc_contracts::control::sync_start::{at_key, AtReply, AtRequest};
+use mcc_contracts::control::CardRefusal;
 use serde::Serialize;
 use zenoh::Wait;
 
@@ -57,6 +58,8 @@ pub struct CardStart {
     /// Its reply as the card framed it.
     #[serde(skip)]
     pub raw_reply: String,
+    /// The line's refusal (`ERR003`, `error #20`), whether or not the reply shows it.
+    pub refusal: Option<CardRefusal>,
     /// CLOCK_MONOTONIC ns of its program start (when the line started a program).
     pub program_start_ns: Option<u64>,
     /// The card's program start cycle when its result was read.
@@ -303,6 +306,7 @@ fn collect(
                         executed_ns: a.executed_ns,
                         reply: visible(a.reply.as_deref().unwrap_or("")),
                         raw_reply: a.reply.clone().unwrap_or_default(),
+                        refusal: a.refusal,
                         program_start_cycle: a.program_start_cycle,
                         program_start_ns: a
                             .program_start_ns

@@ -16,10 +16,10 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use zenoh::Wait;
 
 use crate::cli::GatherArgs;
 use crate::cluster::attach::attach;
+use crate::cluster::ctl::query_card;
 
 #[path = "gather_plot.rs"]
 mod plot;
@@ -161,32 +161,17 @@ impl Recording {
     }
 }
 
-/// One command line on the card's cmd queryable; its reply, or the card's error.
+/// One command line on the card's cmd queryable; its reply, or the card's refusal.
 fn cmd(session: &zenoh::Session, key: &str, line: &str) -> Result<Vec<u8>> {
-    let replies = session
-        .get(key)
-        .payload(line.as_bytes().to_vec())
-        .timeout(Duration::from_secs(5))
-        .wait()
-        .map_err(|e| anyhow!("{key}: {e}"))?;
-    let reply = replies
-        .recv()
-        .map_err(|_| anyhow!("the card did not answer {line:?} within 5 s"))?;
-    let sample = reply
-        .result()
-        .map_err(|_| anyhow!("the card answered {line:?} with an error"))?;
-    let bytes = sample.payload().to_bytes().into_owned();
-    if bytes.len() > MAX_REPLY {
-        bail!("the card's reply to {line:?} is too large");
-    }
-    if bytes.contains(&0x07) {
-        let text: String = String::from_utf8_lossy(&bytes)
+    let a = query_card(session, key, line, Duration::from_secs(5), MAX_REPLY)?;
+    if let Some(r) = a.refusal {
+        let text: String = String::from_utf8_lossy(&a.bytes)
             .chars()
             .filter(|c| !c.is_control())
             .collect();
-        bail!("the card refused {line:?}: {text}");
+        bail!("the card refused {line:?}: {r} {text}");
     }
-    Ok(bytes)
+    Ok(a.bytes)
 }
 
 /// A numeric reply (`I108` → 96).

@@ -13,8 +13,10 @@ use crate::cluster::chain::text::{render, translate};
 /// shows it); a line nobody answered is noted on stderr: an empty reply while the addressed
 /// card is not in the cluster or did not answer in time. An empty reply of a card that got
 /// the line is its answer (`$$$` and `$$$***` answer nothing on a PMAC). With `--json` one array is printed:
-/// per line `{"line", "reply" (plain text), "framed" (framing shown), "error" ("ERRnnn",
-/// "BELL" without a code, or null), "answered", "silent_cards"}`.
+/// per line `{"line", "reply" (plain text), "framed" (framing shown), "error" (the line's
+/// refusal as the card reports it beside the bytes: "ERRnnn" whatever I6 printed, a Power
+/// card's "error #n", "BELL" for a refusal without a code, or null), "answered",
+/// "silent_cards"}`.
 pub fn cmd_send(cluster: &str, args: &crate::cli::SendArgs) -> Result<()> {
     if args.lines.iter().any(|l| l.len() > 64 * 1024) {
         bail!("a LINE is longer than 65536 bytes");
@@ -44,7 +46,7 @@ pub fn cmd_send(cluster: &str, args: &crate::cli::SendArgs) -> Result<()> {
                 "line": line,
                 "reply": render(&r.bytes, false).replace("<BELL>", ""),
                 "framed": render(&r.bytes, true),
-                "error": reply_error(&r.bytes),
+                "error": r.refusals.first().map(ToString::to_string),
                 "answered": answered,
                 "silent_cards": r.silent,
             }));
@@ -118,37 +120,9 @@ impl Addressed {
     }
 }
 
-/// The error a reply carries: `ERRnnn` after a `<BELL>`, `BELL` when the card sent no code
-/// (I6 = 2), a Power card's `error #n` (its `stdin:L:C: error #n: TEXT: line`), else None.
-pub fn reply_error(reply: &[u8]) -> Option<String> {
-    if let Some(e) = power_error(reply) {
-        return Some(e);
-    }
-    let bell = reply.iter().position(|&c| c == 0x07)?;
-    let rest = String::from_utf8_lossy(reply.get(bell + 1..).unwrap_or_default()).into_owned();
-    let code = rest.split(|c: char| !c.is_ascii_alphanumeric()).find(|w| {
-        w.len() == 6 && w.starts_with("ERR") && w[3..].bytes().all(|b| b.is_ascii_digit())
-    });
-    Some(code.map_or_else(|| "BELL".to_string(), str::to_string))
-}
-
-/// A Power card's error line (`stdin:1:1: error #20: ILLEGAL CMD: …`): `error #20`.
-pub fn power_error(reply: &[u8]) -> Option<String> {
-    let text = String::from_utf8_lossy(reply);
-    text.split("\r\n").find_map(|l| {
-        let rest = l.strip_prefix("stdin:")?;
-        let at = rest.find(": error #")?;
-        let code: String = rest[at + 9..]
-            .chars()
-            .take_while(char::is_ascii_digit)
-            .collect();
-        (!code.is_empty()).then(|| format!("error #{code}"))
-    })
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{reply_error, Addressed};
+    use super::Addressed;
 
     #[test]
     fn the_answering_card_follows_the_addressing() {
@@ -165,22 +139,5 @@ mod tests {
         // No card 7; card 1 silent (did not answer in time).
         assert!(!a.after(b"@7P4\r").reached(&cfg, &[]));
         assert!(!a.after(b"@1P4\r").reached(&cfg, &[1]));
-    }
-
-    #[test]
-    fn errors_are_read_from_the_reply() {
-        assert_eq!(reply_error(b"\x07ERR003\r").as_deref(), Some("ERR003"));
-        assert_eq!(
-            reply_error(b"stdin:2:1: error #20: ILLEGAL CMD: foo\r\n\x06\r\n").as_deref(),
-            Some("error #20")
-        );
-        assert_eq!(reply_error(b"P1=2\r\n\x06\r\n"), None);
-        assert_eq!(
-            reply_error(b"\x07\r\nERR015\r\n").as_deref(),
-            Some("ERR015")
-        );
-        assert_eq!(reply_error(b"\x07").as_deref(), Some("BELL"));
-        assert_eq!(reply_error(b"5\r\x06"), None);
-        assert_eq!(reply_error(b""), None);
     }
 }

@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 
-use crate::cluster::sync_start::{parse_cards, skew_ns, start_sync, CardStart, SyncOptions};
+use crate::cluster::sync_start::{parse_cards, skew_ns, start_sync, SyncOptions};
 
 /// `mcc start-sync --cards 0,1 LINE`.
 pub fn cmd_start_sync(cluster: &str, args: &crate::cli::StartSyncArgs) -> Result<()> {
@@ -59,12 +59,9 @@ pub fn cmd_start_sync(cluster: &str, args: &crate::cli::StartSyncArgs) -> Result
             println!("  card {}: {}", c.card, c.reply);
         }
     }
-    let refused = |c: &CardStart| {
-        c.reply.contains("<BEL>")
-            || crate::verbs::send::power_error(c.raw_reply.as_bytes()).is_some()
-    };
-    if out.cards.iter().any(refused) {
-        bail!("a card refused the line (see its reply)");
+    if let Some(c) = out.cards.iter().find(|c| c.refusal.is_some()) {
+        let why = c.refusal.map(|r| r.to_string()).unwrap_or_default();
+        bail!("card {} refused the line: {why} (see its reply)", c.card);
     }
     Ok(())
 }

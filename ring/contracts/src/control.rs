@@ -7,10 +7,15 @@
 //! - `mcc/<cluster>/card/<n>/chain`: daisy-chain bytes, binary ([`chain`]).
 //! - `mcc/<cluster>/emcl/<host>/{frame,status,io}`: the EMCL bus to drive hosts ([`emcl`]).
 //! - `mcc/<cluster>/hosts/<host>/{alive,info,down,drill}`: each host's share ([`hosts`]).
+//!
+//! A card's refusal of a line travels beside its reply bytes on the `cmd`, `chain` and `at`
+//! endpoints as a [`CardRefusal`] ([`refusal`]).
 
 pub mod chain;
 pub mod emcl;
 pub mod hosts;
+pub mod refusal;
 pub mod sync_start;
 
+pub use refusal::CardRefusal;
 pub use sync_start::{at_key, AtReply, AtRequest};

@@ -13,19 +13,27 @@
 //! answering card's reply is the one its line gave there. If no common cycle can be agreed
 //! the lines run nowhere and the answering card's reply is `<BELL>ERR008<CR>` (never a split
 //! start).
+//!
+//! Refusals: each card lists the refusals of the lines it answered in its reply's attachment
+//! (`mcc_contracts::control::chain::decode_refusals`), a synchronized start's card in its
+//! result; [`ChainReply::refusals`] has them in input order, so a caller matches on them and
+//! never reads a refusal back out of the reply bytes (which show what I6 made of it).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use mcc_contracts::config::ClusterConfig;
 use mcc_contracts::control::chain::{
-    chain_key, decode_reply, encode_request, FLAG_STARTS, FLAG_TALKS, MAX_CHUNK, MAX_REPLY,
-    OP_CLOSE, OP_DATA, OP_QUERY_START, OP_TAKE_START,
+    chain_key, decode_refusals, decode_reply, encode_request, FLAG_STARTS, FLAG_TALKS, MAX_CHUNK,
+    MAX_REPLY, OP_CLOSE, OP_DATA, OP_QUERY_START, OP_TAKE_START,
 };
+use mcc_contracts::control::CardRefusal;
 use zenoh::Wait;
 
 /// Reply of the answering card when a synchronized start could not be agreed.
 pub const SYNC_FAILED_REPLY: &[u8] = b"\x07ERR008\r";
+/// The refusal of [`SYNC_FAILED_REPLY`].
+pub const SYNC_FAILED_REFUSAL: CardRefusal = CardRefusal::Pmac(8);
 /// Default time a card has to answer one chunk.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(2);
 
@@ -52,6 +60,17 @@ pub fn merge(per_card: &[Vec<(u32, Vec<u8>)>]) -> Vec<u8> {
     all.into_iter().flat_map(|s| s.2.iter().copied()).collect()
 }
 
+/// Merge the refusals of every card (in card order) as [`merge`] merges their segments.
+pub fn merge_refusals(per_card: &[Vec<(u32, CardRefusal)>]) -> Vec<CardRefusal> {
+    let mut all: Vec<(u32, usize, CardRefusal)> = per_card
+        .iter()
+        .enumerate()
+        .flat_map(|(k, r)| r.iter().map(move |&(p, r)| (p, k, r)))
+        .collect();
+    all.sort_by_key(|s| (s.0, s.1));
+    all.into_iter().map(|s| s.2).collect()
+}
+
 /// What one send brought back.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ChainReply {
@@ -59,6 +78,9 @@ pub struct ChainReply {
     pub bytes: Vec<u8>,
     /// Cards (config numbers) that did not answer in time or answered garbage.
     pub silent: Vec<u32>,
+    /// The refusals of the lines answered, in input order (typed: whether or not the card's
+    /// I6 printed them in [`ChainReply::bytes`]).
+    pub refusals: Vec<CardRefusal>,
 }
 
 /// One host connection.
@@ -75,6 +97,7 @@ pub struct ChainLink {
 impl ChainReply {
     fn add(&mut self, r: ChainReply) {
         self.bytes.extend_from_slice(&r.bytes);
+        self.refusals.extend_from_slice(&r.refusals);
         for s in r.silent {
             if !self.silent.contains(&s) {
                 self.silent.push(s);
@@ -197,8 +220,12 @@ impl ChainLink {
                     let r = o.cards.iter().find(|c| c.card == *n);
                     out.bytes
                         .extend_from_slice(r.map(|c| c.raw_reply.as_bytes()).unwrap_or_default());
+                    out.refusals.extend(r.and_then(|c| c.refusal));
                 }
-                Err(_) => out.bytes.extend_from_slice(SYNC_FAILED_REPLY),
+                Err(_) => {
+                    out.bytes.extend_from_slice(SYNC_FAILED_REPLY);
+                    out.refusals.push(SYNC_FAILED_REFUSAL);
+                }
             }
         }
         match res {
@@ -279,26 +306,48 @@ impl ChainLink {
             })
             .collect();
         let mut per_card = Vec::with_capacity(gets.len());
+        let mut refusals = Vec::with_capacity(gets.len());
         let mut silent = Vec::new();
         for (n, g) in gets {
-            let segs = g
+            let answer = g
                 .ok()
                 .and_then(|replies| replies.recv().ok())
                 .and_then(|reply| {
-                    reply
-                        .result()
-                        .ok()
-                        .map(|s| s.payload().to_bytes().into_owned())
+                    let s = reply.result().ok()?;
+                    let attached = s.attachment().map(|a| a.to_bytes().into_owned());
+                    Some((s.payload().to_bytes().into_owned(), attached))
                 })
-                .and_then(|bytes| decode_reply(&bytes).ok());
-            match segs {
-                Some(s) => per_card.push(s),
+                .and_then(|(bytes, attached)| decode_answer(n, &bytes, attached.as_deref()));
+            match answer {
+                Some((s, r)) => {
+                    per_card.push(s);
+                    refusals.push(r);
+                }
                 None => silent.push(n),
             }
         }
         ChainReply {
             bytes: merge(&per_card),
             silent,
+            refusals: merge_refusals(&refusals),
+        }
+    }
+}
+
+/// One card's segments and refusals (`None`: garbage, logged; the card counts as silent).
+#[allow(clippy::type_complexity)]
+fn decode_answer(
+    n: u32,
+    payload: &[u8],
+    attachment: Option<&[u8]>,
+) -> Option<(Vec<(u32, Vec<u8>)>, Vec<(u32, CardRefusal)>)> {
+    let decoded = decode_reply(payload)
+        .and_then(|s| Ok((s, decode_refusals(attachment.unwrap_or_default())?)));
+    match decoded {
+        Ok(d) => Some(d),
+        Err(e) => {
+            tracing::warn!("card {n}: bad chain reply: {e}");
+            None
         }
     }
 }
@@ -306,6 +355,32 @@ impl ChainLink {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refusals_merge_in_input_order_and_garbage_is_silence() {
+        let c0 = vec![(9, CardRefusal::Power(20))];
+        let c1 = vec![(3, CardRefusal::Pmac(3)), (12, CardRefusal::Pmac(15))];
+        assert_eq!(
+            merge_refusals(&[c0, c1]),
+            vec![
+                CardRefusal::Pmac(3),
+                CardRefusal::Power(20),
+                CardRefusal::Pmac(15)
+            ]
+        );
+        let seg = mcc_contracts::control::chain::encode_reply(&[(3, b"\x07".to_vec())]);
+        let att = mcc_contracts::control::chain::encode_refusals(&[(3, CardRefusal::Pmac(3))]);
+        assert_eq!(
+            decode_answer(0, &seg, Some(&att)),
+            Some((vec![(3, b"\x07".to_vec())], vec![(3, CardRefusal::Pmac(3))]))
+        );
+        assert_eq!(
+            decode_answer(0, &seg, None),
+            Some((vec![(3, b"\x07".to_vec())], vec![]))
+        );
+        assert_eq!(decode_answer(0, &seg, Some(b"\x03\0\0\0\x03ERR")), None);
+        assert_eq!(decode_answer(0, b"\x03\0", None), None);
+    }
 
     #[test]
     fn replies_merge_in_input_order() {

@@ -164,6 +164,8 @@ impl CardProc {
             if reply.last() == Some(&0x06) {
                 return Ok(String::from_utf8_lossy(&reply[..reply.len() - 1]).into_owned());
             }
+            // A raw ASCII host port has no channel beside the bytes: its framing (I6=3
+            // here, the card's default) is how it says ERRnnn.
             if reply.contains(&0x07) && reply.ends_with(b"\r") {
                 bail!("{line:?} answered {:?}", String::from_utf8_lossy(&reply));
             }

@@ -209,9 +209,10 @@ fn prepare(session: &zenoh::Session, cfg: &ClusterConfig) -> Result<()> {
     let link = ChainLink::new(session.clone(), cfg, DEFAULT_TIMEOUT);
     let r = link.send(SETUP.as_bytes());
     link.close();
-    if r.bytes.contains(&0x07) || !r.silent.is_empty() {
+    if !r.refusals.is_empty() || !r.silent.is_empty() {
+        let refused: Vec<String> = r.refusals.iter().map(ToString::to_string).collect();
         bail!(
-            "loading the program failed: {:?} (silent cards {:?})",
+            "loading the program failed: {:?} (refusals {refused:?}, silent cards {:?})",
             String::from_utf8_lossy(&r.bytes),
             r.silent
         );

@@ -8,6 +8,18 @@
 //! `position u32 LE, length u32 LE, bytes`, `position` being the index in the request's data
 //! of the byte that produced the output, so the orchestrator can merge the segments of all
 //! cards in input order.
+//!
+//! Refusals: a card that answers a line it refused (the addressed card; card 0 under `@@`)
+//! says so in the zenoh reply **attachment** of a `D` request, beside the segments and never
+//! in them (the reply bytes are what the card's framing made of the line: `ERRnnn`, a bare
+//! `<BELL>` or nothing, per I6). The attachment is a list of `position u32 LE, length u8,
+//! text` ([`encode_refusals`]), `position` being that of the `<CR>` that ran the line (the
+//! position of its reply segment) and `text` the refusal's text form
+//! ([`CardRefusal`]: `ERR003`, `error #20`). No attachment, or
+//! an empty one, means no line was refused; a reader that ignores attachments sees the
+//! same segments as before.
+
+use super::refusal::{CardRefusal, RefusalParseError};
 
 /// Request op: chain bytes follow.
 pub const OP_DATA: u8 = b'D';
@@ -25,6 +37,9 @@ pub const FLAG_TALKS: u8 = 2;
 pub const MAX_CHUNK: usize = 4096;
 /// Largest reply accepted from one card for one request, bytes.
 pub const MAX_REPLY: usize = 4 << 20;
+
+/// Largest refusal attachment accepted from one card for one request, bytes.
+pub const MAX_REFUSALS: usize = 64 << 10;
 
 /// `mcc/<cluster>/card/<n>/chain`.
 pub fn chain_key(cluster: &str, n: u32) -> String {
@@ -75,6 +90,15 @@ pub enum ChainCodecError {
     /// Bytes left that do not make a segment header.
     #[error("truncated segment header")]
     TruncatedHeader,
+    /// A refusal attachment beyond [`MAX_REFUSALS`].
+    #[error("refusal attachment of {0} bytes is too large")]
+    RefusalsTooLarge(usize),
+    /// A refusal entry shorter than its header or its length says.
+    #[error("truncated refusal entry")]
+    TruncatedRefusal,
+    /// A refusal entry whose text is not a refusal.
+    #[error("bad refusal entry: {0}")]
+    BadRefusal(#[from] RefusalParseError),
 }
 
 /// Decode a request payload; the error names the problem when malformed.
@@ -128,9 +152,75 @@ pub fn decode_reply(mut p: &[u8]) -> Result<Vec<(u32, Vec<u8>)>, ChainCodecError
     Ok(out)
 }
 
+/// Encode the refusals attachment: `(position, refusal)` in order, each as `position u32
+/// LE, length u8, text` (see the module docs).
+pub fn encode_refusals(refusals: &[(u32, CardRefusal)]) -> Vec<u8> {
+    let mut v = Vec::new();
+    for (pos, r) in refusals {
+        let text = r.to_string();
+        v.extend_from_slice(&pos.to_le_bytes());
+        // A refusal's text form is a few bytes (MAX_REFUSAL_TEXT).
+        v.push(text.len().min(usize::from(u8::MAX)) as u8);
+        v.extend_from_slice(text.as_bytes());
+    }
+    v
+}
+
+/// Decode one card's refusals attachment; the error names the problem when malformed.
+pub fn decode_refusals(mut p: &[u8]) -> Result<Vec<(u32, CardRefusal)>, ChainCodecError> {
+    if p.len() > MAX_REFUSALS {
+        return Err(ChainCodecError::RefusalsTooLarge(p.len()));
+    }
+    let mut out = Vec::new();
+    while !p.is_empty() {
+        let (head, rest) = p
+            .split_first_chunk::<5>()
+            .ok_or(ChainCodecError::TruncatedRefusal)?;
+        let pos = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
+        let len = usize::from(head[4]);
+        let text = rest.get(..len).ok_or(ChainCodecError::TruncatedRefusal)?;
+        out.push((pos, CardRefusal::from_bytes(text)?));
+        p = rest.get(len..).unwrap_or_default();
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refusals_encode_and_decode() {
+        let r = vec![
+            (4, CardRefusal::Pmac(3)),
+            (9, CardRefusal::Power(20)),
+            (12, CardRefusal::Bell),
+        ];
+        let wire = encode_refusals(&r);
+        assert_eq!(&wire[..11], b"\x04\0\0\0\x06ERR003");
+        assert_eq!(decode_refusals(&wire).unwrap(), r);
+        assert_eq!(decode_refusals(b"").unwrap(), vec![]);
+        assert!(encode_refusals(&[]).is_empty());
+    }
+
+    #[test]
+    fn malformed_refusals_are_named() {
+        assert_eq!(
+            decode_refusals(b"\x04\0\0").unwrap_err(),
+            ChainCodecError::TruncatedRefusal
+        );
+        assert_eq!(
+            decode_refusals(b"\x04\0\0\0\x07ERR003").unwrap_err(),
+            ChainCodecError::TruncatedRefusal
+        );
+        let e = decode_refusals(b"\x04\0\0\0\x03ERR").unwrap_err();
+        assert!(matches!(e, ChainCodecError::BadRefusal(_)), "{e}");
+        assert!(e.to_string().contains("ERR"), "{e}");
+        assert_eq!(
+            decode_refusals(&vec![0; MAX_REFUSALS + 1]).unwrap_err(),
+            ChainCodecError::RefusalsTooLarge(MAX_REFUSALS + 1)
+        );
+    }
 
     #[test]
     fn requests_encode_and_decode() {
@@ -190,6 +280,26 @@ mod tests {
                 if let Ok(segs) = decode_reply(&p) {
                     prop_assert_eq!(encode_reply(&segs), p);
                 }
+            }
+
+            #[test]
+            fn any_refusal_bytes_decode_or_name_the_problem(
+                p in proptest::collection::vec(any::<u8>(), 0..64)
+            ) {
+                if let Ok(r) = decode_refusals(&p) {
+                    prop_assert_eq!(encode_refusals(&r), p);
+                }
+            }
+
+            #[test]
+            fn refusals_round_trip(
+                r in proptest::collection::vec((any::<u32>(), prop_oneof![
+                    (1u16..=999).prop_map(CardRefusal::Pmac),
+                    any::<u16>().prop_map(CardRefusal::Power),
+                    Just(CardRefusal::Bell),
+                ]), 0..8),
+            ) {
+                prop_assert_eq!(decode_refusals(&encode_refusals(&r)), Ok(r));
             }
 
             #[test]

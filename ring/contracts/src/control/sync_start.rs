@@ -5,6 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::refusal::CardRefusal;
+
 /// Key of card `n`'s synchronized-start queryable.
 pub fn at_key(cluster: &str, n: u32) -> String {
     format!("mcc/{cluster}/card/{n}/at")
@@ -68,6 +70,9 @@ pub struct AtReply {
     pub executed_ns: Option<u64>,
     /// `result`: the card's reply to the line (framed bytes as text).
     pub reply: Option<String>,
+    /// `result`: the line's refusal (JSON: its text form, `ERR003`, `error #20`), whether or
+    /// not the reply shows it (I6); `None`: not refused.
+    pub refusal: Option<CardRefusal>,
     /// `result`: the line was abandoned (no commit/abort within the stall limit).
     pub abandoned: bool,
     /// Ring cycle of the most recent program start.
@@ -129,5 +134,12 @@ mod tests {
         assert_eq!(r.cycle, Some(5));
         let e = AtReply::err("busy");
         assert_eq!((e.ok, e.message.as_str()), (false, "busy"));
+        assert_eq!(r.refusal, None);
+        let j = r#"{"ok":true,"reply":"\u0007","refusal":"ERR003"}"#;
+        let r: AtReply = serde_json::from_str(j).unwrap();
+        assert_eq!(r.refusal, Some(CardRefusal::Pmac(3)));
+        let back: AtReply = serde_json::from_str(&serde_json::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back, r);
+        assert!(serde_json::from_str::<AtReply>(r#"{"refusal":"ERR"}"#).is_err());
     }
 }

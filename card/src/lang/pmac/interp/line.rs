@@ -426,10 +426,20 @@ impl Pmac<'_> {
     /// Execute one line completely (start-up and configuration lines); effects are detached
     /// as for program commands.
     pub(crate) fn run_line(&mut self, s: &mut Session, line: &[u8], remember: bool) -> Vec<u8> {
+        self.run_line_refused(s, line, remember).0
+    }
+
+    /// [`Pmac::run_line`], with the line's refusal (whether or not I6 printed it).
+    pub(crate) fn run_line_refused(
+        &mut self,
+        s: &mut Session,
+        line: &[u8],
+        remember: bool,
+    ) -> (Vec<u8>, Option<ErrCode>) {
         let mut run = self.start_line(s, line, remember);
         loop {
             match self.step_detached(&mut run, s, &mut Budget::unlimited()) {
-                Step::Done(r) => return r,
+                Step::Done(r) => return (r, run.refusal()),
                 Step::Wait => self.abandon_aux(&mut run),
                 Step::Yield | Step::Effect(_) => {}
             }

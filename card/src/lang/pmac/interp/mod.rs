@@ -300,6 +300,15 @@ impl Card {
         self.view().run_line(session, line, true)
     }
 
+    /// [`Card::run_detached`], with the line's refusal (whether or not I6 printed it).
+    pub fn run_detached_refused(
+        &mut self,
+        session: &mut Session,
+        line: &[u8],
+    ) -> (Vec<u8>, Option<ErrCode>) {
+        self.view().run_line_refused(session, line, true)
+    }
+
     /// Begin a line run on the servo thread with effects detached (the daisy chain): see
     /// [`Card::step_detached`].
     pub(crate) fn start_detached(&mut self, session: &mut Session, line: &[u8]) -> LineRun {
@@ -342,6 +351,16 @@ impl Card {
     /// CTRL-N needs the partial line, see `ctrl_n`.
     pub fn control_char(&mut self, session: &mut Session, c: u8) -> Vec<u8> {
         self.view().control(session, c)
+    }
+
+    /// [`Card::control_char`], with the refusal of the line CTRL-I re-executes (no other
+    /// control character refuses).
+    pub fn control_char_refused(
+        &mut self,
+        session: &mut Session,
+        c: u8,
+    ) -> (Vec<u8>, Option<ErrCode>) {
+        self.view().control_refused(session, c)
     }
 
     /// Execute a command line issued by a program (`CMD"..."`) with the program's addressing.

@@ -11,7 +11,10 @@ use anyhow::{anyhow, bail, Result};
 use mcc_contracts::config::ClusterConfig;
 use mcc_ring::control::card_cmd_key;
 
-use crate::cluster::ctl::query_text;
+use crate::cluster::ctl::query_card;
+
+/// Largest reply accepted from a card's command queryable, bytes.
+const MAX_REPLY: usize = 1 << 20;
 
 /// Lines that (re)load both programs and close motor 1's loop. After `$$$` the programs are
 /// gone (they were never saved), so every recovery sends them again.
@@ -69,7 +72,7 @@ pub fn is_power(cfg: &ClusterConfig, n: u8) -> bool {
 pub const END_TOLERANCE: f64 = 2.0;
 
 /// One line to card `number` through its command queryable; the reply text without framing.
-/// A BEL (an ERRnnn reply) is an error.
+/// A refused line (the card's refusal, whatever its I6 printed) is an error.
 pub fn send(s: &zenoh::Session, cfg: &ClusterConfig, number: u8, line: &str) -> Result<String> {
     let r = send_framed(s, cfg, number, line)?;
     Ok(
@@ -86,9 +89,10 @@ pub fn send_framed(
     line: &str,
 ) -> Result<String> {
     let key = card_cmd_key(&cfg.cluster, u32::from(number));
-    let r = query_text(s, &key, Some(line.to_string()), Duration::from_secs(5))?;
-    if r.contains('\x07') || r.contains(": error #") {
-        bail!("card {number}: {line:?} answered {r:?}");
+    let a = query_card(s, &key, line, Duration::from_secs(5), MAX_REPLY)?;
+    let r = String::from_utf8_lossy(&a.bytes).into_owned();
+    if let Some(e) = a.refusal {
+        bail!("card {number}: {line:?} refused ({e}): {r:?}");
     }
     Ok(r)
 }
