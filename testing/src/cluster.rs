@@ -471,6 +471,8 @@ pub struct CardStart {
     pub executed_cycle: Option<u64>,
     /// Its reply (control characters visible: `<ACK>`, `<BEL>`).
     pub reply: String,
+    /// The line's refusal (`ERR003`, `error #20`), whether or not the reply shows it.
+    pub refusal: Option<String>,
     /// Its program start cycle when the result was read.
     pub program_start_cycle: Option<u64>,
 }
@@ -709,23 +711,13 @@ impl Cluster {
                     .unwrap_or(0),
                 executed_cycle: c["executed_cycle"].as_u64(),
                 reply: c["reply"].as_str().unwrap_or_default().to_string(),
+                refusal: c["refusal"].as_str().map(str::to_string),
                 program_start_cycle: c["program_start_cycle"].as_u64(),
             })
             .collect();
-        // A PMAC card's `<BEL>ERRnnn`, a Power card's `stdin:L:C: error #n: …`.
-        let refused = |c: &&CardStart| c.reply.contains("<BEL>") || c.reply.contains(": error #");
-        if let Some(bad) = cards.iter().find(refused) {
-            let power = bad.reply.split(": error #").nth(1).map(|d| {
-                let n: String = d.chars().take_while(char::is_ascii_digit).collect();
-                format!("error #{n}")
-            });
-            let code = power.unwrap_or_else(|| {
-                bad.reply
-                    .split("ERR")
-                    .nth(1)
-                    .map(|d| format!("ERR{}", &d[..d.len().min(3)]))
-                    .unwrap_or_else(|| "BELL".into())
-            });
+        // The card's typed refusal (`ERR003`, `error #20`), whatever its reply shows.
+        if let Some(bad) = cards.iter().find(|c| c.refusal.is_some()) {
+            let code = bad.refusal.clone().unwrap_or_default();
             return Err(Error::new(
                 ErrorKind::Card { code },
                 format!("card {} refused {line:?}: {}", bad.card, bad.reply),

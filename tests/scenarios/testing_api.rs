@@ -52,6 +52,22 @@ fn the_test_api_drives_starts_faults_and_recovers_a_cluster() {
         s.cards.iter().all(|k| k.executed_cycle == Some(s.cycle)),
         "{s:?}"
     );
+    // A refused synchronized line is a typed card error, even when the card's framing (I6=2)
+    // shows only a bell: the code comes from the card, not from the reply's bytes.
+    for n in [0, 1] {
+        c.send(&["I6=2"], Some(n)).unwrap();
+    }
+    let e = c.start_sync("UUU", &[0, 1]).unwrap_err();
+    assert_eq!(
+        e.kind,
+        ErrorKind::Card {
+            code: "ERR003".into()
+        },
+        "{e}"
+    );
+    for n in [0, 1] {
+        c.send(&["I6=1"], Some(n)).unwrap();
+    }
 
     // A cut fibre: localised, then cleared and reset.
     c.fault("station0", "cut", FaultOptions::default()).unwrap();
