@@ -5,6 +5,7 @@
 //! runtime's servo thread calls [`CardCore::serve`] with a work budget between ticks, so host
 //! lines of any size are served in bounded slices and never delay a tick.
 
+pub(crate) mod chain;
 pub(crate) mod inputs;
 pub mod rig;
 pub(crate) mod ring_io;
@@ -18,7 +19,9 @@ mod tests_servo;
 use std::collections::{HashMap, VecDeque};
 
 use crate::domain::Refusal;
-use crate::lang::{Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Step};
+use crate::lang::{
+    Budget, Card, Dialect, Effect, EffectResult, HeldReply, LineRun, Session, Started, Step,
+};
 use crate::servo::Servo;
 
 /// Work units one slice of host service may use between two servo ticks (about 50-100 µs of
@@ -101,6 +104,8 @@ pub struct CardCore {
     pub inputs: inputs::CardInputs,
     /// The card's side of its ring link (`ring_io`).
     ring: ring_io::RingLink,
+    /// The card's daisy-chain receivers, one per chain connection (`chain`).
+    chain: chain::ChainPort,
 }
 
 /// Why a loaded image is refused (`None`: it is good, or there is none).
@@ -128,6 +133,7 @@ impl CardCore {
         let ring = ring_io::RingLink::new(card.resets());
         CardCore {
             ring,
+            chain: chain::ChainPort::new(),
             dialect,
             card,
             servo,
@@ -480,5 +486,58 @@ impl CardCore {
         self.dialect
             .tick(&mut self.card, |model, cmds| servo.tick(model, cmds, cycle));
         self.collect_detached();
+    }
+
+    /// Run daisy-chain request `req` (`mcc_contracts::control::chain`), its lines within
+    /// `budget`: the encoded reply, or `None` when a line is not done (it waits for the ring
+    /// or for its next slice; [`CardCore::chain_resume`] answers it).
+    pub fn chain_request(
+        &mut self,
+        req: &mcc_contracts::control::chain::Request<'_>,
+        budget: &mut Budget,
+    ) -> Option<chain::Encoded> {
+        self.chain
+            .handle(&mut self.card, &mut self.dialect, req, budget)
+    }
+
+    /// Go on with chain connection `conn`'s line that was not done, within `budget`: the
+    /// encoded reply of its request once it and the rest of the request are done.
+    pub fn chain_resume(&mut self, conn: u64, budget: &mut Budget) -> Option<chain::Encoded> {
+        self.chain
+            .resume(&mut self.card, &mut self.dialect, conn, budget)
+    }
+
+    /// Chain connection `conn` has a line not done: its later requests wait.
+    pub fn chain_is_parked(&self, conn: u64) -> bool {
+        self.chain.is_parked(conn)
+    }
+
+    /// Chain connections with a line not done.
+    pub fn chain_parked(&self) -> Vec<u64> {
+        self.chain.parked()
+    }
+
+    /// A synchronized start's line, in the tick of its cycle, within `budget` (one slice):
+    /// done, or a run to go on with ([`CardCore::synced_step`]) in later slices. `session` is
+    /// the synchronized-start session, `thread` its Power thread.
+    pub fn synced_line(
+        &mut self,
+        session: &mut Session,
+        thread: u64,
+        line: &[u8],
+        budget: &mut Budget,
+    ) -> Started {
+        self.dialect
+            .started_line(&mut self.card, session, thread, line, budget)
+    }
+
+    /// Go on with a synchronized start's line within `budget`.
+    pub fn synced_step(
+        &mut self,
+        session: &mut Session,
+        run: Box<LineRun>,
+        budget: &mut Budget,
+    ) -> Started {
+        Dialect::step_started(&mut self.card, session, run, budget)
     }
 }

@@ -399,7 +399,7 @@ proptest! {
         chunks in proptest::collection::vec((0u64..3, chain_bytes()), 1..12),
     ) {
         let mut card = Card::new(Profile::Pmac2);
-        let mut port = crate::service::chain::ChainPort::new();
+        let mut port = crate::core::chain::ChainPort::new();
         for (id, data) in &chunks {
             // A line waiting for the ring (`MS…` on a card without one) parks: no reply yet.
             let answer = port.feed(&mut card, &mut crate::lang::Dialect::Pmac, *id, data, &mut crate::lang::Budget::unlimited()).unwrap_or_default();

@@ -68,7 +68,7 @@ pub fn run_ring_card(args: MemberArgs) -> anyhow::Result<()> {
             let (nodes, number, ivars) = (cc.nodes.clone(), cc.number, cc.ivars.clone());
             move |card: &mut Card| -> anyhow::Result<()> {
                 startup::ring_startup(card, ring, &nodes, wire)?;
-                chain::apply_chain_defaults(card, number);
+                crate::core::chain::apply_chain_defaults(card, number);
                 apply_ivars(card, &ivars)
             }
         };
@@ -211,7 +211,7 @@ fn profile_of(cc: &mcc_contracts::config::CardConfig) -> Profile {
 /// card's error.
 pub fn check_card_config(cc: &mcc_contracts::config::CardConfig) -> anyhow::Result<()> {
     let mut card = Card::new(profile_of(cc));
-    chain::apply_chain_defaults(&mut card, cc.number);
+    crate::core::chain::apply_chain_defaults(&mut card, cc.number);
     apply_ivars(&mut card, &cc.ivars)
 }
 

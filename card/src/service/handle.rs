@@ -15,11 +15,11 @@ use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender, TrySendErro
 use mcc_contracts::control::chain::OP_CLOSE;
 use mcc_contracts::control::sync_start::{AtReply, AtRequest};
 
-use super::chain::{ChainPort, Encoded};
 use super::storage::FileStorage;
 use super::sync_start::SyncShared;
+use crate::core::chain::Encoded;
 use crate::core::{CardCore, HostReply, HostRequest, SLICE_UNITS};
-use crate::lang::{Budget, Dialect, Effect, EffectResult, LineRun, Session, Started, Storage};
+use crate::lang::{Budget, Effect, EffectResult, LineRun, Session, Started, Storage};
 use crate::model::Unsolicited;
 
 /// Requests waiting for the servo thread at most.
@@ -218,7 +218,6 @@ pub struct Runner {
     next_token: u64,
     io: IoWorker,
     shared: Arc<Shared>,
-    chain: ChainPort,
     /// Daisy-chain requests waiting behind a line that waits for the ring, per connection
     /// (the first is the parked line's own request).
     chain_wait: HashMap<u64, ChainQueue>,
@@ -252,7 +251,6 @@ pub(crate) fn channel(core: CardCore, storage: Option<FileStorage>) -> (Runner, 
         next_token: 1,
         io: IoWorker::start(storage),
         shared: Arc::clone(&shared),
-        chain: ChainPort::new(),
         chain_wait: HashMap::new(),
         chain_budget: Budget::new(0),
         started: Vec::new(),
@@ -282,7 +280,7 @@ impl Runner {
                 };
                 let conn = req.conn;
                 // A connection whose line waits for the ring: its later data waits too.
-                if self.chain.is_parked(conn) && req.op != OP_CLOSE {
+                if self.core.chain_is_parked(conn) && req.op != OP_CLOSE {
                     self.chain_wait
                         .entry(conn)
                         .or_default()
@@ -290,12 +288,7 @@ impl Runner {
                     return;
                 }
                 let closing = req.op == OP_CLOSE;
-                match self.chain.handle(
-                    &mut self.core.card,
-                    &mut self.core.dialect,
-                    &req,
-                    &mut self.chain_budget,
-                ) {
+                match self.core.chain_request(&req, &mut self.chain_budget) {
                     Some(r) => {
                         let _ = env.reply.send(Response::Chain(Ok(r)));
                     }
@@ -347,13 +340,8 @@ impl Runner {
     /// those that are done, then run what their connections sent meanwhile (in order, until
     /// one waits again).
     fn resume_chain(&mut self) {
-        for conn in self.chain.parked() {
-            let Some(reply) = self.chain.resume(
-                &mut self.core.card,
-                &mut self.core.dialect,
-                conn,
-                &mut self.chain_budget,
-            ) else {
+        for conn in self.core.chain_parked() {
+            let Some(reply) = self.core.chain_resume(conn, &mut self.chain_budget) else {
                 continue;
             };
             let Some(queue) = self.chain_wait.get_mut(&conn) else {
@@ -365,13 +353,8 @@ impl Runner {
             while let Some((payload, _)) = queue.front() {
                 let r = match mcc_contracts::control::chain::decode_request(payload) {
                     Ok(req) => self
-                        .chain
-                        .handle(
-                            &mut self.core.card,
-                            &mut self.core.dialect,
-                            &req,
-                            &mut self.chain_budget,
-                        )
+                        .core
+                        .chain_request(&req, &mut self.chain_budget)
                         .map(Ok),
                     Err(e) => Some(Err(e.to_string())),
                 };
@@ -443,10 +426,9 @@ impl Runner {
         }
         let due = sync.lock().take_due(cycle);
         let mut scheduled_start = false;
-        let card = &mut self.core.card;
         let mut done = Vec::with_capacity(due.len());
         if !due.is_empty() {
-            let saved = card.model.take_actions();
+            let saved = self.core.card.model.take_actions();
             for (id, line) in due {
                 let ns = mcc_ring::runtime::driver::monotonic_ns();
                 // A Power card runs the line in its own dialect, on the synchronized-start
@@ -454,8 +436,7 @@ impl Runner {
                 // line has a slice of its own in this tick; what is left of a long one runs
                 // in the slices after it (its commands in order, its reply when done).
                 let mut session = self.sync_session.clone();
-                match self.core.dialect.started_line(
-                    card,
+                match self.core.synced_line(
                     &mut session,
                     SYNC_THREAD,
                     &line,
@@ -474,10 +455,10 @@ impl Runner {
                     }),
                 }
             }
-            let fresh = card.model.take_actions();
+            let fresh = self.core.card.model.take_actions();
             scheduled_start = fresh.iter().any(|a| a.kind.starts_program());
             for a in saved.into_iter().chain(fresh) {
-                card.model.push_action(a);
+                self.core.card.model.push_action(a);
             }
         }
         let now = mcc_ring::runtime::driver::monotonic_ns();
@@ -490,7 +471,7 @@ impl Runner {
         for r in self.started.iter().filter(|r| r.cycle == cycle) {
             core.running(r.id, cycle);
         }
-        core.note_starts(card.model.actions(), cycle, now, scheduled_start);
+        core.note_starts(self.core.card.model.actions(), cycle, now, scheduled_start);
     }
 
     /// Synchronized starts' lines left over from their tick go on within `budget`; a line
@@ -501,8 +482,7 @@ impl Runner {
                 self.started.push(r);
                 continue;
             }
-            let card = &mut self.core.card;
-            match Dialect::step_started(card, &mut r.session, r.run, budget) {
+            match self.core.synced_step(&mut r.session, r.run, budget) {
                 Started::Done(reply, refusal) => {
                     self.sync_session = r.session;
                     self.sync
