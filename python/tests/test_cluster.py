@@ -59,6 +59,7 @@ def test_start_sync_and_gather_put_both_cards_on_one_cycle(mcc_cluster_factory):
     with pytest.raises(CardError) as e:
         c.start_sync("&1B9R")
     assert e.value.code.startswith("ERR") and e.value.detail.cycle > s.cycle
+    assert [k.refusal for k in e.value.detail.cards] == [e.value.code] * 2
     # Gathering from one ring cycle on both cards, the jog started in that same tick.
     g = c.gather(motors=[1], cards=[0, 1], cycles=300, run="#1J=3000")
     assert len(g) == 301 and g.period == 1

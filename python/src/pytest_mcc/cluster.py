@@ -74,6 +74,8 @@ class CardStart:
     executed_cycle: Optional[int]
     reply: str
     program_start_cycle: Optional[int]
+    #: The card's refusal of the line (``ERR003``, ``error #20``), whatever its reply shows.
+    refusal: Optional[str] = None
 
 
 @dataclass
@@ -94,7 +96,8 @@ class SyncStart:
             rate_hz=float(doc["rate_hz"]), attempts=int(doc["attempts"]),
             cards=[CardStart(card=int(c["card"]), executed_cycle=c.get("executed_cycle"),
                              reply=str(c.get("reply", "")),
-                             program_start_cycle=c.get("program_start_cycle"))
+                             program_start_cycle=c.get("program_start_cycle"),
+                             refusal=c.get("refusal"))
                    for c in doc["cards"]],
         )
 
@@ -378,10 +381,8 @@ class Cluster:
         result = SyncStart.from_json(found[0])
         if check:
             for c in result.cards:
-                if "<BEL>" in c.reply:
-                    m = re.search(r"ERR\d{3}", c.reply)
-                    raise CardError(line, m.group(0) if m else "BELL", c.reply, c.card,
-                                    detail=result)
+                if c.refusal is not None:
+                    raise CardError(line, c.refusal, c.reply, c.card, detail=result)
         return result
 
     def _gather_args(self, motors: Iterable[int], cards: Iterable[int], cycles: int,
