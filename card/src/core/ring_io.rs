@@ -136,7 +136,7 @@ impl std::fmt::Debug for RingLink {
 }
 
 impl CardCore {
-    /// Serve MACRO nodes `nodes` (those below [`NODES`]) on the ring.
+    /// Serve MACRO nodes `nodes` (those below 16) on the ring.
     pub fn set_ring_nodes(&mut self, nodes: &[u8]) {
         self.ring.nodes = nodes
             .iter()

@@ -421,11 +421,26 @@ fn judge_detection(
     let onset = if dead {
         latched_in.or(dark_onset).or(after_last_rx)
     } else {
-        detected
-            .member(p.target)
-            .or(last.member(p.target))
-            .and_then(|m| m.faults.first())
-            .and_then(|f| f.since_cycle)
+        // The target's own record of when its fault began; a status poll that missed the
+        // target (a loaded machine answers late) is asked again before the onset is called
+        // unknown.
+        let since = |snap: &Snapshot| {
+            snap.member(p.target)
+                .and_then(|m| m.faults.first())
+                .and_then(|f| f.since_cycle)
+        };
+        since(&detected).or_else(|| since(&last)).or_else(|| {
+            observe::wait_for(
+                s,
+                cfg,
+                "onset",
+                Duration::from_secs(10),
+                |_| {},
+                |snap| since(snap).is_some(),
+            )
+            .ok()
+            .and_then(|snap| since(&snap))
+        })
     };
     match onset {
         None => o.violations.push("the onset cycle is unknown".into()),
