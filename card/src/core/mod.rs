@@ -264,9 +264,7 @@ impl CardCore {
                 }
                 HostRequest::Control(c) => {
                     budget.spend(1);
-                    let (out, refused) = self.dialect.control(&mut self.card, &mut s, c);
-                    error = refused;
-                    Some(out)
+                    Some(self.dialect.control(&mut self.card, &mut s, c))
                 }
                 HostRequest::Line(line) | HostRequest::LineStreamed(line)
                     if self.dialect.answers_whole_lines() =>

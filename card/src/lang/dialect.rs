@@ -170,20 +170,12 @@ impl Dialect {
     }
 
     /// Control character `c` from a host port: PMAC's control-character commands; a Power
-    /// `gpascii` thread has none (nothing, no reply). With the refusal of the line CTRL-I
-    /// re-executes.
-    pub fn control(
-        &mut self,
-        card: &mut Card,
-        session: &mut Session,
-        c: u8,
-    ) -> (Vec<u8>, Option<Refusal>) {
+    /// `gpascii` thread has none (nothing, no reply). A host port's CTRL-I never comes here:
+    /// the core runs it as a line (`CardCore::serve`), refusal and all.
+    pub fn control(&mut self, card: &mut Card, session: &mut Session, c: u8) -> Vec<u8> {
         match self {
-            Dialect::Pmac => {
-                let (bytes, e) = card.control_char_refused(session, c);
-                (bytes, e.map(Refusal::Pmac))
-            }
-            Dialect::Power(_) => (Vec::new(), None),
+            Dialect::Pmac => card.control_char(session, c),
+            Dialect::Power(_) => Vec::new(),
         }
     }
 

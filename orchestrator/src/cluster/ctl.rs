@@ -49,6 +49,43 @@ pub fn connect(
     Ok(session)
 }
 
+/// Send one query (optional payload); the first reply's sample, or an error naming the key
+/// (no reply within `timeout`, an error reply, a reply over `max_reply` bytes).
+fn query_sample(
+    session: &zenoh::Session,
+    key: &str,
+    payload: Option<Vec<u8>>,
+    timeout: Duration,
+    max_reply: usize,
+) -> Result<zenoh::sample::Sample> {
+    let mut get = session.get(key).timeout(timeout);
+    if let Some(p) = payload {
+        get = get.payload(p);
+    }
+    let replies = get.wait().map_err(|e| anyhow!("query {key}: {e}"))?;
+    let Ok(reply) = replies.recv() else {
+        return Err(anyhow!(
+            "query {key}: no reply within {} ms",
+            timeout.as_millis()
+        ));
+    };
+    match reply.into_result() {
+        Ok(sample) if sample.payload().len() > max_reply => Err(anyhow!(
+            "query {key}: reply too large ({} bytes)",
+            sample.payload().len()
+        )),
+        Ok(sample) => Ok(sample),
+        Err(e) => {
+            let text = e
+                .payload()
+                .try_to_string()
+                .map(|s| s.into_owned())
+                .unwrap_or_default();
+            Err(anyhow!("query {key}: error reply: {text}"))
+        }
+    }
+}
+
 /// Send one query with an optional JSON payload; the first reply's text, or an error naming
 /// the key (no reply within `timeout`, error reply, non-UTF-8).
 pub fn query_text(
@@ -57,40 +94,18 @@ pub fn query_text(
     payload: Option<String>,
     timeout: Duration,
 ) -> Result<String> {
-    let mut get = session.get(key).timeout(timeout);
-    if let Some(p) = payload {
-        get = get.payload(p);
-    }
-    let replies = get.wait().map_err(|e| anyhow!("query {key}: {e}"))?;
-    match replies.recv() {
-        Ok(reply) => match reply.result() {
-            Ok(sample) => {
-                let bytes = sample.payload();
-                if bytes.len() > MAX_REPLY {
-                    return Err(anyhow!(
-                        "query {key}: reply too large ({} bytes)",
-                        bytes.len()
-                    ));
-                }
-                let text = bytes
-                    .try_to_string()
-                    .map_err(|_| anyhow!("query {key}: reply is not UTF-8"))?;
-                Ok(text.into_owned())
-            }
-            Err(e) => {
-                let text = e
-                    .payload()
-                    .try_to_string()
-                    .map(|s| s.into_owned())
-                    .unwrap_or_default();
-                Err(anyhow!("query {key}: error reply: {text}"))
-            }
-        },
-        Err(_) => Err(anyhow!(
-            "query {key}: no reply within {} ms",
-            timeout.as_millis()
-        )),
-    }
+    let sample = query_sample(
+        session,
+        key,
+        payload.map(String::into_bytes),
+        timeout,
+        MAX_REPLY,
+    )?;
+    let text = sample
+        .payload()
+        .try_to_string()
+        .map_err(|_| anyhow!("query {key}: reply is not UTF-8"))?;
+    Ok(text.into_owned())
 }
 
 /// A card's answer on its command queryable `mcc/<cluster>/card/<n>/cmd`: the reply bytes as
@@ -114,24 +129,13 @@ pub fn query_card(
     timeout: Duration,
     max_reply: usize,
 ) -> Result<CardAnswer> {
-    let replies = session
-        .get(key)
-        .payload(line.as_bytes().to_vec())
-        .timeout(timeout)
-        .wait()
-        .map_err(|e| anyhow!("query {key}: {e}"))?;
-    let reply = replies.recv().map_err(|_| {
-        anyhow!(
-            "query {key}: no answer to {line:?} within {} ms",
-            timeout.as_millis()
-        )
-    })?;
-    let sample = reply
-        .result()
-        .map_err(|_| anyhow!("query {key}: {line:?} answered with an error reply"))?;
-    if sample.payload().len() > max_reply {
-        return Err(anyhow!("query {key}: the reply to {line:?} is too large"));
-    }
+    let sample = query_sample(
+        session,
+        key,
+        Some(line.as_bytes().to_vec()),
+        timeout,
+        max_reply,
+    )?;
     let refusal = sample
         .attachment()
         .map(|a| CardRefusal::from_bytes(&a.to_bytes()))

@@ -53,20 +53,6 @@ impl Pmac<'_> {
         }
     }
 
-    /// [`Pmac::control`], with the refusal of the line CTRL-I re-executes.
-    pub(crate) fn control_refused(
-        &mut self,
-        s: &mut Session,
-        c: u8,
-    ) -> (Vec<u8>, Option<crate::domain::ErrCode>) {
-        if c != 0x09 {
-            return (self.control(s, c), None);
-        }
-        self.clamp_session(s);
-        let line = self.mem.last_line.clone();
-        self.run_line_refused(s, &line, false)
-    }
-
     pub(crate) fn control(&mut self, s: &mut Session, c: u8) -> Vec<u8> {
         self.clamp_session(s);
         let f = self.framing();

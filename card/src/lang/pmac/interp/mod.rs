@@ -353,16 +353,6 @@ impl Card {
         self.view().control(session, c)
     }
 
-    /// [`Card::control_char`], with the refusal of the line CTRL-I re-executes (no other
-    /// control character refuses).
-    pub fn control_char_refused(
-        &mut self,
-        session: &mut Session,
-        c: u8,
-    ) -> (Vec<u8>, Option<ErrCode>) {
-        self.view().control_refused(session, c)
-    }
-
     /// Execute a command line issued by a program (`CMD"..."`) with the program's addressing.
     /// Returns the unsolicited output to send to the host (possibly empty).
     pub fn program_command(&mut self, motor: u16, coord: u16, line: &[u8]) -> Vec<u8> {
