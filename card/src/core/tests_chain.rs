@@ -587,6 +587,7 @@ fn a_long_chain_line_runs_in_slices_and_the_rest_of_its_request_follows() {
 }
 
 /// CTRL-I on the chain re-runs the last line within the budget too (parked, then resumed).
+/// Seed 004 lines 6096-6115 (repeat last command line; control characters are not repeated).
 #[test]
 fn ctrl_i_on_the_chain_is_sliced_like_a_line() {
     use crate::lang::Budget;

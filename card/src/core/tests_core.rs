@@ -328,7 +328,8 @@ fn a_power_line_costs_its_data_lines_in_the_slice_budget() {
 }
 
 /// Issue 24 item 3: CTRL-I runs the last line again as a line job, in bounded slices, with
-/// the same reply as the line had; the line is not remembered anew.
+/// the same reply as the line had; the line is not remembered anew. Seed 004 lines
+/// 6096-6115: the most recent command line is "re-commanded" (as if sent again).
 #[test]
 fn ctrl_i_repeats_the_last_line_in_bounded_slices() {
     let mut c = core();
